@@ -1,0 +1,76 @@
+// SPDX-License-Identifier: MIT
+#include "testutil.h"
+#include "unity.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define TU_GUARD 64u
+#define TU_SLOTS 4
+
+static uint8_t *g_raw[TU_SLOTS];
+static size_t g_bytes[TU_SLOTS];
+
+void *tu_guarded_alloc(int slot, size_t bytes)
+{
+    tu_guarded_free(slot);
+    g_raw[slot] = (uint8_t *)malloc(bytes + 2u * TU_GUARD);
+    TEST_ASSERT_NOT_NULL(g_raw[slot]);
+    g_bytes[slot] = bytes;
+    memset(g_raw[slot], 0xA5, bytes + 2u * TU_GUARD);
+    return g_raw[slot] + TU_GUARD;
+}
+
+void tu_guard_check(int slot)
+{
+    const uint8_t *p = g_raw[slot];
+    TEST_ASSERT_NOT_NULL(p);
+    for (size_t i = 0; i < TU_GUARD; i++) {
+        TEST_ASSERT_EQUAL_HEX8_MESSAGE(0xA5, p[i], "guard before workspace overwritten");
+        TEST_ASSERT_EQUAL_HEX8_MESSAGE(0xA5, p[TU_GUARD + g_bytes[slot] + i], "guard after workspace overwritten");
+    }
+}
+
+void tu_guarded_free(int slot)
+{
+    free(g_raw[slot]);
+    g_raw[slot] = NULL;
+    g_bytes[slot] = 0u;
+}
+
+void tu_check_workspace_contract(size_t bytes, tu_ws_fn run, void *ctx)
+{
+    TEST_ASSERT_TRUE(bytes > 0u);
+    uint8_t *ws = (uint8_t *)tu_guarded_alloc(3, bytes);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, run(NULL, bytes, ctx));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, run(ws, bytes - 1u, ctx));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, run(ws + 1, bytes - 1u, ctx));
+    tu_guard_check(3);
+    TEST_ASSERT_EQUAL_INT(VD_OK, run(ws, bytes, ctx));
+    tu_guard_check(3);
+    tu_guarded_free(3);
+}
+
+uint32_t tu_rand(uint32_t *state)
+{
+    uint32_t x = *state ? *state : 0x9E3779B9u;
+    x ^= x << 13;
+    x ^= x >> 17;
+    x ^= x << 5;
+    *state = x;
+    return x;
+}
+
+const char *tu_data_dir(void)
+{
+    static char path[1024];
+    const char *env = getenv("VD_DATA_DIR");
+    snprintf(path, sizeof path, "%s", env ? env : VD_DATA_DIR);
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISDIR(st.st_mode)) {
+        return NULL;
+    }
+    return path;
+}

@@ -1,0 +1,31 @@
+// SPDX-License-Identifier: MIT
+// Helpers for vd's unit tests: guarded workspaces, small images, real-data paths.
+#ifndef VD_TESTUTIL_H
+#define VD_TESTUTIL_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdbool.h>
+#include "vd/vd.h"
+
+// A workspace of exactly `bytes` usable bytes, VD_WORKSPACE_ALIGN-aligned, with
+// guard bytes before and after. tu_guard_check() fails the test if a guard was
+// written. At most one guarded buffer per slot (0..3) is live at once.
+void *tu_guarded_alloc(int slot, size_t bytes);
+void tu_guard_check(int slot);
+void tu_guarded_free(int slot);
+
+// Asserts the workspace contract of a size query + consumer:
+// `run(ws, bytes, ctx)` must return VD_ERR_WORKSPACE for bytes-1 and for a
+// misaligned pointer, VD_OK for exactly `bytes`, and leave the guards intact.
+typedef vd_status_t (*tu_ws_fn)(void *ws, size_t bytes, void *ctx);
+void tu_check_workspace_contract(size_t bytes, tu_ws_fn run, void *ctx);
+
+// Deterministic pseudo-random numbers (xorshift32) for naive-vs-fast tests.
+uint32_t tu_rand(uint32_t *state);
+
+// Path of the shared data directory (../shared/data beside the project) or NULL
+// if it is absent; tests that need it call TEST_IGNORE_MESSAGE with a reason.
+const char *tu_data_dir(void);
+
+#endif

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# Runs every test of vd: the gcc build's CTest suite (unit, rules, consumer),
+# the Python oracle and parity tests against the shared build, the clang build
+# (-Werror), and the whole CTest suite again under ASan + UBSan.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+jobs=$(nproc 2>/dev/null || echo 2)
+
+echo "== gcc build + unit tests"
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=gcc >/dev/null
+cmake --build build -j "$jobs"
+ctest --test-dir build --output-on-failure -j "$jobs"
+
+echo "== clang build (-Werror)"
+cmake -S . -B build-clang -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_C_COMPILER=clang -DVD_BUILD_TESTS=ON >/dev/null
+cmake --build build-clang -j "$jobs"
+
+echo "== ASan + UBSan build + unit tests"
+cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=clang -DVD_SANITIZE=ON >/dev/null
+cmake --build build-asan -j "$jobs"
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE install
+
+if [ -x tests/extra.sh ]; then
+  tests/extra.sh
+fi
+
+echo "== Python oracle, parity and end-to-end tests (shared build: build/libvd.so)"
+VD_LIB="$PWD/build/libvd.so" VD_BUILD_DIR="$PWD/build" python3 -m pytest -q tests/python
