@@ -22,9 +22,8 @@ cmake --build build-asan -j "$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE install
 
-if [ -x tests/extra.sh ]; then
-  tests/extra.sh
-fi
+echo "== cross builds (Cortex-M7/M4/M0+) and ARM unit tests under qemu-user"
+tests/cross_run.sh
 
 echo "== Python oracle, parity and end-to-end tests (shared build: build/libvd.so)"
 VD_LIB="$PWD/build/libvd.so" VD_BUILD_DIR="$PWD/build" python3 -m pytest -q tests/python

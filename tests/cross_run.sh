@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# Cross builds of vd (issue: embedded readiness): the library for Cortex-M7/M4/M0+
+# (-Werror, MinSizeRel), and the unit tests for armhf and aarch64 run under
+# qemu-user. Then the embedded budget checks (tools/embedded_report.py --check).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+jobs=$(nproc 2>/dev/null || echo 2)
+for t in cortex-m7 cortex-m4 cortex-m0plus; do
+  echo "== $t: libvd.a"
+  cmake -S . -B "build-$t" -G Ninja -DCMAKE_TOOLCHAIN_FILE="tools/toolchains/$t.cmake" -DCMAKE_BUILD_TYPE=MinSizeRel >/dev/null
+  cmake --build "build-$t" -j "$jobs" >/dev/null
+done
+for t in armhf aarch64; do
+  echo "== $t: unit tests under qemu-user"
+  cmake -S . -B "build-$t" -G Ninja -DCMAKE_TOOLCHAIN_FILE="tools/toolchains/$t.cmake" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DVD_BUILD_TOOLS=OFF -DVD_BUILD_PORT=OFF >/dev/null
+  cmake --build "build-$t" -j "$jobs" >/dev/null
+  ctest --test-dir "build-$t" --output-on-failure -j "$jobs" -L unit
+done
+if [ -f tools/embedded_report.py ]; then
+  python3 tools/embedded_report.py --check
+fi
