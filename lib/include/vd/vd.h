@@ -10,5 +10,15 @@
 #include "vd/config.h"
 #include "vd/status.h"
 #include "vd/image.h"
+#include "vd/threshold.h"
+#include "vd/otsu.h"
+#include "vd/median.h"
+#include "vd/refine.h"
+#include "vd/contour.h"
+#include "vd/components.h"
+#include "vd/resample.h"
+#include "vd/dbn.h"
+#include "vd/temporal.h"
+#include "vd/detector.h"
 
 #endif

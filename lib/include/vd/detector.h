@@ -1,0 +1,215 @@
+// SPDX-License-Identifier: MIT
+// The FIR vehicle detector of paper 001: hot-spot candidates, contour refinement, DBN verification, overlap suppression.
+//
+// Lifetimes: the caller owns vd_detector_t, the workspace and the model; the
+// workspace and the model (and its blob) must outlive the detector. A frame
+// only needs to live during vd_detector_run(). Two detectors never share
+// state (no globals); one detector must not run in two threads at once.
+#ifndef VD_DETECTOR_H
+#define VD_DETECTOR_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdbool.h>
+
+#include "vd/image.h"
+#include "vd/status.h"
+#include "vd/threshold.h"
+#include "vd/components.h"
+#include "vd/refine.h"
+#include "vd/dbn.h"
+#include "vd/temporal.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// Hot-spot threshold modes (cfg.thr_mode).
+#define VD_DETECTOR_THR_CONSTANT 0u  // paper: constant threshold (hot_thr_u8 / hot_thr_ck)
+#define VD_DETECTOR_THR_ADAPTIVE 1u  // 8-bit frames: max(adaptive_floor_u8, frame percentile); U16 frames stay constant
+
+// Where a detection came from (DESIGN.md JSON "source").
+#define VD_SOURCE_HOTSPOT 1u
+
+// Detection flags (bit set).
+#define VD_DET_FLAG_UNVERIFIED 0x01u   // no model: not scored by the DBN (score 255)
+#define VD_DET_FLAG_DECIMATED  0x02u   // region larger than max_region_*: refined on a k x k box average
+#define VD_DET_FLAG_CONTOUR_TRUNC 0x04u // contour buffers overflowed: the largest of the contours found was used
+#define VD_DET_FLAG_RECOVERED  0x08u   // not detected in this frame: recovered by temporal analysis
+
+// Stages timed through cfg.clock_us (index into vd_detector_stats_t.time_us).
+enum {
+    VD_DET_STAGE_THRESHOLD = 0,  // histogram/percentile + hot mask
+    VD_DET_STAGE_COMPONENTS,     // labelling + rules + expansion
+    VD_DET_STAGE_REFINE,         // region plane (crop/map/decimate) + vd_refine_region
+    VD_DET_STAGE_CONTOUR,        // vd_contours_find_external
+    VD_DET_STAGE_SAMPLE,         // 32x32 sample (and the shape-mode refine)
+    VD_DET_STAGE_DBN,            // vd_dbn_classify
+    VD_DET_STAGE_NMS,            // sort + overlap suppression
+    VD_DET_STAGE_TEMPORAL,       // vd_temporal_update incl. recovery probes
+    VD_DET_STAGE_TOTAL,
+    VD_DET_STAGE_COUNT
+};
+
+// Settings. A zeroed struct (or vd_detector_cfg_default()) gives the paper's
+// values; every field documents its zero meaning and range. Out-of-range
+// values make vd_detector_workspace_size()/vd_detector_init() return VD_ERR_ARG.
+typedef struct vd_detector_cfg {
+    uint32_t max_width;          // largest frame width, 1..VD_MAX_DIM; 0 = 640 (sizes the workspace)
+    uint32_t max_height;         // largest frame height, 1..VD_MAX_DIM; 0 = 512
+    uint8_t thr_mode;            // VD_DETECTOR_THR_CONSTANT (0, paper) or VD_DETECTOR_THR_ADAPTIVE
+    uint8_t hot_thr_u8;          // 8-bit constant threshold, hot = pixel >= thr; 0 = 150 (paper, ~30 C)
+    uint8_t adaptive_floor_u8;   // adaptive mode: lowest threshold; 0 = 96
+    uint8_t reserved0;
+    uint16_t adaptive_permille;  // adaptive mode: percentile p in 1/1000, 1..1000; 0 = 990 (p99)
+    uint16_t reserved1;
+    int32_t hot_thr_ck;          // 16-bit frames: threshold in centi-kelvin, > 0; 0 = 30315 (30.00 C)
+    vd_calib_t calib;            // raw -> centi-kelvin; gain_q16 0 = {65536, offset_ck} (TLinear 0.01 K);
+                                 // gain_q16 must be > 0
+    int32_t grey_lo_ck;          // 16-bit frames: temperature mapped to grey 0; 0 = hot_thr_ck - 3000
+    int32_t grey_hi_ck;          // temperature mapped to grey 255; 0 = hot_thr_ck + 2100, so the
+                                 // threshold maps to grey 150 as in the paper; lo < hi required
+    vd_cc_rules_t rules;         // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
+    uint16_t expand_w_q8;        // candidate expansion, Q8, 256..2048; 0 = 384 (1.5x, paper)
+    uint16_t expand_h_q8;        // 0 = 512 (2x, paper)
+    uint8_t median_ksize;        // refine median: 0 = 3 (paper), 1 = none, 3 or 5
+    uint8_t edge_step;           // refine: every n-th edge point, 1..255; 0 = 5 (paper)
+    uint8_t window;              // refine: local window, odd 3..VD_REFINE_MAX_WINDOW; 0 = 5 (paper)
+    uint8_t score_thr_q8;        // DBN: kept when score_q8 >= this, 1..255; 0 = 128 (p >= 0.5)
+    uint16_t nms_iou_q15;        // suppress a box whose IoU with a better one is > this, 1..32768; 0 = 16384 (0.5)
+    uint16_t max_components;     // components labelled per frame, 1..65535; 0 = 256
+    uint16_t max_candidates;     // candidates refined/verified per frame (budget), 1..4096; 0 = 64
+    uint16_t max_detections;     // detections kept after NMS, 1..max_candidates; 0 = 32
+    uint16_t max_region_w;       // refine region bound, 16..max_width; 0 = min(256, max_width);
+    uint16_t max_region_h;       //   larger regions are box-averaged by k (flag DECIMATED); 0 = min(256, max_height)
+    uint16_t max_tracks;         // temporal track table, 1..1024; 0 = 32 (only with temporal)
+    bool temporal;               // run temporal analysis (temporal.h) inside vd_detector_run
+    vd_temporal_cfg_t temporal_cfg;  // zero = defaults of temporal.h
+    // Optional clock for per-stage times (no OS calls in lib/): returns a
+    // free-running microsecond counter (wrap-around is handled); NULL = no timing.
+    uint32_t (*clock_us)(void *user);
+    void *clock_user;
+} vd_detector_cfg_t;
+
+// One detection.
+typedef struct vd_detection {
+    vd_rect_t box;               // image coordinates: box of the largest external contour of the refined region
+    vd_rect_t candidate;         // image coordinates: the expanded candidate region that was refined
+    uint32_t contour_length;     // points of that contour (times k when decimated), 0 for recovered
+    uint32_t track_id;           // temporal track (0 = none / temporal off)
+    uint16_t complexity_q15;     // edge pixels of the refined region / its pixels (temporal.h)
+    uint8_t score_q8;            // DBN p(vehicle) in Q8 (0..255); 255 without a model; 0 for recovered
+    uint8_t source;              // VD_SOURCE_HOTSPOT
+    uint8_t state;               // vd_track_state_t (VD_TRACK_NONE when temporal is off)
+    uint8_t flags;               // VD_DET_FLAG_*
+    uint8_t hot_thr;             // 8-bit threshold used (U16 frames: 0)
+    uint8_t reserved;
+} vd_detection_t;
+
+// Per-frame counts and times of the last vd_detector_run.
+typedef struct vd_detector_stats {
+    uint32_t hot_thr_u8;         // threshold used on 8-bit frames
+    uint32_t hot_thr_raw;        // raw threshold used on 16-bit frames
+    uint32_t hot_pixels;         // pixels >= threshold
+    uint32_t components;         // components labelled (<= max_components)
+    uint32_t kept;               // passed the aspect/area rules
+    uint32_t refined;            // candidates with a non-empty refined contour
+    uint32_t verified;           // score >= score_thr (all refined without a model)
+    uint32_t suppressed;         // removed by overlap suppression
+    uint32_t detections;         // written to the output (incl. recovered)
+    uint32_t recovered;          // appended by temporal recovery
+    uint32_t decimated;          // regions refined on a reduced plane
+    uint32_t overflow_components;  // 1 if more components than max_components existed
+    uint32_t overflow_candidates;  // candidates dropped beyond max_candidates
+    uint32_t overflow_contours;    // regions whose contour buffers overflowed
+    uint32_t overflow_detections;  // detections dropped beyond max_detections or cap
+    uint32_t overflow_tracks;      // temporal: untracked detections + dropped recoveries
+    uint32_t time_us[VD_DET_STAGE_COUNT];  // per stage, 0 without clock_us
+} vd_detector_stats_t;
+
+// Detector object. Complete so the caller can own it; fields are private.
+typedef struct vd_detector {
+    vd_detector_cfg_t cfg;       // resolved (no zero defaults left)
+    const vd_model_t *model;
+    uint16_t raw_thr;            // resolved 16-bit threshold
+    bool raw_never_hot;          // threshold above the calibrated range
+    int64_t grey_mul_q16;        // 255 * 2^16 / (grey_hi - grey_lo), rounded
+    uint32_t in_w, in_h;         // model input (32 x 32)
+    // Workspace slices (carved once in init).
+    vd_component_t *comps;
+    vd_detection_t *cand;        // verified candidates before NMS (max_candidates)
+    vd_temporal_obs_t *obs;      // max_detections + max_tracks
+    vd_track_t *tracks;
+    uint32_t *hist;              // 256 bins
+    uint8_t *sample;             // in_w * in_h
+    void *dbn_ws;
+    size_t dbn_ws_bytes;
+    uint8_t *overlay;            // hot mask + labelling scratch, reused per candidate for region buffers
+    size_t overlay_bytes;
+    size_t cc_ws_bytes;
+    size_t refine_ws_bytes;
+    size_t contour_ws_bytes;
+    size_t points_cap;
+    size_t contours_cap;
+    vd_temporal_t temporal;
+    const vd_frame_t *frame;     // during run only (recovery probe)
+    vd_detector_stats_t stats;
+} vd_detector_t;
+
+// Fills *cfg with the explicit defaults (same result as a zeroed cfg).
+void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
+
+// Workspace bytes for `cfg` (NULL = defaults) and the model's input size and
+// mode: a pure function of both (model NULL = no DBN scratch). Layout in
+// docs/architecture.md "Detector"; for the defaults at 640 x 512 it is
+// dominated by the hot mask (1 B/px) plus the labelling scratch of
+// components.h (its worst case, ~4 B/px), which the per-candidate region
+// buffers reuse.
+// Returns VD_OK; VD_ERR_ARG for NULL bytes or a cfg value out of range;
+// VD_ERR_MODEL for a model not filled by vd_dbn_load; VD_ERR_OVERFLOW if the
+// size does not fit size_t.
+vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_model_t *model, size_t *bytes);
+
+// Initialises `det`: validates and copies cfg (NULL = defaults), resolves the
+// 16-bit threshold with the calibration, and carves `ws` once.
+//   model  a loaded model, or NULL: every refined candidate passes with score
+//          255 and VD_DET_FLAG_UNVERIFIED (useful before a model exists).
+//   ws     VD_WORKSPACE_ALIGN-aligned, >= vd_detector_workspace_size(cfg, model).
+// Returns VD_OK; VD_ERR_ARG for NULL det or a cfg out of range;
+// VD_ERR_MODEL as vd_detector_workspace_size; VD_ERR_WORKSPACE for a NULL,
+// misaligned or short workspace.
+vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_model_t *model,
+                             void *ws, size_t bytes);
+
+// Runs the pipeline on one frame (VD_PIX_U8 or VD_PIX_U16, at most
+// max_width x max_height):
+//   hot mask (threshold) -> 8-connected components -> rules -> expansion
+//   -> per candidate: region plane (8-bit frame itself; 16-bit frames mapped
+//      linearly grey_lo_ck..grey_hi_ck -> 0..255; box-averaged by k if the region
+//      exceeds max_region_*) -> vd_refine_region -> largest external contour
+//      (by box area, then length) gives box and length -> 32x32 sample in the
+//      model's input mode (grey: the region plane under the contour box; shape:
+//      vd_refine_region re-run on the contour box, as tools/vdtools/samples.py
+//      makes training samples) -> DBN score >= score_thr
+//   -> overlap suppression (best score first, stable) -> temporal analysis
+//      (if enabled: ids, states, recovered targets appended).
+//   out, cap  caller array; detections best score first, recovered last.
+//   count     out: detections written.
+// Returns VD_OK; VD_ERR_ARG for NULL det/frame/count, out NULL with cap > 0,
+// a frame failing vd_frame_check or larger than max_width x max_height;
+// VD_ERR_FORMAT for an unknown pixel format; VD_ERR_STATE if det was not
+// initialised; VD_ERR_CAPACITY when any budget overflowed (components,
+// candidates, contour buffers, max_detections, cap, track table): everything
+// written is valid and the stats say which budget; other statuses of the
+// stages are passed on (then *count = 0).
+// Stack: < 2 KiB of its own (measured with -fstack-usage, docs/architecture.md).
+vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
+                            size_t *count);
+
+// Counts and times of the last run (NULL for a NULL det).
+const vd_detector_stats_t *vd_detector_last_stats(const vd_detector_t *det);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

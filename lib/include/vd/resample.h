@@ -1,0 +1,48 @@
+// SPDX-License-Identifier: MIT
+// Fixed-point resampling of a candidate region to the network input size (32x32).
+#ifndef VD_RESAMPLE_H
+#define VD_RESAMPLE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "vd/image.h"
+#include "vd/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// Largest accepted destination width/height. Keeps every weight total below
+// 2^15 (see resample.c) so products stay inside the integer types used.
+#define VD_RESAMPLE_MAX_DST 4096u
+
+// Resamples the region `roi` of `src` (NULL = whole view) to a dst_w x dst_h
+// image, separably and independently per axis:
+// - an axis that shrinks or keeps its size (roi length S >= dst length D) uses
+//   the exact area average (box filter): output sample i covers the source
+//   interval [i*S/D, (i+1)*S/D) and every source pixel is weighted by its exact
+//   overlap with it (integer weights in units of 1/D pixel, total S);
+// - an axis that grows (S < D) uses bilinear interpolation with pixel centres
+//   at +0.5 (as cv2.INTER_LINEAR): source position (i+0.5)*S/D - 0.5, clamped
+//   to [0, S-1], with exact weights in units of 1/(2D) pixel (total 2D).
+// The output is round-half-up(sum(wx*wy*pixel) / (Tx*Ty)) computed exactly in
+// integers, so the result depends on nothing but the inputs (bit-exact with
+// tools/vdtools/samples.py's reference). Equal sizes copy the region.
+//
+// src:   8-bit view (data non-null, 1..VD_MAX_DIM per side, stride >= width).
+// roi:   region inside src, or NULL for the whole view.
+// dst:   caller buffer of dst_w * dst_h bytes, row-major and contiguous
+//        (stride dst_w); must not overlap src. Written only on VD_OK.
+// dst_w, dst_h: 1..VD_RESAMPLE_MAX_DST.
+// Returns VD_OK; VD_ERR_ARG for a NULL src/dst, an invalid view, a ROI not
+// inside the view, or a zero/too large dst size.
+// Time O(roi area + dst_w*dst_h) for shrinking, O(dst_w*dst_h) for growing;
+// stack < 128 bytes; no workspace.
+vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t *dst,
+                           uint32_t dst_w, uint32_t dst_h);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,77 @@
+// SPDX-License-Identifier: MIT
+// Constant hot-spot thresholds: 8-bit grey, 16-bit raw, and 16-bit radiometric via a linear calibration.
+#ifndef VD_THRESHOLD_H
+#define VD_THRESHOLD_H
+
+#include <stdint.h>
+
+#include "vd/image.h"
+#include "vd/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// Linear radiometric calibration of a 16-bit camera:
+//   temperature_ck(raw) = offset_ck + round(raw * gain_q16 / 65536)
+// in centi-kelvin (1 ck = 0.01 K), where round() is round-half-up, i.e.
+// floor((raw * gain_q16 + 32768) / 65536) (raw * gain_q16 is never negative).
+// gain_q16: centi-kelvin per raw count in Q16.16, 0 ..INT32_MAX (a negative gain
+//           is rejected with VD_ERR_ARG: temperature must not fall as raw rises).
+// offset_ck: temperature of raw 0 in centi-kelvin, any int32.
+// Example: a TLinear camera with 0.01 K resolution has gain_q16 = 65536 (1.0)
+// and offset_ck = 0, so raw 30315 is 303.15 K = 30.00 degC.
+typedef struct vd_calib {
+    int32_t gain_q16;
+    int32_t offset_ck;
+} vd_calib_t;
+
+// Offset between kelvin and degrees Celsius in centi units (273.15 K).
+#define VD_CK_PER_0C 27315
+
+// Binary mask of the hot pixels of an 8-bit image: dst = src >= thr ? 255 : 0
+// (paper 001: thr 150 keeps pixels >= 150). Bit-exact with
+// cv2.threshold(src, thr - 1, 255, THRESH_BINARY)[roi] (thr 0 sets every pixel).
+// src: 8-bit view (any stride >= width). roi: NULL for the whole image, else
+// must lie inside src. dst: caller-owned, exactly roi.w x roi.h, must not
+// overlap src (dst == src with the same stride and a NULL roi is allowed:
+// each pixel is read before it is written).
+// Returns VD_OK; VD_ERR_ARG for NULL/invalid views, a ROI outside src or a dst
+// of another size; VD_ERR_OVERFLOW if a view's extent overflows size_t.
+vd_status_t vd_threshold_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t thr, vd_image_u8_t *dst);
+
+// Same for a 16-bit raw plane: dst = src >= thr_raw ? 255 : 0.
+// src: 16-bit view, even stride, 2-byte aligned data. Other arguments and
+// statuses as vd_threshold_u8.
+vd_status_t vd_threshold_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint16_t thr_raw, vd_image_u8_t *dst);
+
+// Temperature of one raw value: *ck = offset_ck + round-half-up(raw * gain_q16 / 65536).
+// Returns VD_OK; VD_ERR_ARG for NULL pointers or a negative gain; VD_ERR_RANGE
+// if the temperature does not fit an int32 (then *ck is unchanged).
+vd_status_t vd_calib_ck_from_raw(const vd_calib_t *cal, uint16_t raw, int32_t *ck);
+
+// Smallest raw value whose temperature (above) is >= ck: with a non-negative
+// gain the temperature never falls as raw rises, so `raw >= *raw_out` is
+// exactly `temperature >= ck`. Computed in closed form (no search).
+// Returns VD_OK; VD_ERR_ARG for NULL pointers or a negative gain; VD_ERR_RANGE
+// if no raw value in 0..65535 reaches ck (then *raw is unchanged).
+vd_status_t vd_calib_raw_from_ck(const vd_calib_t *cal, int32_t ck, uint16_t *raw);
+
+// As vd_calib_raw_from_ck for a temperature in centi-degrees Celsius
+// (3000 = 30.00 degC): ck = centi_c + 27315. Same statuses.
+vd_status_t vd_calib_raw_from_centi_celsius(const vd_calib_t *cal, int32_t centi_c, uint16_t *raw);
+
+// Radiometric hot-spot mask: dst = temperature(src) >= thr_ck ? 255 : 0,
+// evaluated as one raw comparison (vd_calib_raw_from_ck). A threshold hotter
+// than the calibration can express (raw 65535 is still colder) gives an all-0
+// mask and VD_OK: no pixel can be that hot, so the mask is exact.
+// Other arguments as vd_threshold_u16. Returns VD_OK; VD_ERR_ARG for NULL
+// pointers, a negative gain, invalid views, a ROI outside src or a dst of
+// another size; VD_ERR_OVERFLOW as vd_threshold_u16.
+vd_status_t vd_threshold_u16_ck(const vd_view_u16_t *src, const vd_rect_t *roi, const vd_calib_t *cal,
+                                int32_t thr_ck, vd_image_u8_t *dst);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,370 @@
+// SPDX-License-Identifier: MIT
+// Quantised DBN: in-place .vdm validation and bit-exact fixed-point inference.
+//
+// Algorithm: a stack of fully connected sigmoid layers (the fine-tuned DBN of
+// paper 001 section 4 / paper 000 section 3). Per output unit o:
+//   acc  = bias[o] + sum_i w[o][i] * a[i]        int8 x uint8 -> int32
+//   z_q8 = vd_dbn_requantize(acc, mult[o], shift[o])   (TFLite requantise)
+//   a'   = sigmoid_table[clamp(z_q8, -2048, 2048) + 2048]  (uint8, Q8)
+// The last layer has one unit: its activation is the score.
+// Reference: TFLite/CMSIS-NN int8 quantisation (per-channel symmetric
+// weights, Q31 multiplier + shift, gemmlowp rounding); the Python reference is
+// tools/vdtools/quantise.py quant_forward(); format in docs/model-format.md.
+// Bounds: vd_dbn_load is O(total_size) (CRC-32) plus O(sum of out) for the
+// per-unit checks and O(segments^2) = O((4*VD_DBN_MAX_LAYERS)^2) for the
+// overlap check; vd_dbn_classify is O(sum in*out) multiply-adds. Accumulators
+// cannot overflow: |sum w*a| <= in*127*255 and the loader rejects biases with
+// |bias| > INT32_MAX - in*127*255. Stack: the loader keeps a segment list of
+// 4*VD_DBN_MAX_LAYERS pairs (256 bytes for 8 layers); classify a few words.
+#include "vd/dbn.h"
+
+#include "internal/crc32.h"
+#include "internal/vd_internal.h"
+#include "dbn_sigmoid_table.h"
+
+#include <string.h>
+
+#define HDR_MAGIC 0u
+#define HDR_VERSION 4u
+#define HDR_HEADER_SIZE 6u
+#define HDR_TOTAL_SIZE 8u
+#define HDR_CRC 12u
+#define HDR_INPUT_W 16u
+#define HDR_INPUT_H 18u
+#define HDR_INPUT_MODE 20u
+#define HDR_ACTIVATION 21u
+#define HDR_N_LAYERS 22u
+#define HDR_NORM_DIVISOR 24u
+#define HDR_NORM_OFFSET 26u
+#define HDR_LAYER_TABLE 28u
+#define HDR_FLAGS 32u
+#define HDR_RESERVED0 36u
+#define HDR_NAME 40u
+#define HDR_NAME_LEN 16u
+#define HDR_RESERVED1 56u
+
+#define LT_IN 0u
+#define LT_OUT 4u
+#define LT_WEIGHTS 8u
+#define LT_BIAS 12u
+#define LT_MULT 16u
+#define LT_SHIFT 20u
+#define LT_FLAGS 24u
+#define LT_RESERVED 28u
+
+// The one activation this version knows: sigmoid by the Q8 table.
+#define ACT_SIGMOID_Q8 1u
+
+#define SHIFT_MIN (-31)
+#define SHIFT_MAX 7
+#define MULT_MIN_Q31 0x40000000L
+#define MAX_ABS_PRODUCT (127L * 255L)
+
+#define N_SEGMENTS (4u * VD_DBN_MAX_LAYERS)
+
+static uint16_t rd_u16(const uint8_t *p)
+{
+    return (uint16_t)((uint16_t)p[0] | (uint16_t)((uint16_t)p[1] << 8));
+}
+
+static uint32_t rd_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+
+// Two's-complement reinterpretation without implementation-defined casts.
+static int32_t u32_to_i32(uint32_t u)
+{
+    if (u <= (uint32_t)INT32_MAX) {
+        return (int32_t)u;
+    }
+    return -(int32_t)(~u) - 1;
+}
+
+static int32_t rd_i32(const uint8_t *p)
+{
+    return u32_to_i32(rd_u32(p));
+}
+
+static int16_t rd_i16(const uint8_t *p)
+{
+    uint16_t u = rd_u16(p);
+    return (u <= (uint16_t)INT16_MAX) ? (int16_t)u : (int16_t)(-(int32_t)(uint16_t)~u - 1);
+}
+
+// Floor shift right of a signed value (C99 leaves >> of negatives
+// implementation-defined): ~x is non-negative when x is negative.
+static int32_t asr32(int32_t x, int32_t n)
+{
+    return (x >= 0) ? (x >> n) : ~((~x) >> n);
+}
+
+// gemmlowp SaturatingRoundingDoublingHighMul: round(a*b / 2^31) with ties
+// away from zero via the nudge, truncating division as in C.
+static int32_t srdhm(int32_t a, int32_t b)
+{
+    if (a == INT32_MIN && b == INT32_MIN) {
+        return INT32_MAX;
+    }
+    int64_t ab = (int64_t)a * (int64_t)b;
+    int64_t nudge = (ab >= 0) ? ((int64_t)1 << 30) : (1 - ((int64_t)1 << 30));
+    return (int32_t)((ab + nudge) / ((int64_t)1 << 31));
+}
+
+// gemmlowp RoundingDivideByPOT: x / 2^e rounded half away from zero, e 0..31.
+static int32_t rounding_divide_by_pot(int32_t x, int32_t e)
+{
+    const uint32_t mask = ((uint32_t)1 << (uint32_t)e) - 1u;
+    const uint32_t remainder = (uint32_t)x & mask;
+    uint32_t threshold = mask >> 1;
+    if (x < 0) {
+        threshold += 1u;
+    }
+    int32_t r = asr32(x, e);
+    if (remainder > threshold) {
+        r += 1;
+    }
+    return r;
+}
+
+int32_t vd_dbn_requantize(int32_t acc, int32_t mult_q31, int32_t shift)
+{
+    VD_ASSERT(shift >= SHIFT_MIN && shift <= SHIFT_MAX);
+    VD_ASSERT(mult_q31 >= 0);
+    int32_t x = acc;
+    if (shift > 0) {
+        int64_t v = (int64_t)acc * ((int64_t)1 << shift);
+        if (v > INT32_MAX) {
+            v = INT32_MAX;
+        } else if (v < INT32_MIN) {
+            v = INT32_MIN;
+        }
+        x = (int32_t)v;
+    }
+    const int32_t right = (shift < 0) ? -shift : 0;
+    return rounding_divide_by_pot(srdhm(x, mult_q31), right);
+}
+
+uint8_t vd_dbn_sigmoid_q8(int32_t z_q8)
+{
+    if (z_q8 < -VD_DBN_SIGMOID_IN_MAX) {
+        z_q8 = -VD_DBN_SIGMOID_IN_MAX;
+    } else if (z_q8 > VD_DBN_SIGMOID_IN_MAX) {
+        z_q8 = VD_DBN_SIGMOID_IN_MAX;
+    }
+    return vd_dbn_sigmoid_q8_table[z_q8 + VD_DBN_SIGMOID_IN_MAX];
+}
+
+// ------------------------------------------------------------------ loader
+
+typedef struct segment {
+    uint32_t off;
+    uint32_t len;
+} segment_t;
+
+// Checks one array: 4-byte aligned, inside [lo, total), no size overflow.
+static bool segment_ok(uint32_t off, uint64_t len, uint32_t lo, uint32_t total)
+{
+    return (off % 4u) == 0u && off >= lo && len <= (uint64_t)total && (uint64_t)off + len <= (uint64_t)total;
+}
+
+static bool all_zero(const uint8_t *p, size_t n)
+{
+    for (size_t i = 0u; i < n; i++) {
+        if (p[i] != 0u) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// Name: printable ASCII, then only NULs.
+static bool name_ok(const uint8_t *p)
+{
+    bool ended = false;
+    for (uint32_t i = 0u; i < HDR_NAME_LEN; i++) {
+        if (p[i] == 0u) {
+            ended = true;
+        } else if (ended || p[i] < 0x20u || p[i] > 0x7Eu) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// Per-unit checks of one layer: multiplier, shift, bias bound.
+static bool layer_values_ok(const vd_dbn_layer_t *l)
+{
+    const int64_t bias_max = (int64_t)INT32_MAX - (int64_t)l->in * MAX_ABS_PRODUCT;
+    for (uint32_t o = 0u; o < l->out; o++) {
+        const int32_t mult = rd_i32(l->mult_le + 4u * (size_t)o);
+        const int64_t bias = rd_i32(l->bias_le + 4u * (size_t)o);
+        const int32_t sh = l->shift[o];
+        if (mult < MULT_MIN_Q31 || sh < SHIFT_MIN || sh > SHIFT_MAX) {
+            return false;
+        }
+        if (bias > bias_max || bias < -bias_max) {
+            return false;
+        }
+    }
+    return true;
+}
+
+vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
+{
+    VD_VERIFY(m != NULL && blob != NULL && bytes != 0u, VD_ERR_ARG);
+    VD_VERIFY(((uintptr_t)blob % 4u) == 0u, VD_ERR_ARG);
+    const uint8_t *b = (const uint8_t *)blob;
+    VD_VERIFY(bytes >= VD_DBN_HEADER_SIZE, VD_ERR_MODEL);
+
+    // Fixed part, before trusting any size.
+    VD_VERIFY(rd_u32(b + HDR_MAGIC) == VD_DBN_MAGIC_U32, VD_ERR_MODEL);
+    VD_VERIFY(rd_u16(b + HDR_VERSION) == VD_DBN_FORMAT_VERSION, VD_ERR_MODEL);
+    VD_VERIFY(rd_u16(b + HDR_HEADER_SIZE) == VD_DBN_HEADER_SIZE, VD_ERR_MODEL);
+    const uint32_t total = rd_u32(b + HDR_TOTAL_SIZE);
+    VD_VERIFY(total >= VD_DBN_HEADER_SIZE && (size_t)total <= bytes && (total % 4u) == 0u, VD_ERR_MODEL);
+    const uint32_t crc = rd_u32(b + HDR_CRC);
+    VD_VERIFY(vd_crc32(0u, b + HDR_INPUT_W, (size_t)total - HDR_INPUT_W) == crc, VD_ERR_MODEL);
+
+    // Header fields.
+    const uint16_t in_w = rd_u16(b + HDR_INPUT_W);
+    const uint16_t in_h = rd_u16(b + HDR_INPUT_H);
+    const uint8_t mode = b[HDR_INPUT_MODE];
+    const uint32_t n_layers = rd_u16(b + HDR_N_LAYERS);
+    const uint16_t norm_div = rd_u16(b + HDR_NORM_DIVISOR);
+    const uint32_t table = rd_u32(b + HDR_LAYER_TABLE);
+    VD_VERIFY(in_w >= 1u && in_w <= VD_DBN_MAX_INPUT_DIM, VD_ERR_MODEL);
+    VD_VERIFY(in_h >= 1u && in_h <= VD_DBN_MAX_INPUT_DIM, VD_ERR_MODEL);
+    VD_VERIFY(mode == (uint8_t)VD_DBN_INPUT_GREY || mode == (uint8_t)VD_DBN_INPUT_SHAPE, VD_ERR_MODEL);
+    VD_VERIFY(b[HDR_ACTIVATION] == ACT_SIGMOID_Q8, VD_ERR_MODEL);
+    VD_VERIFY(n_layers >= 1u && n_layers <= VD_DBN_MAX_LAYERS, VD_ERR_MODEL);
+    VD_VERIFY(norm_div >= 1u, VD_ERR_MODEL);
+    VD_VERIFY(rd_u32(b + HDR_FLAGS) == 0u && rd_u32(b + HDR_RESERVED0) == 0u, VD_ERR_MODEL);
+    VD_VERIFY(all_zero(b + HDR_RESERVED1, VD_DBN_HEADER_SIZE - HDR_RESERVED1), VD_ERR_MODEL);
+    VD_VERIFY(name_ok(b + HDR_NAME), VD_ERR_MODEL);
+    VD_VERIFY(table >= VD_DBN_HEADER_SIZE && table <= total && (table % 4u) == 0u, VD_ERR_MODEL);
+    VD_VERIFY((uint64_t)table + (uint64_t)n_layers * VD_DBN_LAYER_ENTRY_SIZE <= (uint64_t)total, VD_ERR_MODEL);
+    const uint32_t table_end = table + n_layers * VD_DBN_LAYER_ENTRY_SIZE;
+
+    // Layer table: sizes chain, arrays in range, aligned, disjoint.
+    vd_model_t tmp;
+    memset(&tmp, 0, sizeof tmp);
+    segment_t seg[N_SEGMENTS];
+    uint32_t n_seg = 0u;
+    uint32_t prev_out = (uint32_t)in_w * (uint32_t)in_h;
+    uint32_t max_units = 0u;
+    for (uint32_t l = 0u; l < n_layers; l++) {
+        const uint8_t *e = b + table + l * VD_DBN_LAYER_ENTRY_SIZE;
+        const uint32_t n_in = rd_u32(e + LT_IN);
+        const uint32_t n_out = rd_u32(e + LT_OUT);
+        const uint32_t offs[4] = {rd_u32(e + LT_WEIGHTS), rd_u32(e + LT_BIAS), rd_u32(e + LT_MULT),
+                                  rd_u32(e + LT_SHIFT)};
+        VD_VERIFY(rd_u32(e + LT_FLAGS) == 0u && rd_u32(e + LT_RESERVED) == 0u, VD_ERR_MODEL);
+        VD_VERIFY(n_in == prev_out && n_in >= 1u && n_in <= VD_DBN_MAX_UNITS, VD_ERR_MODEL);
+        VD_VERIFY(n_out >= 1u && n_out <= VD_DBN_MAX_UNITS, VD_ERR_MODEL);
+        const uint64_t lens[4] = {(uint64_t)n_in * n_out, 4u * (uint64_t)n_out, 4u * (uint64_t)n_out,
+                                  (uint64_t)n_out};
+        for (uint32_t s = 0u; s < 4u; s++) {
+            VD_VERIFY(segment_ok(offs[s], lens[s], table_end, total), VD_ERR_MODEL);
+            seg[n_seg].off = offs[s];
+            seg[n_seg].len = (uint32_t)lens[s];
+            n_seg++;
+        }
+        vd_dbn_layer_t *ly = &tmp.layers[l];
+        ly->weights = (const int8_t *)(const void *)(b + offs[0]);
+        ly->bias_le = b + offs[1];
+        ly->mult_le = b + offs[2];
+        ly->shift = (const int8_t *)(const void *)(b + offs[3]);
+        ly->in = n_in;
+        ly->out = n_out;
+        VD_VERIFY(layer_values_ok(ly), VD_ERR_MODEL);
+        if (n_out > max_units) {
+            max_units = n_out;
+        }
+        prev_out = n_out;
+    }
+    VD_VERIFY(prev_out == 1u, VD_ERR_MODEL);
+    // Disjoint arrays: a crafted blob must not alias weights with multipliers.
+    for (uint32_t i = 0u; i < n_seg; i++) {
+        for (uint32_t j = i + 1u; j < n_seg; j++) {
+            const uint64_t ai = seg[i].off, bi = ai + seg[i].len;
+            const uint64_t aj = seg[j].off, bj = aj + seg[j].len;
+            VD_VERIFY(bi <= aj || bj <= ai, VD_ERR_MODEL);
+        }
+    }
+
+    tmp.blob = b;
+    tmp.size = total;
+    tmp.crc32 = crc;
+    tmp.format_version = (uint16_t)VD_DBN_FORMAT_VERSION;
+    tmp.input_w = in_w;
+    tmp.input_h = in_h;
+    tmp.norm_divisor = norm_div;
+    tmp.norm_offset = rd_i16(b + HDR_NORM_OFFSET);
+    tmp.input_mode = (mode == (uint8_t)VD_DBN_INPUT_GREY) ? VD_DBN_INPUT_GREY : VD_DBN_INPUT_SHAPE;
+    tmp.n_layers = n_layers;
+    tmp.max_units = max_units;
+    memcpy(tmp.name, b + HDR_NAME, HDR_NAME_LEN);
+    tmp.name[HDR_NAME_LEN] = '\0';
+    *m = tmp;
+    return VD_OK;
+}
+
+// ---------------------------------------------------------------- inference
+
+static bool model_loaded(const vd_model_t *m)
+{
+    return m->blob != NULL && m->n_layers >= 1u && m->n_layers <= VD_DBN_MAX_LAYERS && m->max_units >= 1u &&
+           m->max_units <= VD_DBN_MAX_UNITS;
+}
+
+vd_status_t vd_dbn_workspace_size(const vd_model_t *m, size_t *bytes)
+{
+    VD_VERIFY(m != NULL && bytes != NULL, VD_ERR_ARG);
+    VD_VERIFY(model_loaded(m), VD_ERR_STATE);
+    size_t total = 0u;
+    VD_VERIFY(vd_size_add_slice(&total, m->max_units), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_size_add_slice(&total, m->max_units), VD_ERR_OVERFLOW);
+    *bytes = total;
+    return VD_OK;
+}
+
+// One layer: out[o] = sigmoid(requantize(bias + w[o] . in)).
+static void layer_forward(const vd_dbn_layer_t *l, const uint8_t *in, uint8_t *out)
+{
+    for (uint32_t o = 0u; o < l->out; o++) {
+        const int8_t *w = l->weights + (size_t)o * l->in;
+        int32_t acc = rd_i32(l->bias_le + 4u * (size_t)o);
+        for (uint32_t i = 0u; i < l->in; i++) {
+            acc += (int32_t)w[i] * (int32_t)in[i];
+        }
+        const int32_t z_q8 = vd_dbn_requantize(acc, rd_i32(l->mult_le + 4u * (size_t)o), l->shift[o]);
+        out[o] = vd_dbn_sigmoid_q8(z_q8);
+    }
+}
+
+vd_status_t vd_dbn_classify(const vd_model_t *m, const uint8_t *input, void *ws, size_t bytes,
+                            uint8_t *score_q8)
+{
+    VD_VERIFY(m != NULL && input != NULL && score_q8 != NULL, VD_ERR_ARG);
+    VD_VERIFY(model_loaded(m), VD_ERR_STATE);
+    size_t need;
+    VD_TRY(vd_dbn_workspace_size(m, &need));
+    vd_arena_t arena;
+    VD_TRY(vd_arena_init(&arena, ws, bytes));
+    VD_VERIFY(bytes >= need, VD_ERR_WORKSPACE);
+    uint8_t *buf[2];
+    buf[0] = (uint8_t *)vd_arena_take(&arena, m->max_units);
+    buf[1] = (uint8_t *)vd_arena_take(&arena, m->max_units);
+    VD_VERIFY(buf[0] != NULL && buf[1] != NULL, VD_ERR_WORKSPACE);
+
+    const uint8_t *a = input;
+    uint32_t cur = 0u;
+    for (uint32_t l = 0u; l < m->n_layers; l++) {
+        layer_forward(&m->layers[l], a, buf[cur]);
+        a = buf[cur];
+        cur ^= 1u;
+    }
+    *score_q8 = a[0];
+    return VD_OK;
+}

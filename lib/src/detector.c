@@ -1,0 +1,758 @@
+// SPDX-License-Identifier: MIT
+// The detector pipeline: chains threshold, components, refine, contour, resample, DBN, suppression and temporal analysis.
+//
+// Algorithm: paper 001 ("Night-time vehicle detection in FIR images with a
+// DBN"), sections 2-4: constant hot-spot threshold (150 on 8-bit, ~30 C),
+// 8-connected regions kept by aspect 0.3..1.5 and area >= 120, expanded 1.5x
+// horizontally and 2x vertically; per candidate: median 3x3, Otsu, hole
+// filling, edge image, local max-distance thresholds at every 5th edge point
+// (refine.h), outer contour (contour.h); DBN verification of a 32x32 sample;
+// then greedy overlap suppression, and paper 000 section 4 temporal analysis
+// (temporal.h) when enabled. Adaptive threshold (not in the paper) for
+// AGC-scaled 8-bit video: max(floor, p-th percentile of the frame).
+//
+// 16-bit frames: candidates come from the radiometric plane (threshold in
+// centi-kelvin through vd_calib_t); the 8-bit plane that refine and the DBN
+// need is made per region by the linear map grey = (T - lo) * 255 / (hi - lo)
+// clamped to 0..255 (a fixed window around the threshold, like a Lepton AGC
+// with a fixed range), computed as ((T - lo) * mul_q16 + 2^15) >> 16 with
+// mul_q16 = round(255 * 2^16 / (hi - lo)): |error| <= 1 grey level.
+//
+// Memory: one workspace carved in init (layout in docs/architecture.md). The
+// hot mask and the labelling scratch share one "overlay" buffer with the
+// per-candidate region buffers, which are only used after labelling.
+// Regions larger than max_region_w x max_region_h are box-averaged by
+// per-axis integer factors kx, ky first (one rounded division per output
+// pixel, each after kx*ky >= 2 additions).
+//
+// Bounds: time O(W*H) for threshold and labelling plus, per candidate
+// (<= max_candidates), O(region) for refine/contour and the DBN's
+// multiply-adds; NMS O(max_candidates^2); temporal as temporal.h with at most
+// 289 refine probes per missed confirmed track. Stack of vd_detector_run
+// itself < 2 KiB (about 300 bytes with gcc -O2, -fstack-usage); no recursion.
+#include "vd/detector.h"
+
+#include <string.h>
+
+#include "vd/contour.h"
+#include "vd/resample.h"
+#include "internal/vd_internal.h"
+
+#define DEF_W 640u
+#define DEF_H 512u
+#define DEF_REGION 256u
+
+void vd_detector_cfg_default(vd_detector_cfg_t *cfg)
+{
+    if (cfg == NULL) {
+        return;
+    }
+    memset(cfg, 0, sizeof(*cfg));
+    cfg->max_width = DEF_W;
+    cfg->max_height = DEF_H;
+    cfg->thr_mode = VD_DETECTOR_THR_CONSTANT;
+    cfg->hot_thr_u8 = 150u;
+    cfg->adaptive_floor_u8 = 96u;
+    cfg->adaptive_permille = 990u;
+    cfg->hot_thr_ck = VD_CK_PER_0C + 3000;
+    cfg->calib.gain_q16 = 65536;
+    cfg->calib.offset_ck = 0;
+    cfg->grey_lo_ck = cfg->hot_thr_ck - 3000;
+    cfg->grey_hi_ck = cfg->hot_thr_ck + 2100;
+    vd_cc_rules_default(&cfg->rules);
+    cfg->expand_w_q8 = VD_EXPAND_W_Q8;
+    cfg->expand_h_q8 = VD_EXPAND_H_Q8;
+    cfg->median_ksize = 3u;
+    cfg->edge_step = 5u;
+    cfg->window = 5u;
+    cfg->score_thr_q8 = 128u;
+    cfg->nms_iou_q15 = 16384u;
+    cfg->max_components = 256u;
+    cfg->max_candidates = 64u;
+    cfg->max_detections = 32u;
+    cfg->max_region_w = (uint16_t)DEF_REGION;
+    cfg->max_region_h = (uint16_t)DEF_REGION;
+    cfg->max_tracks = 32u;
+    cfg->temporal = false;
+    vd_temporal_cfg_default(&cfg->temporal_cfg);
+}
+
+// Fills zero fields with defaults and checks ranges.
+static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c)
+{
+    if (in == NULL) {
+        vd_detector_cfg_default(c);
+        return VD_OK;
+    }
+    *c = *in;
+    if (c->max_width == 0u) { c->max_width = DEF_W; }
+    if (c->max_height == 0u) { c->max_height = DEF_H; }
+    VD_VERIFY(c->max_width <= VD_MAX_DIM && c->max_height <= VD_MAX_DIM, VD_ERR_ARG);
+    VD_VERIFY(c->thr_mode <= VD_DETECTOR_THR_ADAPTIVE, VD_ERR_ARG);
+    if (c->hot_thr_u8 == 0u) { c->hot_thr_u8 = 150u; }
+    if (c->adaptive_floor_u8 == 0u) { c->adaptive_floor_u8 = 96u; }
+    if (c->adaptive_permille == 0u) { c->adaptive_permille = 990u; }
+    VD_VERIFY(c->adaptive_permille <= 1000u, VD_ERR_ARG);
+    if (c->hot_thr_ck == 0) { c->hot_thr_ck = VD_CK_PER_0C + 3000; }
+    VD_VERIFY(c->hot_thr_ck > 0 && c->hot_thr_ck <= 1000000, VD_ERR_ARG);   // <= 10 000 K
+    if (c->calib.gain_q16 == 0) { c->calib.gain_q16 = 65536; }
+    VD_VERIFY(c->calib.gain_q16 > 0, VD_ERR_ARG);
+    if (c->grey_lo_ck == 0) { c->grey_lo_ck = c->hot_thr_ck - 3000; }
+    if (c->grey_hi_ck == 0) { c->grey_hi_ck = c->hot_thr_ck + 2100; }
+    VD_VERIFY(c->grey_lo_ck < c->grey_hi_ck, VD_ERR_ARG);
+    if (c->rules.aspect_min_q8 == 0u && c->rules.aspect_max_q8 == 0u && c->rules.min_area == 0u &&
+        c->rules.max_area == 0u) {
+        vd_cc_rules_default(&c->rules);
+    }
+    VD_VERIFY(c->rules.aspect_min_q8 <= c->rules.aspect_max_q8, VD_ERR_ARG);
+    VD_VERIFY(c->rules.max_area == 0u || c->rules.min_area <= c->rules.max_area, VD_ERR_ARG);
+    if (c->expand_w_q8 == 0u) { c->expand_w_q8 = VD_EXPAND_W_Q8; }
+    if (c->expand_h_q8 == 0u) { c->expand_h_q8 = VD_EXPAND_H_Q8; }
+    VD_VERIFY(c->expand_w_q8 >= 256u && c->expand_w_q8 <= 2048u, VD_ERR_ARG);
+    VD_VERIFY(c->expand_h_q8 >= 256u && c->expand_h_q8 <= 2048u, VD_ERR_ARG);
+    if (c->median_ksize == 0u) { c->median_ksize = 3u; }
+    VD_VERIFY(c->median_ksize == 1u || c->median_ksize == 3u || c->median_ksize == 5u, VD_ERR_ARG);
+    if (c->edge_step == 0u) { c->edge_step = 5u; }
+    if (c->window == 0u) { c->window = 5u; }
+    VD_VERIFY(c->window >= 3u && c->window <= VD_REFINE_MAX_WINDOW && (c->window & 1u) == 1u, VD_ERR_ARG);
+    if (c->score_thr_q8 == 0u) { c->score_thr_q8 = 128u; }
+    if (c->nms_iou_q15 == 0u) { c->nms_iou_q15 = 16384u; }
+    VD_VERIFY(c->nms_iou_q15 <= 32768u, VD_ERR_ARG);
+    if (c->max_components == 0u) { c->max_components = 256u; }
+    if (c->max_candidates == 0u) { c->max_candidates = 64u; }
+    VD_VERIFY(c->max_candidates <= 4096u, VD_ERR_ARG);
+    if (c->max_detections == 0u) {
+        c->max_detections = (uint16_t)(c->max_candidates < 32u ? c->max_candidates : 32u);
+    }
+    VD_VERIFY(c->max_detections <= c->max_candidates, VD_ERR_ARG);
+    if (c->max_region_w == 0u) { c->max_region_w = (uint16_t)(c->max_width < DEF_REGION ? c->max_width : DEF_REGION); }
+    if (c->max_region_h == 0u) { c->max_region_h = (uint16_t)(c->max_height < DEF_REGION ? c->max_height : DEF_REGION); }
+    VD_VERIFY(c->max_region_w <= c->max_width && c->max_region_h <= c->max_height, VD_ERR_ARG);
+    if (c->max_tracks == 0u) { c->max_tracks = 32u; }
+    VD_VERIFY(c->max_tracks <= 1024u, VD_ERR_ARG);
+    // The temporal settings are checked (and resolved) by vd_temporal_init.
+    vd_track_t probe_track;
+    vd_temporal_t probe_t;
+    VD_TRY(vd_temporal_init(&probe_t, &c->temporal_cfg, &probe_track, 1u));
+    c->temporal_cfg = probe_t.cfg;
+    return VD_OK;
+}
+
+// Byte sizes of every workspace slice.
+typedef struct layout {
+    size_t comps, cand, obs, tracks, hist, sample, dbn;
+    size_t mask, cc, crop, rmask, refine, contour, points, contours;
+    size_t points_cap, contours_cap;
+} layout_t;
+
+static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, layout_t *l)
+{
+    memset(l, 0, sizeof(*l));
+    size_t rw = c->max_region_w;
+    size_t rh = c->max_region_h;
+    VD_VERIFY(vd_mul_size(c->max_components, sizeof(vd_component_t), &l->comps), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_mul_size(c->max_candidates, sizeof(vd_detection_t), &l->cand), VD_ERR_OVERFLOW);
+    if (c->temporal) {
+        l->obs = ((size_t)c->max_detections + c->max_tracks) * sizeof(vd_temporal_obs_t);
+        l->tracks = (size_t)c->max_tracks * sizeof(vd_track_t);
+    }
+    l->hist = 256u * sizeof(uint32_t);
+    if (model != NULL) {
+        VD_VERIFY(model->blob != NULL && model->input_w > 0u && model->input_h > 0u, VD_ERR_MODEL);
+        VD_VERIFY(model->input_mode == VD_DBN_INPUT_GREY || model->input_mode == VD_DBN_INPUT_SHAPE, VD_ERR_MODEL);
+        l->sample = (size_t)model->input_w * model->input_h;
+        vd_status_t st = vd_dbn_workspace_size(model, &l->dbn);
+        VD_VERIFY(st == VD_OK, VD_ERR_MODEL);
+    }
+    VD_VERIFY(vd_mul_size(c->max_width, c->max_height, &l->mask), VD_ERR_OVERFLOW);
+    VD_TRY(vd_components_workspace_size(c->max_width, c->max_height, &l->cc));
+    l->crop = rw * rh;
+    l->rmask = rw * rh;
+    VD_TRY(vd_refine_workspace_size((uint32_t)rw, (uint32_t)rh, &l->refine));
+    VD_TRY(vd_contours_workspace_size((uint32_t)rw, (uint32_t)rh, &l->contour));
+    // Room for a few outlines around the region; more only sets CONTOUR_TRUNC.
+    l->points_cap = 8u * (rw + rh);
+    l->contours_cap = 64u;
+    l->points = l->points_cap * sizeof(vd_point_t);
+    l->contours = l->contours_cap * sizeof(vd_contour_t);
+    return VD_OK;
+}
+
+static vd_status_t overlay_size(const layout_t *l, size_t *a_out, size_t *total)
+{
+    size_t a = 0u;
+    size_t b = 0u;
+    VD_VERIFY(vd_size_add_slice(&a, l->mask) && vd_size_add_slice(&a, l->cc), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_size_add_slice(&b, l->crop) && vd_size_add_slice(&b, l->rmask) &&
+              vd_size_add_slice(&b, l->refine) && vd_size_add_slice(&b, l->contour) &&
+              vd_size_add_slice(&b, l->points) && vd_size_add_slice(&b, l->contours), VD_ERR_OVERFLOW);
+    *a_out = a;
+    *total = a > b ? a : b;
+    return VD_OK;
+}
+
+static vd_status_t total_size(const layout_t *l, size_t *bytes)
+{
+    size_t ov;
+    size_t a;
+    VD_TRY(overlay_size(l, &a, &ov));
+    size_t t = 0u;
+    VD_VERIFY(vd_size_add_slice(&t, l->comps) && vd_size_add_slice(&t, l->cand) &&
+              vd_size_add_slice(&t, l->obs) && vd_size_add_slice(&t, l->tracks) &&
+              vd_size_add_slice(&t, l->hist) && vd_size_add_slice(&t, l->sample) &&
+              vd_size_add_slice(&t, l->dbn) && vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
+    *bytes = t;
+    return VD_OK;
+}
+
+vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_model_t *model, size_t *bytes)
+{
+    VD_VERIFY(bytes != NULL, VD_ERR_ARG);
+    vd_detector_cfg_t c;
+    VD_TRY(resolve_cfg(cfg, &c));
+    layout_t l;
+    VD_TRY(plan(&c, model, &l));
+    return total_size(&l, bytes);
+}
+
+// Slices of the arena; VD_ERR_WORKSPACE when one does not fit.
+static void *take(vd_arena_t *a, size_t bytes, bool *ok)
+{
+    if (bytes == 0u) {
+        return NULL;
+    }
+    void *p = vd_arena_take(a, bytes);
+    if (p == NULL) {
+        *ok = false;
+    }
+    return p;
+}
+
+vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_model_t *model,
+                             void *ws, size_t bytes)
+{
+    VD_VERIFY(det != NULL, VD_ERR_ARG);
+    vd_detector_cfg_t c;
+    VD_TRY(resolve_cfg(cfg, &c));
+    layout_t l;
+    VD_TRY(plan(&c, model, &l));
+    size_t need;
+    VD_TRY(total_size(&l, &need));
+    vd_arena_t arena;
+    VD_TRY(vd_arena_init(&arena, ws, bytes));
+    VD_VERIFY(bytes >= need, VD_ERR_WORKSPACE);
+
+    memset(det, 0, sizeof(*det));
+    det->cfg = c;
+    det->model = model;
+    bool ok = true;
+    det->comps = (vd_component_t *)take(&arena, l.comps, &ok);
+    det->cand = (vd_detection_t *)take(&arena, l.cand, &ok);
+    det->obs = (vd_temporal_obs_t *)take(&arena, l.obs, &ok);
+    det->tracks = (vd_track_t *)take(&arena, l.tracks, &ok);
+    det->hist = (uint32_t *)take(&arena, l.hist, &ok);
+    det->sample = (uint8_t *)take(&arena, l.sample, &ok);
+    det->dbn_ws = take(&arena, l.dbn, &ok);
+    det->dbn_ws_bytes = l.dbn;
+    size_t a_part;
+    VD_TRY(overlay_size(&l, &a_part, &det->overlay_bytes));
+    det->overlay = (uint8_t *)take(&arena, det->overlay_bytes, &ok);
+    if (!ok) {
+        memset(det, 0, sizeof(*det));
+        return VD_ERR_WORKSPACE;   // unreachable when bytes >= need; kept as a guard
+    }
+    det->cc_ws_bytes = l.cc;
+    det->refine_ws_bytes = l.refine;
+    det->contour_ws_bytes = l.contour;
+    det->points_cap = l.points_cap;
+    det->contours_cap = l.contours_cap;
+    if (model != NULL) {
+        det->in_w = model->input_w;
+        det->in_h = model->input_h;
+    }
+    // 16-bit threshold in raw units; above the calibrated range nothing is hot.
+    uint16_t raw = 0u;
+    vd_status_t st = vd_calib_raw_from_ck(&c.calib, c.hot_thr_ck, &raw);
+    if (st == VD_ERR_RANGE) {
+        det->raw_never_hot = true;
+    } else if (st != VD_OK) {
+        memset(det, 0, sizeof(*det));
+        return VD_ERR_ARG;
+    }
+    det->raw_thr = raw;
+    int64_t span = (int64_t)c.grey_hi_ck - c.grey_lo_ck;
+    det->grey_mul_q16 = ((int64_t)255 * 65536 + span / 2) / span;
+    if (c.temporal) {
+        VD_TRY(vd_temporal_init(&det->temporal, &c.temporal_cfg, det->tracks, c.max_tracks));
+    }
+    return VD_OK;
+}
+
+const vd_detector_stats_t *vd_detector_last_stats(const vd_detector_t *det)
+{
+    return (det == NULL) ? NULL : &det->stats;
+}
+
+static uint32_t clock_now(const vd_detector_t *det)
+{
+    return (det->cfg.clock_us != NULL) ? det->cfg.clock_us(det->cfg.clock_user) : 0u;
+}
+
+static void clock_add(vd_detector_t *det, int stage, uint32_t *t0)
+{
+    if (det->cfg.clock_us == NULL) {
+        return;
+    }
+    uint32_t t1 = det->cfg.clock_us(det->cfg.clock_user);
+    det->stats.time_us[stage] += t1 - *t0;   // unsigned: wrap-around safe
+    *t0 = t1;
+}
+
+// The 8-bit plane of one region: `view` with `roi` (in view coordinates),
+// and the per-axis factors mapping roi pixels to image pixels.
+typedef struct region_plane {
+    vd_view_u8_t view;
+    vd_rect_t roi;
+    vd_rect_t region;   // image coordinates
+    uint32_t kx, ky;
+} region_plane_t;
+
+static uint8_t grey_of_raw(const vd_detector_t *det, uint32_t raw)
+{
+    int32_t ck = 0;
+    (void)vd_calib_ck_from_raw(&det->cfg.calib, (uint16_t)raw, &ck);
+    int64_t g = (((int64_t)ck - det->cfg.grey_lo_ck) * det->grey_mul_q16 + 32768) >> 16;
+    if (g < 0) {
+        return 0u;
+    }
+    return (g > 255) ? 255u : (uint8_t)g;
+}
+
+// Builds the region plane in the overlay's crop buffer when needed (16-bit
+// frames, or regions above max_region_*); 8-bit regions that fit are read
+// from the frame directly so the median sees the pixels around the ROI.
+static vd_status_t make_plane(vd_detector_t *det, const vd_frame_t *f, const vd_rect_t *region,
+                              uint8_t *crop, region_plane_t *p)
+{
+    uint32_t rw = (uint32_t)region->w;
+    uint32_t rh = (uint32_t)region->h;
+    uint32_t mw = det->cfg.max_region_w;
+    uint32_t mh = det->cfg.max_region_h;
+    p->region = *region;
+    p->kx = (rw + mw - 1u) / mw;
+    p->ky = (rh + mh - 1u) / mh;
+    if (f->format == VD_PIX_U8 && p->kx == 1u && p->ky == 1u) {
+        VD_TRY(vd_frame_view_u8(f, &p->view));
+        p->roi = *region;
+        return VD_OK;
+    }
+    uint32_t cw = rw / p->kx;
+    uint32_t ch = rh / p->ky;
+    uint32_t n = p->kx * p->ky;
+    for (uint32_t cy = 0; cy < ch; cy++) {
+        for (uint32_t cx = 0; cx < cw; cx++) {
+            uint64_t sum = 0u;
+            size_t x0 = (size_t)region->x + (size_t)cx * p->kx;
+            size_t y0 = (size_t)region->y + (size_t)cy * p->ky;
+            for (uint32_t j = 0; j < p->ky; j++) {
+                const uint8_t *row = (const uint8_t *)f->data + (y0 + j) * f->stride;
+                for (uint32_t i = 0; i < p->kx; i++) {
+                    if (f->format == VD_PIX_U8) {
+                        sum += row[x0 + i];
+                    } else {
+                        uint16_t v;
+                        memcpy(&v, row + 2u * (x0 + i), sizeof(v));
+                        sum += v;
+                    }
+                }
+            }
+            uint32_t avg = (uint32_t)((sum + n / 2u) / n);
+            crop[(size_t)cy * cw + cx] = (f->format == VD_PIX_U8) ? (uint8_t)avg : grey_of_raw(det, avg);
+        }
+    }
+    p->view.data = crop;
+    p->view.width = cw;
+    p->view.height = ch;
+    p->view.stride = cw;
+    p->roi.x = 0;
+    p->roi.y = 0;
+    p->roi.w = (int32_t)cw;
+    p->roi.h = (int32_t)ch;
+    return VD_OK;
+}
+
+// Region buffers carved from the overlay (valid after labelling).
+typedef struct region_bufs {
+    uint8_t *crop;
+    uint8_t *rmask;
+    void *refine_ws;
+    void *contour_ws;
+    vd_point_t *points;
+    vd_contour_t *contours;
+} region_bufs_t;
+
+static void region_bufs(const vd_detector_t *det, region_bufs_t *b)
+{
+    size_t rsz = (size_t)det->cfg.max_region_w * det->cfg.max_region_h;
+    vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // overlay is aligned (carved by init)
+    b->crop = (uint8_t *)vd_arena_take(&a, rsz);
+    b->rmask = (uint8_t *)vd_arena_take(&a, rsz);
+    b->refine_ws = vd_arena_take(&a, det->refine_ws_bytes);
+    b->contour_ws = vd_arena_take(&a, det->contour_ws_bytes);
+    b->points = (vd_point_t *)vd_arena_take(&a, det->points_cap * sizeof(vd_point_t));
+    b->contours = (vd_contour_t *)vd_arena_take(&a, det->contours_cap * sizeof(vd_contour_t));
+    VD_ASSERT(b->contours != NULL);
+}
+
+static void refine_cfg_of(const vd_detector_t *det, vd_refine_cfg_t *rc)
+{
+    rc->median_ksize = (det->cfg.median_ksize == 1u) ? 0u : det->cfg.median_ksize;
+    rc->edge_step = det->cfg.edge_step;
+    rc->window = det->cfg.window;
+}
+
+// Refines one region into b->rmask; returns its plane and refine stats.
+static vd_status_t refine_region(vd_detector_t *det, const vd_frame_t *f, const vd_rect_t *region,
+                                 const region_bufs_t *b, region_plane_t *p, vd_refine_stats_t *rs)
+{
+    vd_refine_cfg_t rc;
+    refine_cfg_of(det, &rc);
+    VD_TRY(make_plane(det, f, region, b->crop, p));
+    vd_image_u8_t m = {b->rmask, (uint32_t)p->roi.w, (uint32_t)p->roi.h, (size_t)p->roi.w};
+    return vd_refine_region(&p->view, &p->roi, &rc, b->refine_ws, det->refine_ws_bytes, &m, rs);
+}
+
+// Complexity (temporal.h) of a refined region: edge pixels / region pixels.
+// A mask that is empty or covers the whole region has no object outline (a
+// uniform region makes Otsu keep everything and its only "edges" are the
+// region border), so it counts as 0, which never resembles a vehicle.
+static uint16_t region_complexity(const vd_refine_stats_t *rs, const region_plane_t *p)
+{
+    uint32_t area = (uint32_t)p->roi.w * (uint32_t)p->roi.h;
+    if (rs->fg_pixels == 0u || rs->fg_pixels >= area) {
+        return 0u;
+    }
+    return vd_temporal_complexity_q15(rs->edge_points, area);
+}
+
+// Temporal recovery probe: the complexity of the expanded box, refined as a candidate.
+static vd_status_t detector_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15)
+{
+    vd_detector_t *det = (vd_detector_t *)user;
+    const vd_frame_t *f = det->frame;
+    vd_rect_t region;
+    VD_TRY(vd_rect_expand(box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &region));
+    region_bufs_t b;
+    region_bufs(det, &b);
+    region_plane_t p;
+    vd_refine_stats_t rs;
+    VD_TRY(refine_region(det, f, &region, &b, &p, &rs));
+    *complexity_q15 = region_complexity(&rs, &p);
+    return VD_OK;
+}
+
+// Hot mask into the overlay; sets the threshold stats and hot pixel count.
+static vd_status_t hot_mask(vd_detector_t *det, const vd_frame_t *f, vd_image_u8_t *mask)
+{
+    vd_detector_stats_t *s = &det->stats;
+    if (f->format == VD_PIX_U8) {
+        vd_view_u8_t v;
+        VD_TRY(vd_frame_view_u8(f, &v));
+        memset(det->hist, 0, 256u * sizeof(uint32_t));
+        for (uint32_t y = 0; y < v.height; y++) {
+            const uint8_t *row = v.data + (size_t)y * v.stride;
+            for (uint32_t x = 0; x < v.width; x++) {
+                det->hist[row[x]]++;
+            }
+        }
+        uint32_t thr = det->cfg.hot_thr_u8;
+        if (det->cfg.thr_mode == VD_DETECTOR_THR_ADAPTIVE) {
+            // Smallest level t with at least ceil(N * p / 1000) pixels <= t.
+            uint64_t n = (uint64_t)v.width * v.height;
+            uint64_t target = (n * det->cfg.adaptive_permille + 999u) / 1000u;
+            uint64_t cum = 0u;
+            uint32_t t = 255u;
+            for (uint32_t i = 0; i < 256u; i++) {
+                cum += det->hist[i];
+                if (cum >= target) {
+                    t = i;
+                    break;
+                }
+            }
+            thr = (t > det->cfg.adaptive_floor_u8) ? t : det->cfg.adaptive_floor_u8;
+        }
+        uint32_t hot = 0u;
+        for (uint32_t i = thr; i < 256u; i++) {
+            hot += det->hist[i];
+        }
+        s->hot_thr_u8 = thr;
+        s->hot_pixels = hot;
+        return vd_threshold_u8(&v, NULL, (uint8_t)thr, mask);
+    }
+    vd_view_u16_t v16;
+    VD_TRY(vd_frame_view_u16(f, &v16));
+    s->hot_thr_raw = det->raw_thr;
+    if (det->raw_never_hot) {
+        for (uint32_t y = 0; y < mask->height; y++) {
+            memset(mask->data + (size_t)y * mask->stride, 0, mask->width);
+        }
+        return VD_OK;
+    }
+    VD_TRY(vd_threshold_u16(&v16, NULL, det->raw_thr, mask));
+    uint32_t hot = 0u;
+    for (uint32_t y = 0; y < mask->height; y++) {
+        const uint8_t *row = mask->data + (size_t)y * mask->stride;
+        for (uint32_t x = 0; x < mask->width; x++) {
+            hot += (uint32_t)(row[x] != 0u);
+        }
+    }
+    s->hot_pixels = hot;
+    return VD_OK;
+}
+
+// Index of the contour with the largest box area (then length; first wins).
+static size_t largest_contour(const vd_contour_t *c, size_t n)
+{
+    size_t best = 0u;
+    for (size_t i = 1; i < n; i++) {
+        uint64_t ai = (uint64_t)c[i].box.w * (uint64_t)c[i].box.h;
+        uint64_t ab = (uint64_t)c[best].box.w * (uint64_t)c[best].box.h;
+        if (ai > ab || (ai == ab && c[i].length > c[best].length)) {
+            best = i;
+        }
+    }
+    return best;
+}
+
+// Refines, traces, samples and scores one candidate. *keep = false when it
+// has no contour or scores below the threshold.
+static vd_status_t process_candidate(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
+                                     uint8_t hot_thr, vd_detection_t *d, bool *keep, uint32_t *t0)
+{
+    *keep = false;
+    memset(d, 0, sizeof(*d));
+    vd_rect_t region;
+    if (vd_rect_expand(&comp->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &region) != VD_OK) {
+        return VD_OK;   // cannot happen for a component inside the frame
+    }
+    region_bufs_t b;
+    region_bufs(det, &b);
+    region_plane_t p;
+    vd_refine_stats_t rs;
+    VD_TRY(refine_region(det, f, &region, &b, &p, &rs));
+    if (p.kx > 1u || p.ky > 1u) {
+        d->flags |= VD_DET_FLAG_DECIMATED;
+        det->stats.decimated++;
+    }
+    clock_add(det, VD_DET_STAGE_REFINE, t0);
+
+    vd_view_u8_t mv = {b.rmask, (uint32_t)p.roi.w, (uint32_t)p.roi.h, (size_t)p.roi.w};
+    size_t nc = 0u;
+    size_t np = 0u;
+    vd_status_t st = vd_contours_find_external(&mv, b.contour_ws, det->contour_ws_bytes, b.points, NULL,
+                                               det->points_cap, b.contours, det->contours_cap, &nc, &np);
+    if (st == VD_ERR_CAPACITY) {
+        d->flags |= VD_DET_FLAG_CONTOUR_TRUNC;
+        det->stats.overflow_contours++;
+    } else if (st != VD_OK) {
+        return st;
+    }
+    clock_add(det, VD_DET_STAGE_CONTOUR, t0);
+    if (nc == 0u) {
+        return VD_OK;
+    }
+    det->stats.refined++;
+    const vd_contour_t *c = &b.contours[largest_contour(b.contours, nc)];
+    uint32_t kmax = p.kx > p.ky ? p.kx : p.ky;
+    d->box.x = region.x + c->box.x * (int32_t)p.kx;
+    d->box.y = region.y + c->box.y * (int32_t)p.ky;
+    d->box.w = c->box.w * (int32_t)p.kx;
+    d->box.h = c->box.h * (int32_t)p.ky;
+    d->candidate = region;
+    d->contour_length = c->length * kmax;
+    d->complexity_q15 = region_complexity(&rs, &p);
+    d->source = VD_SOURCE_HOTSPOT;
+    d->hot_thr = hot_thr;
+
+    if (det->model == NULL) {
+        d->score_q8 = 255u;
+        d->flags |= VD_DET_FLAG_UNVERIFIED;
+    } else {
+        // The contour box in plane coordinates.
+        vd_rect_t vb = {p.roi.x + c->box.x, p.roi.y + c->box.y, c->box.w, c->box.h};
+        if (det->model->input_mode == VD_DBN_INPUT_GREY) {
+            VD_TRY(vd_resample_u8(&p.view, &vb, det->sample, det->in_w, det->in_h));
+        } else {
+            // As samples.py: refine the box itself, then resample the whole mask.
+            vd_refine_cfg_t rc;
+            refine_cfg_of(det, &rc);
+            vd_image_u8_t m = {b.rmask, (uint32_t)vb.w, (uint32_t)vb.h, (size_t)vb.w};
+            VD_TRY(vd_refine_region(&p.view, &vb, &rc, b.refine_ws, det->refine_ws_bytes, &m, NULL));
+            vd_view_u8_t smv = {b.rmask, (uint32_t)vb.w, (uint32_t)vb.h, (size_t)vb.w};
+            VD_TRY(vd_resample_u8(&smv, NULL, det->sample, det->in_w, det->in_h));
+        }
+        clock_add(det, VD_DET_STAGE_SAMPLE, t0);
+        uint8_t score = 0u;
+        VD_TRY(vd_dbn_classify(det->model, det->sample, det->dbn_ws, det->dbn_ws_bytes, &score));
+        clock_add(det, VD_DET_STAGE_DBN, t0);
+        d->score_q8 = score;
+        if (score < det->cfg.score_thr_q8) {
+            return VD_OK;
+        }
+    }
+    det->stats.verified++;
+    *keep = true;
+    return VD_OK;
+}
+
+// Stable sort by score (best first), then greedy suppression; returns kept.
+static size_t suppress(vd_detector_t *det, size_t n)
+{
+    vd_detection_t *d = det->cand;
+    for (size_t i = 1; i < n; i++) {
+        vd_detection_t v = d[i];
+        size_t j = i;
+        while (j > 0u && d[j - 1u].score_q8 < v.score_q8) {
+            d[j] = d[j - 1u];
+            j--;
+        }
+        d[j] = v;
+    }
+    size_t kept = 0u;
+    for (size_t i = 0; i < n; i++) {
+        bool ok = true;
+        for (size_t j = 0; j < kept; j++) {
+            if (vd_rect_iou_q15(&d[i].box, &d[j].box) > det->cfg.nms_iou_q15) {
+                ok = false;
+                break;
+            }
+        }
+        if (!ok) {
+            det->stats.suppressed++;
+            continue;
+        }
+        if (kept >= det->cfg.max_detections) {
+            det->stats.overflow_detections++;
+            continue;
+        }
+        d[kept++] = d[i];
+    }
+    return kept;
+}
+
+vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
+                            size_t *count)
+{
+    VD_VERIFY(count != NULL, VD_ERR_ARG);
+    *count = 0u;
+    VD_VERIFY(det != NULL && frame != NULL, VD_ERR_ARG);
+    VD_VERIFY(out != NULL || cap == 0u, VD_ERR_ARG);
+    VD_VERIFY(det->overlay != NULL, VD_ERR_STATE);
+    VD_TRY(vd_frame_check(frame));
+    VD_VERIFY(frame->width <= det->cfg.max_width && frame->height <= det->cfg.max_height, VD_ERR_ARG);
+
+    memset(&det->stats, 0, sizeof(det->stats));
+    vd_detector_stats_t *s = &det->stats;
+    uint32_t t_start = clock_now(det);
+    uint32_t t0 = t_start;
+    vd_status_t result = VD_OK;
+
+    // Hot mask and labelling in the overlay.
+    vd_image_u8_t mask = {det->overlay, frame->width, frame->height, frame->width};
+    size_t mask_bytes;
+    (void)vd_align_size((size_t)frame->width * frame->height, &mask_bytes);
+    VD_TRY(hot_mask(det, frame, &mask));
+    clock_add(det, VD_DET_STAGE_THRESHOLD, &t0);
+    vd_view_u8_t mview = vd_image_u8_view(&mask);
+    size_t n = 0u;
+    vd_status_t st = vd_components_label(&mview, NULL, det->overlay + mask_bytes, det->overlay_bytes - mask_bytes,
+                                         det->comps, det->cfg.max_components, &n);
+    if (st == VD_ERR_CAPACITY) {
+        s->overflow_components = 1u;
+        result = VD_ERR_CAPACITY;
+    } else if (st != VD_OK) {
+        return st;
+    }
+    s->components = (uint32_t)n;
+    size_t kept = 0u;
+    VD_TRY(vd_components_filter(det->comps, n, &det->cfg.rules, &kept));
+    s->kept = (uint32_t)kept;
+    if (kept > det->cfg.max_candidates) {
+        s->overflow_candidates = (uint32_t)(kept - det->cfg.max_candidates);
+        kept = det->cfg.max_candidates;
+        result = VD_ERR_CAPACITY;
+    }
+    clock_add(det, VD_DET_STAGE_COMPONENTS, &t0);
+
+    // Per candidate (the hot mask is dead from here: the overlay holds region buffers).
+    uint8_t thr8 = (uint8_t)s->hot_thr_u8;
+    size_t nv = 0u;
+    for (size_t i = 0; i < kept; i++) {
+        bool keep = false;
+        VD_TRY(process_candidate(det, frame, &det->comps[i], thr8, &det->cand[nv], &keep, &t0));
+        if (keep) {
+            nv++;
+        }
+    }
+    size_t nk = suppress(det, nv);
+    clock_add(det, VD_DET_STAGE_NMS, &t0);
+    if (s->overflow_detections != 0u) {
+        result = VD_ERR_CAPACITY;
+    }
+
+    size_t total = nk;
+    if (det->cfg.temporal) {
+        for (size_t i = 0; i < nk; i++) {
+            memset(&det->obs[i], 0, sizeof(det->obs[i]));
+            det->obs[i].box = det->cand[i].box;
+            det->obs[i].complexity_q15 = det->cand[i].complexity_q15;
+        }
+        det->frame = frame;
+        size_t nobs = 0u;
+        st = vd_temporal_update(&det->temporal, det->obs, nk, nk + det->cfg.max_tracks, &nobs, detector_probe, det);
+        det->frame = NULL;
+        if (st == VD_ERR_CAPACITY) {
+            result = VD_ERR_CAPACITY;
+        } else if (st != VD_OK) {
+            return st;
+        }
+        s->overflow_tracks = det->temporal.stats.overflow;
+        for (size_t i = 0; i < nk; i++) {
+            det->cand[i].track_id = det->obs[i].track_id;
+            det->cand[i].state = det->obs[i].state;
+        }
+        total = nobs;
+        s->recovered = (uint32_t)(nobs - nk);
+        clock_add(det, VD_DET_STAGE_TEMPORAL, &t0);
+    }
+
+    size_t w = total < cap ? total : cap;
+    for (size_t i = 0; i < w; i++) {
+        if (i < nk) {
+            out[i] = det->cand[i];
+            continue;
+        }
+        const vd_temporal_obs_t *o = &det->obs[i];
+        vd_detection_t *d = &out[i];
+        memset(d, 0, sizeof(*d));
+        d->box = o->box;
+        (void)vd_rect_expand(&o->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, frame->width, frame->height,
+                             &d->candidate);
+        d->track_id = o->track_id;
+        d->complexity_q15 = o->complexity_q15;
+        d->source = VD_SOURCE_HOTSPOT;
+        d->state = VD_TRACK_RECOVERED;
+        d->flags = VD_DET_FLAG_RECOVERED;
+        d->hot_thr = thr8;
+    }
+    if (w < total) {
+        s->overflow_detections += (uint32_t)(total - w);
+        result = VD_ERR_CAPACITY;
+    }
+    s->detections = (uint32_t)w;
+    *count = w;
+    if (det->cfg.clock_us != NULL) {
+        s->time_us[VD_DET_STAGE_TOTAL] = clock_now(det) - t_start;
+    }
+    return result;
+}

@@ -1,0 +1,325 @@
+// SPDX-License-Identifier: MIT
+// 3x3 and 5x5 median filters on 8-bit regions with replicated borders (cv2.medianBlur semantics).
+//
+// Algorithm: min/max selection networks applied to whole strips of STRIP
+// output pixels at once. Each loop body is straight-line min/max code over
+// fixed-size local arrays with a constant trip count, so compilers turn it
+// into SIMD (pminub/pmaxub, umin/umax) without intrinsics; scalar targets run
+// the same code one pixel at a time. Work that neighbouring outputs share is
+// done once per strip:
+//  3x3: sort each input column of 3 (3 compare-exchanges), then
+//       median = med3(max of the 3 column minima, med3 of the 3 column
+//       medians, min of the 3 column maxima) (the classic Paeth/Smith
+//       sorted-column result): 6 + 12 min/max per pixel.
+//  5x5: sort each input column of 5 (9 compare-exchanges, 18 min/max);
+//       merge every pair of adjacent sorted columns into a sorted 10-list
+//       (Batcher odd-even merge, 26 min/max); each output x then takes the
+//       13th smallest of pair(x-2,x-1) + pair(x,x+1) + column(x+2): a Batcher
+//       merge of the second pair with the column, pruned to the ranks used,
+//       and the identity kth(A u B) = min over i+j=k of max(A_i, B_j)
+//       (64 min/max). 108 min/max per pixel against 198 for a 99-exchange
+//       full median-of-25 network. The 5x5 network is generated and checked
+//       exhaustively by the 0-1 principle in tools/vdtools/pixel.py
+//       (median_network); tests/python/test_median.py keeps this file equal
+//       to the generator's output.
+// Borders: row indices and column indices are clamped to the image
+// (BORDER_REPLICATE, what cv2.medianBlur uses); pixels outside the ROI but
+// inside the image are used. A strip always computes STRIP outputs (the
+// excess of the last strip reads clamped, valid pixels and is discarded).
+// Reference: cv2.medianBlur (OpenCV imgproc median_blur), bit-exact.
+// Bounds: time O(roi.w * roi.h) (about 18 / 108 min-max per pixel plus the
+// strip gathers); stack < 1.5 KiB (5x5 buffers: 5*68 + 10*66 + 64 bytes);
+// no workspace.
+#include <string.h>
+
+#include "vd/median.h"
+#include "internal/vd_internal.h"
+
+// Output pixels per strip: a multiple of every SIMD width in use (16/32) and
+// small enough for the stack budget above.
+#define STRIP 64
+
+#define VD_MIN8(a, b) ((uint8_t)((a) < (b) ? (a) : (b)))
+#define VD_MAX8(a, b) ((uint8_t)((a) < (b) ? (b) : (a)))
+
+// Common checks: valid views, ROI inside src, dst exactly ROI-sized.
+static vd_status_t median_args(const vd_view_u8_t *src, const vd_rect_t *roi, const vd_image_u8_t *dst, vd_rect_t *r)
+{
+    VD_TRY(vd_view_u8_check(src));
+    VD_TRY(vd_roi_resolve(roi, src->width, src->height, r));
+    VD_TRY(vd_image_u8_check(dst));
+    VD_VERIFY(dst->width == (uint32_t)r->w && dst->height == (uint32_t)r->h, VD_ERR_ARG);
+    return VD_OK;
+}
+
+// out[i] = row[clamp(x_first + i, 0, width - 1)] for i < n (one strip row):
+// the part left of the image repeats row[0], the part right of it repeats
+// row[width - 1], the rest is copied.
+static void gather(const uint8_t *row, int32_t width, int32_t x_first, uint8_t *out, int32_t n)
+{
+    int32_t left = x_first < 0 ? -x_first : 0;                  // clamped to column 0
+    left = left > n ? n : left;
+    int32_t right = x_first + n > width ? x_first + n - width : 0; // clamped to width - 1
+    right = right > n - left ? n - left : right;
+    const int32_t mid = n - left - right;
+    if (left > 0) {
+        memset(out, row[0], (size_t)left);
+    }
+    if (mid > 0) {
+        memcpy(out + left, row + x_first + left, (size_t)mid);
+    }
+    if (right > 0) {
+        memset(out + left + mid, row[width - 1], (size_t)right);
+    }
+}
+
+static const uint8_t *row_at(const vd_view_u8_t *src, int32_t y)
+{
+    const int32_t h = (int32_t)src->height;
+    y = y < 0 ? 0 : (y >= h ? h - 1 : y);
+    return src->data + (size_t)y * src->stride;
+}
+
+// Sorts column i of three strip rows a, b, c into lo[i] <= mid[i] <= hi[i].
+static inline void sort3_at(const uint8_t *a, const uint8_t *b, const uint8_t *c,
+                            uint8_t *lo, uint8_t *mid, uint8_t *hi, int32_t i)
+{
+    const uint8_t ab_lo = VD_MIN8(a[i], b[i]), ab_hi = VD_MAX8(a[i], b[i]);
+    const uint8_t t = VD_MAX8(ab_lo, c[i]);
+    lo[i] = VD_MIN8(ab_lo, c[i]);
+    mid[i] = VD_MIN8(ab_hi, t);
+    hi[i] = VD_MAX8(ab_hi, t);
+}
+
+// Sorts column i of five strip rows p[0..4] into col[0][i] <= ... <= col[4][i]
+// (optimal 9-exchange network).
+static inline void sort5_at(const uint8_t *const p[5], uint8_t col[5][STRIP + 4], int32_t i)
+{
+    uint8_t v0 = p[0][i], v1 = p[1][i], v2 = p[2][i], v3 = p[3][i], v4 = p[4][i], t;
+#define CX(a, b) t = VD_MIN8(a, b); b = VD_MAX8(a, b); a = t
+    CX(v0, v1); CX(v3, v4); CX(v2, v4); CX(v2, v3); CX(v0, v3);
+    CX(v0, v2); CX(v1, v4); CX(v1, v3); CX(v1, v2);
+#undef CX
+    col[0][i] = v0; col[1][i] = v1; col[2][i] = v2; col[3][i] = v3; col[4][i] = v4;
+}
+
+// Pointer to strip row k: straight into the image when the strip's columns
+// x_first .. x_first + n - 1 all lie inside it (no copy), else a clamped copy in buf.
+static const uint8_t *strip_row(const uint8_t *row, int32_t width, int32_t x_first, uint8_t *buf, int32_t n)
+{
+    if (x_first >= 0 && x_first + n <= width) {
+        return row + x_first;
+    }
+    gather(row, width, x_first, buf, n);
+    return buf;
+}
+
+// Copies the first n of a strip's STRIP outputs to d (constant size in the
+// common case so the copy is inlined).
+static void put_strip(uint8_t *d, const uint8_t *out, int32_t n)
+{
+    if (n == STRIP) {
+        memcpy(d, out, (size_t)STRIP);
+    } else {
+        memcpy(d, out, (size_t)n);
+    }
+}
+
+// pr[.][i] = sorted union of the sorted columns i and i + 1 (Batcher merge).
+static inline void merge_pair_at(uint8_t col[5][STRIP + 4], uint8_t pr[10][STRIP + 2], int32_t i)
+{
+    const uint8_t a0 = col[0][i], a1 = col[1][i], a2 = col[2][i], a3 = col[3][i], a4 = col[4][i];
+    const uint8_t b0 = col[0][i + 1], b1 = col[1][i + 1], b2 = col[2][i + 1], b3 = col[3][i + 1], b4 = col[4][i + 1];
+    // BEGIN GENERATED pair (tools/vdtools/pixel.py median_network; do not edit)
+    const uint8_t t0 = VD_MIN8(a0, b0);
+    const uint8_t t1 = VD_MAX8(a0, b0);
+    const uint8_t t2 = VD_MIN8(a4, b4);
+    const uint8_t t3 = VD_MAX8(a4, b4);
+    const uint8_t t4 = VD_MIN8(t1, t2);
+    const uint8_t t5 = VD_MAX8(t1, t2);
+    const uint8_t t6 = VD_MIN8(a2, b2);
+    const uint8_t t7 = VD_MAX8(a2, b2);
+    const uint8_t t8 = VD_MIN8(t4, t6);
+    const uint8_t t9 = VD_MAX8(t4, t6);
+    const uint8_t t10 = VD_MIN8(t5, t7);
+    const uint8_t t11 = VD_MAX8(t5, t7);
+    const uint8_t t12 = VD_MIN8(a1, b1);
+    const uint8_t t13 = VD_MAX8(a1, b1);
+    const uint8_t t14 = VD_MIN8(a3, b3);
+    const uint8_t t15 = VD_MAX8(a3, b3);
+    const uint8_t t16 = VD_MIN8(t13, t14);
+    const uint8_t t17 = VD_MAX8(t13, t14);
+    const uint8_t t18 = VD_MIN8(t12, t8);
+    const uint8_t t19 = VD_MAX8(t12, t8);
+    const uint8_t t20 = VD_MIN8(t16, t9);
+    const uint8_t t21 = VD_MAX8(t16, t9);
+    const uint8_t t22 = VD_MIN8(t10, t17);
+    const uint8_t t23 = VD_MAX8(t10, t17);
+    const uint8_t t24 = VD_MIN8(t11, t15);
+    const uint8_t t25 = VD_MAX8(t11, t15);
+    pr[0][i] = t0;
+    pr[1][i] = t18;
+    pr[2][i] = t19;
+    pr[3][i] = t20;
+    pr[4][i] = t21;
+    pr[5][i] = t22;
+    pr[6][i] = t23;
+    pr[7][i] = t24;
+    pr[8][i] = t25;
+    pr[9][i] = t3;
+    // END GENERATED pair
+}
+
+vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_image_u8_t *dst)
+{
+    vd_rect_t r;
+    VD_TRY(median_args(src, roi, dst, &r));
+    const int32_t width = (int32_t)src->width;
+    uint8_t edge[3][STRIP + 2];   // clamped copies for strips that cross the image edge
+    uint8_t lo[STRIP + 2], mid[STRIP + 2], hi[STRIP + 2], out[STRIP];
+    for (int32_t y = 0; y < r.h; y++) {
+        const uint8_t *r0 = row_at(src, r.y + y - 1);
+        const uint8_t *r1 = row_at(src, r.y + y);
+        const uint8_t *r2 = row_at(src, r.y + y + 1);
+        uint8_t *d = dst->data + (size_t)y * dst->stride;
+        for (int32_t xs = 0; xs < r.w; xs += STRIP) {
+            const int32_t x_first = r.x + xs - 1;
+            const uint8_t *a = strip_row(r0, width, x_first, edge[0], STRIP + 2);
+            const uint8_t *b = strip_row(r1, width, x_first, edge[1], STRIP + 2);
+            const uint8_t *c = strip_row(r2, width, x_first, edge[2], STRIP + 2);
+            // Sort every column: lo <= mid <= hi. The main loop has a trip
+            // count that is a multiple of every SIMD width; the 2 extra
+            // columns go through the same code as a short scalar tail.
+            for (int32_t i = 0; i < STRIP; i++) {
+                sort3_at(a, b, c, lo, mid, hi, i);
+            }
+            for (int32_t i = STRIP; i < STRIP + 2; i++) {
+                sort3_at(a, b, c, lo, mid, hi, i);
+            }
+            for (int32_t i = 0; i < STRIP; i++) {
+                const uint8_t mx_lo = VD_MAX8(VD_MAX8(lo[i], lo[i + 1]), lo[i + 2]);
+                const uint8_t mn_hi = VD_MIN8(VD_MIN8(hi[i], hi[i + 1]), hi[i + 2]);
+                const uint8_t m0 = mid[i], m1 = mid[i + 1], m2 = mid[i + 2];
+                const uint8_t md = VD_MAX8(VD_MIN8(m0, m1), VD_MIN8(VD_MAX8(m0, m1), m2));
+                out[i] = VD_MAX8(VD_MIN8(mx_lo, md), VD_MIN8(VD_MAX8(mx_lo, md), mn_hi));
+            }
+            put_strip(d + xs, out, r.w - xs < STRIP ? r.w - xs : STRIP);
+        }
+    }
+    return VD_OK;
+}
+
+vd_status_t vd_median5_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_image_u8_t *dst)
+{
+    vd_rect_t r;
+    VD_TRY(median_args(src, roi, dst, &r));
+    const int32_t width = (int32_t)src->width;
+    uint8_t edge[5][STRIP + 4]; // clamped copies for strips that cross the image edge
+    uint8_t col[5][STRIP + 4]; // input columns x_first .. x_first + STRIP + 3, sorted per column
+    uint8_t pr[10][STRIP + 2]; // pr[.][i]: sorted union of columns i and i + 1
+    uint8_t out[STRIP];
+    for (int32_t y = 0; y < r.h; y++) {
+        const uint8_t *rows[5];
+        for (int32_t k = 0; k < 5; k++) {
+            rows[k] = row_at(src, r.y + y - 2 + k);
+        }
+        uint8_t *d = dst->data + (size_t)y * dst->stride;
+        for (int32_t xs = 0; xs < r.w; xs += STRIP) {
+            const int32_t x_first = r.x + xs - 2;
+            const uint8_t *p[5];
+            for (int32_t k = 0; k < 5; k++) {
+                p[k] = strip_row(rows[k], width, x_first, edge[k], STRIP + 4);
+            }
+            for (int32_t i = 0; i < STRIP; i++) {
+                sort5_at(p, col, i);
+            }
+            for (int32_t i = STRIP; i < STRIP + 4; i++) {
+                sort5_at(p, col, i);
+            }
+            // Merge adjacent sorted columns (i, i + 1) into sorted 10-lists.
+            for (int32_t i = 0; i < STRIP; i++) {
+                merge_pair_at(col, pr, i);
+            }
+            for (int32_t i = STRIP; i < STRIP + 2; i++) {
+                merge_pair_at(col, pr, i);
+            }
+            // 13th smallest of p = pair(i), q = pair(i + 2), c = column i + 4.
+            for (int32_t i = 0; i < STRIP; i++) {
+                const uint8_t p0 = pr[0][i], p1 = pr[1][i], p2 = pr[2][i], p3 = pr[3][i], p4 = pr[4][i];
+                const uint8_t p5 = pr[5][i], p6 = pr[6][i], p7 = pr[7][i], p8 = pr[8][i], p9 = pr[9][i];
+                const uint8_t q0 = pr[0][i + 2], q1 = pr[1][i + 2], q2 = pr[2][i + 2], q3 = pr[3][i + 2], q4 = pr[4][i + 2];
+                const uint8_t q5 = pr[5][i + 2], q6 = pr[6][i + 2], q7 = pr[7][i + 2], q8 = pr[8][i + 2], q9 = pr[9][i + 2];
+                const uint8_t c0 = col[0][i + 4], c1 = col[1][i + 4], c2 = col[2][i + 4], c3 = col[3][i + 4], c4 = col[4][i + 4];
+                // BEGIN GENERATED select (tools/vdtools/pixel.py median_network; do not edit)
+                const uint8_t t0 = VD_MAX8(c0, q0);
+                const uint8_t t1 = VD_MIN8(t0, q8);
+                const uint8_t t2 = VD_MAX8(t0, q8);
+                const uint8_t t3 = VD_MIN8(c4, q4);
+                const uint8_t t4 = VD_MAX8(c4, q4);
+                const uint8_t t5 = VD_MIN8(t1, t3);
+                const uint8_t t6 = VD_MAX8(t1, t3);
+                const uint8_t t7 = VD_MIN8(t2, t4);
+                const uint8_t t8 = VD_MIN8(c2, q2);
+                const uint8_t t9 = VD_MAX8(c2, q2);
+                const uint8_t t10 = VD_MIN8(t9, q6);
+                const uint8_t t11 = VD_MAX8(t9, q6);
+                const uint8_t t12 = VD_MIN8(t8, t5);
+                const uint8_t t13 = VD_MAX8(t8, t5);
+                const uint8_t t14 = VD_MIN8(t10, t6);
+                const uint8_t t15 = VD_MAX8(t10, t6);
+                const uint8_t t16 = VD_MIN8(t11, t7);
+                const uint8_t t17 = VD_MAX8(t11, t7);
+                const uint8_t t18 = VD_MIN8(c1, q1);
+                const uint8_t t19 = VD_MAX8(c1, q1);
+                const uint8_t t20 = VD_MIN8(t19, q9);
+                const uint8_t t21 = VD_MAX8(t19, q9);
+                const uint8_t t22 = VD_MIN8(t20, q5);
+                const uint8_t t23 = VD_MAX8(t20, q5);
+                const uint8_t t24 = VD_MIN8(c3, q3);
+                const uint8_t t25 = VD_MAX8(c3, q3);
+                const uint8_t t26 = VD_MIN8(t25, q7);
+                const uint8_t t27 = VD_MAX8(t25, q7);
+                const uint8_t t28 = VD_MIN8(t22, t24);
+                const uint8_t t29 = VD_MAX8(t22, t24);
+                const uint8_t t30 = VD_MIN8(t23, t26);
+                const uint8_t t31 = VD_MAX8(t23, t26);
+                const uint8_t t32 = VD_MIN8(t21, t27);
+                const uint8_t t33 = VD_MAX8(t12, t18);
+                const uint8_t t34 = VD_MIN8(t13, t28);
+                const uint8_t t35 = VD_MAX8(t13, t28);
+                const uint8_t t36 = VD_MIN8(t14, t29);
+                const uint8_t t37 = VD_MAX8(t14, t29);
+                const uint8_t t38 = VD_MIN8(t15, t30);
+                const uint8_t t39 = VD_MAX8(t15, t30);
+                const uint8_t t40 = VD_MIN8(t16, t31);
+                const uint8_t t41 = VD_MAX8(t16, t31);
+                const uint8_t t42 = VD_MIN8(t17, t32);
+                const uint8_t t43 = VD_MAX8(t17, t32);
+                const uint8_t t44 = VD_MAX8(t42, p0);
+                const uint8_t t45 = VD_MIN8(t43, t44);
+                const uint8_t t46 = VD_MAX8(t41, p1);
+                const uint8_t t47 = VD_MIN8(t45, t46);
+                const uint8_t t48 = VD_MAX8(t40, p2);
+                const uint8_t t49 = VD_MIN8(t47, t48);
+                const uint8_t t50 = VD_MAX8(t39, p3);
+                const uint8_t t51 = VD_MIN8(t49, t50);
+                const uint8_t t52 = VD_MAX8(t38, p4);
+                const uint8_t t53 = VD_MIN8(t51, t52);
+                const uint8_t t54 = VD_MAX8(t37, p5);
+                const uint8_t t55 = VD_MIN8(t53, t54);
+                const uint8_t t56 = VD_MAX8(t36, p6);
+                const uint8_t t57 = VD_MIN8(t55, t56);
+                const uint8_t t58 = VD_MAX8(t35, p7);
+                const uint8_t t59 = VD_MIN8(t57, t58);
+                const uint8_t t60 = VD_MAX8(t34, p8);
+                const uint8_t t61 = VD_MIN8(t59, t60);
+                const uint8_t t62 = VD_MAX8(t33, p9);
+                const uint8_t t63 = VD_MIN8(t61, t62);
+                out[i] = t63;
+                // END GENERATED select
+            }
+            put_strip(d + xs, out, r.w - xs < STRIP ? r.w - xs : STRIP);
+        }
+    }
+    return VD_OK;
+}

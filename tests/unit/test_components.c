@@ -1,0 +1,696 @@
+// SPDX-License-Identifier: MIT
+// Unit tests of components.h: hand-worked masks, a naive flood-fill reference
+// on random masks, capacity, workspace contract, rules and box expansion.
+#include "unity.h"
+#include "testutil.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void setUp(void) {}
+void tearDown(void) {}
+
+#define MAXC 4096
+
+static vd_component_t g_out[MAXC];
+
+// Labels a whole w x h mask (stride w) with an exactly sized workspace.
+static vd_status_t label_mask(const uint8_t *m, uint32_t w, uint32_t h, size_t stride, const vd_rect_t *roi,
+                              vd_component_t *out, size_t cap, size_t *count)
+{
+    vd_view_u8_t v = {m, w, h, stride};
+    vd_rect_t r = {0, 0, (int32_t)w, (int32_t)h};
+    if (roi != NULL) {
+        r = *roi;
+    }
+    size_t bytes = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size((uint32_t)r.w, (uint32_t)r.h, &bytes));
+    void *ws = tu_guarded_alloc(0, bytes);
+    vd_status_t st = vd_components_label(&v, roi, ws, bytes, out, cap, count);
+    tu_guard_check(0);
+    tu_guarded_free(0);
+    return st;
+}
+
+// Builds a mask from rows of '#' (foreground) and '.' characters.
+static void mask_from_text(const char *const *rows, uint32_t h, uint8_t *m, uint32_t *w)
+{
+    *w = (uint32_t)strlen(rows[0]);
+    for (uint32_t y = 0; y < h; y++) {
+        for (uint32_t x = 0; x < *w; x++) {
+            m[y * *w + x] = rows[y][x] == '#' ? 255u : 0u;
+        }
+    }
+}
+
+static void assert_comp(const vd_component_t *c, int32_t x, int32_t y, int32_t w, int32_t h, uint32_t area,
+                        uint32_t cx_q8, uint32_t cy_q8)
+{
+    TEST_ASSERT_EQUAL_INT32(x, c->box.x);
+    TEST_ASSERT_EQUAL_INT32(y, c->box.y);
+    TEST_ASSERT_EQUAL_INT32(w, c->box.w);
+    TEST_ASSERT_EQUAL_INT32(h, c->box.h);
+    TEST_ASSERT_EQUAL_UINT32(area, c->area);
+    TEST_ASSERT_EQUAL_UINT32(cx_q8, c->cx_q8);
+    TEST_ASSERT_EQUAL_UINT32(cy_q8, c->cy_q8);
+}
+
+// ---------------------------------------------------------------- reference
+// Naive labelling: flood fill with an explicit stack, components numbered in
+// the order of their first 2x2 block (block rows, then block columns), which
+// is the documented order. Centroid formula as documented.
+static size_t naive_label(const uint8_t *m, uint32_t w, uint32_t h, size_t stride, int32_t ox, int32_t oy,
+                          vd_component_t *out, size_t cap)
+{
+    uint8_t *seen = (uint8_t *)calloc((size_t)w * h, 1);
+    uint32_t *stack = (uint32_t *)malloc((size_t)w * h * sizeof(uint32_t) + 4);
+    TEST_ASSERT_NOT_NULL(seen);
+    TEST_ASSERT_NOT_NULL(stack);
+    size_t n = 0;
+    for (uint32_t by = 0; by < h; by += 2) {
+        for (uint32_t bx = 0; bx < w; bx += 2) {
+            for (uint32_t d = 0; d < 4; d++) {
+                uint32_t sx = bx + (d & 1u), sy = by + (d >> 1);
+                if (sx >= w || sy >= h || m[sy * stride + sx] == 0 || seen[sy * w + sx]) {
+                    continue;
+                }
+                uint32_t minx = sx, maxx = sx, miny = sy, maxy = sy, area = 0;
+                uint64_t sumx = 0, sumy = 0;
+                size_t top = 0;
+                stack[top++] = sy * w + sx;
+                seen[sy * w + sx] = 1;
+                while (top > 0) {
+                    uint32_t p = stack[--top];
+                    uint32_t x = p % w, y = p / w;
+                    area++;
+                    sumx += x;
+                    sumy += y;
+                    minx = x < minx ? x : minx;
+                    maxx = x > maxx ? x : maxx;
+                    miny = y < miny ? y : miny;
+                    maxy = y > maxy ? y : maxy;
+                    for (int dy = -1; dy <= 1; dy++) {
+                        for (int dx = -1; dx <= 1; dx++) {
+                            int64_t nx = (int64_t)x + dx, ny = (int64_t)y + dy;
+                            if (nx < 0 || ny < 0 || nx >= (int64_t)w || ny >= (int64_t)h) {
+                                continue;
+                            }
+                            uint32_t q = (uint32_t)ny * w + (uint32_t)nx;
+                            if (!seen[q] && m[(size_t)ny * stride + (size_t)nx] != 0) {
+                                seen[q] = 1;
+                                stack[top++] = q;
+                            }
+                        }
+                    }
+                }
+                if (n < cap) {
+                    vd_component_t *c = &out[n];
+                    c->box.x = (int32_t)minx + ox;
+                    c->box.y = (int32_t)miny + oy;
+                    c->box.w = (int32_t)(maxx - minx + 1);
+                    c->box.h = (int32_t)(maxy - miny + 1);
+                    c->area = area;
+                    c->cx_q8 = (uint32_t)((512u * sumx + area) / (2u * area)) + ((uint32_t)ox << 8);
+                    c->cy_q8 = (uint32_t)((512u * sumy + area) / (2u * area)) + ((uint32_t)oy << 8);
+                }
+                n++;
+            }
+        }
+    }
+    free(seen);
+    free(stack);
+    return n;
+}
+
+static void assert_same_comps(const vd_component_t *exp, const vd_component_t *got, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        char msg[64];
+        snprintf(msg, sizeof msg, "component %zu", i);
+        TEST_ASSERT_EQUAL_INT32_MESSAGE(exp[i].box.x, got[i].box.x, msg);
+        TEST_ASSERT_EQUAL_INT32_MESSAGE(exp[i].box.y, got[i].box.y, msg);
+        TEST_ASSERT_EQUAL_INT32_MESSAGE(exp[i].box.w, got[i].box.w, msg);
+        TEST_ASSERT_EQUAL_INT32_MESSAGE(exp[i].box.h, got[i].box.h, msg);
+        TEST_ASSERT_EQUAL_UINT32_MESSAGE(exp[i].area, got[i].area, msg);
+        TEST_ASSERT_EQUAL_UINT32_MESSAGE(exp[i].cx_q8, got[i].cx_q8, msg);
+        TEST_ASSERT_EQUAL_UINT32_MESSAGE(exp[i].cy_q8, got[i].cy_q8, msg);
+    }
+}
+
+// ---------------------------------------------------------------- labelling
+
+static void test_workspace_size(void)
+{
+    size_t b = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(640, 512, &b));
+    TEST_ASSERT_EQUAL_size_t(1319432u, b); // value documented in components.h
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(640, 480, &b));
+    TEST_ASSERT_EQUAL_size_t(1237448u, b);
+    size_t small = 0, big = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(1, 1, &small));
+    TEST_ASSERT_TRUE(small > 0u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(VD_MAX_DIM, VD_MAX_DIM, &big));
+    TEST_ASSERT_TRUE(big > b);
+    // monotone in both dimensions
+    for (uint32_t w = 1; w < 40; w++) {
+        for (uint32_t h = 1; h < 40; h++) {
+            size_t a, c, d;
+            TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(w, h, &a));
+            TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(w + 1, h, &c));
+            TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(w, h + 1, &d));
+            TEST_ASSERT_TRUE(a <= c && a <= d);
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size(0, 10, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size(10, 0, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size(VD_MAX_DIM + 1u, 10, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size(10, VD_MAX_DIM + 1u, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size(10, 10, NULL));
+}
+
+static void test_single_pixel_and_empty(void)
+{
+    static uint8_t m[7 * 9];
+    size_t n = 99;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 7, 9, 7, NULL, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    m[5 * 7 + 3] = 1; // any nonzero value is foreground
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 7, 9, 7, NULL, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    assert_comp(&g_out[0], 3, 5, 1, 1, 1, 768, 1280);
+    // 1x1 image
+    uint8_t one = 255;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(&one, 1, 1, 1, NULL, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    assert_comp(&g_out[0], 0, 0, 1, 1, 1, 0, 0);
+}
+
+static void test_full_image(void)
+{
+    static uint8_t m[37 * 23];
+    memset(m, 255, sizeof m);
+    size_t n = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 37, 23, 37, NULL, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    assert_comp(&g_out[0], 0, 0, 37, 23, 37u * 23u, 18u * 256u, 11u * 256u);
+}
+
+static void test_diagonal_only_connectivity(void)
+{
+    static const char *const rows[] = {
+        "#.....#",
+        ".#...#.",
+        "..#.#..",
+        "...#...",
+        ".......",
+        "#.#.#.#",
+    };
+    static uint8_t m[7 * 6];
+    uint32_t w;
+    mask_from_text(rows, 6, m, &w);
+    size_t n = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, w, 6, w, NULL, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(5u, n); // the V joins only through diagonals; the dots are apart
+    // V: x sum 0+6+1+5+2+4+3 = 21, y sum 0+0+1+1+2+2+3 = 9, area 7
+    assert_comp(&g_out[0], 0, 0, 7, 4, 7, (512u * 21u + 7u) / 14u, (512u * 9u + 7u) / 14u);
+    assert_comp(&g_out[1], 0, 5, 1, 1, 1, 0, 5u * 256u);
+    assert_comp(&g_out[2], 2, 5, 1, 1, 1, 2u * 256u, 5u * 256u);
+    assert_comp(&g_out[4], 6, 5, 1, 1, 1, 6u * 256u, 5u * 256u);
+}
+
+static void test_checkerboard_is_one_component(void)
+{
+    static uint8_t m[31 * 17];
+    uint32_t area = 0;
+    for (uint32_t y = 0; y < 17; y++) {
+        for (uint32_t x = 0; x < 31; x++) {
+            m[y * 31 + x] = ((x + y) & 1u) ? 0u : 255u;
+            area += ((x + y) & 1u) ? 0u : 1u;
+        }
+    }
+    size_t n = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 31, 17, 31, NULL, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    TEST_ASSERT_EQUAL_UINT32(area, g_out[0].area);
+    TEST_ASSERT_EQUAL_INT32(31, g_out[0].box.w);
+    TEST_ASSERT_EQUAL_INT32(17, g_out[0].box.h);
+    TEST_ASSERT_EQUAL_UINT32(15u * 256u, g_out[0].cx_q8); // symmetric about (15, 8)
+    TEST_ASSERT_EQUAL_UINT32(8u * 256u, g_out[0].cy_q8);
+}
+
+static void test_u_shapes_merge_late(void)
+{
+    // Two bars that meet only on the last row, a nested U inside, a dot.
+    static const char *const rows[] = {
+        "#.......#..",
+        "#.#...#.#.#",
+        "#.#...#.#..",
+        "#.#####.#..",
+        "#.......#..",
+        "#########..",
+    };
+    static uint8_t m[11 * 6];
+    uint32_t w;
+    mask_from_text(rows, 6, m, &w);
+    size_t n = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, w, 6, w, NULL, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(3u, n);
+    TEST_ASSERT_EQUAL_INT32(0, g_out[0].box.x);
+    TEST_ASSERT_EQUAL_INT32(9, g_out[0].box.w);
+    TEST_ASSERT_EQUAL_INT32(6, g_out[0].box.h);
+    TEST_ASSERT_EQUAL_UINT32(6u + 6u + 7u, g_out[0].area);
+    assert_comp(&g_out[1], 2, 1, 5, 3, 9, 4u * 256u, (512u * (1u * 2 + 2u * 2 + 3u * 5) + 9u) / 18u);
+    assert_comp(&g_out[2], 10, 1, 1, 1, 1, 10u * 256u, 256u);
+    vd_component_t ref[8];
+    TEST_ASSERT_EQUAL_size_t(3u, naive_label(m, w, 6, w, 0, 0, ref, 8));
+    assert_same_comps(ref, g_out, 3);
+}
+
+static void test_block_order_not_pixel_order(void)
+{
+    // (10, 0) comes first in pixel raster order, but (0, 1) lies in the first
+    // 2x2 block, so OpenCV (and vd) number it first.
+    static uint8_t m[20 * 4];
+    m[0 * 20 + 10] = 255;
+    m[1 * 20 + 0] = 255;
+    m[2 * 20 + 5] = 255; // next block row: last
+    size_t n = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 20, 4, 20, NULL, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(3u, n);
+    assert_comp(&g_out[0], 0, 1, 1, 1, 1, 0, 256);
+    assert_comp(&g_out[1], 10, 0, 1, 1, 1, 2560, 0);
+    assert_comp(&g_out[2], 5, 2, 1, 1, 1, 1280, 512);
+}
+
+static void test_spiral(void)
+{
+    enum { S = 41 };
+    static uint8_t m[S * S];
+    memset(m, 0, sizeof m);
+    // square spiral of 1-px wall with 1-px gaps, drawn inwards
+    int32_t x0 = 0, y0 = 0, x1 = S - 1, y1 = S - 1;
+    uint32_t area = 0;
+    for (int guard = 0; guard < S && x0 <= x1 && y0 <= y1; guard++) {
+        for (int32_t x = x0; x <= x1; x++) { m[y0 * S + x] = 255; }
+        for (int32_t y = y0; y <= y1; y++) { m[y * S + x1] = 255; }
+        for (int32_t x = x0; x <= x1; x++) { m[y1 * S + x] = 255; }
+        for (int32_t y = y0 + 2; y <= y1; y++) { m[y * S + x0] = 255; }
+        if (x0 + 2 <= x1) { m[(y0 + 2) * S + x0 + 1] = 255; }
+        x0 += 2; y0 += 2; x1 -= 2; y1 -= 2;
+    }
+    for (size_t i = 0; i < sizeof m; i++) { area += m[i] ? 1u : 0u; }
+    size_t n = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, S, S, S, NULL, g_out, MAXC, &n));
+    vd_component_t ref[64];
+    size_t nr = naive_label(m, S, S, S, 0, 0, ref, 64);
+    TEST_ASSERT_EQUAL_size_t(nr, n);
+    assert_same_comps(ref, g_out, n);
+    TEST_ASSERT_EQUAL_size_t(1u, n); // the spiral is one wall
+    TEST_ASSERT_EQUAL_UINT32(area, g_out[0].area);
+}
+
+static void test_centroid_round_half_up(void)
+{
+    // column x = 0, rows 0..510 (511 px) + pixel (1, 0): area 512, sum x = 1,
+    // 256 * 1 / 512 = 0.5 -> 1; sum y = 130305, 256 * 130305 / 512 = 65152.5 -> 65153.
+    static uint8_t m[2 * 511];
+    for (int y = 0; y < 511; y++) { m[y * 2] = 255; }
+    m[1] = 255;
+    size_t n = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 2, 511, 2, NULL, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    assert_comp(&g_out[0], 0, 0, 2, 511, 512, 1, 65153);
+    // three pixels x = 0, 1, 1: 512 / 3 = 170.67 -> 171
+    static uint8_t t[2 * 2] = {255, 255, 0, 255};
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(t, 2, 2, 2, NULL, g_out, MAXC, &n));
+    assert_comp(&g_out[0], 0, 0, 2, 2, 3, 171, 85);
+}
+
+static void test_roi_and_stride(void)
+{
+    // A 12x10 mask with stride 16; ROI cuts a component in two.
+    static uint8_t m[16 * 10];
+    memset(m, 0xEE, sizeof m); // padding bytes beyond width must be ignored
+    for (int y = 0; y < 10; y++) {
+        for (int x = 0; x < 12; x++) {
+            m[y * 16 + x] = 0;
+        }
+    }
+    for (int x = 2; x < 10; x++) { m[4 * 16 + x] = 255; } // horizontal bar y = 4
+    for (int y = 0; y < 10; y++) { m[y * 16 + 11] = 255; } // full column x = 11
+    vd_rect_t roi = {3, 3, 5, 4}; // x 3..7, y 3..6
+    size_t n = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 12, 10, 16, &roi, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    assert_comp(&g_out[0], 3, 4, 5, 1, 5, 5u * 256u, 4u * 256u);
+    vd_rect_t whole = {0, 0, 12, 10};
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 12, 10, 16, &whole, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(2u, n);
+    // bar (first block row 2) vs column (block row 0): column first
+    TEST_ASSERT_EQUAL_INT32(11, g_out[0].box.x);
+    TEST_ASSERT_EQUAL_INT32(2, g_out[1].box.x);
+}
+
+static void test_random_vs_naive(void)
+{
+    static const uint32_t sizes[][2] = {{1, 1}, {1, 17}, {23, 1}, {2, 2}, {3, 5}, {8, 8}, {9, 7}, {16, 3},
+                                        {17, 16}, {33, 31}, {64, 48}, {65, 33}, {127, 9}};
+    static vd_component_t ref[MAXC];
+    uint32_t seed = 12345;
+    static uint8_t buf[140 * 64];
+    int cases = 0;
+    for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
+        for (int dens = 0; dens < 6; dens++) {
+            for (int rep = 0; rep < 4; rep++) {
+                const uint32_t w = sizes[s][0], h = sizes[s][1];
+                const size_t stride = w + (tu_rand(&seed) % 5u);
+                // densities 1/16 .. 15/16, plus blobs made of random rectangles
+                uint32_t thr = (uint32_t)(1 + dens * 3) * 16u;
+                for (uint32_t y = 0; y < h; y++) {
+                    for (size_t x = 0; x < stride; x++) {
+                        uint32_t r = tu_rand(&seed);
+                        buf[y * stride + x] = (x < w) ? (((r & 0xFFu) < thr) ? (uint8_t)(1u + (r >> 24) % 255u) : 0u)
+                                                      : 0xFFu;
+                    }
+                }
+                if (rep == 3) { // sparse rectangles instead of noise
+                    for (uint32_t y = 0; y < h; y++) { memset(buf + y * stride, 0, w); }
+                    for (int k = 0; k < 1 + dens * 3; k++) {
+                        uint32_t rx = tu_rand(&seed) % w, ry = tu_rand(&seed) % h;
+                        uint32_t rw = 1 + tu_rand(&seed) % 9u, rh = 1 + tu_rand(&seed) % 9u;
+                        for (uint32_t y = ry; y < ry + rh && y < h; y++) {
+                            for (uint32_t x = rx; x < rx + rw && x < w; x++) { buf[y * stride + x] = 255; }
+                        }
+                    }
+                }
+                vd_rect_t roi = {0, 0, (int32_t)w, (int32_t)h};
+                if (rep >= 2) {
+                    roi.x = (int32_t)(tu_rand(&seed) % w);
+                    roi.y = (int32_t)(tu_rand(&seed) % h);
+                    roi.w = 1 + (int32_t)(tu_rand(&seed) % (w - (uint32_t)roi.x));
+                    roi.h = 1 + (int32_t)(tu_rand(&seed) % (h - (uint32_t)roi.y));
+                }
+                size_t n = 0;
+                vd_status_t st = label_mask(buf, w, h, stride, &roi, g_out, MAXC, &n);
+                TEST_ASSERT_EQUAL_INT(VD_OK, st);
+                size_t nr = naive_label(buf + (size_t)roi.y * stride + (size_t)roi.x, (uint32_t)roi.w,
+                                        (uint32_t)roi.h, stride, roi.x, roi.y, ref, MAXC);
+                TEST_ASSERT_EQUAL_size_t(nr, n);
+                assert_same_comps(ref, g_out, n);
+                cases++;
+            }
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(13 * 6 * 4, cases);
+}
+
+static void test_capacity(void)
+{
+    static uint8_t m[8 * 8];
+    for (int i = 0; i < 4; i++) { m[(2 * i) * 8 + 2 * i] = 255; m[(2 * i) * 8 + 7 - (i & 1)] = 255; }
+    static vd_component_t all[16];
+    size_t n_all = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 8, 8, 8, NULL, all, 16, &n_all));
+    TEST_ASSERT_TRUE(n_all > 2u);
+    size_t n = 99;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, label_mask(m, 8, 8, 8, NULL, NULL, 0, &n));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    vd_component_t one[2];
+    memset(one, 0x5A, sizeof one);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, label_mask(m, 8, 8, 8, NULL, one, 1, &n));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    assert_same_comps(all, one, 1);
+    TEST_ASSERT_EQUAL_HEX8(0x5A, ((uint8_t *)&one[1])[0]); // nothing beyond cap
+    vd_component_t exact[16];
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, label_mask(m, 8, 8, 8, NULL, exact, n_all - 1u, &n));
+    TEST_ASSERT_EQUAL_size_t(n_all - 1u, n);
+    assert_same_comps(all, exact, n);
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(m, 8, 8, 8, NULL, exact, n_all, &n));
+    TEST_ASSERT_EQUAL_size_t(n_all, n);
+    // empty mask with cap 0 is fine
+    static uint8_t z[4 * 4];
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(z, 4, 4, 4, NULL, NULL, 0, &n));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+}
+
+typedef struct ws_ctx {
+    const vd_view_u8_t *v;
+    const vd_rect_t *roi;
+} ws_ctx_t;
+
+static vd_status_t run_label(void *ws, size_t bytes, void *ctx)
+{
+    const ws_ctx_t *c = (const ws_ctx_t *)ctx;
+    size_t n;
+    return vd_components_label(c->v, c->roi, ws, bytes, g_out, MAXC, &n);
+}
+
+static void test_workspace_contract(void)
+{
+    static uint8_t m[50 * 30];
+    uint32_t seed = 7;
+    for (size_t i = 0; i < sizeof m; i++) { m[i] = (tu_rand(&seed) & 1u) ? 255u : 0u; }
+    for (size_t i = 0; i < 50; i += 2) { m[i] = 255; m[i + 1] = 0; } // a worst-case run row
+    vd_view_u8_t v = {m, 50, 30, 50};
+    size_t bytes;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(50, 30, &bytes));
+    ws_ctx_t ctx = {&v, NULL};
+    tu_check_workspace_contract(bytes, run_label, &ctx);
+    vd_rect_t roi = {3, 5, 41, 19};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(41, 19, &bytes));
+    ctx.roi = &roi;
+    tu_check_workspace_contract(bytes, run_label, &ctx);
+    // checkerboard = the worst case of runs, filling the run array exactly
+    for (size_t y = 0; y < 30; y++) {
+        for (size_t x = 0; x < 50; x++) { m[y * 50 + x] = ((x + y) & 1u) ? 0u : 255u; }
+    }
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(50, 30, &bytes));
+    ctx.roi = NULL;
+    tu_check_workspace_contract(bytes, run_label, &ctx);
+    // a larger workspace (sized for the maximum) also works for a small ROI
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(50, 30, &bytes));
+    void *ws = tu_guarded_alloc(1, bytes);
+    size_t n;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_label(&v, &roi, ws, bytes, g_out, MAXC, &n));
+    tu_guard_check(1);
+    tu_guarded_free(1);
+}
+
+static void test_bad_arguments(void)
+{
+    static uint8_t m[8 * 8];
+    static uint64_t ws[4096];
+    vd_view_u8_t v = {m, 8, 8, 8};
+    size_t n = 77;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label(NULL, NULL, ws, sizeof ws, g_out, MAXC, &n));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label(&v, NULL, ws, sizeof ws, g_out, MAXC, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label(&v, NULL, ws, sizeof ws, NULL, 3, &n));
+    vd_rect_t out_of = {4, 4, 5, 2};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label(&v, &out_of, ws, sizeof ws, g_out, MAXC, &n));
+    vd_rect_t zero = {0, 0, 0, 2};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label(&v, &zero, ws, sizeof ws, g_out, MAXC, &n));
+    vd_view_u8_t bad = {m, 8, 8, 7}; // stride below width
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label(&bad, NULL, ws, sizeof ws, g_out, MAXC, &n));
+    bad.stride = 8;
+    bad.data = NULL;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label(&bad, NULL, ws, sizeof ws, g_out, MAXC, &n));
+    vd_view_u8_t odd = {m, 3, 5, 3}; // odd stride is fine for 8-bit
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_label(&odd, NULL, ws, sizeof ws, g_out, MAXC, &n));
+}
+
+// ---------------------------------------------------------------- rules
+
+static vd_component_t comp_box(int32_t w, int32_t h, uint32_t area)
+{
+    vd_component_t c;
+    memset(&c, 0, sizeof c);
+    c.box.w = w;
+    c.box.h = h;
+    c.area = area;
+    return c;
+}
+
+static size_t filter_one(vd_component_t c, const vd_cc_rules_t *r)
+{
+    size_t kept = 99;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_filter(&c, 1, r, &kept));
+    return kept;
+}
+
+static void test_rules_default_and_boundaries(void)
+{
+    vd_cc_rules_t r;
+    memset(&r, 0xFF, sizeof r);
+    vd_cc_rules_default(&r);
+    TEST_ASSERT_EQUAL_UINT16(77, r.aspect_min_q8);
+    TEST_ASSERT_EQUAL_UINT16(384, r.aspect_max_q8);
+    TEST_ASSERT_EQUAL_UINT32(120, r.min_area);
+    TEST_ASSERT_EQUAL_UINT32(0, r.max_area);
+    vd_cc_rules_default(NULL); // no crash
+    // aspect h/w = 0.3 exactly (76.8 -> 77) and 1.5 exactly (384) pass
+    TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(10, 3, 500), &r));
+    TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(20, 30, 500), &r));
+    // Q8 boundaries: 77/256 passes, 76/256 fails; 384/256 passes, 385/256 fails
+    TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(256, 77, 500), &r));
+    TEST_ASSERT_EQUAL_size_t(0u, filter_one(comp_box(256, 76, 500), &r));
+    TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(256, 384, 500), &r));
+    TEST_ASSERT_EQUAL_size_t(0u, filter_one(comp_box(256, 385, 500), &r));
+    // rounding half up: 256 * 153 / 512 = 76.5 -> 77 passes; 76.49.. fails
+    TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(512, 153, 500), &r));
+    TEST_ASSERT_EQUAL_size_t(0u, filter_one(comp_box(513, 153, 500), &r));
+    // 256 * 769 / 512 = 384.5 -> 385 fails; 384.25 -> 384 passes
+    TEST_ASSERT_EQUAL_size_t(0u, filter_one(comp_box(512, 769, 500), &r));
+    TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(1024, 1537, 500), &r));
+    // area exactly 120 passes, 119 fails
+    TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(20, 20, 120), &r));
+    TEST_ASSERT_EQUAL_size_t(0u, filter_one(comp_box(20, 20, 119), &r));
+    // max_area inclusive
+    r.max_area = 400;
+    TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(20, 20, 400), &r));
+    TEST_ASSERT_EQUAL_size_t(0u, filter_one(comp_box(20, 20, 401), &r));
+    // configurable aspect
+    r.aspect_min_q8 = 256;
+    r.aspect_max_q8 = 256;
+    TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(20, 20, 200), &r));
+    TEST_ASSERT_EQUAL_size_t(0u, filter_one(comp_box(20, 21, 200), &r));
+}
+
+static void test_filter_stable_and_errors(void)
+{
+    vd_cc_rules_t r;
+    vd_cc_rules_default(&r);
+    vd_component_t c[6] = {comp_box(10, 10, 50), comp_box(10, 10, 150), comp_box(100, 10, 900),
+                           comp_box(12, 12, 140), comp_box(5, 50, 200), comp_box(16, 16, 256)};
+    for (int i = 0; i < 6; i++) { c[i].box.x = i; }
+    size_t kept = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_filter(c, 6, &r, &kept));
+    TEST_ASSERT_EQUAL_size_t(3u, kept);
+    TEST_ASSERT_EQUAL_INT32(1, c[0].box.x);
+    TEST_ASSERT_EQUAL_INT32(3, c[1].box.x);
+    TEST_ASSERT_EQUAL_INT32(5, c[2].box.x);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_filter(NULL, 0, &r, &kept));
+    TEST_ASSERT_EQUAL_size_t(0u, kept);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(NULL, 2, &r, &kept));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(c, 2, NULL, &kept));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(c, 2, &r, NULL));
+    vd_component_t bad[2] = {comp_box(10, 10, 200), comp_box(0, 10, 200)};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(bad, 2, &r, &kept));
+    TEST_ASSERT_EQUAL_size_t(0u, kept);
+    TEST_ASSERT_EQUAL_INT32(10, bad[0].box.w); // untouched
+    vd_cc_rules_t inv = r;
+    inv.aspect_min_q8 = 400;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(c, 2, &inv, &kept));
+    inv = r;
+    inv.max_area = 100; // below min_area 120
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(c, 2, &inv, &kept));
+}
+
+// ---------------------------------------------------------------- expansion
+
+static void assert_rect(int32_t x, int32_t y, int32_t w, int32_t h, const vd_rect_t *r)
+{
+    TEST_ASSERT_EQUAL_INT32(x, r->x);
+    TEST_ASSERT_EQUAL_INT32(y, r->y);
+    TEST_ASSERT_EQUAL_INT32(w, r->w);
+    TEST_ASSERT_EQUAL_INT32(h, r->h);
+}
+
+static void test_expand_centre_and_rounding(void)
+{
+    vd_rect_t in = {10, 10, 10, 10}, out;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, VD_EXPAND_W_Q8, VD_EXPAND_H_Q8, 640, 480, &out));
+    assert_rect(8, 5, 15, 20, &out); // w 15: 2 px left, 3 right; h 20: 5 up, 5 down
+    in = (vd_rect_t){100, 100, 7, 3};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 384, 512, 640, 480, &out));
+    assert_rect(98, 99, 11, 6, &out); // 7 * 1.5 = 10.5 -> 11 (g 4: 2 left); 3 * 2 = 6 (g 3: 1 up)
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 256, 256, 640, 480, &out));
+    assert_rect(100, 100, 7, 3, &out); // identity
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 128, 64, 640, 480, &out));
+    assert_rect(102, 101, 4, 1, &out); // shrink: 3.5 -> 4 (g -3: floor(-1.5) = -2), 0.75 -> 1 (g -2)
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 1, 1, 640, 480, &out));
+    assert_rect(103, 101, 1, 1, &out); // never below 1 px
+    // in place
+    in = (vd_rect_t){10, 10, 10, 10};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 384, 512, 640, 480, &in));
+    assert_rect(8, 5, 15, 20, &in);
+}
+
+static void test_expand_clips_every_edge(void)
+{
+    vd_rect_t out;
+    vd_rect_t left = {0, 100, 10, 10};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&left, 384, 512, 640, 480, &out));
+    assert_rect(0, 95, 13, 20, &out); // x -2 clipped to 0
+    vd_rect_t right = {630, 100, 10, 10};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&right, 384, 512, 640, 480, &out));
+    assert_rect(628, 95, 12, 20, &out); // 628 + 15 = 643 clipped to 640
+    vd_rect_t top = {100, 2, 10, 10};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&top, 384, 512, 640, 480, &out));
+    assert_rect(98, 0, 15, 17, &out); // y -3 clipped to 0, bottom at 17
+    vd_rect_t bottom = {100, 475, 10, 5};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&bottom, 384, 512, 640, 480, &out));
+    assert_rect(98, 473, 15, 7, &out); // 473 + 10 = 483 clipped to 480
+    vd_rect_t all = {0, 0, 640, 480};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&all, 384, 512, 640, 480, &out));
+    assert_rect(0, 0, 640, 480, &out);
+    vd_rect_t corner = {635, 476, 5, 4};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&corner, 65535, 65535, 640, 480, &out));
+    TEST_ASSERT_EQUAL_INT32(0, out.x);
+    TEST_ASSERT_EQUAL_INT32(0, out.y);
+    TEST_ASSERT_EQUAL_INT32(640, out.w);
+    TEST_ASSERT_EQUAL_INT32(480, out.h);
+    // partly outside input is allowed; entirely outside after expansion is not
+    vd_rect_t part = {-4, -4, 6, 6};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&part, 256, 256, 640, 480, &out));
+    assert_rect(0, 0, 2, 2, &out);
+    vd_rect_t away = {1000, 10, 10, 10};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&away, 384, 512, 640, 480, &out));
+    vd_rect_t hostile = {INT32_MAX, INT32_MIN, INT32_MAX, INT32_MAX}; // no overflow: covers the frame
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&hostile, 65535, 65535, 640, 480, &out));
+    assert_rect(0, 0, 640, 480, &out);
+    vd_rect_t far_left = {INT32_MIN, 0, 1, 1};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&far_left, 65535, 256, 640, 480, &out));
+}
+
+static void test_expand_errors(void)
+{
+    vd_rect_t in = {10, 10, 10, 10}, out;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(NULL, 384, 512, 640, 480, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 640, 480, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 0, 512, 640, 480, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 0, 640, 480, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 0, 480, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 640, VD_MAX_DIM + 1u, &out));
+    in.w = 0;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 640, 480, &out));
+    in.w = 10;
+    in.h = -1;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 640, 480, &out));
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_workspace_size);
+    RUN_TEST(test_single_pixel_and_empty);
+    RUN_TEST(test_full_image);
+    RUN_TEST(test_diagonal_only_connectivity);
+    RUN_TEST(test_checkerboard_is_one_component);
+    RUN_TEST(test_u_shapes_merge_late);
+    RUN_TEST(test_block_order_not_pixel_order);
+    RUN_TEST(test_spiral);
+    RUN_TEST(test_centroid_round_half_up);
+    RUN_TEST(test_roi_and_stride);
+    RUN_TEST(test_random_vs_naive);
+    RUN_TEST(test_capacity);
+    RUN_TEST(test_workspace_contract);
+    RUN_TEST(test_bad_arguments);
+    RUN_TEST(test_rules_default_and_boundaries);
+    RUN_TEST(test_filter_stable_and_errors);
+    RUN_TEST(test_expand_centre_and_rounding);
+    RUN_TEST(test_expand_clips_every_edge);
+    RUN_TEST(test_expand_errors);
+    return UNITY_END();
+}

@@ -1,0 +1,214 @@
+// SPDX-License-Identifier: MIT
+// Unit tests of the fixed-point resampler: hand-worked cases, a naive reference, golden vectors, argument checks.
+#include "unity.h"
+#include "testutil.h"
+
+#include <string.h>
+
+#include "../data/resample_golden.h"
+
+void setUp(void) {}
+void tearDown(void) {}
+
+static void test_4x4_to_2x2_area_average(void)
+{
+    const uint8_t src[16] = {0, 10, 20, 30, 40, 50, 60, 70, 80, 90, 100, 110, 120, 130, 140, 150};
+    const vd_view_u8_t v = {src, 4, 4, 4};
+    uint8_t dst[4];
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, NULL, dst, 2, 2));
+    // (0+10+40+50)/4 = 25, (20+30+60+70)/4 = 45, (80+90+120+130)/4 = 105, 125.
+    const uint8_t want[4] = {25, 45, 105, 125};
+    TEST_ASSERT_EQUAL_UINT8_ARRAY(want, dst, 4);
+}
+
+static void test_rounding_half_up(void)
+{
+    // 2x2 -> 1x1: sums 2, 6 -> 0.5 -> 1, 1.5 -> 2; 1 -> 0.25 -> 0.
+    const uint8_t a[4] = {1, 0, 1, 0};
+    const uint8_t b[4] = {1, 2, 1, 2};
+    const uint8_t c[4] = {1, 0, 0, 0};
+    vd_view_u8_t v = {a, 2, 2, 2};
+    uint8_t d;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, NULL, &d, 1, 1));
+    TEST_ASSERT_EQUAL_UINT8(1u, d);
+    v.data = b;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, NULL, &d, 1, 1));
+    TEST_ASSERT_EQUAL_UINT8(2u, d);
+    v.data = c;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, NULL, &d, 1, 1));
+    TEST_ASSERT_EQUAL_UINT8(0u, d);
+}
+
+static void test_3_to_2_fractional_area(void)
+{
+    // Output 0 covers [0, 1.5): (0 + 90/2) / 1.5 = 30; output 1 covers [1.5, 3): (45 + 200) / 1.5 = 163.3 -> 163.
+    const uint8_t src[3] = {0, 90, 200};
+    const vd_view_u8_t v = {src, 3, 1, 3};
+    uint8_t dst[2];
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, NULL, dst, 2, 1));
+    TEST_ASSERT_EQUAL_UINT8(30u, dst[0]);
+    TEST_ASSERT_EQUAL_UINT8(163u, dst[1]);
+}
+
+static void test_2x2_to_4x4_bilinear(void)
+{
+    // Per axis: out 0 = p0, out 1 = 0.75 p0 + 0.25 p1, out 2 = 0.25 p0 + 0.75 p1, out 3 = p1.
+    // Rows after the horizontal pass: {0, 25, 75, 100} and {200, 160, 80, 40};
+    // row 1 = 0.75 r0 + 0.25 r1 = {50, 58.75, 76.25, 85}, row 2 = {150, 126.25, 78.75, 55}.
+    const uint8_t src[4] = {0, 100, 200, 40};
+    const vd_view_u8_t v = {src, 2, 2, 2};
+    uint8_t dst[16];
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, NULL, dst, 4, 4));
+    const uint8_t want[16] = {0, 25, 75, 100, 50, 59, 76, 85, 150, 126, 79, 55, 200, 160, 80, 40};
+    TEST_ASSERT_EQUAL_UINT8_ARRAY(want, dst, 16);
+}
+
+static void test_roi_with_stride_and_copy(void)
+{
+    static uint8_t img[7 * 10];
+    for (uint32_t i = 0; i < sizeof img; i++) {
+        img[i] = (uint8_t)(i * 7u);
+    }
+    const vd_view_u8_t v = {img, 7, 6, 10}; // stride 10 > width 7
+    const vd_rect_t roi = {2, 1, 4, 3};
+    uint8_t dst[12];
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, &roi, dst, 4, 3)); // same size: copy
+    for (uint32_t y = 0; y < 3; y++) {
+        TEST_ASSERT_EQUAL_UINT8_ARRAY(img + (y + 1u) * 10u + 2u, dst + y * 4u, 4);
+    }
+}
+
+static void test_constant_and_extremes(void)
+{
+    static uint8_t row[VD_MAX_DIM];
+    memset(row, 255, sizeof row);
+    vd_view_u8_t v = {row, VD_MAX_DIM, 1, VD_MAX_DIM};
+    uint8_t d[32];
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, NULL, d, 1, 1));
+    TEST_ASSERT_EQUAL_UINT8(255u, d[0]);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, NULL, d, 32, 1));
+    for (int i = 0; i < 32; i++) {
+        TEST_ASSERT_EQUAL_UINT8(255u, d[i]);
+    }
+    // 1x1 grown to the largest destination row.
+    static uint8_t big[VD_RESAMPLE_MAX_DST];
+    const uint8_t one = 77;
+    vd_view_u8_t p = {&one, 1, 1, 1};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&p, NULL, big, VD_RESAMPLE_MAX_DST, 1));
+    TEST_ASSERT_EQUAL_UINT8(77u, big[0]);
+    TEST_ASSERT_EQUAL_UINT8(77u, big[VD_RESAMPLE_MAX_DST - 1u]);
+}
+
+static void test_args(void)
+{
+    static uint8_t img[16];
+    const vd_view_u8_t v = {img, 4, 4, 4};
+    uint8_t d[4];
+    vd_rect_t roi = {1, 1, 3, 3};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(NULL, NULL, d, 2, 2));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(&v, NULL, NULL, 2, 2));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(&v, NULL, d, 0, 2));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(&v, NULL, d, 2, 0));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(&v, NULL, d, VD_RESAMPLE_MAX_DST + 1u, 1));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, &roi, d, 2, 2));
+    roi.w = 4; // x + w > width
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(&v, &roi, d, 2, 2));
+    roi.w = 0;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(&v, &roi, d, 2, 2));
+    roi.w = 2;
+    roi.x = -1;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(&v, &roi, d, 2, 2));
+    vd_view_u8_t bad = {img, 4, 4, 3}; // stride < width
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(&bad, NULL, d, 2, 2));
+    bad.stride = 4;
+    bad.data = NULL;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_u8(&bad, NULL, d, 2, 2));
+}
+
+// Naive reference: dense per-axis weight matrices (as in the module comment),
+// full double sum per output pixel.
+static uint32_t naive_weight(uint32_t i, uint32_t k, uint32_t s, uint32_t d, uint32_t *total)
+{
+    if (s >= d) {
+        *total = s;
+        const uint32_t lo = i * s, hi = lo + s, a = k * d, b = a + d;
+        const uint32_t from = a > lo ? a : lo, to = b < hi ? b : hi;
+        return to > from ? to - from : 0u;
+    }
+    *total = 2u * d;
+    const int32_t p = (int32_t)((2u * i + 1u) * s) - (int32_t)d; // in 1/(2d) px
+    if (p <= 0) {
+        return k == 0u ? 2u * d : 0u;
+    }
+    const uint32_t k0 = (uint32_t)p / (2u * d), frac = (uint32_t)p % (2u * d);
+    if (k0 >= s - 1u) {
+        return k == s - 1u ? 2u * d : 0u;
+    }
+    if (k == k0) {
+        return 2u * d - frac;
+    }
+    return k == k0 + 1u ? frac : 0u;
+}
+
+static void test_naive_reference_random(void)
+{
+    static uint8_t img[61 * 53];
+    static uint8_t got[40 * 40];
+    uint32_t seed = 12345u;
+    for (int t = 0; t < 300; t++) {
+        const uint32_t w = 1u + tu_rand(&seed) % 61u, h = 1u + tu_rand(&seed) % 53u;
+        for (uint32_t i = 0; i < w * h; i++) {
+            img[i] = (uint8_t)tu_rand(&seed);
+        }
+        const vd_view_u8_t v = {img, w, h, w};
+        vd_rect_t r;
+        r.x = (int32_t)(tu_rand(&seed) % w);
+        r.y = (int32_t)(tu_rand(&seed) % h);
+        r.w = 1 + (int32_t)(tu_rand(&seed) % (w - (uint32_t)r.x));
+        r.h = 1 + (int32_t)(tu_rand(&seed) % (h - (uint32_t)r.y));
+        const uint32_t dw = 1u + tu_rand(&seed) % 40u, dh = 1u + tu_rand(&seed) % 40u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, &r, got, dw, dh));
+        for (uint32_t oy = 0; oy < dh; oy++) {
+            for (uint32_t ox = 0; ox < dw; ox++) {
+                uint64_t acc = 0;
+                uint32_t tx = 1, ty = 1;
+                for (uint32_t ky = 0; ky < (uint32_t)r.h; ky++) {
+                    const uint32_t wy = naive_weight(oy, ky, (uint32_t)r.h, dh, &ty);
+                    for (uint32_t kx = 0; kx < (uint32_t)r.w; kx++) {
+                        const uint32_t wx = naive_weight(ox, kx, (uint32_t)r.w, dw, &tx);
+                        acc += (uint64_t)wx * wy * img[((uint32_t)r.y + ky) * w + (uint32_t)r.x + kx];
+                    }
+                }
+                const uint64_t tot = (uint64_t)tx * ty;
+                TEST_ASSERT_EQUAL_UINT8((uint8_t)((acc + tot / 2u) / tot), got[oy * dw + ox]);
+            }
+        }
+    }
+}
+
+static void test_golden_vectors(void)
+{
+    const vd_view_u8_t v = {golden_src, GOLDEN_SRC_W, GOLDEN_SRC_H, GOLDEN_SRC_W};
+    static uint8_t out[32 * 32];
+    for (uint32_t i = 0; i < GOLDEN_N_RS; i++) {
+        const golden_rs_case_t *c = &golden_rs_cases[i];
+        const vd_rect_t r = {c->x, c->y, c->w, c->h};
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, &r, out, c->dst_w, c->dst_h));
+        TEST_ASSERT_EQUAL_UINT8_ARRAY(golden_rs_out + c->first, out, c->dst_w * c->dst_h);
+    }
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_4x4_to_2x2_area_average);
+    RUN_TEST(test_rounding_half_up);
+    RUN_TEST(test_3_to_2_fractional_area);
+    RUN_TEST(test_2x2_to_4x4_bilinear);
+    RUN_TEST(test_roi_with_stride_and_copy);
+    RUN_TEST(test_constant_and_extremes);
+    RUN_TEST(test_args);
+    RUN_TEST(test_naive_reference_random);
+    RUN_TEST(test_golden_vectors);
+    return UNITY_END();
+}

@@ -1,0 +1,405 @@
+// SPDX-License-Identifier: MIT
+// Unit tests of the temporal analysis: exp table, similarity, confirm/recover/delete sequences, capacity.
+#include "unity.h"
+#include "testutil.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "vd/temporal.h"
+
+void setUp(void) {}
+void tearDown(void) {}
+
+// exp() in double without libm (the test runner links no -lm): e^-x =
+// (e^(-x/64))^64 with a 14-term Taylor series, relative error < 1e-14.
+static double exp_neg(double x)
+{
+    double y = -x / 64.0;
+    double term = 1.0;
+    double sum = 1.0;
+    for (int k = 1; k < 14; k++) {
+        term *= y / k;
+        sum += term;
+    }
+    for (int k = 0; k < 6; k++) {
+        sum *= sum;
+    }
+    return sum;
+}
+
+static long round_pos(double v)
+{
+    return (long)(v + 0.5);
+}
+
+static vd_temporal_obs_t mk_obs(int32_t x, int32_t y, int32_t w, int32_t h, uint16_t c)
+{
+    vd_temporal_obs_t o;
+    memset(&o, 0, sizeof(o));
+    o.box.x = x;
+    o.box.y = y;
+    o.box.w = w;
+    o.box.h = h;
+    o.complexity_q15 = c;
+    return o;
+}
+
+static void test_exp_table_accuracy(void)
+{
+    uint32_t worst = 0u;
+    for (uint32_t x = 0; x < (16u << 16); x += 7u) {
+        double e = exp_neg((double)x / 65536.0) * 32768.0;
+        long ref = round_pos(e);
+        long got = (long)vd_temporal_exp_neg_q15(x);
+        uint32_t d = (uint32_t)labs(got - ref);
+        if (d > worst) {
+            worst = d;
+        }
+    }
+    TEST_ASSERT_LESS_OR_EQUAL_UINT32(1u, worst);
+    // Exact table points (every k/128 and every integer) round the same way.
+    for (uint32_t k = 0; k <= 128u * 16u; k++) {
+        uint32_t x = k * 512u;
+        long ref = round_pos(exp_neg((double)x / 65536.0) * 32768.0);
+        TEST_ASSERT_INT_WITHIN(1, ref, (long)vd_temporal_exp_neg_q15(x));
+    }
+    TEST_ASSERT_EQUAL_UINT32(32768u, vd_temporal_exp_neg_q15(0u));
+    TEST_ASSERT_EQUAL_UINT32(12055u, vd_temporal_exp_neg_q15(65536u));  // 32768 / e = 12054.8
+    TEST_ASSERT_EQUAL_UINT32(0u, vd_temporal_exp_neg_q15(16u << 16));
+    TEST_ASSERT_EQUAL_UINT32(0u, vd_temporal_exp_neg_q15(UINT32_MAX));
+}
+
+static void test_complexity(void)
+{
+    TEST_ASSERT_EQUAL_UINT16(0u, vd_temporal_complexity_q15(5u, 0u));
+    TEST_ASSERT_EQUAL_UINT16(8192u, vd_temporal_complexity_q15(25u, 100u));
+    TEST_ASSERT_EQUAL_UINT16(32768u, vd_temporal_complexity_q15(100u, 100u));
+    TEST_ASSERT_EQUAL_UINT16(32768u, vd_temporal_complexity_q15(200u, 100u));
+    TEST_ASSERT_EQUAL_UINT16(10923u, vd_temporal_complexity_q15(1u, 3u)); // 10922.67 rounds up
+}
+
+static double ref_similarity(const vd_rect_t *a, double ca, const vd_rect_t *b, double cb, double s)
+{
+    double dx = (a->x + a->w / 2.0) - (b->x + b->w / 2.0);
+    double dy = (a->y + a->h / 2.0) - (b->y + b->h / 2.0);
+    double dw = a->w - b->w;
+    double dh = a->h - b->h;
+    double ss = exp_neg((dx * dx + dy * dy + dw * dw + dh * dh) / (s * s));
+    double lo = ca < cb ? ca : cb;
+    double hi = ca < cb ? cb : ca;
+    double sc = hi == 0.0 ? 1.0 : lo / hi;
+    return 0.3 * sc + 0.7 * ss;
+}
+
+static void test_similarity_hand_worked(void)
+{
+    static vd_track_t tracks[4];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 4));
+    vd_rect_t a = {100, 100, 40, 30};
+    vd_rect_t b = {116, 100, 40, 30};   // dx = sigma = 16: S_S = exp(-1)
+    TEST_ASSERT_EQUAL_UINT32(32768u, vd_temporal_similarity_q15(&t, &a, 1000u, &a, 1000u));
+    // 0.3 * 1 + 0.7 * 0.36788 = 0.55752 -> 18268.8; Q15 arithmetic: (9830*32768 + 22938*12055) >> 15 = 18268
+    TEST_ASSERT_INT_WITHIN(1, 18269, (long)vd_temporal_similarity_q15(&t, &a, 1000u, &b, 1000u));
+    // Complexity ratio 1/2, same box: 0.3 * 0.5 + 0.7 = 0.85
+    TEST_ASSERT_INT_WITHIN(2, 27853, (long)vd_temporal_similarity_q15(&t, &a, 1000u, &a, 2000u));
+    // Both complexities zero count as equal; one zero gives S_C = 0.
+    TEST_ASSERT_EQUAL_UINT32(32768u, vd_temporal_similarity_q15(&t, &a, 0u, &a, 0u));
+    TEST_ASSERT_INT_WITHIN(1, 22938, (long)vd_temporal_similarity_q15(&t, &a, 0u, &a, 500u));
+    // Far apart: only the complexity part is left.
+    vd_rect_t far = {5000, 5000, 40, 30};
+    TEST_ASSERT_EQUAL_UINT32(9830u, vd_temporal_similarity_q15(&t, &a, 1000u, &far, 1000u));
+}
+
+static void test_similarity_vs_reference_random(void)
+{
+    static vd_track_t tracks[1];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 1));
+    uint32_t rng = 12345u;
+    for (int i = 0; i < 5000; i++) {
+        vd_rect_t a = {(int32_t)(tu_rand(&rng) % 600u), (int32_t)(tu_rand(&rng) % 400u),
+                       (int32_t)(1u + tu_rand(&rng) % 120u), (int32_t)(1u + tu_rand(&rng) % 90u)};
+        vd_rect_t b = a;
+        b.x += (int32_t)(tu_rand(&rng) % 41u) - 20;
+        b.y += (int32_t)(tu_rand(&rng) % 41u) - 20;
+        b.w += (int32_t)(tu_rand(&rng) % 21u) - 10;
+        b.h += (int32_t)(tu_rand(&rng) % 21u) - 10;
+        if (b.w < 1) { b.w = 1; }
+        if (b.h < 1) { b.h = 1; }
+        uint16_t ca = (uint16_t)(tu_rand(&rng) % 32769u);
+        uint16_t cb = (uint16_t)(tu_rand(&rng) % 32769u);
+        double ref = ref_similarity(&a, ca, &b, cb, 16.0) * 32768.0;
+        // Q15 weights 9830/22938 vs 0.3/0.7 (<= 0.4 LSB) + exp (1) + S_C rounding (0.5) + final rounding
+        TEST_ASSERT_INT_WITHIN(3, round_pos(ref), (long)vd_temporal_similarity_q15(&t, &a, ca, &b, cb));
+    }
+}
+
+static void test_moving_box_confirmed_at_t2(void)
+{
+    static vd_track_t tracks[8];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 8));
+    const uint8_t expect[5] = {VD_TRACK_NEW, VD_TRACK_NEW, VD_TRACK_CONFIRMED, VD_TRACK_CONFIRMED, VD_TRACK_CONFIRMED};
+    uint32_t id = 0u;
+    for (int f = 0; f < 5; f++) {
+        vd_temporal_obs_t o[2];
+        o[0] = mk_obs(100 + 2 * f, 80, 40, 30, 3000u);
+        size_t count = 99u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 2, &count, NULL, NULL));
+        TEST_ASSERT_EQUAL_size_t(1u, count);
+        TEST_ASSERT_EQUAL_UINT8(expect[f], o[0].state);
+        if (f == 0) {
+            id = o[0].track_id;
+            TEST_ASSERT_NOT_EQUAL(0u, id);
+            TEST_ASSERT_EQUAL_UINT32(1u, t.stats.created);
+        } else {
+            TEST_ASSERT_EQUAL_UINT32(id, o[0].track_id);
+            TEST_ASSERT_EQUAL_UINT32(1u, t.stats.matched);
+            // dx = 2 px with sigma 16: S_S = exp(-1/64), S_C = 1 -> S = 0.98916
+            TEST_ASSERT_INT_WITHIN(2, 32413, (long)o[0].similarity_q15);
+        }
+    }
+}
+
+static void test_two_targets_keep_their_ids(void)
+{
+    static vd_track_t tracks[8];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 8));
+    vd_temporal_obs_t o[2];
+    size_t count;
+    o[0] = mk_obs(100, 80, 40, 30, 3000u);
+    o[1] = mk_obs(130, 80, 40, 30, 3000u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 2, 2, &count, NULL, NULL));
+    uint32_t ida = o[0].track_id;
+    uint32_t idb = o[1].track_id;
+    TEST_ASSERT_NOT_EQUAL(ida, idb);
+    // Next frame, listed in the other order and moved apart by 3 px each.
+    o[0] = mk_obs(133, 80, 40, 30, 3000u);
+    o[1] = mk_obs(97, 80, 40, 30, 3000u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 2, 2, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_UINT32(idb, o[0].track_id);
+    TEST_ASSERT_EQUAL_UINT32(ida, o[1].track_id);
+}
+
+// Probe of a synthetic scene: the vehicle is really at (108, 80) with
+// complexity 3000; everywhere else the region has complexity 300.
+typedef struct probe_ctx {
+    int32_t x;
+    int32_t y;
+    int calls;
+} probe_ctx_t;
+
+static vd_status_t scene_probe(void *user, const vd_rect_t *box, uint16_t *c)
+{
+    probe_ctx_t *p = (probe_ctx_t *)user;
+    p->calls++;
+    int32_t dx = box->x - p->x;
+    int32_t dy = box->y - p->y;
+    *c = (dx == 0 && dy == 0) ? 3000u : 300u;
+    return VD_OK;
+}
+
+static void test_missed_frame_recovered(void)
+{
+    static vd_track_t tracks[4];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 4));
+    vd_temporal_obs_t o[3];
+    size_t count;
+    uint32_t id = 0u;
+    for (int f = 0; f < 3; f++) {
+        o[0] = mk_obs(100 + 2 * f, 80, 40, 30, 3000u);
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 3, &count, NULL, NULL));
+        id = o[0].track_id;
+    }
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, o[0].state);
+    // t = 3: the detector misses the car (now at x = 106).
+    probe_ctx_t p = {106, 80, 0};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 3, &count, scene_probe, &p));
+    TEST_ASSERT_EQUAL_size_t(1u, count);
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_RECOVERED, o[0].state);
+    TEST_ASSERT_EQUAL_UINT32(id, o[0].track_id);
+    TEST_ASSERT_EQUAL_INT32(106, o[0].box.x);   // the search found the car, not the stale box at 104
+    TEST_ASSERT_EQUAL_INT32(80, o[0].box.y);
+    TEST_ASSERT_EQUAL_INT(25, p.calls);         // radius 4, step 2: 5 x 5 offsets
+    TEST_ASSERT_EQUAL_UINT32(1u, vd_temporal_last_stats(&t)->recovered);
+    // t = 4: detected again -> still the same confirmed track.
+    o[0] = mk_obs(108, 80, 40, 30, 3000u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 3, &count, scene_probe, &p));
+    TEST_ASSERT_EQUAL_size_t(1u, count);
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, o[0].state);
+    TEST_ASSERT_EQUAL_UINT32(id, o[0].track_id);
+    // The car leaves: nothing near the box resembles it (S <= 0.3*0.1 + 0.7) -> not recovered.
+    p.x = 5000;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 3, &count, scene_probe, &p));
+    TEST_ASSERT_EQUAL_size_t(0u, count);
+}
+
+static void test_unconfirmed_not_recovered_and_false_alarm_stays_new(void)
+{
+    static vd_track_t tracks[4];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 4));
+    vd_temporal_obs_t o[2];
+    size_t count;
+    probe_ctx_t p = {100, 80, 0};
+    o[0] = mk_obs(100, 80, 40, 30, 3000u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 2, &count, scene_probe, &p));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 2, &count, scene_probe, &p));
+    TEST_ASSERT_EQUAL_size_t(0u, count);
+    TEST_ASSERT_EQUAL_INT(0, p.calls);
+    // Seen again after a gap: t-1 missing, so hits restart -> NEW, NEW, then CONFIRMED.
+    o[0] = mk_obs(100, 80, 40, 30, 3000u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 2, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NEW, o[0].state);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 2, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NEW, o[0].state);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 2, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, o[0].state);
+}
+
+static size_t live_tracks(const vd_track_t *tr, size_t n)
+{
+    size_t k = 0u;
+    for (size_t i = 0; i < n; i++) {
+        k += tr[i].id != 0u;
+    }
+    return k;
+}
+
+static void test_track_dies_after_max_misses(void)
+{
+    static vd_track_t tracks[4];
+    vd_temporal_t t;
+    vd_temporal_cfg_t cfg;
+    memset(&cfg, 0, sizeof(cfg));
+    cfg.max_misses = 2;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, &cfg, tracks, 4));
+    vd_temporal_obs_t o[1];
+    size_t count;
+    o[0] = mk_obs(10, 10, 20, 20, 100u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+    uint32_t first = o[0].track_id;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 1, &count, NULL, NULL)); // miss 1
+    TEST_ASSERT_EQUAL_size_t(1u, live_tracks(tracks, 4));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 1, &count, NULL, NULL)); // miss 2
+    TEST_ASSERT_EQUAL_size_t(1u, live_tracks(tracks, 4));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 1, &count, NULL, NULL)); // miss 3 > 2
+    TEST_ASSERT_EQUAL_size_t(0u, live_tracks(tracks, 4));
+    TEST_ASSERT_EQUAL_UINT32(1u, t.stats.deleted);
+    o[0] = mk_obs(10, 10, 20, 20, 100u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+    TEST_ASSERT_NOT_EQUAL(first, o[0].track_id);
+}
+
+static void test_confirmed_track_recovered_at_most_max_misses_times(void)
+{
+    static vd_track_t tracks[2];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 2));   // max_misses 3
+    vd_temporal_obs_t o[2];
+    size_t count;
+    for (int f = 0; f < 3; f++) {
+        o[0] = mk_obs(100, 80, 40, 30, 3000u);
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 2, &count, NULL, NULL));
+    }
+    probe_ctx_t p = {100, 80, 0};
+    for (int f = 0; f < 3; f++) {
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 2, &count, scene_probe, &p));
+        TEST_ASSERT_EQUAL_size_t(1u, count);
+        TEST_ASSERT_EQUAL_UINT8(VD_TRACK_RECOVERED, o[0].state);
+    }
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 2, &count, scene_probe, &p));
+    TEST_ASSERT_EQUAL_size_t(0u, count);
+    TEST_ASSERT_EQUAL_size_t(0u, live_tracks(tracks, 2));
+}
+
+static void test_capacity_full(void)
+{
+    static vd_track_t tracks[2];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 2));
+    vd_temporal_obs_t o[3];
+    size_t count;
+    o[0] = mk_obs(0, 0, 20, 20, 100u);
+    o[1] = mk_obs(200, 0, 20, 20, 100u);
+    o[2] = mk_obs(400, 0, 20, 20, 100u);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_temporal_update(&t, o, 3, 3, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_size_t(3u, count);
+    TEST_ASSERT_NOT_EQUAL(0u, o[0].track_id);
+    TEST_ASSERT_NOT_EQUAL(0u, o[1].track_id);
+    TEST_ASSERT_EQUAL_UINT32(0u, o[2].track_id);
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NONE, o[2].state);
+    TEST_ASSERT_EQUAL_UINT32(1u, t.stats.overflow);
+    // Recovery with no room in the output: dropped and reported.
+    static vd_track_t tr1[1];
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tr1, 1));
+    for (int f = 0; f < 3; f++) {
+        o[0] = mk_obs(100, 80, 40, 30, 3000u);
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+    }
+    probe_ctx_t p = {100, 80, 0};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_temporal_update(&t, o, 0, 0, &count, scene_probe, &p));
+    TEST_ASSERT_EQUAL_size_t(0u, count);
+    TEST_ASSERT_EQUAL_UINT32(1u, t.stats.overflow);
+}
+
+static void test_bad_arguments(void)
+{
+    static vd_track_t tracks[2];
+    vd_temporal_t t;
+    vd_temporal_cfg_t cfg;
+    size_t count;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_init(NULL, NULL, tracks, 2));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_init(&t, NULL, NULL, 2));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_init(&t, NULL, tracks, 0));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_init(&t, NULL, tracks, 70000));
+    vd_temporal_cfg_default(&cfg);
+    cfg.sigma_x = 5000;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_init(&t, &cfg, tracks, 2));
+    vd_temporal_cfg_default(&cfg);
+    cfg.match_thr_q15 = 40000;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_init(&t, &cfg, tracks, 2));
+    vd_temporal_cfg_default(&cfg);
+    cfg.search_radius = 20;
+    cfg.search_step = 1;   // 20 steps > 8
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_init(&t, &cfg, tracks, 2));
+    cfg.search_radius = 65;
+    cfg.search_step = 64;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_init(&t, &cfg, tracks, 2));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 2));
+    vd_temporal_obs_t o[2];
+    o[0] = mk_obs(0, 0, 0, 5, 0u);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_update(&t, o, 1, 2, &count, NULL, NULL));
+    o[0] = mk_obs(0, 0, 5, 5, 0u);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_update(&t, o, 2, 1, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_update(&t, NULL, 1, 1, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_update(&t, o, 1, 1, NULL, NULL, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, NULL, 0, 0, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_size_t(0u, count);
+    // Hostile boxes far outside any frame saturate instead of overflowing.
+    vd_rect_t a = {INT32_MAX - 10, INT32_MIN + 10, INT32_MAX, INT32_MAX};
+    vd_rect_t b = {0, 0, 1, 1};
+    TEST_ASSERT_EQUAL_UINT32(9830u, vd_temporal_similarity_q15(&t, &a, 5u, &b, 5u));
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_exp_table_accuracy);
+    RUN_TEST(test_complexity);
+    RUN_TEST(test_similarity_hand_worked);
+    RUN_TEST(test_similarity_vs_reference_random);
+    RUN_TEST(test_moving_box_confirmed_at_t2);
+    RUN_TEST(test_two_targets_keep_their_ids);
+    RUN_TEST(test_missed_frame_recovered);
+    RUN_TEST(test_unconfirmed_not_recovered_and_false_alarm_stays_new);
+    RUN_TEST(test_track_dies_after_max_misses);
+    RUN_TEST(test_confirmed_track_recovered_at_most_max_misses_times);
+    RUN_TEST(test_capacity_full);
+    RUN_TEST(test_bad_arguments);
+    return UNITY_END();
+}

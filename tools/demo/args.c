@@ -1,0 +1,550 @@
+// SPDX-License-Identifier: MIT
+// Command-line options and the --config file (a flat JSON object of the same settings) of vd_fir_demo.
+//
+// Detector settings are one table: each has a flag "--name VALUE" and the
+// same key in the --config file ("name" or "name_with_underscores"). The
+// config file is applied first, flags after it, so flags win.
+#include "demo.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef VD_DEMO_DEFAULT_INPUT
+#define VD_DEMO_DEFAULT_INPUT "build/clip/u16"
+#endif
+
+typedef enum setting_id {
+    SET_THR_MODE,
+    SET_HOT_THR,
+    SET_HOT_THR_C,
+    SET_ADAPT_PCT,
+    SET_ADAPT_FLOOR,
+    SET_CALIB,
+    SET_GREY_RANGE_C,
+    SET_MIN_AREA,
+    SET_MAX_AREA,
+    SET_ASPECT_MIN,
+    SET_ASPECT_MAX,
+    SET_EXPAND_W,
+    SET_EXPAND_H,
+    SET_MEDIAN,
+    SET_EDGE_STEP,
+    SET_WINDOW,
+    SET_SCORE_THR,
+    SET_NMS_IOU,
+    SET_MAX_COMPONENTS,
+    SET_MAX_CANDIDATES,
+    SET_MAX_DETECTIONS,
+    SET_MAX_REGION,
+    SET_TEMPORAL,
+    SET_MAX_TRACKS,
+    SET_COUNT
+} setting_id_t;
+
+typedef struct setting {
+    const char *name;
+    const char *arg;
+    const char *help;
+} setting_t;
+
+static const setting_t k_settings[SET_COUNT] = {
+    [SET_THR_MODE] = {"thr-mode", "constant|adaptive",
+                      "hot-spot threshold: constant (paper; radiometric or fixed-gain cameras) or adaptive "
+                      "(8-bit AGC-scaled video: a frame percentile, never below --adaptive-floor)"},
+    [SET_HOT_THR] = {"hot-thr", "U8", "8-bit constant threshold, hot = pixel >= U8 (default 150, paper)"},
+    [SET_HOT_THR_C] = {"hot-thr-c", "DEGC", "16-bit frames: threshold in degrees Celsius (default 30.00)"},
+    [SET_ADAPT_PCT] = {"adaptive-percentile", "P", "adaptive mode: frame percentile 0.1..100 (default 99)"},
+    [SET_ADAPT_FLOOR] = {"adaptive-floor", "U8", "adaptive mode: lowest threshold (default 96)"},
+    [SET_CALIB] = {"calib", "GAIN,OFFSET_CK",
+                   "16-bit frames: centi-kelvin = OFFSET_CK + raw * GAIN (default 1,0: TLinear 0.01 K)"},
+    [SET_GREY_RANGE_C] = {"grey-range-c", "LO,HI",
+                          "16-bit frames: degC mapped to grey 0 and 255 for refinement and drawing "
+                          "(default threshold-30, threshold+21)"},
+    [SET_MIN_AREA] = {"min-area", "PX", "rule: smallest hot region in pixels (default 120, paper)"},
+    [SET_MAX_AREA] = {"max-area", "PX", "rule: largest hot region, 0 = no limit (default 0)"},
+    [SET_ASPECT_MIN] = {"aspect-min", "R", "rule: smallest height/width of a hot region (default 0.3, paper)"},
+    [SET_ASPECT_MAX] = {"aspect-max", "R", "rule: largest height/width of a hot region (default 1.5, paper)"},
+    [SET_EXPAND_W] = {"expand-w", "F", "candidate expansion horizontally, 1..8 (default 1.5, paper)"},
+    [SET_EXPAND_H] = {"expand-h", "F", "candidate expansion vertically, 1..8 (default 2, paper)"},
+    [SET_MEDIAN] = {"median", "0|3|5", "refinement median filter size, 0 = none (default 3)"},
+    [SET_EDGE_STEP] = {"edge-step", "N", "refinement: local threshold at every N-th edge point (default 5)"},
+    [SET_WINDOW] = {"window", "N", "refinement: local window size, odd (default 5)"},
+    [SET_SCORE_THR] = {"score-thr", "S", "DBN: keep candidates with p(vehicle) >= S, 0..1 (default 0.5)"},
+    [SET_NMS_IOU] = {"nms-iou", "F", "suppress a box overlapping a better one by IoU > F (default 0.5)"},
+    [SET_MAX_COMPONENTS] = {"max-components", "N", "components labelled per frame (default 256)"},
+    [SET_MAX_CANDIDATES] = {"max-candidates", "N", "candidates verified per frame (default 64)"},
+    [SET_MAX_DETECTIONS] = {"max-detections", "N", "detections kept per frame (default 32)"},
+    [SET_MAX_REGION] = {"max-region", "WxH", "refinement region bound before decimation (default 256x256)"},
+    [SET_TEMPORAL] = {"temporal", "on|off",
+                      "temporal analysis: track ids, confirmed / recovered states (default on)"},
+    [SET_MAX_TRACKS] = {"max-tracks", "N", "temporal track table size (default 32)"},
+};
+
+void demo_args_usage(FILE *f)
+{
+    fprintf(f,
+            "usage: vd_fir_demo [options]\n"
+            "Detects vehicles in far-infrared frames with the vd library (paper 001 pipeline).\n\n"
+            "input and outputs:\n"
+            "  --input PATH        directory of frames (*.pgm *.png *.jpg *.raw *.y16, sorted by name), list file\n"
+            "                      (*.txt / *.lst, one path per line), one image or raw file, or /dev/videoN\n"
+            "                      (default: the bundled synthetic clip, %s)\n"
+            "  --raw-size WxH      frame size of raw files (required for raw input)\n"
+            "  --raw-format F      raw samples: u16 (little-endian, default), u16be or u8\n"
+            "  --device-size WxH   V4L2: requested frame size (default: the driver's)\n"
+            "  --fps N             V4L2: requested frame rate\n"
+            "  --pixfmt F          V4L2: grey or y16 (default: y16 if offered)\n"
+            "  --timeout-ms N      V4L2: wait per frame (default 2000)\n"
+            "  --frames N          stop after N frames (default: all; devices: until interrupted)\n"
+            "  --model FILE        .vdm model (default: the first models/*.vdm of the source tree if any;\n"
+            "                      'none' = no model: every refined candidate is kept with score 1.0)\n"
+            "  --out DIR           annotated PNG frames: boxes yellow = new, green = confirmed,\n"
+            "                      magenta = recovered; track id and score above each box\n"
+            "  --no-scores         do not draw the id/score text\n"
+            "  --json FILE         detections as JSON Lines, one object per frame (docs/demo.md)\n"
+            "  --eval ANNOTATIONS  compare with ground truth: COCO-like JSON (HIT-UAV layout too) or a YOLO\n"
+            "                      label folder; prints TP rate, FP rate, precision, recall, FPPI\n"
+            "                      (default with the bundled clip: its annotations.json)\n"
+            "  --classes LIST      vehicle classes for --eval, ids or names, comma separated (default: classes\n"
+            "                      named car/othervehicle/vehicle/truck/bus/van; YOLO without names: 2 = MSRS car)\n"
+            "  --eval-out FILE     write the evaluation figures as JSON\n"
+            "  --quiet             no progress lines\n"
+            "  --help              this text\n\n"
+            "detector settings (also keys of --config FILE, a JSON object such as {\"hot-thr\": 150}; flags win):\n"
+            "  --config FILE       read settings from FILE\n",
+            VD_DEMO_DEFAULT_INPUT);
+    for (size_t i = 0; i < SET_COUNT; i++) {
+        char head[64];
+        snprintf(head, sizeof head, "--%s %s", k_settings[i].name, k_settings[i].arg);
+        fprintf(f, "  %-26s %s\n", head, k_settings[i].help);
+    }
+    fprintf(f, "\nErrors print one line on stderr and exit non-zero; outputs are written to temporary names\n"
+               "and renamed only when the whole run succeeded.\n");
+}
+
+static bool parse_double(const char *s, double lo, double hi, double *out)
+{
+    char *end = NULL;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (end == s || *end != '\0' || errno != 0 || !isfinite(v) || v < lo || v > hi) {
+        return false;
+    }
+    *out = v;
+    return true;
+}
+
+static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    char *end = NULL;
+    errno = 0;
+    if (*s == '-' || *s == '+') {
+        return false;
+    }
+    unsigned long long v = strtoull(s, &end, 10);
+    if (end == s || *end != '\0' || errno != 0 || v < lo || v > hi) {
+        return false;
+    }
+    *out = (uint32_t)v;
+    return true;
+}
+
+static bool parse_pair(const char *s, char sep, double *a, double *b)
+{
+    const char *p = strchr(s, sep);
+    if (p == NULL) {
+        return false;
+    }
+    char first[64];
+    size_t l = (size_t)(p - s);
+    if (l == 0 || l >= sizeof first) {
+        return false;
+    }
+    memcpy(first, s, l);
+    first[l] = '\0';
+    return parse_double(first, -1e12, 1e12, a) && parse_double(p + 1, -1e12, 1e12, b);
+}
+
+static bool parse_size(const char *s, uint32_t *w, uint32_t *h)
+{
+    double a, b;
+    if (!parse_pair(s, 'x', &a, &b) && !parse_pair(s, 'X', &a, &b)) {
+        return false;
+    }
+    if (a < 1 || b < 1 || a > VD_MAX_DIM || b > VD_MAX_DIM || a != floor(a) || b != floor(b)) {
+        return false;
+    }
+    *w = (uint32_t)a;
+    *h = (uint32_t)b;
+    return true;
+}
+
+static int32_t c_to_ck(double c)
+{
+    return (int32_t)lround(27315.0 + 100.0 * c);
+}
+
+static bool q_of(double v, double scale, double lo, double hi, uint32_t *out)
+{
+    if (!(v >= lo && v <= hi)) {
+        return false;
+    }
+    *out = (uint32_t)lround(v * scale);
+    return true;
+}
+
+// Applies one detector setting; false (with msg) when the value is invalid.
+static bool apply_setting(vd_detector_cfg_t *cfg, setting_id_t id, const char *v, char *msg, size_t msg_len)
+{
+    double d, d2;
+    uint32_t u = 0, u2 = 0;
+    bool ok = true;
+    switch (id) {
+    case SET_THR_MODE:
+        if (strcmp(v, "constant") == 0) {
+            cfg->thr_mode = VD_DETECTOR_THR_CONSTANT;
+        } else if (strcmp(v, "adaptive") == 0) {
+            cfg->thr_mode = VD_DETECTOR_THR_ADAPTIVE;
+        } else {
+            ok = false;
+        }
+        break;
+    case SET_HOT_THR:
+        ok = parse_u32(v, 1, 255, &u);
+        cfg->hot_thr_u8 = (uint8_t)u;
+        break;
+    case SET_HOT_THR_C:
+        ok = parse_double(v, -273.0, 380.0, &d);
+        if (ok) {
+            cfg->hot_thr_ck = c_to_ck(d);
+            ok = cfg->hot_thr_ck > 0;
+        }
+        break;
+    case SET_ADAPT_PCT:
+        ok = parse_double(v, 0.1, 100.0, &d) && q_of(d, 10.0, 0.1, 100.0, &u);
+        cfg->adaptive_permille = (uint16_t)u;
+        break;
+    case SET_ADAPT_FLOOR:
+        ok = parse_u32(v, 1, 255, &u);
+        cfg->adaptive_floor_u8 = (uint8_t)u;
+        break;
+    case SET_CALIB:
+        ok = parse_pair(v, ',', &d, &d2) && d > 0 && d < 32768.0 && fabs(d2) < 2e9;
+        if (ok) {
+            cfg->calib.gain_q16 = (int32_t)lround(d * 65536.0);
+            cfg->calib.offset_ck = (int32_t)lround(d2);
+            ok = cfg->calib.gain_q16 > 0;
+        }
+        break;
+    case SET_GREY_RANGE_C:
+        ok = parse_pair(v, ',', &d, &d2) && d < d2 && d > -273.0 && d2 < 380.0;
+        if (ok) {
+            cfg->grey_lo_ck = c_to_ck(d);
+            cfg->grey_hi_ck = c_to_ck(d2);
+        }
+        break;
+    case SET_MIN_AREA:
+        ok = parse_u32(v, 1, 67108864u, &u);
+        cfg->rules.min_area = u;
+        break;
+    case SET_MAX_AREA:
+        ok = parse_u32(v, 0, 67108864u, &u);
+        cfg->rules.max_area = u;
+        break;
+    case SET_ASPECT_MIN:
+        ok = parse_double(v, 0.004, 255.0, &d) && q_of(d, 256.0, 0.004, 255.0, &u);
+        cfg->rules.aspect_min_q8 = (uint16_t)u;
+        break;
+    case SET_ASPECT_MAX:
+        ok = parse_double(v, 0.004, 255.0, &d) && q_of(d, 256.0, 0.004, 255.0, &u);
+        cfg->rules.aspect_max_q8 = (uint16_t)u;
+        break;
+    case SET_EXPAND_W:
+        ok = parse_double(v, 1.0, 8.0, &d) && q_of(d, 256.0, 1.0, 8.0, &u);
+        cfg->expand_w_q8 = (uint16_t)u;
+        break;
+    case SET_EXPAND_H:
+        ok = parse_double(v, 1.0, 8.0, &d) && q_of(d, 256.0, 1.0, 8.0, &u);
+        cfg->expand_h_q8 = (uint16_t)u;
+        break;
+    case SET_MEDIAN:
+        ok = parse_u32(v, 0, 5, &u) && (u == 0 || u == 3 || u == 5);
+        cfg->median_ksize = (uint8_t)(u == 0 ? 1u : u);   // the detector's 1 = none
+        break;
+    case SET_EDGE_STEP:
+        ok = parse_u32(v, 1, 255, &u);
+        cfg->edge_step = (uint8_t)u;
+        break;
+    case SET_WINDOW:
+        ok = parse_u32(v, 3, 255, &u) && (u % 2u) == 1u;
+        cfg->window = (uint8_t)u;
+        break;
+    case SET_SCORE_THR:
+        // score_q8 = p * 256 rounded, 1..255; p = 0 keeps everything (1/256)
+        ok = parse_double(v, 0.0, 1.0, &d);
+        if (ok) {
+            long q = lround(d * 256.0);
+            cfg->score_thr_q8 = (uint8_t)(q < 1 ? 1 : q > 255 ? 255 : q);
+        }
+        break;
+    case SET_NMS_IOU:
+        ok = parse_double(v, 0.0, 1.0, &d);
+        if (ok) {
+            long q = lround(d * 32768.0);
+            cfg->nms_iou_q15 = (uint16_t)(q < 1 ? 1 : q);
+        }
+        break;
+    case SET_MAX_COMPONENTS:
+        ok = parse_u32(v, 1, 65535, &u);
+        cfg->max_components = (uint16_t)u;
+        break;
+    case SET_MAX_CANDIDATES:
+        ok = parse_u32(v, 1, 4096, &u);
+        cfg->max_candidates = (uint16_t)u;
+        break;
+    case SET_MAX_DETECTIONS:
+        ok = parse_u32(v, 1, 4096, &u);
+        cfg->max_detections = (uint16_t)u;
+        break;
+    case SET_MAX_REGION:
+        ok = parse_size(v, &u, &u2) && u >= 16 && u2 >= 16 && u <= 65535 && u2 <= 65535;
+        cfg->max_region_w = (uint16_t)u;
+        cfg->max_region_h = (uint16_t)u2;
+        break;
+    case SET_TEMPORAL:
+        if (strcmp(v, "on") == 0 || strcmp(v, "true") == 0 || strcmp(v, "1") == 0) {
+            cfg->temporal = true;
+        } else if (strcmp(v, "off") == 0 || strcmp(v, "false") == 0 || strcmp(v, "0") == 0) {
+            cfg->temporal = false;
+        } else {
+            ok = false;
+        }
+        break;
+    case SET_MAX_TRACKS:
+        ok = parse_u32(v, 1, 1024, &u);
+        cfg->max_tracks = (uint16_t)u;
+        break;
+    default:
+        ok = false;
+        break;
+    }
+    if (!ok) {
+        snprintf(msg, msg_len, "bad value '%s' for %s (expected %s)", v, k_settings[id].name, k_settings[id].arg);
+    }
+    return ok;
+}
+
+static int find_setting(const char *name)
+{
+    char norm[64];
+    size_t l = strlen(name);
+    if (l >= sizeof norm) {
+        return -1;
+    }
+    for (size_t i = 0; i <= l; i++) {
+        norm[i] = name[i] == '_' ? '-' : name[i];
+    }
+    for (int i = 0; i < SET_COUNT; i++) {
+        if (strcmp(norm, k_settings[i].name) == 0) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+static bool load_config(vd_detector_cfg_t *cfg, const char *path, char *msg, size_t msg_len)
+{
+    char *text = NULL;
+    size_t len = 0;
+    char err[512];
+    if (demo_read_file(path, 1u << 20, &text, &len, err, sizeof err) != VD_OK) {
+        snprintf(msg, msg_len, "--config: %s", err);
+        return false;
+    }
+    demo_json_t d;
+    if (demo_json_parse(&d, text, len, err, sizeof err) != VD_OK) {
+        snprintf(msg, msg_len, "--config %s: %s", path, err);
+        free(text);
+        return false;
+    }
+    bool ok = true;
+    if (d.n == 0 || d.tok[0].type != DEMO_JSON_OBJECT) {
+        snprintf(msg, msg_len, "--config %s: expected a JSON object of settings", path);
+        ok = false;
+    }
+    uint32_t k = 1;
+    for (uint32_t i = 0; ok && i < d.tok[0].size && k + 1u < d.n; i++) {
+        char key[64], val[128];
+        if (!demo_json_string(&d, k, key, sizeof key)) {
+            snprintf(msg, msg_len, "--config %s: key too long", path);
+            ok = false;
+            break;
+        }
+        int id = find_setting(key);
+        const demo_json_tok_t *t = &d.tok[k + 1u];
+        if (id < 0) {
+            snprintf(msg, msg_len, "--config %s: unknown setting \"%s\" (see --help)", path, key);
+            ok = false;
+            break;
+        }
+        if (t->type == DEMO_JSON_STRING) {
+            ok = demo_json_string(&d, k + 1u, val, sizeof val);
+        } else if (t->type == DEMO_JSON_NUMBER && t->len < sizeof val) {
+            memcpy(val, text + t->start, t->len);
+            val[t->len] = '\0';
+        } else if (t->type == DEMO_JSON_TRUE || t->type == DEMO_JSON_FALSE) {
+            snprintf(val, sizeof val, "%s", t->type == DEMO_JSON_TRUE ? "on" : "off");
+        } else {
+            ok = false;
+        }
+        if (!ok) {
+            snprintf(msg, msg_len, "--config %s: \"%s\" needs a number or string", path, key);
+            break;
+        }
+        char m2[256];
+        if (!apply_setting(cfg, (setting_id_t)id, val, m2, sizeof m2)) {
+            snprintf(msg, msg_len, "--config %s: %s", path, m2);
+            ok = false;
+            break;
+        }
+        k = t->next;
+    }
+    demo_json_free(&d);
+    free(text);
+    return ok;
+}
+
+static int usage_error(const char *fmt, const char *a, const char *b)
+{
+    fprintf(stderr, "vd_fir_demo: error: ");
+    fprintf(stderr, fmt, a, b);
+    fprintf(stderr, " (%s; see --help)\n", vd_status_str(VD_ERR_ARG));
+    return -1;
+}
+
+int demo_args_parse(demo_opts_t *o, int argc, char **argv)
+{
+    memset(o, 0, sizeof *o);
+    o->input = VD_DEMO_DEFAULT_INPUT;
+    o->input_default = true;
+    o->raw_format = VD_PIX_U16;
+    o->timeout_ms = 2000;
+    o->scores = true;
+    vd_detector_cfg_default(&o->cfg);
+    o->cfg.temporal = true;
+    const char *config = NULL;
+    // First pass: everything but detector settings, and find --config.
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            demo_args_usage(stdout);
+            return 1;
+        }
+        bool flag_only = strcmp(a, "--quiet") == 0 || strcmp(a, "--no-scores") == 0;
+        if (flag_only) {
+            if (a[2] == 'q') {
+                o->quiet = true;
+            } else {
+                o->scores = false;
+            }
+            continue;
+        }
+        if (strncmp(a, "--", 2) != 0) {
+            return usage_error("unexpected argument '%s'%s", a, "");
+        }
+        if (i + 1 >= argc) {
+            return usage_error("%s needs a value%s", a, "");
+        }
+        const char *v = argv[++i];
+        const char *n = a + 2;
+        if (strcmp(n, "input") == 0) {
+            o->input = v;
+            o->input_default = false;
+        } else if (strcmp(n, "model") == 0) {
+            o->model = v;
+        } else if (strcmp(n, "out") == 0) {
+            o->out_dir = v;
+        } else if (strcmp(n, "json") == 0) {
+            o->json = v;
+        } else if (strcmp(n, "eval") == 0) {
+            o->eval = v;
+        } else if (strcmp(n, "classes") == 0) {
+            o->classes = v;
+        } else if (strcmp(n, "eval-out") == 0) {
+            o->eval_out = v;
+        } else if (strcmp(n, "config") == 0) {
+            config = v;
+        } else if (strcmp(n, "raw-size") == 0) {
+            if (!parse_size(v, &o->raw_w, &o->raw_h)) {
+                return usage_error("bad --raw-size '%s'%s (expected WxH)", v, "");
+            }
+        } else if (strcmp(n, "raw-format") == 0) {
+            if (strcmp(v, "u16") == 0) {
+                o->raw_format = VD_PIX_U16;
+            } else if (strcmp(v, "u16be") == 0) {
+                o->raw_format = VD_PIX_U16;
+                o->raw_big_endian = true;
+            } else if (strcmp(v, "u8") == 0) {
+                o->raw_format = VD_PIX_U8;
+            } else {
+                return usage_error("bad --raw-format '%s'%s (expected u16, u16be or u8)", v, "");
+            }
+        } else if (strcmp(n, "device-size") == 0) {
+            if (!parse_size(v, &o->dev_w, &o->dev_h)) {
+                return usage_error("bad --device-size '%s'%s (expected WxH)", v, "");
+            }
+        } else if (strcmp(n, "fps") == 0) {
+            if (!parse_u32(v, 1, 1000, &o->fps)) {
+                return usage_error("bad --fps '%s'%s", v, "");
+            }
+        } else if (strcmp(n, "pixfmt") == 0) {
+            if (strcmp(v, "grey") == 0 || strcmp(v, "gray") == 0) {
+                o->dev_format = VD_PIX_U8;
+            } else if (strcmp(v, "y16") == 0) {
+                o->dev_format = VD_PIX_U16;
+            } else {
+                return usage_error("bad --pixfmt '%s'%s (expected grey or y16)", v, "");
+            }
+        } else if (strcmp(n, "timeout-ms") == 0) {
+            uint32_t t;
+            if (!parse_u32(v, 1, 3600000u, &t)) {
+                return usage_error("bad --timeout-ms '%s'%s", v, "");
+            }
+            o->timeout_ms = (int32_t)t;
+        } else if (strcmp(n, "frames") == 0) {
+            uint32_t t;
+            if (!parse_u32(v, 1, UINT32_MAX, &t)) {
+                return usage_error("bad --frames '%s'%s", v, "");
+            }
+            o->max_frames = t;
+        } else if (strchr(n, '_') != NULL || find_setting(n) < 0) {
+            return usage_error("unknown option '%s'%s", a, "");
+        }
+    }
+    char msg[600];
+    if (config != NULL && !load_config(&o->cfg, config, msg, sizeof msg)) {
+        fprintf(stderr, "vd_fir_demo: error: %s (%s)\n", msg, vd_status_str(VD_ERR_FORMAT));
+        return -1;
+    }
+    // Second pass: detector setting flags override the config file.
+    for (int i = 1; i + 1 < argc; i++) {
+        if (strncmp(argv[i], "--", 2) != 0) {
+            continue;
+        }
+        if (strcmp(argv[i], "--quiet") == 0 || strcmp(argv[i], "--no-scores") == 0) {
+            continue;
+        }
+        int id = find_setting(argv[i] + 2);
+        if (id >= 0 && !apply_setting(&o->cfg, (setting_id_t)id, argv[i + 1], msg, sizeof msg)) {
+            return usage_error("%s%s", msg, "");
+        }
+        i++;   // skip the value
+    }
+    if (o->eval == NULL && !o->input_default && (o->classes != NULL || o->eval_out != NULL)) {
+        return usage_error("--classes and --eval-out need --eval%s%s", "", "");
+    }
+    return 0;
+}

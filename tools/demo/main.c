@@ -1,0 +1,695 @@
+// SPDX-License-Identifier: MIT
+// vd_fir_demo: runs the vd detector on recorded frames or a V4L2 camera; writes annotated PNGs, JSON Lines, evaluation.
+//
+// Flow: options -> model (in place, vd_dbn_load) -> ground truth (--eval) ->
+// capture (port/) -> per frame: vd_detector_run -> JSON line, drawing,
+// matching -> summary. Every output is written under a temporary name
+// (PNGs into a hidden staging directory inside --out) and renamed into place
+// only after the whole run succeeded, so an error leaves no partial output.
+// Any capture error on recorded input (missing/truncated/undecodable file,
+// mixed sizes) ends the run with one line on stderr and exit status 1; usage
+// errors exit with 2. See docs/demo.md.
+#include "demo.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "vd/vd.h"
+#include "vd_port/capture.h"
+#include "vd_port/writer.h"
+
+#ifndef VD_DEMO_CLIP_DIR
+#define VD_DEMO_CLIP_DIR "build/clip"
+#endif
+#ifndef VD_DEMO_MODELS_DIR
+#define VD_DEMO_MODELS_DIR "models"
+#endif
+#define MODEL_MAX_BYTES (64u * 1024u * 1024u)
+#define MAX_DEVICE_RETRIES 5
+
+static const char *const k_stage_names[VD_DET_STAGE_COUNT] = {
+    "threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "total"};
+
+typedef struct run {
+    demo_opts_t o;
+    bool device;
+    vd_capture_t cap;
+    uint8_t *model_blob;
+    vd_model_t model;
+    bool have_model;
+    char model_path[4096];
+    vd_detector_t det;
+    void *ws;
+    bool det_ready;
+    vd_detection_t *dets;
+    size_t dets_cap;
+    demo_det_t *eval_dets;
+    demo_gt_t gt;
+    bool have_gt;
+    char eval_path[4096];
+    demo_atomic_t json;
+    bool json_open;
+    char stage_dir[4200];
+    bool staging;
+    char created[2][4096];   // output directories this run created (removed again on failure if empty)
+    char **staged;
+    size_t n_staged, cap_staged;
+    vd_rgb_t canvas;
+    uint32_t *times[VD_DET_STAGE_COUNT + 1];   // + wall time per frame (I/O included)
+    size_t n_times, cap_times;
+    uint64_t frames, detections, capacity_warnings;
+    uint32_t width, height;
+    vd_pixfmt_t format;
+    uint32_t grey_lo_raw, grey_hi_raw;
+    char err[1024];
+} run_t;
+
+static uint32_t clock_us(void *user)
+{
+    (void)user;
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint32_t)((uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u);
+}
+
+// One error line: "vd_fir_demo: error: <detail> (<status text>)".
+static int fail(run_t *r, vd_status_t st, const char *detail)
+{
+    (void)r;
+    fprintf(stderr, "vd_fir_demo: error: %s (%s)\n", detail, vd_status_str(st));
+    return 1;
+}
+
+// --model omitted: the first *.vdm (by name) of the source tree's models/.
+static bool find_default_model(char *out, size_t cap)
+{
+    DIR *dp = opendir(VD_DEMO_MODELS_DIR);
+    if (dp == NULL) {
+        return false;
+    }
+    char best[1024] = "";
+    struct dirent *de;
+    while ((de = readdir(dp)) != NULL) {
+        size_t l = strlen(de->d_name);
+        if (l > 4 && strcmp(de->d_name + l - 4, ".vdm") == 0 && de->d_name[0] != '.' &&
+            (best[0] == '\0' || strcmp(de->d_name, best) < 0) && l < sizeof best) {
+            memcpy(best, de->d_name, l + 1);
+        }
+    }
+    closedir(dp);
+    if (best[0] == '\0') {
+        return false;
+    }
+    snprintf(out, cap, "%s/%s", VD_DEMO_MODELS_DIR, best);
+    return true;
+}
+
+static vd_status_t load_model(run_t *r)
+{
+    const char *path = r->o.model;
+    if (path != NULL && strcmp(path, "none") == 0) {
+        return VD_OK;
+    }
+    if (path == NULL) {
+        if (!find_default_model(r->model_path, sizeof r->model_path)) {
+            return VD_OK;
+        }
+    } else {
+        snprintf(r->model_path, sizeof r->model_path, "%s", path);
+    }
+    char *blob = NULL;
+    size_t len = 0;
+    char e[600];
+    vd_status_t st = demo_read_file(r->model_path, MODEL_MAX_BYTES, &blob, &len, e, sizeof e);
+    if (st != VD_OK) {
+        snprintf(r->err, sizeof r->err, "--model: %s", e);
+        return st == VD_ERR_RANGE ? VD_ERR_MODEL : st;
+    }
+    r->model_blob = (uint8_t *)blob;
+    st = vd_dbn_load(&r->model, blob, len);
+    if (st != VD_OK) {
+        snprintf(r->err, sizeof r->err, "--model %s: not a valid .vdm model", r->model_path);
+        return st;
+    }
+    r->have_model = true;
+    return VD_OK;
+}
+
+static vd_status_t open_outputs(run_t *r)
+{
+    struct stat sb;
+    if (r->o.out_dir != NULL) {
+        if (stat(r->o.out_dir, &sb) != 0) {
+            snprintf(r->created[0], sizeof r->created[0], "%s", r->o.out_dir);
+        }
+        vd_status_t st = demo_mkdirs(r->o.out_dir, r->err, sizeof r->err);
+        if (st != VD_OK) {
+            return st;
+        }
+        snprintf(r->stage_dir, sizeof r->stage_dir, "%s/.vd_fir_demo.tmp.%ld", r->o.out_dir, (long)getpid());
+        if (mkdir(r->stage_dir, 0777) != 0) {
+            snprintf(r->err, sizeof r->err, "cannot create %s: %s", r->stage_dir, strerror(errno));
+            return VD_ERR_IO;
+        }
+        r->staging = true;
+    }
+    if (r->o.json != NULL) {
+        char dir[4096];
+        snprintf(dir, sizeof dir, "%s", r->o.json);
+        char *slash = strrchr(dir, '/');
+        if (slash != NULL && slash != dir) {
+            *slash = '\0';
+            if (stat(dir, &sb) != 0) {
+                snprintf(r->created[1], sizeof r->created[1], "%s", dir);
+            }
+            vd_status_t st = demo_mkdirs(dir, r->err, sizeof r->err);
+            if (st != VD_OK) {
+                return st;
+            }
+        }
+        vd_status_t st = demo_atomic_open(&r->json, r->o.json, r->err, sizeof r->err);
+        if (st != VD_OK) {
+            return st;
+        }
+        r->json_open = true;
+    }
+    return VD_OK;
+}
+
+// Removes everything this run wrote (error path).
+static void discard_outputs(run_t *r)
+{
+    if (r->json_open) {
+        demo_atomic_abort(&r->json);
+        r->json_open = false;
+    }
+    if (r->staging) {
+        char p[8400];
+        for (size_t i = 0; i < r->n_staged; i++) {
+            snprintf(p, sizeof p, "%s/%s", r->stage_dir, r->staged[i]);
+            remove(p);
+        }
+        rmdir(r->stage_dir);
+        r->staging = false;
+    }
+    for (int k = 1; k >= 0; k--) {
+        if (r->created[k][0] != '\0') {
+            rmdir(r->created[k]);   // only if still empty
+        }
+    }
+}
+
+static vd_status_t commit_outputs(run_t *r)
+{
+    if (r->json_open) {
+        r->json_open = false;
+        vd_status_t st = demo_atomic_commit(&r->json, r->err, sizeof r->err);
+        if (st != VD_OK) {
+            return st;
+        }
+    }
+    if (r->staging) {
+        char from[8400], to[8400];
+        for (size_t i = 0; i < r->n_staged; i++) {
+            snprintf(from, sizeof from, "%s/%s", r->stage_dir, r->staged[i]);
+            snprintf(to, sizeof to, "%s/%s", r->o.out_dir, r->staged[i]);
+            if (rename(from, to) != 0) {
+                snprintf(r->err, sizeof r->err, "cannot rename %s to %s: %s", from, to, strerror(errno));
+                return VD_ERR_IO;
+            }
+        }
+        rmdir(r->stage_dir);
+        r->staging = false;
+    }
+    return VD_OK;
+}
+
+static const char *state_name(uint8_t state)
+{
+    switch (state) {
+    case VD_TRACK_CONFIRMED: return "confirmed";
+    case VD_TRACK_RECOVERED: return "recovered";
+    default: return "new";
+    }
+}
+
+static const char *source_name(uint8_t source)
+{
+    switch (source) {
+    case 2: return "window";
+    case 3: return "contrast";
+    default: return "hotspot";
+    }
+}
+
+static double score_of(const vd_detection_t *d)
+{
+    return d->score_q8 / 255.0;
+}
+
+// The frame's name in the JSON and for --eval: the file name, or "device:seq".
+static void frame_name(run_t *r, const vd_frame_t *f, char *out, size_t cap)
+{
+    if (r->device) {
+        snprintf(out, cap, "%s:%u", r->o.input, (unsigned)f->seq);
+    } else {
+        snprintf(out, cap, "%s", demo_basename(vd_capture_frame_name(&r->cap)));
+    }
+}
+
+static void write_json_line(run_t *r, const char *name, const vd_frame_t *f, size_t n)
+{
+    FILE *jf = r->json.f;
+    fputs("{\"frame\": ", jf);
+    demo_json_write_string(jf, name);
+    fprintf(jf, ", \"seq\": %u, \"width\": %u, \"height\": %u, \"detections\": [", (unsigned)f->seq,
+            (unsigned)f->width, (unsigned)f->height);
+    for (size_t i = 0; i < n; i++) {
+        const vd_detection_t *d = &r->dets[i];
+        fprintf(jf, "%s{\"box\": [%d, %d, %d, %d], \"score\": %.3f, \"track\": ", i ? ", " : "", (int)d->box.x,
+                (int)d->box.y, (int)d->box.w, (int)d->box.h, score_of(d));
+        if (d->track_id != 0 && d->state != VD_TRACK_NONE) {
+            fprintf(jf, "%u", (unsigned)d->track_id);
+        } else {
+            fputs("null", jf);
+        }
+        fprintf(jf, ", \"source\": \"%s\", \"state\": \"%s\"}", source_name(d->source), state_name(d->state));
+    }
+    fputs("]}\n", jf);
+}
+
+static vd_status_t draw_frame(run_t *r, const char *name, const vd_frame_t *f, size_t n)
+{
+    vd_status_t st = vd_rgb_from_frame(&r->canvas, f, f->format == VD_PIX_U16 ? r->grey_lo_raw : 0,
+                                       f->format == VD_PIX_U16 ? r->grey_hi_raw : 0);
+    if (st != VD_OK) {
+        snprintf(r->err, sizeof r->err, "%s: cannot render the frame", name);
+        return st;
+    }
+    // Worst first so the best boxes end on top.
+    for (size_t k = n; k-- > 0;) {
+        const vd_detection_t *d = &r->dets[k];
+        uint8_t cr = 255, cg = 255, cb = 0;   // new: yellow
+        if (d->state == VD_TRACK_CONFIRMED) {
+            cr = 0;
+            cg = 255;
+            cb = 0;
+        } else if (d->state == VD_TRACK_RECOVERED) {
+            cr = 255;
+            cg = 0;
+            cb = 255;
+        }
+        vd_rgb_draw_rect(&r->canvas, &d->box, cr, cg, cb, 2);
+        if (r->o.scores) {
+            char label[48];
+            if (d->track_id != 0 && d->state != VD_TRACK_NONE) {
+                snprintf(label, sizeof label, "#%u %.2f", (unsigned)d->track_id, score_of(d));
+            } else {
+                snprintf(label, sizeof label, "%.2f", score_of(d));
+            }
+            int32_t ty = d->box.y >= 13 ? d->box.y - 12 : d->box.y + d->box.h + 2;
+            vd_rgb_draw_text(&r->canvas, d->box.x, ty, label, cr, cg, cb, 2);
+        }
+    }
+    // PNG name: the frame's name with .png (device frames: frame_<seq>.png).
+    char png[1100];
+    if (r->device) {
+        snprintf(png, sizeof png, "frame_%08u.png", (unsigned)f->seq);
+    } else {
+        snprintf(png, sizeof png, "%s", name);
+        char *hash = strchr(png, '#');
+        if (hash != NULL) {
+            *hash = '_';
+        } else {
+            char *dot = strrchr(png, '.');
+            if (dot != NULL && dot != png) {
+                *dot = '\0';
+            }
+        }
+        size_t l = strlen(png);
+        snprintf(png + l, sizeof png - l, ".png");
+    }
+    char path[8400];
+    snprintf(path, sizeof path, "%s/%s", r->stage_dir, png);
+    char e[512];
+    st = vd_write_png_rgb(path, &r->canvas, e, sizeof e);
+    if (st != VD_OK) {
+        snprintf(r->err, sizeof r->err, "%s", e);
+        return st;
+    }
+    for (size_t i = 0; i < r->n_staged; i++) {
+        if (strcmp(r->staged[i], png) == 0) {
+            return VD_OK;   // same name again (e.g. a list naming a file twice): overwritten
+        }
+    }
+    if (r->n_staged == r->cap_staged) {
+        size_t nc = r->cap_staged ? r->cap_staged * 2 : 256;
+        char **p = realloc(r->staged, nc * sizeof *p);
+        if (p == NULL) {
+            snprintf(r->err, sizeof r->err, "out of memory");
+            return VD_ERR_IO;
+        }
+        r->staged = p;
+        r->cap_staged = nc;
+    }
+    r->staged[r->n_staged] = strdup(png);
+    if (r->staged[r->n_staged] == NULL) {
+        snprintf(r->err, sizeof r->err, "out of memory");
+        return VD_ERR_IO;
+    }
+    r->n_staged++;
+    return VD_OK;
+}
+
+static uint32_t raw_of_ck(const vd_calib_t *c, int32_t ck)
+{
+    double raw = ((double)ck - c->offset_ck) * 65536.0 / c->gain_q16;
+    return raw < 0 ? 0u : raw > 65535.0 ? 65535u : (uint32_t)lround(raw);
+}
+
+static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
+{
+    vd_detector_cfg_t cfg = r->o.cfg;
+    cfg.max_width = f->width;
+    cfg.max_height = f->height;
+    cfg.clock_us = clock_us;
+    cfg.clock_user = NULL;
+    size_t bytes = 0;
+    const vd_model_t *m = r->have_model ? &r->model : NULL;
+    vd_status_t st = vd_detector_workspace_size(&cfg, m, &bytes);
+    if (st != VD_OK) {
+        snprintf(r->err, sizeof r->err, "detector settings rejected for %ux%u frames", (unsigned)f->width,
+                 (unsigned)f->height);
+        return st;
+    }
+    if (posix_memalign(&r->ws, 64, bytes ? bytes : 1) != 0) {
+        r->ws = NULL;
+        snprintf(r->err, sizeof r->err, "out of memory (%zu bytes of detector workspace)", bytes);
+        return VD_ERR_IO;
+    }
+    st = vd_detector_init(&r->det, &cfg, m, r->ws, bytes);
+    if (st != VD_OK) {
+        snprintf(r->err, sizeof r->err, "detector initialisation failed");
+        return st;
+    }
+    r->dets_cap = (size_t)r->det.cfg.max_detections + r->det.cfg.max_tracks + 1u;
+    r->dets = calloc(r->dets_cap, sizeof *r->dets);
+    r->eval_dets = calloc(r->dets_cap, sizeof *r->eval_dets);
+    if (r->dets == NULL || r->eval_dets == NULL) {
+        snprintf(r->err, sizeof r->err, "out of memory");
+        return VD_ERR_IO;
+    }
+    r->width = f->width;
+    r->height = f->height;
+    r->format = f->format;
+    r->grey_lo_raw = raw_of_ck(&r->det.cfg.calib, r->det.cfg.grey_lo_ck);
+    r->grey_hi_raw = raw_of_ck(&r->det.cfg.calib, r->det.cfg.grey_hi_ck);
+    if (r->grey_hi_raw <= r->grey_lo_raw) {
+        r->grey_hi_raw = r->grey_lo_raw + 1u;
+    }
+    if (r->staging) {
+        st = vd_rgb_alloc(&r->canvas, f->width, f->height);
+        if (st != VD_OK) {
+            snprintf(r->err, sizeof r->err, "out of memory");
+            return st;
+        }
+    }
+    r->det_ready = true;
+    return VD_OK;
+}
+
+static vd_status_t record_times(run_t *r, const vd_detector_stats_t *s, uint32_t wall_us)
+{
+    if (r->n_times == r->cap_times) {
+        size_t nc = r->cap_times ? r->cap_times * 2 : 256;
+        for (int k = 0; k <= VD_DET_STAGE_COUNT; k++) {
+            uint32_t *p = realloc(r->times[k], nc * sizeof *p);
+            if (p == NULL) {
+                snprintf(r->err, sizeof r->err, "out of memory");
+                return VD_ERR_IO;
+            }
+            r->times[k] = p;
+        }
+        r->cap_times = nc;
+    }
+    for (int k = 0; k < VD_DET_STAGE_COUNT; k++) {
+        r->times[k][r->n_times] = s->time_us[k];
+    }
+    r->times[VD_DET_STAGE_COUNT][r->n_times] = wall_us;
+    r->n_times++;
+    return VD_OK;
+}
+
+static int cmp_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median_us(uint32_t *v, size_t n)
+{
+    if (n == 0) {
+        return 0.0;
+    }
+    qsort(v, n, sizeof *v, cmp_u32);
+    return n % 2 ? v[n / 2] : (v[n / 2 - 1] + (double)v[n / 2]) / 2.0;
+}
+
+static double sum_us(const uint32_t *v, size_t n)
+{
+    double s = 0;
+    for (size_t i = 0; i < n; i++) {
+        s += v[i];
+    }
+    return s;
+}
+
+static void summary(run_t *r)
+{
+    double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
+    double wall_total = sum_us(r->times[VD_DET_STAGE_COUNT], r->n_times);
+    printf("vd_fir_demo: %llu frames, %llu detections; %.1f fps (detector), %.1f fps (with I/O and outputs)\n",
+           (unsigned long long)r->frames, (unsigned long long)r->detections,
+           det_total > 0 ? (double)r->frames * 1e6 / det_total : 0.0,
+           wall_total > 0 ? (double)r->frames * 1e6 / wall_total : 0.0);
+    if (r->n_times > 0) {
+        printf("median time per frame (ms):");
+        for (int k = 0; k < VD_DET_STAGE_COUNT; k++) {
+            printf(" %s %.2f%s", k_stage_names[k], median_us(r->times[k], r->n_times) / 1000.0,
+                   k + 1 < VD_DET_STAGE_COUNT ? "," : "\n");
+        }
+    }
+    if (r->capacity_warnings > 0) {
+        printf("note: %llu frames hit a detector budget (VD_ERR_CAPACITY; see --max-candidates, --max-detections)\n",
+               (unsigned long long)r->capacity_warnings);
+    }
+}
+
+static void cleanup(run_t *r)
+{
+    discard_outputs(r);
+    vd_capture_close(&r->cap);
+    vd_rgb_free(&r->canvas);
+    free(r->ws);
+    free(r->dets);
+    free(r->eval_dets);
+    free(r->model_blob);
+    if (r->have_gt) {
+        demo_gt_free(&r->gt);
+    }
+    for (size_t i = 0; i < r->n_staged; i++) {
+        free(r->staged[i]);
+    }
+    free(r->staged);
+    for (int k = 0; k <= VD_DET_STAGE_COUNT; k++) {
+        free(r->times[k]);
+    }
+}
+
+// The run proper; returns the exit status. cleanup() is the caller's.
+static int run(run_t *r)
+{
+    demo_opts_t *o = &r->o;
+    vd_status_t st;
+    r->device = strncmp(o->input, "/dev/", 5) == 0;
+    struct stat sb;
+    if (o->input_default) {
+        if (stat(o->input, &sb) != 0) {
+            char m[1200];
+            snprintf(m, sizeof m, "the bundled clip is missing at %s: build it with 'cmake --build build --target "
+                                  "vd_clip' or pass --input",
+                     o->input);
+            return fail(r, VD_ERR_IO, m);
+        }
+        if (o->eval == NULL) {
+            snprintf(r->eval_path, sizeof r->eval_path, "%s/annotations.json", VD_DEMO_CLIP_DIR);
+            if (stat(r->eval_path, &sb) == 0) {
+                o->eval = r->eval_path;
+            }
+        }
+    }
+    st = load_model(r);
+    if (st != VD_OK) {
+        return fail(r, st, r->err);
+    }
+    if (o->eval != NULL) {
+        st = demo_gt_load(&r->gt, o->eval, o->classes, r->err, sizeof r->err);
+        if (st != VD_OK) {
+            char m[1200];
+            snprintf(m, sizeof m, "--eval: %s", r->err);
+            return fail(r, st, m);
+        }
+        r->have_gt = true;
+    }
+    vd_capture_opts_t copts;
+    vd_capture_opts_default(&copts);
+    copts.raw_width = o->raw_w;
+    copts.raw_height = o->raw_h;
+    copts.raw_format = o->raw_format;
+    copts.raw_big_endian = o->raw_big_endian;
+    copts.width = o->dev_w;
+    copts.height = o->dev_h;
+    copts.fps = o->fps;
+    copts.format = o->dev_format;
+    copts.same_size = true;
+    st = vd_capture_open(&r->cap, o->input, &copts);
+    if (st == VD_OK) {
+        st = vd_capture_start(&r->cap);
+    }
+    if (st != VD_OK) {
+        const char *e = vd_capture_error(&r->cap);
+        char m[1200];
+        snprintf(m, sizeof m, "%s", e[0] ? e : o->input);
+        return fail(r, st, m);
+    }
+    if (!o->quiet) {
+        fprintf(stderr, "vd_fir_demo: input %s; model %s\n", o->input,
+                r->have_model ? r->model_path : "none (candidates are not verified; score 1.0)");
+    }
+    st = open_outputs(r);
+    if (st != VD_OK) {
+        return fail(r, st, r->err);
+    }
+    int retries = 0;
+    bool tty = isatty(2) != 0;
+    // Recorded input ends at VD_ERR_RANGE + at_end; a device runs until --frames or an error.
+    for (;;) {
+        if (o->max_frames != 0 && r->frames >= o->max_frames) {
+            break;
+        }
+        vd_frame_t f;
+        uint32_t t0 = clock_us(NULL);
+        st = vd_capture_next(&r->cap, o->timeout_ms, &f);
+        if (st == VD_ERR_RANGE && vd_capture_at_end(&r->cap)) {
+            break;
+        }
+        if (st != VD_OK) {
+            if (r->device && (st == VD_ERR_TIMEOUT || st == VD_ERR_AGAIN) && ++retries <= MAX_DEVICE_RETRIES) {
+                continue;
+            }
+            char m[1200];
+            snprintf(m, sizeof m, "%s", vd_capture_error(&r->cap));
+            return fail(r, st, m);
+        }
+        retries = 0;
+        char name[1100];
+        frame_name(r, &f, name, sizeof name);
+        if (!r->det_ready) {
+            st = init_detector(r, &f);
+            if (st != VD_OK) {
+                vd_capture_release(&r->cap, &f);
+                return fail(r, st, r->err);
+            }
+        } else if (f.width != r->width || f.height != r->height || f.format != r->format) {
+            char m[1400];
+            snprintf(m, sizeof m, "%s: %ux%u %s-bit, but the sequence started with %ux%u %s-bit frames", name,
+                     (unsigned)f.width, (unsigned)f.height, f.format == VD_PIX_U16 ? "16" : "8", (unsigned)r->width,
+                     (unsigned)r->height, r->format == VD_PIX_U16 ? "16" : "8");
+            vd_capture_release(&r->cap, &f);
+            return fail(r, VD_ERR_FORMAT, m);
+        }
+        size_t n = 0;
+        st = vd_detector_run(&r->det, &f, r->dets, r->dets_cap, &n);
+        if (st == VD_ERR_CAPACITY) {
+            r->capacity_warnings++;
+        } else if (st != VD_OK) {
+            char m[1400];
+            snprintf(m, sizeof m, "%s: detector failed", name);
+            vd_capture_release(&r->cap, &f);
+            return fail(r, st, m);
+        }
+        if (r->json_open) {
+            write_json_line(r, name, &f, n);
+        }
+        if (r->have_gt) {
+            for (size_t i = 0; i < n; i++) {
+                r->eval_dets[i].box = r->dets[i].box;
+                r->eval_dets[i].score = score_of(&r->dets[i]);
+            }
+            demo_gt_frame(&r->gt, name, f.width, f.height, r->eval_dets, n, NULL);
+        }
+        if (r->staging) {
+            st = draw_frame(r, name, &f, n);
+            if (st != VD_OK) {
+                vd_capture_release(&r->cap, &f);
+                return fail(r, st, r->err);
+            }
+        }
+        vd_capture_release(&r->cap, &f);
+        r->frames++;
+        r->detections += n;
+        st = record_times(r, vd_detector_last_stats(&r->det), clock_us(NULL) - t0);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+        if (!o->quiet && (tty || r->frames % 50 == 0)) {
+            fprintf(stderr, "%s[%llu] %s: %zu detections%s", tty ? "\r" : "", (unsigned long long)r->frames, name, n,
+                    tty ? "\033[K" : "\n");
+        }
+    }
+    if (!o->quiet && tty) {
+        fputc('\n', stderr);
+    }
+    if (r->frames == 0) {
+        return fail(r, VD_ERR_IO, "no frames were read");
+    }
+    if (r->json_open && (fflush(r->json.f) != 0 || ferror(r->json.f))) {
+        char m[1200];
+        snprintf(m, sizeof m, "cannot write %s", o->json);
+        return fail(r, VD_ERR_IO, m);
+    }
+    if (r->have_gt && o->eval_out != NULL) {
+        st = demo_gt_write_json(&r->gt, o->eval, o->eval_out, r->err, sizeof r->err);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+    }
+    st = commit_outputs(r);
+    if (st != VD_OK) {
+        return fail(r, st, r->err);
+    }
+    r->created[0][0] = r->created[1][0] = '\0';
+    summary(r);
+    if (r->have_gt) {
+        demo_gt_report(&r->gt, stdout);
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    static run_t r;   // large; zero-initialised
+    int a = demo_args_parse(&r.o, argc, argv);
+    if (a != 0) {
+        return a > 0 ? 0 : 2;
+    }
+    int rc = run(&r);
+    cleanup(&r);
+    return rc;
+}

@@ -1,0 +1,484 @@
+# SPDX-License-Identifier: MIT
+"""Builds the 32x32 verifier data set (vehicle / not vehicle) from the annotated thermal frames.
+
+Sources (read from ../shared/data, never copied; see its README for licences and citations):
+  MSRS road-level frames (YOLO labels, class 2 = car) and HIT-UAV drone frames (COCO-like JSON,
+  categories 1 Car and 3 OtherVehicle are vehicles, 4 DontCare is ignored), plus the HIT-UAV
+  sequence-0_100 flight, which is only ever used for testing.
+
+Samples:
+  positives  every vehicle box with both sides >= MIN_SIDE px; in the train split also a mirrored
+             copy and N_JITTER jittered boxes (centre shift <= 8 % of the side, scale 0.9-1.1,
+             aspect 0.95-1.05; half of them mirrored).
+  negatives  (a) hot-spot candidates of the candidate stage (threshold -> 8-connected components ->
+             aspect/area rules -> 1.5x/2x expansion; the C library when its bindings exist) whose
+             component box and expanded box are each kept as a sample when IoU < 0.2 with every
+             vehicle and they do not touch a DontCare box; thresholds: the paper's constant 150 AND a
+             per-frame 99th-percentile threshold, because both sets are AGC-scaled 8-bit video (150
+             finds almost nothing in dark MSRS frames and a third of a bright HIT-UAV frame);
+             (b) random background windows with sizes drawn from the vehicle boxes of the same set.
+Splits are by frame group (MSRS number // 40, HIT-UAV T_H_A flight), about 70/15/15 of the frames
+of each set, fixed seed; the sequence flight is test only. Built sets are cached in tools/.cache/.
+
+CLI: python3 -m vdtools.dataset --mode grey [--rebuild]   (prints counts per split and class)
+"""
+import argparse
+import hashlib
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from . import clib
+
+CACHE = clib.REPO / "tools" / ".cache"
+SPLITS = ("train", "val", "test")
+SPLIT_FRACTIONS = (0.70, 0.15, 0.15)
+MIN_SIDE = 8              # vehicles smaller than this are not sampled (the candidate rules need >= 120 px anyway)
+N_JITTER = 2
+NEG_CAND_PER_FRAME = 6    # candidate negatives kept per frame (random subset)
+NEG_RANDOM_PER_FRAME = 3  # random background windows per frame
+HOT_THR = 150             # paper 001's constant threshold (8-bit)
+HOT_PERCENTILE = 99.0     # per-frame adaptive threshold for AGC-scaled frames
+NEG_IOU = 0.2
+BUILD_VERSION = 1         # bump when the recipe changes (invalidates the cache)
+HIT_VEHICLE = (1, 3)
+HIT_IGNORE = (4,)
+MSRS_CAR = 2
+
+
+@dataclass
+class FrameRec:
+    dataset: str          # "msrs" | "hit" | "seq"
+    name: str
+    path: Path
+    group: str
+    vehicles: list = field(default_factory=list)   # [(x, y, w, h)] int pixels
+    ignore: list = field(default_factory=list)
+
+
+# ---------------------------------------------------------------- annotations
+
+def _clip_box(x, y, w, h, fw, fh):
+    x0, y0 = max(0, int(round(x))), max(0, int(round(y)))
+    x1, y1 = min(fw, int(round(x + w))), min(fh, int(round(y + h)))
+    return (x0, y0, x1 - x0, y1 - y0)
+
+
+def load_msrs(data_dir):
+    root = Path(data_dir) / "msrs"
+    out = []
+    for img in sorted((root / "images").glob("*.png")):
+        num = int(re.match(r"(\d+)", img.stem).group(1))
+        fr = FrameRec("msrs", img.name, img, f"msrs:{num // 40}")
+        lab = root / "labels" / (img.stem + ".txt")
+        if lab.exists():
+            for line in lab.read_text().split("\n"):
+                p = line.split()
+                if len(p) != 5 or int(p[0]) != MSRS_CAR:
+                    continue
+                xc, yc, w, h = (float(v) for v in p[1:])
+                fr.vehicles.append(_clip_box((xc - w / 2) * 640, (yc - h / 2) * 480, w * 640, h * 480, 640, 480))
+        out.append(fr)
+    return out
+
+
+def _load_coco(ann_path, images_dir, dataset, group_fn):
+    d = json.loads(Path(ann_path).read_text())
+    frames = {}
+    for im in d["images"]:
+        frames[im["id"]] = (FrameRec(dataset, im["filename"], Path(images_dir) / im["filename"], group_fn(im["filename"])),
+                            im["width"], im["height"])
+    for a in d["annotation"]:
+        fr, fw, fh = frames[a["image_id"]]
+        box = _clip_box(*a["bbox"], fw, fh)
+        if a["category_id"] in HIT_VEHICLE:
+            fr.vehicles.append(box)
+        elif a["category_id"] in HIT_IGNORE:
+            fr.ignore.append(box)
+    return sorted((f for f, _, _ in frames.values()), key=lambda f: f.name)
+
+
+def load_hit(data_dir):
+    root = Path(data_dir) / "hit-uav"
+    flight = lambda fn: "hit:" + "_".join(fn.split("_")[:3])
+    frames = _load_coco(root / "frames" / "annotations.json", root / "frames" / "images", "hit", flight)
+    seq = _load_coco(root / "sequence-0_100" / "annotations.json", root / "sequence-0_100" / "images", "seq",
+                     lambda fn: "seq:0_100")
+    return frames, seq
+
+
+def assign_splits(frames, seed=0):
+    """{group: split}: per data set, groups shuffled with `seed`, each given to the split that is
+    furthest below its target share of frames. Sequence groups are always test."""
+    out = {}
+    by_ds = {}
+    for f in frames:
+        by_ds.setdefault(f.dataset, {}).setdefault(f.group, 0)
+        by_ds[f.dataset][f.group] += 1
+    for ds in sorted(by_ds):
+        groups = sorted(by_ds[ds])
+        if ds == "seq":
+            out.update({g: "test" for g in groups})
+            continue
+        rng = np.random.default_rng(seed)
+        rng.shuffle(groups)
+        total = sum(by_ds[ds].values())
+        have = [0, 0, 0]
+        for g in groups:
+            deficit = [SPLIT_FRACTIONS[i] * total - have[i] for i in range(3)]
+            i = int(np.argmax(deficit))
+            out[g] = SPLITS[i]
+            have[i] += by_ds[ds][g]
+    return out
+
+
+# ---------------------------------------------------------------- geometry
+
+def iou(a, b):
+    ax1, ay1, bx1, by1 = a[0] + a[2], a[1] + a[3], b[0] + b[2], b[1] + b[3]
+    iw = min(ax1, bx1) - max(a[0], b[0])
+    ih = min(ay1, by1) - max(a[1], b[1])
+    if iw <= 0 or ih <= 0:
+        return 0.0
+    inter = iw * ih
+    return inter / float(a[2] * a[3] + b[2] * b[3] - inter)
+
+
+def _touches(a, b):
+    return min(a[0] + a[2], b[0] + b[2]) > max(a[0], b[0]) and min(a[1] + a[3], b[1] + b[3]) > max(a[1], b[1])
+
+
+def expand_rect(box, fw, fh, wscale=1.5, hscale=2.0):
+    """Paper 001: the candidate grows 1.5x horizontally and 2x vertically about its centre, clipped."""
+    x, y, w, h = box
+    cx, cy = x + w / 2.0, y + h / 2.0
+    nw, nh = w * wscale, h * hscale
+    return _clip_box(cx - nw / 2, cy - nh / 2, nw, nh, fw, fh)
+
+
+# ---------------------------------------------------------------- candidate stage (C when available)
+
+def _candidates_cv2(img, thr):
+    mask = (img >= thr).astype(np.uint8)
+    n, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    out = []
+    for i in range(1, n):
+        x, y, w, h, area = (int(v) for v in stats[i])
+        if area >= 120 and 0.3 * w <= h <= 1.5 * w:
+            out.append((x, y, w, h))
+    return out
+
+
+_CAND_IMPL = None
+
+
+def _candidate_impl():
+    """The C candidate stage through the bindings of helpers "pixel"/"components" if they are
+    present and the shared build has them, else the cv2 stand-in (same rules)."""
+    global _CAND_IMPL
+    if _CAND_IMPL is None:
+        _CAND_IMPL = ("cv2", _candidates_cv2)
+        try:
+            from . import pixel, components  # noqa: F401
+            fn = _make_c_candidates(pixel, components)
+            if fn is not None:
+                _CAND_IMPL = ("C", fn)
+        except Exception:  # bindings not written yet or library not built
+            pass
+    return _CAND_IMPL
+
+
+def _make_c_candidates(pixel, components):
+    thr_fn = getattr(pixel, "threshold_u8", None)
+    lab_fn = getattr(components, "label", None)
+    filt_fn = getattr(components, "filter", None) or getattr(components, "filter_components", None)
+    if thr_fn is None or lab_fn is None:
+        return None
+
+    def run(img, thr):
+        mask = thr_fn(img, int(thr))
+        comps = lab_fn(mask)
+        if filt_fn is not None:
+            comps = filt_fn(comps)
+        else:
+            comps = [c for c in comps if _rule_ok(c)]
+        return [tuple(int(v) for v in _box_of(c)) for c in comps]
+    img = np.zeros((40, 40), np.uint8)
+    img[10:25, 5:25] = 200
+    if sorted(run(img, 150)) != sorted(_candidates_cv2(img, 150)):
+        return None
+    return run
+
+
+def _box_of(c):
+    if isinstance(c, dict):
+        b = c.get("box", c)
+        return (b["x"], b["y"], b["w"], b["h"]) if isinstance(b, dict) else tuple(b)[:4]
+    if hasattr(c, "box"):
+        b = c.box
+        return (b.x, b.y, b.w, b.h) if hasattr(b, "x") else tuple(b)[:4]
+    return tuple(c)[:4]
+
+
+def _rule_ok(c):
+    x, y, w, h = _box_of(c)
+    area = c["area"] if isinstance(c, dict) else getattr(c, "area", w * h)
+    return area >= 120 and 0.3 * w <= h <= 1.5 * w
+
+
+def frame_thresholds(img):
+    return sorted({HOT_THR, int(min(255, max(1, np.percentile(img, HOT_PERCENTILE))))})
+
+
+def candidates(img):
+    """[(component_box, expanded_box)] over both thresholds, duplicates (IoU > 0.7) dropped."""
+    _, fn = _candidate_impl()
+    fh, fw = img.shape
+    out = []
+    for thr in frame_thresholds(img):
+        for box in fn(img, thr):
+            if all(iou(box, o[0]) <= 0.7 for o in out):
+                out.append((box, expand_rect(box, fw, fh)))
+    return out
+
+
+# ---------------------------------------------------------------- samples
+
+def _sample_cv2(img, rect, mode):
+    """Stand-in used only while the C sampler (vdtools.samples) is unavailable."""
+    x, y, w, h = rect
+    crop = img[y:y + h, x:x + w]
+    if mode == "grey":
+        return cv2.resize(crop, (32, 32), interpolation=cv2.INTER_AREA)
+    # rough stand-in for the paper's shape image (the C refine is the real one): median 3, Otsu
+    med = cv2.medianBlur(np.ascontiguousarray(crop), 3)
+    _, m = cv2.threshold(med, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    return cv2.resize(m, (32, 32), interpolation=cv2.INTER_AREA)
+
+
+_SAMPLE_IMPL = {}
+
+
+def sample_impl(mode="grey"):
+    """('C', fn) through vdtools.samples.sample32 (the device's resampler, and for 'shape' the C
+    refine) when it works on a probe, else ('cv2', stand-in)."""
+    if mode not in _SAMPLE_IMPL:
+        _SAMPLE_IMPL[mode] = ("cv2", _sample_cv2)
+        try:
+            from . import samples
+            probe = (np.arange(64 * 48, dtype=np.uint32).reshape(48, 64) * 7 % 251).astype(np.uint8)
+            s = samples.sample32(probe, (3, 5, 40, 30), mode)
+            if np.asarray(s).shape == (32, 32):
+                _SAMPLE_IMPL[mode] = ("C", lambda img, rect, m: np.asarray(
+                    samples.sample32(img, tuple(int(v) for v in rect), m), dtype=np.uint8).reshape(32, 32))
+        except Exception:
+            pass
+    return _SAMPLE_IMPL[mode]
+
+
+def sample32(img, rect, mode):
+    return sample_impl(mode)[1](img, rect, mode)
+
+
+def _jitter(box, fw, fh, rng):
+    x, y, w, h = box
+    s = rng.uniform(0.9, 1.1)
+    a = rng.uniform(0.95, 1.05)
+    nw, nh = w * s * a, h * s / a
+    cx = x + w / 2 + rng.uniform(-0.08, 0.08) * w
+    cy = y + h / 2 + rng.uniform(-0.08, 0.08) * h
+    return _clip_box(cx - nw / 2, cy - nh / 2, nw, nh, fw, fh)
+
+
+def _ok(box):
+    return box[2] >= MIN_SIDE and box[3] >= MIN_SIDE
+
+
+def read_frame(path):
+    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if img is None:
+        raise IOError(f"cannot read {path}")
+    return img
+
+
+def frame_samples(fr, split, mode, rng, vehicle_sizes):
+    """Yields (sample32, label, source, rect, hot) for one frame."""
+    img = read_frame(fr.path)
+    fh, fw = img.shape
+    thrs = frame_thresholds(img)
+    # positives
+    for box in fr.vehicles:
+        if not _ok(box):
+            continue
+        x, y, w, h = box
+        hot = bool((img[y:y + h, x:x + w] >= min(thrs)).any())
+        s = sample32(img, box, mode)
+        yield s, 1, "box", box, hot
+        if split == "train":
+            yield s[:, ::-1].copy(), 1, "box_flip", box, hot
+            for j in range(N_JITTER):
+                jb = _jitter(box, fw, fh, rng)
+                if _ok(jb):
+                    js = sample32(img, jb, mode)
+                    yield (js[:, ::-1].copy() if j % 2 else js), 1, "box_jitter", jb, hot
+    # candidate negatives
+    blockers = list(fr.vehicles)
+    cand = []
+    for comp, exp in candidates(img):
+        for r in (comp, exp):
+            if _ok(r) and all(iou(r, v) < NEG_IOU for v in blockers) and not any(_touches(r, g) for g in fr.ignore):
+                cand.append(r)
+    if len(cand) > NEG_CAND_PER_FRAME:
+        cand = [cand[i] for i in sorted(rng.choice(len(cand), NEG_CAND_PER_FRAME, replace=False))]
+    for r in cand:
+        yield sample32(img, r, mode), 0, "candidate", r, True
+    # random background windows of vehicle-like sizes
+    made = 0
+    for _ in range(20 * NEG_RANDOM_PER_FRAME):
+        if made == NEG_RANDOM_PER_FRAME:
+            break
+        w, h = vehicle_sizes[rng.integers(len(vehicle_sizes))]
+        w, h = int(min(w, fw - 1)), int(min(h, fh - 1))
+        r = (int(rng.integers(0, fw - w + 1)), int(rng.integers(0, fh - h + 1)), w, h)
+        if _ok(r) and all(iou(r, v) < NEG_IOU for v in blockers) and not any(_touches(r, g) for g in fr.ignore):
+            made += 1
+            yield sample32(img, r, mode), 0, "random", r, bool((img[r[1]:r[1] + h, r[0]:r[0] + w] >= min(thrs)).any())
+
+
+def all_frames(data_dir):
+    msrs = load_msrs(data_dir)
+    hit, seq = load_hit(data_dir)
+    return msrs + hit + seq
+
+
+def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None):
+    """Returns a dict of arrays: X (N,32,32) u8, y (N,) u8 (1 = vehicle), split (N,) str, source,
+    dataset, frame, group, rect (N,4) int32, hot (N,) bool; plus meta (dict)."""
+    data_dir = Path(data_dir or clib.DATA_DIR)
+    frames = frames if frames is not None else all_frames(data_dir)
+    split_of = assign_splits(frames, seed)
+    sizes = {}
+    for f in frames:
+        sizes.setdefault(f.dataset if f.dataset != "seq" else "hit", []).extend((b[2], b[3]) for b in f.vehicles if _ok(b))
+    rows = {k: [] for k in ("X", "y", "split", "source", "dataset", "frame", "group", "rect", "hot")}
+    it = frames
+    if progress:
+        from tqdm import tqdm
+        it = tqdm(frames, desc=f"samples ({mode})", unit="frame", mininterval=2.0)
+    for i, fr in enumerate(it):
+        rng = np.random.default_rng([seed, i])
+        split = split_of[fr.group]
+        vs = sizes.get(fr.dataset if fr.dataset != "seq" else "hit") or [(32, 32)]
+        for s, lab, src, rect, hot in frame_samples(fr, split, mode, rng, vs):
+            rows["X"].append(s)
+            rows["y"].append(lab)
+            rows["split"].append(split)
+            rows["source"].append(src)
+            rows["dataset"].append(fr.dataset)
+            rows["frame"].append(fr.name)
+            rows["group"].append(fr.group)
+            rows["rect"].append(rect)
+            rows["hot"].append(hot)
+    out = {
+        "X": np.asarray(rows["X"], np.uint8).reshape(-1, 32, 32),
+        "y": np.asarray(rows["y"], np.uint8),
+        "rect": np.asarray(rows["rect"], np.int32).reshape(-1, 4),
+        "hot": np.asarray(rows["hot"], bool),
+    }
+    for k in ("split", "source", "dataset", "frame", "group"):
+        out[k] = np.asarray(rows[k], dtype=str)
+    out["meta"] = {"mode": mode, "seed": seed, "version": BUILD_VERSION, "sampler": sample_impl(mode)[0],
+                   "candidates": _candidate_impl()[0], "n_frames": len(frames),
+                   "groups": {s: sorted(g for g, v in split_of.items() if v == s) for s in SPLITS}}
+    return out
+
+
+def cache_path(mode, seed):
+    return CACHE / f"dataset_{mode}_s{seed}_v{BUILD_VERSION}.npz"
+
+
+def save(ds, path):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {k: v for k, v in ds.items() if k != "meta"}
+    np.savez_compressed(path, meta=json.dumps(ds["meta"]), **arrays)
+
+
+def load(path):
+    with np.load(path, allow_pickle=False) as z:
+        ds = {k: z[k] for k in z.files if k != "meta"}
+        ds["meta"] = json.loads(str(z["meta"]))
+    return ds
+
+
+def load_or_build(mode="grey", seed=0, rebuild=False, data_dir=None, progress=True):
+    """The cached set when it was built with the current sampler/candidate implementations, else a rebuild."""
+    p = cache_path(mode, seed)
+    if p.exists() and not rebuild:
+        ds = load(p)
+        if ds["meta"].get("sampler") == sample_impl(mode)[0] and ds["meta"].get("candidates") == _candidate_impl()[0]:
+            return ds
+    ds = build(data_dir, mode, seed, progress)
+    save(ds, p)
+    return ds
+
+
+def subset(ds, mask):
+    return {k: (v[mask] if isinstance(v, np.ndarray) else v) for k, v in ds.items()}
+
+
+def counts(ds):
+    """{split: {dataset: [neg, pos]}} plus totals; positives/negatives by source."""
+    out = {}
+    for s in SPLITS:
+        m = ds["split"] == s
+        row = {"neg": int((ds["y"][m] == 0).sum()), "pos": int((ds["y"][m] == 1).sum())}
+        for d in ("msrs", "hit", "seq"):
+            md = m & (ds["dataset"] == d)
+            row[d] = [int((ds["y"][md] == 0).sum()), int((ds["y"][md] == 1).sum())]
+        for src in ("box", "box_flip", "box_jitter", "candidate", "random"):
+            row[src] = int((m & (ds["source"] == src)).sum())
+        row["groups"] = int(len(set(ds["group"][m])))
+        out[s] = row
+    return out
+
+
+def print_counts(ds):
+    c = counts(ds)
+    print(f"data set: mode={ds['meta']['mode']} sampler={ds['meta']['sampler']} candidates={ds['meta']['candidates']} "
+          f"seed={ds['meta']['seed']} frames={ds['meta']['n_frames']}")
+    print(f"{'split':6} {'groups':>6} {'neg':>6} {'pos':>6} | {'msrs n/p':>11} {'hit n/p':>11} {'seq n/p':>11} | "
+          f"{'box':>5} {'flip':>5} {'jit':>5} {'cand':>5} {'rand':>5}")
+    for s in SPLITS:
+        r = c[s]
+        print(f"{s:6} {r['groups']:6} {r['neg']:6} {r['pos']:6} | "
+              + " ".join(f"{r[d][0]:5}/{r[d][1]:<5}" for d in ("msrs", "hit", "seq"))
+              + f" | {r['box']:5} {r['box_flip']:5} {r['box_jitter']:5} {r['candidate']:5} {r['random']:5}")
+    return c
+
+
+def fingerprint(ds):
+    h = hashlib.sha256()
+    h.update(ds["X"].tobytes())
+    h.update(ds["y"].tobytes())
+    h.update("".join(ds["split"]).encode())
+    return h.hexdigest()[:16]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--mode", choices=("grey", "shape"), default="grey")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--rebuild", action="store_true", help="ignore the cache")
+    ap.add_argument("--data", type=Path, default=None, help="data directory (default ../shared/data)")
+    a = ap.parse_args(argv)
+    ds = load_or_build(a.mode, a.seed, a.rebuild, a.data)
+    print_counts(ds)
+    print(f"cache: {cache_path(a.mode, a.seed)}  fingerprint {fingerprint(ds)}")
+
+
+if __name__ == "__main__":
+    main()
