@@ -5,7 +5,6 @@ cv2.findContours(mask, RETR_EXTERNAL, CHAIN_APPROX_NONE), on real-frame masks
 and on generated ones, and chain codes that lead from each point to the next."""
 import cv2
 import numpy as np
-import pytest
 
 from vdtools import refine
 

@@ -5,7 +5,6 @@ edges, exact eq. (1) in Python integers), on candidate areas of real frames
 and on generated images; the parts (eq. (1), hole filling, edges) alone."""
 import cv2
 import numpy as np
-import pytest
 from scipy import ndimage
 
 from vdtools import refine

@@ -91,7 +91,7 @@ vd_status_t vd_refine_workspace_size(uint32_t max_w, uint32_t max_h, size_t *byt
 //   (1+step)-th, ...), in the window x window neighbourhood clipped to the ROI:
 //   T = vd_maxdist_from_hist(histogram of F there); mask = F > T there
 //   (later windows overwrite earlier ones where they overlap; windows with one
-//   grey level keep M).
+//   grey level leave the mask as it is).
 //   src    read-only 8-bit image; roi NULL = whole image, else inside it.
 //   cfg    settings (NULL = vd_refine_cfg_default()).
 //   ws     workspace of vd_refine_workspace_size(roi.w, roi.h) bytes.

@@ -1,0 +1,232 @@
+# SPDX-License-Identifier: MIT
+"""ctypes bindings of the C detector (lib/include/vd/detector.h) for evaluation tools.
+
+    from vdtools.detector import Detector
+    det = Detector(max_width=640, max_height=512, thr_mode="adaptive", model="models/x.vdm")
+    dets, stats = det.run(frame)          # frame: 2-D uint8 or uint16 numpy array
+    # dets: list of dicts {box, candidate, score, score_q8, contour_length, track, state, flags, ...}
+    # stats: dict of per-stage counts (hot_pixels, components, kept, refined, verified, ...)
+
+Configuration keywords are the fields of vd_detector_cfg_t (0 = the paper's default);
+thr_mode also accepts "constant" / "adaptive", and temporal=True enables temporal.h.
+`exp_tables()` regenerates the exp() tables of lib/src/temporal.c.
+"""
+import ctypes as C
+import math
+from pathlib import Path
+
+import numpy as np
+
+from vdtools import clib
+
+THR_CONSTANT, THR_ADAPTIVE = 0, 1
+FLAG_UNVERIFIED, FLAG_DECIMATED, FLAG_CONTOUR_TRUNC, FLAG_RECOVERED = 0x01, 0x02, 0x04, 0x08
+STATES = {0: None, 1: "new", 2: "confirmed", 3: "recovered"}
+STAGES = ("threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "total")
+
+CLOCK_FN = C.CFUNCTYPE(C.c_uint32, C.c_void_p)
+
+
+class Calib(C.Structure):
+    _fields_ = [("gain_q16", C.c_int32), ("offset_ck", C.c_int32)]
+
+
+class CcRules(C.Structure):
+    _fields_ = [("aspect_min_q8", C.c_uint16), ("aspect_max_q8", C.c_uint16),
+                ("min_area", C.c_uint32), ("max_area", C.c_uint32)]
+
+
+class TemporalCfg(C.Structure):
+    _fields_ = [("sigma_x", C.c_uint16), ("sigma_y", C.c_uint16), ("sigma_w", C.c_uint16),
+                ("sigma_h", C.c_uint16), ("weight_c_q15", C.c_uint16), ("match_thr_q15", C.c_uint16),
+                ("recover_thr_q15", C.c_uint16), ("confirm_frames", C.c_uint8), ("max_misses", C.c_uint8),
+                ("search_radius", C.c_uint8), ("search_step", C.c_uint8)]
+
+
+class DetectorCfg(C.Structure):
+    _fields_ = [("max_width", C.c_uint32), ("max_height", C.c_uint32),
+                ("thr_mode", C.c_uint8), ("hot_thr_u8", C.c_uint8), ("adaptive_floor_u8", C.c_uint8),
+                ("reserved0", C.c_uint8), ("adaptive_permille", C.c_uint16), ("reserved1", C.c_uint16),
+                ("hot_thr_ck", C.c_int32), ("calib", Calib), ("grey_lo_ck", C.c_int32), ("grey_hi_ck", C.c_int32),
+                ("rules", CcRules), ("expand_w_q8", C.c_uint16), ("expand_h_q8", C.c_uint16),
+                ("median_ksize", C.c_uint8), ("edge_step", C.c_uint8), ("window", C.c_uint8),
+                ("score_thr_q8", C.c_uint8), ("nms_iou_q15", C.c_uint16), ("max_components", C.c_uint16),
+                ("max_candidates", C.c_uint16), ("max_detections", C.c_uint16), ("max_region_w", C.c_uint16),
+                ("max_region_h", C.c_uint16), ("max_tracks", C.c_uint16), ("temporal", C.c_bool),
+                ("temporal_cfg", TemporalCfg), ("clock_us", CLOCK_FN), ("clock_user", C.c_void_p)]
+
+
+class Detection(C.Structure):
+    _fields_ = [("box", clib.Rect), ("candidate", clib.Rect), ("contour_length", C.c_uint32),
+                ("track_id", C.c_uint32), ("complexity_q15", C.c_uint16), ("score_q8", C.c_uint8),
+                ("source", C.c_uint8), ("state", C.c_uint8), ("flags", C.c_uint8), ("hot_thr", C.c_uint8),
+                ("reserved", C.c_uint8)]
+
+
+STAT_FIELDS = ("hot_thr_u8", "hot_thr_raw", "hot_pixels", "components", "kept", "refined", "verified",
+               "suppressed", "detections", "recovered", "decimated", "overflow_components",
+               "overflow_candidates", "overflow_contours", "overflow_detections", "overflow_tracks")
+
+
+class Stats(C.Structure):
+    _fields_ = [(n, C.c_uint32) for n in STAT_FIELDS] + [("time_us", C.c_uint32 * len(STAGES))]
+
+
+# vd_detector_t / vd_model_t are opaque here: generous aligned buffers (both are < 2 KiB in C).
+_DET_BYTES = 8192
+_MODEL_BYTES = 4096
+
+_bound = False
+
+
+def _lib():
+    global _bound
+    lib = clib.load()
+    if not _bound:
+        lib.vd_detector_cfg_default.argtypes = [C.POINTER(DetectorCfg)]
+        lib.vd_detector_cfg_default.restype = None
+        lib.vd_detector_workspace_size.argtypes = [C.POINTER(DetectorCfg), C.c_void_p, C.POINTER(C.c_size_t)]
+        lib.vd_detector_workspace_size.restype = C.c_int
+        lib.vd_detector_init.argtypes = [C.c_void_p, C.POINTER(DetectorCfg), C.c_void_p, C.c_void_p, C.c_size_t]
+        lib.vd_detector_init.restype = C.c_int
+        lib.vd_detector_run.argtypes = [C.c_void_p, C.POINTER(clib.Frame), C.POINTER(Detection), C.c_size_t,
+                                        C.POINTER(C.c_size_t)]
+        lib.vd_detector_run.restype = C.c_int
+        lib.vd_detector_last_stats.argtypes = [C.c_void_p]
+        lib.vd_detector_last_stats.restype = C.POINTER(Stats)
+        lib.vd_dbn_load.argtypes = [C.c_void_p, C.c_void_p, C.c_size_t]
+        lib.vd_dbn_load.restype = C.c_int
+        _bound = True
+    return lib
+
+
+def default_cfg():
+    """vd_detector_cfg_default() as a dict of its scalar fields."""
+    c = DetectorCfg()
+    _lib().vd_detector_cfg_default(C.byref(c))
+    return _struct_dict(c)
+
+
+def _struct_dict(s):
+    out = {}
+    for name, _ in s._fields_:
+        v = getattr(s, name)
+        if isinstance(v, C.Structure):
+            v = _struct_dict(v)
+        elif name in ("clock_us", "clock_user"):
+            continue
+        out[name] = v
+    return out
+
+
+def make_cfg(**kw):
+    """A zeroed DetectorCfg (= paper defaults) with the given fields set.
+    Nested structs take dicts: rules={...}, calib={...}, temporal_cfg={...}."""
+    c = DetectorCfg()
+    for k, v in kw.items():
+        if k == "thr_mode" and isinstance(v, str):
+            v = {"constant": THR_CONSTANT, "adaptive": THR_ADAPTIVE}[v]
+        if isinstance(v, dict):
+            sub = getattr(c, k)
+            for sk, sv in v.items():
+                setattr(sub, sk, sv)
+        else:
+            setattr(c, k, v)
+    return c
+
+
+def _load_model(model):
+    """(model buffer, keep-alive blob) from None, bytes or a path."""
+    if model is None:
+        return None, None
+    data = Path(model).read_bytes() if isinstance(model, (str, Path)) else bytes(model)
+    blob = np.frombuffer(data + b"\0" * (-len(data) % 8), dtype=np.uint64).copy()  # 8-aligned copy
+    m = (C.c_uint64 * (_MODEL_BYTES // 8))()
+    clib.check(_lib().vd_dbn_load(C.byref(m), blob.ctypes.data, len(data)), "vd_dbn_load")
+    return m, blob
+
+
+class Detector:
+    """One C detector with its own workspace. Keyword arguments: vd_detector_cfg_t fields."""
+
+    def __init__(self, model=None, clock=False, **cfg):
+        lib = _lib()
+        self.cfg = make_cfg(**cfg)
+        self._clock_fn = None
+        if clock:
+            import time
+            self._clock_fn = CLOCK_FN(lambda _u: int(time.perf_counter_ns() // 1000) & 0xFFFFFFFF)
+            self.cfg.clock_us = self._clock_fn
+        self._model, self._blob = _load_model(model)
+        mptr = C.cast(self._model, C.c_void_p) if self._model is not None else None
+        n = C.c_size_t()
+        clib.check(lib.vd_detector_workspace_size(C.byref(self.cfg), mptr, C.byref(n)), "vd_detector_workspace_size")
+        self.workspace_bytes = n.value
+        self._ws, self._ws_ptr = clib.workspace(n.value)
+        self._det = (C.c_uint64 * (_DET_BYTES // 8))()
+        clib.check(lib.vd_detector_init(C.byref(self._det), C.byref(self.cfg), mptr, self._ws_ptr, n.value),
+                   "vd_detector_init")
+        cap = max(int(self.cfg.max_detections or 32) + int(self.cfg.max_tracks or 32), 1)
+        self._out = (Detection * cap)()
+
+    def run(self, frame, seq=0, allow_capacity=True):
+        """Runs on a 2-D uint8/uint16 array. Returns (detections, stats); VD_ERR_CAPACITY is
+        reported in stats['status'] (results still valid) unless allow_capacity is False."""
+        a = np.ascontiguousarray(frame)
+        if a.ndim != 2 or a.dtype not in (np.uint8, np.uint16):
+            raise ValueError("frame must be a 2-D uint8 or uint16 array")
+        f = clib.frame(a, seq)
+        count = C.c_size_t()
+        st = _lib().vd_detector_run(C.byref(self._det), C.byref(f), self._out, len(self._out), C.byref(count))
+        if st != clib.VD_OK and not (allow_capacity and st == -3):
+            raise clib.VdError(st, "vd_detector_run")
+        dets = [detection_dict(self._out[i]) for i in range(count.value)]
+        return dets, self.stats(st)
+
+    def stats(self, status=0):
+        s = _lib().vd_detector_last_stats(C.byref(self._det)).contents
+        d = {n: int(getattr(s, n)) for n in STAT_FIELDS}
+        d["time_us"] = {STAGES[i]: int(s.time_us[i]) for i in range(len(STAGES))}
+        d["status"] = clib.STATUS.get(status, status)
+        return d
+
+
+def detection_dict(d):
+    b, c = d.box, d.candidate
+    return {
+        "box": [b.x, b.y, b.w, b.h],
+        "candidate": [c.x, c.y, c.w, c.h],
+        "score_q8": int(d.score_q8),
+        "score": d.score_q8 / 256.0,
+        "contour_length": int(d.contour_length),
+        "complexity_q15": int(d.complexity_q15),
+        "track": int(d.track_id) or None,
+        "state": STATES.get(int(d.state)),
+        "source": "hotspot",
+        "flags": int(d.flags),
+        "hot_thr": int(d.hot_thr),
+    }
+
+
+def detect(frame, model=None, **cfg):
+    """One-shot convenience: a detector sized for this frame, run once."""
+    cfg.setdefault("max_width", frame.shape[1])
+    cfg.setdefault("max_height", frame.shape[0])
+    return Detector(model=model, **cfg).run(frame)
+
+
+def exp_tables():
+    """The two Q30 tables of lib/src/temporal.c: round(2^30 exp(-k/128)), k=0..128, and
+    round(2^30 exp(-n)), n=0..16 (Python round: half to even; no value is a tie)."""
+    frac = [round(math.exp(-k / 128) * 2 ** 30) for k in range(129)]
+    ints = [round(math.exp(-n) * 2 ** 30) for n in range(17)]
+    return frac, ints
+
+
+if __name__ == "__main__":
+    fr, it = exp_tables()
+    for name, t in (("k_exp_frac_q30", fr), ("k_exp_int_q30", it)):
+        print(f"static const uint32_t {name}[{len(t)}] = {{")
+        for i in range(0, len(t), 6):
+            print("    " + ", ".join(f"{v}u" for v in t[i:i + 6]) + ",")
+        print("};")
