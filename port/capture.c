@@ -17,6 +17,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 
 void vd_capture_opts_default(vd_capture_opts_t *opts)
 {
@@ -66,7 +67,11 @@ vd_status_t vd_capture_open(vd_capture_t *cap, const char *input, const vd_captu
         vd_capture_opts_default(&def);
         opts = &def;
     }
-    if (starts_with(input, "/dev/")) {
+    // "/dev/..." is a camera unless it is a plain file or folder (e.g. frames in /dev/shm).
+    struct stat sb;
+    bool is_dev = starts_with(input, "/dev/") &&
+                  (stat(input, &sb) != 0 || (!S_ISDIR(sb.st_mode) && !S_ISREG(sb.st_mode)));
+    if (is_dev) {
 #if defined(VD_PORT_HAVE_V4L2_BACKEND)
         vd_v4l2_cfg_t cfg;
         memset(&cfg, 0, sizeof(cfg));

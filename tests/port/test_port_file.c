@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 static vd_capture_t g_cap;
 static char g_err[256];
@@ -540,6 +541,33 @@ static void test_same_size_and_16bit_sequence(void)
     }
 }
 
+static void test_dev_path_that_is_a_folder_reads_files(void)
+{
+    char dir[] = "/dev/shm/vd_port_test_XXXXXX";
+    if (mkdtemp(dir) == NULL) {
+        TEST_IGNORE_MESSAGE("/dev/shm not writable");
+        return;
+    }
+    char path[64];
+    (void)snprintf(path, sizeof(path), "%s/f.pgm", dir);
+    FILE *fp = fopen(path, "wb");
+    TEST_ASSERT_NOT_NULL(fp);
+    (void)fputs("P5 1 1 255\n\x2a", fp);
+    (void)fclose(fp);
+    vd_status_t st = vd_capture_open(&g_cap, dir, NULL);
+    if (st == VD_OK) {
+        st = vd_capture_start(&g_cap);
+    }
+    vd_frame_t fr;
+    if (st == VD_OK) {
+        st = vd_capture_next(&g_cap, 0, &fr);
+    }
+    vd_capture_close(&g_cap);
+    (void)remove(path);
+    (void)rmdir(dir);
+    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, st, vd_capture_error(&g_cap));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -558,5 +586,6 @@ int main(void)
     RUN_TEST(test_directory_without_frames_and_missing_paths);
     RUN_TEST(test_list_file);
     RUN_TEST(test_same_size_and_16bit_sequence);
+    RUN_TEST(test_dev_path_that_is_a_folder_reads_files);
     return UNITY_END();
 }

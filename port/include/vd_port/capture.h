@@ -115,7 +115,7 @@ typedef struct vd_capture_opts {
 void vd_capture_opts_default(vd_capture_opts_t *opts);
 
 // Opens a source by name:
-//   "/dev/..."      V4L2 device (vd_v4l2_open, real system calls)
+//   "/dev/..."      V4L2 device (vd_v4l2_open, real system calls), unless it is a regular file or directory
 //   a directory     every *.pgm *.png *.jpg *.jpeg *.raw *.y16 *.gray file in it, sorted by name (strcmp)
 //   "*.txt", "*.lst" a list file: one path per line (relative to the list's directory); '#' comments and blank lines skipped
 //   any other file  one image (PGM P5 8/16-bit, PNG 8/16-bit, JPEG) or one raw file (one or more frames)
@@ -171,7 +171,8 @@ void vd_capture_get_counters(const vd_capture_t *cap, vd_capture_counters_t *out
 // Never NULL ("" when unknown).
 const char *vd_capture_frame_name(const vd_capture_t *cap);
 
-// True when a recorded source has handed out all its frames (next() then returns VD_ERR_RANGE).
+// True when a recorded source has handed out all its frames (next() then returns VD_ERR_RANGE);
+// false again after stop() or start().
 bool vd_capture_at_end(const vd_capture_t *cap);
 
 // The negotiated frame size and format (V4L2 after open; files: the last frame read, 0 before).

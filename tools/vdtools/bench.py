@@ -1,0 +1,581 @@
+# SPDX-License-Identifier: MIT
+"""Benchmark of every vd stage against its OpenCV counterpart, same process, same pixels.
+
+    VD_LIB=build-bench/libvd.so python3 -m vdtools.bench [--frames 40] [--repeats 15] [--json docs/results/bench.json]
+
+Release build of libvd.so required (cmake -DCMAKE_BUILD_TYPE=Release). cv2.setNumThreads(1).
+Per stage and frame: median of `repeats` single-call timings (time.perf_counter_ns) after
+two warm-up calls; then the median over frames (ROI stages: over candidates). vd is
+called through ctypes with pre-built arguments; the cost of a no-op call is measured
+and printed, and so is the cost of a trivial cv2 call. Stages below ~10 us are
+dominated by that overhead: read tools/bench/vd_bench (C, no Python) for them.
+Docs: docs/performance.md.
+"""
+import argparse
+import ctypes as C
+import json
+import math
+import os
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import cv2
+
+from vdtools import clib
+from vdtools import detector as vdet
+
+P = C.POINTER
+VD_ERR_CAPACITY = -3
+DBN_SIZES = [1024, 576, 256, 64, 1]  # paper 001's network; 753 k multiply-adds
+
+
+# ---------------------------------------------------------------- ctypes (own instance)
+class _Lib:
+    """A private CDLL instance (so our argtypes never clash with vdtools bindings)
+    with every pointer argument as c_void_p: arguments are pre-built addresses."""
+
+    def __init__(self):
+        self.path = str(clib.lib_path())
+        lib = C.CDLL(self.path)
+        vp, sz, u32 = C.c_void_p, C.c_size_t, C.c_uint32
+        sigs = {
+            "vd_status_str": [C.c_int],
+            "vd_threshold_u8": [vp, vp, C.c_uint8, vp],
+            "vd_median3_u8": [vp, vp, vp],
+            "vd_median5_u8": [vp, vp, vp],
+            "vd_otsu_u8": [vp, vp, vp],
+            "vd_components_workspace_size": [u32, u32, vp],
+            "vd_components_label": [vp, vp, vp, sz, vp, sz, vp],
+            "vd_components_filter": [vp, sz, vp, vp],
+            "vd_cc_rules_default": [vp],
+            "vd_rect_expand": [vp, C.c_uint16, C.c_uint16, u32, u32, vp],
+            "vd_refine_workspace_size": [u32, u32, vp],
+            "vd_refine_region": [vp, vp, vp, vp, sz, vp, vp],
+            "vd_contours_workspace_size": [u32, u32, vp],
+            "vd_contours_find_external": [vp, vp, sz, vp, vp, sz, vp, sz, vp, vp],
+            "vd_resample_u8": [vp, vp, vp, u32, u32],
+            "vd_dbn_load": [vp, vp, sz],
+            "vd_dbn_workspace_size": [vp, vp],
+            "vd_dbn_classify": [vp, vp, vp, sz, vp],
+        }
+        for name, args in sigs.items():
+            f = getattr(lib, name)
+            f.argtypes = args
+            f.restype = C.c_int
+        lib.vd_status_str.restype = C.c_void_p
+        lib.vd_cc_rules_default.restype = None
+        self.lib = lib
+
+    def __getattr__(self, name):
+        return getattr(self.lib, name)
+
+
+def addr(obj):
+    return C.addressof(obj)
+
+
+class View:
+    """A ViewU8 (= ImageU8) on a 2-D uint8 array, kept alive with it."""
+
+    def __init__(self, a):
+        assert a.dtype == np.uint8 and a.ndim == 2 and a.strides[1] == 1
+        self.a = a
+        self.v = clib.view_u8(a)
+        self.p = addr(self.v)
+
+
+def rect(x, y, w, h):
+    r = clib.Rect(int(x), int(y), int(w), int(h))
+    return r, addr(r)
+
+
+# ---------------------------------------------------------------- timing
+def tmed(fn, repeats):
+    """Median ns of single calls of fn() after two warm-up calls."""
+    fn()
+    fn()
+    pc = time.perf_counter_ns
+    ts = []
+    for _ in range(repeats):
+        t0 = pc()
+        fn()
+        ts.append(pc() - t0)
+    return statistics.median(ts)
+
+
+def med(xs):
+    return statistics.median(xs) if xs else float("nan")
+
+
+# ---------------------------------------------------------------- data
+def pick(paths, n):
+    """n paths evenly spread over the sorted list (a fixed, reproducible sample)."""
+    paths = sorted(paths)
+    if len(paths) <= n:
+        return paths
+    return [paths[(i * len(paths)) // n] for i in range(n)]
+
+
+def read_grey(path):
+    if str(path).endswith(".pgm"):
+        from vdtools.clip import read_pgm
+        return read_pgm(path)
+    a = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if a is None:
+        raise OSError(f"cannot read {path}")
+    if a.ndim == 3:
+        a = a[:, :, 0]
+    return np.ascontiguousarray(a)
+
+
+def find_clip(arg):
+    """The bundled clip: --clip, else <dir of libvd.so>/clip, else generated into /tmp."""
+    cands = [Path(arg)] if arg else [clib.lib_path().parent / "clip", clib.REPO / "build" / "clip"]
+    for c in cands:
+        if (c / "u8").is_dir() and any((c / "u8").glob("*.pgm")):
+            return c
+    if arg:
+        return None
+    out = Path("/tmp") / f"vd_bench_clip_{os.getuid()}"
+    if not (out / "u8").is_dir():
+        from vdtools import clip
+        clip.generate(out)
+    return out
+
+
+def frame_sets(args):
+    sets = []
+    data = clib.DATA_DIR
+    msrs = list((data / "msrs").glob("**/*N.png"))
+    if msrs:
+        sets.append(("msrs-night", "8-bit 640x480 road, adaptive threshold",
+                     [read_grey(p) for p in pick(msrs, args.frames)], "adaptive"))
+    hit = list((data / "hit-uav" / "frames").glob("*.jpg"))
+    if hit:
+        sets.append(("hit-uav", "8-bit 640x512 drone, adaptive threshold",
+                     [read_grey(p) for p in pick(hit, args.frames)], "adaptive"))
+    clipdir = find_clip(args.clip)
+    if clipdir is not None:
+        sets.append(("clip-u8", "synthetic 640x512 8-bit, constant 150",
+                     [read_grey(p) for p in pick(list((clipdir / "u8").glob("*.pgm")), args.frames)], "constant"))
+        u16 = list((clipdir / "u16").glob("*.pgm"))
+        if u16:
+            sets.append(("clip-u16", "synthetic 640x512 16-bit centi-kelvin, 30 C (detector only)",
+                         [read_grey(p) for p in pick(u16, args.frames)], "constant"))
+    return sets
+
+
+def worst_frames(w=640, h=512, seed=5):
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:h, 0:w]
+    out = [("all-hot", np.full((h, w), 255, np.uint8)),
+           ("checkerboard-1px", np.where((xx + yy) % 2 == 0, 255, 0).astype(np.uint8)),
+           ("dots-every-2nd", np.where((xx % 2 == 0) & (yy % 2 == 0), 255, 0).astype(np.uint8)),
+           ("salt-pepper-50%", np.where(rng.random((h, w)) < 0.5, 255, 0).astype(np.uint8)),
+           ("salt-pepper-5%", np.where(rng.random((h, w)) < 0.05, 255,
+                                       rng.integers(0, 120, (h, w))).astype(np.uint8))]
+    return out
+
+
+# ---------------------------------------------------------------- the model
+def paper_model(repo):
+    """(blob, name): a trained models/*.vdm if one exists, else a random model of
+    the paper's size (timing does not depend on the weights)."""
+    vdms = sorted((repo / "models").glob("*.vdm")) if (repo / "models").is_dir() else []
+    for p in vdms:
+        b = p.read_bytes()
+        if len(b) > 500_000:
+            return b, p.name
+    from vdtools import quantise, vdm
+    fm = quantise.load_float(quantise.random_float_model(DBN_SIZES, seed=1))
+    return vdm.pack(quantise.quantise(fm, name="bench-random")), "random 1024-576-256-64-1 (grey)"
+
+
+# ---------------------------------------------------------------- the benchmark
+class Bench:
+    def __init__(self, args):
+        self.args = args
+        self.L = _Lib()
+        self.R = args.repeats
+        self.results = {}
+        self.model_blob, self.model_name = paper_model(clib.REPO)
+        self.mpath = Path("/tmp") / f"vd_bench_model_{os.getuid()}.vdm"
+        self.mpath.write_bytes(self.model_blob)
+        # DBN model in our own instance
+        self._mkeep = np.zeros((len(self.model_blob) + 15) // 8, np.uint64)
+        C.memmove(self._mkeep.ctypes.data, self.model_blob, len(self.model_blob))
+        self.model = (C.c_uint64 * 512)()
+        clib.check(self.L.vd_dbn_load(addr(self.model), self._mkeep.ctypes.data, len(self.model_blob)), "dbn_load")
+        n = C.c_size_t()
+        clib.check(self.L.vd_dbn_workspace_size(addr(self.model), addr(n)), "dbn ws")
+        self.dbn_ws, self.dbn_wsp = clib.workspace(n.value)
+        self.dbn_wsn = n.value
+
+    # -- overheads
+    def overheads(self):
+        L, R = self.L, max(self.R, 200)
+        f = L.vd_status_str
+        noop = med([tmed(lambda: f(0), R) for _ in range(5)])
+        thr = L.vd_threshold_u8
+        err4 = med([tmed(lambda: thr(None, None, 1, None), R) for _ in range(5)])
+        one = np.zeros((1, 1), np.uint8)
+        dst = np.zeros((1, 1), np.uint8)
+        cvo = med([tmed(lambda: cv2.threshold(one, 1, 255, cv2.THRESH_BINARY, dst), R) for _ in range(5)])
+        pc = time.perf_counter_ns
+        timer = med([tmed(lambda: None, R) for _ in range(5)])
+        self.results["overhead_ns"] = {"vd_status_str (ctypes no-op)": noop,
+                                       "vd_threshold_u8(NULL...) (ctypes, 4 args, early return)": err4,
+                                       "cv2.threshold on 1x1": cvo, "empty lambda + timer": timer}
+        del pc
+        return self.results["overhead_ns"]
+
+    def candidates(self, img, mask, labeller):
+        """Expanded candidate rects (paper rules) of one frame, as vd's detector finds them."""
+        L = self.L
+        comps, n = labeller(mask)
+        rules = (C.c_uint8 * 12)()
+        L.vd_cc_rules_default(addr(rules))
+        kept = C.c_size_t()
+        L.vd_components_filter(comps.ctypes.data, n, addr(rules), addr(kept))
+        out = []
+        h, w = img.shape
+        for i in range(kept.value):
+            c = comps[i]
+            x, y, bw, bh = int(c["x"]), int(c["y"]), int(c["w"]), int(c["h"])
+            rin, pin = rect(x, y, bw, bh)
+            rout, pout = rect(0, 0, 0, 0)
+            if L.vd_rect_expand(pin, 384, 512, w, h, pout) == 0:
+                out.append((rout.x, rout.y, rout.w, rout.h))
+        return out
+
+    def run_set(self, name, desc, frames, thr_mode):
+        L, R, a = self.L, self.R, self.args
+        res = {"description": desc, "frames": len(frames), "shape": list(frames[0].shape),
+               "dtype": str(frames[0].dtype), "stages": {}}
+        st = res["stages"]
+
+        def add(stage, vd_ns, cv_ns, unit="frame", note=""):
+            st.setdefault(stage, {"vd": [], "cv2": [], "unit": unit, "note": note})
+            if vd_ns is not None:
+                st[stage]["vd"].append(vd_ns)
+            if cv_ns is not None:
+                st[stage]["cv2"].append(cv_ns)
+
+        # detector (also gives each 8-bit frame's threshold)
+        det = vdet.Detector(model=self.mpath, thr_mode=thr_mode, max_width=max(f.shape[1] for f in frames),
+                            max_height=max(f.shape[0] for f in frames))
+        thrs, counts = [], []
+        for f in frames:
+            fa = np.ascontiguousarray(f)
+            cf = clib.frame(fa)
+            out = det._out
+            cnt = C.c_size_t()
+            run = vdet._lib().vd_detector_run
+            detp, fp, cntp = C.byref(det._det), C.byref(cf), C.byref(cnt)
+            status = [0]
+
+            def go():
+                status[0] = run(detp, fp, out, len(out), cntp)
+            add("detector (whole frame)", tmed(go, R), None, note="vd_detector_run, model: " + self.model_name)
+            s = det.stats(status[0])
+            thrs.append(s["hot_thr_u8"])
+            counts.append({k: s[k] for k in ("hot_pixels", "components", "kept", "refined", "verified",
+                                              "detections", "decimated")} | {"status": s["status"]})
+        res["detector_counts_median"] = {k: med([c[k] for c in counts]) for k in counts[0] if k != "status"}
+        res["detector_status"] = sorted({c["status"] for c in counts})
+        if frames[0].dtype != np.uint8:
+            self.results[name] = res
+            return res
+
+        H = max(f.shape[0] for f in frames)
+        W = max(f.shape[1] for f in frames)
+        n = C.c_size_t()
+        L.vd_components_workspace_size(W, H, addr(n))
+        cc_ws, cc_wsp = clib.workspace(n.value)
+        cc_wsn = n.value
+        cap = ((W + 1) // 2) * ((H + 1) // 2)
+        from vdtools.components import COMPONENT_DTYPE
+        comps = np.zeros(cap, COMPONENT_DTYPE)
+        L.vd_contours_workspace_size(W, H, addr(n))
+        ct_ws, ct_wsp = clib.workspace(n.value)
+        ct_wsn = n.value
+        pts_cap = 4 * W * H
+        pts = np.zeros(pts_cap, np.int32)   # vd_point_t = 2 x int16
+        ncont_cap = cap
+        conts = np.zeros(ncont_cap * 6, np.uint32)
+        nc, npt = C.c_size_t(), C.c_size_t()
+        refcfg = (C.c_uint8 * 3)(3, 5, 5)
+        L.vd_refine_workspace_size(W, H, addr(n))
+        rf_ws, rf_wsp = clib.workspace(n.value)
+        rf_wsn = n.value
+
+        def labeller(mask):
+            mv = View(mask)
+            cnt = C.c_size_t()
+            s = L.vd_components_label(mv.p, None, cc_wsp, cc_wsn, comps.ctypes.data, cap, addr(cnt))
+            assert s == 0, s
+            return comps, cnt.value
+
+        def contours_call(mv):
+            return lambda: L.vd_contours_find_external(mv.p, ct_wsp, ct_wsn, pts.ctypes.data, None, pts_cap,
+                                                       conts.ctypes.data, ncont_cap, addr(nc), addr(npt))
+
+        n_cand = 0
+        samples = []
+        cands_all = []
+        for f, thr in zip(frames, thrs):
+            fv = View(f)
+            dst = np.empty_like(f)
+            dv = View(dst)
+            # threshold
+            t8 = int(thr)
+            add("threshold", tmed(lambda: L.vd_threshold_u8(fv.p, None, t8, dv.p), R),
+                tmed(lambda: cv2.threshold(f, t8 - 1, 255, cv2.THRESH_BINARY, dst), R))
+            mask = dst.copy()
+            mv = View(mask)
+            assert np.array_equal(mask, cv2.threshold(f, t8 - 1, 255, cv2.THRESH_BINARY)[1])
+            # components
+            cnt = C.c_size_t()
+            labels = np.empty(f.shape, np.int32)
+            add("components", tmed(lambda: L.vd_components_label(mv.p, None, cc_wsp, cc_wsn, comps.ctypes.data,
+                                                                 cap, addr(cnt)), R),
+                tmed(lambda: cv2.connectedComponentsWithStats(mask, labels, connectivity=8, ltype=cv2.CV_32S), R),
+                note="vs connectedComponentsWithStats(connectivity=8, CV_32S)")
+            # median (whole frame)
+            add("median3 (frame)", tmed(lambda: L.vd_median3_u8(fv.p, None, dv.p), R),
+                tmed(lambda: cv2.medianBlur(f, 3, dst), R))
+            add("median5 (frame)", tmed(lambda: L.vd_median5_u8(fv.p, None, dv.p), R),
+                tmed(lambda: cv2.medianBlur(f, 5, dst), R))
+            # Otsu (whole frame): vd threshold value only, and value + binarisation (= cv2's work)
+            t = C.c_uint8()
+            add("otsu (frame, threshold only)", tmed(lambda: L.vd_otsu_u8(fv.p, None, addr(t)), R),
+                tmed(lambda: cv2.threshold(f, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU, dst), R),
+                note="cv2 also binarises")
+
+            def otsu_bin():
+                L.vd_otsu_u8(fv.p, None, addr(t))
+                if t.value < 255:
+                    L.vd_threshold_u8(fv.p, None, t.value + 1, dv.p)
+            add("otsu+binarise (frame)", tmed(otsu_bin, R),
+                tmed(lambda: cv2.threshold(f, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU, dst), R))
+            # contours of the hot mask (whole frame)
+            add("contours (hot mask, frame)", tmed(contours_call(mv), R),
+                tmed(lambda: cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE), R))
+            # candidates
+            cands = self.candidates(f, mask, labeller)[:a.max_cands_per_frame]
+            cands_all.append(len(cands))
+            for (x, y, w, h) in cands:
+                n_cand += 1
+                if n_cand > a.max_cands:
+                    break
+                r, rp = rect(x, y, w, h)
+                roi_out = np.empty((h, w), np.uint8)
+                ov = View(roi_out)
+                # context crop for cv2 so that medianBlur sees the same neighbours as vd
+                x0, y0 = max(x - 2, 0), max(y - 2, 0)
+                x1, y1 = min(x + w + 2, f.shape[1]), min(y + h + 2, f.shape[0])
+                crop = f[y0:y1, x0:x1]
+                cbuf = np.empty_like(crop)
+                add("median3 (candidate ROI)", tmed(lambda: L.vd_median3_u8(fv.p, rp, ov.p), R),
+                    tmed(lambda: cv2.medianBlur(crop, 3, cbuf), R), unit="candidate",
+                    note="cv2 on the ROI + 2 px context")
+                add("median5 (candidate ROI)", tmed(lambda: L.vd_median5_u8(fv.p, rp, ov.p), R),
+                    tmed(lambda: cv2.medianBlur(crop, 5, cbuf), R), unit="candidate",
+                    note="cv2 on the ROI + 2 px context")
+                roi_view = f[y:y + h, x:x + w]
+                rbuf = np.empty((h, w), np.uint8)
+                add("otsu+binarise (candidate ROI)",
+                    tmed(lambda: (L.vd_otsu_u8(fv.p, rp, addr(t)), L.vd_threshold_u8(fv.p, rp, min(t.value + 1, 255), ov.p)), R),
+                    tmed(lambda: cv2.threshold(roi_view, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU, rbuf), R),
+                    unit="candidate")
+                # refine vs a cv2 composition (median + Otsu + flood-fill hole filling)
+                add("refine (candidate ROI)",
+                    tmed(lambda: L.vd_refine_region(fv.p, rp, addr(refcfg), rf_wsp, rf_wsn, ov.p, None), R),
+                    tmed(lambda: cv_refine(crop, x - x0, y - y0, w, h), R), unit="candidate",
+                    note="no cv2 peer: cv2 = medianBlur3 + Otsu + floodFill hole fill (vd also does edges + local windows)")
+                refined = roi_out.copy()
+                rv = View(refined)
+                add("contours (refined ROI mask)", tmed(contours_call(rv), R),
+                    tmed(lambda: cv2.findContours(refined, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE), R),
+                    unit="candidate")
+                s32 = np.empty((32, 32), np.uint8)
+                add("resample to 32x32 (candidate)",
+                    tmed(lambda: L.vd_resample_u8(fv.p, rp, s32.ctypes.data, 32, 32), R),
+                    tmed(lambda: cv2.resize(roi_view, (32, 32), s32, interpolation=cv2.INTER_AREA), R),
+                    unit="candidate", note="closest cv2 peer: resize INTER_AREA")
+                samples.append(s32.copy())
+        res["candidates_per_frame_median"] = med(cands_all)
+        res["candidates_timed"] = min(n_cand, a.max_cands)
+
+        # DBN per sample
+        if samples:
+            score = C.c_uint8()
+            fn, mp = L.vd_dbn_classify, addr(self.model)
+            for s in samples[:40]:
+                add("DBN (per 32x32 sample)", tmed(lambda: fn(mp, s.ctypes.data, self.dbn_wsp, self.dbn_wsn,
+                                                             addr(score)), R), None, unit="sample",
+                    note="no cv2 peer; 753 k MAC")
+            # float32 numpy forward as a context figure (not a peer)
+            from vdtools import quantise
+            fm = quantise.load_float(quantise.random_float_model(DBN_SIZES, seed=1))
+            Ws = [(w.astype(np.float32), b.astype(np.float32)) for w, b in fm["layers"]]
+            x = samples[0].reshape(-1).astype(np.float32) / 255.0
+
+            def npf():
+                v = x
+                for w, b in Ws:
+                    v = 1.0 / (1.0 + np.exp(-(w @ v + b)))
+                return v
+            st["DBN (per 32x32 sample)"]["numpy_float32_ns"] = tmed(npf, R)
+        self.results[name] = res
+        return res
+
+    def worst(self):
+        """Worst-case frames through the detector (default caps) next to typical ones."""
+        R = max(3, self.R // 3)
+        out = {}
+        for mode in ("constant",):
+            det = vdet.Detector(model=self.mpath, thr_mode=mode)
+            for name, f in worst_frames():
+                out[name] = self._worst_one(det, f, R)
+        if self.args.max_size:
+            w = h = self.args.max_size
+            det = vdet.Detector(model=self.mpath, thr_mode="constant", max_width=w, max_height=h)
+            base = read_grey(sorted((clib.DATA_DIR / "msrs").glob("**/*N.png"))[0]) \
+                if (clib.DATA_DIR / "msrs").is_dir() else worst_frames()[3][1]
+            big = np.tile(base, (h // base.shape[0] + 1, w // base.shape[1] + 1))[:h, :w].copy()
+            out[f"max-size {w}x{h} (tiled night frame, thr 150)"] = self._worst_one(det, big, 3)
+            out[f"max-size {w}x{h} all-hot"] = self._worst_one(det, np.full((h, w), 255, np.uint8), 3)
+            out[f"max-size {w}x{h} salt-pepper-50%"] = self._worst_one(
+                det, np.where(np.random.default_rng(3).random((h, w)) < 0.5, 255, 0).astype(np.uint8), 3)
+            out["max-size workspace bytes"] = det.workspace_bytes
+        self.results["worst_cases"] = out
+        return out
+
+    def _worst_one(self, det, f, R):
+        f = np.ascontiguousarray(f)
+        cf = clib.frame(f)
+        cnt = C.c_size_t()
+        run = vdet._lib().vd_detector_run
+        status = [0]
+
+        def go():
+            status[0] = run(C.byref(det._det), C.byref(cf), det._out, len(det._out), C.byref(cnt))
+        t = tmed(go, R)
+        s = det.stats(status[0])
+        return {"shape": list(f.shape), "ms": t / 1e6, "status": s["status"], "detections": int(cnt.value),
+                "counts": {k: s[k] for k in ("hot_pixels", "components", "kept", "refined", "decimated",
+                                             "overflow_components", "overflow_candidates", "overflow_contours",
+                                             "overflow_detections")}}
+
+
+def cv_refine(crop, ox, oy, w, h):
+    """cv2 composition for the refine stage: medianBlur 3, Otsu, hole filling by floodFill."""
+    m = cv2.medianBlur(crop, 3)[oy:oy + h, ox:ox + w]
+    _, b = cv2.threshold(m, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU)
+    p = cv2.copyMakeBorder(b, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    cv2.floodFill(p, None, (0, 0), 255)
+    return cv2.bitwise_or(b, cv2.bitwise_not(p[1:-1, 1:-1]))
+
+
+# ---------------------------------------------------------------- report
+def summarise(results):
+    """Per set and stage: median vd / cv2 ns and the ratio."""
+    table = []
+    for name, res in results.items():
+        if not isinstance(res, dict) or "stages" not in res:
+            continue
+        for stage, d in res["stages"].items():
+            vd = med(d["vd"])
+            cv = med(d["cv2"]) if d["cv2"] else None
+            row = {"set": name, "stage": stage, "unit": d["unit"], "n": len(d["vd"]), "vd_us": vd / 1e3,
+                   "cv2_us": None if cv is None else cv / 1e3,
+                   "ratio": None if cv is None else vd / cv, "note": d.get("note", "")}
+            if stage.startswith("detector"):
+                row["frames_per_s"] = 1e9 / vd
+            if stage.startswith("DBN"):
+                row["mac_per_s"] = 753_216 / (vd / 1e9)
+                if "numpy_float32_ns" in d:
+                    row["numpy_float32_us"] = d["numpy_float32_ns"] / 1e3
+            table.append(row)
+    return table
+
+
+def fmt_table(table, overhead_us):
+    lines = [f"{'set':11s} {'stage':32s} {'unit':9s} {'n':>4s} {'vd us':>9s} {'-call':>9s} {'cv2 us':>9s} "
+             f"{'vd/cv2':>7s}  extra"]
+    for r in table:
+        cv = "" if r["cv2_us"] is None else f"{r['cv2_us']:9.1f}"
+        ratio = "" if r["ratio"] is None else f"{r['ratio']:7.2f}"
+        extra = ""
+        if "frames_per_s" in r:
+            extra = f"{r['frames_per_s']:.0f} frames/s"
+        if "mac_per_s" in r:
+            extra = f"{r['mac_per_s'] / 1e9:.2f} GMAC/s"
+            if "numpy_float32_us" in r:
+                extra += f" (numpy f32 {r['numpy_float32_us']:.1f} us)"
+        lines.append(f"{r['set']:11s} {r['stage']:32s} {r['unit']:9s} {r['n']:4d} {r['vd_us']:9.1f} "
+                     f"{r['vd_us'] - overhead_us:9.1f} {cv:>9s} {ratio:>7s}  {extra}")
+    return "\n".join(lines)
+
+
+def machine():
+    cpu = ""
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "numpy": np.__version__,
+            "cv2": cv2.__version__, "libvd": str(clib.lib_path()), "loadavg": os.getloadavg()}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--frames", type=int, default=40, help="frames per real set (evenly spread sample)")
+    ap.add_argument("--repeats", type=int, default=15, help="timed calls per frame and stage (median)")
+    ap.add_argument("--max-cands", type=int, default=120, help="candidates timed per set")
+    ap.add_argument("--max-cands-per-frame", type=int, default=6)
+    ap.add_argument("--clip", default=None, help="clip directory (default: next to libvd.so, else generated)")
+    ap.add_argument("--max-size", type=int, default=0, help="also time a max-size square frame (e.g. 8192)")
+    ap.add_argument("--sets", default="", help="comma list to restrict (msrs-night,hit-uav,clip-u8,clip-u16)")
+    ap.add_argument("--json", default=str(clib.REPO / "docs" / "results" / "bench.json"))
+    a = ap.parse_args(argv)
+    cv2.setNumThreads(1)
+    b = Bench(a)
+    print(f"libvd: {clib.lib_path()}  cv2 {cv2.__version__} threads={cv2.getNumThreads()}  model: {b.model_name}")
+    oh = b.overheads()
+    for k, v in oh.items():
+        print(f"overhead  {k:55s} {v / 1e3:7.2f} us")
+    for name, desc, frames, mode in frame_sets(a):
+        if a.sets and name not in a.sets.split(","):
+            continue
+        t0 = time.time()
+        b.run_set(name, desc, frames, mode)
+        print(f"[{name}: {len(frames)} frames, {time.time() - t0:.0f} s]", file=sys.stderr)
+    b.worst()
+    table = summarise(b.results)
+    print(fmt_table(table, oh["vd_status_str (ctypes no-op)"] / 1e3))
+    print("\nworst cases (detector, default caps; typical frames above):")
+    for k, v in b.results["worst_cases"].items():
+        if isinstance(v, dict):
+            print(f"  {k:45s} {v['ms']:9.2f} ms  {v['status']:16s} dets={v['detections']:3d} {v['counts']}")
+        else:
+            print(f"  {k:45s} {v}")
+    out = {"machine": machine(), "args": vars(a), "model": b.model_name, "table": table, "raw": b.results,
+           "date": time.strftime("%Y-%m-%d %H:%M:%S")}
+    Path(a.json).parent.mkdir(parents=True, exist_ok=True)
+    Path(a.json).write_text(json.dumps(out, indent=1, default=float))
+    print(f"wrote {a.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
