@@ -28,7 +28,7 @@
 // excess of the last strip reads clamped, valid pixels and is discarded).
 // Reference: cv2.medianBlur (OpenCV imgproc median_blur), bit-exact.
 // Bounds: time O(roi.w * roi.h) (about 18 / 108 min-max per pixel plus the
-// strip gathers); stack < 1.5 KiB (5x5 buffers: 5*68 + 10*66 + 64 bytes);
+// strip gathers); stack < 1.5 KiB (5x5 buffers: 2*5*68 + 10*66 + 64 = 1404 bytes);
 // no workspace.
 #include <string.h>
 

@@ -271,3 +271,29 @@ def test_unreadable_file(demo, clip_dir, tmp_path):
     f.chmod(0)
     p = run(demo, "--input", d, "--quiet", check=False)
     assert p.returncode != 0 and len(p.stderr.strip().splitlines()) == 1
+
+
+def test_json_readers_survive_hostile_files(demo, clip_dir, tmp_path):
+    """--eval and --config parse outside files: truncated, bit-flipped, deeply nested
+    or huge-number JSON gives a clean status (exit 0, 1 or 2, one line), never a crash."""
+    base = (clip_dir / "annotations.json").read_bytes()[:6000]
+    # a small but complete COCO-like file to mutate
+    doc = json.loads((clip_dir / "annotations.json").read_text())
+    small = json.dumps({"categories": doc["categories"], "images": doc["images"][:2],
+                        "annotation": [a for a in doc["annotation"] if a["image_id"] < 2]}).encode()
+    rng = np.random.default_rng(7)
+    cases = [small[:n] for n in rng.integers(0, len(small), 12)] + [base]
+    for _ in range(20):
+        b = bytearray(small)
+        for k in rng.integers(0, len(b), 3):
+            b[k] = int(rng.integers(0, 256))
+        cases.append(bytes(b))
+    cases += [b"[" * 100000, b'{"a":' * 5000, b'{"images": [], "annotation": [{"bbox": [1e999, 0, 1, 1]}]}',
+              b'"\\ud800"', b'{"images": [{"filename": "x", "id": 1e300}], "annotation": []}', b"\xff\xfe{}", b""]
+    f = tmp_path / "a.json"
+    for i, c in enumerate(cases):
+        f.write_bytes(c)
+        for args in (["--eval", f], ["--config", f]):
+            p = run(demo, "--input", clip_dir / "u8", "--model", "none", "--frames", 2, "--quiet", *args, check=False)
+            assert p.returncode in (0, 1, 2), (i, args, p.returncode, p.stderr[-500:])
+            assert len(p.stderr.strip().splitlines()) <= 1, (i, p.stderr[-500:])

@@ -155,7 +155,7 @@ def frame_sets(args):
     if msrs:
         sets.append(("msrs-night", "8-bit 640x480 road, adaptive threshold",
                      [read_grey(p) for p in pick(msrs, args.frames)], "adaptive"))
-    hit = list((data / "hit-uav" / "frames").glob("*.jpg"))
+    hit = list((data / "hit-uav" / "frames").glob("**/*.jpg"))
     if hit:
         sets.append(("hit-uav", "8-bit 640x512 drone, adaptive threshold",
                      [read_grey(p) for p in pick(hit, args.frames)], "adaptive"))
@@ -286,6 +286,16 @@ class Bench:
             thrs.append(s["hot_thr_u8"])
             counts.append({k: s[k] for k in ("hot_pixels", "components", "kept", "refined", "verified",
                                               "detections", "decimated")} | {"status": s["status"]})
+        # per-stage breakdown of the detector (its own clock_us, via a Python callback: ~1 us per stage)
+        detc = vdet.Detector(model=self.mpath, thr_mode=thr_mode, clock=True,
+                             max_width=max(f.shape[1] for f in frames), max_height=max(f.shape[0] for f in frames))
+        per = {k: [] for k in vdet.STAGES}
+        for f in frames:
+            for _ in range(3):
+                _, s = detc.run(np.ascontiguousarray(f))
+            for k in per:
+                per[k].append(s["time_us"][k])
+        res["detector_stage_us_median"] = {k: med(v) for k, v in per.items()}
         res["detector_counts_median"] = {k: med([c[k] for c in counts]) for k in counts[0] if k != "status"}
         res["detector_status"] = sorted({c["status"] for c in counts})
         if frames[0].dtype != np.uint8:
@@ -342,10 +352,13 @@ class Bench:
             # components
             cnt = C.c_size_t()
             labels = np.empty(f.shape, np.int32)
-            add("components", tmed(lambda: L.vd_components_label(mv.p, None, cc_wsp, cc_wsn, comps.ctypes.data,
-                                                                 cap, addr(cnt)), R),
+            t_cc = tmed(lambda: L.vd_components_label(mv.p, None, cc_wsp, cc_wsn, comps.ctypes.data, cap, addr(cnt)), R)
+            add("components", t_cc,
                 tmed(lambda: cv2.connectedComponentsWithStats(mask, labels, connectivity=8, ltype=cv2.CV_32S), R),
                 note="vs connectedComponentsWithStats(connectivity=8, CV_32S)")
+            add("components (cv2 labels only)", t_cc,
+                tmed(lambda: cv2.connectedComponents(mask, labels, connectivity=8, ltype=cv2.CV_32S), R),
+                note="same vd call vs cv2.connectedComponents: labels, no stats (less work than vd)")
             # median (whole frame)
             add("median3 (frame)", tmed(lambda: L.vd_median3_u8(fv.p, None, dv.p), R),
                 tmed(lambda: cv2.medianBlur(f, 3, dst), R))
@@ -483,6 +496,81 @@ def cv_refine(crop, ox, oy, w, h):
     return cv2.bitwise_or(b, cv2.bitwise_not(p[1:-1, 1:-1]))
 
 
+# ---------------------------------------------------------------- callgrind (instructions, C program)
+CG_STAGES = {"cg_detector": "detector (whole frame)", "cg_threshold": "threshold (frame)",
+             "cg_components": "components (frame)", "cg_median3": "median3 (frame)", "cg_median5": "median5 (frame)",
+             "cg_otsu": "otsu (frame)", "cg_contours": "contours (hot mask, frame)",
+             "cg_median3_roi": "median3 (candidate ROI)", "cg_median5_roi": "median5 (candidate ROI)",
+             "cg_otsu_roi": "otsu (candidate ROI)", "cg_refine": "refine (candidate ROI)",
+             "cg_contours_roi": "contours (refined ROI)", "cg_resample": "resample 32x32 (cand.)",
+             "cg_dbn": "DBN (per sample)"}
+
+
+def parse_callgrind(out_file, calls):
+    """{stage: Ir per call} from callgrind_annotate --inclusive=yes of a vd_bench --iters 1 run;
+    calls = {stage name: calls} from vd_bench's own table."""
+    import re
+    import subprocess
+    txt = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out_file)],
+                         capture_output=True, text=True, check=True).stdout
+    res = {}
+    for line in txt.splitlines():
+        m = re.match(r"\s*([\d,]+)\s+\([^)]*\)\s+\S*?:?(cg_\w+)\b", line)
+        if m and m.group(2) in CG_STAGES:
+            stage = CG_STAGES[m.group(2)]
+            n = calls.get(stage, 0)
+            if n:
+                res[stage] = int(m.group(1).replace(",", "")) / n
+    return res
+
+
+def vd_bench_calls(txt):
+    calls = {}
+    for line in Path(txt).read_text().splitlines():
+        for stage in CG_STAGES.values():
+            if line.startswith(stage):
+                parts = line[len(stage):].split()
+                if len(parts) >= 2:
+                    calls[stage] = int(parts[0])
+    return calls
+
+
+def run_callgrind(a):
+    """Runs build/tools/vd_bench --iters 1 under callgrind on each set's frame sample."""
+    import subprocess
+    exe = Path(a.vd_bench) if a.vd_bench else clib.lib_path().parent / "tools" / "vd_bench"
+    tmp = Path("/tmp") / f"vd_bench_cg_{os.getuid()}"
+    tmp.mkdir(exist_ok=True)
+    model = Path("/tmp") / f"vd_bench_model_{os.getuid()}.vdm"
+    blob, _ = paper_model(clib.REPO)
+    model.write_bytes(blob)
+    data = clib.DATA_DIR
+    clipdir = find_clip(a.clip)
+    sets = [("msrs-night", list((data / "msrs").glob("**/*N.png")), "adaptive"),
+            ("hit-uav", list((data / "hit-uav" / "frames").glob("**/*.jpg")), "adaptive")]
+    if clipdir is not None:
+        sets.append(("clip-u8", list((clipdir / "u8").glob("*.pgm")), "constant"))
+    out = {}
+    for name, paths, mode in sets:
+        if not paths or (a.sets and name not in a.sets.split(",")):
+            continue
+        lst = tmp / f"{name}.lst"
+        lst.write_text("\n".join(str(p) for p in pick(paths, a.frames)) + "\n")
+        cgf, txt = tmp / f"{name}.out", tmp / f"{name}.txt"
+        with open(txt, "w") as f:
+            subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={cgf}", str(exe), "--iters", "1",
+                            "--model", str(model), "--thr-mode", mode, str(lst)], stdout=f,
+                           stderr=subprocess.DEVNULL, check=True)
+        calls = vd_bench_calls(txt)
+        out[name] = {"calls": calls, "ir_per_call": parse_callgrind(cgf, calls)}
+        print(f"callgrind {name}: {len(paths and pick(paths, a.frames))} frames", file=sys.stderr)
+    stages = list(CG_STAGES.values())
+    print(f"{'stage (Ir per call)':30s}" + "".join(f"{n:>14s}" for n in out))
+    for st in stages:
+        print(f"{st:30s}" + "".join(f"{out[n]['ir_per_call'].get(st, float('nan')):14,.0f}" for n in out))
+    return out
+
+
 # ---------------------------------------------------------------- report
 def summarise(results):
     """Per set and stage: median vd / cv2 ns and the ratio."""
@@ -547,7 +635,16 @@ def main(argv=None):
     ap.add_argument("--max-size", type=int, default=0, help="also time a max-size square frame (e.g. 8192)")
     ap.add_argument("--sets", default="", help="comma list to restrict (msrs-night,hit-uav,clip-u8,clip-u16)")
     ap.add_argument("--json", default=str(clib.REPO / "docs" / "results" / "bench.json"))
+    ap.add_argument("--callgrind", action="store_true",
+                    help="instead: instructions per stage call from valgrind --tool=callgrind on tools/vd_bench")
+    ap.add_argument("--vd-bench", default=None, help="vd_bench executable (default: <dir of libvd.so>/tools/vd_bench)")
     a = ap.parse_args(argv)
+    if a.callgrind:
+        res = run_callgrind(a)
+        js = Path(a.json).with_name("callgrind.json") if a.json.endswith("bench.json") else Path(a.json)
+        js.write_text(json.dumps({"machine": machine(), "args": vars(a), "callgrind": res}, indent=1))
+        print(f"wrote {js}")
+        return 0
     cv2.setNumThreads(1)
     b = Bench(a)
     print(f"libvd: {clib.lib_path()}  cv2 {cv2.__version__} threads={cv2.getNumThreads()}  model: {b.model_name}")
