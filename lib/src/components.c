@@ -2,7 +2,9 @@
 // 8-connected component labelling over runs, shape rules, box expansion.
 //
 // Algorithm: rows are taken in pairs (ROI rows 2k, 2k+1). Each row is
-// run-length encoded (zero bytes skipped 8 at a time); the runs of the pair
+// run-length encoded straight from its source (a 0/nonzero mask, or an 8- or
+// 16-bit plane compared with a threshold, so no mask has to exist; uniform
+// stretches are skipped a 64-bit word at a time); the runs of the pair
 // are merged by start x into one array, so that run index order is the order
 // of OpenCV's block-based labelling (first 2x2 block of each component). Runs
 // of adjacent rows that overlap or touch diagonally (8-connectivity:
@@ -11,16 +13,20 @@
 // smaller; path halving, no recursion), so parent[i] <= i. One pass in index
 // order then turns parents into consecutive labels (a root gets the next
 // label, any other run its parent's label), and a second pass accumulates the
-// statistics per run into out[] (labels < cap only).
+// statistics per run into out[] (labels < cap only). The run array is the
+// only storage that grows with the content: its size is the run budget (the
+// worst case ceil(w/2) * h for vd_components_label; whatever the workspace
+// holds for the _thr_ functions, which stop at the first row pair that does
+// not fit and report it).
 // Reference: union-find over run-length segments as in the classic two-pass
 // run-based labelling (e.g. He, Chao, Suzuki, "A run-based two-scan labeling
 // algorithm", IEEE TIP 2008); order as in Bolelli et al., "Spaghetti
 // labeling" (OpenCV's CCL_DEFAULT for 8-connectivity).
 // Bounds: time O(w*h) for the scan plus O(runs * log runs) worst case for
-// union-find (near-linear in practice); stack O(1) (about 220 bytes deepest on
-// Cortex-M4 with -Os: label 144 + unite_rows 48 + helpers); code ~2.1 KB; workspace
-// vd_components_workspace_size(w, h) (runs <= ceil(w/2) * h, which needs
-// VD_MAX_DIM < 32768 for the 15-bit x plus row flag, and ceil(w/2)*h < 2^32).
+// union-find (near-linear in practice); stack O(1) (frames in
+// docs/embedded.md); workspace 24 * ceil(w/2) + 4 * (ceil(h/2) + 1) bytes
+// plus 8 per run of budget (runs <= ceil(w/2) * h, which needs VD_MAX_DIM <
+// 32768 for the 15-bit x plus row flag, and ceil(w/2)*h < 2^32).
 #include "vd/components.h"
 
 #include <string.h>
@@ -54,36 +60,59 @@ typedef union cc_slot {
     uint64_t sum_x;
 } cc_slot_t;
 
+// Workspace layout: three row-span buffers of ceil(w/2) runs, the pair
+// offsets seg[ceil(h/2) + 1], then the run slots (the budget) at the end, so
+// whatever the caller gives beyond the fixed part is run budget.
 typedef struct cc_layout {
-    size_t runs_cap;   // ceil(w/2) * h
+    size_t worst_runs; // ceil(w/2) * h: the most runs any w x h region has
     size_t spans_cap;  // ceil(w/2)
     size_t pairs;      // ceil(h/2)
+    size_t fixed;      // bytes before the slots
 } cc_layout_t;
 
-static vd_status_t cc_layout(uint32_t w, uint32_t h, cc_layout_t *lay, size_t *bytes)
+static vd_status_t cc_layout(uint32_t w, uint32_t h, cc_layout_t *lay)
 {
-    VD_VERIFY(bytes != NULL, VD_ERR_ARG);
     VD_VERIFY(w >= 1u && h >= 1u && w <= VD_MAX_DIM && h <= VD_MAX_DIM, VD_ERR_ARG);
     size_t total = 0u;
     size_t n;
     lay->spans_cap = ((size_t)w + 1u) / 2u;
     lay->pairs = ((size_t)h + 1u) / 2u;
-    VD_VERIFY(vd_mul_size(lay->spans_cap, (size_t)h, &lay->runs_cap), VD_ERR_OVERFLOW);
-    VD_VERIFY(lay->runs_cap <= (size_t)UINT32_MAX, VD_ERR_OVERFLOW);
-    VD_VERIFY(vd_mul_size(lay->runs_cap, sizeof(cc_slot_t), &n) && vd_size_add_slice(&total, n), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_mul_size(lay->spans_cap, (size_t)h, &lay->worst_runs), VD_ERR_OVERFLOW);
+    VD_VERIFY(lay->worst_runs <= (size_t)UINT32_MAX, VD_ERR_OVERFLOW);
     for (int i = 0; i < 3; i++) {
         VD_VERIFY(vd_mul_size(lay->spans_cap, sizeof(cc_span_t), &n) && vd_size_add_slice(&total, n),
                   VD_ERR_OVERFLOW);
     }
     VD_VERIFY(vd_mul_size(lay->pairs + 1u, sizeof(uint32_t), &n) && vd_size_add_slice(&total, n), VD_ERR_OVERFLOW);
+    lay->fixed = total;
+    return VD_OK;
+}
+
+// Fixed part plus `runs` slots.
+static vd_status_t cc_bytes(const cc_layout_t *lay, size_t runs, size_t *bytes)
+{
+    size_t n;
+    size_t total = lay->fixed;
+    VD_VERIFY(vd_mul_size(runs, sizeof(cc_slot_t), &n) && vd_size_add_slice(&total, n), VD_ERR_OVERFLOW);
     *bytes = total;
     return VD_OK;
 }
 
 vd_status_t vd_components_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes)
 {
+    VD_VERIFY(bytes != NULL, VD_ERR_ARG);
     cc_layout_t lay;
-    return cc_layout(max_width, max_height, &lay, bytes);
+    VD_TRY(cc_layout(max_width, max_height, &lay));
+    return cc_bytes(&lay, lay.worst_runs, bytes);
+}
+
+vd_status_t vd_components_workspace_size_runs(uint32_t max_width, uint32_t max_height, uint32_t max_runs,
+                                              size_t *bytes)
+{
+    VD_VERIFY(bytes != NULL && max_runs >= 1u, VD_ERR_ARG);
+    cc_layout_t lay;
+    VD_TRY(cc_layout(max_width, max_height, &lay));
+    return cc_bytes(&lay, (size_t)max_runs < lay.worst_runs ? (size_t)max_runs : lay.worst_runs, bytes);
 }
 
 // True if any byte of v is zero (exact: no false positives).
@@ -92,9 +121,30 @@ static inline bool cc_has_zero_byte(uint64_t v)
     return ((v - UINT64_C(0x0101010101010101)) & ~v & UINT64_C(0x8080808080808080)) != 0u;
 }
 
-// Run-length encodes one row of w pixels into spans[] (x only); returns the
-// number of runs, at most ceil(w/2). Every loop advances x, so <= w steps.
-static size_t cc_row_runs(const uint8_t *p, uint32_t w, cc_span_t *spans)
+// Lane masks for 8 x u8 and 4 x u16 lanes of a uint64. A 16-bit lane loaded
+// by memcpy holds the native uint16 on either endianness, so lane tests are
+// exact on big- and little-endian targets alike.
+#define CC_H8 UINT64_C(0x8080808080808080)
+#define CC_L8 UINT64_C(0x7F7F7F7F7F7F7F7F)
+#define CC_B8 UINT64_C(0x0101010101010101)
+#define CC_H16 UINT64_C(0x8000800080008000)
+#define CC_L16 UINT64_C(0x7FFF7FFF7FFF7FFF)
+#define CC_B16 UINT64_C(0x0001000100010001)
+
+// Per lane: top bit set iff lane(v) >= lane(tb) (unsigned), for lanes with top
+// bit H and low bits L. (v | H) - (tb & L) cannot borrow across lanes (each
+// lane is >= H - L = 1), so its top bit is "low bits of v >= low bits of t";
+// the top bits of v and t decide when they differ.
+static inline uint64_t cc_lanes_ge(uint64_t v, uint64_t tb, uint64_t hi, uint64_t lo)
+{
+    const uint64_t ge_low = ((v | hi) - (tb & lo)) & hi;
+    return ((v & ~tb) | (~(v ^ tb) & ge_low)) & hi;
+}
+
+// Run-length encoders of one row of w pixels into spans[] (x only); each
+// returns the number of runs, at most ceil(w/2). Every loop advances x, so
+// <= w steps. Background and foreground are skipped a 64-bit word at a time.
+static size_t cc_runs_mask(const uint8_t *p, uint32_t w, cc_span_t *spans)
 {
     size_t n = 0u;
     uint32_t x = 0u;
@@ -129,6 +179,113 @@ static size_t cc_row_runs(const uint8_t *p, uint32_t w, cc_span_t *spans)
         n++;
     }
     return n;
+}
+
+static size_t cc_runs_thr_u8(const uint8_t *p, uint32_t w, uint8_t t, cc_span_t *spans)
+{
+    const uint64_t tb = (uint64_t)t * CC_B8;
+    size_t n = 0u;
+    uint32_t x = 0u;
+    while (x < w) {
+        uint64_t v;
+        while (x + 8u <= w) { // background: no byte >= t
+            memcpy(&v, p + x, sizeof v);
+            if (cc_lanes_ge(v, tb, CC_H8, CC_L8) != 0u) {
+                break;
+            }
+            x += 8u;
+        }
+        while (x < w && p[x] < t) {
+            x++;
+        }
+        if (x >= w) {
+            break;
+        }
+        uint32_t start = x;
+        while (x + 8u <= w) { // foreground: every byte >= t
+            memcpy(&v, p + x, sizeof v);
+            if (cc_lanes_ge(v, tb, CC_H8, CC_L8) != CC_H8) {
+                break;
+            }
+            x += 8u;
+        }
+        while (x < w && p[x] >= t) {
+            x++;
+        }
+        spans[n].x0 = (uint16_t)start;
+        spans[n].x1 = (uint16_t)(x - 1u);
+        n++;
+    }
+    return n;
+}
+
+static inline uint16_t cc_px16(const uint8_t *p, uint32_t x)
+{
+    uint16_t v;
+    memcpy(&v, p + 2u * x, sizeof v);
+    return v;
+}
+
+static size_t cc_runs_thr_u16(const uint8_t *p, uint32_t w, uint16_t t, cc_span_t *spans)
+{
+    const uint64_t tb = (uint64_t)t * CC_B16;
+    size_t n = 0u;
+    uint32_t x = 0u;
+    while (x < w) {
+        uint64_t v;
+        while (x + 4u <= w) { // background: no pixel >= t
+            memcpy(&v, p + 2u * x, sizeof v);
+            if (cc_lanes_ge(v, tb, CC_H16, CC_L16) != 0u) {
+                break;
+            }
+            x += 4u;
+        }
+        while (x < w && cc_px16(p, x) < t) {
+            x++;
+        }
+        if (x >= w) {
+            break;
+        }
+        uint32_t start = x;
+        while (x + 4u <= w) { // foreground: every pixel >= t
+            memcpy(&v, p + 2u * x, sizeof v);
+            if (cc_lanes_ge(v, tb, CC_H16, CC_L16) != CC_H16) {
+                break;
+            }
+            x += 4u;
+        }
+        while (x < w && cc_px16(p, x) >= t) {
+            x++;
+        }
+        spans[n].x0 = (uint16_t)start;
+        spans[n].x1 = (uint16_t)(x - 1u);
+        n++;
+    }
+    return n;
+}
+
+// What the labeller reads: a mask (nonzero) or a plane compared with thr.
+enum { CC_SRC_MASK, CC_SRC_THR_U8, CC_SRC_THR_U16 };
+
+typedef struct cc_src {
+    const uint8_t *row0; // first pixel of the ROI
+    size_t stride;       // bytes
+    uint32_t w, h;       // ROI size
+    int32_t x, y;        // ROI origin in the image
+    int kind;
+    uint16_t thr;
+} cc_src_t;
+
+static size_t cc_row_runs(const cc_src_t *s, size_t y, cc_span_t *spans)
+{
+    const uint8_t *p = s->row0 + y * s->stride;
+    if (s->kind == CC_SRC_THR_U8) {
+        return cc_runs_thr_u8(p, s->w, (uint8_t)s->thr, spans);
+    }
+    if (s->kind == CC_SRC_THR_U16) {
+        return cc_runs_thr_u16(p, s->w, s->thr, spans);
+    }
+    return cc_runs_mask(p, s->w, spans);
 }
 
 // Root of run i with path halving. parent[j] < j for every non-root j, so
@@ -174,10 +331,13 @@ static void cc_unite_rows(cc_slot_t *s, const cc_span_t *up, size_t nu, const cc
 
 // Appends the runs of both rows of a pair to slots[], merged by x0 (a tie
 // means the runs touch vertically, so their order does not change labels).
-static uint32_t cc_merge_pair(cc_slot_t *s, uint32_t n, cc_span_t *a, size_t na, cc_span_t *b, size_t nb)
+// Adds the runs' pixels to *pixels.
+static uint32_t cc_merge_pair(cc_slot_t *s, uint32_t n, cc_span_t *a, size_t na, cc_span_t *b, size_t nb,
+                              uint32_t *pixels)
 {
     size_t ia = 0u;
     size_t ib = 0u;
+    uint32_t px = 0u;
     while (ia < na || ib < nb) {
         if (ib == nb || (ia < na && a[ia].x0 <= b[ib].x0)) {
             s[n].run.x0f = a[ia].x0;
@@ -190,51 +350,57 @@ static uint32_t cc_merge_pair(cc_slot_t *s, uint32_t n, cc_span_t *a, size_t na,
             b[ib].idx = n;
             ib++;
         }
+        px += (uint32_t)s[n].run.x1 - (s[n].run.x0f & CC_X_MASK) + 1u;
         s[n].run.parent = n;
         n++;
     }
+    *pixels += px;
     return n;
 }
 
-vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, void *ws, size_t bytes,
-                                vd_component_t *out, size_t cap, size_t *count)
+// The labeller shared by all entry points. `ws`/`bytes` were checked to hold
+// the fixed part of `lay` plus at least one slot; the run budget is what is
+// left, up to the worst case.
+static vd_status_t cc_label(const cc_src_t *src, const cc_layout_t *lay, void *ws, size_t bytes,
+                            vd_component_t *out, size_t cap, size_t *count, vd_cc_stats_t *stats)
 {
-    VD_VERIFY(count != NULL, VD_ERR_ARG);
-    *count = 0u;
-    VD_VERIFY(mask != NULL && vd_view_u8_check(mask) == VD_OK, VD_ERR_ARG);
-    VD_VERIFY(out != NULL || cap == 0u, VD_ERR_ARG);
-    vd_rect_t r;
-    VD_TRY(vd_roi_resolve(roi, mask->width, mask->height, &r));
-    const uint32_t w = (uint32_t)r.w;
-    const uint32_t h = (uint32_t)r.h;
-
-    cc_layout_t lay;
-    size_t need;
-    VD_TRY(cc_layout(w, h, &lay, &need));
     vd_arena_t arena;
     VD_TRY(vd_arena_init(&arena, ws, bytes));
-    VD_VERIFY(bytes >= need, VD_ERR_WORKSPACE);
-    cc_slot_t *slots = (cc_slot_t *)vd_arena_take(&arena, lay.runs_cap * sizeof(cc_slot_t));
-    cc_span_t *sp_a = (cc_span_t *)vd_arena_take(&arena, lay.spans_cap * sizeof(cc_span_t));
-    cc_span_t *sp_b = (cc_span_t *)vd_arena_take(&arena, lay.spans_cap * sizeof(cc_span_t));
-    cc_span_t *sp_up = (cc_span_t *)vd_arena_take(&arena, lay.spans_cap * sizeof(cc_span_t));
-    uint32_t *seg = (uint32_t *)vd_arena_take(&arena, (lay.pairs + 1u) * sizeof(uint32_t));
-    VD_ASSERT(slots != NULL && sp_a != NULL && sp_b != NULL && sp_up != NULL && seg != NULL);
+    cc_span_t *sp_a = (cc_span_t *)vd_arena_take(&arena, lay->spans_cap * sizeof(cc_span_t));
+    cc_span_t *sp_b = (cc_span_t *)vd_arena_take(&arena, lay->spans_cap * sizeof(cc_span_t));
+    cc_span_t *sp_up = (cc_span_t *)vd_arena_take(&arena, lay->spans_cap * sizeof(cc_span_t));
+    uint32_t *seg = (uint32_t *)vd_arena_take(&arena, (lay->pairs + 1u) * sizeof(uint32_t));
+    VD_ASSERT(sp_a != NULL && sp_b != NULL && sp_up != NULL && seg != NULL && arena.used == lay->fixed);
+    cc_slot_t *slots = (cc_slot_t *)((uint8_t *)ws + lay->fixed);
+    size_t runs_cap = (bytes - lay->fixed) / sizeof(cc_slot_t);
+    if (runs_cap > lay->worst_runs) {
+        runs_cap = lay->worst_runs;
+    }
+    const uint32_t h = src->h;
 
     // Pass 1: runs and unions, one row pair at a time. sp_up holds the runs
-    // of the row just above the pair (the previous pair's second row).
-    const uint8_t *row0 = mask->data + (size_t)r.y * mask->stride + (size_t)r.x;
+    // of the row just above the pair (the previous pair's second row). A pair
+    // whose runs do not fit in the budget ends the scan: `pairs` complete
+    // pairs (rows [0, rows)) are labelled.
     uint32_t n = 0u;
+    uint32_t pixels = 0u;
     size_t n_up = 0u;
-    for (size_t k = 0u; k < lay.pairs; k++) {
+    size_t pairs = lay->pairs;
+    uint32_t rows = h;
+    for (size_t k = 0u; k < lay->pairs; k++) {
         const size_t y = 2u * k;
-        size_t na = cc_row_runs(row0 + y * mask->stride, w, sp_a);
+        size_t na = cc_row_runs(src, y, sp_a);
         size_t nb = 0u;
         if (y + 1u < h) {
-            nb = cc_row_runs(row0 + (y + 1u) * mask->stride, w, sp_b);
+            nb = cc_row_runs(src, y + 1u, sp_b);
+        }
+        if (na + nb > runs_cap - n) {
+            pairs = k;
+            rows = (uint32_t)y;
+            break;
         }
         seg[k] = n;
-        n = cc_merge_pair(slots, n, sp_a, na, sp_b, nb);
+        n = cc_merge_pair(slots, n, sp_a, na, sp_b, nb, &pixels);
         cc_unite_rows(slots, sp_up, n_up, sp_a, na);
         cc_unite_rows(slots, sp_a, na, sp_b, nb);
         cc_span_t *t = sp_up; // the pair's second row is the next pair's row above
@@ -242,7 +408,7 @@ vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, 
         sp_b = t;
         n_up = nb;
     }
-    seg[lay.pairs] = n;
+    seg[pairs] = n;
 
     // Labels: parent[i] <= i, so parent[p] already holds p's label.
     uint32_t n_labels = 0u;
@@ -259,7 +425,7 @@ vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, 
     // Sums: sum(x) < area * w <= 2^26 * 2^13 = 2^39 for VD_MAX_DIM 8192 (and
     // < 2^60 for any w, h < 2^15), so uint64 cannot overflow.
     uint32_t seen = 0u;
-    for (size_t k = 0u; k < lay.pairs; k++) {
+    for (size_t k = 0u; k < pairs; k++) {
         const uint32_t y_even = (uint32_t)(2u * k);
         for (uint32_t i = seg[k]; i < seg[k + 1u]; i++) {
             const uint32_t x0f = slots[i].run.x0f;
@@ -317,13 +483,89 @@ vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, 
         const uint64_t cy = (512u * sy + c->area) / a2;
         c->box.w = c->box.w - c->box.x + 1;
         c->box.h = c->box.h - c->box.y + 1;
-        c->box.x += r.x;
-        c->box.y += r.y;
-        c->cx_q8 = (uint32_t)cx + ((uint32_t)r.x << 8);
-        c->cy_q8 = (uint32_t)cy + ((uint32_t)r.y << 8);
+        c->box.x += src->x;
+        c->box.y += src->y;
+        c->cx_q8 = (uint32_t)cx + ((uint32_t)src->x << 8);
+        c->cy_q8 = (uint32_t)cy + ((uint32_t)src->y << 8);
     }
     *count = n_out;
-    return ((size_t)n_labels > cap) ? VD_ERR_CAPACITY : VD_OK;
+    if (stats != NULL) {
+        stats->runs = n;
+        stats->pixels = pixels;
+        stats->rows = rows;
+        stats->labels = n_labels;
+    }
+    return ((size_t)n_labels > cap || rows < h) ? VD_ERR_CAPACITY : VD_OK;
+}
+
+// Common argument checks; fills the source geometry and the layout.
+static vd_status_t cc_prepare(uint32_t img_w, uint32_t img_h, const vd_rect_t *roi, void *ws, size_t bytes,
+                              size_t min_runs_worst, const vd_component_t *out, size_t cap, cc_src_t *src,
+                              cc_layout_t *lay)
+{
+    VD_VERIFY(out != NULL || cap == 0u, VD_ERR_ARG);
+    vd_rect_t r;
+    VD_TRY(vd_roi_resolve(roi, img_w, img_h, &r));
+    src->w = (uint32_t)r.w;
+    src->h = (uint32_t)r.h;
+    src->x = r.x;
+    src->y = r.y;
+    VD_TRY(cc_layout(src->w, src->h, lay));
+    size_t need;
+    VD_TRY(cc_bytes(lay, min_runs_worst != 0u ? lay->worst_runs : 1u, &need));
+    VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u && bytes >= need,
+              VD_ERR_WORKSPACE);
+    return VD_OK;
+}
+
+vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, void *ws, size_t bytes,
+                                vd_component_t *out, size_t cap, size_t *count)
+{
+    VD_VERIFY(count != NULL, VD_ERR_ARG);
+    *count = 0u;
+    VD_VERIFY(mask != NULL && vd_view_u8_check(mask) == VD_OK, VD_ERR_ARG);
+    cc_src_t src;
+    cc_layout_t lay;
+    VD_TRY(cc_prepare(mask->width, mask->height, roi, ws, bytes, 1u, out, cap, &src, &lay));
+    src.row0 = mask->data + (size_t)src.y * mask->stride + (size_t)src.x;
+    src.stride = mask->stride;
+    src.kind = CC_SRC_MASK;
+    src.thr = 1u;
+    return cc_label(&src, &lay, ws, bytes, out, cap, count, NULL);
+}
+
+vd_status_t vd_components_label_thr_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t thr, void *ws,
+                                       size_t bytes, vd_component_t *out, size_t cap, size_t *count,
+                                       vd_cc_stats_t *stats)
+{
+    VD_VERIFY(count != NULL, VD_ERR_ARG);
+    *count = 0u;
+    VD_VERIFY(src != NULL && vd_view_u8_check(src) == VD_OK, VD_ERR_ARG);
+    cc_src_t s;
+    cc_layout_t lay;
+    VD_TRY(cc_prepare(src->width, src->height, roi, ws, bytes, 0u, out, cap, &s, &lay));
+    s.row0 = src->data + (size_t)s.y * src->stride + (size_t)s.x;
+    s.stride = src->stride;
+    s.kind = CC_SRC_THR_U8;
+    s.thr = thr;
+    return cc_label(&s, &lay, ws, bytes, out, cap, count, stats);
+}
+
+vd_status_t vd_components_label_thr_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint16_t thr, void *ws,
+                                        size_t bytes, vd_component_t *out, size_t cap, size_t *count,
+                                        vd_cc_stats_t *stats)
+{
+    VD_VERIFY(count != NULL, VD_ERR_ARG);
+    *count = 0u;
+    VD_VERIFY(src != NULL && vd_view_u16_check(src) == VD_OK, VD_ERR_ARG);
+    cc_src_t s;
+    cc_layout_t lay;
+    VD_TRY(cc_prepare(src->width, src->height, roi, ws, bytes, 0u, out, cap, &s, &lay));
+    s.row0 = (const uint8_t *)src->data + (size_t)s.y * src->stride + 2u * (size_t)s.x;
+    s.stride = src->stride;
+    s.kind = CC_SRC_THR_U16;
+    s.thr = thr;
+    return cc_label(&s, &lay, ws, bytes, out, cap, count, stats);
 }
 
 void vd_cc_rules_default(vd_cc_rules_t *rules)

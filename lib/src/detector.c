@@ -18,14 +18,17 @@
 // with a fixed range), computed as ((T - lo) * mul_q16 + 2^15) >> 16 with
 // mul_q16 = round(255 * 2^16 / (hi - lo)): |error| <= 1 grey level.
 //
-// Memory: one workspace carved in init (layout in docs/architecture.md). The
-// hot mask and the labelling scratch share one "overlay" buffer with the
-// per-candidate region buffers, which are only used after labelling.
+// Memory: one workspace carved in init (layout in docs/architecture.md). No
+// hot mask is made: components are labelled straight from the frame with a
+// run budget (components.h), and that labelling workspace shares one
+// "overlay" buffer with the per-candidate region buffers, which are only used
+// after labelling; inside those, the contour tracer reuses the refine
+// workspace.
 // Regions larger than max_region_w x max_region_h are box-averaged by
 // per-axis integer factors kx, ky first (one rounded division per output
 // pixel, each after kx*ky >= 2 additions).
 //
-// Bounds: time O(W*H) for threshold and labelling plus, per candidate
+// Bounds: time O(W*H) for the (adaptive) histogram and labelling plus, per candidate
 // (<= max_candidates), O(region) for refine/contour and the DBN's
 // multiply-adds; NMS O(max_candidates^2); temporal as temporal.h with at most
 // 289 refine probes per missed confirmed track. Stack of vd_detector_run
@@ -40,7 +43,8 @@
 
 #define DEF_W 640u
 #define DEF_H 512u
-#define DEF_REGION 256u
+#define DEF_REGION 176u
+#define DEF_RUNS 24576u
 
 void vd_detector_cfg_default(vd_detector_cfg_t *cfg)
 {
@@ -73,6 +77,7 @@ void vd_detector_cfg_default(vd_detector_cfg_t *cfg)
     cfg->max_region_w = (uint16_t)DEF_REGION;
     cfg->max_region_h = (uint16_t)DEF_REGION;
     cfg->max_tracks = 32u;
+    cfg->max_runs = DEF_RUNS;
     cfg->temporal = false;
     vd_temporal_cfg_default(&cfg->temporal_cfg);
 }
@@ -129,6 +134,7 @@ static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c
     if (c->max_region_h == 0u) { c->max_region_h = (uint16_t)(c->max_height < DEF_REGION ? c->max_height : DEF_REGION); }
     VD_VERIFY(c->max_region_w <= c->max_width && c->max_region_h <= c->max_height, VD_ERR_ARG);
     if (c->max_tracks == 0u) { c->max_tracks = 32u; }
+    if (c->max_runs == 0u) { c->max_runs = DEF_RUNS; }
     VD_VERIFY(c->max_tracks <= 1024u, VD_ERR_ARG);
     // The temporal settings are checked (and resolved) by vd_temporal_init.
     vd_track_t probe_track;
@@ -141,7 +147,7 @@ static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c
 // Byte sizes of every workspace slice.
 typedef struct layout {
     size_t comps, cand, obs, tracks, hist, sample, dbn;
-    size_t mask, cc, crop, rmask, refine, contour, points, contours;
+    size_t cc, crop, rmask, refine, contour, points, contours;
     size_t points_cap, contours_cap;
 } layout_t;
 
@@ -164,8 +170,7 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
         vd_status_t st = vd_dbn_workspace_size(model, &l->dbn);
         VD_VERIFY(st == VD_OK, VD_ERR_MODEL);
     }
-    VD_VERIFY(vd_mul_size(c->max_width, c->max_height, &l->mask), VD_ERR_OVERFLOW);
-    VD_TRY(vd_components_workspace_size(c->max_width, c->max_height, &l->cc));
+    VD_TRY(vd_components_workspace_size_runs(c->max_width, c->max_height, c->max_runs, &l->cc));
     l->crop = rw * rh;
     l->rmask = rw * rh;
     VD_TRY(vd_refine_workspace_size((uint32_t)rw, (uint32_t)rh, &l->refine));
@@ -178,15 +183,24 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
     return VD_OK;
 }
 
-static vd_status_t overlay_size(const layout_t *l, size_t *a_out, size_t *total)
+// The overlay holds A = the labelling workspace (run budget) while labelling,
+// then B = crop + region mask + W per candidate, where W is the refine
+// workspace, reused by the contour tracer (its plane, points and contours)
+// once vd_refine_region has returned.
+static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *total)
 {
     size_t a = 0u;
     size_t b = 0u;
-    VD_VERIFY(vd_size_add_slice(&a, l->mask) && vd_size_add_slice(&a, l->cc), VD_ERR_OVERFLOW);
-    VD_VERIFY(vd_size_add_slice(&b, l->crop) && vd_size_add_slice(&b, l->rmask) &&
-              vd_size_add_slice(&b, l->refine) && vd_size_add_slice(&b, l->contour) &&
-              vd_size_add_slice(&b, l->points) && vd_size_add_slice(&b, l->contours), VD_ERR_OVERFLOW);
-    *a_out = a;
+    size_t tr = 0u;
+    size_t rf = 0u;
+    VD_VERIFY(vd_size_add_slice(&a, l->cc), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_size_add_slice(&rf, l->refine), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_size_add_slice(&tr, l->contour) && vd_size_add_slice(&tr, l->points) &&
+              vd_size_add_slice(&tr, l->contours), VD_ERR_OVERFLOW);
+    const size_t work = rf > tr ? rf : tr;
+    VD_VERIFY(vd_size_add_slice(&b, l->crop) && vd_size_add_slice(&b, l->rmask) && vd_size_add_slice(&b, work),
+              VD_ERR_OVERFLOW);
+    *work_out = work;
     *total = a > b ? a : b;
     return VD_OK;
 }
@@ -254,8 +268,8 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->sample = (uint8_t *)take(&arena, l.sample, &ok);
     det->dbn_ws = take(&arena, l.dbn, &ok);
     det->dbn_ws_bytes = l.dbn;
-    size_t a_part;
-    VD_TRY(overlay_size(&l, &a_part, &det->overlay_bytes));
+    size_t work;
+    VD_TRY(overlay_size(&l, &work, &det->overlay_bytes));
     det->overlay = (uint8_t *)take(&arena, det->overlay_bytes, &ok);
     if (!ok) {
         memset(det, 0, sizeof(*det));
@@ -397,11 +411,13 @@ static void region_bufs(const vd_detector_t *det, region_bufs_t *b)
     vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // overlay is aligned (carved by init)
     b->crop = (uint8_t *)vd_arena_take(&a, rsz);
     b->rmask = (uint8_t *)vd_arena_take(&a, rsz);
+    const size_t work_at = a.used;
     b->refine_ws = vd_arena_take(&a, det->refine_ws_bytes);
+    a.used = work_at;   // the tracer's buffers overlay the refine workspace (see overlay_size)
     b->contour_ws = vd_arena_take(&a, det->contour_ws_bytes);
     b->points = (vd_point_t *)vd_arena_take(&a, det->points_cap * sizeof(vd_point_t));
     b->contours = (vd_contour_t *)vd_arena_take(&a, det->contours_cap * sizeof(vd_contour_t));
-    VD_ASSERT(b->contours != NULL);
+    VD_ASSERT(b->refine_ws != NULL && b->contours != NULL);
 }
 
 static void refine_cfg_of(const vd_detector_t *det, vd_refine_cfg_t *rc)
@@ -451,63 +467,86 @@ static vd_status_t detector_probe(void *user, const vd_rect_t *box, uint16_t *co
     return VD_OK;
 }
 
-// Hot mask into the overlay; sets the threshold stats and hot pixel count.
-static vd_status_t hot_mask(vd_detector_t *det, const vd_frame_t *f, vd_image_u8_t *mask)
+// The 8-bit hot threshold: constant, or max(floor, p-th percentile) from a
+// histogram of the frame (adaptive mode).
+static uint32_t threshold_u8(vd_detector_t *det, const vd_view_u8_t *v)
+{
+    if (det->cfg.thr_mode != VD_DETECTOR_THR_ADAPTIVE) {
+        return det->cfg.hot_thr_u8;
+    }
+    memset(det->hist, 0, 256u * sizeof(uint32_t));
+    for (uint32_t y = 0; y < v->height; y++) {
+        const uint8_t *row = v->data + (size_t)y * v->stride;
+        for (uint32_t x = 0; x < v->width; x++) {
+            det->hist[row[x]]++;
+        }
+    }
+    // Smallest level t with at least ceil(N * p / 1000) pixels <= t.
+    uint64_t n = (uint64_t)v->width * v->height;
+    uint64_t target = (n * det->cfg.adaptive_permille + 999u) / 1000u;
+    uint64_t cum = 0u;
+    uint32_t t = 255u;
+    for (uint32_t i = 0; i < 256u; i++) {
+        cum += det->hist[i];
+        if (cum >= target) {
+            t = i;
+            break;
+        }
+    }
+    return (t > det->cfg.adaptive_floor_u8) ? t : det->cfg.adaptive_floor_u8;
+}
+
+// Hot-spot components straight from the frame (no mask: the labeller
+// compares with the threshold as it run-length encodes), with the run budget
+// of the overlay. Sets the threshold, hot pixel, run and overflow stats.
+// Returns VD_OK or VD_ERR_CAPACITY (components or runs; stats say which).
+static vd_status_t hot_components(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint32_t *t0)
 {
     vd_detector_stats_t *s = &det->stats;
+    vd_cc_stats_t cs;
+    memset(&cs, 0, sizeof(cs));
+    vd_status_t st;
+    *n = 0u;
     if (f->format == VD_PIX_U8) {
         vd_view_u8_t v;
         VD_TRY(vd_frame_view_u8(f, &v));
-        memset(det->hist, 0, 256u * sizeof(uint32_t));
-        for (uint32_t y = 0; y < v.height; y++) {
-            const uint8_t *row = v.data + (size_t)y * v.stride;
-            for (uint32_t x = 0; x < v.width; x++) {
-                det->hist[row[x]]++;
-            }
-        }
-        uint32_t thr = det->cfg.hot_thr_u8;
-        if (det->cfg.thr_mode == VD_DETECTOR_THR_ADAPTIVE) {
-            // Smallest level t with at least ceil(N * p / 1000) pixels <= t.
-            uint64_t n = (uint64_t)v.width * v.height;
-            uint64_t target = (n * det->cfg.adaptive_permille + 999u) / 1000u;
-            uint64_t cum = 0u;
-            uint32_t t = 255u;
-            for (uint32_t i = 0; i < 256u; i++) {
-                cum += det->hist[i];
-                if (cum >= target) {
-                    t = i;
-                    break;
-                }
-            }
-            thr = (t > det->cfg.adaptive_floor_u8) ? t : det->cfg.adaptive_floor_u8;
-        }
-        uint32_t hot = 0u;
-        for (uint32_t i = thr; i < 256u; i++) {
-            hot += det->hist[i];
-        }
+        const uint32_t thr = threshold_u8(det, &v);
         s->hot_thr_u8 = thr;
-        s->hot_pixels = hot;
-        return vd_threshold_u8(&v, NULL, (uint8_t)thr, mask);
-    }
-    vd_view_u16_t v16;
-    VD_TRY(vd_frame_view_u16(f, &v16));
-    s->hot_thr_raw = det->raw_thr;
-    if (det->raw_never_hot) {
-        for (uint32_t y = 0; y < mask->height; y++) {
-            memset(mask->data + (size_t)y * mask->stride, 0, mask->width);
+        clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
+        st = vd_components_label_thr_u8(&v, NULL, (uint8_t)thr, det->overlay, det->cc_ws_bytes, det->comps,
+                                        det->cfg.max_components, n, &cs);
+    } else {
+        vd_view_u16_t v16;
+        VD_TRY(vd_frame_view_u16(f, &v16));
+        s->hot_thr_raw = det->raw_thr;
+        clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
+        if (det->raw_never_hot) {
+            return VD_OK;
         }
-        return VD_OK;
+        st = vd_components_label_thr_u16(&v16, NULL, det->raw_thr, det->overlay, det->cc_ws_bytes, det->comps,
+                                         det->cfg.max_components, n, &cs);
     }
-    VD_TRY(vd_threshold_u16(&v16, NULL, det->raw_thr, mask));
-    uint32_t hot = 0u;
-    for (uint32_t y = 0; y < mask->height; y++) {
-        const uint8_t *row = mask->data + (size_t)y * mask->stride;
-        for (uint32_t x = 0; x < mask->width; x++) {
-            hot += (uint32_t)(row[x] != 0u);
+    if (st != VD_OK && st != VD_ERR_CAPACITY) {
+        return st;
+    }
+    s->hot_pixels = cs.pixels;
+    s->runs = cs.runs;
+    if (cs.labels > det->cfg.max_components) {
+        s->overflow_components = 1u;
+    }
+    if (cs.rows < f->height) {
+        // Run budget exhausted: keep the components of rows [0, rows) that
+        // end above the last labelled row (the others may continue below).
+        s->overflow_runs = f->height - cs.rows;
+        size_t k = 0u;
+        for (size_t i = 0; i < *n; i++) {
+            if ((uint32_t)(det->comps[i].box.y + det->comps[i].box.h) < cs.rows) {
+                det->comps[k++] = det->comps[i];
+            }
         }
+        *n = k;
     }
-    s->hot_pixels = hot;
-    return VD_OK;
+    return st;
 }
 
 // Index of the contour with the largest box area (then length; first wins).
@@ -562,7 +601,9 @@ static vd_status_t process_candidate(vd_detector_t *det, const vd_frame_t *f, co
         return VD_OK;
     }
     det->stats.refined++;
-    const vd_contour_t *c = &b.contours[largest_contour(b.contours, nc)];
+    // A copy: the shape-mode refine below reuses the memory of b.contours.
+    const vd_contour_t best = b.contours[largest_contour(b.contours, nc)];
+    const vd_contour_t *c = &best;
     uint32_t kmax = p.kx > p.ky ? p.kx : p.ky;
     d->box.x = region.x + c->box.x * (int32_t)p.kx;
     d->box.y = region.y + c->box.y * (int32_t)p.ky;
@@ -657,18 +698,10 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     uint32_t t0 = t_start;
     vd_status_t result = VD_OK;
 
-    // Hot mask and labelling in the overlay.
-    vd_image_u8_t mask = {det->overlay, frame->width, frame->height, frame->width};
-    size_t mask_bytes;
-    (void)vd_align_size((size_t)frame->width * frame->height, &mask_bytes);
-    VD_TRY(hot_mask(det, frame, &mask));
-    clock_add(det, VD_DET_STAGE_THRESHOLD, &t0);
-    vd_view_u8_t mview = vd_image_u8_view(&mask);
+    // Labelling in the overlay, straight from the frame.
     size_t n = 0u;
-    vd_status_t st = vd_components_label(&mview, NULL, det->overlay + mask_bytes, det->overlay_bytes - mask_bytes,
-                                         det->comps, det->cfg.max_components, &n);
+    vd_status_t st = hot_components(det, frame, &n, &t0);
     if (st == VD_ERR_CAPACITY) {
-        s->overflow_components = 1u;
         result = VD_ERR_CAPACITY;
     } else if (st != VD_OK) {
         return st;
@@ -684,7 +717,7 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     }
     clock_add(det, VD_DET_STAGE_COMPONENTS, &t0);
 
-    // Per candidate (the hot mask is dead from here: the overlay holds region buffers).
+    // Per candidate (the labelling scratch is dead from here: the overlay holds region buffers).
     uint8_t thr8 = (uint8_t)s->hot_thr_u8;
     size_t nv = 0u;
     for (size_t i = 0; i < kept; i++) {

@@ -20,13 +20,18 @@ cmake -S . -B "$bdir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=clang
 targets=${FUZZ_TARGETS:-$(cd tests/fuzz && ls fuzz_*.c | sed 's/^fuzz_\(.*\)\.c$/\1/' | tr '\n' ' ')}
 built=()
 for t in $targets; do
-  if ninja -C "$bdir" -t targets all 2>/dev/null | grep -q "^fuzz_$t:"; then
+  # (no grep -q: with pipefail, an early grep exit would fail the pipeline)
+  if ninja -C "$bdir" -t targets all 2>/dev/null | grep "^fuzz_$t:" >/dev/null; then
     built+=("$t")
   else
     echo "fuzz: no target fuzz_$t in this configuration (module missing?) - skipped"
   fi
 done
-cmake --build "$bdir" -j "$jobs" --target "${built[@]/#/fuzz_}" >/dev/null
+if ! cmake --build "$bdir" -j "$jobs" --target "${built[@]/#/fuzz_}" >"$bdir/fuzz-build.log" 2>&1; then
+  tail -30 "$bdir/fuzz-build.log"
+  echo "fuzz: build failed"
+  exit 1
+fi
 
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:allocator_may_return_null=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT
 """components.h against OpenCV: cv2.connectedComponentsWithStats(connectivity=8)
-on real MSRS / HIT-UAV frames thresholded three ways, and on random masks and ROIs.
+on real MSRS / HIT-UAV frames thresholded three ways, and on random masks and ROIs;
+the thresholding labellers (no mask, run budget) on real 8-bit and generated 16-bit frames.
 Counts, boxes, areas and order must be equal; centroids within 1/256 px.
 Also the rules and the expansion against a Python transcription of the header."""
 import cv2
@@ -123,6 +124,71 @@ def test_capacity_returns_prefix(vdlib):
     np.testing.assert_array_equal(part, allc[:7])
     none, st = cc.label(mask, cap=0, return_status=True)
     assert st == cc.VD_ERR_CAPACITY and len(none) == 0
+
+
+def _runs(mask):
+    """Horizontal runs of nonzero pixels (numpy oracle of vd_cc_stats_t.runs)."""
+    m = (mask != 0).astype(np.int8)
+    return int((np.diff(np.pad(m, ((0, 0), (1, 0))), axis=1) == 1).sum())
+
+
+def test_thr_u8_real_frames_match_opencv(vdlib, data_dir):
+    total = 0
+    for name, img in _frames(data_dir):
+        for thr in (150, int(np.percentile(img, 99)), 0, 255):
+            mask = np.where(img >= thr, 255, 0).astype(np.uint8)
+            comps, st, stats = cc.label_thr(img, thr)
+            assert st == clib.VD_OK
+            _assert_matches_cv2(comps, mask, what=f"{name} thr_u8 {thr}")
+            assert stats == {"runs": _runs(mask), "pixels": int((mask != 0).sum()), "rows": img.shape[0],
+                             "labels": len(comps)}, name
+            total += len(comps)
+        roi = (37, 21, 301, 203)
+        mask = np.where(img >= 150, 255, 0).astype(np.uint8)
+        _assert_matches_cv2(cc.label_thr(img, 150, roi)[0], mask, roi, what=f"{name} thr_u8 roi")
+    assert total > 100
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_thr_u16_generated_frames_match_opencv(vdlib, seed):
+    rng = np.random.default_rng(100 + seed)
+    h, w = int(rng.integers(1, 140)), int(rng.integers(1, 170))
+    base = int(rng.choice([1000, 30315, 0x7FF0, 0x8000, 0xFFF0]))
+    smooth = cv2.GaussianBlur(rng.random((h, w)).astype(np.float32), (0, 0), 3.0)
+    plane = np.clip(base - 8 + (smooth - smooth.min()) / (np.ptp(smooth) + 1e-9) * 16
+                    + rng.integers(-2, 3, (h, w)), 0, 65535).astype(np.uint16)
+    for thr in (base - 9, base - 1, base, base + 1, base + 7, 0, 65535, 0x8000):
+        thr = int(min(max(thr, 0), 65535))
+        mask = np.where(plane >= thr, 255, 0).astype(np.uint8)
+        comps, st, stats = cc.label_thr(plane, thr)
+        assert st == clib.VD_OK
+        _assert_matches_cv2(comps, mask, what=f"seed {seed} u16 thr {thr}")
+        assert stats["runs"] == _runs(mask) and stats["pixels"] == int((mask != 0).sum())
+        x, y = int(rng.integers(0, w)), int(rng.integers(0, h))
+        roi = (x, y, int(rng.integers(1, w - x + 1)), int(rng.integers(1, h - y + 1)))
+        big = np.full((h, w + 5), 65535, np.uint16)  # strided view, hot padding must be ignored
+        big[:, :w] = plane
+        _assert_matches_cv2(cc.label_thr(big[:, :w], thr, roi)[0], mask, roi, what=f"seed {seed} u16 roi {roi}")
+
+
+def test_thr_run_budget_labels_top_rows(vdlib, data_dir):
+    """Over the budget: VD_ERR_CAPACITY, and the components equal OpenCV's on the rows labelled."""
+    name, img = max(_frames(data_dir), key=lambda t: _runs(t[1] >= 150))
+    mask = np.where(img >= 150, 255, 0).astype(np.uint8)
+    runs = _runs(mask)
+    assert runs > 200, name
+    for budget in (runs // 3, runs - 1, runs):
+        comps, st, stats = cc.label_thr(img, 150, max_runs=budget)
+        rows = stats["rows"]
+        if budget >= runs:
+            assert st == clib.VD_OK and rows == img.shape[0]
+        else:
+            assert st == cc.VD_ERR_CAPACITY and rows < img.shape[0] and rows % 2 == 0
+            assert stats["runs"] <= budget and stats["runs"] == _runs(mask[:rows])
+        _assert_matches_cv2(comps, mask[:rows], what=f"{name} budget {budget}")
+    checker = np.where((np.add.outer(np.arange(64), np.arange(80)) % 2) == 0, 200, 10).astype(np.uint8)
+    comps, st, stats = cc.label_thr(checker, 100)  # worst-case workspace: never runs out
+    assert st == clib.VD_OK and len(comps) == 1 and stats["runs"] == 40 * 64
 
 
 def _aspect_q8(w, h):

@@ -32,7 +32,7 @@ def adaptive_oracle(img, permille=990, floor=96):
 
 def real_frames(data_dir, n=12):
     files = sorted(glob.glob(str(data_dir / "msrs" / "**" / "*N.png"), recursive=True))[:n]
-    files += sorted(glob.glob(str(data_dir / "hit-uav" / "frames" / "*.jpg")))[:n]
+    files += sorted(glob.glob(str(data_dir / "hit-uav" / "frames" / "images" / "*.jpg")))[:n]
     if not files:
         pytest.skip(f"no frames found under {data_dir}")
     return files
@@ -48,6 +48,9 @@ def test_candidate_stage_matches_opencv_on_real_frames(vdlib, data_dir, mode):
         assert st["hot_thr_u8"] == thr, f
         hot, comps, kept = oracle_counts(img, thr)
         assert (st["hot_pixels"], st["components"], st["kept"]) == (hot, comps, kept), f
+        m = (img >= thr).astype(np.int8)
+        assert st["runs"] == int((np.diff(np.pad(m, ((0, 0), (1, 0))), axis=1) == 1).sum()), f
+        assert st["overflow_runs"] == 0, f
         assert st["refined"] <= min(kept, 64)
         assert len(dets) == st["verified"] - st["suppressed"] - st["overflow_detections"]
         for d in dets:
@@ -82,6 +85,20 @@ def test_capacity_reported(vdlib):
     det = vdet.Detector(max_width=160, max_height=120, max_detections=2, max_candidates=8)
     dets, st = det.run(img)
     assert st["status"] == "VD_ERR_CAPACITY" and len(dets) == 2 and st["overflow_detections"] == 1
+
+
+def test_run_budget_reported(vdlib):
+    img = np.full((120, 160), 40, np.uint8)
+    img[0:20, ::2] = 220                  # 80 runs per row
+    img[70:90, 60:90] = 200               # a car below the noise
+    dets, st = vdet.Detector(max_width=160, max_height=120).run(img)
+    assert st["status"] == "VD_OK" and st["runs"] == 20 * 80 + 20 and len(dets) == 1
+    dets, st = vdet.Detector(max_width=160, max_height=120, max_runs=1500).run(img)
+    assert st["status"] == "VD_ERR_CAPACITY" and st["overflow_runs"] == 120 - 18 and dets == []
+
+
+def test_default_workspace_within_goal(vdlib):
+    assert vdet.workspace_size(640, 512) == 228096 <= 256 * 1024
 
 
 def test_bad_config_rejected(vdlib):

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Unit tests of components.h: hand-worked masks, a naive flood-fill reference
-// on random masks, capacity, workspace contract, rules and box expansion.
+// on random masks, the thresholding labellers against the mask labeller, run
+// budgets, capacity, workspace contracts, rules and box expansion.
 #include "unity.h"
 #include "testutil.h"
 
@@ -500,6 +501,300 @@ static void test_bad_arguments(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_label(&odd, NULL, ws, sizeof ws, g_out, MAXC, &n));
 }
 
+// ---------------------------------------------------------------- thresholding labellers
+
+// Mask of plane >= thr (0/255), same stride, for comparison with the mask API.
+static uint8_t g_plane8[160 * 64];
+static uint16_t g_plane16[160 * 64];
+static uint8_t g_ref_mask[160 * 64];
+
+// Number of horizontal runs of nonzero pixels in a w x h mask.
+static uint32_t count_runs(const uint8_t *m, uint32_t w, uint32_t h, size_t stride)
+{
+    uint32_t n = 0;
+    for (uint32_t y = 0; y < h; y++) {
+        for (uint32_t x = 0; x < w; x++) {
+            if (m[y * stride + x] != 0u && (x == 0u || m[y * stride + x - 1u] == 0u)) {
+                n++;
+            }
+        }
+    }
+    return n;
+}
+
+static void test_workspace_size_runs(void)
+{
+    size_t b = 0, full = 0, prev = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(640, 512, 16384, &b));
+    TEST_ASSERT_EQUAL_size_t(139784u, b); // value documented in components.h
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(640, 512, 24576, &b));
+    TEST_ASSERT_EQUAL_size_t(205320u, b); // detector default (detector.h)
+    // above the worst case: clamped to vd_components_workspace_size
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(50, 30, &full));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(50, 30, UINT32_MAX, &b));
+    TEST_ASSERT_EQUAL_size_t(full, b);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(50, 30, 25u * 30u, &b));
+    TEST_ASSERT_EQUAL_size_t(full, b);
+    for (uint32_t r = 1; r < 100; r++) { // 8 bytes per run
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(50, 30, r, &b));
+        if (r > 1) {
+            TEST_ASSERT_EQUAL_size_t(prev + 8u, b);
+        }
+        prev = b;
+    }
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size_runs(50, 30, 0, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size_runs(0, 30, 5, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size_runs(50, VD_MAX_DIM + 1u, 5, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size_runs(50, 30, 5, NULL));
+}
+
+// Labels plane >= thr both ways (thresholding labeller with a worst-case
+// workspace, and the mask labeller on the materialised mask) and compares.
+static void check_thr_case(int u16, uint32_t w, uint32_t h, size_t stride_px, const vd_rect_t *roi, uint16_t thr)
+{
+    static vd_component_t ref[MAXC];
+    for (uint32_t y = 0; y < h; y++) {
+        for (uint32_t x = 0; x < w; x++) {
+            uint32_t v = u16 ? g_plane16[y * stride_px + x] : g_plane8[y * stride_px + x];
+            g_ref_mask[y * stride_px + x] = (v >= thr) ? 255u : 0u;
+        }
+    }
+    vd_rect_t r = {0, 0, (int32_t)w, (int32_t)h};
+    if (roi != NULL) {
+        r = *roi;
+    }
+    size_t n_ref = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(g_ref_mask, w, h, stride_px, roi, ref, MAXC, &n_ref));
+    size_t bytes = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size((uint32_t)r.w, (uint32_t)r.h, &bytes));
+    void *ws = tu_guarded_alloc(0, bytes);
+    size_t n = 0;
+    vd_cc_stats_t st;
+    memset(&st, 0xAB, sizeof st);
+    vd_status_t s;
+    if (u16) {
+        vd_view_u16_t v = {g_plane16, w, h, stride_px * 2u};
+        s = vd_components_label_thr_u16(&v, roi, thr, ws, bytes, g_out, MAXC, &n, &st);
+    } else {
+        vd_view_u8_t v = {g_plane8, w, h, stride_px};
+        s = vd_components_label_thr_u8(&v, roi, (uint8_t)thr, ws, bytes, g_out, MAXC, &n, &st);
+    }
+    tu_guard_check(0);
+    tu_guarded_free(0);
+    TEST_ASSERT_EQUAL_INT(VD_OK, s);
+    TEST_ASSERT_EQUAL_size_t(n_ref, n);
+    assert_same_comps(ref, g_out, n);
+    const uint8_t *m0 = g_ref_mask + (size_t)r.y * stride_px + (size_t)r.x;
+    uint32_t px = 0;
+    for (int32_t y = 0; y < r.h; y++) {
+        for (int32_t x = 0; x < r.w; x++) {
+            px += m0[(size_t)y * stride_px + (size_t)x] != 0u;
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT32(count_runs(m0, (uint32_t)r.w, (uint32_t)r.h, stride_px), st.runs);
+    TEST_ASSERT_EQUAL_UINT32(px, st.pixels);
+    TEST_ASSERT_EQUAL_UINT32((uint32_t)r.h, st.rows);
+    TEST_ASSERT_EQUAL_UINT32((uint32_t)n, st.labels);
+}
+
+static void test_thr_random_vs_mask(void)
+{
+    static const uint32_t sizes[][2] = {{1, 1}, {1, 9}, {3, 1}, {5, 5}, {7, 3}, {8, 8}, {9, 7}, {13, 4},
+                                        {17, 16}, {33, 31}, {64, 48}, {131, 21}};
+    // thresholds near the lane top bit and the ends (SWAR compare corner cases)
+    static const uint16_t thr16[] = {0, 1, 2, 0x7FFF, 0x8000, 0x8001, 0xFFFE, 0xFFFF, 30315};
+    uint32_t seed = 99;
+    int cases = 0;
+    for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
+        for (int rep = 0; rep < 12; rep++) {
+            const uint32_t w = sizes[s][0], h = sizes[s][1];
+            const size_t stride = w + (tu_rand(&seed) % 4u);
+            const uint16_t t16 = thr16[(size_t)rep % (sizeof thr16 / sizeof thr16[0])];
+            const uint8_t t8 = (rep < 4) ? (uint8_t)(rep == 0 ? 0u : rep == 1 ? 1u : rep == 2 ? 128u : 255u)
+                                         : (uint8_t)(tu_rand(&seed) & 0xFFu);
+            for (uint32_t y = 0; y < h; y++) {
+                for (size_t x = 0; x < stride; x++) {
+                    uint32_t r = tu_rand(&seed);
+                    // clustered values around the threshold (runs of equal pixels), plus random ones
+                    int near = (r & 3u) != 0u;
+                    g_plane8[y * stride + x] = near ? (uint8_t)(t8 + (int)((r >> 8) % 5u) - 2) : (uint8_t)(r >> 16);
+                    g_plane16[y * stride + x] =
+                        near ? (uint16_t)(t16 + (int)((r >> 8) % 5u) - 2) : (uint16_t)(r >> 16);
+                    if (x >= w) { // padding must be ignored
+                        g_plane8[y * stride + x] = 0xFFu;
+                        g_plane16[y * stride + x] = 0xFFFFu;
+                    }
+                }
+                if ((rep & 1) != 0 && y % 3u == 0u) { // long uniform stretches: the word-at-a-time paths
+                    for (uint32_t x = 0; x < w; x++) {
+                        g_plane8[y * stride + x] = (uint8_t)((x / 11u) & 1u ? t8 : t8 - 1);
+                        g_plane16[y * stride + x] = (uint16_t)((x / 9u) & 1u ? t16 : t16 - 1);
+                    }
+                }
+            }
+            vd_rect_t roi = {0, 0, (int32_t)w, (int32_t)h};
+            if (rep >= 6) {
+                roi.x = (int32_t)(tu_rand(&seed) % w);
+                roi.y = (int32_t)(tu_rand(&seed) % h);
+                roi.w = 1 + (int32_t)(tu_rand(&seed) % (w - (uint32_t)roi.x));
+                roi.h = 1 + (int32_t)(tu_rand(&seed) % (h - (uint32_t)roi.y));
+            }
+            check_thr_case(0, w, h, stride, rep >= 6 ? &roi : NULL, t8);
+            check_thr_case(1, w, h, stride, rep >= 6 ? &roi : NULL, t16);
+            cases++;
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(12 * 12, cases);
+}
+
+// Every 8-bit value against every threshold, in every lane of the 64-bit word.
+static void test_thr_u8_every_value_and_threshold(void)
+{
+    const uint32_t w = 160, h = 16;
+    for (uint32_t t = 0; t < 256u; t++) {
+        for (uint32_t y = 0; y < h; y++) {
+            for (uint32_t x = 0; x < w; x++) {
+                g_plane8[y * w + x] = (uint8_t)((x * 37u + y * 16u + (x / 8u) * 3u) & 0xFFu);
+            }
+        }
+        check_thr_case(0, w, h, w, NULL, (uint16_t)t);
+    }
+}
+
+static void test_thr_run_budget(void)
+{
+    // 40 x 20 plane; rows alternate between 1 run and 5 runs.
+    const uint32_t w = 40, h = 20;
+    memset(g_plane8, 10, sizeof g_plane8);
+    uint32_t total = 0;
+    for (uint32_t y = 0; y < h; y++) {
+        uint32_t runs = (y & 1u) ? 5u : 1u;
+        for (uint32_t k = 0; k < runs; k++) {
+            g_plane8[y * w + 1u + 7u * k] = 200u;
+            g_plane8[y * w + 2u + 7u * k] = 201u;
+        }
+        total += runs;
+    }
+    TEST_ASSERT_EQUAL_UINT32(60u, total);
+    vd_view_u8_t v = {g_plane8, w, h, w};
+    static vd_component_t ref[MAXC];
+    for (uint32_t budget = 1; budget <= total + 2u; budget++) {
+        size_t bytes = 0;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(w, h, budget, &bytes));
+        void *ws = tu_guarded_alloc(0, bytes);
+        size_t n = 0;
+        vd_cc_stats_t st;
+        vd_status_t s = vd_components_label_thr_u8(&v, NULL, 150, ws, bytes, g_out, MAXC, &n, &st);
+        tu_guard_check(0);
+        tu_guarded_free(0);
+        // complete pairs of 6 runs fit: rows = 2 * floor(budget / 6)
+        const uint32_t rows = budget >= total ? h : 2u * (budget / 6u);
+        TEST_ASSERT_EQUAL_INT(rows == h ? VD_OK : VD_ERR_CAPACITY, s);
+        TEST_ASSERT_EQUAL_UINT32(rows, st.rows);
+        TEST_ASSERT_EQUAL_UINT32(3u * rows, st.runs);
+        // the components are those of the crop of the labelled rows
+        size_t n_ref = 0;
+        if (rows > 0u) {
+            for (size_t i = 0; i < (size_t)w * h; i++) {
+                g_ref_mask[i] = g_plane8[i] >= 150u ? 255u : 0u;
+            }
+            vd_rect_t top = {0, 0, (int32_t)w, (int32_t)rows};
+            TEST_ASSERT_EQUAL_INT(VD_OK, label_mask(g_ref_mask, w, h, w, &top, ref, MAXC, &n_ref));
+        }
+        TEST_ASSERT_EQUAL_size_t(n_ref, n);
+        TEST_ASSERT_EQUAL_UINT32((uint32_t)n_ref, st.labels);
+        assert_same_comps(ref, g_out, n);
+    }
+    // both capacities at once: stats tell them apart
+    size_t bytes = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(w, h, 12, &bytes));
+    void *ws = tu_guarded_alloc(0, bytes);
+    size_t n = 0;
+    vd_cc_stats_t st;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_components_label_thr_u8(&v, NULL, 150, ws, bytes, g_out, 2, &n, &st));
+    TEST_ASSERT_EQUAL_size_t(2u, n);
+    TEST_ASSERT_EQUAL_UINT32(4u, st.rows);
+    TEST_ASSERT_TRUE(st.labels > 2u);
+    // a worst-case workspace never runs out: checkerboard
+    for (uint32_t y = 0; y < h; y++) {
+        for (uint32_t x = 0; x < w; x++) {
+            g_plane8[y * w + x] = ((x + y) & 1u) ? 255u : 0u;
+        }
+    }
+    tu_guarded_free(0);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(w, h, &bytes));
+    ws = tu_guarded_alloc(0, bytes);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_label_thr_u8(&v, NULL, 1, ws, bytes, g_out, MAXC, &n, &st));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    TEST_ASSERT_EQUAL_UINT32(w / 2u * h, st.runs);
+    TEST_ASSERT_EQUAL_UINT32(h, st.rows);
+    tu_guard_check(0);
+    tu_guarded_free(0);
+}
+
+typedef struct thr_ctx {
+    int u16;
+    const vd_rect_t *roi;
+} thr_ctx_t;
+
+static vd_status_t run_label_thr(void *ws, size_t bytes, void *ctx)
+{
+    const thr_ctx_t *c = (const thr_ctx_t *)ctx;
+    size_t n;
+    if (c->u16) {
+        vd_view_u16_t v = {g_plane16, 50, 30, 100};
+        return vd_components_label_thr_u16(&v, c->roi, 1000, ws, bytes, g_out, MAXC, &n, NULL);
+    }
+    vd_view_u8_t v = {g_plane8, 50, 30, 50};
+    return vd_components_label_thr_u8(&v, c->roi, 100, ws, bytes, g_out, MAXC, &n, NULL);
+}
+
+static void test_thr_workspace_contract(void)
+{
+    // One hot run: the smallest workspace (budget 1 run) is enough.
+    memset(g_plane8, 0, sizeof g_plane8);
+    memset(g_plane16, 0, sizeof g_plane16);
+    for (uint32_t x = 10; x < 30; x++) {
+        g_plane8[12 * 50 + x] = 100u;
+        g_plane16[12 * 50 + x] = 1000u;
+    }
+    vd_rect_t roi = {5, 7, 41, 19};
+    for (int u16 = 0; u16 < 2; u16++) {
+        thr_ctx_t ctx = {u16, NULL};
+        size_t bytes;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(50, 30, 1, &bytes));
+        tu_check_workspace_contract(bytes, run_label_thr, &ctx);
+        ctx.roi = &roi;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(41, 19, 1, &bytes));
+        tu_check_workspace_contract(bytes, run_label_thr, &ctx);
+    }
+}
+
+static void test_thr_bad_arguments(void)
+{
+    static uint64_t ws[4096];
+    vd_view_u8_t v = {g_plane8, 8, 8, 8};
+    vd_view_u16_t v16 = {g_plane16, 8, 8, 16};
+    size_t n = 77;
+    vd_cc_stats_t st;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label_thr_u8(NULL, NULL, 1, ws, sizeof ws, g_out, MAXC, &n, &st));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label_thr_u8(&v, NULL, 1, ws, sizeof ws, g_out, MAXC, NULL, &st));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label_thr_u8(&v, NULL, 1, ws, sizeof ws, NULL, 3, &n, &st));
+    vd_rect_t out_of = {4, 4, 5, 2};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label_thr_u8(&v, &out_of, 1, ws, sizeof ws, g_out, MAXC, &n, &st));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG,
+                          vd_components_label_thr_u16(&v16, &out_of, 1, ws, sizeof ws, g_out, MAXC, &n, &st));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label_thr_u16(NULL, NULL, 1, ws, sizeof ws, g_out, MAXC, &n, &st));
+    vd_view_u16_t odd = {g_plane16, 8, 8, 17}; // odd stride for 16-bit
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label_thr_u16(&odd, NULL, 1, ws, sizeof ws, g_out, MAXC, &n, &st));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE,
+                          vd_components_label_thr_u8(&v, NULL, 1, NULL, sizeof ws, g_out, MAXC, &n, &st));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_components_label_thr_u16(&v16, NULL, 1, ws, 8, g_out, MAXC, &n, &st));
+    vd_view_u8_t odd8 = {g_plane8, 3, 5, 3}; // odd stride is fine for 8-bit
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_label_thr_u8(&odd8, NULL, 1, ws, sizeof ws, g_out, MAXC, &n, NULL));
+}
+
 // ---------------------------------------------------------------- rules
 
 static vd_component_t comp_box(int32_t w, int32_t h, uint32_t area)
@@ -687,6 +982,12 @@ int main(void)
     RUN_TEST(test_capacity);
     RUN_TEST(test_workspace_contract);
     RUN_TEST(test_bad_arguments);
+    RUN_TEST(test_workspace_size_runs);
+    RUN_TEST(test_thr_random_vs_mask);
+    RUN_TEST(test_thr_u8_every_value_and_threshold);
+    RUN_TEST(test_thr_run_budget);
+    RUN_TEST(test_thr_workspace_contract);
+    RUN_TEST(test_thr_bad_arguments);
     RUN_TEST(test_rules_default_and_boundaries);
     RUN_TEST(test_filter_stable_and_errors);
     RUN_TEST(test_expand_centre_and_rounding);

@@ -245,11 +245,75 @@ static void test_workspace_size_640x512(void)
 {
     size_t bytes = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(NULL, NULL, &bytes));
-    // Dominated by mask (1 B/px) + labelling scratch (~4 B/px worst case); see docs/architecture.md.
+    // Issue 5 goal: <= 256 KiB at 640 x 512 with the defaults; value documented in detector.h.
+    TEST_ASSERT_TRUE(bytes <= 256u * 1024u);
+    TEST_ASSERT_EQUAL_size_t(228096u, bytes);
+    // Bounded by the region buffers (7 B per pixel of 176 x 176), which the
+    // labelling workspace (24 576 runs) fits under; nothing is 1 B per frame pixel.
     size_t cc = 0u;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(640u, 512u, &cc));
-    TEST_ASSERT_TRUE(bytes >= 640u * 512u + cc);
-    TEST_ASSERT_TRUE(bytes <= 640u * 512u + cc + 64u * 1024u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(640u, 512u, 24576u, &cc));
+    TEST_ASSERT_TRUE(bytes >= 7u * 176u * 176u && cc < 7u * 176u * 176u);
+    TEST_ASSERT_TRUE(bytes <= 7u * 176u * 176u + 16u * 1024u);
+    // A larger run budget grows the workspace only once it exceeds the region buffers.
+    vd_detector_cfg_t c;
+    vd_detector_cfg_default(&c);
+    c.max_runs = 20000u;
+    size_t b2 = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
+    TEST_ASSERT_EQUAL_size_t(bytes, b2);
+    c.max_runs = 100000u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
+    TEST_ASSERT_TRUE(b2 > bytes + 8u * 70000u);
+    // The frame size only enters through the labeller's row buffers.
+    c = small_cfg();
+    c.max_width = 1280u;
+    c.max_height = 1024u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
+    TEST_ASSERT_TRUE(b2 <= bytes + 24u * 1024u);
+}
+
+static void test_run_budget_overflow(void)
+{
+    // A noisy top band (1 px hot every other column: 80 runs per row) above a car.
+    fill(40u);
+    for (uint32_t y = 0; y < 20u; y++) {
+        for (uint32_t x = 0; x < FW; x += 2u) {
+            g_px[y][x] = 220u;
+        }
+    }
+    car8(60, 70, 200u);
+    vd_detector_cfg_t c = small_cfg();
+    init_or_fail(&c);
+    vd_frame_t f = frame8();
+    vd_detection_t out[4];
+    size_t n = 0u;
+    // Default budget: everything is labelled.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, out, 4, &n));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    TEST_ASSERT_EQUAL_UINT32(20u * 80u + 20u, g_det.stats.runs);
+    TEST_ASSERT_EQUAL_UINT32(0u, g_det.stats.overflow_runs);
+    TEST_ASSERT_EQUAL_UINT32(20u * 80u + 600u, g_det.stats.hot_pixels);
+    // A budget below the band: nothing below row 18 is labelled, reported, never silent.
+    c.max_runs = 1500u;
+    init_or_fail(&c);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_detector_run(&g_det, &f, out, 4, &n));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    TEST_ASSERT_EQUAL_UINT32(FH - 18u, g_det.stats.overflow_runs);
+    TEST_ASSERT_EQUAL_UINT32(18u * 80u, g_det.stats.runs);
+    TEST_ASSERT_EQUAL_UINT32(0u, g_det.stats.components);   // all touch the last labelled row
+    // The car above the noise: labelled rows end below it, it is still found.
+    fill(40u);
+    car8(60, 5, 200u);
+    for (uint32_t y = 60; y < FH; y++) {
+        for (uint32_t x = 0; x < FW; x += 2u) {
+            g_px[y][x] = 220u;
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_detector_run(&g_det, &f, out, 4, &n));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    TEST_ASSERT_EQUAL_INT32(60, out[0].box.x);
+    TEST_ASSERT_TRUE(g_det.stats.overflow_runs > 0u);
+    TEST_ASSERT_EQUAL_UINT32(0u, g_det.stats.overflow_components);
 }
 
 static void test_bad_configs(void)
@@ -488,6 +552,7 @@ int main(void)
     RUN_TEST(test_adaptive_threshold_for_dark_agc_frames);
     RUN_TEST(test_workspace_contract);
     RUN_TEST(test_workspace_size_640x512);
+    RUN_TEST(test_run_budget_overflow);
     RUN_TEST(test_bad_configs);
     RUN_TEST(test_bad_run_arguments);
     RUN_TEST(test_capacity_overflow_reported);

@@ -77,7 +77,7 @@ static const setting_t k_settings[SET_COUNT] = {
     [SET_MAX_COMPONENTS] = {"max-components", "N", "components labelled per frame (default 256)"},
     [SET_MAX_CANDIDATES] = {"max-candidates", "N", "candidates verified per frame (default 64)"},
     [SET_MAX_DETECTIONS] = {"max-detections", "N", "detections kept per frame (default 32)"},
-    [SET_MAX_REGION] = {"max-region", "WxH", "refinement region bound before decimation (default 256x256)"},
+    [SET_MAX_REGION] = {"max-region", "WxH", "refinement region bound; larger regions are decimated (default: the detector's, 176x176)"},
     [SET_TEMPORAL] = {"temporal", "on|off",
                       "temporal analysis: track ids, confirmed / recovered states (default on)"},
     [SET_MAX_TRACKS] = {"max-tracks", "N", "temporal track table size (default 32)"},
@@ -98,7 +98,7 @@ void demo_args_usage(FILE *f)
             "  --fps N             V4L2: requested frame rate\n"
             "  --pixfmt F          V4L2: grey or y16 (default: y16 if offered)\n"
             "  --timeout-ms N      V4L2: wait per frame (default 2000)\n"
-            "  --frames N          stop after N frames (default: all; devices: until interrupted)\n"
+            "  --frames N          stop after N frames (default: all; a camera runs until Ctrl-C)\n"
             "  --model FILE        .vdm model (default: the first models/*.vdm of the source tree if any;\n"
             "                      'none' = no model: every refined candidate is kept with score 1.0)\n"
             "  --out DIR           annotated PNG frames: boxes yellow = new, green = confirmed,\n"
@@ -119,7 +119,27 @@ void demo_args_usage(FILE *f)
     for (size_t i = 0; i < SET_COUNT; i++) {
         char head[64];
         snprintf(head, sizeof head, "--%s %s", k_settings[i].name, k_settings[i].arg);
-        fprintf(f, "  %-26s %s\n", head, k_settings[i].help);
+        fprintf(f, "  %-28s", head);
+        if (strlen(head) > 28) {
+            fprintf(f, "\n  %-28s", "");
+        }
+        // word-wrap the help at 100 columns, continuation lines indented to 31
+        const char *h = k_settings[i].help;
+        size_t col = 31;
+        while (*h != '\0') {
+            size_t w = strcspn(h, " ");
+            if (col + 1 + w > 100 && col > 31) {
+                fprintf(f, "\n  %-28s", "");
+                col = 31;
+            }
+            fprintf(f, " %.*s", (int)w, h);
+            col += 1 + w;
+            h += w;
+            while (*h == ' ') {
+                h++;
+            }
+        }
+        fputc('\n', f);
     }
     fprintf(f, "\nErrors print one line on stderr and exit non-zero; outputs are written to temporary names\n"
                "and renamed only when the whole run succeeded.\n");

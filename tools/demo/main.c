@@ -13,6 +13,7 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <signal.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -69,6 +70,16 @@ typedef struct run {
     uint32_t grey_lo_raw, grey_hi_raw;
     char err[1024];
 } run_t;
+
+// Ctrl-C / SIGTERM end the run after the current frame; outputs are then
+// committed as after the last frame of a recording.
+static volatile sig_atomic_t g_stop = 0;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    g_stop = 1;
+}
 
 static uint32_t clock_us(void *user)
 {
@@ -239,13 +250,23 @@ static const char *state_name(uint8_t state)
     }
 }
 
+// The DESIGN.md names of vd_detection_t.source (the window/contrast sources
+// are numbered 2 and 3 until detector.h defines them).
+#ifndef VD_SOURCE_WINDOW
+#define VD_SOURCE_WINDOW 2u
+#endif
+#ifndef VD_SOURCE_CONTRAST
+#define VD_SOURCE_CONTRAST 3u
+#endif
 static const char *source_name(uint8_t source)
 {
-    switch (source) {
-    case 2: return "window";
-    case 3: return "contrast";
-    default: return "hotspot";
+    if (source == VD_SOURCE_WINDOW) {
+        return "window";
     }
+    if (source == VD_SOURCE_CONTRAST) {
+        return "contrast";
+    }
+    return "hotspot";
 }
 
 static double score_of(const vd_detection_t *d)
@@ -579,8 +600,14 @@ static int run(run_t *r)
     int retries = 0;
     bool tty = isatty(2) != 0;
     // Recorded input ends at VD_ERR_RANGE + at_end; a device runs until --frames or an error.
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
     for (;;) {
-        if (o->max_frames != 0 && r->frames >= o->max_frames) {
+        if ((o->max_frames != 0 && r->frames >= o->max_frames) || g_stop) {
             break;
         }
         vd_frame_t f;
@@ -655,6 +682,9 @@ static int run(run_t *r)
     }
     if (!o->quiet && tty) {
         fputc('\n', stderr);
+    }
+    if (g_stop && !o->quiet) {
+        fprintf(stderr, "vd_fir_demo: interrupted after %llu frames\n", (unsigned long long)r->frames);
     }
     if (r->frames == 0) {
         return fail(r, VD_ERR_IO, "no frames were read");

@@ -16,9 +16,9 @@ from skimage.feature import haar_like_feature, haar_like_feature_coord, hog, loc
 from skimage.transform import integral_image
 
 HAAR_SIZE = 16
-HAAR_N = 1500
+HAAR_N = 500
 HAAR_TYPES = ("type-2-x", "type-2-y", "type-3-x", "type-3-y", "type-4")
-ADA_ESTIMATORS = 300
+ADA_ESTIMATORS = 150
 
 
 def hog_features(X):

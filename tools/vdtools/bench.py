@@ -482,9 +482,9 @@ class Bench:
         t = tmed(go, R)
         s = det.stats(status[0])
         return {"shape": list(f.shape), "ms": t / 1e6, "status": s["status"], "detections": int(cnt.value),
-                "counts": {k: s[k] for k in ("hot_pixels", "components", "kept", "refined", "decimated",
-                                             "overflow_components", "overflow_candidates", "overflow_contours",
-                                             "overflow_detections")}}
+                "counts": {k: s.get(k, -1) for k in ("hot_pixels", "runs", "components", "kept", "refined", "decimated",
+                                                     "overflow_runs", "overflow_components", "overflow_candidates",
+                                                     "overflow_contours", "overflow_detections")}}
 
 
 def cv_refine(crop, ox, oy, w, h):
@@ -516,12 +516,10 @@ def parse_callgrind(out_file, calls):
     res = {}
     for line in txt.splitlines():
         m = re.match(r"\s*([\d,]+)\s+\([^)]*\)\s+\S*?:?(cg_\w+)\b", line)
-        if m and m.group(2) in CG_STAGES:
+        if m and m.group(2) in CG_STAGES and "[" in line:   # the file:function list (clones summed)
             stage = CG_STAGES[m.group(2)]
-            n = calls.get(stage, 0)
-            if n:
-                res[stage] = int(m.group(1).replace(",", "")) / n
-    return res
+            res[stage] = res.get(stage, 0) + int(m.group(1).replace(",", ""))
+    return {k: v / calls[k] for k, v in res.items() if calls.get(k)}
 
 
 def vd_bench_calls(txt):
@@ -612,6 +610,74 @@ def fmt_table(table, overhead_us):
     return "\n".join(lines)
 
 
+def markdown(bench_json, cg_json=None):
+    """Markdown tables for docs/performance.md from bench.json (and callgrind.json)."""
+    d = json.loads(Path(bench_json).read_text())
+    rows = d["table"]
+    sets = [s for s in ("msrs-night", "hit-uav", "clip-u8", "clip-u16") if any(r["set"] == s for r in rows)]
+    stages = []
+    for r in rows:
+        if r["stage"] not in stages:
+            stages.append(r["stage"])
+    get = {(r["set"], r["stage"]): r for r in rows}
+    out = ["| stage (unit) | " + " | ".join(f"{s}: vd / cv2 us (vd/cv2)" for s in sets) + " |",
+           "|---|" + "---|" * len(sets)]
+    for st in stages:
+        cells = []
+        unit = ""
+        for s in sets:
+            r = get.get((s, st))
+            if r is None:
+                cells.append("")
+                continue
+            unit = r["unit"]
+            c = f"{r['vd_us']:.1f}"
+            if r["cv2_us"] is not None:
+                c += f" / {r['cv2_us']:.1f} (**{r['ratio']:.2f}**)"
+            if "frames_per_s" in r:
+                c += f" = {r['frames_per_s']:.0f} fr/s"
+            if "mac_per_s" in r:
+                c += f" = {r['mac_per_s'] / 1e9:.1f} GMAC/s"
+            cells.append(c)
+        label = st if "(" in st else f"{st} ({unit})"
+        out.append(f"| {label} | " + " | ".join(cells) + " |")
+    out.append("")
+    oh = d["raw"].get("overhead_ns", {})
+    for k, v in oh.items():
+        out.append(f"- {k}: {v / 1e3:.2f} us")
+    out.append("")
+    out.append("| set | detector stage medians (us, own clock) | counts (median per frame) | status |")
+    out.append("|---|---|---|---|")
+    for s in sets:
+        raw = d["raw"][s]
+        t = ", ".join(f"{k} {v:.0f}" for k, v in raw.get("detector_stage_us_median", {}).items() if v)
+        c = ", ".join(f"{k} {v:g}" for k, v in raw.get("detector_counts_median", {}).items())
+        out.append(f"| {s} | {t} | {c} | {', '.join(raw.get('detector_status', []))} |")
+    out.append("")
+    out.append("| worst case | frame | detector ms | status | hot px | runs | comps | kept | refined | decimated | "
+               "overflow runs/comp/cand/cont/det |")
+    out.append("|---|---|---|---|---|---|---|---|---|---|---|")
+    for k, v in d["raw"].get("worst_cases", {}).items():
+        if not isinstance(v, dict):
+            out.append(f"| {k} | {v} | | | | | | | | | |")
+            continue
+        c = v["counts"]
+        out.append(f"| {k} | {v['shape'][1]}x{v['shape'][0]} | {v['ms']:.2f} | {v['status']} | {c['hot_pixels']} | "
+                   f"{c.get('runs', '')} | {c['components']} | {c['kept']} | {c['refined']} | {c['decimated']} | "
+                   f"{c.get('overflow_runs', '')}/{c['overflow_components']}/"
+                   f"{c['overflow_candidates']}/{c['overflow_contours']}/{c['overflow_detections']} |")
+    if cg_json and Path(cg_json).exists():
+        cg = json.loads(Path(cg_json).read_text())["callgrind"]
+        names = list(cg)
+        out.append("")
+        out.append("| stage (instructions per call, Ir) | " + " | ".join(names) + " |")
+        out.append("|---|" + "---|" * len(names))
+        for st in CG_STAGES.values():
+            out.append(f"| {st} | " + " | ".join(f"{cg[n]['ir_per_call'].get(st, float('nan')):,.0f}" for n in names)
+                       + " |")
+    return "\n".join(out)
+
+
 def machine():
     cpu = ""
     try:
@@ -638,7 +704,11 @@ def main(argv=None):
     ap.add_argument("--callgrind", action="store_true",
                     help="instead: instructions per stage call from valgrind --tool=callgrind on tools/vd_bench")
     ap.add_argument("--vd-bench", default=None, help="vd_bench executable (default: <dir of libvd.so>/tools/vd_bench)")
+    ap.add_argument("--markdown", action="store_true", help="instead: print the tables of --json (+ callgrind.json)")
     a = ap.parse_args(argv)
+    if a.markdown:
+        print(markdown(a.json, Path(a.json).with_name("callgrind.json")))
+        return 0
     if a.callgrind:
         res = run_callgrind(a)
         js = Path(a.json).with_name("callgrind.json") if a.json.endswith("bench.json") else Path(a.json)

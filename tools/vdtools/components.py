@@ -7,6 +7,7 @@ candidate expansion.
     comps["x"], comps["area"], comps["cx_q8"] ...
     kept = cc.filter(comps)                  # paper rules (aspect 77..384 Q8, area >= 120)
     x, y, w, h = cc.rect_expand((x, y, w, h), 640, 512)   # 1.5x / 2x about the centre
+    comps, st, stats = cc.label_thr(frame, 150, max_runs=24576)  # pixels >= 150, no mask, run budget
 
 Order of `label` = OpenCV's label order 1..n of
 cv2.connectedComponentsWithStats(crop, connectivity=8), so row i matches stats[i + 1].
@@ -22,6 +23,10 @@ COMPONENT_DTYPE = np.dtype([("x", "<i4"), ("y", "<i4"), ("w", "<i4"), ("h", "<i4
                             ("area", "<u4"), ("cx_q8", "<u4"), ("cy_q8", "<u4")])
 EXPAND_W_Q8, EXPAND_H_Q8 = 384, 512
 VD_ERR_CAPACITY = -3
+
+
+class CcStats(C.Structure):
+    _fields_ = [("runs", C.c_uint32), ("pixels", C.c_uint32), ("rows", C.c_uint32), ("labels", C.c_uint32)]
 
 
 class Rules(C.Structure):
@@ -45,8 +50,16 @@ def _lib():
         lib.vd_components_filter.argtypes = [C.c_void_p, C.c_size_t, C.POINTER(Rules), sz]
         lib.vd_rect_expand.argtypes = [C.POINTER(clib.Rect), C.c_uint16, C.c_uint16, C.c_uint32,
                                        C.c_uint32, C.POINTER(clib.Rect)]
+        lib.vd_components_workspace_size_runs.argtypes = [C.c_uint32, C.c_uint32, C.c_uint32, sz]
+        lib.vd_components_label_thr_u8.argtypes = [C.POINTER(clib.ViewU8), C.POINTER(clib.Rect), C.c_uint8,
+                                                   C.c_void_p, C.c_size_t, C.c_void_p, C.c_size_t, sz,
+                                                   C.POINTER(CcStats)]
+        lib.vd_components_label_thr_u16.argtypes = [C.POINTER(clib.ViewU16), C.POINTER(clib.Rect), C.c_uint16,
+                                                    C.c_void_p, C.c_size_t, C.c_void_p, C.c_size_t, sz,
+                                                    C.POINTER(CcStats)]
         for f in (lib.vd_components_workspace_size, lib.vd_components_label,
-                  lib.vd_components_filter, lib.vd_rect_expand):
+                  lib.vd_components_filter, lib.vd_rect_expand, lib.vd_components_workspace_size_runs,
+                  lib.vd_components_label_thr_u8, lib.vd_components_label_thr_u16):
             f.restype = C.c_int
         _bound = True
     return lib
@@ -58,6 +71,51 @@ def workspace_size(width, height):
     clib.check(_lib().vd_components_workspace_size(int(width), int(height), C.byref(n)),
                "vd_components_workspace_size")
     return n.value
+
+
+def workspace_size_runs(width, height, max_runs):
+    """Bytes of workspace for the thresholding labellers with a budget of max_runs runs."""
+    n = C.c_size_t()
+    clib.check(_lib().vd_components_workspace_size_runs(int(width), int(height), int(max_runs), C.byref(n)),
+               "vd_components_workspace_size_runs")
+    return n.value
+
+
+def label_thr(plane, thr, roi=None, cap=None, max_runs=None):
+    """vd_components_label_thr_u8/_u16: components of plane[roi] >= thr (uint8 or
+    uint16 2-D array) without a mask. max_runs None = worst-case workspace (never
+    runs out); else a workspace of workspace_size_runs(roi w, roi h, max_runs).
+    Returns (components, status, stats dict runs/pixels/rows/labels); status is
+    VD_OK or VD_ERR_CAPACITY (stats["rows"] < roi h: run budget; labels > cap:
+    component capacity); other errors raise VdError."""
+    a = np.asarray(plane)
+    if a.ndim != 2 or a.dtype not in (np.uint8, np.uint16):
+        raise ValueError("label_thr needs a 2-D uint8 or uint16 array")
+    if a.strides[1] != a.itemsize or a.strides[0] < a.shape[1] * a.itemsize:
+        a = np.ascontiguousarray(a)
+    rw, rh = (a.shape[1], a.shape[0]) if roi is None else (int(roi[2]), int(roi[3]))
+    if rw < 1 or rh < 1:
+        raise clib.VdError(-1, "vd_components_label_thr")
+    nbytes = workspace_size(rw, rh) if max_runs is None else workspace_size_runs(rw, rh, max_runs)
+    ws, ws_ptr = clib.workspace(nbytes)
+    if cap is None:
+        cap = ((rw + 1) // 2) * ((rh + 1) // 2)
+    out = np.zeros(max(int(cap), 1), dtype=COMPONENT_DTYPE)
+    r = None if roi is None else C.byref(clib.Rect(*(int(t) for t in roi)))
+    n = C.c_size_t()
+    st_out = CcStats()
+    if a.dtype == np.uint8:
+        v = clib.view_u8(a)
+        st = _lib().vd_components_label_thr_u8(C.byref(v), r, int(thr), ws_ptr, nbytes, out.ctypes.data,
+                                               int(cap), C.byref(n), C.byref(st_out))
+    else:
+        v = clib.view_u16(a)
+        st = _lib().vd_components_label_thr_u16(C.byref(v), r, int(thr), ws_ptr, nbytes, out.ctypes.data,
+                                                int(cap), C.byref(n), C.byref(st_out))
+    if st not in (clib.VD_OK, VD_ERR_CAPACITY):
+        raise clib.VdError(st, "vd_components_label_thr")
+    stats = {f: int(getattr(st_out, f)) for f, _ in CcStats._fields_}
+    return out[:n.value].copy(), st, stats
 
 
 class Labeller:

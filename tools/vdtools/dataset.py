@@ -193,41 +193,23 @@ def _candidate_impl():
 
 
 def _make_c_candidates(pixel, components):
-    thr_fn = getattr(pixel, "threshold_u8", None)
-    lab_fn = getattr(components, "label", None)
-    filt_fn = getattr(components, "filter", None) or getattr(components, "filter_components", None)
-    if thr_fn is None or lab_fn is None:
-        return None
+    """Candidate stage in C: vd_threshold_u8 -> vd_components_label -> vd_components_filter (paper's
+    default rules). Accepted only if it agrees with the cv2 stand-in on a probe image."""
+    labeller = {}
 
     def run(img, thr):
-        mask = thr_fn(img, int(thr))
-        comps = lab_fn(mask)
-        if filt_fn is not None:
-            comps = filt_fn(comps)
-        else:
-            comps = [c for c in comps if _rule_ok(c)]
-        return [tuple(int(v) for v in _box_of(c)) for c in comps]
+        mask = pixel.threshold_u8(np.ascontiguousarray(img), int(thr))
+        key = mask.shape
+        if key not in labeller:
+            labeller[key] = components.Labeller(mask.shape[1], mask.shape[0])
+        comps = components.filter(labeller[key](mask))
+        return [(int(c["x"]), int(c["y"]), int(c["w"]), int(c["h"])) for c in comps]
     img = np.zeros((40, 40), np.uint8)
     img[10:25, 5:25] = 200
+    img[30:33, 30:39] = 180
     if sorted(run(img, 150)) != sorted(_candidates_cv2(img, 150)):
         return None
     return run
-
-
-def _box_of(c):
-    if isinstance(c, dict):
-        b = c.get("box", c)
-        return (b["x"], b["y"], b["w"], b["h"]) if isinstance(b, dict) else tuple(b)[:4]
-    if hasattr(c, "box"):
-        b = c.box
-        return (b.x, b.y, b.w, b.h) if hasattr(b, "x") else tuple(b)[:4]
-    return tuple(c)[:4]
-
-
-def _rule_ok(c):
-    x, y, w, h = _box_of(c)
-    area = c["area"] if isinstance(c, dict) else getattr(c, "area", w * h)
-    return area >= 120 and 0.3 * w <= h <= 1.5 * w
 
 
 def frame_thresholds(img):
@@ -236,13 +218,17 @@ def frame_thresholds(img):
 
 def candidates(img):
     """[(component_box, expanded_box)] over both thresholds, duplicates (IoU > 0.7) dropped."""
-    _, fn = _candidate_impl()
+    kind, fn = _candidate_impl()
     fh, fw = img.shape
+    expand = expand_rect
+    if kind == "C":
+        from . import components
+        expand = components.rect_expand   # vd_rect_expand: the device's rounding
     out = []
     for thr in frame_thresholds(img):
         for box in fn(img, thr):
             if all(iou(box, o[0]) <= 0.7 for o in out):
-                out.append((box, expand_rect(box, fw, fh)))
+                out.append((box, tuple(int(v) for v in expand(box, fw, fh))))
     return out
 
 

@@ -44,7 +44,7 @@ class TemporalCfg(C.Structure):
 
 
 class DetectorCfg(C.Structure):
-    _fields_ = [("max_width", C.c_uint32), ("max_height", C.c_uint32),
+    _fields_ = [("max_width", C.c_uint32), ("max_height", C.c_uint32), ("max_runs", C.c_uint32),
                 ("thr_mode", C.c_uint8), ("hot_thr_u8", C.c_uint8), ("adaptive_floor_u8", C.c_uint8),
                 ("reserved0", C.c_uint8), ("adaptive_permille", C.c_uint16), ("reserved1", C.c_uint16),
                 ("hot_thr_ck", C.c_int32), ("calib", Calib), ("grey_lo_ck", C.c_int32), ("grey_hi_ck", C.c_int32),
@@ -65,7 +65,8 @@ class Detection(C.Structure):
 
 STAT_FIELDS = ("hot_thr_u8", "hot_thr_raw", "hot_pixels", "components", "kept", "refined", "verified",
                "suppressed", "detections", "recovered", "decimated", "overflow_components",
-               "overflow_candidates", "overflow_contours", "overflow_detections", "overflow_tracks")
+               "overflow_candidates", "overflow_contours", "overflow_detections", "overflow_tracks",
+               "runs", "overflow_runs")
 
 
 class Stats(C.Structure):
@@ -144,6 +145,17 @@ def _load_model(model):
     m = (C.c_uint64 * (_MODEL_BYTES // 8))()
     clib.check(_lib().vd_dbn_load(C.byref(m), blob.ctypes.data, len(data)), "vd_dbn_load")
     return m, blob
+
+
+def workspace_size(width=640, height=512, model=None, **cfg):
+    """vd_detector_workspace_size for a width x height detector (other keywords:
+    vd_detector_cfg_t fields; model: path/bytes of a .vdm or None)."""
+    c = make_cfg(max_width=width, max_height=height, **cfg)
+    m, _blob = _load_model(model)
+    n = C.c_size_t()
+    clib.check(_lib().vd_detector_workspace_size(C.byref(c), C.cast(m, C.c_void_p) if m is not None else None,
+                                                 C.byref(n)), "vd_detector_workspace_size")
+    return n.value
 
 
 class Detector:

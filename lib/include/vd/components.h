@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
-// Connected components of a binary mask (8-connectivity) with box, area and
-// centroid; the paper's aspect/area rules; candidate-box expansion.
+// Connected components (8-connectivity) of a binary mask or of a thresholded
+// frame, with box, area and centroid; the paper's aspect/area rules;
+// candidate-box expansion.
 #ifndef VD_COMPONENTS_H
 #define VD_COMPONENTS_H
 
@@ -31,11 +32,12 @@ typedef struct vd_component {
 // Workspace for vd_components_label() on a region of at most
 // max_width x max_height pixels: a pure, monotone function of the two
 // dimensions, so one buffer sized for the largest ROI serves every smaller one.
-// It holds the worst-case number of horizontal runs, ceil(w/2) * h (a
-// checkerboard), at 8 bytes each, plus three row-span buffers of ceil(w/2)
-// entries (8 bytes) and ceil(h/2)+1 segment offsets (4 bytes).
-// For 640 x 512: 1 310 720 + 3 x 2 560 + 1 032 = 1 319 432 bytes (~1.26 MiB);
-// for 640 x 480: 1 237 448 bytes.
+// It holds three row-span buffers of ceil(w/2) entries (8 bytes), ceil(h/2)+1
+// row-pair offsets (4 bytes) and the worst-case number of horizontal runs,
+// ceil(w/2) * h (a checkerboard), at 8 bytes each.
+// For 640 x 512: 7 680 + 1 032 + 1 310 720 = 1 319 432 bytes (~1.26 MiB);
+// for 640 x 480: 1 237 448 bytes. Firmware with less RAM uses the run-budget
+// functions below (vd_components_workspace_size_runs).
 //   bytes  out: required size in bytes.
 // Returns VD_OK; VD_ERR_ARG if bytes is NULL or a dimension is 0 or above
 // VD_MAX_DIM; VD_ERR_OVERFLOW if the size does not fit size_t.
@@ -68,6 +70,75 @@ vd_status_t vd_components_workspace_size(uint32_t max_width, uint32_t max_height
 // stack O(1).
 vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, void *ws, size_t bytes,
                                 vd_component_t *out, size_t cap, size_t *count);
+
+// What a thresholding labeller saw (vd_components_label_thr_u8/_u16).
+//   runs    horizontal runs stored (all runs of the labelled rows).
+//   pixels  foreground pixels in the labelled rows.
+//   rows    ROI rows labelled: roi.h, or fewer (an even number) when the run
+//           budget ran out; then the components are those of rows [0, rows)
+//           exactly as if the ROI ended there, and a component touching row
+//           rows - 1 may continue below.
+//   labels  components found in those rows (may exceed cap).
+typedef struct vd_cc_stats {
+    uint32_t runs;
+    uint32_t pixels;
+    uint32_t rows;
+    uint32_t labels;
+} vd_cc_stats_t;
+
+// Workspace for the thresholding labellers with a run budget: the fixed part
+// of vd_components_workspace_size (span buffers and row-pair offsets, which
+// depend on max_width and max_height) plus min(max_runs, ceil(w/2) * h) runs
+// of 8 bytes. Any workspace of at least this size gives a budget of at least
+// max_runs runs on ROIs up to max_width x max_height (a larger workspace is a
+// larger budget: runs = (bytes - fixed part) / 8). For 640 x 512 and 16 384
+// runs: 8 712 + 131 072 = 139 784 bytes.
+//   max_runs  run budget, >= 1; values above the worst case are clamped (the
+//             result then equals vd_components_workspace_size).
+//   bytes     out: required size in bytes.
+// Returns VD_OK; VD_ERR_ARG if bytes is NULL, max_runs is 0 or a dimension is 0
+// or above VD_MAX_DIM; VD_ERR_OVERFLOW if the size does not fit size_t.
+vd_status_t vd_components_workspace_size_runs(uint32_t max_width, uint32_t max_height, uint32_t max_runs,
+                                              size_t *bytes);
+
+// Labels the 8-connected components of the pixels >= thr of an 8-bit plane
+// inside `roi`, without a mask: the same labeller, components and order as
+// vd_components_label() on the mask (src >= thr) (i.e. cv2.threshold(src,
+// thr - 1, 255, THRESH_BINARY) then cv2.connectedComponentsWithStats), with a
+// run budget set by the workspace size.
+//   src    read-only 8-bit view (a frame); any stride.
+//   roi    region to label, inside src; NULL = whole view.
+//   thr    foreground is pixel >= thr (0 = every pixel).
+//   ws, bytes  VD_WORKSPACE_ALIGN-aligned workspace of at least
+//          vd_components_workspace_size_runs(roi.w, roi.h, 1) bytes; its run
+//          budget is min((bytes - fixed part) / 8, ceil(roi.w/2) * roi.h), so a
+//          workspace from vd_components_workspace_size_runs(W, H, R) gives >= R
+//          runs for any ROI up to W x H, and one from
+//          vd_components_workspace_size(roi.w, roi.h) can never run out.
+//   out, cap, count  as vd_components_label.
+//   stats  may be NULL; filled on VD_OK and VD_ERR_CAPACITY.
+// Run budget: row pairs (0-1, 2-3, ...) are labelled while their runs fit.
+// The pair that does not fit ends the scan: the components of the rows before
+// it are written (rows = stats->rows < roi.h) and VD_ERR_CAPACITY is returned,
+// so an overflow is never silent. Callers tell the two capacity cases apart
+// by stats: rows < roi.h (run budget) and labels > cap (component capacity).
+// Returns VD_OK; VD_ERR_CAPACITY (run budget or cap, see above); VD_ERR_ARG
+// for a NULL src/count, a view failing vd_view_u8_check, a ROI not inside src,
+// or out NULL with cap > 0; VD_ERR_WORKSPACE for a NULL, misaligned or short
+// workspace. On any error other than VD_ERR_CAPACITY, *count = 0.
+// Time O(roi.w * roi.h) (8 pixels per 64-bit word over uniform stretches) plus
+// near-linear union-find over the runs; stack O(1).
+vd_status_t vd_components_label_thr_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t thr, void *ws,
+                                       size_t bytes, vd_component_t *out, size_t cap, size_t *count,
+                                       vd_cc_stats_t *stats);
+
+// As vd_components_label_thr_u8 on a 16-bit plane (radiometric frames):
+// foreground is pixel >= thr (raw units; vd_calib_raw_from_ck gives the raw
+// value of a temperature). src must pass vd_view_u16_check (even stride,
+// aligned data), else VD_ERR_ARG. 4 pixels per 64-bit word.
+vd_status_t vd_components_label_thr_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint16_t thr, void *ws,
+                                        size_t bytes, vd_component_t *out, size_t cap, size_t *count,
+                                        vd_cc_stats_t *stats);
 
 // Shape rules of paper 001 for hot-spot candidates.
 //   aspect_min_q8, aspect_max_q8  bounds on box.h / box.w (height over width)

@@ -57,6 +57,9 @@ enum {
 typedef struct vd_detector_cfg {
     uint32_t max_width;          // largest frame width, 1..VD_MAX_DIM; 0 = 640 (sizes the workspace)
     uint32_t max_height;         // largest frame height, 1..VD_MAX_DIM; 0 = 512
+    uint32_t max_runs;           // labelling run budget (8 B each, components.h), >= 1; 0 = 24576, 2.4x the
+                                 // most runs measured on real frames (docs/embedded.md); above the budget
+                                 // the lower rows are not labelled (stats.overflow_runs, VD_ERR_CAPACITY)
     uint8_t thr_mode;            // VD_DETECTOR_THR_CONSTANT (0, paper) or VD_DETECTOR_THR_ADAPTIVE
     uint8_t hot_thr_u8;          // 8-bit constant threshold, hot = pixel >= thr; 0 = 150 (paper, ~30 C)
     uint8_t adaptive_floor_u8;   // adaptive mode: lowest threshold; 0 = 96
@@ -80,8 +83,9 @@ typedef struct vd_detector_cfg {
     uint16_t max_components;     // components labelled per frame, 1..65535; 0 = 256
     uint16_t max_candidates;     // candidates refined/verified per frame (budget), 1..4096; 0 = 64
     uint16_t max_detections;     // detections kept after NMS, 1..max_candidates; 0 = 32
-    uint16_t max_region_w;       // refine region bound, 16..max_width; 0 = min(256, max_width);
-    uint16_t max_region_h;       //   larger regions are box-averaged by k (flag DECIMATED); 0 = min(256, max_height)
+    uint16_t max_region_w;       // refine region bound, 1..max_width; 0 = min(176, max_width);
+    uint16_t max_region_h;       //   larger regions are box-averaged by k (flag DECIMATED); 0 = min(176, max_height)
+                                 //   (7 bytes of workspace per region pixel: 176 x 176 = 212 KiB)
     uint16_t max_tracks;         // temporal track table, 1..1024; 0 = 32 (only with temporal)
     bool temporal;               // run temporal analysis (temporal.h) inside vd_detector_run
     vd_temporal_cfg_t temporal_cfg;  // zero = defaults of temporal.h
@@ -110,7 +114,7 @@ typedef struct vd_detection {
 typedef struct vd_detector_stats {
     uint32_t hot_thr_u8;         // threshold used on 8-bit frames
     uint32_t hot_thr_raw;        // raw threshold used on 16-bit frames
-    uint32_t hot_pixels;         // pixels >= threshold
+    uint32_t hot_pixels;         // pixels >= threshold (in the labelled rows)
     uint32_t components;         // components labelled (<= max_components)
     uint32_t kept;               // passed the aspect/area rules
     uint32_t refined;            // candidates with a non-empty refined contour
@@ -124,6 +128,8 @@ typedef struct vd_detector_stats {
     uint32_t overflow_contours;    // regions whose contour buffers overflowed
     uint32_t overflow_detections;  // detections dropped beyond max_detections or cap
     uint32_t overflow_tracks;      // temporal: untracked detections + dropped recoveries
+    uint32_t runs;                 // horizontal runs of hot pixels labelled (<= max_runs)
+    uint32_t overflow_runs;        // rows NOT labelled because the run budget ran out (0 = none)
     uint32_t time_us[VD_DET_STAGE_COUNT];  // per stage, 0 without clock_us
 } vd_detector_stats_t;
 
@@ -144,7 +150,7 @@ typedef struct vd_detector {
     uint8_t *sample;             // in_w * in_h
     void *dbn_ws;
     size_t dbn_ws_bytes;
-    uint8_t *overlay;            // hot mask + labelling scratch, reused per candidate for region buffers
+    uint8_t *overlay;            // labelling scratch (run budget), reused per candidate for region buffers
     size_t overlay_bytes;
     size_t cc_ws_bytes;
     size_t refine_ws_bytes;
@@ -161,10 +167,12 @@ void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
 
 // Workspace bytes for `cfg` (NULL = defaults) and the model's input size and
 // mode: a pure function of both (model NULL = no DBN scratch). Layout in
-// docs/architecture.md "Detector"; for the defaults at 640 x 512 it is
-// dominated by the hot mask (1 B/px) plus the labelling scratch of
-// components.h (its worst case, ~4 B/px), which the per-candidate region
-// buffers reuse.
+// docs/architecture.md "Detector": fixed tables (components, candidates,
+// histogram, temporal, DBN) plus one overlay = max(labelling workspace with
+// max_runs runs, per-candidate region buffers of 7 bytes per pixel of
+// max_region_w x max_region_h). No buffer scales with the frame size except
+// the labeller's row buffers (~12 B per column). Defaults at 640 x 512:
+// 228 120 bytes (222.8 KiB), bounded by the region buffers.
 // Returns VD_OK; VD_ERR_ARG for NULL bytes or a cfg value out of range;
 // VD_ERR_MODEL for a model not filled by vd_dbn_load; VD_ERR_OVERFLOW if the
 // size does not fit size_t.
@@ -183,7 +191,11 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 
 // Runs the pipeline on one frame (VD_PIX_U8 or VD_PIX_U16, at most
 // max_width x max_height):
-//   hot mask (threshold) -> 8-connected components -> rules -> expansion
+//   hot-spot threshold -> 8-connected components of the pixels >= threshold,
+//   labelled straight from the frame with a run budget (max_runs; when a
+//   frame has more runs, the rows below the budget are not labelled and the
+//   components touching the last labelled row are dropped: stats.overflow_runs,
+//   VD_ERR_CAPACITY, the rest of the frame is still processed) -> rules -> expansion
 //   -> per candidate: region plane (8-bit frame itself; 16-bit frames mapped
 //      linearly grey_lo_ck..grey_hi_ck -> 0..255; box-averaged by k if the region
 //      exceeds max_region_*) -> vd_refine_region -> largest external contour
@@ -199,7 +211,7 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 // a frame failing vd_frame_check or larger than max_width x max_height;
 // VD_ERR_FORMAT for an unknown pixel format; VD_ERR_STATE if det was not
 // initialised; VD_ERR_CAPACITY when any budget overflowed (components,
-// candidates, contour buffers, max_detections, cap, track table): everything
+// candidates, runs, contour buffers, max_detections, cap, track table): everything
 // written is valid and the stats say which budget; other statuses of the
 // stages are passed on (then *count = 0).
 // Stack: < 2 KiB of its own (measured with -fstack-usage, docs/architecture.md).

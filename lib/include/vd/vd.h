@@ -16,6 +16,8 @@
 #include "vd/refine.h"
 #include "vd/contour.h"
 #include "vd/components.h"
+#include "vd/windows.h"
+#include "vd/contrast.h"
 #include "vd/resample.h"
 #include "vd/dbn.h"
 #include "vd/temporal.h"

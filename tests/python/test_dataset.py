@@ -1,0 +1,89 @@
+# SPDX-License-Identifier: MIT
+"""Verifier data set builder: annotation loading, group splits (no group in two splits), candidate
+stage vs cv2, geometry, and samples of real frames."""
+import numpy as np
+import pytest
+
+from vdtools import dataset
+
+
+def test_iou_and_expand():
+    assert dataset.iou((0, 0, 10, 10), (0, 0, 10, 10)) == 1.0
+    assert dataset.iou((0, 0, 10, 10), (10, 0, 10, 10)) == 0.0
+    assert dataset.iou((0, 0, 10, 10), (5, 0, 10, 10)) == pytest.approx(50 / 150)
+    # 1.5x horizontally, 2x vertically about the centre, clipped to the frame
+    assert dataset.expand_rect((10, 10, 20, 10), 100, 100) == (5, 5, 30, 20)
+    assert dataset.expand_rect((0, 0, 20, 10), 100, 100) == (0, 0, 25, 15)
+
+
+def test_cv2_candidates_apply_paper_rules():
+    img = np.zeros((60, 80), np.uint8)
+    img[5:20, 5:25] = 200      # 20x15: aspect 0.75, area 300 -> kept
+    img[30:33, 5:60] = 200     # 55x3: aspect 0.05 -> dropped
+    img[40:45, 40:45] = 200    # area 25 -> dropped
+    img[40:50, 60:70] = 149    # below threshold 150
+    assert dataset._candidates_cv2(img, 150) == [(5, 5, 20, 15)]
+
+
+def _fake_frames():
+    fr = []
+    for g in range(20):
+        for k in range(3):
+            fr.append(dataset.FrameRec("msrs", f"m{g}_{k}", None, f"msrs:{g}"))
+    for g in range(10):
+        fr.append(dataset.FrameRec("hit", f"h{g}", None, f"hit:1_{g}_30"))
+    fr.append(dataset.FrameRec("seq", "s0", None, "seq:0_100"))
+    return fr
+
+
+def test_splits_never_share_a_group_and_are_seeded():
+    fr = _fake_frames()
+    a = dataset.assign_splits(fr, seed=0)
+    assert a == dataset.assign_splits(fr, seed=0)
+    assert set(a) == {f.group for f in fr}          # each group exactly one split (dict)
+    assert a["seq:0_100"] == "test"
+    n = {s: sum(1 for f in fr if f.dataset == "msrs" and a[f.group] == s) for s in dataset.SPLITS}
+    assert n["train"] == 42 and n["val"] == 9 and n["test"] == 9   # 70/15/15 of 60 frames
+
+
+def test_real_annotations_and_group_split(data_dir):
+    frames = dataset.all_frames(data_dir)
+    by = {d: [f for f in frames if f.dataset == d] for d in ("msrs", "hit", "seq")}
+    assert len(by["msrs"]) == 553 and len(by["hit"]) == 480 and len(by["seq"]) == 91
+    assert sum(len(f.vehicles) for f in by["msrs"]) == 646
+    assert sum(len(f.vehicles) for f in by["hit"]) == 2268 + 47
+    a = dataset.assign_splits(frames, 0)
+    split_groups = {s: {g for g, v in a.items() if v == s} for s in dataset.SPLITS}
+    assert not (split_groups["train"] & split_groups["val"]) and not (split_groups["train"] & split_groups["test"])
+    assert all(a[f.group] == "test" for f in by["seq"])
+    for d in ("msrs", "hit"):
+        n = len(by[d])
+        share = sum(1 for f in by[d] if a[f.group] == "train") / n
+        assert 0.6 < share < 0.8
+
+
+def test_frame_samples_on_real_frame(data_dir):
+    _, seq = dataset.load_hit(data_dir)
+    fr = seq[0]
+    rng = np.random.default_rng(0)
+    out = list(dataset.frame_samples(fr, "test", "grey", rng, [(40, 40)]))
+    pos = [o for o in out if o[1] == 1]
+    neg = [o for o in out if o[1] == 0]
+    assert len(pos) == sum(1 for b in fr.vehicles if dataset._ok(b))
+    assert all(o[0].shape == (32, 32) and o[0].dtype == np.uint8 for o in out)
+    for s, lab, src, rect, hot in neg:
+        assert all(dataset.iou(rect, v) < dataset.NEG_IOU for v in fr.vehicles)
+    # train split adds mirrored and jittered positives
+    tr = list(dataset.frame_samples(fr, "train", "grey", np.random.default_rng(0), [(40, 40)]))
+    assert sum(1 for o in tr if o[1] == 1) > len(pos)
+
+
+def test_cached_set_splits_are_disjoint_by_group():
+    p = dataset.cache_path("grey", 0)
+    if not p.exists():
+        pytest.skip(f"no cached data set at {p} (python3 -m vdtools.dataset --mode grey)")
+    ds = dataset.load(p)
+    g = {s: set(ds["group"][ds["split"] == s]) for s in dataset.SPLITS}
+    assert not (g["train"] & g["val"]) and not (g["train"] & g["test"]) and not (g["val"] & g["test"])
+    assert set(ds["source"][ds["split"] != "train"]) <= {"box", "candidate", "random"}  # no augmentation
+    assert ds["X"].shape[1:] == (32, 32) and len(ds["X"]) == len(ds["y"])

@@ -1,0 +1,274 @@
+// SPDX-License-Identifier: MIT
+// Unit tests of contrast.h: a hand-worked map, a naive box-mean reference on random frames (odd strides),
+// warm and cold candidates, percentile threshold, workspace contract and argument checks.
+#include "unity.h"
+#include "testutil.h"
+
+#include <string.h>
+
+void setUp(void) {}
+void tearDown(void) {}
+
+#define MAXPX (130 * 110)
+
+static uint8_t g_src[MAXPX + 64];
+static uint8_t g_dst[MAXPX];
+static uint8_t g_ref[MAXPX];
+static vd_component_t g_comps[256];
+
+static void test_map_hand_worked(void)
+{
+    uint8_t px[25];
+    memset(px, 10, sizeof(px));
+    px[12] = 100;   // centre of 5 x 5
+    vd_view_u8_t v = {px, 5, 5, 5};
+    uint8_t out[25];
+    vd_image_u8_t d = {out, 5, 5, 5};
+    uint32_t col[5];
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, 1u, VD_CONTRAST_BOTH, col, sizeof(col), &d));
+    TEST_ASSERT_EQUAL_UINT8(80, out[12]);   // mean (8*10 + 100)/9 = 20
+    TEST_ASSERT_EQUAL_UINT8(10, out[6]);    // (1,1): its 3x3 holds the centre -> mean 20
+    TEST_ASSERT_EQUAL_UINT8(0, out[0]);     // corner: 2x2 of 10
+    TEST_ASSERT_EQUAL_UINT8(0, out[5]);     // (0,1): 2 cols x 3 rows of 10
+    // (1,0): cols 0..2, rows 0..1 = 6 pixels of 10 -> 0; (2,1): 3x3 with the centre -> 10.
+    TEST_ASSERT_EQUAL_UINT8(0, out[1]);
+    TEST_ASSERT_EQUAL_UINT8(10, out[7]);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, 1u, VD_CONTRAST_WARM, col, sizeof(col), &d));
+    TEST_ASSERT_EQUAL_UINT8(80, out[12]);
+    TEST_ASSERT_EQUAL_UINT8(0, out[6]);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, 1u, VD_CONTRAST_COLD, col, sizeof(col), &d));
+    TEST_ASSERT_EQUAL_UINT8(0, out[12]);
+    TEST_ASSERT_EQUAL_UINT8(10, out[6]);
+    // Radius larger than the frame: one mean over everything ((340 + 12) / 25 = 14).
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, 9u, VD_CONTRAST_BOTH, col, sizeof(col), &d));
+    TEST_ASSERT_EQUAL_UINT8(86, out[12]);
+    TEST_ASSERT_EQUAL_UINT8(4, out[0]);
+}
+
+// Naive reference: the clipped box mean summed pixel by pixel.
+static void naive_map(const uint8_t *s, uint32_t w, uint32_t h, size_t stride, uint32_t r, uint8_t pol, uint8_t *o)
+{
+    for (uint32_t y = 0; y < h; y++) {
+        for (uint32_t x = 0; x < w; x++) {
+            uint32_t sum = 0, n = 0;
+            for (int32_t yy = (int32_t)y - (int32_t)r; yy <= (int32_t)(y + r); yy++) {
+                for (int32_t xx = (int32_t)x - (int32_t)r; xx <= (int32_t)(x + r); xx++) {
+                    if (yy >= 0 && xx >= 0 && yy < (int32_t)h && xx < (int32_t)w) {
+                        sum += s[(size_t)yy * stride + (size_t)xx];
+                        n++;
+                    }
+                }
+            }
+            int32_t mean = (int32_t)((sum + n / 2u) / n);
+            int32_t d = (int32_t)s[y * stride + x] - mean;
+            if (pol == VD_CONTRAST_COLD) { d = -d; }
+            if (pol == VD_CONTRAST_BOTH && d < 0) { d = -d; }
+            o[y * w + x] = (uint8_t)(d > 0 ? d : 0);
+        }
+    }
+}
+
+static void test_map_random_vs_naive(void)
+{
+    uint32_t seed = 777u;
+    uint32_t col[130];
+    for (int it = 0; it < 60; it++) {
+        uint32_t w = 1u + tu_rand(&seed) % 60u;
+        uint32_t h = 1u + tu_rand(&seed) % 50u;
+        size_t stride = w + tu_rand(&seed) % 7u;   // odd strides too
+        uint32_t r = 1u + tu_rand(&seed) % 20u;
+        uint8_t pol = (uint8_t)(tu_rand(&seed) % 3u);
+        bool smooth = (tu_rand(&seed) % 2u) != 0u;
+        for (size_t i = 0; i < stride * h; i++) {
+            g_src[i] = smooth ? (uint8_t)(100u + tu_rand(&seed) % 40u) : (uint8_t)tu_rand(&seed);
+        }
+        naive_map(g_src, w, h, stride, r, pol, g_ref);
+        vd_view_u8_t v = {g_src, w, h, stride};
+        vd_image_u8_t d = {g_dst, w, h, w};
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, r, pol, col, w * sizeof(uint32_t), &d));
+        TEST_ASSERT_EQUAL_MEMORY(g_ref, g_dst, (size_t)w * h);
+    }
+}
+
+// A 64 x 64 frame of 50 with one 20 x 14 rectangle of `value` at (20, 25).
+static void rect_frame(uint8_t value)
+{
+    memset(g_src, 50, 64u * 64u);
+    for (uint32_t y = 25; y < 39; y++) {
+        memset(g_src + y * 64u + 20u, value, 20u);
+    }
+}
+
+static vd_status_t run_cand(const vd_contrast_cfg_t *cfg, size_t cap, size_t *n, uint8_t *thr)
+{
+    vd_view_u8_t v = {g_src, 64, 64, 64};
+    size_t bytes = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(64, 64, &bytes));
+    void *ws = tu_guarded_alloc(0, bytes);
+    vd_status_t st = vd_contrast_candidates(&v, cfg, ws, bytes, g_comps, cap, n, thr);
+    tu_guard_check(0);
+    tu_guarded_free(0);
+    return st;
+}
+
+static void test_candidates_cold_and_warm(void)
+{
+    size_t n = 0;
+    uint8_t thr = 0;
+    rect_frame(10);   // cold: 40 below the road
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_cand(NULL, 256, &n, &thr));
+    TEST_ASSERT_EQUAL_UINT8(24, thr);
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    TEST_ASSERT_EQUAL_INT32(20, g_comps[0].box.x);
+    TEST_ASSERT_EQUAL_INT32(25, g_comps[0].box.y);
+    TEST_ASSERT_EQUAL_INT32(20, g_comps[0].box.w);
+    TEST_ASSERT_EQUAL_INT32(14, g_comps[0].box.h);
+    TEST_ASSERT_EQUAL_UINT32(280u, g_comps[0].area);
+    vd_contrast_cfg_t c;
+    memset(&c, 0, sizeof(c));
+    c.polarity = VD_CONTRAST_WARM;   // a cold region has no warm contrast
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_cand(&c, 256, &n, NULL));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    rect_frame(90);   // warm
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_cand(&c, 256, &n, NULL));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    TEST_ASSERT_EQUAL_INT32(20, g_comps[0].box.x);
+    TEST_ASSERT_EQUAL_INT32(14, g_comps[0].box.h);
+    // Rules: min_area above the rectangle removes it.
+    c.rules.aspect_min_q8 = 77u;
+    c.rules.aspect_max_q8 = 384u;
+    c.rules.min_area = 281u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_cand(&c, 256, &n, NULL));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+}
+
+static void test_candidates_percentile_and_capacity(void)
+{
+    rect_frame(10);
+    vd_contrast_cfg_t c;
+    memset(&c, 0, sizeof(c));
+    c.thr_mode = VD_CONTRAST_THR_PERCENTILE;
+    c.permille = 1000u;   // the largest contrast in the map
+    size_t n = 0;
+    uint8_t thr = 0;
+    vd_status_t st = run_cand(&c, 256, &n, &thr);
+    TEST_ASSERT_EQUAL_INT(VD_OK, st);
+    // The reference map's maximum.
+    uint32_t col[64];
+    vd_view_u8_t v = {g_src, 64, 64, 64};
+    vd_image_u8_t d = {g_dst, 64, 64, 64};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, 16u, VD_CONTRAST_BOTH, col, sizeof(col), &d));
+    uint8_t mx = 0;
+    for (size_t i = 0; i < 64u * 64u; i++) {
+        mx = g_dst[i] > mx ? g_dst[i] : mx;
+    }
+    TEST_ASSERT_EQUAL_UINT8(mx, thr);
+    // Two rectangles: labelling finds a 5-px fleck in the corner (its clipped box holds much of the
+    // second rectangle), the second rectangle, then the first. cap 2 -> VD_ERR_CAPACITY; the rules
+    // then drop the fleck, leaving the second rectangle.
+    rect_frame(10);
+    for (uint32_t y = 2; y < 14; y++) {
+        memset(g_src + y * 64u + 2u, 10, 16u);
+    }
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, run_cand(NULL, 2, &n, NULL));
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    TEST_ASSERT_EQUAL_INT32(2, g_comps[0].box.y);
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_cand(NULL, 256, &n, NULL));
+    TEST_ASSERT_EQUAL_size_t(2u, n);
+}
+
+static vd_status_t ws_map(void *ws, size_t bytes, void *ctx)
+{
+    (void)ctx;
+    vd_view_u8_t v = {g_src, 40, 30, 40};
+    vd_image_u8_t d = {g_dst, 40, 30, 40};
+    return vd_contrast_map_u8(&v, 4u, VD_CONTRAST_BOTH, ws, bytes, &d);
+}
+
+static vd_status_t ws_cand(void *ws, size_t bytes, void *ctx)
+{
+    (void)ctx;
+    vd_view_u8_t v = {g_src, 40, 30, 40};
+    size_t n = 0;
+    return vd_contrast_candidates(&v, NULL, ws, bytes, g_comps, 256, &n, NULL);
+}
+
+static void test_workspace_contract(void)
+{
+    memset(g_src, 50, 40u * 30u);
+    size_t b = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_workspace_size(40, &b));
+    TEST_ASSERT_EQUAL_size_t(160u, b);
+    tu_check_workspace_contract(b, ws_map, NULL);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(40, 30, &b));
+    tu_check_workspace_contract(b, ws_cand, NULL);
+    size_t cc = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(640, 480, &cc));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(640, 480, &b));
+    TEST_ASSERT_EQUAL_size_t(640u * 480u + 640u * 4u + 1024u + cc, b);
+}
+
+static void test_arguments(void)
+{
+    uint32_t col[64];
+    vd_view_u8_t v = {g_src, 40, 30, 40};
+    vd_image_u8_t d = {g_dst, 40, 30, 40};
+    size_t b = 0;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_workspace_size(0, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_workspace_size(VD_MAX_DIM + 1u, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_workspace_size(40, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_workspace_size(40, 0, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_workspace_size(40, 30, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_u8(NULL, 4u, 0u, col, sizeof(col), &d));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_u8(&v, 4u, 0u, col, sizeof(col), NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_u8(&v, 0u, 0u, col, sizeof(col), &d));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_u8(&v, VD_CONTRAST_MAX_RADIUS + 1u, 0u, col, sizeof(col), &d));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_u8(&v, 4u, 3u, col, sizeof(col), &d));
+    vd_image_u8_t small = {g_dst, 39, 30, 40};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_u8(&v, 4u, 0u, col, sizeof(col), &small));
+    vd_image_u8_t alias = {g_src, 40, 30, 40};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_u8(&v, 4u, 0u, col, sizeof(col), &alias));
+    vd_view_u8_t bad = {g_src, 40, 30, 39};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_map_u8(&bad, 4u, 0u, col, sizeof(col), &d));
+
+    static uint64_t ws[(64u * 64u + 4096u + 2048u + 140000u) / 8u];
+    size_t n = 99;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_candidates(&v, NULL, ws, sizeof(ws), g_comps, 4, NULL, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_candidates(NULL, NULL, ws, sizeof(ws), g_comps, 4, &n, NULL));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_candidates(&v, NULL, ws, sizeof(ws), NULL, 4, &n, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_candidates(&bad, NULL, ws, sizeof(ws), g_comps, 4, &n, NULL));
+    vd_contrast_cfg_t c;
+    memset(&c, 0, sizeof(c));
+    c.radius = VD_CONTRAST_MAX_RADIUS + 1u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_candidates(&v, &c, ws, sizeof(ws), g_comps, 4, &n, NULL));
+    memset(&c, 0, sizeof(c));
+    c.polarity = 3u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_candidates(&v, &c, ws, sizeof(ws), g_comps, 4, &n, NULL));
+    memset(&c, 0, sizeof(c));
+    c.thr_mode = 2u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_candidates(&v, &c, ws, sizeof(ws), g_comps, 4, &n, NULL));
+    memset(&c, 0, sizeof(c));
+    c.permille = 1001u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_candidates(&v, &c, ws, sizeof(ws), g_comps, 4, &n, NULL));
+    memset(&c, 0, sizeof(c));
+    c.rules.aspect_min_q8 = 300u;
+    c.rules.aspect_max_q8 = 100u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_candidates(&v, &c, ws, sizeof(ws), g_comps, 4, &n, NULL));
+    // cap 0 with NULL out is allowed.
+    memset(g_src, 50, 40u * 30u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_candidates(&v, NULL, ws, sizeof(ws), NULL, 0, &n, NULL));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_map_hand_worked);
+    RUN_TEST(test_map_random_vs_naive);
+    RUN_TEST(test_candidates_cold_and_warm);
+    RUN_TEST(test_candidates_percentile_and_capacity);
+    RUN_TEST(test_workspace_contract);
+    RUN_TEST(test_arguments);
+    return UNITY_END();
+}
