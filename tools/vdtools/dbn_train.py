@@ -24,12 +24,13 @@ ALPHA = 0.1          # paper: 0.4; at 0.4 98 % of the 576 first-layer units satu
 ALPHA_UPPER = 0.1
 THETA = 0.75         # paper 001 (000 uses 0.8)
 WD = 2e-4
-PRE_EPOCHS = 10
-FT_EPOCHS = 20
+PRE_EPOCHS = 6
+FT_EPOCHS = 12
 FT_LR = 0.05
-FT_PATIENCE = 5
+FT_PATIENCE = 4
 BATCH = 64
-PRE_MAX_ROWS = 8000   # CD-1 on a random 8000 training rows (CPU budget; unsupervised, labels unused)
+PRE_MAX_ROWS = 6000   # CD-1 on a random 6000 training rows (CPU budget; unsupervised, labels unused)
+FT_MAX_ROWS = 6000    # back-propagation on a random 6000 training rows per run (CPU budget)
 DEPTHS = {1: [576], 2: [576, 256], 3: [576, 256, 64], 4: [576, 256, 64, 16]}
 COMPACT = [48, 16]
 
@@ -50,7 +51,11 @@ def pretrain(X, sizes, seed=0, epochs=PRE_EPOCHS, max_rows=PRE_MAX_ROWS, progres
 
 def finetune(rbms, X, y, masks, mode, seed=0, epochs=FT_EPOCHS, progress=True, log=print, desc="finetune"):
     net = rbm.DBN.from_rbms(rbms, X.shape[1], np.random.default_rng(seed + 1), mode)
-    tr, va = masks["train"], masks["val"]
+    tr, va = masks["train"].copy(), masks["val"]
+    idx = np.flatnonzero(tr)
+    if FT_MAX_ROWS and len(idx) > FT_MAX_ROWS:   # same subset for every depth (seeded)
+        tr[:] = False
+        tr[np.random.default_rng(seed + 7).choice(idx, FT_MAX_ROWS, replace=False)] = True
     hist = net.finetune(X[tr], y[tr], X[va], y[va], epochs=epochs, lr=FT_LR, momentum=0.9, weight_decay=1e-4,
                         batch=BATCH, seed=seed, patience=FT_PATIENCE, progress=progress, desc=desc, log=log)
     return net, hist
@@ -59,7 +64,8 @@ def finetune(rbms, X, y, masks, mode, seed=0, epochs=FT_EPOCHS, progress=True, l
 def recipe():
     return {"alpha": ALPHA, "alpha_upper": ALPHA_UPPER, "theta": THETA, "momentum_warmup": "0.5 for 5 epochs",
             "weight_decay": WD, "pre_epochs": PRE_EPOCHS, "ft_epochs_max": FT_EPOCHS, "ft_lr": FT_LR,
-            "ft_momentum": 0.9, "ft_patience": FT_PATIENCE, "batch": BATCH, "pre_max_rows": PRE_MAX_ROWS}
+            "ft_momentum": 0.9, "ft_patience": FT_PATIENCE, "batch": BATCH, "pre_max_rows": PRE_MAX_ROWS,
+            "ft_max_rows": FT_MAX_ROWS}
 
 
 def main(argv=None):
