@@ -31,8 +31,10 @@
 // Bounds: time O(W*H) for the (adaptive) histogram and labelling plus, per candidate
 // (<= max_candidates), O(region) for refine/contour and the DBN's
 // multiply-adds; NMS O(max_candidates^2); temporal as temporal.h with at most
-// 289 refine probes per missed confirmed track. Stack of vd_detector_run
-// itself < 2 KiB (560 bytes with gcc 12 -O2, -fstack-usage); no recursion.
+// 289 refine probes per missed confirmed track. Stack: vd_detector_run's own
+// frame 136 bytes (Cortex-M7 -Os; per-candidate state is in the workspace),
+// plus the deepest stage below it (refine -> median; docs/embedded.md); no
+// recursion.
 #include "vd/detector.h"
 
 #include <string.h>
@@ -40,6 +42,14 @@
 #include "vd/contour.h"
 #include "vd/resample.h"
 #include "internal/vd_internal.h"
+
+// Keeps a helper's locals out of its caller's frame while the caller makes
+// the deep calls (refine -> median): the stack budget of vd_detector_run.
+#if defined(__GNUC__)
+#define DET_NOINLINE __attribute__((noinline))
+#else
+#define DET_NOINLINE
+#endif
 
 #define DEF_W 640u
 #define DEF_H 512u
@@ -144,9 +154,67 @@ static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c
     return VD_OK;
 }
 
+// The 8-bit plane of one region: `view` with `roi` (in view coordinates),
+// and the per-axis factors mapping roi pixels to image pixels.
+typedef struct region_plane {
+    vd_view_u8_t view;
+    vd_rect_t roi;
+    vd_rect_t region;   // image coordinates
+    uint32_t kx, ky;
+} region_plane_t;
+
+// Region buffers carved from the overlay (valid after labelling).
+typedef struct region_bufs {
+    uint8_t *crop;
+    uint8_t *rmask;
+    void *refine_ws;
+    void *contour_ws;
+    vd_point_t *points;
+    vd_contour_t *contours;
+} region_bufs_t;
+
+// Per-candidate state. It lives in the workspace, not on the stack, so that
+// the deepest call chain (run -> vd_refine_region -> median) keeps within the
+// stack budget of vd_detector_run (docs/embedded.md).
+typedef struct cand_ctx {
+    region_bufs_t b;         // fixed once init has carved the overlay
+    vd_refine_cfg_t rc;      // fixed in init
+    vd_rect_t region;        // expanded candidate (image coordinates)
+    region_plane_t p;
+    vd_refine_stats_t rs;
+    vd_image_u8_t m;         // refine output view on b.rmask
+    vd_view_u8_t mv;
+    vd_contour_t best;
+    vd_rect_t vb;            // contour box in plane coordinates
+    vd_cc_stats_t cs;
+    vd_detection_t tmp;      // sort temporary of suppress()
+} cand_ctx_t;
+
+static void region_bufs(const vd_detector_t *det, region_bufs_t *b)
+{
+    size_t rsz = (size_t)det->cfg.max_region_w * det->cfg.max_region_h;
+    vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // overlay is aligned (carved by init)
+    b->crop = (uint8_t *)vd_arena_take(&a, rsz);
+    b->rmask = (uint8_t *)vd_arena_take(&a, rsz);
+    const size_t work_at = a.used;
+    b->refine_ws = vd_arena_take(&a, det->refine_ws_bytes);
+    a.used = work_at;   // the tracer's buffers overlay the refine workspace (see overlay_size)
+    b->contour_ws = vd_arena_take(&a, det->contour_ws_bytes);
+    b->points = (vd_point_t *)vd_arena_take(&a, det->points_cap * sizeof(vd_point_t));
+    b->contours = (vd_contour_t *)vd_arena_take(&a, det->contours_cap * sizeof(vd_contour_t));
+    VD_ASSERT(b->refine_ws != NULL && b->contours != NULL);
+}
+
+static void refine_cfg_of(const vd_detector_t *det, vd_refine_cfg_t *rc)
+{
+    rc->median_ksize = (det->cfg.median_ksize == 1u) ? 0u : det->cfg.median_ksize;
+    rc->edge_step = det->cfg.edge_step;
+    rc->window = det->cfg.window;
+}
+
 // Byte sizes of every workspace slice.
 typedef struct layout {
-    size_t comps, cand, obs, tracks, hist, sample, dbn;
+    size_t comps, cand, obs, tracks, hist, sample, dbn, scratch;
     size_t cc, crop, rmask, refine, contour, points, contours;
     size_t points_cap, contours_cap;
 } layout_t;
@@ -163,6 +231,7 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
         l->tracks = (size_t)c->max_tracks * sizeof(vd_track_t);
     }
     l->hist = 256u * sizeof(uint32_t);
+    l->scratch = sizeof(cand_ctx_t);
     if (model != NULL) {
         VD_VERIFY(model->blob != NULL && model->input_w > 0u && model->input_h > 0u, VD_ERR_MODEL);
         VD_VERIFY(model->input_mode == VD_DBN_INPUT_GREY || model->input_mode == VD_DBN_INPUT_SHAPE, VD_ERR_MODEL);
@@ -213,7 +282,8 @@ static vd_status_t total_size(const layout_t *l, size_t *bytes)
     size_t t = 0u;
     VD_VERIFY(vd_size_add_slice(&t, l->comps) && vd_size_add_slice(&t, l->cand) &&
               vd_size_add_slice(&t, l->obs) && vd_size_add_slice(&t, l->tracks) &&
-              vd_size_add_slice(&t, l->hist) && vd_size_add_slice(&t, l->sample) &&
+              vd_size_add_slice(&t, l->hist) && vd_size_add_slice(&t, l->scratch) &&
+              vd_size_add_slice(&t, l->sample) &&
               vd_size_add_slice(&t, l->dbn) && vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
     *bytes = t;
     return VD_OK;
@@ -265,6 +335,7 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->obs = (vd_temporal_obs_t *)take(&arena, l.obs, &ok);
     det->tracks = (vd_track_t *)take(&arena, l.tracks, &ok);
     det->hist = (uint32_t *)take(&arena, l.hist, &ok);
+    det->scratch = take(&arena, l.scratch, &ok);
     det->sample = (uint8_t *)take(&arena, l.sample, &ok);
     det->dbn_ws = take(&arena, l.dbn, &ok);
     det->dbn_ws_bytes = l.dbn;
@@ -280,6 +351,10 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->contour_ws_bytes = l.contour;
     det->points_cap = l.points_cap;
     det->contours_cap = l.contours_cap;
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
+    memset(x, 0, sizeof(*x));
+    region_bufs(det, &x->b);
+    refine_cfg_of(det, &x->rc);
     if (model != NULL) {
         det->in_w = model->input_w;
         det->in_h = model->input_h;
@@ -322,14 +397,6 @@ static void clock_add(vd_detector_t *det, int stage, uint32_t *t0)
     *t0 = t1;
 }
 
-// The 8-bit plane of one region: `view` with `roi` (in view coordinates),
-// and the per-axis factors mapping roi pixels to image pixels.
-typedef struct region_plane {
-    vd_view_u8_t view;
-    vd_rect_t roi;
-    vd_rect_t region;   // image coordinates
-    uint32_t kx, ky;
-} region_plane_t;
 
 static uint8_t grey_of_raw(const vd_detector_t *det, uint32_t raw)
 {
@@ -345,7 +412,7 @@ static uint8_t grey_of_raw(const vd_detector_t *det, uint32_t raw)
 // Builds the region plane in the overlay's crop buffer when needed (16-bit
 // frames, or regions above max_region_*); 8-bit regions that fit are read
 // from the frame directly so the median sees the pixels around the ROI.
-static vd_status_t make_plane(vd_detector_t *det, const vd_frame_t *f, const vd_rect_t *region,
+DET_NOINLINE static vd_status_t make_plane(vd_detector_t *det, const vd_frame_t *f, const vd_rect_t *region,
                               uint8_t *crop, region_plane_t *p)
 {
     uint32_t rw = (uint32_t)region->w;
@@ -395,47 +462,15 @@ static vd_status_t make_plane(vd_detector_t *det, const vd_frame_t *f, const vd_
     return VD_OK;
 }
 
-// Region buffers carved from the overlay (valid after labelling).
-typedef struct region_bufs {
-    uint8_t *crop;
-    uint8_t *rmask;
-    void *refine_ws;
-    void *contour_ws;
-    vd_point_t *points;
-    vd_contour_t *contours;
-} region_bufs_t;
-
-static void region_bufs(const vd_detector_t *det, region_bufs_t *b)
+// Refines x->region into x->b.rmask; sets x->p (its plane), x->m and x->rs.
+static vd_status_t refine_region(vd_detector_t *det, const vd_frame_t *f, cand_ctx_t *x)
 {
-    size_t rsz = (size_t)det->cfg.max_region_w * det->cfg.max_region_h;
-    vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // overlay is aligned (carved by init)
-    b->crop = (uint8_t *)vd_arena_take(&a, rsz);
-    b->rmask = (uint8_t *)vd_arena_take(&a, rsz);
-    const size_t work_at = a.used;
-    b->refine_ws = vd_arena_take(&a, det->refine_ws_bytes);
-    a.used = work_at;   // the tracer's buffers overlay the refine workspace (see overlay_size)
-    b->contour_ws = vd_arena_take(&a, det->contour_ws_bytes);
-    b->points = (vd_point_t *)vd_arena_take(&a, det->points_cap * sizeof(vd_point_t));
-    b->contours = (vd_contour_t *)vd_arena_take(&a, det->contours_cap * sizeof(vd_contour_t));
-    VD_ASSERT(b->refine_ws != NULL && b->contours != NULL);
-}
-
-static void refine_cfg_of(const vd_detector_t *det, vd_refine_cfg_t *rc)
-{
-    rc->median_ksize = (det->cfg.median_ksize == 1u) ? 0u : det->cfg.median_ksize;
-    rc->edge_step = det->cfg.edge_step;
-    rc->window = det->cfg.window;
-}
-
-// Refines one region into b->rmask; returns its plane and refine stats.
-static vd_status_t refine_region(vd_detector_t *det, const vd_frame_t *f, const vd_rect_t *region,
-                                 const region_bufs_t *b, region_plane_t *p, vd_refine_stats_t *rs)
-{
-    vd_refine_cfg_t rc;
-    refine_cfg_of(det, &rc);
-    VD_TRY(make_plane(det, f, region, b->crop, p));
-    vd_image_u8_t m = {b->rmask, (uint32_t)p->roi.w, (uint32_t)p->roi.h, (size_t)p->roi.w};
-    return vd_refine_region(&p->view, &p->roi, &rc, b->refine_ws, det->refine_ws_bytes, &m, rs);
+    VD_TRY(make_plane(det, f, &x->region, x->b.crop, &x->p));
+    x->m.data = x->b.rmask;
+    x->m.width = (uint32_t)x->p.roi.w;
+    x->m.height = (uint32_t)x->p.roi.h;
+    x->m.stride = (size_t)x->p.roi.w;
+    return vd_refine_region(&x->p.view, &x->p.roi, &x->rc, x->b.refine_ws, det->refine_ws_bytes, &x->m, &x->rs);
 }
 
 // Complexity (temporal.h) of a refined region: edge pixels / region pixels.
@@ -455,15 +490,11 @@ static uint16_t region_complexity(const vd_refine_stats_t *rs, const region_plan
 static vd_status_t detector_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15)
 {
     vd_detector_t *det = (vd_detector_t *)user;
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     const vd_frame_t *f = det->frame;
-    vd_rect_t region;
-    VD_TRY(vd_rect_expand(box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &region));
-    region_bufs_t b;
-    region_bufs(det, &b);
-    region_plane_t p;
-    vd_refine_stats_t rs;
-    VD_TRY(refine_region(det, f, &region, &b, &p, &rs));
-    *complexity_q15 = region_complexity(&rs, &p);
+    VD_TRY(vd_rect_expand(box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &x->region));
+    VD_TRY(refine_region(det, f, x));
+    *complexity_q15 = region_complexity(&x->rs, &x->p);
     return VD_OK;
 }
 
@@ -500,11 +531,11 @@ static uint32_t threshold_u8(vd_detector_t *det, const vd_view_u8_t *v)
 // compares with the threshold as it run-length encodes), with the run budget
 // of the overlay. Sets the threshold, hot pixel, run and overflow stats.
 // Returns VD_OK or VD_ERR_CAPACITY (components or runs; stats say which).
-static vd_status_t hot_components(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint32_t *t0)
+DET_NOINLINE static vd_status_t hot_components(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint32_t *t0)
 {
     vd_detector_stats_t *s = &det->stats;
-    vd_cc_stats_t cs;
-    memset(&cs, 0, sizeof(cs));
+    vd_cc_stats_t *cs = &((cand_ctx_t *)det->scratch)->cs;
+    memset(cs, 0, sizeof(*cs));
     vd_status_t st;
     *n = 0u;
     if (f->format == VD_PIX_U8) {
@@ -514,7 +545,7 @@ static vd_status_t hot_components(vd_detector_t *det, const vd_frame_t *f, size_
         s->hot_thr_u8 = thr;
         clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
         st = vd_components_label_thr_u8(&v, NULL, (uint8_t)thr, det->overlay, det->cc_ws_bytes, det->comps,
-                                        det->cfg.max_components, n, &cs);
+                                        det->cfg.max_components, n, cs);
     } else {
         vd_view_u16_t v16;
         VD_TRY(vd_frame_view_u16(f, &v16));
@@ -524,23 +555,23 @@ static vd_status_t hot_components(vd_detector_t *det, const vd_frame_t *f, size_
             return VD_OK;
         }
         st = vd_components_label_thr_u16(&v16, NULL, det->raw_thr, det->overlay, det->cc_ws_bytes, det->comps,
-                                         det->cfg.max_components, n, &cs);
+                                         det->cfg.max_components, n, cs);
     }
     if (st != VD_OK && st != VD_ERR_CAPACITY) {
         return st;
     }
-    s->hot_pixels = cs.pixels;
-    s->runs = cs.runs;
-    if (cs.labels > det->cfg.max_components) {
+    s->hot_pixels = cs->pixels;
+    s->runs = cs->runs;
+    if (cs->labels > det->cfg.max_components) {
         s->overflow_components = 1u;
     }
-    if (cs.rows < f->height) {
+    if (cs->rows < f->height) {
         // Run budget exhausted: keep the components of rows [0, rows) that
         // end above the last labelled row (the others may continue below).
-        s->overflow_runs = f->height - cs.rows;
+        s->overflow_runs = f->height - cs->rows;
         size_t k = 0u;
         for (size_t i = 0; i < *n; i++) {
-            if ((uint32_t)(det->comps[i].box.y + det->comps[i].box.h) < cs.rows) {
+            if ((uint32_t)(det->comps[i].box.y + det->comps[i].box.h) < cs->rows) {
                 det->comps[k++] = det->comps[i];
             }
         }
@@ -568,28 +599,26 @@ static size_t largest_contour(const vd_contour_t *c, size_t n)
 static vd_status_t process_candidate(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
                                      uint8_t hot_thr, vd_detection_t *d, bool *keep, uint32_t *t0)
 {
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     *keep = false;
     memset(d, 0, sizeof(*d));
-    vd_rect_t region;
-    if (vd_rect_expand(&comp->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &region) != VD_OK) {
+    if (vd_rect_expand(&comp->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &x->region) !=
+        VD_OK) {
         return VD_OK;   // cannot happen for a component inside the frame
     }
-    region_bufs_t b;
-    region_bufs(det, &b);
-    region_plane_t p;
-    vd_refine_stats_t rs;
-    VD_TRY(refine_region(det, f, &region, &b, &p, &rs));
-    if (p.kx > 1u || p.ky > 1u) {
+    VD_TRY(refine_region(det, f, x));
+    const region_plane_t *p = &x->p;
+    if (p->kx > 1u || p->ky > 1u) {
         d->flags |= VD_DET_FLAG_DECIMATED;
         det->stats.decimated++;
     }
     clock_add(det, VD_DET_STAGE_REFINE, t0);
 
-    vd_view_u8_t mv = {b.rmask, (uint32_t)p.roi.w, (uint32_t)p.roi.h, (size_t)p.roi.w};
+    x->mv = vd_image_u8_view(&x->m);
     size_t nc = 0u;
     size_t np = 0u;
-    vd_status_t st = vd_contours_find_external(&mv, b.contour_ws, det->contour_ws_bytes, b.points, NULL,
-                                               det->points_cap, b.contours, det->contours_cap, &nc, &np);
+    vd_status_t st = vd_contours_find_external(&x->mv, x->b.contour_ws, det->contour_ws_bytes, x->b.points, NULL,
+                                               det->points_cap, x->b.contours, det->contours_cap, &nc, &np);
     if (st == VD_ERR_CAPACITY) {
         d->flags |= VD_DET_FLAG_CONTOUR_TRUNC;
         det->stats.overflow_contours++;
@@ -602,16 +631,16 @@ static vd_status_t process_candidate(vd_detector_t *det, const vd_frame_t *f, co
     }
     det->stats.refined++;
     // A copy: the shape-mode refine below reuses the memory of b.contours.
-    const vd_contour_t best = b.contours[largest_contour(b.contours, nc)];
-    const vd_contour_t *c = &best;
-    uint32_t kmax = p.kx > p.ky ? p.kx : p.ky;
-    d->box.x = region.x + c->box.x * (int32_t)p.kx;
-    d->box.y = region.y + c->box.y * (int32_t)p.ky;
-    d->box.w = c->box.w * (int32_t)p.kx;
-    d->box.h = c->box.h * (int32_t)p.ky;
-    d->candidate = region;
+    x->best = x->b.contours[largest_contour(x->b.contours, nc)];
+    const vd_contour_t *c = &x->best;
+    uint32_t kmax = p->kx > p->ky ? p->kx : p->ky;
+    d->box.x = x->region.x + c->box.x * (int32_t)p->kx;
+    d->box.y = x->region.y + c->box.y * (int32_t)p->ky;
+    d->box.w = c->box.w * (int32_t)p->kx;
+    d->box.h = c->box.h * (int32_t)p->ky;
+    d->candidate = x->region;
     d->contour_length = c->length * kmax;
-    d->complexity_q15 = region_complexity(&rs, &p);
+    d->complexity_q15 = region_complexity(&x->rs, p);
     d->source = VD_SOURCE_HOTSPOT;
     d->hot_thr = hot_thr;
 
@@ -620,17 +649,20 @@ static vd_status_t process_candidate(vd_detector_t *det, const vd_frame_t *f, co
         d->flags |= VD_DET_FLAG_UNVERIFIED;
     } else {
         // The contour box in plane coordinates.
-        vd_rect_t vb = {p.roi.x + c->box.x, p.roi.y + c->box.y, c->box.w, c->box.h};
+        x->vb.x = p->roi.x + c->box.x;
+        x->vb.y = p->roi.y + c->box.y;
+        x->vb.w = c->box.w;
+        x->vb.h = c->box.h;
         if (det->model->input_mode == VD_DBN_INPUT_GREY) {
-            VD_TRY(vd_resample_u8(&p.view, &vb, det->sample, det->in_w, det->in_h));
+            VD_TRY(vd_resample_u8(&p->view, &x->vb, det->sample, det->in_w, det->in_h));
         } else {
             // As samples.py: refine the box itself, then resample the whole mask.
-            vd_refine_cfg_t rc;
-            refine_cfg_of(det, &rc);
-            vd_image_u8_t m = {b.rmask, (uint32_t)vb.w, (uint32_t)vb.h, (size_t)vb.w};
-            VD_TRY(vd_refine_region(&p.view, &vb, &rc, b.refine_ws, det->refine_ws_bytes, &m, NULL));
-            vd_view_u8_t smv = {b.rmask, (uint32_t)vb.w, (uint32_t)vb.h, (size_t)vb.w};
-            VD_TRY(vd_resample_u8(&smv, NULL, det->sample, det->in_w, det->in_h));
+            x->m.width = (uint32_t)x->vb.w;
+            x->m.height = (uint32_t)x->vb.h;
+            x->m.stride = (size_t)x->vb.w;
+            VD_TRY(vd_refine_region(&p->view, &x->vb, &x->rc, x->b.refine_ws, det->refine_ws_bytes, &x->m, NULL));
+            x->mv = vd_image_u8_view(&x->m);
+            VD_TRY(vd_resample_u8(&x->mv, NULL, det->sample, det->in_w, det->in_h));
         }
         clock_add(det, VD_DET_STAGE_SAMPLE, t0);
         uint8_t score = 0u;
@@ -647,17 +679,18 @@ static vd_status_t process_candidate(vd_detector_t *det, const vd_frame_t *f, co
 }
 
 // Stable sort by score (best first), then greedy suppression; returns kept.
-static size_t suppress(vd_detector_t *det, size_t n)
+DET_NOINLINE static size_t suppress(vd_detector_t *det, size_t n)
 {
     vd_detection_t *d = det->cand;
+    vd_detection_t *v = &((cand_ctx_t *)det->scratch)->tmp;
     for (size_t i = 1; i < n; i++) {
-        vd_detection_t v = d[i];
+        *v = d[i];
         size_t j = i;
-        while (j > 0u && d[j - 1u].score_q8 < v.score_q8) {
+        while (j > 0u && d[j - 1u].score_q8 < v->score_q8) {
             d[j] = d[j - 1u];
             j--;
         }
-        d[j] = v;
+        d[j] = *v;
     }
     size_t kept = 0u;
     for (size_t i = 0; i < n; i++) {

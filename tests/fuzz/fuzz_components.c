@@ -10,6 +10,88 @@
 #include "fuzz_common.h"
 #include "vd/components.h"
 
+static void same_components(const vd_component_t *a, const vd_component_t *b, size_t n)
+{
+    for (size_t i = 0u; i < n; i++) {
+        FZ_CHECK(a[i].box.x == b[i].box.x && a[i].box.y == b[i].box.y && a[i].box.w == b[i].box.w &&
+                 a[i].box.h == b[i].box.h && a[i].area == b[i].area && a[i].cx_q8 == b[i].cx_q8 &&
+                 a[i].cy_q8 == b[i].cy_q8);
+    }
+}
+
+// The thresholding labellers with a run budget (vd_components_label_thr_u8/u16) against
+// vd_components_label on the thresholded mask: the same components on VD_OK; on a run-budget
+// overflow exactly those of the ROI cut after stats.rows rows; u16 (value * 257) equal to u8.
+static void check_thr_labellers(const uint8_t *pix, uint32_t w, uint32_t h, size_t stride, const vd_rect_t *pr,
+                                int valid, size_t cap, uint8_t thr, uint16_t budget)
+{
+    uint8_t *mask = fz_alloc((size_t)w * h);
+    uint16_t *p16 = fz_alloc((size_t)w * h * 2u);
+    for (uint32_t y = 0u; y < h; y++) {
+        for (uint32_t x = 0u; x < w; x++) {
+            const uint8_t v = pix[(size_t)y * stride + x];
+            mask[(size_t)y * w + x] = v >= thr ? 255u : 0u;
+            p16[(size_t)y * w + x] = (uint16_t)(v * 257u);
+        }
+    }
+    const vd_rect_t eff = pr ? *pr : (vd_rect_t){0, 0, (int32_t)w, (int32_t)h};
+    const uint32_t rw = valid ? (uint32_t)eff.w : w, rh = valid ? (uint32_t)eff.h : h;
+    size_t tb = 0u, full = 0u;
+    FZ_CHECK(vd_components_workspace_size(rw, rh, &full) == VD_OK);
+    if (budget) {
+        FZ_CHECK(vd_components_workspace_size_runs(rw, rh, budget, &tb) == VD_OK && tb <= full);
+    } else {
+        tb = full;
+    }
+    void *ws = fz_alloc(tb);
+    void *ws_full = fz_alloc(full);
+    vd_component_t *a = fz_alloc((cap + 1u) * sizeof(vd_component_t));
+    vd_component_t *b = fz_alloc((cap + 1u) * sizeof(vd_component_t));
+    vd_component_t *c = fz_alloc((cap + 1u) * sizeof(vd_component_t));
+    size_t na = 9u, nb = 9u, nc = 9u;
+    vd_cc_stats_t sa, sb;
+    const vd_view_u8_t v8 = {pix, w, h, stride};
+    const vd_view_u16_t v16 = {p16, w, h, (size_t)w * 2u};
+    const vd_view_u8_t vm = {mask, w, h, w};
+    vd_status_t s8 = vd_components_label_thr_u8(&v8, pr, thr, ws, tb, a, cap, &na, &sa);
+    vd_status_t s16 = vd_components_label_thr_u16(&v16, pr, (uint16_t)(thr * 257u), ws, tb, b, cap, &nb, &sb);
+    FZ_CHECK(s8 == s16 && na == nb);
+    if (!valid) {
+        FZ_CHECK(s8 == VD_ERR_ARG && na == 0u);
+    } else {
+        FZ_CHECK(s8 == VD_OK || s8 == VD_ERR_CAPACITY);
+        FZ_CHECK(na <= cap);
+        same_components(a, b, na);
+        FZ_CHECK(sa.rows == sb.rows && sa.runs == sb.runs && sa.labels == sb.labels && sa.pixels == sb.pixels);
+        FZ_CHECK(sa.rows <= rh);
+        if (budget == 0u) {
+            FZ_CHECK(sa.rows == rh);  // a full-size workspace never runs out
+        }
+        if (sa.rows == rh) {
+            vd_status_t sm = vd_components_label(&vm, pr, ws_full, full, c, cap, &nc);
+            FZ_CHECK(sm == s8 && nc == na);
+            same_components(a, c, na);
+        } else {
+            FZ_CHECK(s8 == VD_ERR_CAPACITY && (sa.rows % 2u) == 0u && sa.runs <= tb / 8u);
+            if (sa.rows > 0u) {
+                const vd_rect_t cut = {eff.x, eff.y, eff.w, (int32_t)sa.rows};
+                vd_status_t sm = vd_components_label(&vm, &cut, ws_full, full, c, cap, &nc);
+                FZ_CHECK(nc == na && (sm == VD_OK || sm == VD_ERR_CAPACITY));
+                same_components(a, c, na);
+            } else {
+                FZ_CHECK(na == 0u);
+            }
+        }
+    }
+    free(c);
+    free(b);
+    free(a);
+    free(ws_full);
+    free(ws);
+    free(p16);
+    free(mask);
+}
+
 static int roi_valid(const vd_rect_t *r, uint32_t w, uint32_t h)
 {
     return r->w > 0 && r->h > 0 && r->x >= 0 && r->y >= 0 && (int64_t)r->x + r->w <= (int64_t)w &&
@@ -125,6 +207,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 }
             }
         }
+    }
+    // Trailing bytes (after the pixels): threshold and run budget of the thresholding labellers.
+    {
+        const uint8_t thr = (uint8_t)(fz_u8(&r) + 1u);
+        const uint16_t budget = fz_u16(&r);
+        check_thr_labellers(mask, w, h, stride, pr, valid, cap, thr, budget);
     }
     // Expansion of an arbitrary (possibly off-frame or huge) box never misbehaves.
     {

@@ -114,6 +114,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FZ_FIELD(25, max_tracks, (uint16_t)(fz_u16(&r) % 1100u));
     FZ_FIELD(26, temporal_cfg.confirm_frames, fz_u8(&r));
     FZ_FIELD(27, reserved0, fz_u8(&r));
+    FZ_FIELD(28, max_runs, (uint32_t)fz_u16(&r));
 #undef FZ_FIELD
 
     const vd_model_t *model = (flags & 1u) ? tiny_model() : NULL;

@@ -3,7 +3,7 @@
 //
 // Usage: vd_bench [--iters N] [--model m.vdm] [--thr-mode constant|adaptive] [--max-cands K] [--worst]
 //                 [--quiet] file-or-list...
-//   file: PGM (8/16-bit), PNG or JPEG (stb_image); a *.txt/*.lst argument is a list of paths, one a line.
+//   file: PGM (P5, 8/16-bit, own reader), PNG or JPEG (stb_image); a *.txt/*.lst argument is a list of paths, one a line.
 // For each frame every stage runs N times (after one warm-up run when N > 1) timed with
 // clock_gettime(CLOCK_MONOTONIC); the frame's figure is the median; the printed figure is the median over
 // frames (ROI stages: over candidates). Each stage is a call of the public vd function itself, so under
@@ -25,11 +25,11 @@
 
 enum {
     S_DETECTOR, S_THRESHOLD, S_COMPONENTS, S_MEDIAN3, S_MEDIAN5, S_OTSU, S_CONTOURS_FRAME,
-    S_MEDIAN3_ROI, S_MEDIAN5_ROI, S_OTSU_ROI, S_REFINE, S_CONTOURS_ROI, S_RESAMPLE, S_DBN, S_COUNT
+    S_CONTRAST, S_MEDIAN3_ROI, S_MEDIAN5_ROI, S_OTSU_ROI, S_REFINE, S_CONTOURS_ROI, S_RESAMPLE, S_DBN, S_COUNT
 };
 static const char *const k_stage_name[S_COUNT] = {
     "detector (whole frame)", "threshold (frame)", "components (frame)", "median3 (frame)", "median5 (frame)",
-    "otsu (frame)", "contours (hot mask, frame)", "median3 (candidate ROI)", "median5 (candidate ROI)",
+    "otsu (frame)", "contours (hot mask, frame)", "contrast map r16 (frame)", "median3 (candidate ROI)", "median5 (candidate ROI)",
     "otsu (candidate ROI)", "refine (candidate ROI)", "contours (refined ROI)", "resample 32x32 (cand.)",
     "DBN (per sample)"};
 
@@ -127,6 +127,8 @@ CG static vd_status_t cg_threshold(const vd_view_u8_t *s, uint8_t t, vd_image_u8
 { g_cg_calls[S_THRESHOLD]++; return vd_threshold_u8(s, NULL, t, d); }
 CG static vd_status_t cg_components(const vd_view_u8_t *m, void *ws, size_t b, vd_component_t *o, size_t cap, size_t *n)
 { g_cg_calls[S_COMPONENTS]++; return vd_components_label(m, NULL, ws, b, o, cap, n); }
+CG static vd_status_t cg_contrast(const vd_view_u8_t *s, void *ws, size_t b, vd_image_u8_t *d)
+{ g_cg_calls[S_CONTRAST]++; return vd_contrast_map_u8(s, 16u, VD_CONTRAST_BOTH, ws, b, d); }
 CG static vd_status_t cg_median3(const vd_view_u8_t *s, const vd_rect_t *r, vd_image_u8_t *d)
 { g_cg_calls[S_MEDIAN3]++; return vd_median3_u8(s, r, d); }
 CG static vd_status_t cg_median5(const vd_view_u8_t *s, const vd_rect_t *r, vd_image_u8_t *d)
@@ -160,10 +162,71 @@ typedef struct {
     uint16_t *p16;
 } img_t;
 
+// Reads the next whitespace/comment-separated decimal field of a PNM header.
+static int pnm_field(FILE *f, unsigned long *v)
+{
+    int ch = fgetc(f);
+    while (ch == '#' || ch == ' ' || ch == '\t' || ch == '\r' || ch == '\n') {
+        if (ch == '#') {
+            while (ch != '\n' && ch != EOF) {
+                ch = fgetc(f);
+            }
+        }
+        ch = fgetc(f);
+    }
+    if (ch < '0' || ch > '9') {
+        return -1;
+    }
+    *v = 0;
+    while (ch >= '0' && ch <= '9') {
+        *v = *v * 10u + (unsigned long)(ch - '0');
+        ch = fgetc(f);
+    }
+    return 0;   // the single whitespace after the field is consumed
+}
+
+// Binary PGM (P5), 8-bit or 16-bit big-endian: stb_image reads 16-bit PNM with the wrong byte order.
+static int load_pgm(const char *path, img_t *im)
+{
+    FILE *f = fopen(path, "rb");
+    unsigned long w, h, maxv;
+    if (f == NULL) {
+        return -1;
+    }
+    if (fgetc(f) != 'P' || fgetc(f) != '5' || pnm_field(f, &w) || pnm_field(f, &h) || pnm_field(f, &maxv) ||
+        w == 0u || h == 0u || w > 65535u || h > 65535u || maxv == 0u || maxv > 65535u) {
+        fclose(f);
+        return -1;
+    }
+    size_t n = (size_t)w * h;
+    int ok;
+    if (maxv < 256u) {
+        im->p8 = malloc(n);
+        ok = im->p8 != NULL && fread(im->p8, 1, n, f) == n;
+    } else {
+        im->u16 = 1;
+        im->p16 = malloc(n * 2u);
+        ok = im->p16 != NULL && fread(im->p16, 2, n, f) == n;
+        for (size_t i = 0; ok && i < n; i++) {
+            const uint8_t *b = (const uint8_t *)&im->p16[i];
+            im->p16[i] = (uint16_t)((unsigned)b[0] << 8 | b[1]);
+        }
+    }
+    fclose(f);
+    im->w = (uint32_t)w;
+    im->h = (uint32_t)h;
+    return ok ? 0 : -1;
+}
+
+static int has_suffix(const char *s, const char *suf);
+
 static int load_image(const char *path, img_t *im)
 {
     int w, h, c;
     memset(im, 0, sizeof(*im));
+    if (has_suffix(path, ".pgm")) {
+        return load_pgm(path, im);
+    }
     if (stbi_is_16_bit(path)) {
         stbi_us *d = stbi_load_16(path, &w, &h, &c, 1);
         if (d == NULL) {
@@ -216,6 +279,7 @@ typedef struct {
     int max_cands;
     int quiet;
     size_t frames, cands, samples;
+    uint64_t hot_total, comps_total;  // detector counts summed over frames (cross-check with Python)
 } opts_t;
 
 static void *read_file(const char *path, size_t *len)
@@ -301,6 +365,8 @@ static void bench_frame(opts_t *o, const img_t *im)
     TIME_STAGE(S_DETECTOR, cg_detector(&det, &fr, out, 64u, &cnt));
     o->frames++;
     uint8_t thr = (uint8_t)vd_detector_last_stats(&det)->hot_thr_u8;
+    o->hot_total += vd_detector_last_stats(&det)->hot_pixels;
+    o->comps_total += vd_detector_last_stats(&det)->components;
     free(dws);
     if (im->u16) {
         return;   // stage benchmarks are 8-bit
@@ -336,6 +402,12 @@ static void bench_frame(opts_t *o, const img_t *im)
     vd_contour_t *conts = xmalloc(ccap * sizeof(vd_contour_t));
     size_t nc = 0, np = 0;
     TIME_STAGE(S_CONTOURS_FRAME, cg_contours(&mview, ctws, ctb, pts, pcap, conts, ccap, &nc, &np));
+
+    size_t cmb;
+    vd_contrast_map_workspace_size(w, &cmb);
+    void *cmws = xmalloc(cmb);
+    TIME_STAGE(S_CONTRAST, cg_contrast(&src, cmws, cmb, &dimg));
+    free(cmws);
 
     // Candidates as the detector makes them: rules, then expansion.
     vd_cc_rules_t rules;
@@ -399,7 +471,11 @@ static void bench_path(opts_t *o, const char *path)
         return;
     }
     bench_frame(o, &im);
-    stbi_image_free(im.u16 ? (void *)im.p16 : (void *)im.p8);
+    if (has_suffix(path, ".pgm")) {
+        free(im.u16 ? (void *)im.p16 : (void *)im.p8);
+    } else {
+        stbi_image_free(im.u16 ? (void *)im.p16 : (void *)im.p8);
+    }
 }
 
 int main(int argc, char **argv)
@@ -456,8 +532,9 @@ int main(int argc, char **argv)
             nfiles++;
         }
     }
-    printf("vd_bench: %zu frames, %zu candidates, %zu DBN samples, %d iterations per stage (median)\n", o.frames,
-           o.cands, o.samples, g_iters);
+    printf("vd_bench: %zu frames, %zu candidates, %zu DBN samples, %d iterations per stage (median); "
+           "detector: %llu hot pixels, %llu components in all\n", o.frames, o.cands, o.samples, g_iters,
+           (unsigned long long)o.hot_total, (unsigned long long)o.comps_total);
     printf("%-30s %8s %10s\n", "stage", "calls", "median us");
     for (int s = 0; s < S_COUNT; s++) {
         if (g_series[s].n > 0u) {

@@ -22,9 +22,13 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+# Single-threaded BLAS for the numpy context figure (must precede the first numpy import).
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
 
-import cv2
+import numpy as np  # noqa: E402
+
+import cv2  # noqa: E402
 
 from vdtools import clib
 from vdtools import detector as vdet
@@ -59,12 +63,16 @@ class _Lib:
             "vd_contours_workspace_size": [u32, u32, vp],
             "vd_contours_find_external": [vp, vp, sz, vp, vp, sz, vp, sz, vp, vp],
             "vd_resample_u8": [vp, vp, vp, u32, u32],
+            "vd_contrast_map_workspace_size": [u32, vp],
+            "vd_contrast_map_u8": [vp, u32, C.c_uint8, vp, sz, vp],
             "vd_dbn_load": [vp, vp, sz],
             "vd_dbn_workspace_size": [vp, vp],
             "vd_dbn_classify": [vp, vp, vp, sz, vp],
         }
         for name, args in sigs.items():
-            f = getattr(lib, name)
+            f = getattr(lib, name, None)
+            if f is None:   # a module not built yet
+                continue
             f.argtypes = args
             f.restype = C.c_int
         lib.vd_status_str.restype = C.c_void_p
@@ -149,25 +157,66 @@ def find_clip(arg):
 
 
 def frame_sets(args):
+    """[(name, description, frames, thr_mode, paths)] of the real sets and the clip."""
     sets = []
     data = clib.DATA_DIR
-    msrs = list((data / "msrs").glob("**/*N.png"))
+    msrs = pick(list((data / "msrs").glob("**/*N.png")), args.frames)
     if msrs:
         sets.append(("msrs-night", "8-bit 640x480 road, adaptive threshold",
-                     [read_grey(p) for p in pick(msrs, args.frames)], "adaptive"))
-    hit = list((data / "hit-uav" / "frames").glob("**/*.jpg"))
+                     [read_grey(p) for p in msrs], "adaptive", msrs))
+    hit = pick(list((data / "hit-uav" / "frames").glob("**/*.jpg")), args.frames)
     if hit:
         sets.append(("hit-uav", "8-bit 640x512 drone, adaptive threshold",
-                     [read_grey(p) for p in pick(hit, args.frames)], "adaptive"))
+                     [read_grey(p) for p in hit], "adaptive", hit))
     clipdir = find_clip(args.clip)
     if clipdir is not None:
-        sets.append(("clip-u8", "synthetic 640x512 8-bit, constant 150",
-                     [read_grey(p) for p in pick(list((clipdir / "u8").glob("*.pgm")), args.frames)], "constant"))
-        u16 = list((clipdir / "u16").glob("*.pgm"))
+        u8 = pick(list((clipdir / "u8").glob("*.pgm")), args.frames)
+        sets.append(("clip-u8", "synthetic 640x512 8-bit, constant 150", [read_grey(p) for p in u8], "constant", u8))
+        u16 = pick(list((clipdir / "u16").glob("*.pgm")), args.frames)
         if u16:
             sets.append(("clip-u16", "synthetic 640x512 16-bit centi-kelvin, 30 C (detector only)",
-                         [read_grey(p) for p in pick(u16, args.frames)], "constant"))
+                         [read_grey(p) for p in u16], "constant", u16))
     return sets
+
+
+C_STAGE_MAP = {"detector (whole frame)": ["detector (whole frame)"], "threshold (frame)": ["threshold"],
+               "components (frame)": ["components", "components (cv2 labels only)"],
+               "median3 (frame)": ["median3 (frame)"], "median5 (frame)": ["median5 (frame)"],
+               "otsu (frame)": ["otsu (frame, threshold only)"],
+               "contours (hot mask, frame)": ["contours (hot mask, frame)"],
+               "contrast map r16 (frame)": ["contrast map r16 (frame)"],
+               "median3 (candidate ROI)": ["median3 (candidate ROI)"],
+               "median5 (candidate ROI)": ["median5 (candidate ROI)"],
+               "otsu (candidate ROI)": ["otsu (candidate ROI, threshold only)"],
+               "refine (candidate ROI)": ["refine (candidate ROI)"],
+               "contours (refined ROI)": ["contours (refined ROI mask)"],
+               "resample 32x32 (cand.)": ["resample to 32x32 (candidate)"],
+               "DBN (per sample)": ["DBN (per 32x32 sample)"]}
+
+
+def vd_bench_exe(a):
+    return Path(a.vd_bench) if a.vd_bench else clib.lib_path().parent / "tools" / "vd_bench"
+
+
+def run_c_timing(a, name, paths, mode, model):
+    """Median us per stage from the C program on the same frames (no Python in the loop)."""
+    import subprocess
+    exe = vd_bench_exe(a)
+    if not exe.exists():
+        return {}
+    lst = Path("/tmp") / f"vd_bench_{os.getuid()}_{name}.lst"
+    lst.write_text("\n".join(str(p) for p in paths) + "\n")
+    txt = subprocess.run([str(exe), "--iters", str(a.repeats), "--model", str(model), "--thr-mode", mode,
+                          "--max-cands", str(a.max_cands_per_frame), str(lst)],
+                         capture_output=True, text=True, check=True).stdout
+    out = {}
+    for line in txt.splitlines():
+        for stage in C_STAGE_MAP:
+            if line.startswith(stage):
+                parts = line[len(stage):].split()
+                if len(parts) >= 2:
+                    out[stage] = {"calls": int(parts[0]), "us": float(parts[1])}
+    return out
 
 
 def worst_frames(w=640, h=512, seed=5):
@@ -286,6 +335,17 @@ class Bench:
             thrs.append(s["hot_thr_u8"])
             counts.append({k: s[k] for k in ("hot_pixels", "components", "kept", "refined", "verified",
                                               "detections", "decimated")} | {"status": s["status"]})
+        # the same without a model: every refined candidate passes unscored (no DBN)
+        det0 = vdet.Detector(model=None, thr_mode=thr_mode, max_width=max(f.shape[1] for f in frames),
+                             max_height=max(f.shape[0] for f in frames))
+        for f in frames:
+            fa = np.ascontiguousarray(f)
+            cf = clib.frame(fa)
+            cnt = C.c_size_t()
+            run = vdet._lib().vd_detector_run
+            detp, fp, cntp, out = C.byref(det0._det), C.byref(cf), C.byref(cnt), det0._out
+            add("detector without model (no DBN)", tmed(lambda: run(detp, fp, out, len(out), cntp), R), None,
+                note="vd_detector_run, model NULL")
         # per-stage breakdown of the detector (its own clock_us, via a Python callback: ~1 us per stage)
         detc = vdet.Detector(model=self.mpath, thr_mode=thr_mode, clock=True,
                              max_width=max(f.shape[1] for f in frames), max_height=max(f.shape[0] for f in frames))
@@ -297,7 +357,7 @@ class Bench:
                 per[k].append(s["time_us"][k])
         res["detector_stage_us_median"] = {k: med(v) for k, v in per.items()}
         res["detector_counts_median"] = {k: med([c[k] for c in counts]) for k in counts[0] if k != "status"}
-        res["detector_status"] = sorted({c["status"] for c in counts})
+        res["detector_status"] = {st: sum(1 for c in counts if c["status"] == st) for st in sorted({c["status"] for c in counts})}
         if frames[0].dtype != np.uint8:
             self.results[name] = res
             return res
@@ -323,6 +383,12 @@ class Bench:
         L.vd_refine_workspace_size(W, H, addr(n))
         rf_ws, rf_wsp = clib.workspace(n.value)
         rf_wsn = n.value
+
+        cm_ws = None
+        if hasattr(L.lib, "vd_contrast_map_u8"):
+            L.vd_contrast_map_workspace_size(W, addr(n))
+            cm_ws, cm_wsp = clib.workspace(n.value)
+            cm_wsn = n.value
 
         def labeller(mask):
             mv = View(mask)
@@ -379,6 +445,13 @@ class Bench:
             # contours of the hot mask (whole frame)
             add("contours (hot mask, frame)", tmed(contours_call(mv), R),
                 tmed(lambda: cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE), R))
+            # local-contrast map (contrast.h), r = 16: cv2 composition box mean + absdiff
+            if cm_ws is not None:
+                mean = np.empty_like(f)
+                add("contrast map r16 (frame)", tmed(lambda: L.vd_contrast_map_u8(fv.p, 16, 0, cm_wsp, cm_wsn, dv.p), R),
+                    tmed(lambda: cv2.absdiff(f, cv2.boxFilter(f, -1, (33, 33), mean, normalize=True,
+                                                              borderType=cv2.BORDER_CONSTANT), dst), R),
+                    note="cv2 = boxFilter 33x33 + absdiff (divides by 33^2 at the border, vd by the in-frame count)")
             # candidates
             cands = self.candidates(f, mask, labeller)[:a.max_cands_per_frame]
             cands_all.append(len(cands))
@@ -402,6 +475,9 @@ class Bench:
                     note="cv2 on the ROI + 2 px context")
                 roi_view = f[y:y + h, x:x + w]
                 rbuf = np.empty((h, w), np.uint8)
+                add("otsu (candidate ROI, threshold only)", tmed(lambda: L.vd_otsu_u8(fv.p, rp, addr(t)), R),
+                    tmed(lambda: cv2.threshold(roi_view, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU, rbuf), R),
+                    unit="candidate", note="cv2 also binarises")
                 add("otsu+binarise (candidate ROI)",
                     tmed(lambda: (L.vd_otsu_u8(fv.p, rp, addr(t)), L.vd_threshold_u8(fv.p, rp, min(t.value + 1, 255), ov.p)), R),
                     tmed(lambda: cv2.threshold(roi_view, 0, 255, cv2.THRESH_BINARY | cv2.THRESH_OTSU, rbuf), R),
@@ -500,6 +576,7 @@ def cv_refine(crop, ox, oy, w, h):
 CG_STAGES = {"cg_detector": "detector (whole frame)", "cg_threshold": "threshold (frame)",
              "cg_components": "components (frame)", "cg_median3": "median3 (frame)", "cg_median5": "median5 (frame)",
              "cg_otsu": "otsu (frame)", "cg_contours": "contours (hot mask, frame)",
+             "cg_contrast": "contrast map r16 (frame)",
              "cg_median3_roi": "median3 (candidate ROI)", "cg_median5_roi": "median5 (candidate ROI)",
              "cg_otsu_roi": "otsu (candidate ROI)", "cg_refine": "refine (candidate ROI)",
              "cg_contours_roi": "contours (refined ROI)", "cg_resample": "resample 32x32 (cand.)",
@@ -536,7 +613,7 @@ def vd_bench_calls(txt):
 def run_callgrind(a):
     """Runs build/tools/vd_bench --iters 1 under callgrind on each set's frame sample."""
     import subprocess
-    exe = Path(a.vd_bench) if a.vd_bench else clib.lib_path().parent / "tools" / "vd_bench"
+    exe = vd_bench_exe(a)
     tmp = Path("/tmp") / f"vd_bench_cg_{os.getuid()}"
     tmp.mkdir(exist_ok=True)
     model = Path("/tmp") / f"vd_bench_model_{os.getuid()}.vdm"
@@ -557,7 +634,7 @@ def run_callgrind(a):
         cgf, txt = tmp / f"{name}.out", tmp / f"{name}.txt"
         with open(txt, "w") as f:
             subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={cgf}", str(exe), "--iters", "1",
-                            "--model", str(model), "--thr-mode", mode, str(lst)], stdout=f,
+                            "--model", str(model), "--thr-mode", mode, "--max-cands", str(a.max_cands_per_frame), str(lst)], stdout=f,
                            stderr=subprocess.DEVNULL, check=True)
         calls = vd_bench_calls(txt)
         out[name] = {"calls": calls, "ir_per_call": parse_callgrind(cgf, calls)}
@@ -571,8 +648,10 @@ def run_callgrind(a):
 
 # ---------------------------------------------------------------- report
 def summarise(results):
-    """Per set and stage: median vd / cv2 ns and the ratio."""
+    """Per set and stage: median vd / cv2 ns and the ratio; with the C program's figure, also
+    vd (C) against cv2 minus the cost of a trivial cv2 call (overhead_ns)."""
     table = []
+    cv2_overhead = results.get("overhead_ns", {}).get("cv2.threshold on 1x1", 0.0)
     for name, res in results.items():
         if not isinstance(res, dict) or "stages" not in res:
             continue
@@ -582,8 +661,15 @@ def summarise(results):
             row = {"set": name, "stage": stage, "unit": d["unit"], "n": len(d["vd"]), "vd_us": vd / 1e3,
                    "cv2_us": None if cv is None else cv / 1e3,
                    "ratio": None if cv is None else vd / cv, "note": d.get("note", "")}
+            if "c_us" in d:
+                row["vd_c_us"] = d["c_us"]
+                if cv is not None:
+                    row["cv2_net_us"] = max(cv - cv2_overhead, 1.0) / 1e3
+                    row["ratio_c"] = d["c_us"] / row["cv2_net_us"]
             if stage.startswith("detector"):
                 row["frames_per_s"] = 1e9 / vd
+                if "c_us" in d:
+                    row["frames_per_s_c"] = 1e6 / d["c_us"]
             if stage.startswith("DBN"):
                 row["mac_per_s"] = 753_216 / (vd / 1e9)
                 if "numpy_float32_ns" in d:
@@ -594,20 +680,32 @@ def summarise(results):
 
 def fmt_table(table, overhead_us):
     lines = [f"{'set':11s} {'stage':32s} {'unit':9s} {'n':>4s} {'vd us':>9s} {'-call':>9s} {'cv2 us':>9s} "
-             f"{'vd/cv2':>7s}  extra"]
+             f"{'vd/cv2':>7s} {'vd C us':>9s} {'cv2 net':>9s} {'C/net':>6s}  extra"]
     for r in table:
         cv = "" if r["cv2_us"] is None else f"{r['cv2_us']:9.1f}"
         ratio = "" if r["ratio"] is None else f"{r['ratio']:7.2f}"
         extra = ""
         if "frames_per_s" in r:
             extra = f"{r['frames_per_s']:.0f} frames/s"
+            if "frames_per_s_c" in r:
+                extra += f" (C: {r['frames_per_s_c']:.0f})"
         if "mac_per_s" in r:
             extra = f"{r['mac_per_s'] / 1e9:.2f} GMAC/s"
             if "numpy_float32_us" in r:
                 extra += f" (numpy f32 {r['numpy_float32_us']:.1f} us)"
+        c = f"{r['vd_c_us']:9.1f}" if "vd_c_us" in r else " " * 9
+        net = f"{r['cv2_net_us']:9.1f}" if "cv2_net_us" in r else " " * 9
+        rc = f"{r['ratio_c']:6.2f}" if "ratio_c" in r else " " * 6
         lines.append(f"{r['set']:11s} {r['stage']:32s} {r['unit']:9s} {r['n']:4d} {r['vd_us']:9.1f} "
-                     f"{r['vd_us'] - overhead_us:9.1f} {cv:>9s} {ratio:>7s}  {extra}")
+                     f"{r['vd_us'] - overhead_us:9.1f} {cv:>9s} {ratio:>7s} {c} {net} {rc}  {extra}")
     return "\n".join(lines)
+
+
+def _status_text(st):
+    """'VD_OK x38, VD_ERR_CAPACITY x2' from {status: frames} (or an old list of statuses)."""
+    if isinstance(st, dict):
+        return ", ".join(f"{k} x{v}" for k, v in st.items())
+    return ", ".join(st or [])
 
 
 def markdown(bench_json, cg_json=None):
@@ -619,28 +717,29 @@ def markdown(bench_json, cg_json=None):
     for r in rows:
         if r["stage"] not in stages:
             stages.append(r["stage"])
-    get = {(r["set"], r["stage"]): r for r in rows}
-    out = ["| stage (unit) | " + " | ".join(f"{s}: vd / cv2 us (vd/cv2)" for s in sets) + " |",
-           "|---|" + "---|" * len(sets)]
-    for st in stages:
-        cells = []
-        unit = ""
-        for s in sets:
-            r = get.get((s, st))
-            if r is None:
-                cells.append("")
+    out = []
+    for sname in sets:
+        raw = d["raw"][sname]
+        out.append(f"**{sname}** ({raw['description']}; {raw['frames']} frames"
+                   + (f", {raw.get('candidates_timed')} candidates" if raw.get("candidates_timed") else "") + ")")
+        out.append("")
+        out.append("| stage | unit | vd (py) us | vd (C) us | cv2 (py) us | cv2 net us | vd/cv2 (py) | vd C / cv2 net | note |")
+        out.append("|---|---|---|---|---|---|---|---|---|")
+        for r in rows:
+            if r["set"] != sname:
                 continue
-            unit = r["unit"]
-            c = f"{r['vd_us']:.1f}"
-            if r["cv2_us"] is not None:
-                c += f" / {r['cv2_us']:.1f} (**{r['ratio']:.2f}**)"
+            f = lambda v, fmt="{:.1f}": "" if v is None else fmt.format(v)
+            note = r.get("note", "")
             if "frames_per_s" in r:
-                c += f" = {r['frames_per_s']:.0f} fr/s"
+                c = f" (C: {r['frames_per_s_c']:.0f})" if "frames_per_s_c" in r else ""
+                note = f"**{r['frames_per_s']:.0f} frames/s**{c}; " + note
             if "mac_per_s" in r:
-                c += f" = {r['mac_per_s'] / 1e9:.1f} GMAC/s"
-            cells.append(c)
-        label = st if "(" in st else f"{st} ({unit})"
-        out.append(f"| {label} | " + " | ".join(cells) + " |")
+                note = f"{r['mac_per_s'] / 1e9:.1f} GMAC/s (py); " + note
+            rc = r.get("ratio_c")
+            out.append(f"| {r['stage']} | {r['unit']} | {f(r['vd_us'])} | {f(r.get('vd_c_us'))} | {f(r['cv2_us'])} | "
+                       f"{f(r.get('cv2_net_us'))} | {f(r['ratio'], '{:.2f}')} | "
+                       f"{'' if rc is None else ('**%.2f**' % rc)} | {note} |")
+        out.append("")
     out.append("")
     oh = d["raw"].get("overhead_ns", {})
     for k, v in oh.items():
@@ -652,7 +751,7 @@ def markdown(bench_json, cg_json=None):
         raw = d["raw"][s]
         t = ", ".join(f"{k} {v:.0f}" for k, v in raw.get("detector_stage_us_median", {}).items() if v)
         c = ", ".join(f"{k} {v:g}" for k, v in raw.get("detector_counts_median", {}).items())
-        out.append(f"| {s} | {t} | {c} | {', '.join(raw.get('detector_status', []))} |")
+        out.append(f"| {s} | {t} | {c} | {_status_text(raw.get('detector_status'))} |")
     out.append("")
     out.append("| worst case | frame | detector ms | status | hot px | runs | comps | kept | refined | decimated | "
                "overflow runs/comp/cand/cont/det |")
@@ -721,11 +820,17 @@ def main(argv=None):
     oh = b.overheads()
     for k, v in oh.items():
         print(f"overhead  {k:55s} {v / 1e3:7.2f} us")
-    for name, desc, frames, mode in frame_sets(a):
+    for name, desc, frames, mode, paths in frame_sets(a):
         if a.sets and name not in a.sets.split(","):
             continue
         t0 = time.time()
-        b.run_set(name, desc, frames, mode)
+        res = b.run_set(name, desc, frames, mode)
+        cres = run_c_timing(a, name, paths, mode, b.mpath)
+        res["c_program"] = cres
+        for cst, pst in C_STAGE_MAP.items():
+            for p in pst:
+                if cst in cres and p in res["stages"]:
+                    res["stages"][p]["c_us"] = cres[cst]["us"]
         print(f"[{name}: {len(frames)} frames, {time.time() - t0:.0f} s]", file=sys.stderr)
     b.worst()
     table = summarise(b.results)

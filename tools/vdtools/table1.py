@@ -215,7 +215,7 @@ def render_md(res):
     L += ["", "Not comparable number for number: different camera, scenes and negatives (ours include the hot "
           "non-vehicles the candidate stage really produces: people, bicycles, lamps, warm road), and a test "
           "split made of unseen drives/flights.", "",
-          "## Reproduce", "", "```", res["command"], "```", "",
+          "## Reproduce", "", "```"] + sorted({r.get("command", res.get("command", "")) for r in res["runs"].values()}) + ["```", "",
           "Recipe, data set construction and what differs from the paper: [docs/training.md](../training.md).", "",
           "## Data", ""] + [f"- {c}" for c in CITATIONS] + [""]
     return "\n".join(L)
@@ -270,10 +270,14 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--export", action="store_true", help="quantise + export models/<name>.vdm and model cards")
     ap.add_argument("--quick", action="store_true", help="4 epochs everywhere (smoke test; results not kept)")
+    ap.add_argument("--render", action="store_true", help="only re-render verifier.md from verifier.json")
     a = ap.parse_args(argv)
+    if a.render:
+        (RESULTS / "verifier.md").write_text(render_md(json.loads((RESULTS / "verifier.json").read_text())))
+        return
     cmd = "cd tools && VD_LIB=../build/libvd.so python3 -m vdtools.table1 " + " ".join(argv if argv is not None else sys.argv[1:])
     jpath = RESULTS / "verifier.json"
-    res = json.loads(jpath.read_text()) if jpath.exists() and not a.quick else {"runs": {}}
+    res = {"runs": {}}
     for mode in a.mode.split(","):
         r = run_mode(mode, a.seed, a.export, a.quick)
         r["command"] = cmd
@@ -289,6 +293,9 @@ def main(argv=None):
             if "quantised" in m:
                 print(f"  {name}: float {100 * m['float']['accuracy']:.2f}% int8 {100 * m['quantised']['accuracy']:.2f}% "
                       f"({m['vdm_bytes']} B) C bit-exact {m['c_bit_exact']}")
+    if jpath.exists() and not a.quick:   # merge with the other mode's entry, read as late as possible
+        old = json.loads(jpath.read_text())
+        res["runs"] = {**old.get("runs", {}), **res["runs"]}
     res["command"] = cmd
     out_dir = RESULTS if not a.quick else dataset.CACHE / "quick"
     out_dir.mkdir(parents=True, exist_ok=True)

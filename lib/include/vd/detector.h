@@ -152,6 +152,7 @@ typedef struct vd_detector {
     size_t dbn_ws_bytes;
     uint8_t *overlay;            // labelling scratch (run budget), reused per candidate for region buffers
     size_t overlay_bytes;
+    void *scratch;               // per-candidate state (private to detector.c)
     size_t cc_ws_bytes;
     size_t refine_ws_bytes;
     size_t contour_ws_bytes;
@@ -172,7 +173,7 @@ void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
 // max_runs runs, per-candidate region buffers of 7 bytes per pixel of
 // max_region_w x max_region_h). No buffer scales with the frame size except
 // the labeller's row buffers (~12 B per column). Defaults at 640 x 512:
-// 228 120 bytes (222.8 KiB), bounded by the region buffers.
+// 228 400 bytes (223.0 KiB) on 64-bit hosts, bounded by the region buffers.
 // Returns VD_OK; VD_ERR_ARG for NULL bytes or a cfg value out of range;
 // VD_ERR_MODEL for a model not filled by vd_dbn_load; VD_ERR_OVERFLOW if the
 // size does not fit size_t.
@@ -214,7 +215,9 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 // candidates, runs, contour buffers, max_detections, cap, track table): everything
 // written is valid and the stats say which budget; other statuses of the
 // stages are passed on (then *count = 0).
-// Stack: < 2 KiB of its own (measured with -fstack-usage, docs/architecture.md).
+// Stack: own frame 136 bytes (Cortex-M7 -Os); worst case including the stages
+// (vd_refine_region -> vd_median5_u8, also via the temporal recovery probe)
+// in docs/embedded.md.
 vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
                             size_t *count);
 
