@@ -55,6 +55,13 @@
 #define DEF_H 512u
 #define DEF_REGION 176u
 #define DEF_RUNS 24576u
+#define DEF_WIN_MIN_STD 4u
+#define DEF_DEDUP_Q15 22938u   // 0.7
+#define CELL 4u                // window pre-filter cell side (pixels)
+// Largest cell grid whose sums of squared cell means fit in uint32 for any
+// window: cells * 255^2 < 2^32 (the integral itself wraps modulo 2^32, and a
+// difference of four corners is exact when the true window sum fits).
+#define MAX_CELLS 66051u
 
 void vd_detector_cfg_default(vd_detector_cfg_t *cfg)
 {
@@ -90,6 +97,13 @@ void vd_detector_cfg_default(vd_detector_cfg_t *cfg)
     cfg->max_runs = DEF_RUNS;
     cfg->temporal = false;
     vd_temporal_cfg_default(&cfg->temporal_cfg);
+    cfg->sources = VD_DETECTOR_SRC_HOTSPOT;
+    cfg->win_min_std_u8 = DEF_WIN_MIN_STD;
+    cfg->dedup_iou_q15 = DEF_DEDUP_Q15;
+    cfg->contrast.radius = 16u;
+    cfg->contrast.thr_u8 = 24u;
+    cfg->contrast.permille = 950u;
+    vd_cc_rules_default(&cfg->contrast.rules);
 }
 
 // Fills zero fields with defaults and checks ranges.
@@ -146,6 +160,33 @@ static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c
     if (c->max_tracks == 0u) { c->max_tracks = 32u; }
     if (c->max_runs == 0u) { c->max_runs = DEF_RUNS; }
     VD_VERIFY(c->max_tracks <= 1024u, VD_ERR_ARG);
+    if (c->sources == 0u) { c->sources = VD_DETECTOR_SRC_HOTSPOT; }
+    VD_VERIFY(c->sources <= VD_DETECTOR_SRC_ALL, VD_ERR_ARG);
+    if (c->win_min_std_u8 == 0u) { c->win_min_std_u8 = DEF_WIN_MIN_STD; }
+    if (c->dedup_iou_q15 == 0u) { c->dedup_iou_q15 = DEF_DEDUP_Q15; }
+    VD_VERIFY(c->dedup_iou_q15 <= 32768u, VD_ERR_ARG);
+    // Contrast: the ranges vd_contrast_candidates checks, so a bad value fails in init, not per frame.
+    vd_contrast_cfg_t *k = &c->contrast;
+    if (k->radius == 0u) { k->radius = 16u; }
+    if (k->thr_u8 == 0u) { k->thr_u8 = 24u; }
+    if (k->permille == 0u) { k->permille = 950u; }
+    if (k->rules.aspect_min_q8 == 0u && k->rules.aspect_max_q8 == 0u && k->rules.min_area == 0u &&
+        k->rules.max_area == 0u) {
+        vd_cc_rules_default(&k->rules);
+    }
+    VD_VERIFY(k->radius <= VD_CONTRAST_MAX_RADIUS && k->polarity <= VD_CONTRAST_COLD, VD_ERR_ARG);
+    VD_VERIFY(k->thr_mode <= VD_CONTRAST_THR_PERCENTILE && k->permille <= 1000u, VD_ERR_ARG);
+    VD_VERIFY(k->rules.aspect_min_q8 <= k->rules.aspect_max_q8, VD_ERR_ARG);
+    VD_VERIFY(k->rules.max_area == 0u || k->rules.min_area <= k->rules.max_area, VD_ERR_ARG);
+    // Windows: checked for the largest frame (each frame resolves its own copy).
+    VD_VERIFY(c->windows.frame_w <= VD_MAX_DIM && c->windows.frame_h <= VD_MAX_DIM, VD_ERR_ARG);
+    vd_windows_cfg_t wc = c->windows;
+    wc.frame_w = c->max_width;
+    wc.frame_h = c->max_height;
+    VD_TRY(vd_windows_resolve(&wc));
+    if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
+        VD_VERIFY((c->max_width / CELL) * (c->max_height / CELL) <= MAX_CELLS, VD_ERR_ARG);
+    }
     // The temporal settings are checked (and resolved) by vd_temporal_init.
     vd_track_t probe_track;
     vd_temporal_t probe_t;
@@ -188,6 +229,8 @@ typedef struct cand_ctx {
     vd_rect_t vb;            // contour box in plane coordinates
     vd_cc_stats_t cs;
     vd_detection_t tmp;      // sort temporary of suppress()
+    vd_windows_cfg_t wc;     // window source: resolved for the current frame
+    uint32_t gw, gh;         // cell grid of the window pre-filter
 } cand_ctx_t;
 
 static void region_bufs(const vd_detector_t *det, region_bufs_t *b)
@@ -216,6 +259,7 @@ static void refine_cfg_of(const vd_detector_t *det, vd_refine_cfg_t *rc)
 typedef struct layout {
     size_t comps, cand, obs, tracks, hist, sample, dbn, scratch;
     size_t cc, crop, rmask, refine, contour, points, contours;
+    size_t contrast, integral;
     size_t points_cap, contours_cap;
 } layout_t;
 
@@ -249,13 +293,23 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
     l->contours_cap = 64u;
     l->points = l->points_cap * sizeof(vd_point_t);
     l->contours = l->contours_cap * sizeof(vd_contour_t);
+    if ((c->sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
+        VD_TRY(vd_contrast_workspace_size(c->max_width, c->max_height, &l->contrast));
+    }
+    if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
+        // Two (gw+1) x (gh+1) uint32 integrals (cell means, squared cell means);
+        // 640 x 512: 166 152 bytes, inside the region buffers' share of the overlay.
+        l->integral = 2u * ((size_t)c->max_width / CELL + 1u) * ((size_t)c->max_height / CELL + 1u) *
+                      sizeof(uint32_t);
+    }
     return VD_OK;
 }
 
 // The overlay holds A = the labelling workspace (run budget) while labelling,
 // then B = crop + region mask + W per candidate, where W is the refine
 // workspace, reused by the contour tracer (its plane, points and contours)
-// once vd_refine_region has returned.
+// once vd_refine_region has returned; C = the window pre-filter's integrals
+// between the hot-spot refinement and the verification of all candidates.
 static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *total)
 {
     size_t a = 0u;
@@ -271,6 +325,7 @@ static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *tot
               VD_ERR_OVERFLOW);
     *work_out = work;
     *total = a > b ? a : b;
+    *total = (l->integral > *total) ? l->integral : *total;
     return VD_OK;
 }
 
@@ -284,7 +339,8 @@ static vd_status_t total_size(const layout_t *l, size_t *bytes)
               vd_size_add_slice(&t, l->obs) && vd_size_add_slice(&t, l->tracks) &&
               vd_size_add_slice(&t, l->hist) && vd_size_add_slice(&t, l->scratch) &&
               vd_size_add_slice(&t, l->sample) &&
-              vd_size_add_slice(&t, l->dbn) && vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
+              vd_size_add_slice(&t, l->dbn) && vd_size_add_slice(&t, l->contrast) &&
+              vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
     *bytes = t;
     return VD_OK;
 }
@@ -339,6 +395,8 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->sample = (uint8_t *)take(&arena, l.sample, &ok);
     det->dbn_ws = take(&arena, l.dbn, &ok);
     det->dbn_ws_bytes = l.dbn;
+    det->contrast_ws = take(&arena, l.contrast, &ok);
+    det->contrast_ws_bytes = l.contrast;
     size_t work;
     VD_TRY(overlay_size(&l, &work, &det->overlay_bytes));
     det->overlay = (uint8_t *)take(&arena, det->overlay_bytes, &ok);
@@ -594,13 +652,14 @@ static size_t largest_contour(const vd_contour_t *c, size_t n)
     return best;
 }
 
-// Refines, traces, samples and scores one candidate. *keep = false when it
-// has no contour or scores below the threshold.
-static vd_status_t process_candidate(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
-                                     uint8_t hot_thr, vd_detection_t *d, bool *keep, uint32_t *t0)
+// Hot-spot candidate: expands the component, refines the region and traces
+// its contour; *ok = false when the region has no contour. Fills d's box,
+// candidate region, contour length, complexity and flags (not the score).
+DET_NOINLINE static vd_status_t refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
+                                           vd_detection_t *d, bool *ok, uint32_t *t0)
 {
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
-    *keep = false;
+    *ok = false;
     memset(d, 0, sizeof(*d));
     if (vd_rect_expand(&comp->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &x->region) !=
         VD_OK) {
@@ -630,7 +689,6 @@ static vd_status_t process_candidate(vd_detector_t *det, const vd_frame_t *f, co
         return VD_OK;
     }
     det->stats.refined++;
-    // A copy: the shape-mode refine below reuses the memory of b.contours.
     x->best = x->b.contours[largest_contour(x->b.contours, nc)];
     const vd_contour_t *c = &x->best;
     uint32_t kmax = p->kx > p->ky ? p->kx : p->ky;
@@ -641,40 +699,350 @@ static vd_status_t process_candidate(vd_detector_t *det, const vd_frame_t *f, co
     d->candidate = x->region;
     d->contour_length = c->length * kmax;
     d->complexity_q15 = region_complexity(&x->rs, p);
-    d->source = VD_SOURCE_HOTSPOT;
-    d->hot_thr = hot_thr;
+    d->source = (uint8_t)VD_SOURCE_HOTSPOT;
+    *ok = true;
+    return VD_OK;
+}
 
+// Samples and scores one merged candidate (any source); *keep = score >=
+// score_thr (always true without a model: score 255, flag UNVERIFIED).
+// The plane is rebuilt from d->candidate: hot spots are sampled under their
+// contour box inside the refined region, windows and contrast candidates
+// (candidate == box) as the whole box.
+DET_NOINLINE static vd_status_t verify_candidate(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d,
+                                                 bool *keep, uint32_t *t0)
+{
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
+    *keep = false;
     if (det->model == NULL) {
         d->score_q8 = 255u;
         d->flags |= VD_DET_FLAG_UNVERIFIED;
+        det->stats.verified++;
+        *keep = true;
+        return VD_OK;
+    }
+    const region_plane_t *p = &x->p;
+    VD_TRY(make_plane(det, f, &d->candidate, x->b.crop, &x->p));
+    if (d->source != VD_SOURCE_HOTSPOT && (p->kx > 1u || p->ky > 1u)) {
+        d->flags |= VD_DET_FLAG_DECIMATED;
+    }
+    // The box in plane coordinates (exact: a hot-spot box is region + k * contour box).
+    x->vb.x = p->roi.x + (d->box.x - d->candidate.x) / (int32_t)p->kx;
+    x->vb.y = p->roi.y + (d->box.y - d->candidate.y) / (int32_t)p->ky;
+    x->vb.w = d->box.w / (int32_t)p->kx;
+    x->vb.h = d->box.h / (int32_t)p->ky;
+    x->vb.w = (x->vb.w < 1) ? 1 : x->vb.w;
+    x->vb.h = (x->vb.h < 1) ? 1 : x->vb.h;
+    if (det->model->input_mode == VD_DBN_INPUT_GREY) {
+        VD_TRY(vd_resample_u8(&p->view, &x->vb, det->sample, det->in_w, det->in_h));
     } else {
-        // The contour box in plane coordinates.
-        x->vb.x = p->roi.x + c->box.x;
-        x->vb.y = p->roi.y + c->box.y;
-        x->vb.w = c->box.w;
-        x->vb.h = c->box.h;
-        if (det->model->input_mode == VD_DBN_INPUT_GREY) {
-            VD_TRY(vd_resample_u8(&p->view, &x->vb, det->sample, det->in_w, det->in_h));
-        } else {
-            // As samples.py: refine the box itself, then resample the whole mask.
-            x->m.width = (uint32_t)x->vb.w;
-            x->m.height = (uint32_t)x->vb.h;
-            x->m.stride = (size_t)x->vb.w;
-            VD_TRY(vd_refine_region(&p->view, &x->vb, &x->rc, x->b.refine_ws, det->refine_ws_bytes, &x->m, NULL));
-            x->mv = vd_image_u8_view(&x->m);
-            VD_TRY(vd_resample_u8(&x->mv, NULL, det->sample, det->in_w, det->in_h));
-        }
-        clock_add(det, VD_DET_STAGE_SAMPLE, t0);
-        uint8_t score = 0u;
-        VD_TRY(vd_dbn_classify(det->model, det->sample, det->dbn_ws, det->dbn_ws_bytes, &score));
-        clock_add(det, VD_DET_STAGE_DBN, t0);
-        d->score_q8 = score;
-        if (score < det->cfg.score_thr_q8) {
-            return VD_OK;
-        }
+        // As samples.py: refine the box itself, then resample the whole mask.
+        x->m.data = x->b.rmask;
+        x->m.width = (uint32_t)x->vb.w;
+        x->m.height = (uint32_t)x->vb.h;
+        x->m.stride = (size_t)x->vb.w;
+        VD_TRY(vd_refine_region(&p->view, &x->vb, &x->rc, x->b.refine_ws, det->refine_ws_bytes, &x->m, NULL));
+        x->mv = vd_image_u8_view(&x->m);
+        VD_TRY(vd_resample_u8(&x->mv, NULL, det->sample, det->in_w, det->in_h));
+    }
+    clock_add(det, VD_DET_STAGE_SAMPLE, t0);
+    uint8_t score = 0u;
+    VD_TRY(vd_dbn_classify(det->model, det->sample, det->dbn_ws, det->dbn_ws_bytes, &score));
+    clock_add(det, VD_DET_STAGE_DBN, t0);
+    d->score_q8 = score;
+    if (score < det->cfg.score_thr_q8) {
+        return VD_OK;
     }
     det->stats.verified++;
     *keep = true;
+    return VD_OK;
+}
+
+// Appends box (source src) to the merged list unless it duplicates a box
+// already there (IoU > dedup_iou). Returns true when appended.
+static bool merge_box(vd_detector_t *det, size_t *n, const vd_rect_t *box, uint8_t src, uint8_t thr8)
+{
+    for (size_t i = 0; i < *n; i++) {
+        if (vd_rect_iou_q15(box, &det->cand[i].box) > det->cfg.dedup_iou_q15) {
+            det->stats.deduplicated++;
+            return false;
+        }
+    }
+    vd_detection_t *d = &det->cand[*n];
+    memset(d, 0, sizeof(*d));
+    d->box = *box;
+    d->candidate = *box;
+    d->source = src;
+    d->hot_thr = thr8;
+    (*n)++;
+    return true;
+}
+
+// Contrast source (8-bit frames): components of |I - box mean| >= thr with
+// the rules, into det->comps (free after the hot-spot stage), merged as is.
+// Returns VD_OK or VD_ERR_CAPACITY (components or the candidate budget).
+DET_NOINLINE static vd_status_t contrast_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
+{
+    if (f->format != VD_PIX_U8) {
+        return VD_OK;   // no whole-frame 8-bit plane of radiometric frames (documented in detector.h)
+    }
+    vd_view_u8_t v;
+    VD_TRY(vd_frame_view_u8(f, &v));
+    size_t nc = 0u;
+    vd_status_t result = VD_OK;
+    vd_status_t st = vd_contrast_candidates(&v, &det->cfg.contrast, det->contrast_ws, det->contrast_ws_bytes,
+                                            det->comps, det->cfg.max_components, &nc, NULL);
+    if (st == VD_ERR_CAPACITY) {
+        det->stats.overflow_components |= 2u;
+        result = VD_ERR_CAPACITY;
+    } else if (st != VD_OK) {
+        return st;
+    }
+    for (size_t i = 0; i < nc; i++) {
+        if (*n >= det->cfg.max_candidates) {
+            det->stats.overflow_candidates += (uint32_t)(nc - i);
+            return VD_ERR_CAPACITY;
+        }
+        if (merge_box(det, n, &det->comps[i].box, (uint8_t)VD_SOURCE_CONTRAST, thr8)) {
+            det->stats.cand_contrast++;
+        }
+    }
+    return result;
+}
+
+// windows.c's band and ground-model test of a window of height h whose
+// bottom row is yb (same integer arithmetic, so the streamed windows are
+// exactly vd_windows_generate's; checked by test_detector.c).
+static bool win_row_ok(const vd_windows_cfg_t *c, uint32_t h, int32_t yb)
+{
+    bool band = false;
+    for (uint32_t b = 0; b < c->n_bands; b++) {
+        const vd_window_band_t *bd = &c->bands[b];
+        if (yb >= bd->y_min && yb <= bd->y_max && h >= bd->min_h && h <= bd->max_h) {
+            band = true;
+            break;
+        }
+    }
+    if (!band) {
+        return false;
+    }
+    if (c->ground_k_q8 == 0u) {
+        return true;
+    }
+    const int64_t below = (int64_t)yb - c->horizon_y;
+    if (below <= 0) {
+        return false;
+    }
+    const int64_t e_q8 = (int64_t)c->ground_k_q8 * below;
+    const int64_t h_q8 = (int64_t)h << 8;
+    const int64_t t = (int64_t)c->ground_tol_q8;
+    return (h_q8 * t >= e_q8 * 256) && (h_q8 * 256 <= e_q8 * t);
+}
+
+// floor(sqrt(v)), 16 iterations at most.
+static uint32_t isqrt32(uint32_t v)
+{
+    uint32_t r = 0u;
+    uint32_t bit = 1u << 30;
+    for (uint32_t i = 0; i < 16u && bit > v; i++) {
+        bit >>= 2;
+    }
+    for (uint32_t i = 0; i < 16u && bit != 0u; i++) {
+        if (v >= r + bit) {
+            v -= r + bit;
+            r = (r >> 1) + bit;
+        } else {
+            r >>= 1;
+        }
+        bit >>= 2;
+    }
+    return r;
+}
+
+// Integral images of the 4x4-cell means g (rounded) and of g^2 over the
+// gw x gh cell grid (the last W % 4 columns and H % 4 rows are not covered),
+// in the overlay; uint32 wrap-around is harmless (see MAX_CELLS).
+DET_NOINLINE static void cell_integrals(vd_detector_t *det, const vd_frame_t *f)
+{
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
+    const uint32_t gw = f->width / CELL;
+    const uint32_t gh = f->height / CELL;
+    const size_t stride = (size_t)gw + 1u;
+    uint32_t *s1 = (uint32_t *)(void *)det->overlay;
+    uint32_t *s2 = s1 + stride * ((size_t)gh + 1u);
+    x->gw = gw;
+    x->gh = gh;
+    memset(s1, 0, stride * sizeof(uint32_t));
+    memset(s2, 0, stride * sizeof(uint32_t));
+    for (uint32_t gy = 0; gy < gh; gy++) {
+        uint32_t r1 = 0u;
+        uint32_t r2 = 0u;
+        const size_t at = ((size_t)gy + 1u) * stride;
+        s1[at] = 0u;
+        s2[at] = 0u;
+        for (uint32_t gx = 0; gx < gw; gx++) {
+            uint32_t sum = 0u;
+            for (uint32_t j = 0; j < CELL; j++) {
+                const uint8_t *row = (const uint8_t *)f->data + ((size_t)gy * CELL + j) * f->stride;
+                for (uint32_t i = 0; i < CELL; i++) {
+                    if (f->format == VD_PIX_U8) {
+                        sum += row[(size_t)gx * CELL + i];
+                    } else {
+                        uint16_t v;
+                        memcpy(&v, row + 2u * ((size_t)gx * CELL + i), sizeof(v));
+                        sum += v;
+                    }
+                }
+            }
+            uint32_t g = (sum + CELL * CELL / 2u) / (CELL * CELL);
+            if (f->format != VD_PIX_U8) {
+                g = grey_of_raw(det, g);
+            }
+            r1 += g;
+            r2 += g * g;
+            s1[at + gx + 1u] = s1[at - stride + gx + 1u] + r1;
+            s2[at + gx + 1u] = s2[at - stride + gx + 1u] + r2;
+        }
+    }
+}
+
+// Pre-filter level of a window: floor(standard deviation) of the cell means
+// of the cells inside it (at least one cell per axis), clamped to 255.
+static uint32_t window_level(const vd_detector_t *det, const vd_rect_t *b)
+{
+    const cand_ctx_t *x = (const cand_ctx_t *)det->scratch;
+    const uint32_t gw = x->gw;
+    const uint32_t gh = x->gh;
+    if (gw == 0u || gh == 0u) {
+        return 0u;
+    }
+    const size_t stride = (size_t)gw + 1u;
+    const uint32_t *s1 = (const uint32_t *)(const void *)det->overlay;
+    const uint32_t *s2 = s1 + stride * ((size_t)gh + 1u);
+    uint32_t x0 = ((uint32_t)b->x + CELL - 1u) / CELL;
+    uint32_t x1 = ((uint32_t)b->x + (uint32_t)b->w) / CELL;
+    uint32_t y0 = ((uint32_t)b->y + CELL - 1u) / CELL;
+    uint32_t y1 = ((uint32_t)b->y + (uint32_t)b->h) / CELL;
+    x1 = (x1 > gw) ? gw : x1;
+    y1 = (y1 > gh) ? gh : y1;
+    x0 = (x0 >= x1) ? ((x1 > 0u) ? x1 - 1u : 0u) : x0;
+    y0 = (y0 >= y1) ? ((y1 > 0u) ? y1 - 1u : 0u) : y0;
+    x1 = (x1 <= x0) ? x0 + 1u : x1;
+    y1 = (y1 <= y0) ? y0 + 1u : y1;
+    const uint32_t a1 = s1[(size_t)y1 * stride + x1] - s1[(size_t)y0 * stride + x1] -
+                        s1[(size_t)y1 * stride + x0] + s1[(size_t)y0 * stride + x0];
+    const uint32_t a2 = s2[(size_t)y1 * stride + x1] - s2[(size_t)y0 * stride + x1] -
+                        s2[(size_t)y1 * stride + x0] + s2[(size_t)y0 * stride + x0];
+    const uint64_t n = (uint64_t)(x1 - x0) * (y1 - y0);
+    const uint64_t num = n * a2 - (uint64_t)a1 * a1;   // n^2 * variance >= 0
+    const uint32_t var = (uint32_t)(num / (n * n));
+    const uint32_t sd = isqrt32(var);
+    return (sd > 255u) ? 255u : sd;
+}
+
+// Walks the windows of x->wc in vd_windows_generate's order (height, aspect,
+// row, column) without storing them. pass 0: histogram of the pre-filter
+// levels >= win_min_std (det->hist); pass 1: merges the windows of level >
+// cut, and the first `ties` of level == cut. Returns the windows enumerated.
+DET_NOINLINE static uint32_t walk_windows(vd_detector_t *det, int pass, uint32_t cut, uint32_t ties, size_t *n,
+                                          uint8_t thr8)
+{
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
+    const vd_windows_cfg_t *c = &x->wc;
+    const uint32_t min_std = det->cfg.win_min_std_u8;
+    uint32_t lo = VD_MAX_DIM;
+    uint32_t hi = 0u;
+    for (uint32_t k = 0; k < c->n_bands; k++) {
+        lo = (c->bands[k].min_h < lo) ? c->bands[k].min_h : lo;
+        hi = (c->bands[k].max_h > hi) ? c->bands[k].max_h : hi;
+    }
+    uint32_t all = 0u;
+    uint32_t h = lo;
+    for (uint32_t sc = 0; sc < VD_WINDOWS_MAX_SCALES && h <= hi; sc++) {
+        for (uint32_t a = 0; a < c->n_aspects && h <= c->frame_h; a++) {
+            uint32_t w = (h * 256u + c->aspect_q8[a] / 2u) / c->aspect_q8[a];
+            w = (w < 1u) ? 1u : w;
+            if (w > c->frame_w) {
+                continue;
+            }
+            uint32_t sx = (w * c->stride_q8) >> 8;
+            uint32_t sy = (h * c->stride_q8) >> 8;
+            sx = (sx < 1u) ? 1u : sx;
+            sy = (sy < 1u) ? 1u : sy;
+            const uint32_t ox = ((c->frame_w - w) % sx) / 2u;
+            const uint32_t oy = ((c->frame_h - h) % sy) / 2u;
+            const uint32_t ncols = (c->frame_w - w - ox) / sx + 1u;
+            for (uint32_t y = oy; y + h <= c->frame_h; y += sy) {
+                if (!win_row_ok(c, h, (int32_t)(y + h - 1u))) {
+                    continue;
+                }
+                for (uint32_t i = 0; i < ncols; i++) {
+                    vd_rect_t b = {(int32_t)(ox + i * sx), (int32_t)y, (int32_t)w, (int32_t)h};
+                    all++;
+                    const uint32_t lv = window_level(det, &b);
+                    if (lv < min_std) {
+                        continue;
+                    }
+                    if (pass == 0) {
+                        det->hist[lv]++;
+                        continue;
+                    }
+                    if (lv < cut || (lv == cut && ties == 0u)) {
+                        continue;
+                    }
+                    if (lv == cut) {
+                        ties--;
+                    }
+                    if (*n < det->cfg.max_candidates && merge_box(det, n, &b, (uint8_t)VD_SOURCE_WINDOW, thr8)) {
+                        det->stats.cand_window++;
+                    }
+                }
+            }
+        }
+        uint32_t nh = (h * c->scale_step_q8 + 128u) >> 8;
+        h = (nh > h) ? nh : h + 1u;
+    }
+    return all;
+}
+
+// Window source: pre-filter by cell-mean deviation, rank by it, and merge
+// the best windows into the room left of max_candidates (windows beyond it
+// are dropped by design: not a capacity error).
+DET_NOINLINE static vd_status_t window_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
+{
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
+    x->wc = det->cfg.windows;
+    x->wc.frame_w = f->width;
+    x->wc.frame_h = f->height;
+    VD_TRY(vd_windows_resolve(&x->wc));
+    cell_integrals(det, f);
+    memset(det->hist, 0, 256u * sizeof(uint32_t));
+    det->stats.windows = walk_windows(det, 0, 0u, 0u, n, thr8);
+    const size_t room = (*n < det->cfg.max_candidates) ? det->cfg.max_candidates - *n : 0u;
+    // Highest levels first: cut = the level where the room runs out.
+    uint64_t cum = 0u;
+    uint32_t cut = det->cfg.win_min_std_u8;
+    uint32_t ties = det->hist[cut];
+    for (uint32_t k = 0; k < 256u; k++) {
+        const uint32_t lv = 255u - k;
+        if (lv < det->cfg.win_min_std_u8) {
+            break;
+        }
+        if (cum + det->hist[lv] > room) {
+            cut = lv;
+            ties = (uint32_t)(room - cum);
+            break;
+        }
+        cum += det->hist[lv];
+    }
+    uint64_t passed = 0u;
+    for (uint32_t k = det->cfg.win_min_std_u8; k < 256u; k++) {
+        passed += det->hist[k];
+    }
+    det->stats.windows_passed = (uint32_t)passed;
+    if (room > 0u) {
+        (void)walk_windows(det, 1, cut, ties, n, thr8);
+    }
     return VD_OK;
 }
 
@@ -733,7 +1101,10 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
 
     // Labelling in the overlay, straight from the frame.
     size_t n = 0u;
-    vd_status_t st = hot_components(det, frame, &n, &t0);
+    vd_status_t st = VD_OK;
+    if ((det->cfg.sources & VD_DETECTOR_SRC_HOTSPOT) != 0u) {
+        st = hot_components(det, frame, &n, &t0);
+    }
     if (st == VD_ERR_CAPACITY) {
         result = VD_ERR_CAPACITY;
     } else if (st != VD_OK) {
@@ -750,13 +1121,41 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     }
     clock_add(det, VD_DET_STAGE_COMPONENTS, &t0);
 
-    // Per candidate (the labelling scratch is dead from here: the overlay holds region buffers).
+    // Hot spots: refined one by one (the labelling scratch is dead from here:
+    // the overlay holds region buffers), their contour boxes start the merged list.
     uint8_t thr8 = (uint8_t)s->hot_thr_u8;
-    size_t nv = 0u;
+    size_t nc = 0u;
     for (size_t i = 0; i < kept; i++) {
+        bool ok = false;
+        VD_TRY(refine_hot(det, frame, &det->comps[i], &det->cand[nc], &ok, &t0));
+        if (ok) {
+            det->cand[nc].hot_thr = thr8;
+            nc++;
+        }
+    }
+    s->cand_hotspot = (uint32_t)nc;
+    if ((det->cfg.sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
+        st = contrast_source(det, frame, &nc, thr8);
+        if (st == VD_ERR_CAPACITY) {
+            result = VD_ERR_CAPACITY;
+        } else if (st != VD_OK) {
+            return st;
+        }
+        clock_add(det, VD_DET_STAGE_CONTRAST, &t0);
+    }
+    if ((det->cfg.sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
+        VD_TRY(window_source(det, frame, &nc, thr8));   // the overlay holds the integrals until here
+        clock_add(det, VD_DET_STAGE_WINDOWS, &t0);
+    }
+    // Verification of the merged list, compacted in place.
+    size_t nv = 0u;
+    for (size_t i = 0; i < nc; i++) {
         bool keep = false;
-        VD_TRY(process_candidate(det, frame, &det->comps[i], thr8, &det->cand[nv], &keep, &t0));
+        VD_TRY(verify_candidate(det, frame, &det->cand[i], &keep, &t0));
         if (keep) {
+            if (nv != i) {
+                det->cand[nv] = det->cand[i];
+            }
             nv++;
         }
     }

@@ -80,17 +80,6 @@ static const uint8_t *row_at(const vd_view_u8_t *src, int32_t y)
     return src->data + (size_t)y * src->stride;
 }
 
-// Sorts column i of three strip rows a, b, c into lo[i] <= mid[i] <= hi[i].
-static inline void sort3_at(const uint8_t *a, const uint8_t *b, const uint8_t *c,
-                            uint8_t *lo, uint8_t *mid, uint8_t *hi, int32_t i)
-{
-    const uint8_t ab_lo = VD_MIN8(a[i], b[i]), ab_hi = VD_MAX8(a[i], b[i]);
-    const uint8_t t = VD_MAX8(ab_lo, c[i]);
-    lo[i] = VD_MIN8(ab_lo, c[i]);
-    mid[i] = VD_MIN8(ab_hi, t);
-    hi[i] = VD_MAX8(ab_hi, t);
-}
-
 // Sorts column i of five strip rows p[0..4] into col[0][i] <= ... <= col[4][i]
 // (optimal 9-exchange network).
 static inline void sort5_at(const uint8_t *const p[5], uint8_t col[5][STRIP + 4], int32_t i)
@@ -170,41 +159,207 @@ static inline void merge_pair_at(uint8_t col[5][STRIP + 4], uint8_t pr[10][STRIP
     // END GENERATED pair
 }
 
+// ---- 3x3 ------------------------------------------------------------------
+// Outputs per block of the 3x3 kernels: a multiple of every SIMD width in use
+// (16 / 32 bytes) so gcc -O2 (very-cheap cost model: no scalar epilogue) and
+// clang both turn the constant-count loops into whole vectors.
+#ifndef BLK3
+#define BLK3 32
+#endif
+#ifndef GROUP3
+#define GROUP3 4
+#endif
+
+// Sorts the horizontal triple r[i], r[i+1], r[i+2] (r points one column left
+// of the output; constant offsets from one base let gcc address all three
+// with one register) into lo <= mid <= hi.
+// Loaded highest index first: in the other order clang 14 forwards r[i+2] of
+// one iteration as r[i+1] of the next (a loop-carried value) and then does
+// not vectorise the loop at all (16x slower); gcc does not care.
+#define HSORT3(r, i, lo, mid, hi)                                                  \
+    do {                                                                           \
+        const uint8_t c_ = (r)[(i) + 2], b_ = (r)[(i) + 1], a_ = (r)[i];           \
+        const uint8_t n_ = VD_MIN8(a_, b_), x_ = VD_MAX8(a_, b_);                  \
+        lo = VD_MIN8(n_, c_);                                                      \
+        hi = VD_MAX8(x_, c_);                                                      \
+        mid = VD_MAX8(n_, VD_MIN8(x_, c_));                                        \
+    } while (0)
+
+// med3(a, b, c) in 4 min/max.
+#define MED3(a, b, c) VD_MAX8(VD_MIN8(a, b), VD_MIN8(VD_MAX8(a, b), c))
+
+// Two output rows (o0: rows r0 r1 r2, o1: rows r1 r2 r3) for BLK3 columns.
+// r_k point one column left of the block's first output; BLK3 + 2 columns are read.
+// Each row is sorted horizontally once (6 min/max), the pair r1/r2 that
+// both outputs share is combined once (4), each output adds its own row (4)
+// and takes med3(max of lows, med3 of mids, min of highs) (4): 16 min/max
+// per pixel, all in registers (no stack buffers: stack budget, and no
+// store-to-load forwarding stalls on shifted reloads).
+static void med3_rows2(const uint8_t *restrict r0, const uint8_t *restrict r1, const uint8_t *restrict r2,
+                       const uint8_t *restrict r3, uint8_t *restrict o0, uint8_t *restrict o1)
+{
+    for (size_t i = 0; i < BLK3; i++) {
+        uint8_t l0, m0, h0, l1, m1, h1, l2, m2, h2, l3, m3, h3;
+        HSORT3(r0, i, l0, m0, h0);
+        HSORT3(r1, i, l1, m1, h1);
+        HSORT3(r2, i, l2, m2, h2);
+        HSORT3(r3, i, l3, m3, h3);
+        const uint8_t l12 = VD_MAX8(l1, l2), h12 = VD_MIN8(h1, h2);
+        const uint8_t mn12 = VD_MIN8(m1, m2), mx12 = VD_MAX8(m1, m2);
+        const uint8_t la = VD_MAX8(l12, l0), ha = VD_MIN8(h12, h0), ma = VD_MAX8(mn12, VD_MIN8(mx12, m0));
+        const uint8_t lb = VD_MAX8(l12, l3), hb = VD_MIN8(h12, h3), mb = VD_MAX8(mn12, VD_MIN8(mx12, m3));
+        o0[i] = MED3(la, ma, ha);
+        o1[i] = MED3(lb, mb, hb);
+    }
+}
+
+// Four output rows (o_k: rows r_k .. r_k+2) for BLK3 columns: 6 row sorts for
+// 4 outputs (9 per output in the 2-row kernel's terms: 19 min/max per pixel
+// -> 14.5 with the pairs r1/r2 and r3/r4 shared).
+static void med3_rows4(const uint8_t *restrict r0, const uint8_t *restrict r1, const uint8_t *restrict r2,
+                       const uint8_t *restrict r3, const uint8_t *restrict r4, const uint8_t *restrict r5,
+                       uint8_t *restrict o0, uint8_t *restrict o1, uint8_t *restrict o2, uint8_t *restrict o3)
+{
+    for (size_t i = 0; i < BLK3; i++) {
+        // Source order keeps few values live at once (gcc -O2 allocates
+        // registers in this order: 16 xmm registers on x86-64, else spills).
+        uint8_t l0, m0, h0, l1, m1, h1, l2, m2, h2, l3, m3, h3, l4, m4, h4, l5, m5, h5;
+        HSORT3(r1, i, l1, m1, h1);
+        HSORT3(r2, i, l2, m2, h2);
+        const uint8_t l12 = VD_MAX8(l1, l2), h12 = VD_MIN8(h1, h2);
+        const uint8_t mn12 = VD_MIN8(m1, m2), mx12 = VD_MAX8(m1, m2);
+        HSORT3(r0, i, l0, m0, h0);
+        const uint8_t la = VD_MAX8(l12, l0), ha = VD_MIN8(h12, h0), ma = VD_MAX8(mn12, VD_MIN8(mx12, m0));
+        o0[i] = MED3(la, ma, ha);
+        HSORT3(r3, i, l3, m3, h3);
+        const uint8_t lb = VD_MAX8(l12, l3), hb = VD_MIN8(h12, h3), mb = VD_MAX8(mn12, VD_MIN8(mx12, m3));
+        o1[i] = MED3(lb, mb, hb);
+        HSORT3(r4, i, l4, m4, h4);
+        const uint8_t l34 = VD_MAX8(l3, l4), h34 = VD_MIN8(h3, h4);
+        const uint8_t mn34 = VD_MIN8(m3, m4), mx34 = VD_MAX8(m3, m4);
+        const uint8_t lc = VD_MAX8(l34, l2), hc = VD_MIN8(h34, h2), mc = VD_MAX8(mn34, VD_MIN8(mx34, m2));
+        o2[i] = MED3(lc, mc, hc);
+        HSORT3(r5, i, l5, m5, h5);
+        const uint8_t ld = VD_MAX8(l34, l5), hd = VD_MIN8(h34, h5), md = VD_MAX8(mn34, VD_MIN8(mx34, m5));
+        o3[i] = MED3(ld, md, hd);
+    }
+}
+
+// One output row (rows r0 r1 r2) for BLK3 columns (an odd last row).
+static void med3_rows1(const uint8_t *restrict r0, const uint8_t *restrict r1, const uint8_t *restrict r2,
+                       uint8_t *restrict o0)
+{
+    for (size_t i = 0; i < BLK3; i++) {
+        uint8_t l0, m0, h0, l1, m1, h1, l2, m2, h2;
+        HSORT3(r0, i, l0, m0, h0);
+        HSORT3(r1, i, l1, m1, h1);
+        HSORT3(r2, i, l2, m2, h2);
+        const uint8_t l = VD_MAX8(VD_MAX8(l0, l1), l2), h = VD_MIN8(VD_MIN8(h0, h1), h2);
+        const uint8_t m = MED3(m0, m1, m2);
+        o0[i] = MED3(l, m, h);
+    }
+}
+
+// Scalar 3x3 median at image column x of rows r0 r1 r2 (columns clamped):
+// the image's first and last columns, and images narrower than a block.
+static uint8_t med3_px(const uint8_t *r0, const uint8_t *r1, const uint8_t *r2, int32_t x, int32_t width)
+{
+    const int32_t xl = x > 0 ? x - 1 : 0, xr = x + 1 < width ? x + 1 : width - 1;
+    const uint8_t *rows[3] = {r0, r1, r2};
+    uint8_t l = 0u, m[3], h = 255u;
+    for (int32_t k = 0; k < 3; k++) {
+        const uint8_t a = rows[k][xl], b = rows[k][x], c = rows[k][xr];
+        const uint8_t n = VD_MIN8(a, b), xx = VD_MAX8(a, b);
+        l = VD_MAX8(l, VD_MIN8(n, c));
+        h = VD_MIN8(h, VD_MAX8(xx, c));
+        m[k] = VD_MAX8(n, VD_MIN8(xx, c));
+    }
+    const uint8_t md = MED3(m[0], m[1], m[2]);
+    return MED3(l, md, h);
+}
+
+// BLK3 outputs of n (1, 2 or 4) consecutive rows: p[0 .. n+1] are the input
+// rows and o[0 .. n-1] the output rows, both at the block's first column.
+static void med3_block(int32_t n, const uint8_t *const p[6], int32_t x, uint8_t *const o[4], size_t off)
+{
+    if (n == 4) {
+        med3_rows4(p[0] + x - 1, p[1] + x - 1, p[2] + x - 1, p[3] + x - 1, p[4] + x - 1, p[5] + x - 1, o[0] + off,
+                   o[1] + off, o[2] + off, o[3] + off);
+    } else if (n == 2) {
+        med3_rows2(p[0] + x - 1, p[1] + x - 1, p[2] + x - 1, p[3] + x - 1, o[0] + off, o[1] + off);
+    } else {
+        med3_rows1(p[0] + x - 1, p[1] + x - 1, p[2] + x - 1, o[0] + off);
+    }
+}
+
+// Output rows y .. y + n - 1 (n = 1, 2 or 4) of the ROI r into d[0 .. n-1].
+// Interior outputs (image columns 1 .. width - 2) go through the block
+// kernels; the last block of a span overlaps the previous one (identical
+// values, so no scalar tail); a span shorter than a block is computed by a
+// block placed inside the image into tmp and copied; columns 0 and width - 1
+// (replicated border) and images narrower than a block + 2 are scalar.
+static void med3_span(const vd_view_u8_t *src, const vd_rect_t *r, int32_t y, int32_t n, uint8_t *const d[4])
+{
+    const int32_t width = (int32_t)src->width;
+    const uint8_t *p[6];
+    for (int32_t k = 0; k < 6; k++) {
+        p[k] = row_at(src, r->y + y - 1 + (k <= n + 1 ? k : n + 1));
+    }
+    const int32_t x_end = r->x + r->w;
+    const int32_t xa = r->x > 1 ? r->x : 1;                      // first interior output
+    const int32_t xb = x_end < width - 1 ? x_end : width - 1;   // end of interior outputs
+    int32_t sb = xa;                                             // [xa, sb): done by blocks
+    if (xb - xa >= BLK3) {
+        for (int32_t x = xa;; x += BLK3) {
+            x = x > xb - BLK3 ? xb - BLK3 : x;
+            med3_block(n, p, x, d, (size_t)(x - r->x));
+            if (x == xb - BLK3) {
+                break;
+            }
+        }
+        sb = xb;
+    } else if (xb > xa && width - 2 >= BLK3) {
+        // Stack budget: 4 x BLK3 bytes, the only buffer of vd_median3_u8.
+        uint8_t tmp[4][BLK3];
+        uint8_t *const t[4] = {tmp[0], tmp[1], tmp[2], tmp[3]};
+        const int32_t xs = xa + BLK3 <= width - 1 ? xa : width - 1 - BLK3;
+        med3_block(n, p, xs, t, 0u);
+        for (int32_t k = 0; k < n; k++) {
+            memcpy(d[k] + (xa - r->x), tmp[k] + (xa - xs), (size_t)(xb - xa));
+        }
+        sb = xb;
+    }
+    // Scalar: the ROI's columns outside [xa, sb).
+    for (int32_t x = r->x; x < x_end; x++) {
+        if (x >= xa && x < sb) {
+            x = sb - 1;
+            continue;
+        }
+        for (int32_t k = 0; k < n; k++) {
+            d[k][x - r->x] = med3_px(p[k], p[k + 1], p[k + 2], x, width);
+        }
+    }
+}
+
 vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_image_u8_t *dst)
 {
     vd_rect_t r;
     VD_TRY(median_args(src, roi, dst, &r));
-    const int32_t width = (int32_t)src->width;
-    uint8_t edge[3][STRIP + 2];   // clamped copies for strips that cross the image edge
-    uint8_t lo[STRIP + 2], mid[STRIP + 2], hi[STRIP + 2], out[STRIP];
-    for (int32_t y = 0; y < r.h; y++) {
-        const uint8_t *r0 = row_at(src, r.y + y - 1);
-        const uint8_t *r1 = row_at(src, r.y + y);
-        const uint8_t *r2 = row_at(src, r.y + y + 1);
-        uint8_t *d = dst->data + (size_t)y * dst->stride;
-        for (int32_t xs = 0; xs < r.w; xs += STRIP) {
-            const int32_t x_first = r.x + xs - 1;
-            const uint8_t *a = strip_row(r0, width, x_first, edge[0], STRIP + 2);
-            const uint8_t *b = strip_row(r1, width, x_first, edge[1], STRIP + 2);
-            const uint8_t *c = strip_row(r2, width, x_first, edge[2], STRIP + 2);
-            // Sort every column: lo <= mid <= hi. The main loop has a trip
-            // count that is a multiple of every SIMD width; the 2 extra
-            // columns go through the same code as a short scalar tail.
-            for (int32_t i = 0; i < STRIP; i++) {
-                sort3_at(a, b, c, lo, mid, hi, i);
-            }
-            for (int32_t i = STRIP; i < STRIP + 2; i++) {
-                sort3_at(a, b, c, lo, mid, hi, i);
-            }
-            for (int32_t i = 0; i < STRIP; i++) {
-                const uint8_t mx_lo = VD_MAX8(VD_MAX8(lo[i], lo[i + 1]), lo[i + 2]);
-                const uint8_t mn_hi = VD_MIN8(VD_MIN8(hi[i], hi[i + 1]), hi[i + 2]);
-                const uint8_t m0 = mid[i], m1 = mid[i + 1], m2 = mid[i + 2];
-                const uint8_t md = VD_MAX8(VD_MIN8(m0, m1), VD_MIN8(VD_MAX8(m0, m1), m2));
-                out[i] = VD_MAX8(VD_MIN8(mx_lo, md), VD_MIN8(VD_MAX8(mx_lo, md), mn_hi));
-            }
-            put_strip(d + xs, out, r.w - xs < STRIP ? r.w - xs : STRIP);
+    // Output rows in groups of 4 (rows shared inside a group, see
+    // med3_rows4); the last group overlaps the previous one (identical
+    // values); ROIs under 4 rows high take groups of 2 and 1.
+    int32_t y = 0;
+    while (y < r.h) {
+        int32_t n = (GROUP3 == 4 && r.h >= 4) ? 4 : (r.h - y >= 2 ? 2 : 1);
+        if (n == 4 && y > r.h - 4) {
+            y = r.h - 4;
         }
+        uint8_t *d[4];
+        for (int32_t k = 0; k < 4; k++) {
+            d[k] = dst->data + (size_t)(y + (k < n ? k : 0)) * dst->stride;
+        }
+        med3_span(src, &r, y, n, d);
+        y += n;
     }
     return VD_OK;
 }

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Fuzz harness: the .vdm model loader (vd_dbn_load) and inference on whatever it accepts (vd_dbn_classify).
 //
-// Input: one control byte, then the blob. Control bit 0 set: the harness
+// Input: one control byte, then the blob (or a plain blob starting with "VDMF"). Control bit 0 set: the harness
 // rewrites the blob's CRC-32 field (when the claimed total size lies inside
 // the input) so mutations get past the checksum and reach the structural
 // checks; bit 1: the blob is offered with 1..3 extra trailing bytes (flash
@@ -35,12 +35,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         FZ_CHECK(vd_dbn_load(&m, "", 0u) == VD_ERR_ARG);
         return 0;
     }
-    const uint8_t ctl = data[0];
-    const size_t n = size - 1u;
+    // A plain .vdm file (models/*.vdm replayed by CTest) is taken as it is, without a control byte.
+    const int plain = size >= 4u && memcmp(data, "VDMF", 4u) == 0;
+    const uint8_t ctl = plain ? 0u : data[0];
+    const size_t n = plain ? size : size - 1u;
     const size_t pad = (ctl & 2u) ? 1u + (ctl >> 6) % 3u : 0u;
     uint8_t *blob = fz_alloc(n + pad);
     if (n) {
-        memcpy(blob, data + 1, n);
+        memcpy(blob, plain ? data : data + 1, n);
     }
     memset(blob + n, 0xFF, pad);
     if ((ctl & 1u) && n >= VD_DBN_HEADER_SIZE) {

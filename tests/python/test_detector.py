@@ -98,7 +98,9 @@ def test_run_budget_reported(vdlib):
 
 
 def test_default_workspace_within_goal(vdlib):
-    assert 228096 <= vdet.workspace_size(640, 512) <= 228400 <= 256 * 1024
+    assert 228096 <= vdet.workspace_size(640, 512) <= 228496 <= 256 * 1024
+    # windows share the overlay; contrast brings its own whole-frame workspace
+    assert vdet.workspace_size(640, 512, sources="hotspot,window") == vdet.workspace_size(640, 512)
 
 
 def test_bad_config_rejected(vdlib):
@@ -115,6 +117,84 @@ def test_temporal_states(vdlib):
         dets, _ = det.run(img)
         states.append(dets[0]["state"])
     assert states == ["new", "new", "confirmed", "confirmed"]
+
+
+# ---------------------------------------------------------------- candidate sources (issue 7)
+
+def cell_levels(img, boxes, cell=4):
+    """numpy oracle of the window pre-filter: floor(std) of the rounded 4x4-cell means inside each box."""
+    h, w = img.shape
+    gh, gw = h // cell, w // cell
+    g = (img[:gh * cell, :gw * cell].reshape(gh, cell, gw, cell).astype(np.int64).sum(axis=(1, 3)) + 8) // 16
+    out = []
+    for x, y, bw, bh in boxes:
+        x0, x1 = (x + cell - 1) // cell, min((x + bw) // cell, gw)
+        y0, y1 = (y + cell - 1) // cell, min((y + bh) // cell, gh)
+        x0 = x0 if x0 < x1 else max(x1 - 1, 0)
+        y0 = y0 if y0 < y1 else max(y1 - 1, 0)
+        x1, y1 = max(x1, x0 + 1), max(y1, y0 + 1)
+        v = g[y0:y1, x0:x1]
+        n = v.size
+        var = (n * int((v * v).sum()) - int(v.sum()) ** 2) // (n * n)
+        out.append(min(255, int(np.floor(np.sqrt(var)))))   # float sqrt is exact enough for var < 2^24
+    return np.array(out)
+
+
+def test_window_source_matches_generator_and_prefilter_oracle(vdlib, data_dir):
+    from vdtools import sources as S
+    files = sorted(glob.glob(str(data_dir / "msrs" / "images" / "*N.png")))[:2]
+    files += sorted(glob.glob(str(data_dir / "hit-uav" / "frames" / "images" / "*.jpg")))[:1]
+    if not files:
+        pytest.skip(f"no frames found under {data_dir}")
+    for f in files:
+        img = cv2.imread(f, cv2.IMREAD_GRAYSCALE)
+        preset = "msrs" if "msrs" in f else "hit"
+        wins = S.windows(img.shape[1], img.shape[0], preset=preset)
+        lv = cell_levels(img, wins)
+        budget = 300
+        det = vdet.Detector(max_width=640, max_height=512, sources="window", max_candidates=budget,
+                            max_detections=budget, nms_iou_q15=32768, dedup_iou_q15=32768, win_min_std_u8=6,
+                            windows=dict(preset_name=preset, frame_h=img.shape[0]))
+        dets, st = det.run(img)
+        assert st["windows"] == len(wins) and st["windows_passed"] == int((lv >= 6).sum()), f
+        # reference: the `budget` highest levels, ties in generator order (stable sort)
+        order = np.argsort(-np.where(lv >= 6, lv, -1), kind="stable")[:min(budget, int((lv >= 6).sum()))]
+        want = sorted(map(tuple, wins[np.sort(order)]))
+        got = sorted(tuple(d["box"]) for d in dets)
+        assert got == want, f
+        assert all(d["source"] == "window" for d in dets)
+
+
+def test_contrast_source_matches_contrast_candidates(vdlib, data_dir):
+    from vdtools import sources as S
+    files = sorted(glob.glob(str(data_dir / "hit-uav" / "frames" / "images" / "*.jpg")))[:3]
+    if not files:
+        pytest.skip(f"no frames found under {data_dir}")
+    for f in files:
+        img = cv2.imread(f, cv2.IMREAD_GRAYSCALE)
+        ref = S.contrast_candidates(img, cap=256)
+        det = vdet.Detector(max_width=640, max_height=512, sources="contrast", max_candidates=256,
+                            max_detections=256, nms_iou_q15=32768, dedup_iou_q15=32768)
+        dets, st = det.run(img)
+        assert st["cand_contrast"] == len(ref) == len(dets), f
+        assert [d["box"] for d in dets] == [[int(c["x"]), int(c["y"]), int(c["w"]), int(c["h"])] for c in ref]
+        assert all(d["source"] == "contrast" for d in dets)
+
+
+def test_sources_merge_dedup(vdlib):
+    img = np.full((120, 160), 60, np.uint8)
+    img[30:50, 20:50] = 200     # hot car
+    img[60:76, 100:124] = 10    # cold car
+    det = vdet.Detector(max_width=160, max_height=120, sources="all", max_candidates=200, max_detections=200,
+                        nms_iou_q15=32768, dedup_iou_q15=16384)
+    dets, st = det.run(img)
+    assert st["cand_hotspot"] == 1 and st["cand_contrast"] >= 1 and st["cand_window"] >= 1
+    assert len(dets) == st["cand_hotspot"] + st["cand_contrast"] + st["cand_window"]
+    from vdtools.recall import iou_matrix
+    m = iou_matrix([d["box"] for d in dets], [d["box"] for d in dets])
+    np.fill_diagonal(m, 0)
+    assert m.max() <= 0.5 + 1e-6
+    assert {d["source"] for d in dets} == {"hotspot", "contrast", "window"}
 
 
 def test_exp_tables_match_c_source():

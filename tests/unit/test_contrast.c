@@ -24,7 +24,9 @@ static void test_map_hand_worked(void)
     vd_view_u8_t v = {px, 5, 5, 5};
     uint8_t out[25];
     vd_image_u8_t d = {out, 5, 5, 5};
-    uint32_t col[5];
+    // uint64_t storage: a workspace must be VD_WORKSPACE_ALIGN (8) aligned, and a uint32_t
+    // array is only 4-aligned on 32-bit targets (armhf: VD_ERR_WORKSPACE).
+    uint64_t col[3];
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, 1u, VD_CONTRAST_BOTH, col, sizeof(col), &d));
     TEST_ASSERT_EQUAL_UINT8(80, out[12]);   // mean (8*10 + 100)/9 = 20
     TEST_ASSERT_EQUAL_UINT8(10, out[6]);    // (1,1): its 3x3 holds the centre -> mean 20
@@ -71,7 +73,7 @@ static void naive_map(const uint8_t *s, uint32_t w, uint32_t h, size_t stride, u
 static void test_map_random_vs_naive(void)
 {
     uint32_t seed = 777u;
-    uint32_t col[130];
+    uint64_t col[65];   // 130 column sums, 8-aligned
     for (int it = 0; it < 60; it++) {
         uint32_t w = 1u + tu_rand(&seed) % 60u;
         uint32_t h = 1u + tu_rand(&seed) % 50u;
@@ -154,7 +156,7 @@ static void test_candidates_percentile_and_capacity(void)
     vd_status_t st = run_cand(&c, 256, &n, &thr);
     TEST_ASSERT_EQUAL_INT(VD_OK, st);
     // The reference map's maximum.
-    uint32_t col[64];
+    uint64_t col[32];   // 64 column sums, 8-aligned
     vd_view_u8_t v = {g_src, 64, 64, 64};
     vd_image_u8_t d = {g_dst, 64, 64, 64};
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, 16u, VD_CONTRAST_BOTH, col, sizeof(col), &d));
@@ -210,7 +212,7 @@ static void test_workspace_contract(void)
 
 static void test_arguments(void)
 {
-    uint32_t col[64];
+    uint64_t col[32];   // 64 column sums, 8-aligned
     vd_view_u8_t v = {g_src, 40, 30, 40};
     vd_image_u8_t d = {g_dst, 40, 30, 40};
     size_t b = 0;

@@ -9,8 +9,91 @@
 void setUp(void) {}
 void tearDown(void) {}
 
-// Reference arithmetic for the tests only (host compilers have 128-bit integers).
-__extension__ typedef unsigned __int128 u128;
+// Reference arithmetic for the tests only: naive 256-bit unsigned integers as
+// 16 limbs of 16 bits (schoolbook, deliberately unlike the library's 32-bit
+// split), so the same checks run on every target; 32-bit ones (armhf) have no
+// __int128. Where __int128 exists, the reference itself is cross-checked
+// against it (test_reference_arithmetic).
+#define MP_LIMBS 16
+typedef struct mp {
+    uint32_t l[MP_LIMBS]; // each < 2^16, l[0] least significant
+} mp_t;
+
+static mp_t mp_u64(uint64_t v)
+{
+    mp_t r;
+    memset(&r, 0, sizeof r);
+    for (int i = 0; i < 4; i++) {
+        r.l[i] = (uint32_t)(v >> (16 * i)) & 0xFFFFu;
+    }
+    return r;
+}
+
+// a * b mod 2^256 (every product in these tests is < 2^200).
+static mp_t mp_mul(mp_t a, mp_t b)
+{
+    uint32_t acc[MP_LIMBS];
+    memset(acc, 0, sizeof acc);
+    for (int i = 0; i < MP_LIMBS; i++) {
+        uint32_t carry = 0u;
+        for (int j = 0; i + j < MP_LIMBS; j++) {
+            // < 2^16 + (2^16-1)^2 + 2^16 < 2^32
+            const uint32_t t = acc[i + j] + a.l[i] * b.l[j] + carry;
+            acc[i + j] = t & 0xFFFFu;
+            carry = t >> 16;
+        }
+    }
+    mp_t r;
+    memcpy(r.l, acc, sizeof acc);
+    return r;
+}
+
+static int mp_cmp(mp_t a, mp_t b)
+{
+    for (int i = MP_LIMBS - 1; i >= 0; i--) {
+        if (a.l[i] != b.l[i]) {
+            return a.l[i] > b.l[i] ? 1 : -1;
+        }
+    }
+    return 0;
+}
+
+// 64-bit word k (0 = least significant) of a.
+static uint64_t mp_word(mp_t a, int k)
+{
+    uint64_t w = 0u;
+    for (int i = 3; i >= 0; i--) {
+        w = (w << 16) | a.l[4 * k + i];
+    }
+    return w;
+}
+
+// x^2 * d as a reference value.
+static mp_t mp_sq_mul(uint64_t x, uint64_t d)
+{
+    return mp_mul(mp_mul(mp_u64(x), mp_u64(x)), mp_u64(d));
+}
+
+static void test_reference_arithmetic(void)
+{
+    // Hand-worked: (2^64-1)^2 = 2^128 - 2^65 + 1.
+    mp_t sq = mp_mul(mp_u64(UINT64_MAX), mp_u64(UINT64_MAX));
+    TEST_ASSERT_TRUE(mp_word(sq, 0) == 1u && mp_word(sq, 1) == UINT64_MAX - 1u && mp_word(sq, 2) == 0u);
+    TEST_ASSERT_EQUAL_INT(1, mp_cmp(mp_u64(2u), mp_u64(1u)));
+    TEST_ASSERT_EQUAL_INT(0, mp_cmp(mp_sq_mul(3u, 5u), mp_u64(45u)));
+#if defined(__SIZEOF_INT128__)
+    __extension__ typedef unsigned __int128 u128;
+    uint32_t seed = 11u;
+    for (int i = 0; i < 2000; i++) {
+        const uint64_t a = ((uint64_t)tu_rand(&seed) << 32) | tu_rand(&seed);
+        const uint64_t b = ((uint64_t)tu_rand(&seed) << 32) | tu_rand(&seed);
+        const u128 p = (u128)a * b;
+        const mp_t q = mp_mul(mp_u64(a), mp_u64(b));
+        TEST_ASSERT_TRUE(mp_word(q, 0) == (uint64_t)p && mp_word(q, 1) == (uint64_t)(p >> 64) &&
+                         mp_word(q, 2) == 0u);
+    }
+#endif
+}
 
 static void test_hand_worked_4x4(void)
 {
@@ -112,16 +195,25 @@ static void test_wide_multiply_and_ratio(void)
         }
         uint64_t hi, lo;
         vd_mul_u64_wide(a, b, &hi, &lo);
-        u128 p = (u128)a * b;
-        TEST_ASSERT_TRUE(hi == (uint64_t)(p >> 64) && lo == (uint64_t)p);
-        // Ratios small enough for a 128-bit reference: a, b < 2^40, d < 2^46.
+        const mp_t p = mp_mul(mp_u64(a), mp_u64(b));
+        TEST_ASSERT_TRUE(hi == mp_word(p, 1) && lo == mp_word(p, 0));
+        // Ratios in the reference: a, b < 2^40, d < 2^46.
         uint64_t x = a >> 24, y = b >> 24;
         uint64_t dx = 1u + (((uint64_t)tu_rand(&seed) << 14) ^ tu_rand(&seed));
         uint64_t dy = (i % 5 == 0) ? dx : 1u + (((uint64_t)tu_rand(&seed) << 14) ^ tu_rand(&seed));
         if (i % 7 == 0) {
             y = x; // equal numerators: exact ties must compare false both ways
         }
-        int want = (u128)x * x * dy > (u128)y * y * dx;
+        int want = mp_cmp(mp_sq_mul(x, dy), mp_sq_mul(y, dx)) > 0;
+        TEST_ASSERT_EQUAL_INT(want, vd_ratio_sq_gt(x, dx, y, dy));
+    }
+    // Full range against the reference (products up to 2^192).
+    for (int i = 0; i < 2000; i++) {
+        const uint64_t x = ((uint64_t)tu_rand(&seed) << 32) | tu_rand(&seed);
+        const uint64_t y = (i % 4 == 0) ? x : (((uint64_t)tu_rand(&seed) << 32) | tu_rand(&seed));
+        const uint64_t dx = 1u | ((uint64_t)tu_rand(&seed) << 32) | tu_rand(&seed);
+        const uint64_t dy = (i % 6 == 0) ? dx : (1u | ((uint64_t)tu_rand(&seed) << 32) | tu_rand(&seed));
+        const int want = mp_cmp(mp_sq_mul(x, dy), mp_sq_mul(y, dx)) > 0;
         TEST_ASSERT_EQUAL_INT(want, vd_ratio_sq_gt(x, dx, y, dy));
     }
     // Full-range values: (2^64-1)^2 * (2^64-1) vs the same minus one in the denominator.
@@ -130,7 +222,8 @@ static void test_wide_multiply_and_ratio(void)
     TEST_ASSERT_TRUE(vd_ratio_sq_gt(UINT64_MAX, 1u, UINT64_MAX - 1u, 1u));
 }
 
-// Naive Otsu: every t with 0 < n0 < N, criterion D^2 / d in 128 bits (N < 2^14 here).
+// Naive Otsu: every t with 0 < n0 < N, criterion D^2 / d compared as D^2 * d' vs D'^2 * d in
+// the reference arithmetic (N < 2^14 here).
 static uint8_t naive_otsu(const uint32_t h[256])
 {
     int64_t n = 0, s = 0;
@@ -139,7 +232,7 @@ static uint8_t naive_otsu(const uint32_t h[256])
         s += (int64_t)h[v] * v;
     }
     int64_t n0 = 0, s0 = 0;
-    u128 bn = 0, bd = 1;
+    uint64_t ba = 0u, bd = 1u;   // best |D| and its d
     int best = 0;
     for (int t = 0; t < 256; t++) {
         n0 += h[t];
@@ -148,10 +241,10 @@ static uint8_t naive_otsu(const uint32_t h[256])
             continue;
         }
         int64_t dd = n * s0 - n0 * s;
-        u128 num = (u128)(dd < 0 ? -dd : dd) * (u128)(dd < 0 ? -dd : dd);
-        u128 den = (u128)(n0 * (n - n0));
-        if (num * bd > bn * den) {
-            bn = num;
+        const uint64_t a = (uint64_t)(dd < 0 ? -dd : dd);
+        const uint64_t den = (uint64_t)(n0 * (n - n0));
+        if (mp_cmp(mp_sq_mul(a, bd), mp_sq_mul(ba, den)) > 0) {
+            ba = a;
             bd = den;
             best = t;
         }
@@ -254,6 +347,7 @@ int main(void)
     RUN_TEST(test_hand_worked_4x4);
     RUN_TEST(test_degenerate_histograms);
     RUN_TEST(test_bad_arguments);
+    RUN_TEST(test_reference_arithmetic);
     RUN_TEST(test_wide_multiply_and_ratio);
     RUN_TEST(test_random_vs_naive);
     RUN_TEST(test_large_counts);

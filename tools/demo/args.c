@@ -41,6 +41,19 @@ typedef enum setting_id {
     SET_MAX_REGION,
     SET_TEMPORAL,
     SET_MAX_TRACKS,
+    SET_SOURCES,
+    SET_DEDUP_IOU,
+    SET_WIN_PRESET,
+    SET_WIN_BANDS,
+    SET_WIN_HORIZON,
+    SET_WIN_GROUND,
+    SET_WIN_ASPECTS,
+    SET_WIN_STRIDE,
+    SET_WIN_STEP,
+    SET_WIN_MIN_STD,
+    SET_CONTRAST_RADIUS,
+    SET_CONTRAST_THR,
+    SET_CONTRAST_POLARITY,
     SET_COUNT
 } setting_id_t;
 
@@ -81,6 +94,32 @@ static const setting_t k_settings[SET_COUNT] = {
     [SET_TEMPORAL] = {"temporal", "on|off",
                       "temporal analysis: track ids, confirmed / recovered states (default on)"},
     [SET_MAX_TRACKS] = {"max-tracks", "N", "temporal track table size (default 32)"},
+    [SET_SOURCES] = {"sources", "LIST",
+                     "candidate sources, comma separated: hotspot, contrast, window, or all (default hotspot, "
+                     "the paper's); all sources share --max-candidates"},
+    [SET_DEDUP_IOU] = {"dedup-iou", "F",
+                       "merge: drop a contrast/window candidate overlapping an earlier one by IoU > F (default 0.7)"},
+    [SET_WIN_PRESET] = {"window-preset", "msrs|hit|table1",
+                        "window bands for a mounting: msrs = road level 640x480 (horizon 230, ground slope 1.6, "
+                        "x2 tolerance, Table 1 bands), hit = drone (heights 12..120 everywhere, half stride), "
+                        "table1 = Table 1 sizes everywhere; give it before other --window-* flags"},
+    [SET_WIN_BANDS] = {"window-bands", "Y0:Y1:H0:H1[,...]",
+                       "up to 4 bands: windows whose bottom row is in Y0..Y1 have heights H0..H1 px "
+                       "(default one band, every row, 10..200)"},
+    [SET_WIN_HORIZON] = {"window-horizon", "ROW", "ground model: horizon row (with --window-ground)"},
+    [SET_WIN_GROUND] = {"window-ground", "K[,TOL]",
+                        "ground model: expected height K px per row below the horizon, tolerance factor TOL "
+                        "(default 2); 0 = off (default)"},
+    [SET_WIN_ASPECTS] = {"window-aspects", "R[,R...]", "window height/width ratios, up to 4 (default 1)"},
+    [SET_WIN_STRIDE] = {"window-stride", "F", "window step as a fraction of its size, 0.0625..2 (default 0.25)"},
+    [SET_WIN_STEP] = {"window-step", "F", "ratio of successive window heights, 1.125..4 (default 1.25)"},
+    [SET_WIN_MIN_STD] = {"window-min-std", "U8",
+                         "window pre-filter: keep windows whose 4x4-cell means vary by a standard deviation "
+                         ">= U8 grey levels (default 4); the highest ones fill the candidate budget"},
+    [SET_CONTRAST_RADIUS] = {"contrast-radius", "N", "contrast source: box half-size 1..127 (default 16)"},
+    [SET_CONTRAST_THR] = {"contrast-thr", "U8", "contrast source: |I - local mean| threshold (default 24)"},
+    [SET_CONTRAST_POLARITY] = {"contrast-polarity", "both|warm|cold",
+                               "contrast source: which direction counts (default both)"},
 };
 
 void demo_args_usage(FILE *f)
@@ -216,6 +255,76 @@ static bool q_of(double v, double scale, double lo, double hi, uint32_t *out)
     return true;
 }
 
+// "Y0:Y1:H0:H1,..." -> up to VD_WINDOWS_MAX_BANDS bands.
+static bool parse_bands(const char *v, vd_windows_cfg_t *w)
+{
+    vd_windows_cfg_t t = *w;
+    t.n_bands = 0;
+    const char *p = v;
+    while (*p != '\0') {
+        long y0, y1, h0, h1;
+        int used = 0;
+        if (t.n_bands >= VD_WINDOWS_MAX_BANDS || sscanf(p, "%ld:%ld:%ld:%ld%n", &y0, &y1, &h0, &h1, &used) != 4) {
+            return false;
+        }
+        if (y0 < -(long)VD_MAX_DIM || y1 > 2L * VD_MAX_DIM || y0 > y1 || h0 < 1 || h0 > h1 || h1 > (long)VD_MAX_DIM) {
+            return false;
+        }
+        vd_window_band_t *b = &t.bands[t.n_bands++];
+        b->y_min = (int32_t)y0;
+        b->y_max = (int32_t)y1;
+        b->min_h = (uint16_t)h0;
+        b->max_h = (uint16_t)h1;
+        p += used;
+        if (*p == ',') {
+            p++;
+        } else if (*p != '\0') {
+            return false;
+        }
+    }
+    if (t.n_bands == 0) {
+        return false;
+    }
+    *w = t;
+    return true;
+}
+
+// The mounting presets of tools/vdtools/sources.py (MSRS: for 480-row frames).
+static bool apply_window_preset(vd_windows_cfg_t *w, const char *name)
+{
+    vd_windows_cfg_t t;
+    memset(&t, 0, sizeof t);
+    t.n_aspects = 1;
+    t.aspect_q8[0] = 256;
+    if (strcmp(name, "msrs") == 0) {
+        t.n_bands = 3;
+        t.bands[0] = (vd_window_band_t){230, 270, 10, 30};
+        t.bands[1] = (vd_window_band_t){245, 310, 25, 70};
+        t.bands[2] = (vd_window_band_t){270, (int32_t)VD_MAX_DIM, 50, 300};
+        t.horizon_y = 230;
+        t.ground_k_q8 = 410;      // 1.6
+        t.ground_tol_q8 = 512;    // x2
+        t.stride_q8 = 64;         // 0.25
+        t.scale_step_q8 = 320;    // 1.25
+    } else if (strcmp(name, "hit") == 0) {
+        t.n_bands = 1;
+        t.bands[0] = (vd_window_band_t){0, (int32_t)VD_MAX_DIM, 12, 120};
+        t.stride_q8 = 128;        // 0.5
+        t.scale_step_q8 = 361;    // 1.41
+    } else if (strcmp(name, "table1") == 0) {
+        t.n_bands = 3;
+        t.bands[0] = (vd_window_band_t){0, (int32_t)VD_MAX_DIM, 10, 30};
+        t.bands[1] = (vd_window_band_t){0, (int32_t)VD_MAX_DIM, 25, 70};
+        t.bands[2] = (vd_window_band_t){0, (int32_t)VD_MAX_DIM, 50, 200};
+        t.stride_q8 = 64;
+        t.scale_step_q8 = 320;
+    } else {
+        return false;
+    }
+    *w = t;
+    return true;
+}
+
 // Applies one detector setting; false (with msg) when the value is invalid.
 static bool apply_setting(vd_detector_cfg_t *cfg, setting_id_t id, const char *v, char *msg, size_t msg_len)
 {
@@ -346,6 +455,108 @@ static bool apply_setting(vd_detector_cfg_t *cfg, setting_id_t id, const char *v
     case SET_MAX_TRACKS:
         ok = parse_u32(v, 1, 1024, &u);
         cfg->max_tracks = (uint16_t)u;
+        break;
+    case SET_SOURCES: {
+        char buf[128];
+        uint32_t bits = 0;
+        ok = strlen(v) < sizeof buf;
+        if (ok) {
+            snprintf(buf, sizeof buf, "%s", v);
+            char *save = NULL;
+            for (char *t = strtok_r(buf, ",+", &save); t != NULL && ok; t = strtok_r(NULL, ",+", &save)) {
+                if (strcmp(t, "hotspot") == 0) {
+                    bits |= VD_DETECTOR_SRC_HOTSPOT;
+                } else if (strcmp(t, "contrast") == 0) {
+                    bits |= VD_DETECTOR_SRC_CONTRAST;
+                } else if (strcmp(t, "window") == 0 || strcmp(t, "windows") == 0) {
+                    bits |= VD_DETECTOR_SRC_WINDOW;
+                } else if (strcmp(t, "all") == 0) {
+                    bits |= VD_DETECTOR_SRC_ALL;
+                } else {
+                    ok = false;
+                }
+            }
+        }
+        ok = ok && bits != 0;
+        cfg->sources = (uint8_t)bits;
+        break;
+    }
+    case SET_DEDUP_IOU:
+        ok = parse_double(v, 0.0, 1.0, &d);
+        if (ok) {
+            long q = lround(d * 32768.0);
+            cfg->dedup_iou_q15 = (uint16_t)(q < 1 ? 1 : q);
+        }
+        break;
+    case SET_WIN_PRESET:
+        ok = apply_window_preset(&cfg->windows, v);
+        break;
+    case SET_WIN_BANDS:
+        ok = parse_bands(v, &cfg->windows);
+        break;
+    case SET_WIN_HORIZON:
+        ok = parse_double(v, -(double)VD_MAX_DIM, (double)VD_MAX_DIM, &d) && d == floor(d);
+        cfg->windows.horizon_y = ok ? (int32_t)d : cfg->windows.horizon_y;
+        break;
+    case SET_WIN_GROUND:
+        d2 = 2.0;
+        ok = parse_pair(v, ',', &d, &d2) || parse_double(v, 0.0, 255.0, &d);
+        ok = ok && d >= 0.0 && d <= 255.0 && d2 >= 1.0 && d2 <= 16.0;
+        if (ok) {
+            cfg->windows.ground_k_q8 = (uint16_t)lround(d * 256.0);
+            cfg->windows.ground_tol_q8 = (uint16_t)lround(d2 * 256.0);
+        }
+        break;
+    case SET_WIN_ASPECTS: {
+        vd_windows_cfg_t t = cfg->windows;
+        t.n_aspects = 0;
+        const char *p = v;
+        while (ok && *p != '\0') {
+            char *end = NULL;
+            d = strtod(p, &end);
+            ok = end != p && t.n_aspects < VD_WINDOWS_MAX_ASPECTS && d >= 0.25 && d <= 4.0;
+            if (ok) {
+                t.aspect_q8[t.n_aspects++] = (uint16_t)lround(d * 256.0);
+                p = (*end == ',') ? end + 1 : end;
+                ok = (*end == ',' || *end == '\0');
+            }
+        }
+        ok = ok && t.n_aspects > 0;
+        if (ok) {
+            cfg->windows = t;
+        }
+        break;
+    }
+    case SET_WIN_STRIDE:
+        ok = parse_double(v, 0.0625, 2.0, &d) && q_of(d, 256.0, 0.0625, 2.0, &u);
+        cfg->windows.stride_q8 = ok ? (uint16_t)u : cfg->windows.stride_q8;
+        break;
+    case SET_WIN_STEP:
+        ok = parse_double(v, 1.125, 4.0, &d) && q_of(d, 256.0, 1.125, 4.0, &u);
+        cfg->windows.scale_step_q8 = ok ? (uint16_t)u : cfg->windows.scale_step_q8;
+        break;
+    case SET_WIN_MIN_STD:
+        ok = parse_u32(v, 1, 255, &u);
+        cfg->win_min_std_u8 = ok ? (uint8_t)u : cfg->win_min_std_u8;
+        break;
+    case SET_CONTRAST_RADIUS:
+        ok = parse_u32(v, 1, VD_CONTRAST_MAX_RADIUS, &u);
+        cfg->contrast.radius = ok ? (uint16_t)u : cfg->contrast.radius;
+        break;
+    case SET_CONTRAST_THR:
+        ok = parse_u32(v, 1, 255, &u);
+        cfg->contrast.thr_u8 = ok ? (uint8_t)u : cfg->contrast.thr_u8;
+        break;
+    case SET_CONTRAST_POLARITY:
+        if (strcmp(v, "both") == 0) {
+            cfg->contrast.polarity = VD_CONTRAST_BOTH;
+        } else if (strcmp(v, "warm") == 0) {
+            cfg->contrast.polarity = VD_CONTRAST_WARM;
+        } else if (strcmp(v, "cold") == 0) {
+            cfg->contrast.polarity = VD_CONTRAST_COLD;
+        } else {
+            ok = false;
+        }
         break;
     default:
         ok = false;

@@ -35,7 +35,8 @@
 #define MAX_DEVICE_RETRIES 5
 
 static const char *const k_stage_names[VD_DET_STAGE_COUNT] = {
-    "threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "total"};
+    "threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "contrast", "windows",
+    "total"};
 
 typedef struct run {
     demo_opts_t o;

@@ -18,11 +18,16 @@ from pathlib import Path
 import numpy as np
 
 from vdtools import clib
+from vdtools.sources import ContrastCfg, WindowsCfg, windows_cfg as _windows_cfg
 
 THR_CONSTANT, THR_ADAPTIVE = 0, 1
 FLAG_UNVERIFIED, FLAG_DECIMATED, FLAG_CONTOUR_TRUNC, FLAG_RECOVERED = 0x01, 0x02, 0x04, 0x08
 STATES = {0: None, 1: "new", 2: "confirmed", 3: "recovered"}
-STAGES = ("threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "total")
+STAGES = ("threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "contrast", "windows",
+          "total")
+SRC_HOTSPOT, SRC_CONTRAST, SRC_WINDOW = 0x01, 0x02, 0x04
+SOURCE_BITS = {"hotspot": SRC_HOTSPOT, "contrast": SRC_CONTRAST, "window": SRC_WINDOW}
+SOURCE_NAMES = {1: "hotspot", 2: "window", 3: "contrast"}
 
 CLOCK_FN = C.CFUNCTYPE(C.c_uint32, C.c_void_p)
 
@@ -53,7 +58,9 @@ class DetectorCfg(C.Structure):
                 ("score_thr_q8", C.c_uint8), ("nms_iou_q15", C.c_uint16), ("max_components", C.c_uint16),
                 ("max_candidates", C.c_uint16), ("max_detections", C.c_uint16), ("max_region_w", C.c_uint16),
                 ("max_region_h", C.c_uint16), ("max_tracks", C.c_uint16), ("temporal", C.c_bool),
-                ("temporal_cfg", TemporalCfg), ("clock_us", CLOCK_FN), ("clock_user", C.c_void_p)]
+                ("temporal_cfg", TemporalCfg), ("sources", C.c_uint8), ("win_min_std_u8", C.c_uint8),
+                ("dedup_iou_q15", C.c_uint16), ("contrast", ContrastCfg), ("windows", WindowsCfg),
+                ("clock_us", CLOCK_FN), ("clock_user", C.c_void_p)]
 
 
 class Detection(C.Structure):
@@ -66,7 +73,8 @@ class Detection(C.Structure):
 STAT_FIELDS = ("hot_thr_u8", "hot_thr_raw", "hot_pixels", "components", "kept", "refined", "verified",
                "suppressed", "detections", "recovered", "decimated", "overflow_components",
                "overflow_candidates", "overflow_contours", "overflow_detections", "overflow_tracks",
-               "runs", "overflow_runs")
+               "runs", "overflow_runs", "cand_hotspot", "cand_contrast", "cand_window", "windows",
+               "windows_passed", "deduplicated")
 
 
 class Stats(C.Structure):
@@ -122,11 +130,24 @@ def _struct_dict(s):
 
 def make_cfg(**kw):
     """A zeroed DetectorCfg (= paper defaults) with the given fields set.
-    Nested structs take dicts: rules={...}, calib={...}, temporal_cfg={...}."""
+    Nested structs take dicts: rules={...}, calib={...}, temporal_cfg={...}, contrast={...}.
+    sources: a bit set or names ("hotspot,window" / ("hotspot", "contrast") / "all");
+    windows: a WindowsCfg, or a dict of vdtools.sources.windows_cfg keywords (preset_name="msrs", ...);
+    the detector uses each frame's size."""
     c = DetectorCfg()
     for k, v in kw.items():
         if k == "thr_mode" and isinstance(v, str):
             v = {"constant": THR_CONSTANT, "adaptive": THR_ADAPTIVE}[v]
+        if k == "sources" and not isinstance(v, int):
+            v = source_bits(v)
+        if k == "windows" and isinstance(v, dict):
+            # presets are sized for frame_w x frame_h (default: 640 x 480 for "msrs", else 640 x 512);
+            # the detector itself always uses each frame's size
+            v = dict(v)
+            fw = v.pop("frame_w", 640)
+            fh = v.pop("frame_h", 480 if v.get("preset_name") == "msrs" else 512)
+            v = _windows_cfg(fw, fh, **v)
+            v.frame_w = v.frame_h = 0
         if isinstance(v, dict):
             sub = getattr(c, k)
             for sk, sv in v.items():
@@ -134,6 +155,17 @@ def make_cfg(**kw):
         else:
             setattr(c, k, v)
     return c
+
+
+def source_bits(names):
+    """"hotspot,window" | iterable of names | "all" -> VD_DETECTOR_SRC_* bit set."""
+    if isinstance(names, str):
+        names = names.replace("+", ",").split(",")
+    bits = 0
+    for n in names:
+        n = n.strip()
+        bits |= 0x07 if n == "all" else SOURCE_BITS[n.rstrip("s") if n == "windows" else n]
+    return bits
 
 
 def _load_model(model):
@@ -214,7 +246,7 @@ def detection_dict(d):
         "complexity_q15": int(d.complexity_q15),
         "track": int(d.track_id) or None,
         "state": STATES.get(int(d.state)),
-        "source": "hotspot",
+        "source": SOURCE_NAMES.get(int(d.source), "hotspot"),
         "flags": int(d.flags),
         "hot_thr": int(d.hot_thr),
     }

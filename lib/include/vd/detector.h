@@ -19,6 +19,8 @@
 #include "vd/refine.h"
 #include "vd/dbn.h"
 #include "vd/temporal.h"
+#include "vd/contrast.h"
+#include "vd/windows.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -28,8 +30,16 @@ extern "C" {
 #define VD_DETECTOR_THR_CONSTANT 0u  // paper: constant threshold (hot_thr_u8 / hot_thr_ck)
 #define VD_DETECTOR_THR_ADAPTIVE 1u  // 8-bit frames: max(adaptive_floor_u8, frame percentile); U16 frames stay constant
 
-// Where a detection came from (DESIGN.md JSON "source").
-#define VD_SOURCE_HOTSPOT 1u
+// Where a detection came from (vd_detection_t.source; DESIGN.md JSON "source").
+#define VD_SOURCE_HOTSPOT 1u    // "hotspot": hot-spot component, expanded and refined (paper 001)
+#define VD_SOURCE_WINDOW 2u     // "window": a sliding window (windows.h), verified as is
+#define VD_SOURCE_CONTRAST 3u   // "contrast": a local-contrast component (contrast.h), verified as is
+
+// Candidate sources a detector runs (cfg.sources, bit set).
+#define VD_DETECTOR_SRC_HOTSPOT 0x01u
+#define VD_DETECTOR_SRC_CONTRAST 0x02u
+#define VD_DETECTOR_SRC_WINDOW 0x04u
+#define VD_DETECTOR_SRC_ALL 0x07u
 
 // Detection flags (bit set).
 #define VD_DET_FLAG_UNVERIFIED 0x01u   // no model: not scored by the DBN (score 255)
@@ -47,6 +57,8 @@ enum {
     VD_DET_STAGE_DBN,            // vd_dbn_classify
     VD_DET_STAGE_NMS,            // sort + overlap suppression
     VD_DET_STAGE_TEMPORAL,       // vd_temporal_update incl. recovery probes
+    VD_DET_STAGE_CONTRAST,       // contrast source: map, threshold, labelling, merge
+    VD_DET_STAGE_WINDOWS,        // window source: cell integral image, pre-filter, ranking, merge
     VD_DET_STAGE_TOTAL,
     VD_DET_STAGE_COUNT
 };
@@ -89,6 +101,18 @@ typedef struct vd_detector_cfg {
     uint16_t max_tracks;         // temporal track table, 1..1024; 0 = 32 (only with temporal)
     bool temporal;               // run temporal analysis (temporal.h) inside vd_detector_run
     vd_temporal_cfg_t temporal_cfg;  // zero = defaults of temporal.h
+    // Candidate sources (issue 7). Order of the merged candidate list: hot
+    // spots, then contrast, then windows; a candidate whose box has IoU >
+    // dedup_iou with a box already in the list is dropped before verification.
+    // max_candidates is the one per-frame budget of all sources together.
+    uint8_t sources;             // VD_DETECTOR_SRC_* bit set, 0..7; 0 = VD_DETECTOR_SRC_HOTSPOT (paper)
+    uint8_t win_min_std_u8;      // window pre-filter: a window is kept when the standard deviation of the
+                                 //   4x4-cell means under it is >= this (grey levels), 1..255; 0 = 4
+    uint16_t dedup_iou_q15;      // merge: 1..32768; 0 = 22938 (0.7, as docs/results/candidates.md)
+    vd_contrast_cfg_t contrast;  // contrast source settings; zero = contrast.h defaults (8-bit frames only)
+    vd_windows_cfg_t windows;    // window source: bands, aspects, stride, scales, ground model (windows.h);
+                                 //   frame_w/frame_h: ignored (each frame's size); max_windows is ignored
+                                 //   (windows are streamed, never stored: the budget is max_candidates)
     // Optional clock for per-stage times (no OS calls in lib/): returns a
     // free-running microsecond counter (wrap-around is handled); NULL = no timing.
     uint32_t (*clock_us)(void *user);
@@ -103,7 +127,7 @@ typedef struct vd_detection {
     uint32_t track_id;           // temporal track (0 = none / temporal off)
     uint16_t complexity_q15;     // edge pixels of the refined region / its pixels (temporal.h)
     uint8_t score_q8;            // DBN p(vehicle) in Q8 (0..255); 255 without a model; 0 for recovered
-    uint8_t source;              // VD_SOURCE_HOTSPOT
+    uint8_t source;              // VD_SOURCE_HOTSPOT / _WINDOW / _CONTRAST
     uint8_t state;               // vd_track_state_t (VD_TRACK_NONE when temporal is off)
     uint8_t flags;               // VD_DET_FLAG_*
     uint8_t hot_thr;             // 8-bit threshold used (U16 frames: 0)
@@ -130,6 +154,12 @@ typedef struct vd_detector_stats {
     uint32_t overflow_tracks;      // temporal: untracked detections + dropped recoveries
     uint32_t runs;                 // horizontal runs of hot pixels labelled (<= max_runs)
     uint32_t overflow_runs;        // rows NOT labelled because the run budget ran out (0 = none)
+    uint32_t cand_hotspot;         // merged candidates per source (hot spots: with a refined contour)
+    uint32_t cand_contrast;
+    uint32_t cand_window;
+    uint32_t windows;              // windows enumerated (window source)
+    uint32_t windows_passed;       // windows passing the pre-filter (before the budget)
+    uint32_t deduplicated;         // contrast/window candidates dropped by the merge (IoU > dedup_iou)
     uint32_t time_us[VD_DET_STAGE_COUNT];  // per stage, 0 without clock_us
 } vd_detector_stats_t;
 
@@ -153,6 +183,8 @@ typedef struct vd_detector {
     uint8_t *overlay;            // labelling scratch (run budget), reused per candidate for region buffers
     size_t overlay_bytes;
     void *scratch;               // per-candidate state (private to detector.c)
+    void *contrast_ws;           // contrast source workspace (NULL when the source is off)
+    size_t contrast_ws_bytes;
     size_t cc_ws_bytes;
     size_t refine_ws_bytes;
     size_t contour_ws_bytes;
@@ -173,7 +205,11 @@ void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
 // max_runs runs, per-candidate region buffers of 7 bytes per pixel of
 // max_region_w x max_region_h). No buffer scales with the frame size except
 // the labeller's row buffers (~12 B per column). Defaults at 640 x 512:
-// 228 400 bytes (223.0 KiB) on 64-bit hosts, bounded by the region buffers.
+// 228 496 bytes (223.1 KiB) on 64-bit hosts, bounded by the region buffers.
+// Sources: windows add nothing at 640 x 512 (their two cell integrals,
+// 2 x 4 x (W/4+1) x (H/4+1) bytes = 166 152, share the overlay); contrast
+// adds vd_contrast_workspace_size(max_width, max_height) (1 650 696 bytes at
+// 640 x 512: a whole-frame contrast map and labelling, not yet embedded-sized).
 // Returns VD_OK; VD_ERR_ARG for NULL bytes or a cfg value out of range;
 // VD_ERR_MODEL for a model not filled by vd_dbn_load; VD_ERR_OVERFLOW if the
 // size does not fit size_t.
