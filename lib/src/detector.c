@@ -11,6 +11,21 @@
 // (temporal.h) when enabled. Adaptive threshold (not in the paper) for
 // AGC-scaled 8-bit video: max(floor, p-th percentile of the frame).
 //
+// Candidate sources (issue 7; cfg.sources, default hot spots only): hot-spot
+// candidates are refined first and their contour boxes start one merged list;
+// then contrast components (contrast.h, 8-bit frames) and sliding windows
+// (windows.h bands, streamed in vd_windows_generate's order, never stored) are
+// appended unless a box already in the list overlaps them by IoU > dedup_iou;
+// every candidate in the list is then sampled (32x32) and scored by the DBN.
+// Windows and contrast boxes are verified as they are (no refinement). The
+// window pre-filter: a 4x4-cell mean image and its integral images (sum and
+// sum of squares, uint32) give each window's standard deviation of cell means
+// in O(1); windows below win_min_std are skipped (flat road, sky: measured on
+// MSRS/HIT-UAV training frames, a threshold of 4 keeps every window that
+// matches a car and drops about half of all windows), and the rest are ranked
+// by that deviation (a 256-bin histogram pass, then a collecting pass) so the
+// most structured windows fill the room left in max_candidates.
+//
 // 16-bit frames: candidates come from the radiometric plane (threshold in
 // centi-kelvin through vd_calib_t); the 8-bit plane that refine and the DBN
 // need is made per region by the linear map grey = (T - lo) * 255 / (hi - lo)
@@ -28,7 +43,9 @@
 // per-axis integer factors kx, ky first (one rounded division per output
 // pixel, each after kx*ky >= 2 additions).
 //
-// Bounds: time O(W*H) for the (adaptive) histogram and labelling plus, per candidate
+// Bounds: time O(W*H) for the (adaptive) histogram, labelling, the contrast
+// map and the cell integrals; O(windows * (1 + max_candidates)) for the two
+// window passes and the merge; plus, per candidate
 // (<= max_candidates), O(region) for refine/contour and the DBN's
 // multiply-adds; NMS O(max_candidates^2); temporal as temporal.h with at most
 // 289 refine probes per missed confirmed track. Stack: vd_detector_run's own

@@ -203,3 +203,43 @@ def test_exp_tables_match_c_source():
     frac, ints = vdet.exp_tables()
     for v in frac + ints:
         assert f"{v}u" in src
+
+
+def _demo_exe():
+    import os
+    from pathlib import Path
+    b = os.environ.get("VD_BUILD_DIR") or (str(Path(os.environ["VD_LIB"]).parent) if os.environ.get("VD_LIB") else None)
+    exe = Path(b or vdet.clib.REPO / "build") / "tools" / "vd_fir_demo"
+    if not exe.is_file():
+        pytest.skip(f"vd_fir_demo not built at {exe}")
+    return exe
+
+
+def test_demo_sources_flags_and_config(vdlib, tmp_path):
+    import json
+    import subprocess
+    img = np.full((120, 160), 60, np.uint8)
+    img[30:50, 20:50] = 200
+    img[60:76, 100:124] = 10
+    (tmp_path / "f.pgm").write_bytes(b"P5\n160 120\n255\n" + img.tobytes())
+    exe = _demo_exe()
+    base = [str(exe), "--input", str(tmp_path / "f.pgm"), "--model", "none", "--temporal", "off", "--quiet"]
+
+    def sources(*args):
+        out = tmp_path / "d.jsonl"
+        p = subprocess.run(base + ["--json", str(out), *args], capture_output=True, text=True, timeout=60)
+        assert p.returncode == 0, p.stderr
+        return {d["source"] for line in out.read_text().splitlines() for d in json.loads(line)["detections"]}
+
+    assert sources() == {"hotspot"}
+    assert sources("--sources", "hotspot,contrast", "--nms-iou", "1") == {"hotspot", "contrast"}
+    assert sources("--sources", "all", "--window-bands", "0:119:12:40", "--window-stride", "0.5",
+                   "--max-candidates", "100", "--max-detections", "100", "--nms-iou", "1") == \
+        {"hotspot", "contrast", "window"}
+    cfg = tmp_path / "c.json"
+    cfg.write_text(json.dumps({"sources": "window", "window-preset": "table1", "window-min-std": 2,
+                               "max-candidates": 50, "max-detections": 50}))
+    assert sources("--config", str(cfg)) == {"window"}
+    for bad in (["--sources", "lidar"], ["--window-bands", "10:5:1:2"], ["--window-preset", "x"]):
+        p = subprocess.run(base + bad, capture_output=True, text=True, timeout=60)
+        assert p.returncode == 2 and p.stderr.count("\n") == 1, (bad, p.stderr)

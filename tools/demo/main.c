@@ -400,6 +400,9 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     vd_detector_cfg_t cfg = r->o.cfg;
     cfg.max_width = f->width;
     cfg.max_height = f->height;
+    // The region bound may not exceed the frame (frames smaller than the default 176 x 176).
+    cfg.max_region_w = (uint16_t)(cfg.max_region_w > f->width ? f->width : cfg.max_region_w);
+    cfg.max_region_h = (uint16_t)(cfg.max_region_h > f->height ? f->height : cfg.max_region_h);
     cfg.clock_us = clock_us;
     cfg.clock_user = NULL;
     size_t bytes = 0;

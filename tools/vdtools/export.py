@@ -3,6 +3,7 @@
 source that keeps the same blob in flash.
 
     python3 -m vdtools.export MODEL.npz --name dbn_grey [--out models] [--eval]
+    python3 -m vdtools.export --c-from-vdm models/vd_dbn_grey.vdm [--out DIR]
 
 writes  <out>/<name>.vdm        the blob (docs/model-format.md)
         <out>/<name>_vdm.c/.h   const uint8_t array (8-byte aligned) + accessor
@@ -119,11 +120,27 @@ def summary(qm, blob):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Quantise a float DBN and export .vdm + C source.")
-    ap.add_argument("model", help="float model .npz (keys mode, input_size, n_layers, W*, b*)")
-    ap.add_argument("--name", required=True, help="model name (file stem and C identifier; <= 16 chars in the header)")
+    ap.add_argument("model", nargs="?", help="float model .npz (keys mode, input_size, n_layers, W*, b*)")
+    ap.add_argument("--name", help="model name (file stem and C identifier; <= 16 chars in the header)")
+    ap.add_argument("--c-from-vdm", metavar="VDM",
+                    help="only write <name>_vdm.c/.h for an existing .vdm (the large models' C arrays are not "
+                         "committed: regenerate them with this)")
     ap.add_argument("--out", default=str(REPO / "models"), help="output directory (default models/)")
     ap.add_argument("--eval", action="store_true", help="float vs quantised accuracy on the test split")
     args = ap.parse_args(argv)
+    if args.c_from_vdm:
+        src = Path(args.c_from_vdm)
+        name = args.name or src.stem
+        blob = src.read_bytes()
+        h, c = c_sources(blob, name, src.name)
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / f"{name}_vdm.h").write_text(h)
+        (out / f"{name}_vdm.c").write_text(c)
+        print(f"wrote {out}/{name}_vdm.c, {name}_vdm.h ({len(blob)} bytes)")
+        return 0
+    if not args.model or not args.name:
+        ap.error("MODEL and --name are required unless --c-from-vdm is given")
     fm = quantise.load_float(args.model)
     qm, blob = export(fm, args.name, args.out, source=Path(args.model).name)
     print(f"{args.name}: {summary(qm, blob)}")

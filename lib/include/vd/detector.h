@@ -240,6 +240,13 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 //      model's input mode (grey: the region plane under the contour box; shape:
 //      vd_refine_region re-run on the contour box, as tools/vdtools/samples.py
 //      makes training samples) -> DBN score >= score_thr
+//   [sources beyond hot spots, cfg.sources: the refined hot-spot boxes start
+//    one merged list; contrast components (8-bit frames only; 16-bit frames
+//    skip this source) and then the best pre-filtered windows are appended
+//    unless a box in the list overlaps them by IoU > dedup_iou, up to
+//    max_candidates in all (windows beyond the budget are dropped by design,
+//    not a capacity error); each is sampled as its whole box (no refinement)
+//    and scored by the same DBN]
 //   -> overlap suppression (best score first, stable) -> temporal analysis
 //      (if enabled: ids, states, recovered targets appended).
 //   out, cap  caller array; detections best score first, recovered last.
