@@ -53,7 +53,14 @@ def dbn_golden():
     x = rng.integers(0, 256, (24, 64), dtype=np.uint8)
     x[0] = 0
     x[1] = 255
+    x[2] = 77                      # flat samples: the stretch maps them to all 0
+    x[3] = x[4] // 16 + 100        # narrow range (< min range 16)
     scores = quantise.quant_forward(qm, x)
+    # the same float weights with the min-max input stretch (format version 2)
+    fmn = dict(fm, input_norm="minmax", norm_min_range=16)
+    qmn = quantise.quantise(fmn, name="golden_norm")
+    blob_n = vdm.pack(qmn)
+    scores_n = quantise.quant_forward(qmn, x)
 
     # requantisation vectors: edge cases + random (acc, mult, shift)
     cases = [(0, 1 << 30, 0), (3, 1 << 30, 0), (-3, 1 << 30, 0), (5, 1 << 30, -1), (-5, 1 << 30, -1),
@@ -75,9 +82,16 @@ def dbn_golden():
               f"static const union {{ uint32_t align; uint8_t bytes[{len(blob)}]; }} golden_model = {{ .bytes = {{"]
     for i in range(0, len(blob), 16):
         lines.append("    " + ", ".join(f"0x{b:02X}" for b in blob[i:i + 16]) + ",")
+    lines += ["} };", "",
+              "// The same model with the min-max input stretch (version 2, input_norm 1, min range 16).",
+              "#define GOLDEN_NORM_MIN_RANGE 16u",
+              f"static const union {{ uint32_t align; uint8_t bytes[{len(blob_n)}]; }} golden_norm_model = {{ .bytes = {{"]
+    for i in range(0, len(blob_n), 16):
+        lines.append("    " + ", ".join(f"0x{b:02X}" for b in blob_n[i:i + 16]) + ",")
     lines += ["} };", "", f"#define GOLDEN_N_INPUTS {len(x)}", "#define GOLDEN_INPUT_LEN 64"]
     lines += c_array("uint8_t", "golden_inputs", x)
     lines += c_array("uint8_t", "golden_scores", scores)
+    lines += c_array("uint8_t", "golden_norm_scores", scores_n)
     lines += ["", f"#define GOLDEN_N_REQUANT {len(cases)}"]
     lines += c_array("int32_t", "golden_rq_acc", acc, 8, i32)
     lines += c_array("int32_t", "golden_rq_mult", mult, 8, i32)

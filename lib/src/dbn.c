@@ -7,12 +7,19 @@
 //   z_q8 = vd_dbn_requantize(acc, mult[o], shift[o])   (TFLite requantise)
 //   a'   = sigmoid_table[clamp(z_q8, -2048, 2048) + 2048]  (uint8, Q8)
 // The last layer has one unit: its activation is the score.
+// Input normalisation (format version 2, header field input_norm): with
+// VD_DBN_NORM_MINMAX the sample is first contrast-stretched per sample,
+//   r = max(max - min, norm_min_range)
+//   x' = ((x - min) * 510 + r) / (2 r)       (round half up of 255 (x-min)/r)
+// into a workspace buffer, so the network sees shape and contrast, not the
+// AGC brightness of the frame (docs/fixed-point.md "dbn").
 // Reference: TFLite/CMSIS-NN int8 quantisation (per-channel symmetric
 // weights, Q31 multiplier + shift, gemmlowp rounding); the Python reference is
 // tools/vdtools/quantise.py quant_forward(); format in docs/model-format.md.
 // Bounds: vd_dbn_load is O(total_size) (CRC-32) plus O(sum of out) for the
 // per-unit checks and O(segments^2) = O((4*VD_DBN_MAX_LAYERS)^2) for the
-// overlap check; vd_dbn_classify is O(sum in*out) multiply-adds. Accumulators
+// overlap check; vd_dbn_classify is O(sum in*out) multiply-adds plus two
+// passes over the input for the stretch (one 32-bit division per pixel). Accumulators
 // cannot overflow: |sum w*a| <= in*127*255 and the loader rejects biases with
 // |bias| > INT32_MAX - in*127*255. Stack: the loader keeps a segment list of
 // 4*VD_DBN_MAX_LAYERS pairs (256 bytes for 8 layers); classify a few words.
@@ -38,7 +45,9 @@
 #define HDR_NORM_OFFSET 26u
 #define HDR_LAYER_TABLE 28u
 #define HDR_FLAGS 32u
-#define HDR_RESERVED0 36u
+#define HDR_INPUT_NORM 36u
+#define HDR_NORM_MIN_RANGE 37u
+#define HDR_RESERVED0 38u
 #define HDR_NAME 40u
 #define HDR_NAME_LEN 16u
 #define HDR_RESERVED1 56u
@@ -219,7 +228,8 @@ vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
 
     // Fixed part, before trusting any size.
     VD_VERIFY(rd_u32(b + HDR_MAGIC) == VD_DBN_MAGIC_U32, VD_ERR_MODEL);
-    VD_VERIFY(rd_u16(b + HDR_VERSION) == VD_DBN_FORMAT_VERSION, VD_ERR_MODEL);
+    const uint16_t version = rd_u16(b + HDR_VERSION);
+    VD_VERIFY(version >= VD_DBN_FORMAT_VERSION_MIN && version <= VD_DBN_FORMAT_VERSION, VD_ERR_MODEL);
     VD_VERIFY(rd_u16(b + HDR_HEADER_SIZE) == VD_DBN_HEADER_SIZE, VD_ERR_MODEL);
     const uint32_t total = rd_u32(b + HDR_TOTAL_SIZE);
     VD_VERIFY(total >= VD_DBN_HEADER_SIZE && (size_t)total <= bytes && (total % 4u) == 0u, VD_ERR_MODEL);
@@ -239,7 +249,15 @@ vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
     VD_VERIFY(b[HDR_ACTIVATION] == ACT_SIGMOID_Q8, VD_ERR_MODEL);
     VD_VERIFY(n_layers >= 1u && n_layers <= VD_DBN_MAX_LAYERS, VD_ERR_MODEL);
     VD_VERIFY(norm_div >= 1u, VD_ERR_MODEL);
-    VD_VERIFY(rd_u32(b + HDR_FLAGS) == 0u && rd_u32(b + HDR_RESERVED0) == 0u, VD_ERR_MODEL);
+    VD_VERIFY(rd_u32(b + HDR_FLAGS) == 0u && rd_u16(b + HDR_RESERVED0) == 0u, VD_ERR_MODEL);
+    // Version 1 had these two bytes reserved (zero): no normalisation.
+    const uint8_t norm = b[HDR_INPUT_NORM];
+    const uint8_t min_range = b[HDR_NORM_MIN_RANGE];
+    if (norm == (uint8_t)VD_DBN_NORM_NONE) {
+        VD_VERIFY(min_range == 0u, VD_ERR_MODEL);
+    } else {
+        VD_VERIFY(version >= 2u && norm == (uint8_t)VD_DBN_NORM_MINMAX && min_range >= 1u, VD_ERR_MODEL);
+    }
     VD_VERIFY(all_zero(b + HDR_RESERVED1, VD_DBN_HEADER_SIZE - HDR_RESERVED1), VD_ERR_MODEL);
     VD_VERIFY(name_ok(b + HDR_NAME), VD_ERR_MODEL);
     VD_VERIFY(table >= VD_DBN_HEADER_SIZE && table <= total && (table % 4u) == 0u, VD_ERR_MODEL);
@@ -296,11 +314,13 @@ vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
     tmp.blob = b;
     tmp.size = total;
     tmp.crc32 = crc;
-    tmp.format_version = (uint16_t)VD_DBN_FORMAT_VERSION;
+    tmp.format_version = version;
     tmp.input_w = in_w;
     tmp.input_h = in_h;
     tmp.norm_divisor = norm_div;
     tmp.norm_offset = rd_i16(b + HDR_NORM_OFFSET);
+    tmp.input_norm = (norm == (uint8_t)VD_DBN_NORM_MINMAX) ? VD_DBN_NORM_MINMAX : VD_DBN_NORM_NONE;
+    tmp.norm_min_range = min_range;
     tmp.input_mode = (mode == (uint8_t)VD_DBN_INPUT_GREY) ? VD_DBN_INPUT_GREY : VD_DBN_INPUT_SHAPE;
     tmp.n_layers = n_layers;
     tmp.max_units = max_units;
@@ -315,7 +335,26 @@ vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
 static bool model_loaded(const vd_model_t *m)
 {
     return m->blob != NULL && m->n_layers >= 1u && m->n_layers <= VD_DBN_MAX_LAYERS && m->max_units >= 1u &&
-           m->max_units <= VD_DBN_MAX_UNITS;
+           m->max_units <= VD_DBN_MAX_UNITS && m->input_w >= 1u && m->input_w <= VD_DBN_MAX_INPUT_DIM &&
+           m->input_h >= 1u && m->input_h <= VD_DBN_MAX_INPUT_DIM &&
+           (m->input_norm == VD_DBN_NORM_NONE || (m->input_norm == VD_DBN_NORM_MINMAX && m->norm_min_range >= 1u));
+}
+
+vd_status_t vd_dbn_stretch_u8(const uint8_t *in, uint32_t n, uint32_t min_range, uint8_t *out)
+{
+    VD_VERIFY(in != NULL && out != NULL && n >= 1u && min_range >= 1u && min_range <= 255u, VD_ERR_ARG);
+    uint32_t lo = 255u;
+    uint32_t hi = 0u;
+    for (uint32_t i = 0u; i < n; i++) {
+        lo = (in[i] < lo) ? in[i] : lo;
+        hi = (in[i] > hi) ? in[i] : hi;
+    }
+    const uint32_t r = (hi - lo > min_range) ? hi - lo : min_range;
+    // (v - lo) <= r, so the quotient <= (510 r + r) / (2 r) < 256; numerator < 2^17.
+    for (uint32_t i = 0u; i < n; i++) {
+        out[i] = (uint8_t)((((uint32_t)in[i] - lo) * 510u + r) / (2u * r));
+    }
+    return VD_OK;
 }
 
 vd_status_t vd_dbn_workspace_size(const vd_model_t *m, size_t *bytes)
@@ -325,6 +364,9 @@ vd_status_t vd_dbn_workspace_size(const vd_model_t *m, size_t *bytes)
     size_t total = 0u;
     VD_VERIFY(vd_size_add_slice(&total, m->max_units), VD_ERR_OVERFLOW);
     VD_VERIFY(vd_size_add_slice(&total, m->max_units), VD_ERR_OVERFLOW);
+    if (m->input_norm != VD_DBN_NORM_NONE) {
+        VD_VERIFY(vd_size_add_slice(&total, (size_t)m->input_w * m->input_h), VD_ERR_OVERFLOW);
+    }
     *bytes = total;
     return VD_OK;
 }
@@ -359,6 +401,13 @@ vd_status_t vd_dbn_classify(const vd_model_t *m, const uint8_t *input, void *ws,
     VD_VERIFY(buf[0] != NULL && buf[1] != NULL, VD_ERR_WORKSPACE);
 
     const uint8_t *a = input;
+    if (m->input_norm != VD_DBN_NORM_NONE) {
+        const uint32_t n_in = (uint32_t)m->input_w * m->input_h;
+        uint8_t *x = (uint8_t *)vd_arena_take(&arena, n_in);
+        VD_VERIFY(x != NULL, VD_ERR_WORKSPACE);
+        VD_TRY(vd_dbn_stretch_u8(input, n_in, m->norm_min_range, x));
+        a = x;
+    }
     uint32_t cur = 0u;
     for (uint32_t l = 0u; l < m->n_layers; l++) {
         layer_forward(&m->layers[l], a, buf[cur]);

@@ -1,43 +1,45 @@
 // SPDX-License-Identifier: MIT
 // 3x3 and 5x5 median filters on 8-bit regions with replicated borders (cv2.medianBlur semantics).
 //
-// Algorithm: min/max selection networks applied to whole strips of STRIP
-// output pixels at once. Each loop body is straight-line min/max code over
-// fixed-size local arrays with a constant trip count, so compilers turn it
-// into SIMD (pminub/pmaxub, umin/umax) without intrinsics; scalar targets run
-// the same code one pixel at a time. Work that neighbouring outputs share is
-// done once per strip:
-//  3x3: sort each input column of 3 (3 compare-exchanges), then
-//       median = med3(max of the 3 column minima, med3 of the 3 column
-//       medians, min of the 3 column maxima) (the classic Paeth/Smith
-//       sorted-column result): 6 + 12 min/max per pixel.
-//  5x5: sort each input column of 5 (9 compare-exchanges, 18 min/max);
-//       merge every pair of adjacent sorted columns into a sorted 10-list
-//       (Batcher odd-even merge, 26 min/max); each output x then takes the
-//       13th smallest of pair(x-2,x-1) + pair(x,x+1) + column(x+2): a Batcher
-//       merge of the second pair with the column, pruned to the ranks used,
-//       and the identity kth(A u B) = min over i+j=k of max(A_i, B_j)
-//       (64 min/max). 108 min/max per pixel against 198 for a 99-exchange
-//       full median-of-25 network. The 5x5 network is generated and checked
+// Algorithm: min/max selection networks evaluated for a block of adjacent
+// output pixels at once. Each block loop has a constant trip count and
+// straight-line min/max code over restrict-qualified rows, so gcc -O2 and
+// clang turn it into SIMD (pminub/pmaxub, umin/umax) without intrinsics;
+// scalar targets run the same code one pixel at a time.
+//  3x3 ("sorted rows", Paeth/Smith): median of 9 = med3(max of the 3 row
+//       minima, med3 of the 3 row medians, min of the 3 row maxima), each
+//       input row triple sorted horizontally (6 min/max). Four output rows
+//       are done together from 6 input rows, the pairs of rows that two
+//       outputs share combined once: 19 min/max per pixel, in registers.
+//  5x5: sort each input column of 5 (9 compare-exchanges, 18 min/max) into a
+//       small strip buffer; each output x then merges the sorted column
+//       pairs (x-2, x-1) and (x, x+1) into sorted 10-lists (Batcher odd-even
+//       merge, 26 min/max each) and takes the 13th smallest of those two and
+//       column x+2: a Batcher merge of the second pair with the column,
+//       pruned to the ranks used, and the identity
+//       kth(A u B) = min over i+j=k of max(A_i, B_j) (64 min/max).
+//       18 + 52 + 64 = 134 min/max per pixel against 198 for a 99-exchange
+//       full median-of-25 network. The networks are generated and checked
 //       exhaustively by the 0-1 principle in tools/vdtools/pixel.py
 //       (median_network); tests/python/test_median.py keeps this file equal
 //       to the generator's output.
 // Borders: row indices and column indices are clamped to the image
 // (BORDER_REPLICATE, what cv2.medianBlur uses); pixels outside the ROI but
-// inside the image are used. A strip always computes STRIP outputs (the
-// excess of the last strip reads clamped, valid pixels and is discarded).
+// inside the image are used. Blocks are always placed inside the image (the
+// last block of a row overlaps the previous one: identical values); the
+// 3x3 computes the image's first and last columns by a scalar path, the 5x5
+// replicates the sorted edge column (a replicated column sorts the same).
+// Images narrower than a block (+ border) take the scalar paths.
 // Reference: cv2.medianBlur (OpenCV imgproc median_blur), bit-exact.
-// Bounds: time O(roi.w * roi.h) (about 18 / 108 min-max per pixel plus the
-// strip gathers); stack < 1.5 KiB (5x5 buffers: 2*5*68 + 10*66 + 64 = 1404 bytes);
-// no workspace.
+// Bounds: time O(roi.w * roi.h) (about 19 / 134 min-max per pixel); no
+// workspace; stack (stack budget of vd_detector_run, docs/embedded.md): 3x3
+// a 2 x 64-byte buffer for ROIs narrower than a block, 5x5 a 5 x 24 column
+// buffer and a 16-byte output strip (S5 below); both under 512 bytes on
+// Cortex-M7 (worst case with callees 408 / 508 bytes at -Os).
 #include <string.h>
 
 #include "vd/median.h"
 #include "internal/vd_internal.h"
-
-// Output pixels per strip: a multiple of every SIMD width in use (16/32) and
-// small enough for the stack budget above.
-#define STRIP 64
 
 #define VD_MIN8(a, b) ((uint8_t)((a) < (b) ? (a) : (b)))
 #define VD_MAX8(a, b) ((uint8_t)((a) < (b) ? (b) : (a)))
@@ -52,27 +54,6 @@ static vd_status_t median_args(const vd_view_u8_t *src, const vd_rect_t *roi, co
     return VD_OK;
 }
 
-// out[i] = row[clamp(x_first + i, 0, width - 1)] for i < n (one strip row):
-// the part left of the image repeats row[0], the part right of it repeats
-// row[width - 1], the rest is copied.
-static void gather(const uint8_t *row, int32_t width, int32_t x_first, uint8_t *out, int32_t n)
-{
-    int32_t left = x_first < 0 ? -x_first : 0;                  // clamped to column 0
-    left = left > n ? n : left;
-    int32_t right = x_first + n > width ? x_first + n - width : 0; // clamped to width - 1
-    right = right > n - left ? n - left : right;
-    const int32_t mid = n - left - right;
-    if (left > 0) {
-        memset(out, row[0], (size_t)left);
-    }
-    if (mid > 0) {
-        memcpy(out + left, row + x_first + left, (size_t)mid);
-    }
-    if (right > 0) {
-        memset(out + left + mid, row[width - 1], (size_t)right);
-    }
-}
-
 static const uint8_t *row_at(const vd_view_u8_t *src, int32_t y)
 {
     const int32_t h = (int32_t)src->height;
@@ -80,95 +61,11 @@ static const uint8_t *row_at(const vd_view_u8_t *src, int32_t y)
     return src->data + (size_t)y * src->stride;
 }
 
-// Sorts column i of five strip rows p[0..4] into col[0][i] <= ... <= col[4][i]
-// (optimal 9-exchange network).
-static inline void sort5_at(const uint8_t *const p[5], uint8_t col[5][STRIP + 4], int32_t i)
-{
-    uint8_t v0 = p[0][i], v1 = p[1][i], v2 = p[2][i], v3 = p[3][i], v4 = p[4][i], t;
-#define CX(a, b) t = VD_MIN8(a, b); b = VD_MAX8(a, b); a = t
-    CX(v0, v1); CX(v3, v4); CX(v2, v4); CX(v2, v3); CX(v0, v3);
-    CX(v0, v2); CX(v1, v4); CX(v1, v3); CX(v1, v2);
-#undef CX
-    col[0][i] = v0; col[1][i] = v1; col[2][i] = v2; col[3][i] = v3; col[4][i] = v4;
-}
-
-// Pointer to strip row k: straight into the image when the strip's columns
-// x_first .. x_first + n - 1 all lie inside it (no copy), else a clamped copy in buf.
-static const uint8_t *strip_row(const uint8_t *row, int32_t width, int32_t x_first, uint8_t *buf, int32_t n)
-{
-    if (x_first >= 0 && x_first + n <= width) {
-        return row + x_first;
-    }
-    gather(row, width, x_first, buf, n);
-    return buf;
-}
-
-// Copies the first n of a strip's STRIP outputs to d (constant size in the
-// common case so the copy is inlined).
-static void put_strip(uint8_t *d, const uint8_t *out, int32_t n)
-{
-    if (n == STRIP) {
-        memcpy(d, out, (size_t)STRIP);
-    } else {
-        memcpy(d, out, (size_t)n);
-    }
-}
-
-// pr[.][i] = sorted union of the sorted columns i and i + 1 (Batcher merge).
-static inline void merge_pair_at(uint8_t col[5][STRIP + 4], uint8_t pr[10][STRIP + 2], int32_t i)
-{
-    const uint8_t a0 = col[0][i], a1 = col[1][i], a2 = col[2][i], a3 = col[3][i], a4 = col[4][i];
-    const uint8_t b0 = col[0][i + 1], b1 = col[1][i + 1], b2 = col[2][i + 1], b3 = col[3][i + 1], b4 = col[4][i + 1];
-    // BEGIN GENERATED pair (tools/vdtools/pixel.py median_network; do not edit)
-    const uint8_t t0 = VD_MIN8(a0, b0);
-    const uint8_t t1 = VD_MAX8(a0, b0);
-    const uint8_t t2 = VD_MIN8(a4, b4);
-    const uint8_t t3 = VD_MAX8(a4, b4);
-    const uint8_t t4 = VD_MIN8(t1, t2);
-    const uint8_t t5 = VD_MAX8(t1, t2);
-    const uint8_t t6 = VD_MIN8(a2, b2);
-    const uint8_t t7 = VD_MAX8(a2, b2);
-    const uint8_t t8 = VD_MIN8(t4, t6);
-    const uint8_t t9 = VD_MAX8(t4, t6);
-    const uint8_t t10 = VD_MIN8(t5, t7);
-    const uint8_t t11 = VD_MAX8(t5, t7);
-    const uint8_t t12 = VD_MIN8(a1, b1);
-    const uint8_t t13 = VD_MAX8(a1, b1);
-    const uint8_t t14 = VD_MIN8(a3, b3);
-    const uint8_t t15 = VD_MAX8(a3, b3);
-    const uint8_t t16 = VD_MIN8(t13, t14);
-    const uint8_t t17 = VD_MAX8(t13, t14);
-    const uint8_t t18 = VD_MIN8(t12, t8);
-    const uint8_t t19 = VD_MAX8(t12, t8);
-    const uint8_t t20 = VD_MIN8(t16, t9);
-    const uint8_t t21 = VD_MAX8(t16, t9);
-    const uint8_t t22 = VD_MIN8(t10, t17);
-    const uint8_t t23 = VD_MAX8(t10, t17);
-    const uint8_t t24 = VD_MIN8(t11, t15);
-    const uint8_t t25 = VD_MAX8(t11, t15);
-    pr[0][i] = t0;
-    pr[1][i] = t18;
-    pr[2][i] = t19;
-    pr[3][i] = t20;
-    pr[4][i] = t21;
-    pr[5][i] = t22;
-    pr[6][i] = t23;
-    pr[7][i] = t24;
-    pr[8][i] = t25;
-    pr[9][i] = t3;
-    // END GENERATED pair
-}
-
 // ---- 3x3 ------------------------------------------------------------------
 // Outputs per block of the 3x3 kernels: a multiple of every SIMD width in use
 // (16 / 32 bytes) so gcc -O2 (very-cheap cost model: no scalar epilogue) and
 // clang both turn the constant-count loops into whole vectors.
-#ifndef BLK3
-#define BLK3 32
-#endif
-#ifndef GROUP3
-#define GROUP3 4
-#endif
+#define BLK3 64
 
 // Sorts the horizontal triple r[i], r[i+1], r[i+2] (r points one column left
 // of the output; constant offsets from one base let gcc address all three
@@ -324,13 +221,18 @@ static void med3_span(const vd_view_u8_t *src, const vd_rect_t *r, int32_t y, in
         }
         sb = xb;
     } else if (xb > xa && width - 2 >= BLK3) {
-        // Stack budget: 4 x BLK3 bytes, the only buffer of vd_median3_u8.
-        uint8_t tmp[4][BLK3];
-        uint8_t *const t[4] = {tmp[0], tmp[1], tmp[2], tmp[3]};
+        // Two rows at a time through 2 x BLK3 = 128 bytes, the only buffer of
+        // vd_median3_u8 (stack budget: its worst case stays under 512 bytes
+        // on Cortex-M7; four rows at once would need 256).
+        uint8_t tmp[2][BLK3];
+        uint8_t *const t[4] = {tmp[0], tmp[1], tmp[0], tmp[1]};   // [2], [3]: never used (m <= 2)
         const int32_t xs = xa + BLK3 <= width - 1 ? xa : width - 1 - BLK3;
-        MED3_BLOCK(n, p, xs, t, 0u);
-        for (int32_t k = 0; k < n; k++) {
-            memcpy(d[k] + (xa - r->x), tmp[k] + (xa - xs), (size_t)(xb - xa));
+        for (int32_t k0 = 0; k0 < n; k0 += 2) {
+            const int32_t m = n - k0 >= 2 ? 2 : 1;
+            MED3_BLOCK(m, p + k0, xs, t, 0u);
+            for (int32_t k = 0; k < m; k++) {
+                memcpy(d[k0 + k] + (xa - r->x), tmp[k] + (xa - xs), (size_t)(xb - xa));
+            }
         }
         sb = xb;
     }
@@ -355,7 +257,7 @@ vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
     // values); ROIs under 4 rows high take groups of 2 and 1.
     int32_t y = 0;
     while (y < r.h) {
-        int32_t n = (GROUP3 == 4 && r.h >= 4) ? 4 : (r.h - y >= 2 ? 2 : 1);
+        int32_t n = r.h >= 4 ? 4 : (r.h - y >= 2 ? 2 : 1);
         if (n == 4 && y > r.h - 4) {
             y = r.h - 4;
         }
@@ -369,116 +271,249 @@ vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
     return VD_OK;
 }
 
+// ---- 5x5 ------------------------------------------------------------------
+// Outputs per 5x5 strip and T5, the columns of the overlapping tail loop (a
+// strip reads S5 + 4 columns: its loops run over S5 columns and then over the
+// last T5, recomputing some, so every loop is whole vectors on SIMD targets).
+// Stack budget: a strip's buffers are 5 x (S5 + 8) sorted columns + S5
+// outputs, 1.4 KiB before (64-pixel strips, edge copies, a stored table of
+// merged pairs); now the pairs are merged where they are used and the edges
+// replicate sorted columns. Scalar targets (Cortex-M) take 16-pixel strips,
+// which keeps the worst case of vd_median5_u8 under 512 bytes and costs them
+// nothing; SIMD hosts take 32 (gcc -O2 is 20% slower with 16).
+#if defined(__SSE2__) || defined(__ARM_NEON) || defined(__ARM_NEON__) || defined(__ALTIVEC__)
+#define S5 32
+#define T5 16
+#else
+#define S5 16
+#define T5 4
+#endif
+
+// Sorts columns j0 .. j0 + N - 1 of the five rows p0..p4 into
+// c0[j] <= ... <= c4[j] (optimal 9-exchange network). restrict: gcc -O2
+// does not vectorise when it would need a runtime alias check.
+#define CX(a, b) t = VD_MIN8(a, b); b = VD_MAX8(a, b); a = t
+#define SORT5_COLS(name, N)                                                                                    \
+    static void name(const uint8_t *restrict p0, const uint8_t *restrict p1, const uint8_t *restrict p2,      \
+                     const uint8_t *restrict p3, const uint8_t *restrict p4, uint8_t *restrict c0,           \
+                     uint8_t *restrict c1, uint8_t *restrict c2, uint8_t *restrict c3, uint8_t *restrict c4) \
+    {                                                                                                         \
+        for (size_t j = 0; j < (N); j++) {                                                                    \
+            uint8_t v0 = p0[j], v1 = p1[j], v2 = p2[j], v3 = p3[j], v4 = p4[j], t;                            \
+            CX(v0, v1); CX(v3, v4); CX(v2, v4); CX(v2, v3); CX(v0, v3);                                       \
+            CX(v0, v2); CX(v1, v4); CX(v1, v3); CX(v1, v2);                                                   \
+            c0[j] = v0; c1[j] = v1; c2[j] = v2; c3[j] = v3; c4[j] = v4;                                       \
+        }                                                                                                     \
+    }
+SORT5_COLS(sort5_strip, S5)
+SORT5_COLS(sort5_tail, T5)
+#undef CX
+
+// pr[.][0] = sorted union of the sorted columns j and j + 1 of c (Batcher
+// merge). Column j + 1 is read first: in the other order clang 14 forwards
+// it as column j of the next iteration and then does not vectorise.
+static inline void merge_pair(const uint8_t *const c[5], size_t j, uint8_t pr[10][1])
+{
+    const size_t i = 0u;
+    const uint8_t b0 = c[0][j + 1u], b1 = c[1][j + 1u], b2 = c[2][j + 1u], b3 = c[3][j + 1u], b4 = c[4][j + 1u];
+    const uint8_t a0 = c[0][j], a1 = c[1][j], a2 = c[2][j], a3 = c[3][j], a4 = c[4][j];
+    // BEGIN GENERATED pair (tools/vdtools/pixel.py median_network; do not edit)
+    const uint8_t t0 = VD_MIN8(a0, b0);
+    const uint8_t t1 = VD_MAX8(a0, b0);
+    const uint8_t t2 = VD_MIN8(a4, b4);
+    const uint8_t t3 = VD_MAX8(a4, b4);
+    const uint8_t t4 = VD_MIN8(t1, t2);
+    const uint8_t t5 = VD_MAX8(t1, t2);
+    const uint8_t t6 = VD_MIN8(a2, b2);
+    const uint8_t t7 = VD_MAX8(a2, b2);
+    const uint8_t t8 = VD_MIN8(t4, t6);
+    const uint8_t t9 = VD_MAX8(t4, t6);
+    const uint8_t t10 = VD_MIN8(t5, t7);
+    const uint8_t t11 = VD_MAX8(t5, t7);
+    const uint8_t t12 = VD_MIN8(a1, b1);
+    const uint8_t t13 = VD_MAX8(a1, b1);
+    const uint8_t t14 = VD_MIN8(a3, b3);
+    const uint8_t t15 = VD_MAX8(a3, b3);
+    const uint8_t t16 = VD_MIN8(t13, t14);
+    const uint8_t t17 = VD_MAX8(t13, t14);
+    const uint8_t t18 = VD_MIN8(t12, t8);
+    const uint8_t t19 = VD_MAX8(t12, t8);
+    const uint8_t t20 = VD_MIN8(t16, t9);
+    const uint8_t t21 = VD_MAX8(t16, t9);
+    const uint8_t t22 = VD_MIN8(t10, t17);
+    const uint8_t t23 = VD_MAX8(t10, t17);
+    const uint8_t t24 = VD_MIN8(t11, t15);
+    const uint8_t t25 = VD_MAX8(t11, t15);
+    pr[0][i] = t0;
+    pr[1][i] = t18;
+    pr[2][i] = t19;
+    pr[3][i] = t20;
+    pr[4][i] = t21;
+    pr[5][i] = t22;
+    pr[6][i] = t23;
+    pr[7][i] = t24;
+    pr[8][i] = t25;
+    pr[9][i] = t3;
+    // END GENERATED pair
+}
+
+// S5 outputs: out[i] = 13th smallest of the sorted columns cw[.][sh + i .. sh + i + 4].
+static void med5_select(uint8_t *const cw[5], int32_t sh, uint8_t *restrict out)
+{
+    const uint8_t *const c[5] = {cw[0] + sh, cw[1] + sh, cw[2] + sh, cw[3] + sh, cw[4] + sh};
+    for (size_t i = 0; i < S5; i++) {
+        // Highest columns first (see merge_pair).
+        const uint8_t c4 = c[4][i + 4u], c3 = c[3][i + 4u], c2 = c[2][i + 4u], c1 = c[1][i + 4u], c0 = c[0][i + 4u];
+        uint8_t qq[10][1], pp[10][1];
+        merge_pair(c, i + 2u, qq);
+        merge_pair(c, i, pp);
+        const uint8_t q0 = qq[0][0], q1 = qq[1][0], q2 = qq[2][0], q3 = qq[3][0], q4 = qq[4][0];
+        const uint8_t q5 = qq[5][0], q6 = qq[6][0], q7 = qq[7][0], q8 = qq[8][0], q9 = qq[9][0];
+        const uint8_t p0 = pp[0][0], p1 = pp[1][0], p2 = pp[2][0], p3 = pp[3][0], p4 = pp[4][0];
+        const uint8_t p5 = pp[5][0], p6 = pp[6][0], p7 = pp[7][0], p8 = pp[8][0], p9 = pp[9][0];
+        // BEGIN GENERATED select (tools/vdtools/pixel.py median_network; do not edit)
+        const uint8_t t0 = VD_MAX8(c0, q0);
+        const uint8_t t1 = VD_MIN8(t0, q8);
+        const uint8_t t2 = VD_MAX8(t0, q8);
+        const uint8_t t3 = VD_MIN8(c4, q4);
+        const uint8_t t4 = VD_MAX8(c4, q4);
+        const uint8_t t5 = VD_MIN8(t1, t3);
+        const uint8_t t6 = VD_MAX8(t1, t3);
+        const uint8_t t7 = VD_MIN8(t2, t4);
+        const uint8_t t8 = VD_MIN8(c2, q2);
+        const uint8_t t9 = VD_MAX8(c2, q2);
+        const uint8_t t10 = VD_MIN8(t9, q6);
+        const uint8_t t11 = VD_MAX8(t9, q6);
+        const uint8_t t12 = VD_MIN8(t8, t5);
+        const uint8_t t13 = VD_MAX8(t8, t5);
+        const uint8_t t14 = VD_MIN8(t10, t6);
+        const uint8_t t15 = VD_MAX8(t10, t6);
+        const uint8_t t16 = VD_MIN8(t11, t7);
+        const uint8_t t17 = VD_MAX8(t11, t7);
+        const uint8_t t18 = VD_MIN8(c1, q1);
+        const uint8_t t19 = VD_MAX8(c1, q1);
+        const uint8_t t20 = VD_MIN8(t19, q9);
+        const uint8_t t21 = VD_MAX8(t19, q9);
+        const uint8_t t22 = VD_MIN8(t20, q5);
+        const uint8_t t23 = VD_MAX8(t20, q5);
+        const uint8_t t24 = VD_MIN8(c3, q3);
+        const uint8_t t25 = VD_MAX8(c3, q3);
+        const uint8_t t26 = VD_MIN8(t25, q7);
+        const uint8_t t27 = VD_MAX8(t25, q7);
+        const uint8_t t28 = VD_MIN8(t22, t24);
+        const uint8_t t29 = VD_MAX8(t22, t24);
+        const uint8_t t30 = VD_MIN8(t23, t26);
+        const uint8_t t31 = VD_MAX8(t23, t26);
+        const uint8_t t32 = VD_MIN8(t21, t27);
+        const uint8_t t33 = VD_MAX8(t12, t18);
+        const uint8_t t34 = VD_MIN8(t13, t28);
+        const uint8_t t35 = VD_MAX8(t13, t28);
+        const uint8_t t36 = VD_MIN8(t14, t29);
+        const uint8_t t37 = VD_MAX8(t14, t29);
+        const uint8_t t38 = VD_MIN8(t15, t30);
+        const uint8_t t39 = VD_MAX8(t15, t30);
+        const uint8_t t40 = VD_MIN8(t16, t31);
+        const uint8_t t41 = VD_MAX8(t16, t31);
+        const uint8_t t42 = VD_MIN8(t17, t32);
+        const uint8_t t43 = VD_MAX8(t17, t32);
+        const uint8_t t44 = VD_MAX8(t42, p0);
+        const uint8_t t45 = VD_MIN8(t43, t44);
+        const uint8_t t46 = VD_MAX8(t41, p1);
+        const uint8_t t47 = VD_MIN8(t45, t46);
+        const uint8_t t48 = VD_MAX8(t40, p2);
+        const uint8_t t49 = VD_MIN8(t47, t48);
+        const uint8_t t50 = VD_MAX8(t39, p3);
+        const uint8_t t51 = VD_MIN8(t49, t50);
+        const uint8_t t52 = VD_MAX8(t38, p4);
+        const uint8_t t53 = VD_MIN8(t51, t52);
+        const uint8_t t54 = VD_MAX8(t37, p5);
+        const uint8_t t55 = VD_MIN8(t53, t54);
+        const uint8_t t56 = VD_MAX8(t36, p6);
+        const uint8_t t57 = VD_MIN8(t55, t56);
+        const uint8_t t58 = VD_MAX8(t35, p7);
+        const uint8_t t59 = VD_MIN8(t57, t58);
+        const uint8_t t60 = VD_MAX8(t34, p8);
+        const uint8_t t61 = VD_MIN8(t59, t60);
+        const uint8_t t62 = VD_MAX8(t33, p9);
+        const uint8_t t63 = VD_MIN8(t61, t62);
+        out[i] = t63;
+        // END GENERATED select
+    }
+}
+
+// Scalar 5x5 median at image column x of rows p[0..4] (columns clamped): images
+// narrower than a strip.
+static uint8_t med5_px(const uint8_t *const p[5], int32_t x, int32_t width)
+{
+    uint8_t win[25];
+    int32_t n = 0;
+    for (int32_t k = 0; k < 5; k++) {
+        for (int32_t dx = -2; dx <= 2; dx++) {
+            int32_t xx = x + dx;
+            xx = xx < 0 ? 0 : (xx >= width ? width - 1 : xx);
+            const uint8_t v = p[k][xx];
+            int32_t j = n++;
+            while (j > 0 && win[j - 1] > v) {   // insertion sort, at most 24 steps
+                win[j] = win[j - 1];
+                j--;
+            }
+            win[j] = v;
+        }
+    }
+    return win[12];
+}
+
 vd_status_t vd_median5_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_image_u8_t *dst)
 {
     vd_rect_t r;
     VD_TRY(median_args(src, roi, dst, &r));
     const int32_t width = (int32_t)src->width;
-    uint8_t edge[5][STRIP + 4]; // clamped copies for strips that cross the image edge
-    uint8_t col[5][STRIP + 4]; // input columns x_first .. x_first + STRIP + 3, sorted per column
-    uint8_t pr[10][STRIP + 2]; // pr[.][i]: sorted union of columns i and i + 1
-    uint8_t out[STRIP];
+    uint8_t colbuf[5][S5 + 8];   // sorted columns c0 - 2 .. c0 + S5 + 5 (2 replicated each side)
+    uint8_t out[S5];             // a strip's outputs when not all of them are wanted
+    uint8_t *const cw[5] = {colbuf[0] + 2, colbuf[1] + 2, colbuf[2] + 2, colbuf[3] + 2, colbuf[4] + 2};
+    const int32_t x_end = r.x + r.w;
     for (int32_t y = 0; y < r.h; y++) {
         const uint8_t *rows[5];
         for (int32_t k = 0; k < 5; k++) {
             rows[k] = row_at(src, r.y + y - 2 + k);
         }
         uint8_t *d = dst->data + (size_t)y * dst->stride;
-        for (int32_t xs = 0; xs < r.w; xs += STRIP) {
-            const int32_t x_first = r.x + xs - 2;
-            const uint8_t *p[5];
+        if (width < S5 + 4) {
+            for (int32_t x = r.x; x < x_end; x++) {
+                d[x - r.x] = med5_px(rows, x, width);
+            }
+            continue;
+        }
+        for (int32_t x = r.x; x < x_end; x += S5) {
+            // Strip of outputs [xs, xs + S5) inside the image, covering x.
+            const int32_t xs = x + S5 <= width ? x : width - S5;
+            // Sorted columns c0 .. c0 + S5 + 3 (inside the image); the strip
+            // needs xs - 2 .. xs + S5 + 1, which is the same with d = xs - 2 - c0
+            // in -2 .. 2 and the edge column replicated beyond the image.
+            const int32_t c0 = xs - 2 < 0 ? 0 : (xs + S5 + 2 > width ? width - S5 - 4 : xs - 2);
+            const size_t jt = S5 + 4 - T5;   // the last T5 columns
+            sort5_strip(rows[0] + c0, rows[1] + c0, rows[2] + c0, rows[3] + c0, rows[4] + c0, cw[0], cw[1], cw[2], cw[3],
+                        cw[4]);
+            sort5_tail(rows[0] + c0 + jt, rows[1] + c0 + jt, rows[2] + c0 + jt, rows[3] + c0 + jt, rows[4] + c0 + jt,
+                       cw[0] + jt, cw[1] + jt, cw[2] + jt, cw[3] + jt, cw[4] + jt);
             for (int32_t k = 0; k < 5; k++) {
-                p[k] = strip_row(rows[k], width, x_first, edge[k], STRIP + 4);
+                colbuf[k][0] = colbuf[k][1] = colbuf[k][2];
+                colbuf[k][S5 + 6] = colbuf[k][S5 + 7] = colbuf[k][S5 + 5];
             }
-            for (int32_t i = 0; i < STRIP; i++) {
-                sort5_at(p, col, i);
+            const int32_t dshift = xs - 2 - c0;
+            // Wanted outputs of this strip: [max(x, xs), min(x_end, xs + S5)).
+            const int32_t wa = x > xs ? x : xs;
+            const int32_t wb = x_end < xs + S5 ? x_end : xs + S5;
+            if (wa == xs && wb == xs + S5) {
+                med5_select(cw, dshift, d + (xs - r.x));
+            } else {
+                med5_select(cw, dshift, out);
+                memcpy(d + (wa - r.x), out + (wa - xs), (size_t)(wb - wa));
             }
-            for (int32_t i = STRIP; i < STRIP + 4; i++) {
-                sort5_at(p, col, i);
+            if (wb == x_end) {
+                break;
             }
-            // Merge adjacent sorted columns (i, i + 1) into sorted 10-lists.
-            for (int32_t i = 0; i < STRIP; i++) {
-                merge_pair_at(col, pr, i);
-            }
-            for (int32_t i = STRIP; i < STRIP + 2; i++) {
-                merge_pair_at(col, pr, i);
-            }
-            // 13th smallest of p = pair(i), q = pair(i + 2), c = column i + 4.
-            for (int32_t i = 0; i < STRIP; i++) {
-                const uint8_t p0 = pr[0][i], p1 = pr[1][i], p2 = pr[2][i], p3 = pr[3][i], p4 = pr[4][i];
-                const uint8_t p5 = pr[5][i], p6 = pr[6][i], p7 = pr[7][i], p8 = pr[8][i], p9 = pr[9][i];
-                const uint8_t q0 = pr[0][i + 2], q1 = pr[1][i + 2], q2 = pr[2][i + 2], q3 = pr[3][i + 2], q4 = pr[4][i + 2];
-                const uint8_t q5 = pr[5][i + 2], q6 = pr[6][i + 2], q7 = pr[7][i + 2], q8 = pr[8][i + 2], q9 = pr[9][i + 2];
-                const uint8_t c0 = col[0][i + 4], c1 = col[1][i + 4], c2 = col[2][i + 4], c3 = col[3][i + 4], c4 = col[4][i + 4];
-                // BEGIN GENERATED select (tools/vdtools/pixel.py median_network; do not edit)
-                const uint8_t t0 = VD_MAX8(c0, q0);
-                const uint8_t t1 = VD_MIN8(t0, q8);
-                const uint8_t t2 = VD_MAX8(t0, q8);
-                const uint8_t t3 = VD_MIN8(c4, q4);
-                const uint8_t t4 = VD_MAX8(c4, q4);
-                const uint8_t t5 = VD_MIN8(t1, t3);
-                const uint8_t t6 = VD_MAX8(t1, t3);
-                const uint8_t t7 = VD_MIN8(t2, t4);
-                const uint8_t t8 = VD_MIN8(c2, q2);
-                const uint8_t t9 = VD_MAX8(c2, q2);
-                const uint8_t t10 = VD_MIN8(t9, q6);
-                const uint8_t t11 = VD_MAX8(t9, q6);
-                const uint8_t t12 = VD_MIN8(t8, t5);
-                const uint8_t t13 = VD_MAX8(t8, t5);
-                const uint8_t t14 = VD_MIN8(t10, t6);
-                const uint8_t t15 = VD_MAX8(t10, t6);
-                const uint8_t t16 = VD_MIN8(t11, t7);
-                const uint8_t t17 = VD_MAX8(t11, t7);
-                const uint8_t t18 = VD_MIN8(c1, q1);
-                const uint8_t t19 = VD_MAX8(c1, q1);
-                const uint8_t t20 = VD_MIN8(t19, q9);
-                const uint8_t t21 = VD_MAX8(t19, q9);
-                const uint8_t t22 = VD_MIN8(t20, q5);
-                const uint8_t t23 = VD_MAX8(t20, q5);
-                const uint8_t t24 = VD_MIN8(c3, q3);
-                const uint8_t t25 = VD_MAX8(c3, q3);
-                const uint8_t t26 = VD_MIN8(t25, q7);
-                const uint8_t t27 = VD_MAX8(t25, q7);
-                const uint8_t t28 = VD_MIN8(t22, t24);
-                const uint8_t t29 = VD_MAX8(t22, t24);
-                const uint8_t t30 = VD_MIN8(t23, t26);
-                const uint8_t t31 = VD_MAX8(t23, t26);
-                const uint8_t t32 = VD_MIN8(t21, t27);
-                const uint8_t t33 = VD_MAX8(t12, t18);
-                const uint8_t t34 = VD_MIN8(t13, t28);
-                const uint8_t t35 = VD_MAX8(t13, t28);
-                const uint8_t t36 = VD_MIN8(t14, t29);
-                const uint8_t t37 = VD_MAX8(t14, t29);
-                const uint8_t t38 = VD_MIN8(t15, t30);
-                const uint8_t t39 = VD_MAX8(t15, t30);
-                const uint8_t t40 = VD_MIN8(t16, t31);
-                const uint8_t t41 = VD_MAX8(t16, t31);
-                const uint8_t t42 = VD_MIN8(t17, t32);
-                const uint8_t t43 = VD_MAX8(t17, t32);
-                const uint8_t t44 = VD_MAX8(t42, p0);
-                const uint8_t t45 = VD_MIN8(t43, t44);
-                const uint8_t t46 = VD_MAX8(t41, p1);
-                const uint8_t t47 = VD_MIN8(t45, t46);
-                const uint8_t t48 = VD_MAX8(t40, p2);
-                const uint8_t t49 = VD_MIN8(t47, t48);
-                const uint8_t t50 = VD_MAX8(t39, p3);
-                const uint8_t t51 = VD_MIN8(t49, t50);
-                const uint8_t t52 = VD_MAX8(t38, p4);
-                const uint8_t t53 = VD_MIN8(t51, t52);
-                const uint8_t t54 = VD_MAX8(t37, p5);
-                const uint8_t t55 = VD_MIN8(t53, t54);
-                const uint8_t t56 = VD_MAX8(t36, p6);
-                const uint8_t t57 = VD_MIN8(t55, t56);
-                const uint8_t t58 = VD_MAX8(t35, p7);
-                const uint8_t t59 = VD_MIN8(t57, t58);
-                const uint8_t t60 = VD_MAX8(t34, p8);
-                const uint8_t t61 = VD_MIN8(t59, t60);
-                const uint8_t t62 = VD_MAX8(t33, p9);
-                const uint8_t t63 = VD_MIN8(t61, t62);
-                out[i] = t63;
-                // END GENERATED select
-            }
-            put_strip(d + xs, out, r.w - xs < STRIP ? r.w - xs : STRIP);
+            x = wb - S5;   // next strip starts at wb
         }
     }
     return VD_OK;

@@ -32,8 +32,9 @@
 // product < 2^58: exact in uint64.
 //
 // Bounds: time O(w*h * k) with k = 25 (5x5 median) + the windows
-// (edge_points / edge_step * (window^2 + 256)); stack: a 256-entry uint32
-// histogram (1 KiB) + a few words; workspace 5*w*h bytes (refine.h).
+// (edge_points / edge_step * (window^2 + 256)); stack: a few words (the
+// 256-entry histogram is in the workspace) + the median's (< 512 bytes);
+// workspace align(w*h) + max(4*w*h, align(w*h) + 1 KiB) bytes (refine.h).
 #include "vd/refine.h"
 
 #include <string.h>
@@ -202,14 +203,36 @@ vd_status_t vd_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, vd_image
     return VD_OK;
 }
 
-// Filtered plane (w*h) + fill-holes stack (4*w*h, later the edge image).
-static bool refine_ws_size(uint32_t w, uint32_t h, size_t *bytes)
+// The 256-bin histogram lives in the workspace, not on the stack (stack
+// budget of vd_detector_run: it was 1 KiB of vd_refine_region's 1.2 KiB
+// frame). It shares the fill-holes region: the global histogram is used
+// before the fill, the local ones after it, when only the edge image (w*h
+// bytes at the region's start) is live; so it sits at offset align(w*h) of
+// that region, which is max(4*w*h, align(w*h) + 1 KiB) bytes. Regions of
+// 342 pixels or more need nothing extra (the detector's workspace is unchanged).
+#define REFINE_HIST_BYTES (256u * sizeof(uint32_t))
+
+// Bytes of the filtered plane slice (px aligned) and of the region after it.
+static bool refine_ws_parts(uint32_t w, uint32_t h, size_t *plane, size_t *region)
 {
     size_t px;
     size_t fill;
-    size_t total = 0u;
-    return vd_mul_size((size_t)w, (size_t)h, &px) && fill_ws_size(w, h, &fill) &&
-           vd_size_add_slice(&total, px) && vd_add_size(total, fill, bytes);
+    size_t hist_end = 0u;
+    if (!vd_mul_size((size_t)w, (size_t)h, &px) || !fill_ws_size(w, h, &fill) ||
+        !vd_size_add_slice(&hist_end, px) || !vd_add_size(hist_end, REFINE_HIST_BYTES, &hist_end)) {
+        return false;
+    }
+    *plane = hist_end - REFINE_HIST_BYTES;   // align(px)
+    *region = fill > hist_end ? fill : hist_end;
+    return true;
+}
+
+// Filtered plane + the fill-holes / edge image / histogram region, each aligned.
+static bool refine_ws_size(uint32_t w, uint32_t h, size_t *bytes)
+{
+    size_t plane;
+    size_t region;
+    return refine_ws_parts(w, h, &plane, &region) && vd_add_size(plane, region, bytes);
 }
 
 vd_status_t vd_refine_workspace_size(uint32_t max_w, uint32_t max_h, size_t *bytes)
@@ -242,15 +265,18 @@ vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, cons
     VD_VERIFY(cfg_ok(cfg), VD_ERR_ARG);
     const uint32_t w = (uint32_t)r.w;
     const uint32_t h = (uint32_t)r.h;
-    size_t need;
+    size_t plane;
+    size_t region;
     size_t fill;
-    VD_VERIFY(refine_ws_size(w, h, &need) && fill_ws_size(w, h, &fill), VD_ERR_OVERFLOW);
-    VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u && bytes >= need,
+    VD_VERIFY(refine_ws_parts(w, h, &plane, &region) && fill_ws_size(w, h, &fill), VD_ERR_OVERFLOW);
+    VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u && bytes >= plane + region,
               VD_ERR_WORKSPACE);
-    // Layout: F at 0, the stack after F rounded up to the alignment (so it
-    // is uint32-aligned); `need` was summed the same way.
+    // Layout: F at 0; the region after F (aligned, so uint32-aligned) holds
+    // the fill stack, later the edge image at its start and the histogram at
+    // its offset `plane` (= align(w*h)).
     uint8_t *fdata = (uint8_t *)ws;
-    void *stack = fdata + (need - fill);
+    void *stack = fdata + plane;
+    uint32_t *hist = (uint32_t *)(void *)(fdata + plane + plane);
 
     // Step 2: median filter of the ROI (or a plain copy).
     vd_image_u8_t fimg = {fdata, w, h, w};
@@ -266,7 +292,6 @@ vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, cons
     const vd_view_u8_t fview = vd_image_u8_view(&fimg);
 
     // Step 3: Otsu, binarise, fill holes, edge image.
-    uint32_t hist[256];
     uint8_t t;
     VD_TRY(vd_histogram_u8(&fview, NULL, hist));
     VD_TRY(vd_otsu_from_hist(hist, &t));
@@ -283,7 +308,7 @@ vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, cons
     VD_TRY(vd_edges_u8(&mview, NULL, &eimg));
 
     // Steps 4-5: every edge_step-th edge pixel, local eq. (1) threshold.
-    memset(hist, 0, sizeof hist);
+    memset(hist, 0, REFINE_HIST_BYTES);
     const uint32_t half = (uint32_t)cfg->window / 2u;
     uint32_t n_edges = 0u;
     uint32_t n_windows = 0u;

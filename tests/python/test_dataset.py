@@ -78,6 +78,25 @@ def test_frame_samples_on_real_frame(data_dir):
     assert sum(1 for o in tr if o[1] == 1) > len(pos)
 
 
+def test_mined_samples_on_real_frame(data_dir):
+    """Window / contrast hard negatives and window positives of one MSRS frame with cars."""
+    fr = next(f for f in dataset.load_msrs(data_dir) if len(f.vehicles) >= 2)
+    img = dataset.read_frame(fr.path)
+    out = list(dataset.mined_samples(img, fr, "train", "grey", np.random.default_rng(0)))
+    again = list(dataset.mined_samples(img, fr, "train", "grey", np.random.default_rng(0)))
+    assert [o[3] for o in out] == [o[3] for o in again]            # seeded
+    neg = [o for o in out if o[1] == 0]
+    assert 0 < sum(1 for o in neg if o[2] == "window") <= dataset.NEG_WINDOW_PER_FRAME["train"]
+    assert sum(1 for o in neg if o[2] == "contrast") <= dataset.NEG_CONTRAST_PER_FRAME
+    for s, lab, src, rect, hot in out:
+        assert s.shape == (32, 32) and s.dtype == np.uint8
+        best = max(dataset.iou(rect, v) for v in fr.vehicles)
+        assert (best >= dataset.WIN_POS_IOU) if lab else (best < dataset.NEG_IOU)
+    # the structure level is the detector's pre-filter: flat windows score 0
+    flat = np.full((64, 64), 90, np.uint8)
+    assert dataset._window_levels(flat, np.array([[0, 0, 32, 32]]))[0] == 0
+
+
 def test_cached_set_splits_are_disjoint_by_group():
     p = dataset.cache_path("grey", 0)
     if not p.exists():
@@ -85,5 +104,14 @@ def test_cached_set_splits_are_disjoint_by_group():
     ds = dataset.load(p)
     g = {s: set(ds["group"][ds["split"] == s]) for s in dataset.SPLITS}
     assert not (g["train"] & g["val"]) and not (g["train"] & g["test"]) and not (g["val"] & g["test"])
-    assert set(ds["source"][ds["split"] != "train"]) <= {"box", "candidate", "random"}  # no augmentation
+    assert set(ds["source"][ds["split"] != "train"]) <= {"box", "candidate", "random", "window", "contrast",
+                                                         "window_pos"}  # no augmentation
+    # mined negatives never overlap a vehicle of their frame
+    neg = (ds["y"] == 0) & np.isin(ds["source"], ("window", "contrast"))
+    pos = ds["y"] == 1
+    assert neg.any() and set(ds["split"][neg]) == set(dataset.SPLITS)
+    for f in np.unique(ds["frame"][neg])[:40]:
+        v = ds["rect"][pos & (ds["frame"] == f) & (ds["source"] == "box")]
+        for r in ds["rect"][neg & (ds["frame"] == f)]:
+            assert all(dataset.iou(tuple(r), tuple(b)) < dataset.NEG_IOU for b in v)
     assert ds["X"].shape[1:] == (32, 32) and len(ds["X"]) == len(ds["y"])

@@ -51,6 +51,69 @@ def test_random_models_bit_exact(dbn, sizes, scale):
     assert np.abs(pf - p / 256.0).max() < 0.04
 
 
+@pytest.mark.parametrize("sizes,scale,min_range", [([1024, 576, 256, 1], 0.6, 16), ([1024, 48, 16, 1], 1.0, 16),
+                                                   ([64, 16, 4, 1], 1.5, 1), ([1024, 1], 1.0, 255)])
+def test_minmax_models_bit_exact(dbn, sizes, scale, min_range):
+    """Models with the min-max input stretch (format version 2): C == Python, flat samples included."""
+    rng = np.random.default_rng(min_range + sizes[1])
+    fm = quantise.load_float(quantise.random_float_model(sizes, seed=3, scale=scale, input_norm="minmax",
+                                                         norm_min_range=min_range))
+    qm = quantise.quantise(fm, name="randn")
+    blob = vdm.pack(qm)
+    assert vdm.unpack(blob)["input_norm"] == "minmax" and vdm.unpack(blob)["norm_min_range"] == min_range
+    m = vdm.CModel(blob)
+    assert m.m.input_norm == 1 and m.m.norm_min_range == min_range and m.m.format_version == 2
+    side = int(np.sqrt(sizes[0]))
+    x = np.concatenate([rng.integers(0, 256, (100, sizes[0]), dtype=np.uint8), _image_like(rng, 100, side),
+                        rng.integers(100, 108, (20, sizes[0]), dtype=np.uint8),      # narrow range
+                        np.full((1, sizes[0]), 0, np.uint8), np.full((1, sizes[0]), 93, np.uint8)])
+    np.testing.assert_array_equal(m.classify(x), quantise.quant_forward(qm, x))
+    # brightness offsets do not change the score (the point of the stretch)
+    y = _image_like(rng, 20, side) // 2
+    np.testing.assert_array_equal(m.classify(y), m.classify(y + 100))
+    pf = quantise.float_forward(fm, x)
+    assert np.abs(pf - quantise.quant_forward(qm, x) / 256.0).max() < 0.04
+
+
+def test_stretch_matches_reference(dbn):
+    rng = np.random.default_rng(21)
+    for trial in range(300):
+        n = int(rng.integers(1, 1025))
+        lo = int(rng.integers(0, 256))
+        x = np.clip(lo + rng.integers(0, int(rng.integers(1, 257)), n), 0, 255).astype(np.uint8)
+        mr = int(rng.integers(1, 256))
+        st, got = vdm.c_stretch(x, mr)
+        assert st == clib.VD_OK
+        np.testing.assert_array_equal(got, quantise.stretch_u8(x[None], mr)[0])
+    # hand-worked: flat -> 0; r = 32; ties round up
+    assert quantise.stretch_u8(np.array([[9, 9, 9]], np.uint8), 16).tolist() == [[0, 0, 0]]
+    assert quantise.stretch_u8(np.array([[10, 20, 30, 42]], np.uint8), 16).tolist() == [[0, 80, 159, 255]]
+    assert quantise.stretch_u8(np.array([[0, 1]], np.uint8), 2).tolist() == [[0, 128]]
+    assert vdm.c_stretch(np.array([1, 2], np.uint8), 0)[0] == -1          # VD_ERR_ARG
+    with pytest.raises(ValueError):
+        quantise.stretch_u8(np.zeros((1, 4), np.uint8), 0)
+
+
+def test_format_versions_and_norm_field(dbn):
+    """Version 1 blobs (no normalisation) still load; unknown versions/normalisations are VD_ERR_MODEL."""
+    fm = quantise.load_float(quantise.random_float_model([64, 8, 1], seed=2))
+    blob = bytearray(vdm.pack(quantise.quantise(fm, name="v")))
+    assert blob[4] == 2 and vdm.c_load(bytes(blob)) == clib.VD_OK
+    v1 = bytearray(blob)
+    v1[4] = 1
+    v1 = vdm.fix_crc(bytes(v1))
+    assert vdm.c_load(v1) == clib.VD_OK
+    x = np.random.default_rng(0).integers(0, 256, (16, 64), dtype=np.uint8)
+    np.testing.assert_array_equal(vdm.CModel(v1).classify(x), vdm.CModel(bytes(blob)).classify(x))
+    for version, norm, rng_ in ((3, 0, 0), (0, 0, 0), (1, 1, 16), (2, 2, 16), (2, 1, 0), (2, 0, 4)):
+        bad = bytearray(blob)
+        bad[4], bad[36], bad[37] = version, norm, rng_
+        assert vdm.c_load(vdm.fix_crc(bytes(bad))) == -4, (version, norm, rng_)
+    ok = bytearray(blob)
+    ok[36], ok[37] = 1, 16
+    assert vdm.c_load(vdm.fix_crc(bytes(ok))) == clib.VD_OK
+
+
 def test_requantize_matches_reference(dbn):
     rng = np.random.default_rng(3)
     acc = rng.integers(-(2**31), 2**31, 3000)
@@ -83,7 +146,7 @@ def test_quantize_multiplier_tflite_cases():
 def test_golden_blob_matches_generator(dbn):
     blob = (REPO / "tests" / "data" / "golden_tiny.vdm").read_bytes()
     qm = vdm.unpack(blob)
-    assert vdm.pack(qm) == blob
+    assert vdm.pack(qm) == blob and qm["version"] == vdm.VERSION
     x = np.random.default_rng(0).integers(0, 256, (64, 64), dtype=np.uint8)
     np.testing.assert_array_equal(vdm.CModel(blob).classify(x), quantise.quant_forward(qm, x))
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Unit tests of the .vdm loader (every corruption), requantisation, sigmoid table, hand-worked layers and golden vectors.
+// Unit tests of the .vdm loader (every corruption, versions 1 and 2), requantisation, sigmoid table, input stretch, hand-worked layers and golden vectors.
 #include "unity.h"
 #include "testutil.h"
 
@@ -331,7 +331,13 @@ static void test_wrong_crc(void)
 // CRC) must catch them.
 typedef void (*corrupt_fn)(uint8_t *b);
 
-static void c_version(uint8_t *b) { wr_u16(b + 4, 2u); }
+static void c_version(uint8_t *b) { wr_u16(b + 4, 3u); }
+static void c_version_zero(uint8_t *b) { wr_u16(b + 4, 0u); }
+static void c_norm_in_v1(uint8_t *b) { b[36] = 1u; b[37] = 16u; }                      // version 1: reserved
+static void c_norm_unknown(uint8_t *b) { wr_u16(b + 4, 2u); b[36] = 2u; b[37] = 16u; }
+static void c_norm_range_zero(uint8_t *b) { wr_u16(b + 4, 2u); b[36] = 1u; }
+static void c_norm_none_range(uint8_t *b) { wr_u16(b + 4, 2u); b[37] = 5u; }
+static void c_reserved0_hi(uint8_t *b) { wr_u16(b + 4, 2u); b[36] = 1u; b[37] = 16u; b[39] = 0x80u; }
 static void c_header_size(uint8_t *b) { wr_u16(b + 6, 72u); }
 static void c_total_unaligned(uint8_t *b) { wr_u32(b + 8, HAND_TOTAL - 2u); }
 static void c_total_small(uint8_t *b) { wr_u32(b + 8, 60u); }
@@ -382,7 +388,8 @@ static void test_structural_corruptions(void)
         c_in_mismatch, c_first_in, c_out_zero, c_last_out, c_out_huge, c_w_unaligned, c_w_overlap,
         c_w_in_table, c_shift_overlap, c_mult_beyond, c_bias_end, c_off_wrap, c_layer_flags,
         c_layer_reserved, c_mult_small, c_mult_negative, c_shift_big, c_shift_small, c_bias_big,
-        c_bias_small,
+        c_bias_small, c_version_zero, c_norm_in_v1, c_norm_unknown, c_norm_range_zero, c_norm_none_range,
+        c_reserved0_hi,
     };
     for (size_t i = 0; i < sizeof fns / sizeof fns[0]; i++) {
         build_hand(g_blob.b);
@@ -411,9 +418,166 @@ static void test_structural_corruptions(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_classify(&m, x, ws, sizeof ws, &s));
 }
 
+// ------------------------------------------------------- input normalisation
+
+static void test_stretch_hand_worked(void)
+{
+    uint8_t out[4];
+    // Flat sample: range 0 < min_range, every byte maps to 0.
+    const uint8_t flat[3] = {7, 7, 7};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_stretch_u8(flat, 3u, 16u, out));
+    TEST_ASSERT_EQUAL_UINT8(0u, out[0]);
+    TEST_ASSERT_EQUAL_UINT8(0u, out[2]);
+    const uint8_t flat255[2] = {255, 255};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_stretch_u8(flat255, 2u, 1u, out));
+    TEST_ASSERT_EQUAL_UINT8(0u, out[1]);
+    // r = 32: (0*510+32)/64 = 0, (10*510+32)/64 = 80.19, (20*510+32)/64 = 159.9, (32*510+32)/64 = 255.5.
+    const uint8_t a[4] = {10, 20, 30, 42};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_stretch_u8(a, 4u, 16u, out));
+    TEST_ASSERT_EQUAL_UINT8(0u, out[0]);
+    TEST_ASSERT_EQUAL_UINT8(80u, out[1]);
+    TEST_ASSERT_EQUAL_UINT8(159u, out[2]);
+    TEST_ASSERT_EQUAL_UINT8(255u, out[3]);
+    // Range 8 below min_range 16: divided by 16, the maximum does not reach 255.
+    const uint8_t n[3] = {100, 104, 108};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_stretch_u8(n, 3u, 16u, out));
+    TEST_ASSERT_EQUAL_UINT8(0u, out[0]);
+    TEST_ASSERT_EQUAL_UINT8(64u, out[1]);  // 2056 / 32 = 64.25
+    TEST_ASSERT_EQUAL_UINT8(128u, out[2]); // 4096 / 32 = 128 exactly
+    // Tie: 255 * 1 / 2 = 127.5 rounds up to 128.
+    const uint8_t t[2] = {0, 1};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_stretch_u8(t, 2u, 2u, out));
+    TEST_ASSERT_EQUAL_UINT8(0u, out[0]);
+    TEST_ASSERT_EQUAL_UINT8(128u, out[1]);
+    // Full range is the identity; in place works.
+    uint8_t io[3] = {0, 128, 255};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_stretch_u8(io, 3u, 255u, io));
+    TEST_ASSERT_EQUAL_UINT8(0u, io[0]);
+    TEST_ASSERT_EQUAL_UINT8(128u, io[1]);
+    TEST_ASSERT_EQUAL_UINT8(255u, io[2]);
+    // Arguments.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_dbn_stretch_u8(NULL, 3u, 16u, out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_dbn_stretch_u8(a, 3u, 16u, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_dbn_stretch_u8(a, 0u, 16u, out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_dbn_stretch_u8(a, 3u, 0u, out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_dbn_stretch_u8(a, 3u, 256u, out));
+}
+
+// Naive reference: the largest q with q * 2r <= 510 (v - lo) + r, by counting.
+static void stretch_naive(const uint8_t *in, uint32_t n, uint32_t min_range, uint8_t *out)
+{
+    uint32_t lo = 255u, hi = 0u;
+    for (uint32_t i = 0u; i < n; i++) {
+        lo = (in[i] < lo) ? in[i] : lo;
+        hi = (in[i] > hi) ? in[i] : hi;
+    }
+    const uint32_t r = (hi - lo > min_range) ? hi - lo : min_range;
+    for (uint32_t i = 0u; i < n; i++) {
+        const uint32_t num = 510u * ((uint32_t)in[i] - lo) + r;
+        uint32_t q = 0u;
+        while (q < 255u && (q + 1u) * 2u * r <= num) {
+            q++;
+        }
+        out[i] = (uint8_t)q;
+    }
+}
+
+static void test_stretch_random_vs_naive(void)
+{
+    static uint8_t x[1024], a[1024], b[1024];
+    uint32_t seed = 12345u;
+    for (uint32_t trial = 0u; trial < 200u; trial++) {
+        const uint32_t base = tu_rand(&seed) % 256u;
+        const uint32_t spread = 1u + tu_rand(&seed) % 256u;
+        const uint32_t n = 1u + tu_rand(&seed) % 1024u;
+        const uint32_t mr = 1u + tu_rand(&seed) % 255u;
+        for (uint32_t i = 0u; i < n; i++) {
+            uint32_t v = base + tu_rand(&seed) % spread;
+            x[i] = (uint8_t)(v > 255u ? 255u : v);
+        }
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_stretch_u8(x, n, mr, a));
+        stretch_naive(x, n, mr, b);
+        TEST_ASSERT_EQUAL_UINT8_ARRAY(b, a, n);
+    }
+}
+
+// The hand model as version 2 with min-max normalisation (min range 16).
+static void test_hand_worked_model_minmax(void)
+{
+    build_hand(g_blob.b);
+    wr_u16(g_blob.b + 4, 2u);
+    g_blob.b[36] = 1u;
+    g_blob.b[37] = 16u;
+    fix_crc(g_blob.b);
+    vd_model_t m;
+    TEST_ASSERT_EQUAL_INT(VD_OK, load_hand(&m));
+    TEST_ASSERT_EQUAL_UINT32(2u, m.format_version);
+    TEST_ASSERT_EQUAL_INT(VD_DBN_NORM_MINMAX, m.input_norm);
+    TEST_ASSERT_EQUAL_UINT32(16u, m.norm_min_range);
+    size_t bytes = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_workspace_size(&m, &bytes));
+    TEST_ASSERT_EQUAL_UINT32(24u, (uint32_t)bytes); // + the 4-byte stretched sample, aligned to 8
+    static uint64_t ws[4];
+    const uint8_t x[4] = {10, 20, 30, 40};
+    uint8_t score = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_classify(&m, x, ws, bytes, &score));
+    // Stretch, r = 30: (v - 10) * 510 + 30) / 60 -> {0, 85 (85.5), 170 (170.5), 255 (255.5)}.
+    const uint8_t *st = (const uint8_t *)ws + 16;
+    TEST_ASSERT_EQUAL_UINT8(0u, st[0]);
+    TEST_ASSERT_EQUAL_UINT8(85u, st[1]);
+    TEST_ASSERT_EQUAL_UINT8(170u, st[2]);
+    TEST_ASSERT_EQUAL_UINT8(255u, st[3]);
+    // Unit 0: acc = 10 + 0 + 170 - 170 + 0 = 10, x0.5 -> 5 -> 256*sig(0.0195) = 129.25 -> 129.
+    // Unit 1: acc = -100 + 0 + 127*85 + 0 + 5*255 = 11970, x0.125 -> 1496.25 -> 1496 -> 255.3 -> 255.
+    // Output: acc = 50 + 2*129 - 3*255 = -457, x1 -> 256*sig(-1.785) = 36.8 -> 37.
+    const uint8_t *h = (const uint8_t *)ws;
+    TEST_ASSERT_EQUAL_UINT8(129u, h[0]);
+    TEST_ASSERT_EQUAL_UINT8(255u, h[1]);
+    TEST_ASSERT_EQUAL_UINT8(37u, score);
+    TEST_ASSERT_EQUAL_UINT8(10u, x[0]); // input untouched
+    // A brighter copy of the same pattern scores the same (what the stretch is for).
+    const uint8_t x2[4] = {110, 120, 130, 140};
+    uint8_t score2 = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_classify(&m, x2, ws, bytes, &score2));
+    TEST_ASSERT_EQUAL_UINT8(score, score2);
+    // Flat sample: stretched to all 0; acc0 = 10 -> 5 -> 129, acc1 = -100 -> -12.5 -> -13 -> 124.9 -> 125,
+    // output 50 + 258 - 375 = -67 -> 256*sig(-0.262) = 111.4 -> 111.
+    const uint8_t flat[4] = {200, 200, 200, 200};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_classify(&m, flat, ws, bytes, &score));
+    TEST_ASSERT_EQUAL_UINT8(129u, h[0]);
+    TEST_ASSERT_EQUAL_UINT8(125u, h[1]);
+    TEST_ASSERT_EQUAL_UINT8(111u, score);
+    // The contract: one byte short of the larger workspace fails.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_dbn_classify(&m, x, ws, bytes - 1u, &score));
+}
+
+static void test_golden_vectors_minmax(void)
+{
+    vd_model_t m;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_load(&m, golden_norm_model.bytes, sizeof golden_norm_model.bytes));
+    TEST_ASSERT_EQUAL_INT(VD_DBN_NORM_MINMAX, m.input_norm);
+    TEST_ASSERT_EQUAL_UINT32(GOLDEN_NORM_MIN_RANGE, m.norm_min_range);
+    size_t bytes = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_workspace_size(&m, &bytes));
+    void *ws = tu_guarded_alloc(0, bytes);
+    for (uint32_t i = 0u; i < GOLDEN_N_INPUTS; i++) {
+        uint8_t s = 0;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_classify(&m, golden_inputs + i * GOLDEN_INPUT_LEN, ws, bytes, &s));
+        TEST_ASSERT_EQUAL_UINT8_MESSAGE(golden_norm_scores[i], s, "golden score (minmax)");
+    }
+    tu_guard_check(0);
+    tu_guarded_free(0);
+    ws_ctx_t ctx = {&m, golden_inputs};
+    tu_check_workspace_contract(bytes, run_classify, &ctx);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
+    RUN_TEST(test_stretch_hand_worked);
+    RUN_TEST(test_stretch_random_vs_naive);
+    RUN_TEST(test_hand_worked_model_minmax);
+    RUN_TEST(test_golden_vectors_minmax);
     RUN_TEST(test_crc32_check_value);
     RUN_TEST(test_sigmoid_table_ends);
     RUN_TEST(test_requantize_rounding_and_saturation);

@@ -18,7 +18,7 @@ void tearDown(void) {}
 static uint8_t g_img[MAXW * MAXH];
 static uint8_t g_mask[MAXW * MAXH];
 static uint8_t g_ref[MAXW * MAXH];
-static uint64_t g_ws[(5u * MAXW * MAXH + 64u) / 8u];
+static uint64_t g_ws[(5u * MAXW * MAXH + 1024u + 64u) / 8u];   // + 1 KiB: small ROIs' histogram
 
 static void test_maxdist_hand_worked(void)
 {
@@ -326,7 +326,15 @@ static void test_workspace_contracts(void)
     rctx_t c = {{g_img, MAXW, MAXH, MAXW}, {3, 5, 13, 11}, {g_mask, 13, 11, 13}};
     size_t bytes = 0;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_workspace_size(13, 11, &bytes));
-    TEST_ASSERT_EQUAL_size_t(144u + 4u * 143u, bytes);
+    // Plane 144 (143 aligned) + max(fill stack 4*143, 144 + histogram 1024).
+    TEST_ASSERT_EQUAL_size_t(144u + 144u + 1024u, bytes);
+    tu_check_workspace_contract(bytes, run_refine, &c);
+    // From 342 pixels on the histogram fits beside the edge image: 5*w*h + alignment.
+    rctx_t big = {{g_img, MAXW, MAXH, MAXW}, {0, 0, 24, 15}, {g_mask, 24, 15, 24}};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_workspace_size(24, 15, &bytes));
+    TEST_ASSERT_EQUAL_size_t(360u + 4u * 360u, bytes);
+    tu_check_workspace_contract(bytes, run_refine, &big);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_workspace_size(13, 11, &bytes));
     tu_check_workspace_contract(bytes, run_refine, &c);
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_fill_holes_workspace_size(13, 11, &bytes));
     TEST_ASSERT_EQUAL_size_t(4u * 143u, bytes);

@@ -16,7 +16,14 @@ Samples:
              vehicle and they do not touch a DontCare box; thresholds: the paper's constant 150 AND a
              per-frame 99th-percentile threshold, because both sets are AGC-scaled 8-bit video (150
              finds almost nothing in dark MSRS frames and a third of a bright HIT-UAV frame);
-             (b) random background windows with sizes drawn from the vehicle boxes of the same set.
+             (b) random background windows with sizes drawn from the vehicle boxes of the same set;
+             (c) hard negatives of the issue-7 generators (vdtools.sources.frame_candidates, the C
+             windows.h / contrast.h code): sliding windows (mounting preset of the set) that pass the
+             detector's structure pre-filter, half from the most structured ones, and contrast
+             components, IoU < 0.2 with every vehicle; a capped, seeded number per frame in every split
+             (sources "window" / "contrast": the test split reports them as a separate FPPW figure).
+  window positives  per vehicle the generated window of highest IoU if >= 0.5 (source "window_pos"):
+             what the detector feeds the DBN when a window finds the vehicle.
 Splits are by frame group (MSRS number // 40, HIT-UAV T_H_A flight), about 70/15/15 of the frames
 of each set, fixed seed; the sequence flight is test only. Built sets are cached in tools/.cache/.
 
@@ -24,6 +31,7 @@ CLI: python3 -m vdtools.dataset --mode grey [--rebuild]   (prints counts per spl
 """
 import argparse
 import hashlib
+import itertools
 import json
 import re
 from dataclasses import dataclass, field
@@ -44,7 +52,14 @@ NEG_RANDOM_PER_FRAME = 3  # random background windows per frame
 HOT_THR = 150             # paper 001's constant threshold (8-bit)
 HOT_PERCENTILE = 99.0     # per-frame adaptive threshold for AGC-scaled frames
 NEG_IOU = 0.2
-BUILD_VERSION = 1         # bump when the recipe changes (invalidates the cache)
+NEG_WINDOW_PER_FRAME = {"train": 4, "val": 4, "test": 12}   # window hard negatives per frame
+NEG_CONTRAST_PER_FRAME = 2   # contrast-component hard negatives per frame
+WIN_MIN_LEVEL = 4            # detector's win_min_std default: std of 4x4-cell means >= 4 grey levels
+WIN_POS_IOU = 0.5            # a window matching a vehicle this well is a positive ("window_pos")
+# Sources of the original (issue 3) rows: Table 1's test figures use these only, so they stay comparable.
+CLASSIC_SOURCES = ("box", "box_flip", "box_jitter", "candidate", "random")
+MINED_SOURCES = ("window", "contrast", "window_pos")
+BUILD_VERSION = 2         # bump when the recipe changes (invalidates the cache); 2: mined window/contrast rows
 HIT_VEHICLE = (1, 3)
 HIT_IGNORE = (4,)
 MSRS_CAR = 2
@@ -335,13 +350,97 @@ def frame_samples(fr, split, mode, rng, vehicle_sizes):
             yield sample32(img, r, mode), 0, "random", r, bool((img[r[1]:r[1] + h, r[0]:r[0] + w] >= min(thrs)).any())
 
 
+def _iou_matrix(a, b):
+    """IoU [len(a), len(b)] of (x, y, w, h) int arrays."""
+    a = np.asarray(a, np.int64).reshape(-1, 4)
+    b = np.asarray(b, np.int64).reshape(-1, 4)
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros((len(a), len(b)))
+    iw = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0])
+    ih = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1])
+    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
+    union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
+    return inter / np.maximum(union, 1)
+
+
+def _window_levels(img, boxes):
+    """Structure level of each window as the detector's pre-filter measures it (approximately): the
+    standard deviation of the 4x4-cell means inside the window, in grey levels."""
+    fh, fw = img.shape
+    ch, cw = fh // 4, fw // 4
+    cells = img[:ch * 4, :cw * 4].reshape(ch, 4, cw, 4).astype(np.float64).mean(axis=(1, 3))
+    s1 = np.zeros((ch + 1, cw + 1))
+    s2 = np.zeros((ch + 1, cw + 1))
+    s1[1:, 1:] = cells.cumsum(0).cumsum(1)
+    s2[1:, 1:] = (cells ** 2).cumsum(0).cumsum(1)
+    b = np.asarray(boxes, np.int64)
+    x0, y0 = np.minimum(b[:, 0] // 4, cw - 1), np.minimum(b[:, 1] // 4, ch - 1)
+    x1 = np.clip((b[:, 0] + b[:, 2]) // 4, x0 + 1, cw)
+    y1 = np.clip((b[:, 1] + b[:, 3]) // 4, y0 + 1, ch)
+    n = (x1 - x0) * (y1 - y0)
+    box_sum = lambda S: S[y1, x1] - S[y0, x1] - S[y1, x0] + S[y0, x0]
+    m = box_sum(s1) / n
+    return np.sqrt(np.maximum(box_sum(s2) / n - m * m, 0.0))
+
+
+def mined_samples(img, fr, split, mode, rng):
+    """Yields (sample32, label, source, rect, hot) of the issue-7 generators for one frame: window
+    positives, window and contrast hard negatives (see the module doc)."""
+    from . import sources
+    fh, fw = img.shape
+    thr_lo = min(frame_thresholds(img))
+    hot = lambda r: bool((img[r[1]:r[1] + r[3], r[0]:r[0] + r[2]] >= thr_lo).any())
+    cand = list(sources.frame_candidates(img, ("window", "contrast"), dataset=fr.dataset, max_windows=1 << 20))
+    wins = np.array([b for b, src in cand if src == "window"], np.int64).reshape(-1, 4)
+    cons = np.array([b for b, src in cand if src == "contrast"], np.int64).reshape(-1, 4)
+    vehicles = np.array(fr.vehicles, np.int64).reshape(-1, 4)
+
+    def negatives(boxes):
+        if len(boxes) == 0:
+            return boxes
+        ok = (boxes[:, 2] >= MIN_SIDE) & (boxes[:, 3] >= MIN_SIDE)
+        if len(vehicles):
+            ok &= _iou_matrix(boxes, vehicles).max(1) < NEG_IOU
+        if fr.ignore:
+            ok &= np.array([not any(_touches(tuple(b), g) for g in fr.ignore) for b in boxes])
+        return boxes[ok]
+
+    # window positives: the best window per vehicle (IoU >= 0.5)
+    if len(wins) and len(vehicles):
+        m = _iou_matrix(vehicles, wins)
+        for k, v in enumerate(fr.vehicles):
+            j = int(np.argmax(m[k]))
+            if _ok(v) and m[k, j] >= WIN_POS_IOU:
+                r = tuple(int(t) for t in wins[j])
+                yield sample32(img, r, mode), 1, "window_pos", r, hot(tuple(v))
+    # window negatives: pre-filtered like the detector; half from its most structured windows
+    neg = negatives(wins)
+    if len(neg):
+        lv = _window_levels(img, neg)
+        neg, lv = neg[lv >= WIN_MIN_LEVEL], lv[lv >= WIN_MIN_LEVEL]
+    k = NEG_WINDOW_PER_FRAME[split]
+    if len(neg):
+        top = np.argsort(-lv, kind="stable")[:max(8 * k, 64)]
+        pick = list(rng.choice(top, min(k // 2, len(top)), replace=False))
+        rest = np.setdiff1d(np.arange(len(neg)), pick)
+        pick += list(rng.choice(rest, min(k - len(pick), len(rest)), replace=False))
+        for j in sorted(pick):
+            r = tuple(int(t) for t in neg[j])
+            yield sample32(img, r, mode), 0, "window", r, hot(r)
+    neg = negatives(cons)
+    if len(neg):
+        for j in sorted(rng.choice(len(neg), min(NEG_CONTRAST_PER_FRAME, len(neg)), replace=False)):
+            r = tuple(int(t) for t in neg[j])
+            yield sample32(img, r, mode), 0, "contrast", r, hot(r)
+
+
 def all_frames(data_dir):
     msrs = load_msrs(data_dir)
     hit, seq = load_hit(data_dir)
     return msrs + hit + seq
 
 
-def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None):
+def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=True):
     """Returns a dict of arrays: X (N,32,32) u8, y (N,) u8 (1 = vehicle), split (N,) str, source,
     dataset, frame, group, rect (N,4) int32, hot (N,) bool; plus meta (dict)."""
     data_dir = Path(data_dir or clib.DATA_DIR)
@@ -359,7 +458,10 @@ def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None):
         rng = np.random.default_rng([seed, i])
         split = split_of[fr.group]
         vs = sizes.get(fr.dataset if fr.dataset != "seq" else "hit") or [(32, 32)]
-        for s, lab, src, rect, hot in frame_samples(fr, split, mode, rng, vs):
+        # the mined rows come after the issue-3 rows with their own generator, so those stay identical
+        mined = mined_samples(read_frame(fr.path), fr, split, mode, np.random.default_rng([seed, i, 1])) \
+            if mine else ()
+        for s, lab, src, rect, hot in itertools.chain(frame_samples(fr, split, mode, rng, vs), mined):
             rows["X"].append(s)
             rows["y"].append(lab)
             rows["split"].append(split)
@@ -378,7 +480,7 @@ def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None):
     for k in ("split", "source", "dataset", "frame", "group"):
         out[k] = np.asarray(rows[k], dtype=str)
     out["meta"] = {"mode": mode, "seed": seed, "version": BUILD_VERSION, "sampler": sample_impl(mode)[0],
-                   "candidates": _candidate_impl()[0], "n_frames": len(frames),
+                   "candidates": _candidate_impl()[0], "n_frames": len(frames), "mined": bool(mine),
                    "groups": {s: sorted(g for g, v in split_of.items() if v == s) for s in SPLITS}}
     return out
 
@@ -425,7 +527,7 @@ def counts(ds):
         for d in ("msrs", "hit", "seq"):
             md = m & (ds["dataset"] == d)
             row[d] = [int((ds["y"][md] == 0).sum()), int((ds["y"][md] == 1).sum())]
-        for src in ("box", "box_flip", "box_jitter", "candidate", "random"):
+        for src in CLASSIC_SOURCES + MINED_SOURCES:
             row[src] = int((m & (ds["source"] == src)).sum())
         row["groups"] = int(len(set(ds["group"][m])))
         out[s] = row
@@ -437,12 +539,13 @@ def print_counts(ds):
     print(f"data set: mode={ds['meta']['mode']} sampler={ds['meta']['sampler']} candidates={ds['meta']['candidates']} "
           f"seed={ds['meta']['seed']} frames={ds['meta']['n_frames']}")
     print(f"{'split':6} {'groups':>6} {'neg':>6} {'pos':>6} | {'msrs n/p':>11} {'hit n/p':>11} {'seq n/p':>11} | "
-          f"{'box':>5} {'flip':>5} {'jit':>5} {'cand':>5} {'rand':>5}")
+          f"{'box':>5} {'flip':>5} {'jit':>5} {'cand':>5} {'rand':>5} | {'win':>5} {'con':>5} {'winp':>5}")
     for s in SPLITS:
         r = c[s]
         print(f"{s:6} {r['groups']:6} {r['neg']:6} {r['pos']:6} | "
               + " ".join(f"{r[d][0]:5}/{r[d][1]:<5}" for d in ("msrs", "hit", "seq"))
-              + f" | {r['box']:5} {r['box_flip']:5} {r['box_jitter']:5} {r['candidate']:5} {r['random']:5}")
+              + f" | {r['box']:5} {r['box_flip']:5} {r['box_jitter']:5} {r['candidate']:5} {r['random']:5}"
+              + f" | {r['window']:5} {r['contrast']:5} {r['window_pos']:5}")
     return c
 
 

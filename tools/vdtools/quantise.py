@@ -6,7 +6,9 @@ bit for bit.
 Float model (.npz, contract in /work/notes/contracts.md): mode ("grey"|"shape"),
 input_size (32), n_layers L, W0..W{L-1} float32 [out, in], b0..b{L-1} float32
 [out]; every layer sigmoid; the last layer has ONE unit = p(vehicle); input
-x = pixel / 255.
+x = pixel / 255. Optional: input_norm ("none" | "minmax", default none) and
+norm_min_range (1..255): the integer stretch `stretch_u8` is applied to the
+pixels first, in training, in float_forward, in quant_forward and in C.
 
 Integer network (TFLite / CMSIS-NN style, see docs/fixed-point.md "dbn"):
   a0       = input pixels, uint8, real value a0 / 255   (norm_divisor)
@@ -36,6 +38,27 @@ ACT_SCALE = 256                   # hidden/output activations are Q8 (a / 256)
 SHIFT_MIN, SHIFT_MAX = -31, 7     # accepted exponent range (see requantise)
 MAX_UNITS = 16384                 # lib/include/vd/dbn.h VD_DBN_MAX_UNITS
 MODE_IDS = {"grey": 1, "shape": 2}
+NORM_IDS = {"none": 0, "minmax": 1}   # vd_dbn_norm_t
+
+
+def stretch_u8(x_u8, min_range):
+    """Per-sample min-max contrast stretch, bit-exact with vd_dbn_stretch_u8:
+    rows of x [N, n] uint8 -> uint8, r = max(max - min, min_range),
+    out = ((x - min) * 510 + r) // (2 r)  (round half up of 255 (x - min) / r)."""
+    if not 1 <= int(min_range) <= 255:
+        raise ValueError("min_range must be 1..255")
+    x = np.asarray(x_u8, dtype=np.uint8)
+    x2 = x.reshape(len(x), -1).astype(np.int64)
+    lo = x2.min(axis=1, keepdims=True)
+    r = np.maximum(x2.max(axis=1, keepdims=True) - lo, int(min_range))
+    return (((x2 - lo) * 510 + r) // (2 * r)).astype(np.uint8).reshape(x.shape)
+
+
+def normalise_input(m, x_u8):
+    """The model's input normalisation (float or integer model dict) applied to uint8 rows."""
+    if m.get("input_norm", "none") == "minmax":
+        return stretch_u8(x_u8, m["norm_min_range"])
+    return np.asarray(x_u8, dtype=np.uint8)
 
 
 # ---------------------------------------------------------------- sigmoid table
@@ -148,12 +171,19 @@ def load_float(path_or_dict):
         raise ValueError(f"last layer must have one unit (p(vehicle)), has {prev}")
     if mode not in MODE_IDS:
         raise ValueError(f"mode must be grey or shape, not {mode!r}")
-    return {"mode": mode, "input_size": size, "layers": layers}
+    norm = str(np.asarray(d["input_norm"]).item()) if "input_norm" in d else "none"
+    if norm not in NORM_IDS:
+        raise ValueError(f"input_norm must be one of {sorted(NORM_IDS)}, not {norm!r}")
+    min_range = int(np.asarray(d["norm_min_range"]).item()) if norm != "none" else 0
+    if norm != "none" and not 1 <= min_range <= 255:
+        raise ValueError("norm_min_range must be 1..255")
+    return {"mode": mode, "input_size": size, "layers": layers, "input_norm": norm, "norm_min_range": min_range}
 
 
 def float_forward(fm, x_u8):
-    """p(vehicle) float64 [N] for uint8 inputs [N, in] (x = pixel / 255)."""
-    a = np.asarray(x_u8, dtype=np.float64).reshape(len(x_u8), -1) / 255.0
+    """p(vehicle) float64 [N] for uint8 inputs [N, in] (x = normalised pixel / 255)."""
+    x = normalise_input(fm, np.asarray(x_u8, dtype=np.uint8).reshape(len(x_u8), -1))
+    a = x.astype(np.float64) / 255.0
     for w, b in fm["layers"]:
         a = 1.0 / (1.0 + np.exp(-(a @ w.T + b)))
     return a[:, 0]
@@ -183,13 +213,14 @@ def quantise(fm, norm_divisor=255, name=""):
         layers.append({"w": wq, "bias": bq.astype(np.int32), "mult": mult, "shift": shift})
         s_in = 1.0 / ACT_SCALE
     return {"mode": fm["mode"], "input_w": fm["input_size"], "input_h": fm["input_size"],
-            "norm_divisor": int(norm_divisor), "norm_offset": 0, "name": name, "layers": layers}
+            "norm_divisor": int(norm_divisor), "norm_offset": 0, "name": name, "layers": layers,
+            "input_norm": fm.get("input_norm", "none"), "norm_min_range": int(fm.get("norm_min_range", 0))}
 
 
 def quant_forward(qm, x_u8, return_all=False):
     """The integer reference: Q8 scores uint8 [N] for uint8 inputs [N, in];
-    equal, bit for bit, to vd_dbn_classify."""
-    a = np.asarray(x_u8, dtype=np.uint8).reshape(len(x_u8), -1).astype(np.int64)
+    equal, bit for bit, to vd_dbn_classify (input normalisation included)."""
+    a = normalise_input(qm, np.asarray(x_u8, dtype=np.uint8).reshape(len(x_u8), -1)).astype(np.int64)
     acts = []
     for L in qm["layers"]:
         # float64 BLAS is exact here: every product and partial sum is an
@@ -204,12 +235,15 @@ def quant_forward(qm, x_u8, return_all=False):
     return acts if return_all else acts[-1][:, 0]
 
 
-def random_float_model(sizes, seed=0, mode="grey", scale=1.0):
+def random_float_model(sizes, seed=0, mode="grey", scale=1.0, input_norm="none", norm_min_range=16):
     """A random float model with the contract's keys (for tests before training
     exists): sizes like [1024, 576, 256, 64, 1]."""
     rng = np.random.default_rng(seed)
     d = {"mode": np.array(mode), "input_size": np.array(int(round(math.sqrt(sizes[0])))),
          "n_layers": np.array(len(sizes) - 1)}
+    if input_norm != "none":
+        d["input_norm"] = np.array(input_norm)
+        d["norm_min_range"] = np.array(int(norm_min_range))
     for i, (n_in, n_out) in enumerate(zip(sizes[:-1], sizes[1:])):
         d[f"W{i}"] = (rng.standard_normal((n_out, n_in)) * scale * 2.0 / math.sqrt(n_in)).astype(np.float32)
         d[f"b{i}"] = (rng.standard_normal(n_out) * 0.5 * scale).astype(np.float32)

@@ -107,19 +107,21 @@ class DBN:
     """Feed-forward view of a DBN: sigmoid hidden layers + 2-unit softmax label layer (unit 1 = vehicle).
     Ws[i] is [in, out]."""
 
-    def __init__(self, Ws, bs, mode="grey"):
+    def __init__(self, Ws, bs, mode="grey", input_norm="none", norm_min_range=0):
         self.Ws = [np.asarray(w, np.float32) for w in Ws]
         self.bs = [np.asarray(b, np.float32) for b in bs]
         self.mode = mode
+        self.input_norm = input_norm          # recorded in the .npz; the caller feeds normalised X
+        self.norm_min_range = int(norm_min_range)
 
     @classmethod
-    def from_rbms(cls, rbms, n_in, rng, mode="grey"):
+    def from_rbms(cls, rbms, n_in, rng, mode="grey", input_norm="none", norm_min_range=0):
         Ws = [r.W.copy() for r in rbms]
         bs = [r.hb.copy() for r in rbms]
         top = rbms[-1].W.shape[1] if rbms else n_in
         Ws.append((rng.standard_normal((top, 2)) * 0.01).astype(np.float32))
         bs.append(np.zeros(2, np.float32))
-        return cls(Ws, bs, mode)
+        return cls(Ws, bs, mode, input_norm, norm_min_range)
 
     @property
     def sizes(self):
@@ -214,6 +216,9 @@ class DBN:
         path.parent.mkdir(parents=True, exist_ok=True)
         arrays = {"mode": np.array(self.mode), "input_size": np.array(32, np.int32),
                   "n_layers": np.array(len(Ws), np.int32)}
+        if self.input_norm != "none":
+            arrays["input_norm"] = np.array(self.input_norm)
+            arrays["norm_min_range"] = np.array(self.norm_min_range, np.int32)
         for i, (W, b) in enumerate(zip(Ws, bs)):
             arrays[f"W{i}"] = W.astype(np.float32)
             arrays[f"b{i}"] = b.astype(np.float32)

@@ -12,6 +12,11 @@ flight; the sequence-0_100 flight is test only), i.e. the frames the verifier ne
         --model models/vd_dbn_grey.vdm --out docs/results/detector.json [--sets msrs_night,seq] [--configs ...]
         runs the demo with --eval for every set x source configuration (CONFIGS) and collects the
         Table 2 figures, frames/s and the median stage times into one JSON file.
+    python3 -m vdtools.splits --lists /tmp/vd-splits --figures docs/results/figures --demo ... --model ...
+        the annotated frames of docs/results/detector.md (ground truth drawn in cyan, 320 px wide).
+    python3 -m vdtools.splits --lists /tmp/vd-splits --ceiling --out docs/results/detector.json
+        candidate recall (the TP-rate ceiling) of the same configurations, through the C detector
+        without a model (VD_LIB).
 """
 import argparse
 import json
@@ -101,6 +106,73 @@ def parse_summary(text):
     return r
 
 
+def detector_kwargs(name, config):
+    """vdtools.detector keywords equal to the demo flags of CONFIGS[config] on set `name`."""
+    flags = CONFIGS[config]
+    kw = dict(max_width=640, max_height=512, sources=flags[flags.index("--sources") + 1],
+              thr_mode=flags[flags.index("--thr-mode") + 1])
+    if "--max-candidates" in flags:
+        kw["max_candidates"] = int(flags[flags.index("--max-candidates") + 1])
+    if "window" in kw["sources"] or kw["sources"] == "all":
+        kw["windows"] = dict(preset_name=PRESET[family(name)])
+    return kw
+
+
+def candidate_recall(data_dir, name, config):
+    """Ceiling of the TP rate: the fraction of test-split vehicles with IoU >= 0.5 with at least one
+    candidate of the merged list the detector verifies (its budget, pre-filter and merge included:
+    the C detector without a model, no suppression)."""
+    import cv2
+    from vdtools.detector import Detector
+    from vdtools.recall import iou_matrix
+    kw = detector_kwargs(name, config)
+    kw["max_candidates"] = kw.get("max_candidates", 64)
+    det = Detector(max_detections=kw["max_candidates"], nms_iou_q15=32768, **kw)
+    frames = {str(Path(f.path).resolve()): f for f in D.all_frames(data_dir)}
+    hit = total = 0
+    for path in test_frames(data_dir)[name]:
+        fr = frames[str(Path(path).resolve())]
+        img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        dets, _ = det.run(img)
+        total += len(fr.vehicles)
+        if fr.vehicles and dets:
+            hit += int((iou_matrix(fr.vehicles, [d["box"] for d in dets]) >= 0.5).any(axis=1).sum())
+    return hit / max(total, 1), total
+
+
+# Figures of docs/results/detector.md: (file name, set, configuration); test-split frames.
+FIGURES = (("01171N.png", "msrs_night", "hotspot"), ("01171N.png", "msrs_night", "hotspot+window"),
+           ("1_70_30_0_04313.jpg", "hit", "hotspot"), ("1_70_30_0_04313.jpg", "hit", "hotspot+contrast"),
+           ("1_70_30_0_04313.jpg", "hit", "all"))
+
+
+def figures(data_dir, demo, model, out_dir, width=320):
+    """Runs the demo (--out) on each FIGURES frame, draws the ground truth (cyan, 1 px) over its
+    annotated PNG and writes it downscaled to `width` px as <out_dir>/<set>_<stem>_<config>.png."""
+    import tempfile
+    import cv2
+    frames = {Path(f.path).name: f for f in D.all_frames(data_dir)}
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for fname, name, config in FIGURES:
+        fr = frames[fname]
+        with tempfile.TemporaryDirectory() as tmp:
+            lst = Path(tmp) / "one.txt"
+            lst.write_text(f"{Path(fr.path).resolve()}\n")
+            cmd = demo_command(demo, lst, data_dir, name, config, model, ["--out", tmp])
+            subprocess.run(cmd, check=True, capture_output=True, text=True)
+            img = cv2.imread(str(Path(tmp) / (Path(fname).stem + ".png")), cv2.IMREAD_COLOR)
+        for x, y, w, h in fr.vehicles:
+            cv2.rectangle(img, (x, y), (x + w - 1, y + h - 1), (255, 255, 0), 1)
+        scale = width / img.shape[1]
+        img = cv2.resize(img, (width, int(round(img.shape[0] * scale))), interpolation=cv2.INTER_AREA)
+        p = out_dir / f"{name}_{Path(fname).stem}_{config.replace('+', '-')}.png"
+        cv2.imwrite(str(p), img, [cv2.IMWRITE_PNG_COMPRESSION, 9])
+        written.append((p, " ".join(shlex.quote(str(c)) for c in cmd)))
+    return written
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
@@ -112,10 +184,26 @@ def main(argv=None):
     ap.add_argument("--configs", default=",".join(CONFIGS))
     ap.add_argument("--out", help="JSON results file (merged with an existing one)")
     ap.add_argument("--tag", default="", help="suffix of the result keys (e.g. the model name)")
+    ap.add_argument("--figures", help="write the FIGURES renderings into this directory")
+    ap.add_argument("--extra", default="", help="more demo flags for every run, e.g. '--score-thr 0.9'")
+    ap.add_argument("--ceiling", action="store_true", help="candidate recall of each set x configuration "
+                    "(no model; needs VD_LIB) into --out under key '<set>/<config>@ceiling'")
     a = ap.parse_args(argv)
     paths = write_lists(a.data, a.lists)
     for name, (p, n) in paths.items():
         print(f"{name:11s} {n:4d} frames  {p}  (annotations {Path(a.data) / ANNOTATIONS[family(name)]})")
+    if a.figures:
+        for p, cmd in figures(a.data, a.demo, a.model, a.figures):
+            print(f"{p}  ({p.stat().st_size} bytes)  <- {cmd} (+ ground truth, downscaled)")
+    if a.ceiling:
+        results = json.loads(Path(a.out).read_text()) if a.out and Path(a.out).exists() else {}
+        for name in a.sets.split(","):
+            for config in a.configs.split(","):
+                r, n = candidate_recall(a.data, name, config)
+                results[f"{name}/{config}@ceiling"] = {"candidate_recall": round(100 * r, 2), "vehicles": n}
+                print(f"{name}/{config}: candidate recall {100 * r:.1f}% of {n}", flush=True)
+                if a.out:
+                    Path(a.out).write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
     if not a.run:
         return 0
     results = {}
@@ -123,7 +211,7 @@ def main(argv=None):
         results = json.loads(Path(a.out).read_text())
     for name in a.sets.split(","):
         for config in a.configs.split(","):
-            cmd = demo_command(a.demo, paths[name][0], a.data, name, config, a.model)
+            cmd = demo_command(a.demo, paths[name][0], a.data, name, config, a.model, shlex.split(a.extra))
             t = time.time()
             p = subprocess.run(cmd, capture_output=True, text=True)
             if p.returncode != 0:

@@ -61,16 +61,79 @@ def metrics(score, y, thr, ds_test=None):
     return out, (f, m)
 
 
+def _baselines_job(X_u8, y, split, seed):
+    """One baseline run in a worker process (its own CPU while the DBNs train)."""
+    t = time.time()
+    res = baselines.run_all(X_u8, y, split, seed, log=None)
+    return res, time.time() - t
+
+
+def mined_metrics(score, thr, ds_te):
+    """Figures on the issue-7 generator rows of the test split (sources window / contrast / window_pos)."""
+    d = np.asarray(score) >= thr
+    src = ds_te["source"]
+    out = {}
+    for key, s in (("window_fppw", "window"), ("contrast_fppw", "contrast"), ("window_tp", "window_pos")):
+        k = src == s
+        out[key] = float(d[k].mean()) if k.any() else None
+        out[key.split("_")[0] + "_n"] = int(k.sum())
+    k = np.isin(src, dataset.CLASSIC_SOURCES + ("window",))
+    f, m = det.det_curve(np.asarray(score)[k & ((src == "window") | (ds_te["y"] == 1))],
+                         ds_te["y"][k & ((src == "window") | (ds_te["y"] == 1))])
+    out["miss_at_window_fppw"] = {"1e-2": det.miss_at(f, m, 1e-2), "1e-1": det.miss_at(f, m, 1e-1)}
+    return out
+
+
+def _row(score, y_te, thr, ds_te, classic):
+    """Table 1 metrics on the classic test rows + the mined-row figures."""
+    row, curve = metrics(np.asarray(score)[classic], y_te[classic], thr, dataset.subset(ds_te, classic))
+    row["mined"] = mined_metrics(score, thr, ds_te)
+    return row, curve
+
+
+def before_rows(ds, y, te, classic, ds_te, log=print):
+    """The issue-3 models (tools/.cache/models_v1: float .npz, int8 .vdm; raw input) on this test split."""
+    from . import quantise, vdm
+    out = {}
+    v1 = dataset.CACHE / "models_v1"
+    xt = ds["X"][te].reshape(int(te.sum()), -1)
+    for name in ("vd_dbn_grey", "vd_dbn_compact"):
+        if not (v1 / f"{name}.npz").exists():
+            continue
+        fm = quantise.load_float(str(v1 / f"{name}.npz"))
+        r, _ = _row(quantise.float_forward(fm, xt), y[te], 0.5, ds_te, classic)
+        r["layers"] = [fm["layers"][0][0].shape[1]] + [w.shape[0] for w, _ in fm["layers"]]
+        if (v1 / f"{name}.vdm").exists():
+            qm = vdm.unpack((v1 / f"{name}.vdm").read_bytes())
+            r["quantised"], _ = _row(quantise.quant_forward(qm, xt), y[te], 128, ds_te, classic)
+        out[name] = r
+        log(f"  before: {name} acc {100 * r['accuracy']:.1f}% window FPPW {100 * r['mined']['window_fppw']:.1f}%")
+    return out
+
+
 def run_mode(mode, seed, do_export, quick, log=print):
+    from concurrent.futures import ProcessPoolExecutor
+    from . import quantise
     t_all = time.time()
     ds = dataset.load_or_build(mode, seed)
     counts = dataset.print_counts(ds)
     X, y, masks = dbn_train.arrays(ds)
     te = masks["test"]
     ds_te = dataset.subset(ds, te)
+    classic = np.isin(ds_te["source"], dataset.CLASSIC_SOURCES)   # Table 1's test rows (as in issue 3)
+    y_te = y[te]
     pre_epochs = 4 if quick else dbn_train.PRE_EPOCHS
     ft_epochs = 4 if quick else dbn_train.FT_EPOCHS
     rows, curves, timings, nets = {}, {}, {}, {}
+
+    # The baselines train in two worker processes (raw input, and the same normalised input the DBN
+    # gets) while the DBNs train here.
+    norm = dbn_train.norm_spec()
+    x_norm = quantise.normalise_input(norm, ds["X"].reshape(len(ds["X"]), -1)).reshape(ds["X"].shape)
+    pool = ProcessPoolExecutor(max_workers=2)
+    jobs = {"raw": pool.submit(_baselines_job, ds["X"], y, ds["split"], seed)}
+    if norm["input_norm"] != "none":
+        jobs["norm"] = pool.submit(_baselines_job, x_norm, y, ds["split"], seed)
 
     t = time.time()
     log(f"[{mode}] pre-training the 4-layer stack {dbn_train.DEPTHS[4]} (shared by depths 1-4) ...")
@@ -84,7 +147,7 @@ def run_mode(mode, seed, do_export, quick, log=print):
         timings[f"finetune_d{depth}_s"] = time.time() - t
         va = float(np.mean((net.predict_proba(X[masks["val"]]) >= 0.5) == (y[masks["val"]] == 1)))
         nets[depth] = (net, va, hist)
-        rows[labels[depth]], curves[labels[depth]] = metrics(net.predict_proba(X[te]), y[te], 0.5, ds_te)
+        rows[labels[depth]], curves[labels[depth]] = _row(net.predict_proba(X[te]), y_te, 0.5, ds_te, classic)
         rows[labels[depth]].update({"val_accuracy": va, "layers": [1024] + dbn_train.DEPTHS[depth] + [1],
                                     "epochs_finetune": len(hist)})
     t = time.time()
@@ -94,16 +157,21 @@ def run_mode(mode, seed, do_export, quick, log=print):
     timings["compact_s"] = time.time() - t
     clabel = "DBN compact (48-16)"
     cva = float(np.mean((cnet.predict_proba(X[masks["val"]]) >= 0.5) == (y[masks["val"]] == 1)))
-    rows[clabel], curves[clabel] = metrics(cnet.predict_proba(X[te]), y[te], 0.5, ds_te)
+    rows[clabel], curves[clabel] = _row(cnet.predict_proba(X[te]), y_te, 0.5, ds_te, classic)
     rows[clabel].update({"val_accuracy": cva, "layers": [1024] + dbn_train.COMPACT + [1], "epochs_finetune": len(chist)})
 
     t = time.time()
-    log(f"[{mode}] baselines ...")
-    base = baselines.run_all(ds["X"], y, ds["split"], seed, log=log)
-    timings["baselines_s"] = time.time() - t
-    for name, r in base.items():
-        rows[name], curves[name] = metrics(r["score"], y[te], r["threshold"], ds_te)
-        rows[name]["params"] = r["params"]
+    log(f"[{mode}] waiting for the baselines ...")
+    for kind, job in jobs.items():
+        base, secs = job.result()
+        timings[f"baselines_{kind}_s"] = secs
+        for name, r in base.items():
+            label = name + (" (normalised input)" if kind == "norm" else "")
+            rows[label], curves[label] = _row(r["score"], y_te, r["threshold"], ds_te, classic)
+            rows[label]["params"] = r["params"]
+    pool.shutdown()
+    timings["baselines_wait_s"] = time.time() - t
+    timings["baselines_s"] = max(timings.get("baselines_raw_s", 0.0), timings.get("baselines_norm_s", 0.0))
 
     best_depth = max(nets, key=lambda d: (nets[d][1], -d))   # chosen on VAL accuracy, never on test
     models = {}
@@ -116,24 +184,26 @@ def run_mode(mode, seed, do_export, quick, log=print):
         models[name] = {"label": label, "float_npz": str(path.relative_to(clib.REPO)), "float": rows[label]}
         if do_export and not quick:
             try:
-                models[name].update(export_model(path, name, ds, X, y, te))
+                models[name].update(export_model(path, name, ds, X, y, te, classic, ds_te))
             except Exception as e:  # keep the table; the float model can be exported again by hand
                 log(f"  export of {name} failed: {e!r}")
                 models[name]["export_error"] = repr(e)
+    before = before_rows(ds, y, te, classic, ds_te, log) if mode == "grey" else {}
 
     out_dir = dataset.CACHE / "quick" if quick else RESULTS
     png = out_dir / ("det_verifier.png" if mode == "grey" else f"det_verifier_{mode}.png")
     out_dir.mkdir(parents=True, exist_ok=True)
-    det.plot(curves, png, title=f"DET, {mode} samples, test split ({int(y[te].sum())} vehicles, "
-                                f"{int((y[te] == 0).sum())} non-vehicle windows)")
+    det.plot(curves, png, title=f"DET, {mode} samples, test split ({int(y_te[classic].sum())} vehicles, "
+                                f"{int((y_te[classic] == 0).sum())} non-vehicle windows)")
     timings["total_s"] = time.time() - t_all
     return {"mode": mode, "seed": seed, "quick": quick, "dataset": {
         "cache": str(dataset.cache_path(mode, seed).relative_to(clib.REPO)), "fingerprint": dataset.fingerprint(ds),
         "meta": ds["meta"], "counts": counts}, "recipe": dbn_train.recipe(), "best_depth": best_depth,
-        "rows": rows, "models": models, "det_png": str(png.relative_to(clib.REPO)), "timings": timings}
+        "rows": rows, "models": models, "before": before, "det_png": str(png.relative_to(clib.REPO)),
+        "timings": timings}
 
 
-def export_model(npz, name, ds, X, y, te):
+def export_model(npz, name, ds, X, y, te, classic, ds_te):
     """Quantise + export through helper dbn-c's tools; quantised metrics on the test split; the C
     library's scores compared with the Python integer reference on every test sample."""
     from . import export, quantise
@@ -141,8 +211,8 @@ def export_model(npz, name, ds, X, y, te):
     qm, blob = export.export(fm, name, MODELS_DIR, source=npz.name)
     xt = ds["X"][te].reshape(int(te.sum()), -1)
     sq = quantise.quant_forward(qm, xt)
-    qrow, _ = metrics(sq, y[te], 128, dataset.subset(ds, te))
-    rep = quantise.accuracy_report(fm, qm, xt, y[te])
+    qrow, _ = _row(sq, y[te], 128, ds_te, classic)
+    rep = quantise.accuracy_report(fm, qm, xt[classic], y[te][classic])
     out = {"vdm": f"models/{name}.vdm", "vdm_bytes": len(blob),
            "weight_bytes_int8": int(sum(L["w"].size for L in qm["layers"])),
            "quantised": qrow, "agreement_float_vs_quant": rep["agreement"],
@@ -296,6 +366,7 @@ def main(argv=None):
     res = {"runs": {}}
     for mode in a.mode.split(","):
         r = run_mode(mode, a.seed, a.export, a.quick)
+        (dataset.CACHE / f"table1_{mode}_last.json").write_text(json.dumps(r, indent=1, default=float))
         r["command"] = cmd
         r["versions"] = {"python": platform.python_version(), "numpy": np.__version__}
         res["runs"][mode] = r

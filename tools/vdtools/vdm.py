@@ -14,10 +14,11 @@ import zlib
 import numpy as np
 
 from vdtools import clib
-from vdtools.quantise import MODE_IDS
+from vdtools.quantise import MODE_IDS, NORM_IDS
 
 MAGIC = b"VDMF"
-VERSION = 1
+VERSION = 2          # written; VERSIONS are read (a version-1 blob has no normalisation)
+VERSIONS = (1, 2)
 HEADER_SIZE = 64
 LAYER_ENTRY_SIZE = 32
 ACT_SIGMOID_Q8 = 1
@@ -26,8 +27,9 @@ NAME_LEN = 16
 CRC_FROM = 16   # the CRC covers bytes [16, total_size): everything after the CRC field
 
 # magic, version, header_size, total_size, crc, in_w, in_h, mode, activation,
-# n_layers, norm_divisor, norm_offset, layer_table, flags, reserved0, name, reserved1
-HEADER_FMT = "<4sHHIIHHBBHHhIII16s8s"
+# n_layers, norm_divisor, norm_offset, layer_table, flags, input_norm, norm_min_range, reserved0, name,
+# reserved1
+HEADER_FMT = "<4sHHIIHHBBHHhIIBBH16s8s"
 LAYER_FMT = "<IIIIIIII"   # in, out, weights, bias, mult, shift, flags, reserved
 assert struct.calcsize(HEADER_FMT) == HEADER_SIZE and struct.calcsize(LAYER_FMT) == LAYER_ENTRY_SIZE
 
@@ -66,7 +68,8 @@ def pack(qm):
         buf[off:off + len(a)] = a
     hdr = struct.pack(HEADER_FMT, MAGIC, VERSION, HEADER_SIZE, total, 0, qm["input_w"], qm["input_h"],
                       MODE_IDS[qm["mode"]], ACT_SIGMOID_Q8, len(layers), qm.get("norm_divisor", 255),
-                      qm.get("norm_offset", 0), table, 0, 0, name.ljust(NAME_LEN, b"\0"), bytes(8))
+                      qm.get("norm_offset", 0), table, 0, NORM_IDS[qm.get("input_norm", "none")],
+                      int(qm.get("norm_min_range", 0)), 0, name.ljust(NAME_LEN, b"\0"), bytes(8))
     buf[:HEADER_SIZE] = hdr
     struct.pack_into("<I", buf, 12, zlib.crc32(bytes(buf[CRC_FROM:])) & 0xFFFFFFFF)
     return bytes(buf)
@@ -84,9 +87,10 @@ def unpack(blob):
     """Integer model dict from a blob (structure trusted only after the C loader
     or this function's few checks: magic, version, CRC)."""
     h = struct.unpack_from(HEADER_FMT, blob, 0)
-    (magic, version, hsize, total, crc, in_w, in_h, mode, act, n, ndiv, noff, table, _f, _r0, name, _r1) = h
-    if magic != MAGIC or version != VERSION or hsize != HEADER_SIZE:
-        raise ValueError("not a version-1 .vdm blob")
+    (magic, version, hsize, total, crc, in_w, in_h, mode, act, n, ndiv, noff, table, _f, norm, min_range, _r0,
+     name, _r1) = h
+    if magic != MAGIC or version not in VERSIONS or hsize != HEADER_SIZE:
+        raise ValueError(f"not a .vdm blob of version {VERSIONS}")
     if zlib.crc32(bytes(blob[CRC_FROM:total])) & 0xFFFFFFFF != crc:
         raise ValueError(".vdm CRC mismatch")
     modes = {v: k for k, v in MODE_IDS.items()}
@@ -99,8 +103,10 @@ def unpack(blob):
             "mult": np.frombuffer(blob, "<i4", n_out, om).astype(np.int32),
             "shift": np.frombuffer(blob, np.int8, n_out, osh),
         })
+    norms = {v: k for k, v in NORM_IDS.items()}
     return {"mode": modes[mode], "input_w": in_w, "input_h": in_h, "norm_divisor": ndiv,
-            "norm_offset": noff, "name": name.rstrip(b"\0").decode("ascii"), "layers": layers}
+            "norm_offset": noff, "name": name.rstrip(b"\0").decode("ascii"), "layers": layers,
+            "input_norm": norms[norm], "norm_min_range": min_range, "version": version}
 
 
 # ----------------------------------------------------------------- C binding
@@ -114,7 +120,7 @@ class Model(C.Structure):
     _fields_ = [("blob", C.c_void_p), ("size", C.c_uint32), ("crc32", C.c_uint32),
                 ("format_version", C.c_uint16), ("input_w", C.c_uint16), ("input_h", C.c_uint16),
                 ("norm_divisor", C.c_uint16), ("norm_offset", C.c_int16), ("input_mode", C.c_int),
-                ("n_layers", C.c_uint32), ("max_units", C.c_uint32), ("name", C.c_char * 17),
+                ("input_norm", C.c_int), ("norm_min_range", C.c_uint32), ("n_layers", C.c_uint32), ("max_units", C.c_uint32), ("name", C.c_char * 17),
                 ("layers", _Layer * MAX_LAYERS)]
 
 
@@ -134,10 +140,21 @@ def lib():
         lb.vd_dbn_requantize.restype = C.c_int32
         lb.vd_dbn_sigmoid_q8.argtypes = [C.c_int32]
         lb.vd_dbn_sigmoid_q8.restype = C.c_uint8
+        lb.vd_dbn_stretch_u8.argtypes = [C.POINTER(C.c_uint8), C.c_uint32, C.c_uint32, C.POINTER(C.c_uint8)]
+        lb.vd_dbn_stretch_u8.restype = C.c_int
         for f in (lb.vd_dbn_load, lb.vd_dbn_workspace_size, lb.vd_dbn_classify):
             f.restype = C.c_int
         _bound = True
     return lb
+
+
+def c_stretch(x_u8, min_range):
+    """vd_dbn_stretch_u8 on one sample (uint8 array) -> (status, uint8 array)."""
+    x = np.ascontiguousarray(x_u8, dtype=np.uint8).reshape(-1)
+    out = np.zeros_like(x)
+    st = lib().vd_dbn_stretch_u8(x.ctypes.data_as(C.POINTER(C.c_uint8)), len(x), int(min_range),
+                                 out.ctypes.data_as(C.POINTER(C.c_uint8)))
+    return st, out
 
 
 def aligned_copy(blob, offset=0):

@@ -16,8 +16,9 @@ extern "C" {
 // result is bit-exact with cv2.medianBlur(src, k)[roi.y:roi.y+roi.h, roi.x:roi.x+roi.w].
 // src: 8-bit view (any stride). roi: NULL = whole image, else inside src.
 // dst: caller-owned, exactly roi.w x roi.h, must not overlap src.
-// No workspace: the filter works on 64-column strips in fixed stack buffers
-// (< 1.5 KiB).
+// No workspace: the filter works on blocks of adjacent pixels with small
+// fixed stack buffers (stack budget: worst case < 512 bytes each on
+// Cortex-M7 -Os, docs/embedded.md).
 // Returns VD_OK; VD_ERR_ARG for NULL/invalid views, a ROI outside src or a
 // dst of another size; VD_ERR_OVERFLOW if a view's extent overflows size_t.
 vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_image_u8_t *dst);

@@ -76,8 +76,10 @@ vd_status_t vd_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes);
 vd_status_t vd_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, vd_image_u8_t *dst);
 
 // Workspace of vd_refine_region for ROIs up to max_w x max_h: the filtered
-// region (w*h bytes) plus the hole-filling stack (4*w*h bytes, reused for the
-// edge image), 5*w*h bytes in all plus alignment.
+// region (w*h bytes, rounded up to the alignment: P) and a region of
+// max(4*w*h, P + 1024) bytes: the hole-filling stack, later the edge image
+// (w*h) with the 256-bin uint32 histogram at offset P. 5*w*h bytes plus
+// alignment from w*h >= 342 on; smaller ROIs need up to 1 KiB more.
 // Returns VD_OK; VD_ERR_ARG for a NULL pointer or a dimension 0 or above
 // VD_MAX_DIM; VD_ERR_OVERFLOW if the size does not fit size_t.
 vd_status_t vd_refine_workspace_size(uint32_t max_w, uint32_t max_h, size_t *bytes);
