@@ -102,3 +102,19 @@ def test_baseline_features_shapes():
     coords, types, n_all = baselines.haar_coords(0, 50)
     assert n_all > 1000 and len(coords) == 50
     assert baselines.haar_features(X, coords, types).shape == (3, 50)
+
+
+def test_normalised_model_round_trip(tmp_path):
+    """A DBN trained on stretched input records the normalisation; the float and integer references
+    apply it to raw bytes, so a brightness offset does not change the score."""
+    from vdtools import dbn_train, quantise
+    rng = np.random.default_rng(6)
+    net = rbm.DBN.from_rbms([rbm.RBM(1024, 8, rng)], 1024, rng, "grey", **dbn_train.norm_spec("minmax"))
+    path = net.save_npz(tmp_path / "n.npz")
+    fm = quantise.load_float(str(path))
+    assert fm["input_norm"] == "minmax" and fm["norm_min_range"] == dbn_train.NORM_MIN_RANGE
+    x = rng.integers(0, 120, (5, 1024)).astype(np.uint8)
+    assert np.allclose(quantise.float_forward(fm, x), quantise.float_forward(fm, x + 100))
+    xs = quantise.stretch_u8(x, dbn_train.NORM_MIN_RANGE).astype(np.float32) / 255
+    assert np.allclose(quantise.float_forward(fm, x), net.predict_proba(xs), atol=1e-5)
+    assert quantise.load_float(str(rbm.DBN.from_rbms([], 1024, rng).save_npz(tmp_path / "r.npz")))["input_norm"] == "none"

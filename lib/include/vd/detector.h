@@ -93,7 +93,8 @@ typedef struct vd_detector_cfg {
     uint8_t score_thr_q8;        // DBN: kept when score_q8 >= this, 1..255; 0 = 128 (p >= 0.5)
     uint16_t nms_iou_q15;        // suppress a box whose IoU with a better one is > this, 1..32768; 0 = 16384 (0.5)
     uint16_t max_components;     // components labelled per frame, 1..65535; 0 = 256
-    uint16_t max_candidates;     // candidates refined/verified per frame (budget), 1..4096; 0 = 64
+    uint16_t max_candidates;     // candidates verified per frame, all sources together (the one per-frame
+                                 //   budget: hot spots first, then contrast, windows fill the rest), 1..4096; 0 = 64
     uint16_t max_detections;     // detections kept after NMS, 1..max_candidates; 0 = 32
     uint16_t max_region_w;       // refine region bound, 1..max_width; 0 = min(176, max_width);
     uint16_t max_region_h;       //   larger regions are box-averaged by k (flag DECIMATED); 0 = min(176, max_height)
@@ -147,7 +148,8 @@ typedef struct vd_detector_stats {
     uint32_t detections;         // written to the output (incl. recovered)
     uint32_t recovered;          // appended by temporal recovery
     uint32_t decimated;          // regions refined on a reduced plane
-    uint32_t overflow_components;  // 1 if more components than max_components existed
+    uint32_t overflow_components;  // bit 0: more hot-spot components than max_components existed; bit 1: same
+                                   //   for the contrast source's labelling
     uint32_t overflow_candidates;  // candidates dropped beyond max_candidates
     uint32_t overflow_contours;    // regions whose contour buffers overflowed
     uint32_t overflow_detections;  // detections dropped beyond max_detections or cap
