@@ -7,7 +7,7 @@
 #include <stddef.h>
 
 #define VD_MODEL_VD_DBN_COMPACT_BYTES 50684u
-#define VD_MODEL_VD_DBN_COMPACT_CRC32 0x44BA577Eu
+#define VD_MODEL_VD_DBN_COMPACT_CRC32 0xD11301E5u
 
 // Start of the blob (8-byte aligned, lives for the program's lifetime); *bytes
 // (may be NULL) receives its size. Pass both to vd_dbn_load().

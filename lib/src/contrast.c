@@ -12,13 +12,20 @@
 // hot-spot threshold cannot see.
 //
 // Bounds: time O(W*H) (independent of r) for the map, O(W*H) for threshold and
-// labelling; sums < (2*127+1)^2 * 255 < 2^25 fit uint32; mean by one integer
-// division per pixel. Stack O(1) (< 200 bytes). Workspace as
-// vd_contrast_workspace_size; capacity `cap` components.
+// labelling; sums < (2*127+1)^2 * 255 < 2^25 fit uint32. The rounded mean
+// is a reciprocal multiply (exact: internal/recip_internal.h), the
+// reciprocals made once per box height (which changes only in the first and
+// last r rows): the interior's and those of the border widths r+1 .. r+32;
+// wider borders (r > 32) and frames narrower than 2r+2 divide. The interior
+// works in chunks of 64 pixels (box sums, means, contrasts in straight
+// loops that vectorise). Stack < 700 bytes (chunk buffers 320, reciprocal
+// table 168). Workspace as vd_contrast_workspace_size; capacity `cap`
+// components.
 #include "vd/contrast.h"
 
 #include <string.h>
 
+#include "internal/recip_internal.h"
 #include "internal/vd_internal.h"
 
 #define DEF_RADIUS 16u
@@ -32,6 +39,91 @@ vd_status_t vd_contrast_map_workspace_size(uint32_t max_width, size_t *bytes)
     VD_VERIFY(max_width >= 1u && max_width <= VD_MAX_DIM, VD_ERR_ARG);
     *bytes = (size_t)max_width * sizeof(uint32_t);
     return VD_OK;
+}
+
+// Interior pixels per chunk (stack: CHUNK box sums + CHUNK means).
+#define CHUNK 64u
+// Border box widths nx = r+1 .. r+BORDER_TAB whose reciprocals are tabled per
+// box height (5 bytes each on the stack); wider borders divide.
+#define BORDER_TAB 32u
+#define VD_MAX_U8(a, b) ((a) > (b) ? (a) : (b))
+#define VD_MIN_U8(a, b) ((a) < (b) ? (a) : (b))
+
+// Contrast of pixel value v against mean m (both < 256) for the polarity.
+static inline uint8_t contrast_of(uint32_t v, uint32_t m, uint8_t polarity)
+{
+    if (polarity == VD_CONTRAST_BOTH) {
+        return (uint8_t)(v > m ? v - m : m - v);
+    }
+    if (polarity == VD_CONTRAST_WARM) {
+        return (uint8_t)(v > m ? v - m : 0u);
+    }
+    return (uint8_t)(m > v ? m - v : 0u);
+}
+
+// d[j] = contrast of s[j] against the rounded mean box[j] / n (box[j] holds
+// sum + n/2), for j < nc; (m, k) the reciprocal of n. Straight loops the
+// compiler vectorises: the means as bytes (< 256), then the byte differences.
+static void contrast_chunk(const uint32_t *restrict box, const uint8_t *restrict s, uint8_t *restrict d, uint32_t nc,
+                           uint32_t m, uint32_t k, uint8_t polarity)
+{
+    uint8_t mean[CHUNK];
+    for (uint32_t j = 0; j < nc; j++) {
+        mean[j] = (uint8_t)vd_recip256_div32(m, k, box[j]);
+    }
+    if (polarity == VD_CONTRAST_BOTH) {
+        for (uint32_t j = 0; j < nc; j++) {
+            d[j] = (uint8_t)(VD_MAX_U8(s[j], mean[j]) - VD_MIN_U8(s[j], mean[j]));
+        }
+    } else if (polarity == VD_CONTRAST_WARM) {
+        for (uint32_t j = 0; j < nc; j++) {
+            d[j] = (uint8_t)(s[j] > mean[j] ? s[j] - mean[j] : 0);
+        }
+    } else {
+        for (uint32_t j = 0; j < nc; j++) {
+            d[j] = (uint8_t)(mean[j] > s[j] ? mean[j] - s[j] : 0);
+        }
+    }
+}
+
+// Reciprocals of the box areas of one box height ny: interior (nx = 2r+1)
+// and the border widths r+1 .. r+BORDER_TAB.
+typedef struct area_recips {
+    vd_recip256_t in;
+    uint32_t bm[BORDER_TAB];
+    uint8_t bk[BORDER_TAB];
+    uint32_t nb;   // tabled border widths
+} area_recips_t;
+
+static void area_recips_init(area_recips_t *t, uint32_t r, uint32_t ny)
+{
+    // Areas <= 255^2 < 2^23: init never fails.
+    (void)vd_recip256_init((2u * r + 1u) * ny, &t->in);
+    t->nb = r < BORDER_TAB ? r : BORDER_TAB;
+    for (uint32_t i = 0; i < t->nb; i++) {
+        vd_recip256_t q;
+        (void)vd_recip256_init((r + 1u + i) * ny, &q);
+        t->bm[i] = q.m;
+        t->bk[i] = (uint8_t)q.k;
+    }
+}
+
+// Rounded mean of the box at column x (clipped to [0, w)) of height ny.
+static inline uint32_t border_mean(const area_recips_t *t, uint32_t sum, uint32_t x, uint32_t r, uint32_t w,
+                                   uint32_t ny)
+{
+    const uint32_t x0 = (x > r) ? x - r : 0u;
+    const uint32_t x1 = (x + r < w - 1u) ? x + r : w - 1u;
+    const uint32_t nx = x1 - x0 + 1u;
+    const uint32_t n = nx * ny;
+    const uint32_t num = sum + n / 2u;
+    if (nx == 2u * r + 1u) {
+        return vd_recip256_div32(t->in.m, t->in.k, num);
+    }
+    if (nx > r && nx - r - 1u < t->nb) {
+        return vd_recip256_div32(t->bm[nx - r - 1u], t->bk[nx - r - 1u], num);
+    }
+    return num / n;   // narrow frames (w <= 2r) or r > BORDER_TAB
 }
 
 vd_status_t vd_contrast_map_u8(const vd_view_u8_t *src, uint32_t radius, uint8_t polarity, void *ws, size_t bytes,
@@ -52,44 +144,86 @@ vd_status_t vd_contrast_map_u8(const vd_view_u8_t *src, uint32_t radius, uint8_t
     const uint8_t *d_hi = dst->data + (size_t)(dst->height - 1u) * dst->stride + dst->width;
     VD_VERIFY(d_hi <= s_lo || s_hi <= d_lo, VD_ERR_ARG);
 
-    uint32_t w = src->width;
-    uint32_t h = src->height;
-    uint32_t *col = (uint32_t *)ws;
-    memset(col, 0, (size_t)w * sizeof(uint32_t));
+    const uint32_t w = src->width;
+    const uint32_t h = src->height;
+    const uint32_t r = radius;
+    // Column sums of at most 2r+1 <= 255 rows: <= 255 * 255 < 2^16 (the
+    // workspace keeps its 4 bytes per column; half is used).
+    uint16_t *col = (uint16_t *)ws;
+    memset(col, 0, (size_t)w * sizeof(uint16_t));
     // Rows [0, min(r, h-1)] in the column sums for y = 0.
-    uint32_t r = radius;
-    uint32_t first_hi = (r < h - 1u) ? r : h - 1u;
+    const uint32_t first_hi = (r < h - 1u) ? r : h - 1u;
     for (uint32_t yy = 0; yy <= first_hi; yy++) {
         const uint8_t *row = src->data + (size_t)yy * src->stride;
         for (uint32_t x = 0; x < w; x++) {
-            col[x] += row[x];
+            col[x] = (uint16_t)(col[x] + row[x]);
         }
     }
+    // Interior columns [xa, xb): full 2r+1 box and both slides (x >= r and
+    // x + r + 1 < w); the others are the border.
+    const uint32_t xa = r < w ? r : w;
+    const uint32_t xb = w > 2u * r + 1u ? w - r - 1u : xa;
+    area_recips_t rt;
+    uint32_t rt_ny = first_hi + 1u;   // box height rt is made for (row 0's)
+    area_recips_init(&rt, r, rt_ny);
     for (uint32_t y = 0; y < h; y++) {
-        uint32_t y0 = (y > r) ? y - r : 0u;
-        uint32_t y1 = (y + r < h - 1u) ? y + r : h - 1u;
-        uint32_t ny = y1 - y0 + 1u;
+        const uint32_t y0 = (y > r) ? y - r : 0u;
+        const uint32_t y1 = (y + r < h - 1u) ? y + r : h - 1u;
+        const uint32_t ny = y1 - y0 + 1u;
+        if (ny != rt_ny) {   // changes only in the first and last r rows
+            area_recips_init(&rt, r, ny);
+            rt_ny = ny;
+        }
         const uint8_t *srow = src->data + (size_t)y * src->stride;
         uint8_t *drow = dst->data + (size_t)y * dst->stride;
         // Running sum over columns [x - r, x + r] clipped.
         uint32_t sum = 0u;
-        uint32_t xr = (r < w - 1u) ? r : w - 1u;
+        const uint32_t xr = (r < w - 1u) ? r : w - 1u;
         for (uint32_t x = 0; x <= xr; x++) {
             sum += col[x];
         }
-        for (uint32_t x = 0; x < w; x++) {
-            uint32_t x0 = (x > r) ? x - r : 0u;
-            uint32_t x1 = (x + r < w - 1u) ? x + r : w - 1u;
-            uint32_t n = (x1 - x0 + 1u) * ny;
-            uint32_t mean = (sum + n / 2u) / n;
-            int32_t d = (int32_t)srow[x] - (int32_t)mean;
-            if (polarity == VD_CONTRAST_COLD) {
-                d = -d;
-            } else if (polarity == VD_CONTRAST_BOTH && d < 0) {
-                d = -d;
+        uint32_t x = 0u;
+        for (; x < xa; x++) {
+            drow[x] = contrast_of(srow[x], border_mean(&rt, sum, x, r, w, ny), polarity);
+            if (x + r + 1u < w) {   // slide: column x + r + 1 enters (x < r: none leaves)
+                sum += col[x + r + 1u];
             }
-            drow[x] = (d > 0) ? (uint8_t)d : 0u;
-            // Slide: column x + r + 1 enters, column x - r leaves.
+        }
+        const uint32_t half = (2u * r + 1u) * ny / 2u;
+        while (x < xb) {
+            // Chunk: the column differences (vectorised), their running sum
+            // (the one sequential chain, one add per pixel), then the means
+            // and contrasts (vectorised).
+            const uint32_t nc = xb - x < CHUNK ? xb - x : CHUNK;
+            uint32_t box[CHUNK];
+            const uint16_t *in = col + x + r + 1u;
+            const uint16_t *out = col + (x - r);
+            for (uint32_t j = 0; j < nc; j++) {
+                box[j] = (uint32_t)in[j] - out[j];   // wraps when negative; the sum is exact mod 2^32
+            }
+            // Four at a time: the partial sums do not wait for `acc`, so
+            // the chain is one add per four pixels.
+            uint32_t acc = sum + half;
+            uint32_t j = 0;
+            for (; j + 4u <= nc; j += 4u) {
+                const uint32_t p1 = box[j], p2 = p1 + box[j + 1u], p3 = p2 + box[j + 2u], p4 = p3 + box[j + 3u];
+                box[j] = acc;
+                box[j + 1u] = acc + p1;
+                box[j + 2u] = acc + p2;
+                box[j + 3u] = acc + p3;
+                acc += p4;
+            }
+            for (; j < nc; j++) {
+                const uint32_t dj = box[j];
+                box[j] = acc;
+                acc += dj;
+            }
+            sum = acc - half;
+            contrast_chunk(box, srow + x, drow + x, nc, rt.in.m, rt.in.k, polarity);
+            x += nc;
+        }
+        for (; x < w; x++) {
+            drow[x] = contrast_of(srow[x], border_mean(&rt, sum, x, r, w, ny), polarity);
             if (x + r + 1u < w) {
                 sum += col[x + r + 1u];
             }
@@ -98,16 +232,21 @@ vd_status_t vd_contrast_map_u8(const vd_view_u8_t *src, uint32_t radius, uint8_t
             }
         }
         // Slide the column sums down: row y + r + 1 enters, row y - r leaves.
-        if (y + r + 1u < h) {
-            const uint8_t *add = src->data + (size_t)(y + r + 1u) * src->stride;
-            for (uint32_t x = 0; x < w; x++) {
-                col[x] += add[x];
+        const bool enter = y + r + 1u < h;
+        const bool leave = y >= r;
+        const uint8_t *add = enter ? src->data + (size_t)(y + r + 1u) * src->stride : src->data;
+        const uint8_t *sub = leave ? src->data + (size_t)(y - r) * src->stride : src->data;
+        if (enter && leave) {
+            for (uint32_t i = 0; i < w; i++) {
+                col[i] = (uint16_t)(col[i] + add[i] - sub[i]);
             }
-        }
-        if (y >= r) {
-            const uint8_t *sub = src->data + (size_t)(y - r) * src->stride;
-            for (uint32_t x = 0; x < w; x++) {
-                col[x] -= sub[x];
+        } else if (enter) {
+            for (uint32_t i = 0; i < w; i++) {
+                col[i] = (uint16_t)(col[i] + add[i]);
+            }
+        } else if (leave) {
+            for (uint32_t i = 0; i < w; i++) {
+                col[i] = (uint16_t)(col[i] - sub[i]);
             }
         }
     }

@@ -11,18 +11,22 @@
 //       input row triple sorted horizontally (6 min/max). Four output rows
 //       are done together from 6 input rows, the pairs of rows that two
 //       outputs share combined once: 19 min/max per pixel, in registers.
-//  5x5: sort each input column of 5 (9 compare-exchanges, 18 min/max) into a
-//       small strip buffer; each output x then merges the sorted column
-//       pairs (x-2, x-1) and (x, x+1) into sorted 10-lists (Batcher odd-even
-//       merge, 26 min/max each) and takes the 13th smallest of those two and
-//       column x+2: a Batcher merge of the second pair with the column,
-//       pruned to the ranks used, and the identity
-//       kth(A u B) = min over i+j=k of max(A_i, B_j) (64 min/max).
-//       18 + 52 + 64 = 134 min/max per pixel against 198 for a 99-exchange
-//       full median-of-25 network. The networks are generated and checked
+//  5x5: output rows in pairs: per input column the four rows both outputs
+//       share are sorted once (5 exchanges) and the top / bottom row is
+//       inserted for each (4+4 min/max: 13 per pixel against 18 for a
+//       9-exchange column sort). Per output row, the sorted column pairs
+//       (j+1, j+2) are merged into sorted 10-lists once per column and
+//       tabled (Batcher odd-even merge, 26 min/max), and output x takes the
+//       13th smallest of column x and the pairs (x+1, x+2), (x+3, x+4): a
+//       Batcher merge of the two pairs pruned to the ranks 8..13 used, then
+//       kth(A u B) = min over i+j=k of max(A_i, B_j) with the column (46).
+//       13 + 26 + 46 = 85 min/max per pixel against 134 when each output
+//       merged its own two pairs, and 198 for a 99-exchange full
+//       median-of-25 network. The networks are generated and checked
 //       exhaustively by the 0-1 principle in tools/vdtools/pixel.py
-//       (median_network); tests/python/test_median.py keeps this file equal
-//       to the generator's output.
+//       (median_network: the pair merge) and tools/vdtools/median5_net.py
+//       (the select); tests/python/test_median.py keeps this file equal to
+//       the generators' output.
 // Borders: row indices and column indices are clamped to the image
 // (BORDER_REPLICATE, what cv2.medianBlur uses); pixels outside the ROI but
 // inside the image are used. Blocks are always placed inside the image (the
@@ -31,11 +35,12 @@
 // replicates the sorted edge column (a replicated column sorts the same).
 // Images narrower than a block (+ border) take the scalar paths.
 // Reference: cv2.medianBlur (OpenCV imgproc median_blur), bit-exact.
-// Bounds: time O(roi.w * roi.h) (about 19 / 134 min-max per pixel); no
+// Bounds: time O(roi.w * roi.h) (about 19 / 85 min-max per pixel); no
 // workspace; stack (stack budget of vd_detector_run, docs/embedded.md): 3x3
-// a 2 x 64-byte buffer for ROIs narrower than a block, 5x5 a 5 x 24 column
-// buffer and a 16-byte output strip (S5 below); both under 512 bytes on
-// Cortex-M7 (worst case with callees 408 / 508 bytes at -Os).
+// a 2 x 64-byte buffer for ROIs narrower than a block; 5x5 two rows' sorted
+// columns, a pair table and an output strip (S5 below: ~1.5 KiB on SIMD
+// hosts, ~300 bytes on scalar targets); both under 512 bytes on Cortex-M7
+// (worst case with callees, -Os: docs/embedded.md).
 #include <string.h>
 
 #include "vd/median.h"
@@ -272,27 +277,59 @@ vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
 }
 
 // ---- 5x5 ------------------------------------------------------------------
-// Outputs per 5x5 strip and T5, the columns of the overlapping tail loop (a
-// strip reads S5 + 4 columns: its loops run over S5 columns and then over the
-// last T5, recomputing some, so every loop is whole vectors on SIMD targets).
-// Stack budget: a strip's buffers are 5 x (S5 + 8) sorted columns + S5
-// outputs, 1.4 KiB before (64-pixel strips, edge copies, a stored table of
-// merged pairs); now the pairs are merged where they are used and the edges
-// replicate sorted columns. Scalar targets (Cortex-M) take 16-pixel strips,
-// which keeps the worst case of vd_median5_u8 under 512 bytes and costs them
-// nothing; SIMD hosts take 32 (gcc -O2 is 20% slower with 16).
+// Outputs per 5x5 strip and T5, the columns of the overlapping tail loops (a
+// loop over S5 + k items runs over S5 and then over the last T5, recomputing
+// some, so every loop is whole vectors on SIMD targets). Stack: two rows'
+// sorted columns (2 x 5 x (S5 + 8)), the pair table (10 x (S5 + 2)) and S5
+// outputs: ~1.5 KiB on SIMD hosts (64-pixel strips: 25% faster than 32, the
+// tails and per-strip steps amortised; 128 gains nothing), ~300 bytes on
+// scalar targets (Cortex-M: stack budget), which take 8-pixel strips at no
+// cost to them.
 #if defined(__SSE2__) || defined(__ARM_NEON) || defined(__ARM_NEON__) || defined(__ALTIVEC__)
-#define S5 32
+#define S5 64
 #define T5 16
 #else
-#define S5 16
+#define S5 8
 #define T5 4
 #endif
+#define PT5 (S5 + 2)   // pair table entries per strip
 
-// Sorts columns j0 .. j0 + N - 1 of the five rows p0..p4 into
-// c0[j] <= ... <= c4[j] (optimal 9-exchange network). restrict: gcc -O2
-// does not vectorise when it would need a runtime alias check.
 #define CX(a, b) t = VD_MIN8(a, b); b = VD_MAX8(a, b); a = t
+
+// Sorts columns j0 .. j0 + N - 1 of two output rows' windows: rows p1..p4
+// are shared (sorted once, 5 exchanges), then p0 is inserted for the upper
+// row (ca) and p5 for the lower (cb) (4 + 4 min/max each: element k of the
+// union is max(s[k-1], min(s[k], v))). 26 min/max per column for two rows
+// against 36 for two 9-exchange sorts. restrict: gcc -O2 does not vectorise
+// when it would need a run-time alias check.
+#define SORT5_COLS2(name, N)                                                                                     \
+    static void name(const uint8_t *restrict p0, const uint8_t *restrict p1, const uint8_t *restrict p2,        \
+                     const uint8_t *restrict p3, const uint8_t *restrict p4, const uint8_t *restrict p5,        \
+                     uint8_t *restrict ca0, uint8_t *restrict ca1, uint8_t *restrict ca2, uint8_t *restrict ca3, \
+                     uint8_t *restrict ca4, uint8_t *restrict cb0, uint8_t *restrict cb1, uint8_t *restrict cb2, \
+                     uint8_t *restrict cb3, uint8_t *restrict cb4)                                              \
+    {                                                                                                           \
+        for (size_t j = 0; j < (N); j++) {                                                                      \
+            uint8_t s0 = p1[j], s1 = p2[j], s2 = p3[j], s3 = p4[j], t;                                          \
+            const uint8_t a = p0[j], b = p5[j];                                                                 \
+            CX(s0, s1); CX(s2, s3); CX(s0, s2); CX(s1, s3); CX(s1, s2);                                         \
+            ca0[j] = VD_MIN8(s0, a);                                                                            \
+            ca1[j] = VD_MAX8(s0, VD_MIN8(s1, a));                                                               \
+            ca2[j] = VD_MAX8(s1, VD_MIN8(s2, a));                                                               \
+            ca3[j] = VD_MAX8(s2, VD_MIN8(s3, a));                                                               \
+            ca4[j] = VD_MAX8(s3, a);                                                                            \
+            cb0[j] = VD_MIN8(s0, b);                                                                            \
+            cb1[j] = VD_MAX8(s0, VD_MIN8(s1, b));                                                               \
+            cb2[j] = VD_MAX8(s1, VD_MIN8(s2, b));                                                               \
+            cb3[j] = VD_MAX8(s2, VD_MIN8(s3, b));                                                               \
+            cb4[j] = VD_MAX8(s3, b);                                                                            \
+        }                                                                                                       \
+    }
+SORT5_COLS2(sort5x2_strip, S5)
+SORT5_COLS2(sort5x2_tail, T5)
+
+// One output row (the last of an odd count): sorts the five rows' columns
+// (optimal 9-exchange network).
 #define SORT5_COLS(name, N)                                                                                    \
     static void name(const uint8_t *restrict p0, const uint8_t *restrict p1, const uint8_t *restrict p2,      \
                      const uint8_t *restrict p3, const uint8_t *restrict p4, uint8_t *restrict c0,           \
@@ -309,12 +346,12 @@ SORT5_COLS(sort5_strip, S5)
 SORT5_COLS(sort5_tail, T5)
 #undef CX
 
-// pr[.][0] = sorted union of the sorted columns j and j + 1 of c (Batcher
-// merge). Column j + 1 is read first: in the other order clang 14 forwards
-// it as column j of the next iteration and then does not vectorise.
-static inline void merge_pair(const uint8_t *const c[5], size_t j, uint8_t pr[10][1])
+// pr[.][i] = sorted union of the sorted columns i + 1 and i + 2 of c (Batcher
+// merge). Column i + 2 is read first: in the other order clang 14 forwards it
+// as column i + 1 of the next iteration and then does not vectorise.
+static inline void merge_pair(const uint8_t *const c[5], size_t i, uint8_t pr[10][PT5])
 {
-    const size_t i = 0u;
+    const size_t j = i + 1u;
     const uint8_t b0 = c[0][j + 1u], b1 = c[1][j + 1u], b2 = c[2][j + 1u], b3 = c[3][j + 1u], b4 = c[4][j + 1u];
     const uint8_t a0 = c[0][j], a1 = c[1][j], a2 = c[2][j], a3 = c[3][j], a4 = c[4][j];
     // BEGIN GENERATED pair (tools/vdtools/pixel.py median_network; do not edit)
@@ -357,87 +394,77 @@ static inline void merge_pair(const uint8_t *const c[5], size_t j, uint8_t pr[10
     // END GENERATED pair
 }
 
-// S5 outputs: out[i] = 13th smallest of the sorted columns cw[.][sh + i .. sh + i + 4].
-static void med5_select(uint8_t *const cw[5], int32_t sh, uint8_t *restrict out)
+// The pair table of a strip, entries 0 .. PT5 - 1 (S5, then the last T5).
+static void pair_table(const uint8_t *const c[5], uint8_t pr[10][PT5])
 {
-    const uint8_t *const c[5] = {cw[0] + sh, cw[1] + sh, cw[2] + sh, cw[3] + sh, cw[4] + sh};
     for (size_t i = 0; i < S5; i++) {
-        // Highest columns first (see merge_pair).
-        const uint8_t c4 = c[4][i + 4u], c3 = c[3][i + 4u], c2 = c[2][i + 4u], c1 = c[1][i + 4u], c0 = c[0][i + 4u];
-        uint8_t qq[10][1], pp[10][1];
-        merge_pair(c, i + 2u, qq);
-        merge_pair(c, i, pp);
-        const uint8_t q0 = qq[0][0], q1 = qq[1][0], q2 = qq[2][0], q3 = qq[3][0], q4 = qq[4][0];
-        const uint8_t q5 = qq[5][0], q6 = qq[6][0], q7 = qq[7][0], q8 = qq[8][0], q9 = qq[9][0];
-        const uint8_t p0 = pp[0][0], p1 = pp[1][0], p2 = pp[2][0], p3 = pp[3][0], p4 = pp[4][0];
-        const uint8_t p5 = pp[5][0], p6 = pp[6][0], p7 = pp[7][0], p8 = pp[8][0], p9 = pp[9][0];
-        // BEGIN GENERATED select (tools/vdtools/pixel.py median_network; do not edit)
-        const uint8_t t0 = VD_MAX8(c0, q0);
-        const uint8_t t1 = VD_MIN8(t0, q8);
-        const uint8_t t2 = VD_MAX8(t0, q8);
-        const uint8_t t3 = VD_MIN8(c4, q4);
-        const uint8_t t4 = VD_MAX8(c4, q4);
-        const uint8_t t5 = VD_MIN8(t1, t3);
-        const uint8_t t6 = VD_MAX8(t1, t3);
-        const uint8_t t7 = VD_MIN8(t2, t4);
-        const uint8_t t8 = VD_MIN8(c2, q2);
-        const uint8_t t9 = VD_MAX8(c2, q2);
-        const uint8_t t10 = VD_MIN8(t9, q6);
-        const uint8_t t11 = VD_MAX8(t9, q6);
-        const uint8_t t12 = VD_MIN8(t8, t5);
-        const uint8_t t13 = VD_MAX8(t8, t5);
-        const uint8_t t14 = VD_MIN8(t10, t6);
-        const uint8_t t15 = VD_MAX8(t10, t6);
-        const uint8_t t16 = VD_MIN8(t11, t7);
-        const uint8_t t17 = VD_MAX8(t11, t7);
-        const uint8_t t18 = VD_MIN8(c1, q1);
-        const uint8_t t19 = VD_MAX8(c1, q1);
-        const uint8_t t20 = VD_MIN8(t19, q9);
-        const uint8_t t21 = VD_MAX8(t19, q9);
-        const uint8_t t22 = VD_MIN8(t20, q5);
-        const uint8_t t23 = VD_MAX8(t20, q5);
-        const uint8_t t24 = VD_MIN8(c3, q3);
-        const uint8_t t25 = VD_MAX8(c3, q3);
-        const uint8_t t26 = VD_MIN8(t25, q7);
-        const uint8_t t27 = VD_MAX8(t25, q7);
-        const uint8_t t28 = VD_MIN8(t22, t24);
-        const uint8_t t29 = VD_MAX8(t22, t24);
-        const uint8_t t30 = VD_MIN8(t23, t26);
-        const uint8_t t31 = VD_MAX8(t23, t26);
-        const uint8_t t32 = VD_MIN8(t21, t27);
-        const uint8_t t33 = VD_MAX8(t12, t18);
-        const uint8_t t34 = VD_MIN8(t13, t28);
-        const uint8_t t35 = VD_MAX8(t13, t28);
-        const uint8_t t36 = VD_MIN8(t14, t29);
-        const uint8_t t37 = VD_MAX8(t14, t29);
-        const uint8_t t38 = VD_MIN8(t15, t30);
-        const uint8_t t39 = VD_MAX8(t15, t30);
-        const uint8_t t40 = VD_MIN8(t16, t31);
-        const uint8_t t41 = VD_MAX8(t16, t31);
-        const uint8_t t42 = VD_MIN8(t17, t32);
-        const uint8_t t43 = VD_MAX8(t17, t32);
-        const uint8_t t44 = VD_MAX8(t42, p0);
+        merge_pair(c, i, pr);
+    }
+    for (size_t i = PT5 - T5; i < PT5; i++) {
+        merge_pair(c, i, pr);
+    }
+}
+
+// S5 outputs: out[i] = 13th smallest of the sorted columns c[.][i .. i + 4]:
+// column i with the pairs (i+1, i+2) = pr[.][i] and (i+3, i+4) = pr[.][i+2].
+static void med5_select(const uint8_t *const c[5], const uint8_t pr[10][PT5], uint8_t *restrict out)
+{
+    for (size_t i = 0; i < S5; i++) {
+        const uint8_t q0 = pr[0][i + 2u], q1 = pr[1][i + 2u], q2 = pr[2][i + 2u], q3 = pr[3][i + 2u];
+        const uint8_t q4 = pr[4][i + 2u], q5 = pr[5][i + 2u], q6 = pr[6][i + 2u], q7 = pr[7][i + 2u];
+        const uint8_t q8 = pr[8][i + 2u], q9 = pr[9][i + 2u];
+        const uint8_t p0 = pr[0][i], p1 = pr[1][i], p2 = pr[2][i], p3 = pr[3][i], p4 = pr[4][i];
+        const uint8_t p5 = pr[5][i], p6 = pr[6][i], p7 = pr[7][i], p8 = pr[8][i], p9 = pr[9][i];
+        const uint8_t c0 = c[0][i], c1 = c[1][i], c2 = c[2][i], c3 = c[3][i], c4 = c[4][i];
+        // BEGIN GENERATED select_shared (tools/vdtools/median5_net.py; do not edit)
+        const uint8_t t0 = VD_MAX8(p0, q0);
+        const uint8_t t1 = VD_MIN8(p8, q8);
+        const uint8_t t2 = VD_MIN8(t0, t1);
+        const uint8_t t3 = VD_MAX8(t0, t1);
+        const uint8_t t4 = VD_MIN8(p4, q4);
+        const uint8_t t5 = VD_MAX8(p4, q4);
+        const uint8_t t6 = VD_MAX8(t2, t4);
+        const uint8_t t7 = VD_MIN8(t3, t5);
+        const uint8_t t8 = VD_MAX8(p2, q2);
+        const uint8_t t9 = VD_MIN8(p6, q6);
+        const uint8_t t10 = VD_MIN8(t8, t9);
+        const uint8_t t11 = VD_MAX8(t8, t9);
+        const uint8_t t12 = VD_MAX8(t10, t6);
+        const uint8_t t13 = VD_MIN8(t7, t11);
+        const uint8_t t14 = VD_MAX8(t7, t11);
+        const uint8_t t15 = VD_MAX8(p1, q1);
+        const uint8_t t16 = VD_MIN8(p9, q9);
+        const uint8_t t17 = VD_MIN8(t15, t16);
+        const uint8_t t18 = VD_MAX8(t15, t16);
+        const uint8_t t19 = VD_MIN8(p5, q5);
+        const uint8_t t20 = VD_MAX8(p5, q5);
+        const uint8_t t21 = VD_MAX8(t17, t19);
+        const uint8_t t22 = VD_MIN8(t18, t20);
+        const uint8_t t23 = VD_MAX8(p3, q3);
+        const uint8_t t24 = VD_MIN8(p7, q7);
+        const uint8_t t25 = VD_MIN8(t23, t24);
+        const uint8_t t26 = VD_MAX8(t23, t24);
+        const uint8_t t27 = VD_MIN8(t21, t25);
+        const uint8_t t28 = VD_MAX8(t21, t25);
+        const uint8_t t29 = VD_MIN8(t22, t26);
+        const uint8_t t30 = VD_MIN8(t12, t27);
+        const uint8_t t31 = VD_MAX8(t12, t27);
+        const uint8_t t32 = VD_MIN8(t13, t28);
+        const uint8_t t33 = VD_MAX8(t13, t28);
+        const uint8_t t34 = VD_MIN8(t14, t29);
+        const uint8_t t35 = VD_MAX8(t14, t29);
+        const uint8_t t36 = VD_MAX8(c0, t34);
+        const uint8_t t37 = VD_MIN8(t35, t36);
+        const uint8_t t38 = VD_MAX8(c1, t33);
+        const uint8_t t39 = VD_MIN8(t37, t38);
+        const uint8_t t40 = VD_MAX8(c2, t32);
+        const uint8_t t41 = VD_MIN8(t39, t40);
+        const uint8_t t42 = VD_MAX8(c3, t31);
+        const uint8_t t43 = VD_MIN8(t41, t42);
+        const uint8_t t44 = VD_MAX8(c4, t30);
         const uint8_t t45 = VD_MIN8(t43, t44);
-        const uint8_t t46 = VD_MAX8(t41, p1);
-        const uint8_t t47 = VD_MIN8(t45, t46);
-        const uint8_t t48 = VD_MAX8(t40, p2);
-        const uint8_t t49 = VD_MIN8(t47, t48);
-        const uint8_t t50 = VD_MAX8(t39, p3);
-        const uint8_t t51 = VD_MIN8(t49, t50);
-        const uint8_t t52 = VD_MAX8(t38, p4);
-        const uint8_t t53 = VD_MIN8(t51, t52);
-        const uint8_t t54 = VD_MAX8(t37, p5);
-        const uint8_t t55 = VD_MIN8(t53, t54);
-        const uint8_t t56 = VD_MAX8(t36, p6);
-        const uint8_t t57 = VD_MIN8(t55, t56);
-        const uint8_t t58 = VD_MAX8(t35, p7);
-        const uint8_t t59 = VD_MIN8(t57, t58);
-        const uint8_t t60 = VD_MAX8(t34, p8);
-        const uint8_t t61 = VD_MIN8(t59, t60);
-        const uint8_t t62 = VD_MAX8(t33, p9);
-        const uint8_t t63 = VD_MIN8(t61, t62);
-        out[i] = t63;
-        // END GENERATED select
+        out[i] = t45;
+        // END GENERATED select_shared
     }
 }
 
@@ -468,22 +495,33 @@ vd_status_t vd_median5_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
     vd_rect_t r;
     VD_TRY(median_args(src, roi, dst, &r));
     const int32_t width = (int32_t)src->width;
-    uint8_t colbuf[5][S5 + 8];   // sorted columns c0 - 2 .. c0 + S5 + 5 (2 replicated each side)
-    uint8_t out[S5];             // a strip's outputs when not all of them are wanted
-    uint8_t *const cw[5] = {colbuf[0] + 2, colbuf[1] + 2, colbuf[2] + 2, colbuf[3] + 2, colbuf[4] + 2};
+    // Sorted columns c0 - 2 .. c0 + S5 + 5 (2 replicated each side) of the
+    // upper [0] and lower [1] output row of a pair of rows.
+    uint8_t colbuf[2][5][S5 + 8];
+    uint8_t pt[10][PT5];   // pair table of one row's strip
+    uint8_t out[S5];       // a strip's outputs when not all of them are wanted
     const int32_t x_end = r.x + r.w;
-    for (int32_t y = 0; y < r.h; y++) {
-        const uint8_t *rows[5];
-        for (int32_t k = 0; k < 5; k++) {
+    // Output rows in pairs (rows y - 2 .. y + 3 read, the middle four shared);
+    // an odd last row alone.
+    for (int32_t y = 0; y < r.h; y += 2) {
+        const int32_t n = r.h - y >= 2 ? 2 : 1;
+        const uint8_t *rows[6];
+        for (int32_t k = 0; k < 6; k++) {
             rows[k] = row_at(src, r.y + y - 2 + k);
         }
-        uint8_t *d = dst->data + (size_t)y * dst->stride;
+        uint8_t *d[2];
+        d[0] = dst->data + (size_t)y * dst->stride;
+        d[1] = n == 2 ? d[0] + dst->stride : d[0];
         if (width < S5 + 4) {
-            for (int32_t x = r.x; x < x_end; x++) {
-                d[x - r.x] = med5_px(rows, x, width);
+            for (int32_t k = 0; k < n; k++) {
+                for (int32_t x = r.x; x < x_end; x++) {
+                    d[k][x - r.x] = med5_px(rows + k, x, width);
+                }
             }
             continue;
         }
+        uint8_t *const ca[5] = {colbuf[0][0] + 2, colbuf[0][1] + 2, colbuf[0][2] + 2, colbuf[0][3] + 2, colbuf[0][4] + 2};
+        uint8_t *const cb[5] = {colbuf[1][0] + 2, colbuf[1][1] + 2, colbuf[1][2] + 2, colbuf[1][3] + 2, colbuf[1][4] + 2};
         for (int32_t x = r.x; x < x_end; x += S5) {
             // Strip of outputs [xs, xs + S5) inside the image, covering x.
             const int32_t xs = x + S5 <= width ? x : width - S5;
@@ -492,23 +530,37 @@ vd_status_t vd_median5_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
             // in -2 .. 2 and the edge column replicated beyond the image.
             const int32_t c0 = xs - 2 < 0 ? 0 : (xs + S5 + 2 > width ? width - S5 - 4 : xs - 2);
             const size_t jt = S5 + 4 - T5;   // the last T5 columns
-            sort5_strip(rows[0] + c0, rows[1] + c0, rows[2] + c0, rows[3] + c0, rows[4] + c0, cw[0], cw[1], cw[2], cw[3],
-                        cw[4]);
-            sort5_tail(rows[0] + c0 + jt, rows[1] + c0 + jt, rows[2] + c0 + jt, rows[3] + c0 + jt, rows[4] + c0 + jt,
-                       cw[0] + jt, cw[1] + jt, cw[2] + jt, cw[3] + jt, cw[4] + jt);
-            for (int32_t k = 0; k < 5; k++) {
-                colbuf[k][0] = colbuf[k][1] = colbuf[k][2];
-                colbuf[k][S5 + 6] = colbuf[k][S5 + 7] = colbuf[k][S5 + 5];
+            const uint8_t *const *p = rows;
+            if (n == 2) {
+                sort5x2_strip(p[0] + c0, p[1] + c0, p[2] + c0, p[3] + c0, p[4] + c0, p[5] + c0, ca[0], ca[1], ca[2], ca[3],
+                              ca[4], cb[0], cb[1], cb[2], cb[3], cb[4]);
+                sort5x2_tail(p[0] + c0 + jt, p[1] + c0 + jt, p[2] + c0 + jt, p[3] + c0 + jt, p[4] + c0 + jt,
+                             p[5] + c0 + jt, ca[0] + jt, ca[1] + jt, ca[2] + jt, ca[3] + jt, ca[4] + jt, cb[0] + jt,
+                             cb[1] + jt, cb[2] + jt, cb[3] + jt, cb[4] + jt);
+            } else {
+                sort5_strip(p[0] + c0, p[1] + c0, p[2] + c0, p[3] + c0, p[4] + c0, ca[0], ca[1], ca[2], ca[3], ca[4]);
+                sort5_tail(p[0] + c0 + jt, p[1] + c0 + jt, p[2] + c0 + jt, p[3] + c0 + jt, p[4] + c0 + jt, ca[0] + jt,
+                           ca[1] + jt, ca[2] + jt, ca[3] + jt, ca[4] + jt);
             }
             const int32_t dshift = xs - 2 - c0;
             // Wanted outputs of this strip: [max(x, xs), min(x_end, xs + S5)).
             const int32_t wa = x > xs ? x : xs;
             const int32_t wb = x_end < xs + S5 ? x_end : xs + S5;
-            if (wa == xs && wb == xs + S5) {
-                med5_select(cw, dshift, d + (xs - r.x));
-            } else {
-                med5_select(cw, dshift, out);
-                memcpy(d + (wa - r.x), out + (wa - xs), (size_t)(wb - wa));
+            for (int32_t k = 0; k < n; k++) {
+                uint8_t(*cb5)[S5 + 8] = colbuf[k];
+                for (int32_t q = 0; q < 5; q++) {
+                    cb5[q][0] = cb5[q][1] = cb5[q][2];
+                    cb5[q][S5 + 6] = cb5[q][S5 + 7] = cb5[q][S5 + 5];
+                }
+                const uint8_t *const c[5] = {cb5[0] + 2 + dshift, cb5[1] + 2 + dshift, cb5[2] + 2 + dshift,
+                                             cb5[3] + 2 + dshift, cb5[4] + 2 + dshift};
+                pair_table(c, pt);
+                if (wa == xs && wb == xs + S5) {
+                    med5_select(c, (const uint8_t(*)[PT5])pt, d[k] + (xs - r.x));
+                } else {
+                    med5_select(c, (const uint8_t(*)[PT5])pt, out);
+                    memcpy(d[k] + (wa - r.x), out + (wa - xs), (size_t)(wb - wa));
+                }
             }
             if (wb == x_end) {
                 break;

@@ -32,7 +32,8 @@
 // product < 2^58: exact in uint64.
 //
 // Bounds: time O(w*h * k) with k = 25 (5x5 median) + the windows
-// (edge_points / edge_step * (window^2 + 256)); stack: a few words (the
+// (edge_points / edge_step * window^2: eq. (1) visits only the window's
+// occupied levels, found from a 32-byte bitmap); stack: a few words (the
 // 256-entry histogram is in the workspace) + the median's (< 512 bytes);
 // workspace align(w*h) + max(4*w*h, align(w*h) + 1 KiB) bytes (refine.h).
 #include "vd/refine.h"
@@ -90,6 +91,59 @@ vd_status_t vd_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr)
     VD_VERIFY(best_t >= 0, VD_ERR_RANGE);   // one grey level only
     *thr = (uint8_t)best_t;
     return VD_OK;
+}
+
+// Index of the lowest set bit of a one-bit word (de Bruijn multiply: no
+// count-trailing-zeros in C99).
+static uint32_t bit_index(uint32_t low)
+{
+    static const uint8_t k_debruijn[32] = {0u,  1u,  28u, 2u,  29u, 14u, 24u, 3u,  30u, 22u, 20u,
+                                           15u, 25u, 17u, 4u,  8u,  31u, 27u, 13u, 23u, 21u, 19u,
+                                           16u, 7u,  26u, 12u, 18u, 6u,  11u, 5u,  10u, 9u};
+    return k_debruijn[(uint32_t)(low * 0x077CB531u) >> 27];
+}
+
+// vd_maxdist_from_hist for a histogram whose occupied levels are the set
+// bits of present[] (level v: bit v & 31 of word v >> 5), with total n and
+// level sum `sum`: the same criterion, evaluated only at occupied levels. An
+// empty level t leaves (c, s) and so the criterion of the level before it
+// unchanged, and with the strict > (first maximum wins) it can never become
+// the answer, so the result is identical. Returns false for one grey level.
+static bool maxdist_levels(const uint32_t hist[256], const uint32_t present[8], uint32_t n, uint32_t sum,
+                           uint8_t *thr)
+{
+    const int64_t n_s = (int64_t)n;
+    const int64_t sum_s = (int64_t)sum;
+    int64_t c = 0;
+    int64_t s = 0;
+    uint64_t best_num = 0u;
+    uint64_t best_den = 1u;
+    int32_t best_t = -1;
+    for (uint32_t wi = 0u; wi < 8u; wi++) {
+        uint32_t bits = present[wi];
+        while (bits != 0u) {   // one pass per set bit: <= 32
+            const uint32_t low = bits & (0u - bits);
+            bits ^= low;
+            const uint32_t t = wi * 32u + bit_index(low);
+            c += (int64_t)hist[t];
+            s += (int64_t)t * (int64_t)hist[t];
+            if (c == n_s) {
+                break;   // the last occupied level: class 2 empty
+            }
+            // Bounds as in vd_maxdist_from_hist (n <= 225 here).
+            const int64_t d = s * n_s - sum_s * c;
+            const uint64_t ad = (uint64_t)(d < 0 ? -d : d);
+            const uint64_t num = ad * ad;
+            const uint64_t den = (uint64_t)(c * (n_s - c));
+            if (best_t < 0 || num * best_den > best_num * den) {
+                best_num = num;
+                best_den = den;
+                best_t = (int32_t)t;
+            }
+        }
+    }
+    *thr = (uint8_t)(best_t < 0 ? 0 : best_t);
+    return best_t >= 0;
 }
 
 static bool fill_ws_size(uint32_t w, uint32_t h, size_t *bytes)
@@ -327,14 +381,21 @@ vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, cons
             const uint32_t y0 = y > half ? y - half : 0u;
             const uint32_t x1 = x + half < w ? x + half : w - 1u;
             const uint32_t y1 = y + half < h ? y + half : h - 1u;
+            // Window histogram + a bitmap of its occupied levels, so that
+            // eq. (1) visits only those (<= window^2), not all 256 levels.
+            uint32_t present[8] = {0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u};
+            uint32_t wsum = 0u;
             for (uint32_t yy = y0; yy <= y1; yy++) {
                 const uint8_t *f = fdata + (size_t)yy * w;
                 for (uint32_t xx = x0; xx <= x1; xx++) {
-                    hist[f[xx]]++;
+                    const uint32_t v = f[xx];
+                    hist[v]++;
+                    present[v >> 5] |= 1u << (v & 31u);
+                    wsum += v;
                 }
             }
-            uint8_t tl;
-            const bool split = vd_maxdist_from_hist(hist, &tl) == VD_OK;
+            uint8_t tl = 0u;
+            const bool split = maxdist_levels(hist, present, (x1 - x0 + 1u) * (y1 - y0 + 1u), wsum, &tl);
             for (uint32_t yy = y0; yy <= y1; yy++) {
                 const uint8_t *f = fdata + (size_t)yy * w;
                 uint8_t *m = mask->data + (size_t)yy * mask->stride;

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Exact fixed-point resampler: area average when shrinking, bilinear when growing, per axis.
 //
-// Algorithm: separable weights per axis, computed on the fly for each output
-// index (no tables, no workspace).
+// Algorithm: separable weights per axis; the taps of up to 16 output columns
+// are tabled once per call (stack), those of an output row once per row.
 //  - Shrinking axis (S >= D): in units of 1/D source pixel, output i covers
 //    [i*S, (i+1)*S) and source pixel k covers [k*D, (k+1)*D); the weight of k
 //    is the length of the overlap (an integer), the weights sum to S. This is
@@ -20,9 +20,12 @@
 // < 8192*255 < 2^21 (uint32) and the total < 2^34 (uint64: the one place 64
 // bits are needed). Time: each source pixel of the ROI is read at most
 // ceil(D/S)+1 <= 2 times per shrinking axis; growing axes read 2 taps.
-// Stack: a few words. One 64-bit division per output pixel.
+// Stack: the 16-entry x-tap table (128 bytes) + a few words. The rounded
+// quotient by the constant total T is a reciprocal multiply, exact for
+// T <= 2^23 (internal/recip_internal.h); larger totals divide.
 #include "vd/resample.h"
 
+#include "internal/recip_internal.h"
 #include "internal/vd_internal.h"
 
 // Taps of one output index along one axis: source indices first..last and
@@ -86,6 +89,43 @@ static uint32_t axis_weight(const axis_taps_t *t, uint32_t i, uint32_t k, uint32
     return (k == t->first) ? t->w_first : t->total - t->w_first;
 }
 
+// Taps of one output index in a compact form: source pixels first..last with
+// weight wf for `first`, wl for `last` (if last > first) and the axis' whole
+// weight (D on a shrinking axis) for the pixels strictly between.
+typedef struct tap {
+    uint16_t first;
+    uint16_t last;
+    uint16_t wf;
+    uint16_t wl;
+} tap_t;
+
+// Output columns whose taps are tabled at once (stack: 8 bytes each); the
+// detector's 32-wide samples take two chunks.
+#define XCHUNK 16u
+
+static void tap_at(uint32_t i, uint32_t s, uint32_t d, tap_t *t)
+{
+    axis_taps_t a;
+    axis_taps_at(i, s, d, &a);
+    // Indices < 8192 and weights <= 8192 (VD_MAX_DIM, 2 * VD_RESAMPLE_MAX_DST): uint16.
+    t->first = (uint16_t)a.first;
+    t->last = (uint16_t)a.last;
+    t->wf = (uint16_t)axis_weight(&a, i, a.first, s, d);
+    t->wl = a.last == a.first ? 0u : (uint16_t)axis_weight(&a, i, a.last, s, d);
+}
+
+// sum_k w(k) * row[k] over the taps t; wm = weight of the inner taps.
+// < 8192 * 255 < 2^21. wl = 0 when first == last (one tap): no branch.
+static inline uint32_t tap_sum(const uint8_t *row, const tap_t *t, uint32_t wm)
+{
+    const uint32_t f = t->first, l = t->last;
+    uint32_t mid = 0u;
+    for (uint32_t k = f + 1u; k < l; k++) {
+        mid += row[k];
+    }
+    return (uint32_t)t->wf * row[f] + wm * mid + (uint32_t)t->wl * row[l];
+}
+
 vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t *dst,
                            uint32_t dst_w, uint32_t dst_h)
 {
@@ -99,26 +139,77 @@ vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_
     const uint32_t sw = (uint32_t)r.w;
     const uint32_t sh = (uint32_t)r.h;
     const uint8_t *base = src->data + (size_t)r.y * src->stride + (size_t)r.x;
+    // Weight totals and inner weights are the same for every output.
+    const uint32_t tot_x = sw >= dst_w ? sw : 2u * dst_w;
+    const uint32_t tot_y = sh >= dst_h ? sh : 2u * dst_h;
+    const uint32_t wm_x = dst_w;   // inner taps exist only on a shrinking axis
+    const uint32_t wm_y = dst_h;
+    const uint64_t total = (uint64_t)tot_x * tot_y;   // <= 2^26
+    const uint64_t half = total / 2u;
+    // Rounded quotient < 256: reciprocal multiply when the total allows it
+    // (regions up to 2^23 pixels), else one division per output.
+    vd_recip256_t rc;
+    const bool use_recip = vd_recip256_init((uint32_t)total, &rc);
 
-    for (uint32_t oy = 0u; oy < dst_h; oy++) {
-        axis_taps_t ty;
-        axis_taps_at(oy, sh, dst_h, &ty);
-        for (uint32_t ox = 0u; ox < dst_w; ox++) {
-            axis_taps_t tx;
-            axis_taps_at(ox, sw, dst_w, &tx);
-            uint64_t acc = 0u;
+    tap_t tx[XCHUNK];
+    // Horizontal sums of the last two source rows computed (a source row is
+    // shared by consecutive output rows: always when the y axis grows, at
+    // the boundaries when it shrinks), and the output row's accumulators.
+    uint32_t hs[2][XCHUNK];
+    uint32_t hs_row[2];
+    uint64_t acc[XCHUNK];
+    for (uint32_t cx = 0u; cx < dst_w; cx += XCHUNK) {
+        const uint32_t nx = dst_w - cx < XCHUNK ? dst_w - cx : XCHUNK;
+        for (uint32_t i = 0u; i < nx; i++) {
+            tap_at(cx + i, sw, dst_w, &tx[i]);
+        }
+        hs_row[0] = hs_row[1] = UINT32_MAX;   // nothing cached (rows < 8192)
+        uint32_t victim = 0u;
+        for (uint32_t oy = 0u; oy < dst_h; oy++) {
+            tap_t ty;
+            tap_at(oy, sh, dst_h, &ty);
             for (uint32_t ky = ty.first; ky <= ty.last; ky++) {
-                const uint8_t *row = base + (size_t)ky * src->stride;
-                uint32_t row_sum = 0u;
-                for (uint32_t kx = tx.first; kx <= tx.last; kx++) {
-                    row_sum += axis_weight(&tx, ox, kx, sw, dst_w) * (uint32_t)row[kx];
+                const uint32_t wy = ky == ty.first ? ty.wf : (ky == ty.last ? ty.wl : wm_y);
+                const uint32_t *h;
+                if (hs_row[0] == ky) {
+                    h = hs[0];
+                } else if (hs_row[1] == ky) {
+                    h = hs[1];
+                } else {
+                    // Compute into the slot not used last.
+                    const uint8_t *row = base + (size_t)ky * src->stride;
+                    uint32_t *o = hs[victim];
+                    for (uint32_t i = 0u; i < nx; i++) {
+                        o[i] = tap_sum(row, &tx[i], wm_x);
+                    }
+                    hs_row[victim] = ky;
+                    h = o;
+                    victim ^= 1u;
                 }
-                acc += (uint64_t)axis_weight(&ty, oy, ky, sh, dst_h) * row_sum;
+                if (ky == ty.first) {   // (no separate clearing pass)
+                    for (uint32_t i = 0u; i < nx; i++) {
+                        acc[i] = (uint64_t)wy * h[i];
+                    }
+                } else {
+                    for (uint32_t i = 0u; i < nx; i++) {
+                        acc[i] += (uint64_t)wy * h[i];
+                    }
+                }
             }
-            const uint64_t total = (uint64_t)tx.total * ty.total;
-            const uint64_t q = (acc + total / 2u) / total;
-            VD_ASSERT(q <= 255u);
-            dst[(size_t)oy * dst_w + ox] = (uint8_t)q;
+            uint8_t *out = dst + (size_t)oy * dst_w + cx;
+            if (use_recip) {
+                for (uint32_t i = 0u; i < nx; i++) {
+                    const uint32_t q = vd_recip256_div(&rc, acc[i] + half);
+                    VD_ASSERT(q <= 255u);
+                    out[i] = (uint8_t)q;
+                }
+            } else {
+                for (uint32_t i = 0u; i < nx; i++) {
+                    const uint64_t q = (acc[i] + half) / total;
+                    VD_ASSERT(q <= 255u);
+                    out[i] = (uint8_t)q;
+                }
+            }
         }
     }
     return VD_OK;

@@ -60,6 +60,27 @@ def test_random_blobs():
         assert_same_as_cv2(mask, f"blobs {it}")
 
 
+def test_sparse_wide_masks():
+    """Wide, mostly-zero masks with rings, nested blobs and wide solid runs:
+    the scan skips 32 zero / 8 equal pixels at a time; the skips must land on
+    every border start and on the lnbd updates at hole borders."""
+    rng = np.random.default_rng(3)
+    for it in range(40):
+        h, w = int(rng.integers(8, 60)), int(rng.integers(33, 300))
+        mask = np.zeros((h, w), np.uint8)
+        for _ in range(int(rng.integers(1, 8))):
+            x, y = int(rng.integers(0, w)), int(rng.integers(0, h))
+            bw, bh = int(rng.integers(1, 70)), int(rng.integers(1, 20))
+            mask[y:y + bh, x:x + bw] = 255
+            if bw > 4 and bh > 4 and rng.random() < 0.6:   # hole, sometimes with an island
+                mask[y + 2:y + bh - 2, x + 2:x + bw - 2] = 0
+                if bw > 8 and bh > 8 and rng.random() < 0.5:
+                    mask[y + 4:y + bh - 4, x + 4:x + bw - 4] = 255
+        if it % 3 == 0:
+            mask[:, -1] = 255   # a run to the last column
+        assert_same_as_cv2(mask, f"sparse {it}")
+
+
 def test_salt_and_pepper():
     rng = np.random.default_rng(2)
     for it in range(40):

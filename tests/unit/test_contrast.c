@@ -9,7 +9,7 @@
 void setUp(void) {}
 void tearDown(void) {}
 
-#define MAXPX (130 * 110)
+#define MAXPX (135 * 260)
 
 static uint8_t g_src[MAXPX + 64];
 static uint8_t g_dst[MAXPX];
@@ -85,6 +85,75 @@ static void test_map_random_vs_naive(void)
             g_src[i] = smooth ? (uint8_t)(100u + tu_rand(&seed) % 40u) : (uint8_t)tu_rand(&seed);
         }
         naive_map(g_src, w, h, stride, r, pol, g_ref);
+        vd_view_u8_t v = {g_src, w, h, stride};
+        vd_image_u8_t d = {g_dst, w, h, w};
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, r, pol, col, w * sizeof(uint32_t), &d));
+        TEST_ASSERT_EQUAL_MEMORY(g_ref, g_dst, (size_t)w * h);
+    }
+}
+
+// Reference through an integral image (exact, independent of the running
+// sums), fast enough for radii up to VD_CONTRAST_MAX_RADIUS.
+static uint32_t g_ii[(131u * 111u) > (41u * 261u) ? 131u * 111u : 41u * 261u];
+
+static void integral_map(const uint8_t *s, uint32_t w, uint32_t h, size_t stride, uint32_t r, uint8_t pol, uint8_t *o)
+{
+    const uint32_t iw = w + 1u;
+    for (uint32_t x = 0; x <= w; x++) {
+        g_ii[x] = 0u;
+    }
+    for (uint32_t y = 0; y < h; y++) {
+        uint32_t row = 0u;
+        g_ii[(y + 1u) * iw] = 0u;
+        for (uint32_t x = 0; x < w; x++) {
+            row += s[(size_t)y * stride + x];
+            g_ii[(y + 1u) * iw + x + 1u] = g_ii[y * iw + x + 1u] + row;
+        }
+    }
+    for (uint32_t y = 0; y < h; y++) {
+        const uint32_t y0 = y > r ? y - r : 0u, y1 = y + r < h - 1u ? y + r : h - 1u;
+        for (uint32_t x = 0; x < w; x++) {
+            const uint32_t x0 = x > r ? x - r : 0u, x1 = x + r < w - 1u ? x + r : w - 1u;
+            const uint32_t sum = g_ii[(y1 + 1u) * iw + x1 + 1u] - g_ii[y0 * iw + x1 + 1u] - g_ii[(y1 + 1u) * iw + x0] +
+                                 g_ii[y0 * iw + x0];
+            const uint32_t n = (x1 - x0 + 1u) * (y1 - y0 + 1u);
+            int32_t d = (int32_t)s[(size_t)y * stride + x] - (int32_t)((sum + n / 2u) / n);
+            if (pol == VD_CONTRAST_COLD) { d = -d; }
+            if (pol == VD_CONTRAST_BOTH && d < 0) { d = -d; }
+            o[y * w + x] = (uint8_t)(d > 0 ? d : 0);
+        }
+    }
+}
+
+// Wide frames (interior chunks of 64 pixels and their tails), every radius
+// up to 127 (tabled border reciprocals up to r = 32, divisions beyond), frames
+// narrower than the box, and the extremes: all 255 with 255-row boxes (the
+// largest column sum, 255 * 255, and area, 255^2).
+static void test_map_wide_and_extreme_vs_integral(void)
+{
+    uint32_t seed = 4321u;
+    uint64_t col[70];   // up to 140 column sums
+    for (int it = 0; it < 80; it++) {
+        uint32_t w, h, r;
+        if (it < 6) {            // tall extremes: 40 x 260, r = 127 and 120
+            w = 40u;
+            h = 260u;
+            r = it < 3 ? 127u : 120u;
+        } else {
+            w = 60u + tu_rand(&seed) % 71u;   // 60 .. 130
+            h = 1u + tu_rand(&seed) % 110u;
+            r = it % 3 == 0 ? 1u + tu_rand(&seed) % 127u : 1u + tu_rand(&seed) % 40u;
+        }
+        const size_t stride = w + (size_t)(it % 5);
+        const uint8_t pol = (uint8_t)(it % 3);
+        const uint32_t kind = (uint32_t)it % 4u;
+        for (size_t i = 0; i < stride * h; i++) {
+            const uint32_t v = tu_rand(&seed);
+            g_src[i] = it < 6 ? (uint8_t)(it % 2 == 0 ? 255u : (v & 1u) * 255u)
+                              : (kind == 0u ? (uint8_t)v : kind == 1u ? (uint8_t)(250u + v % 6u)
+                                 : kind == 2u ? (uint8_t)((v & 1u) * 255u) : (uint8_t)(v % 3u));
+        }
+        integral_map(g_src, w, h, stride, r, pol, g_ref);
         vd_view_u8_t v = {g_src, w, h, stride};
         vd_image_u8_t d = {g_dst, w, h, w};
         TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(&v, r, pol, col, w * sizeof(uint32_t), &d));
@@ -268,6 +337,7 @@ int main(void)
     UNITY_BEGIN();
     RUN_TEST(test_map_hand_worked);
     RUN_TEST(test_map_random_vs_naive);
+    RUN_TEST(test_map_wide_and_extreme_vs_integral);
     RUN_TEST(test_candidates_cold_and_warm);
     RUN_TEST(test_candidates_percentile_and_capacity);
     RUN_TEST(test_workspace_contract);

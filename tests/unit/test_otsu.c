@@ -288,6 +288,53 @@ static void test_random_vs_naive(void)
     }
 }
 
+// The truncated-product pre-test of vd_otsu_from_hist must never change the
+// answer: histograms with large totals (shifts > 0), exact ties (mirrored
+// histograms) and plateaus against the naive full-precision search.
+static void test_pretest_vs_naive(void)
+{
+    uint32_t h[256], seed = 4242u;
+    for (int trial = 0; trial < 3000; trial++) {
+        memset(h, 0, sizeof h);
+        const uint32_t kind = (uint32_t)trial % 4u;
+        const uint32_t scale = 1u << (tu_rand(&seed) % 19u);   // per-bin counts up to ~2^18
+        if (kind == 0u) {          // dense random
+            for (int v = 0; v < 256; v++) {
+                h[v] = tu_rand(&seed) % (scale + 1u);
+            }
+        } else if (kind == 1u) {   // mirrored: exact ties between t and its mirror
+            const uint32_t levels = 2u + tu_rand(&seed) % 6u;
+            for (uint32_t k = 0; k < levels; k++) {
+                const uint32_t v = tu_rand(&seed) % 128u, c = 1u + tu_rand(&seed) % scale;
+                h[v] += c;
+                h[255u - v] += c;
+            }
+        } else if (kind == 2u) {   // few levels, equal counts: plateaus and near ties
+            const uint32_t levels = 2u + tu_rand(&seed) % 5u, c = 1u + tu_rand(&seed) % scale;
+            for (uint32_t k = 0; k < levels; k++) {
+                h[tu_rand(&seed) & 255u] += c + (tu_rand(&seed) % 2u);
+            }
+        } else {                   // two bumps, one tiny outlier
+            const uint32_t a = tu_rand(&seed) % 200u, b = a + 1u + tu_rand(&seed) % (255u - a);
+            for (uint32_t k = 0; k < 20u; k++) {
+                h[(a + k) & 255u] += 1u + tu_rand(&seed) % scale;
+                h[(b + 255u - k) % 256u] += 1u + tu_rand(&seed) % scale;
+            }
+            h[tu_rand(&seed) & 255u] += 1u;
+        }
+        uint64_t n = 0u;
+        for (int v = 0; v < 256; v++) {
+            n += h[v];
+        }
+        if (n == 0u || n > VD_OTSU_MAX_COUNT) {
+            continue;
+        }
+        uint8_t t = 0;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_otsu_from_hist(h, &t));
+        TEST_ASSERT_EQUAL_UINT8(naive_otsu(h), t);
+    }
+}
+
 static void test_large_counts(void)
 {
     // Near the 2^26 limit the criterion needs the full 192 bits.
@@ -351,5 +398,6 @@ int main(void)
     RUN_TEST(test_wide_multiply_and_ratio);
     RUN_TEST(test_random_vs_naive);
     RUN_TEST(test_large_counts);
+    RUN_TEST(test_pretest_vs_naive);
     return UNITY_END();
 }

@@ -298,6 +298,86 @@ static void test_refine_local_window_overrides_global(void)
     TEST_ASSERT_EQUAL_MEMORY(want, g_mask, 9);
 }
 
+// Naive steps 3-5 (no median) from the public pieces: Otsu, binarise, fill,
+// edges, then every step-th edge pixel's window re-thresholded with
+// vd_maxdist_from_hist on a full 256-bin histogram. vd_refine_region visits
+// only a window's occupied levels; the result must be the same, also with
+// few grey levels (ties between splits).
+static void refine_naive(const uint8_t *img, uint32_t w, uint32_t h, uint32_t step, uint32_t win, uint8_t *out)
+{
+    static uint8_t edges[MAXW * MAXH];
+    static uint64_t fws[(4u * MAXW * MAXH) / 8u + 1u];
+    uint32_t hist[256];
+    const vd_view_u8_t src = {img, w, h, w};
+    uint8_t t = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_otsu_u8(&src, NULL, &t));
+    for (uint32_t i = 0; i < w * h; i++) {
+        out[i] = img[i] > t ? 255u : 0u;
+    }
+    vd_image_u8_t m = {out, w, h, w};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_fill_holes_u8(&m, fws, sizeof fws));
+    vd_image_u8_t e = {edges, w, h, w};
+    const vd_view_u8_t mv = {out, w, h, w};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_edges_u8(&mv, NULL, &e));
+    const int32_t half = (int32_t)win / 2;
+    uint32_t k = 0u;
+    for (int32_t y = 0; y < (int32_t)h; y++) {
+        for (int32_t x = 0; x < (int32_t)w; x++) {
+            if (edges[(uint32_t)y * w + (uint32_t)x] == 0u || (k++ % step) != 0u) {
+                continue;
+            }
+            memset(hist, 0, sizeof hist);
+            for (int32_t yy = y - half; yy <= y + half; yy++) {
+                for (int32_t xx = x - half; xx <= x + half; xx++) {
+                    if (yy >= 0 && yy < (int32_t)h && xx >= 0 && xx < (int32_t)w) {
+                        hist[img[(uint32_t)yy * w + (uint32_t)xx]]++;
+                    }
+                }
+            }
+            uint8_t tl = 0;
+            if (vd_maxdist_from_hist(hist, &tl) != VD_OK) {
+                continue;
+            }
+            for (int32_t yy = y - half; yy <= y + half; yy++) {
+                for (int32_t xx = x - half; xx <= x + half; xx++) {
+                    if (yy >= 0 && yy < (int32_t)h && xx >= 0 && xx < (int32_t)w) {
+                        const uint32_t i = (uint32_t)yy * w + (uint32_t)xx;
+                        out[i] = img[i] > tl ? 255u : 0u;
+                    }
+                }
+            }
+        }
+    }
+}
+
+static void test_refine_random_vs_naive(void)
+{
+    uint32_t seed = 99u;
+    for (int trial = 0; trial < 200; trial++) {
+        const uint32_t w = 2u + tu_rand(&seed) % (MAXW - 1u), h = 2u + tu_rand(&seed) % (MAXH - 1u);
+        const uint32_t levels = 2u + tu_rand(&seed) % 7u;
+        uint8_t lv[8];
+        for (uint32_t i = 0; i < levels; i++) {
+            lv[i] = (uint8_t)tu_rand(&seed);
+        }
+        // Blocky images: a warm rectangle over few-level noise, or pure noise.
+        const uint32_t bx = tu_rand(&seed) % w, by = tu_rand(&seed) % h;
+        for (uint32_t y = 0; y < h; y++) {
+            for (uint32_t x = 0; x < w; x++) {
+                const bool in = (trial % 4 != 0) && x >= bx && x < bx + w / 2u && y >= by && y < by + h / 2u;
+                g_img[y * w + x] = in ? (uint8_t)(200u + tu_rand(&seed) % 3u)
+                                      : (trial % 2 == 0 ? lv[tu_rand(&seed) % levels] : (uint8_t)tu_rand(&seed));
+            }
+        }
+        vd_refine_cfg_t cfg = {0u, (uint8_t)(1u + tu_rand(&seed) % 6u), (uint8_t)(3u + 2u * (tu_rand(&seed) % 7u))};
+        const vd_view_u8_t src = {g_img, w, h, w};
+        vd_image_u8_t mask = {g_mask, w, h, w};
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_region(&src, NULL, &cfg, g_ws, sizeof g_ws, &mask, NULL));
+        refine_naive(g_img, w, h, cfg.edge_step, cfg.window, g_ref);
+        TEST_ASSERT_EQUAL_MEMORY(g_ref, g_mask, (size_t)w * h);
+    }
+}
+
 typedef struct rctx {
     vd_view_u8_t src;
     vd_rect_t roi;
@@ -388,6 +468,7 @@ int main(void)
     RUN_TEST(test_maxdist_equals_otsu_on_random_histograms);
     RUN_TEST(test_fill_holes_ring_and_diamond);
     RUN_TEST(test_fill_holes_random_vs_naive);
+    RUN_TEST(test_refine_random_vs_naive);
     RUN_TEST(test_edges_hand_worked);
     RUN_TEST(test_refine_hand_worked_block);
     RUN_TEST(test_refine_local_window_overrides_global);

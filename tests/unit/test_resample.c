@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "../data/resample_golden.h"
+#include "internal/recip_internal.h"
 
 void setUp(void) {}
 void tearDown(void) {}
@@ -186,6 +187,60 @@ static void test_naive_reference_random(void)
     }
 }
 
+// The reciprocal division behind the rounded outputs (also used by
+// contrast.c): exact for every x < 256 n; checked at the extremes of every
+// quotient for all n <= 2^16 and on random (n, x) up to n = 2^23.
+static void test_recip256_exact(void)
+{
+    vd_recip256_t rc;
+    for (uint32_t n = 1u; n <= 65536u; n++) {
+        TEST_ASSERT_TRUE(vd_recip256_init(n, &rc));
+        static const uint32_t qs[] = {0u, 1u, 2u, 127u, 128u, 254u, 255u};
+        for (size_t i = 0; i < sizeof qs / sizeof qs[0]; i++) {
+            const uint64_t lo = (uint64_t)qs[i] * n, hi = lo + n - 1u;   // quotient qs[i]
+            if (vd_recip256_div(&rc, lo) != qs[i] || vd_recip256_div(&rc, hi) != qs[i] ||
+                vd_recip256_div32(rc.m, rc.k, (uint32_t)hi) != qs[i]) {
+                TEST_FAIL_MESSAGE("reciprocal division wrong at a quotient boundary");
+            }
+        }
+    }
+    uint32_t seed = 99u;
+    for (int t = 0; t < 200000; t++) {
+        const uint32_t n = 1u + tu_rand(&seed) % VD_RECIP256_MAX_DIV;
+        TEST_ASSERT_TRUE(vd_recip256_init(n, &rc));
+        const uint64_t x = ((uint64_t)tu_rand(&seed) << 16 ^ tu_rand(&seed)) % (256ull * n);
+        TEST_ASSERT_EQUAL_UINT32((uint32_t)(x / n), vd_recip256_div(&rc, x));
+        const uint64_t top = 256ull * n - 1u;
+        TEST_ASSERT_EQUAL_UINT32(255u, vd_recip256_div(&rc, top));
+    }
+    TEST_ASSERT_FALSE(vd_recip256_init(0u, &rc));
+    TEST_ASSERT_FALSE(vd_recip256_init(VD_RECIP256_MAX_DIV + 1u, &rc));
+}
+
+// Weight totals above 2^23 take the division path: a 2 x 3 region grown to
+// 4096 x 1025 (T = 8192 * 2050), sampled against the naive reference.
+static void test_large_total_divides(void)
+{
+    static uint8_t big[4096u * 1025u];
+    static const uint8_t img[6] = {0u, 255u, 37u, 201u, 128u, 9u};
+    const vd_view_u8_t v = {img, 2u, 3u, 2u};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, NULL, big, 4096u, 1025u));
+    for (uint32_t i = 0; i < 4096u * 1025u; i += 97u) {
+        const uint32_t ox = i % 4096u, oy = i / 4096u;
+        uint64_t acc = 0u;
+        uint32_t tx = 1u, ty = 1u;
+        for (uint32_t ky = 0; ky < 3u; ky++) {
+            const uint32_t wy = naive_weight(oy, ky, 3u, 1025u, &ty);
+            for (uint32_t kx = 0; kx < 2u; kx++) {
+                acc += (uint64_t)naive_weight(ox, kx, 2u, 4096u, &tx) * wy * img[ky * 2u + kx];
+            }
+        }
+        const uint64_t tot = (uint64_t)tx * ty;
+        TEST_ASSERT_TRUE(tot > VD_RECIP256_MAX_DIV);
+        TEST_ASSERT_EQUAL_UINT8((uint8_t)((acc + tot / 2u) / tot), big[i]);
+    }
+}
+
 static void test_golden_vectors(void)
 {
     const vd_view_u8_t v = {golden_src, GOLDEN_SRC_W, GOLDEN_SRC_H, GOLDEN_SRC_W};
@@ -210,5 +265,7 @@ int main(void)
     RUN_TEST(test_args);
     RUN_TEST(test_naive_reference_random);
     RUN_TEST(test_golden_vectors);
+    RUN_TEST(test_recip256_exact);
+    RUN_TEST(test_large_total_divides);
     return UNITY_END();
 }

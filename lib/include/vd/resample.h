@@ -38,7 +38,7 @@ extern "C" {
 // Returns VD_OK; VD_ERR_ARG for a NULL src/dst, an invalid view, a ROI not
 // inside the view, or a zero/too large dst size.
 // Time O(roi area + dst_w*dst_h) for shrinking, O(dst_w*dst_h) for growing;
-// stack < 128 bytes; no workspace.
+// stack < 256 bytes; no workspace.
 vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t *dst,
                            uint32_t dst_w, uint32_t dst_h);
 
