@@ -7,7 +7,9 @@
 // reproduces point for point:
 //   1. The mask is copied into a mark plane with a one-pixel zero border,
 //      nonzero -> 1.
-//   2. Rows are scanned left to right. A 0 -> 1 step starts an outer border
+//   2. Rows are scanned left to right (32 zero pixels or 8 pixels equal to
+//      the previous one skipped per step: nothing happens inside a run). A
+//      0 -> 1 step starts an outer border
 //      unless the last border pixel met on this row (`lnbd`) is marked as a
 //      left/inner side (value 2, "> 0"), which means the step lies inside an
 //      already traced region (its hole or a region inside the hole).

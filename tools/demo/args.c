@@ -138,7 +138,7 @@ void demo_args_usage(FILE *f)
             "  --pixfmt F          V4L2: grey or y16 (default: y16 if offered)\n"
             "  --timeout-ms N      V4L2: wait per frame (default 2000)\n"
             "  --frames N          stop after N frames (default: all; a camera runs until Ctrl-C)\n"
-            "  --model FILE        .vdm model (default: the first models/*.vdm of the source tree if any;\n"
+            "  --model FILE        .vdm model (default: models/vd_dbn_grey.vdm, else the first models/*.vdm;\n"
             "                      'none' = no model: every refined candidate is kept with score 1.0)\n"
             "  --out DIR           annotated PNG frames: boxes yellow = new, green = confirmed,\n"
             "                      magenta = recovered; track id and score above each box\n"

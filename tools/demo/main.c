@@ -98,9 +98,16 @@ static int fail(run_t *r, vd_status_t st, const char *detail)
     return 1;
 }
 
-// --model omitted: the first *.vdm (by name) of the source tree's models/.
+// --model omitted: models/vd_dbn_grey.vdm (the best full model, models/README.md),
+// else the first *.vdm (by name) of the source tree's models/.
 static bool find_default_model(char *out, size_t cap)
 {
+    snprintf(out, cap, "%s/vd_dbn_grey.vdm", VD_DEMO_MODELS_DIR);
+    FILE *fp = fopen(out, "rb");
+    if (fp != NULL) {
+        fclose(fp);
+        return true;
+    }
     DIR *dp = opendir(VD_DEMO_MODELS_DIR);
     if (dp == NULL) {
         return false;
