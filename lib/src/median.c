@@ -14,19 +14,22 @@
 //  5x5: output rows in pairs: per input column the four rows both outputs
 //       share are sorted once (5 exchanges) and the top / bottom row is
 //       inserted for each (4+4 min/max: 13 per pixel against 18 for a
-//       9-exchange column sort). Per output row, the sorted column pairs
-//       (j+1, j+2) are merged into sorted 10-lists once per column and
-//       tabled (Batcher odd-even merge, 26 min/max), and output x takes the
-//       13th smallest of column x and the pairs (x+1, x+2), (x+3, x+4): a
-//       Batcher merge of the two pairs pruned to the ranks 8..13 used, then
-//       kth(A u B) = min over i+j=k of max(A_i, B_j) with the column (46).
-//       13 + 26 + 46 = 85 min/max per pixel against 134 when each output
-//       merged its own two pairs, and 198 for a 99-exchange full
-//       median-of-25 network. The networks are generated and checked
-//       exhaustively by the 0-1 principle in tools/vdtools/pixel.py
-//       (median_network: the pair merge) and tools/vdtools/median5_net.py
-//       (the select); tests/python/test_median.py keeps this file equal to
-//       the generators' output.
+//       9-exchange column sort). Outputs are then taken in pairs (x, x+1),
+//       x even, which share the columns x+1 .. x+4: the sorted columns are
+//       split into even and odd ones (so a pair is one SIMD lane), the
+//       column pairs (x+1, x+2) are merged into sorted 10-lists once
+//       (Batcher odd-even merge, 26 min/max per output pair), the union of
+//       the pairs (x+1, x+2) and (x+3, x+4) is merged once, pruned to the
+//       ranks 8..13 used, and each output takes the 13th smallest of that
+//       and its own column, kth(A u B) = min over i+j=k of max(A_i, B_j)
+//       (56 min/max per output pair). 13 + 13 + 28 = 54 min/max per pixel
+//       against 134 when each output merged its own two pairs, and 198 for
+//       a 99-exchange full median-of-25 network. The networks are generated
+//       and checked exhaustively by the 0-1 principle in
+//       tools/vdtools/pixel.py (median_network: the pair merge) and
+//       tools/vdtools/median5_net.py (select_pair);
+//       tests/python/test_median.py keeps this file equal to the
+//       generators' output.
 // Borders: row indices and column indices are clamped to the image
 // (BORDER_REPLICATE, what cv2.medianBlur uses); pixels outside the ROI but
 // inside the image are used. Blocks are always placed inside the image (the
@@ -35,11 +38,12 @@
 // replicates the sorted edge column (a replicated column sorts the same).
 // Images narrower than a block (+ border) take the scalar paths.
 // Reference: cv2.medianBlur (OpenCV imgproc median_blur), bit-exact.
-// Bounds: time O(roi.w * roi.h) (about 19 / 85 min-max per pixel); no
+// Bounds: time O(roi.w * roi.h) (about 19 / 54 min-max per pixel); no
 // workspace; stack (stack budget of vd_detector_run, docs/embedded.md): 3x3
 // a 2 x 64-byte buffer for ROIs narrower than a block; 5x5 two rows' sorted
-// columns, a pair table and an output strip (S5 below: ~1.5 KiB on SIMD
-// hosts, ~300 bytes on scalar targets); both under 512 bytes on Cortex-M7
+// columns, their even/odd split, a pair table and an output strip (S5
+// below: ~3 KiB on SIMD hosts, ~300 bytes on scalar targets); both under
+// 512 bytes on Cortex-M7
 // (worst case with callees, -Os: docs/embedded.md).
 #include <string.h>
 
@@ -280,19 +284,29 @@ vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
 // Outputs per 5x5 strip and T5, the columns of the overlapping tail loops (a
 // loop over S5 + k items runs over S5 and then over the last T5, recomputing
 // some, so every loop is whole vectors on SIMD targets). Stack: two rows'
-// sorted columns (2 x 5 x (S5 + 8)), the pair table (10 x (S5 + 2)) and S5
-// outputs: ~1.5 KiB on SIMD hosts (64-pixel strips: 25% faster than 32, the
-// tails and per-strip steps amortised; 128 gains nothing), ~300 bytes on
-// scalar targets (Cortex-M: stack budget), which take 8-pixel strips at no
-// cost to them.
+// sorted columns (2 x 5 x (S5 + 8)), one row's even/odd split (2 x 5 x
+// (S5/2 + 2)), the pair table (10 x (S5/2 + 1)) and 2 x S5 outputs: ~3 KiB
+// on SIMD hosts (128-pixel strips: each stage's loads then rarely wait for
+// the previous stage's just-stored vectors; 64 is 5-8% slower on frames, but
+// a candidate ROI narrower than a strip costs a whole strip: ~2x slower
+// there, still 5-10x faster than cv2.medianBlur), ~300 bytes on scalar
+// targets (Cortex-M: stack budget), which take 8-pixel strips at no cost to
+// them.
 #if defined(__SSE2__) || defined(__ARM_NEON) || defined(__ARM_NEON__) || defined(__ALTIVEC__)
-#define S5 64
+#define S5 128
 #define T5 16
 #else
 #define S5 8
 #define T5 4
 #endif
-#define PT5 (S5 + 2)   // pair table entries per strip
+// Outputs are taken in pairs (x, x+1), x even, sharing columns x+1 .. x+4:
+// H5 pairs per strip; TH5 = the overlapping tail of loops over H5 + k items.
+#define H5 (S5 / 2)
+#if S5 >= 32
+#define TH5 16
+#else
+#define TH5 2
+#endif
 
 #define CX(a, b) t = VD_MIN8(a, b); b = VD_MAX8(a, b); a = t
 
@@ -346,14 +360,34 @@ SORT5_COLS(sort5_strip, S5)
 SORT5_COLS(sort5_tail, T5)
 #undef CX
 
-// pr[.][i] = sorted union of the sorted columns i + 1 and i + 2 of c (Batcher
-// merge). Column i + 2 is read first: in the other order clang 14 forwards it
-// as column i + 1 of the next iteration and then does not vectorise.
-static inline void merge_pair(const uint8_t *const c[5], size_t i, uint8_t pr[10][PT5])
+// Even and odd columns of a strip's sorted columns c[.][0 .. S5+3]:
+// e[.][j] = column 2j, o[.][j] = column 2j + 1 (so that the output pairs
+// below are whole SIMD lanes).
+static void deinterleave(const uint8_t *const c[5], uint8_t e[5][H5 + 2], uint8_t o[5][H5 + 2])
 {
-    const size_t j = i + 1u;
-    const uint8_t b0 = c[0][j + 1u], b1 = c[1][j + 1u], b2 = c[2][j + 1u], b3 = c[3][j + 1u], b4 = c[4][j + 1u];
-    const uint8_t a0 = c[0][j], a1 = c[1][j], a2 = c[2][j], a3 = c[3][j], a4 = c[4][j];
+    for (size_t q = 0; q < 5u; q++) {
+        const uint8_t *restrict s = c[q];
+        uint8_t *restrict eq = e[q];
+        uint8_t *restrict oq = o[q];
+        for (size_t j = 0; j < H5; j++) {
+            eq[j] = s[2u * j];
+            oq[j] = s[2u * j + 1u];
+        }
+        for (size_t j = H5 + 2u - TH5; j < H5 + 2u; j++) {
+            eq[j] = s[2u * j];
+            oq[j] = s[2u * j + 1u];
+        }
+    }
+}
+
+// pr[.][i] = sorted union of the sorted columns 2i + 1 = o[.][i] and
+// 2i + 2 = e[.][i+1] (Batcher merge). Column 2i + 2 is read first: in the
+// other order clang 14 forwards values between iterations and then does not
+// vectorise.
+static inline void merge_pair(const uint8_t o[5][H5 + 2], const uint8_t e[5][H5 + 2], size_t i, uint8_t pr[10][H5 + 1])
+{
+    const uint8_t b0 = e[0][i + 1u], b1 = e[1][i + 1u], b2 = e[2][i + 1u], b3 = e[3][i + 1u], b4 = e[4][i + 1u];
+    const uint8_t a0 = o[0][i], a1 = o[1][i], a2 = o[2][i], a3 = o[3][i], a4 = o[4][i];
     // BEGIN GENERATED pair (tools/vdtools/pixel.py median_network; do not edit)
     const uint8_t t0 = VD_MIN8(a0, b0);
     const uint8_t t1 = VD_MAX8(a0, b0);
@@ -394,29 +428,32 @@ static inline void merge_pair(const uint8_t *const c[5], size_t i, uint8_t pr[10
     // END GENERATED pair
 }
 
-// The pair table of a strip, entries 0 .. PT5 - 1 (S5, then the last T5).
-static void pair_table(const uint8_t *const c[5], uint8_t pr[10][PT5])
+// The pair table of a strip, entries 0 .. H5 (H5, then the last TH5).
+static void pair_table(const uint8_t o[5][H5 + 2], const uint8_t e[5][H5 + 2], uint8_t pr[10][H5 + 1])
 {
-    for (size_t i = 0; i < S5; i++) {
-        merge_pair(c, i, pr);
+    for (size_t i = 0; i < H5; i++) {
+        merge_pair(o, e, i, pr);
     }
-    for (size_t i = PT5 - T5; i < PT5; i++) {
-        merge_pair(c, i, pr);
+    for (size_t i = H5 + 1u - TH5; i < H5 + 1u; i++) {
+        merge_pair(o, e, i, pr);
     }
 }
 
-// S5 outputs: out[i] = 13th smallest of the sorted columns c[.][i .. i + 4]:
-// column i with the pairs (i+1, i+2) = pr[.][i] and (i+3, i+4) = pr[.][i+2].
-static void med5_select(const uint8_t *const c[5], const uint8_t pr[10][PT5], uint8_t *restrict out)
+// Output pairs k < H5: oe[k] = median of columns 2k .. 2k+4 (column e[.][k]
+// with the pairs pr[.][k], pr[.][k+1]), oo[k] = median of 2k+1 .. 2k+5 (the
+// same pairs with column o[.][k+2]).
+static void med5_select(const uint8_t e[5][H5 + 2], const uint8_t o[5][H5 + 2], const uint8_t pr[10][H5 + 1],
+                        uint8_t *restrict oe, uint8_t *restrict oo)
 {
-    for (size_t i = 0; i < S5; i++) {
-        const uint8_t q0 = pr[0][i + 2u], q1 = pr[1][i + 2u], q2 = pr[2][i + 2u], q3 = pr[3][i + 2u];
-        const uint8_t q4 = pr[4][i + 2u], q5 = pr[5][i + 2u], q6 = pr[6][i + 2u], q7 = pr[7][i + 2u];
-        const uint8_t q8 = pr[8][i + 2u], q9 = pr[9][i + 2u];
-        const uint8_t p0 = pr[0][i], p1 = pr[1][i], p2 = pr[2][i], p3 = pr[3][i], p4 = pr[4][i];
-        const uint8_t p5 = pr[5][i], p6 = pr[6][i], p7 = pr[7][i], p8 = pr[8][i], p9 = pr[9][i];
-        const uint8_t c0 = c[0][i], c1 = c[1][i], c2 = c[2][i], c3 = c[3][i], c4 = c[4][i];
-        // BEGIN GENERATED select_shared (tools/vdtools/median5_net.py; do not edit)
+    for (size_t k = 0; k < H5; k++) {
+        const uint8_t q0 = pr[0][k + 1u], q1 = pr[1][k + 1u], q2 = pr[2][k + 1u], q3 = pr[3][k + 1u];
+        const uint8_t q4 = pr[4][k + 1u], q5 = pr[5][k + 1u], q6 = pr[6][k + 1u], q7 = pr[7][k + 1u];
+        const uint8_t q8 = pr[8][k + 1u], q9 = pr[9][k + 1u];
+        const uint8_t p0 = pr[0][k], p1 = pr[1][k], p2 = pr[2][k], p3 = pr[3][k], p4 = pr[4][k];
+        const uint8_t p5 = pr[5][k], p6 = pr[6][k], p7 = pr[7][k], p8 = pr[8][k], p9 = pr[9][k];
+        const uint8_t b0 = o[0][k + 2u], b1 = o[1][k + 2u], b2 = o[2][k + 2u], b3 = o[3][k + 2u], b4 = o[4][k + 2u];
+        const uint8_t a0 = e[0][k], a1 = e[1][k], a2 = e[2][k], a3 = e[3][k], a4 = e[4][k];
+        // BEGIN GENERATED select_pair (tools/vdtools/median5_net.py; do not edit)
         const uint8_t t0 = VD_MAX8(p0, q0);
         const uint8_t t1 = VD_MIN8(p8, q8);
         const uint8_t t2 = VD_MIN8(t0, t1);
@@ -453,18 +490,38 @@ static void med5_select(const uint8_t *const c[5], const uint8_t pr[10][PT5], ui
         const uint8_t t33 = VD_MAX8(t13, t28);
         const uint8_t t34 = VD_MIN8(t14, t29);
         const uint8_t t35 = VD_MAX8(t14, t29);
-        const uint8_t t36 = VD_MAX8(c0, t34);
+        const uint8_t t36 = VD_MAX8(a0, t34);
         const uint8_t t37 = VD_MIN8(t35, t36);
-        const uint8_t t38 = VD_MAX8(c1, t33);
+        const uint8_t t38 = VD_MAX8(a1, t33);
         const uint8_t t39 = VD_MIN8(t37, t38);
-        const uint8_t t40 = VD_MAX8(c2, t32);
+        const uint8_t t40 = VD_MAX8(a2, t32);
         const uint8_t t41 = VD_MIN8(t39, t40);
-        const uint8_t t42 = VD_MAX8(c3, t31);
+        const uint8_t t42 = VD_MAX8(a3, t31);
         const uint8_t t43 = VD_MIN8(t41, t42);
-        const uint8_t t44 = VD_MAX8(c4, t30);
+        const uint8_t t44 = VD_MAX8(a4, t30);
         const uint8_t t45 = VD_MIN8(t43, t44);
-        out[i] = t45;
-        // END GENERATED select_shared
+        const uint8_t t46 = VD_MAX8(b0, t34);
+        const uint8_t t47 = VD_MIN8(t35, t46);
+        const uint8_t t48 = VD_MAX8(b1, t33);
+        const uint8_t t49 = VD_MIN8(t47, t48);
+        const uint8_t t50 = VD_MAX8(b2, t32);
+        const uint8_t t51 = VD_MIN8(t49, t50);
+        const uint8_t t52 = VD_MAX8(b3, t31);
+        const uint8_t t53 = VD_MIN8(t51, t52);
+        const uint8_t t54 = VD_MAX8(b4, t30);
+        const uint8_t t55 = VD_MIN8(t53, t54);
+        oe[k] = t45;
+        oo[k] = t55;
+        // END GENERATED select_pair
+    }
+}
+
+// d[2k] = oe[k], d[2k+1] = oo[k]: the S5 outputs of a strip in order.
+static void interleave(const uint8_t *restrict oe, const uint8_t *restrict oo, uint8_t *restrict d)
+{
+    for (size_t k = 0; k < H5; k++) {
+        d[2u * k] = oe[k];
+        d[2u * k + 1u] = oo[k];
     }
 }
 
@@ -498,8 +555,10 @@ vd_status_t vd_median5_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
     // Sorted columns c0 - 2 .. c0 + S5 + 5 (2 replicated each side) of the
     // upper [0] and lower [1] output row of a pair of rows.
     uint8_t colbuf[2][5][S5 + 8];
-    uint8_t pt[10][PT5];   // pair table of one row's strip
-    uint8_t out[S5];       // a strip's outputs when not all of them are wanted
+    uint8_t ev[5][H5 + 2], od[5][H5 + 2];   // even / odd sorted columns of one row's strip
+    uint8_t pt[10][H5 + 1];                 // its pair table
+    uint8_t oe[H5], oo[H5];                 // its even / odd outputs
+    uint8_t out[S5];                        // a strip's outputs when not all of them are wanted
     const int32_t x_end = r.x + r.w;
     // Output rows in pairs (rows y - 2 .. y + 3 read, the middle four shared);
     // an odd last row alone.
@@ -554,11 +613,14 @@ vd_status_t vd_median5_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
                 }
                 const uint8_t *const c[5] = {cb5[0] + 2 + dshift, cb5[1] + 2 + dshift, cb5[2] + 2 + dshift,
                                              cb5[3] + 2 + dshift, cb5[4] + 2 + dshift};
-                pair_table(c, pt);
+                deinterleave(c, ev, od);
+                pair_table((const uint8_t(*)[H5 + 2])od, (const uint8_t(*)[H5 + 2])ev, pt);
+                med5_select((const uint8_t(*)[H5 + 2])ev, (const uint8_t(*)[H5 + 2])od, (const uint8_t(*)[H5 + 1])pt,
+                            oe, oo);
                 if (wa == xs && wb == xs + S5) {
-                    med5_select(c, (const uint8_t(*)[PT5])pt, d[k] + (xs - r.x));
+                    interleave(oe, oo, d[k] + (xs - r.x));
                 } else {
-                    med5_select(c, (const uint8_t(*)[PT5])pt, out);
+                    interleave(oe, oo, out);
                     memcpy(d[k] + (wa - r.x), out + (wa - xs), (size_t)(wb - wa));
                 }
             }

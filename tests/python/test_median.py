@@ -67,6 +67,6 @@ def test_generated_network_matches_median_c(vdlib):
     def strip(lines):
         return [ln.strip() for ln in lines]
     assert strip(blocks["pair"].split("\n")) == strip(pair)
-    # The 5x5 select shares its pairs between outputs (vdtools.median5_net,
+    # The 5x5 select works on output pairs (vdtools.median5_net,
     # also checked on every 0/1 input); pixel.py's own select is not used.
-    assert strip(blocks["select_shared"].split("\n")) == strip(median5_net.select_shared(check=True))
+    assert strip(blocks["select_pair"].split("\n")) == strip(median5_net.select_pair(check=True))
