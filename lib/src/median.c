@@ -42,7 +42,7 @@
 // workspace; stack (stack budget of vd_detector_run, docs/embedded.md): 3x3
 // a 2 x 64-byte buffer for ROIs narrower than a block; 5x5 two rows' sorted
 // columns, their even/odd split, a pair table and an output strip (S5
-// below: ~3 KiB on SIMD hosts, ~300 bytes on scalar targets); both under
+// below: ~3 KiB on SIMD hosts, ~200 bytes on scalar targets); both under
 // 512 bytes on Cortex-M7
 // (worst case with callees, -Os: docs/embedded.md).
 #include <string.h>
@@ -289,14 +289,14 @@ vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
 // on SIMD hosts (128-pixel strips: each stage's loads then rarely wait for
 // the previous stage's just-stored vectors; 64 is 5-8% slower on frames, but
 // a candidate ROI narrower than a strip costs a whole strip: ~2x slower
-// there, still 5-10x faster than cv2.medianBlur), ~300 bytes on scalar
-// targets (Cortex-M: stack budget), which take 8-pixel strips at no cost to
-// them.
+// there, still 5-10x faster than cv2.medianBlur), ~200 bytes on scalar
+// targets (Cortex-M: stack budget, vd_median5_u8 <= 500 bytes with callees),
+// which take 4-pixel strips at no cost to them.
 #if defined(__SSE2__) || defined(__ARM_NEON) || defined(__ARM_NEON__) || defined(__ALTIVEC__)
 #define S5 128
 #define T5 16
 #else
-#define S5 8
+#define S5 4
 #define T5 4
 #endif
 // Outputs are taken in pairs (x, x+1), x even, sharing columns x+1 .. x+4:

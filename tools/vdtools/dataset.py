@@ -24,6 +24,13 @@ Samples:
              (sources "window" / "contrast": the test split reports them as a separate FPPW figure).
   window positives  per vehicle the generated window of highest IoU if >= 0.5 (source "window_pos"):
              what the detector feeds the DBN when a window finds the vehicle.
+Synthetic frames (BUILD_VERSION 3): clips of SYNTH_FRAMES frames of vdtools.clip with seeds SYNTH_SEEDS
+(never the bundled clip's seed 1), generated into tools/.cache/synth/, each frame used twice: its 8-bit
+frame (u8/) and its 16-bit frame mapped to grey exactly as the detector maps 16-bit regions
+(grey = (ck - grey_lo_ck) * 255 / (grey_hi_ck - grey_lo_ck), lo = 0 degC, hi = 51 degC, Q16 rounding; grey16/).
+Car boxes (category 1) are positives and DontCare (4) boxes are ignored, sampled with the same rules as
+the real frames (data set "synth", group "synth-<seed>"); they go to the TRAIN split only, appended after
+the real frames, so every real row (and the val/test splits) is byte-identical to version 2.
 Splits are by frame group (MSRS number // 40, HIT-UAV T_H_A flight), about 70/15/15 of the frames
 of each set, fixed seed; the sequence flight is test only. Built sets are cached in tools/.cache/.
 
@@ -59,7 +66,13 @@ WIN_POS_IOU = 0.5            # a window matching a vehicle this well is a positi
 # Sources of the original (issue 3) rows: Table 1's test figures use these only, so they stay comparable.
 CLASSIC_SOURCES = ("box", "box_flip", "box_jitter", "candidate", "random")
 MINED_SOURCES = ("window", "contrast", "window_pos")
-BUILD_VERSION = 2         # bump when the recipe changes (invalidates the cache); 2: mined window/contrast rows
+BUILD_VERSION = 3         # bump when the recipe changes (invalidates the cache); 2: mined window/contrast rows;
+                          # 3: synthetic clip frames (train only)
+SYNTH_SEEDS = (101, 102)  # vdtools.clip seeds of the synthetic training clips; the bundled demo clip uses seed 1
+SYNTH_FRAMES = 60
+SYNTH_VARIANTS = ("u8", "grey16")   # 8-bit frame; 16-bit frame through the detector's u16 -> grey map
+GREY_LO_CK, GREY_HI_CK = 27315, 32415   # detector defaults: hot_thr_ck - 3000, hot_thr_ck + 2100
+DATASETS = ("msrs", "hit", "seq", "synth")
 HIT_VEHICLE = (1, 3)
 HIT_IGNORE = (4,)
 MSRS_CAR = 2
@@ -126,6 +139,39 @@ def load_hit(data_dir):
     return frames, seq
 
 
+def grey_of_ck(a):
+    """The detector's 16-bit -> grey map (detector.c grey_of_raw, identity calibration), vectorised."""
+    mul = (255 * 65536 + (GREY_HI_CK - GREY_LO_CK) // 2) // (GREY_HI_CK - GREY_LO_CK)
+    g = ((a.astype(np.int64) - GREY_LO_CK) * mul + 32768) >> 16
+    return np.clip(g, 0, 255).astype(np.uint8)
+
+
+def load_synth(seeds=SYNTH_SEEDS, frames=SYNTH_FRAMES, root=None):
+    """Synthetic clips (vdtools.clip) generated once into tools/.cache/synth/seed-<s>-n<frames>/ (u8/,
+    u16/ and grey16/ = u16 through grey_of_ck, as 8-bit PGM); one FrameRec per frame and variant."""
+    from . import clip
+    root = Path(root or CACHE / "synth")
+    out = []
+    for seed in seeds:
+        if seed == 1:
+            raise ValueError("seed 1 is the bundled demo clip: never train on it")
+        d = root / f"seed-{seed}-n{frames}"
+        ann = d / "annotations.json"
+        if not ann.exists():
+            clip.generate(d, frames=frames, seed=seed)
+        g16 = d / "grey16"
+        g16.mkdir(exist_ok=True)
+        for f in sorted((d / "u16").glob("*.pgm")):
+            if not (g16 / f.name).exists():
+                clip.write_pgm(g16 / f.name, grey_of_ck(clip.read_pgm(f)))
+        for var in SYNTH_VARIANTS:
+            recs = _load_coco(ann, d / var, "synth", lambda fn, s=seed: f"synth-{s}")
+            for r in recs:
+                r.name = f"synth-{seed}/{var}/{r.name}"
+            out.extend(recs)
+    return out
+
+
 def assign_splits(frames, seed=0):
     """{group: split}: per data set, groups shuffled with `seed`, each given to the split that is
     furthest below its target share of frames. Sequence groups are always test."""
@@ -138,6 +184,9 @@ def assign_splits(frames, seed=0):
         groups = sorted(by_ds[ds])
         if ds == "seq":
             out.update({g: "test" for g in groups})
+            continue
+        if ds == "synth":   # synthetic frames only ever train
+            out.update({g: "train" for g in groups})
             continue
         rng = np.random.default_rng(seed)
         rng.shuffle(groups)
@@ -300,7 +349,9 @@ def _ok(box):
 
 
 def read_frame(path):
-    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED if str(path).endswith(".pgm") else cv2.IMREAD_GRAYSCALE)
+    if img is not None and img.dtype != np.uint8:
+        raise IOError(f"{path}: 8-bit frames only (16-bit ones go through grey_of_ck first)")
     if img is None:
         raise IOError(f"cannot read {path}")
     return img
@@ -434,10 +485,12 @@ def mined_samples(img, fr, split, mode, rng):
             yield sample32(img, r, mode), 0, "contrast", r, hot(r)
 
 
-def all_frames(data_dir):
+def all_frames(data_dir, synth=True):
+    """Real frames first, then the synthetic ones: per-frame generators are seeded by the frame
+    index, so appending keeps every real row identical."""
     msrs = load_msrs(data_dir)
     hit, seq = load_hit(data_dir)
-    return msrs + hit + seq
+    return msrs + hit + seq + (load_synth() if synth else [])
 
 
 def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=True):
@@ -524,7 +577,7 @@ def counts(ds):
     for s in SPLITS:
         m = ds["split"] == s
         row = {"neg": int((ds["y"][m] == 0).sum()), "pos": int((ds["y"][m] == 1).sum())}
-        for d in ("msrs", "hit", "seq"):
+        for d in DATASETS:
             md = m & (ds["dataset"] == d)
             row[d] = [int((ds["y"][md] == 0).sum()), int((ds["y"][md] == 1).sum())]
         for src in CLASSIC_SOURCES + MINED_SOURCES:
@@ -538,12 +591,12 @@ def print_counts(ds):
     c = counts(ds)
     print(f"data set: mode={ds['meta']['mode']} sampler={ds['meta']['sampler']} candidates={ds['meta']['candidates']} "
           f"seed={ds['meta']['seed']} frames={ds['meta']['n_frames']}")
-    print(f"{'split':6} {'groups':>6} {'neg':>6} {'pos':>6} | {'msrs n/p':>11} {'hit n/p':>11} {'seq n/p':>11} | "
+    print(f"{'split':6} {'groups':>6} {'neg':>6} {'pos':>6} | {'msrs n/p':>11} {'hit n/p':>11} {'seq n/p':>11} {'synth n/p':>11} | "
           f"{'box':>5} {'flip':>5} {'jit':>5} {'cand':>5} {'rand':>5} | {'win':>5} {'con':>5} {'winp':>5}")
     for s in SPLITS:
         r = c[s]
         print(f"{s:6} {r['groups']:6} {r['neg']:6} {r['pos']:6} | "
-              + " ".join(f"{r[d][0]:5}/{r[d][1]:<5}" for d in ("msrs", "hit", "seq"))
+              + " ".join(f"{r[d][0]:5}/{r[d][1]:<5}" for d in DATASETS)
               + f" | {r['box']:5} {r['box_flip']:5} {r['box_jitter']:5} {r['candidate']:5} {r['random']:5}"
               + f" | {r['window']:5} {r['contrast']:5} {r['window_pos']:5}")
     return c

@@ -373,6 +373,10 @@ def render_md(res):
     return "\n".join(L)
 
 
+def _synth_groups(run):
+    return sorted(g for g in run["dataset"]["meta"].get("groups", {}).get("train", []) if g.startswith("synth-"))
+
+
 def model_card(name, run, m):
     f = m["float"]
     q = m.get("quantised")
@@ -401,7 +405,11 @@ def model_card(name, run, m):
              "negatives = hot-spot candidates of the C candidate stage not overlapping a vehicle + random windows "
              "of vehicle size" + (" + hard negatives of the issue-7 generators (sliding windows pre-filtered like the "
                                   "detector, contrast components; IoU < 0.2) + the best window of each vehicle as a "
-                                  "positive" if run["dataset"]["meta"].get("mined") else "") + " (docs/training.md).",
+                                  "positive" if run["dataset"]["meta"].get("mined") else "")
+             + ("; plus, in the train split only, synthetic frames of `vdtools.clip` (seeds "
+                + ", ".join(g[len("synth-"):] for g in _synth_groups(run)) + ", never the bundled demo clip's seed 1; "
+                "8-bit and 16-bit-mapped-to-grey frames, sampled with the same rules)"
+                if _synth_groups(run) else "") + " (docs/training.md).",
              f"- **Split** (by frame group, seed {run['seed']}): train {c['train']['pos']} pos / {c['train']['neg']} neg "
              f"({c['train']['groups']} groups, with augmentation), val {c['val']['pos']} / {c['val']['neg']}, "
              f"test {c['test']['pos']} / {c['test']['neg']} ({c['test']['groups']} groups incl. the whole HIT-UAV "
