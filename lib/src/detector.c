@@ -53,6 +53,7 @@
 // plus the deepest stage below it (refine -> median; docs/embedded.md); no
 // recursion.
 #include "vd/detector.h"
+#include "internal/windows_internal.h"
 
 #include <string.h>
 
@@ -827,35 +828,6 @@ DET_NOINLINE static vd_status_t contrast_source(vd_detector_t *det, const vd_fra
     return result;
 }
 
-// windows.c's band and ground-model test of a window of height h whose
-// bottom row is yb (same integer arithmetic, so the streamed windows are
-// exactly vd_windows_generate's; checked by test_detector.c).
-static bool win_row_ok(const vd_windows_cfg_t *c, uint32_t h, int32_t yb)
-{
-    bool band = false;
-    for (uint32_t b = 0; b < c->n_bands; b++) {
-        const vd_window_band_t *bd = &c->bands[b];
-        if (yb >= bd->y_min && yb <= bd->y_max && h >= bd->min_h && h <= bd->max_h) {
-            band = true;
-            break;
-        }
-    }
-    if (!band) {
-        return false;
-    }
-    if (c->ground_k_q8 == 0u) {
-        return true;
-    }
-    const int64_t below = (int64_t)yb - c->horizon_y;
-    if (below <= 0) {
-        return false;
-    }
-    const int64_t e_q8 = (int64_t)c->ground_k_q8 * below;
-    const int64_t h_q8 = (int64_t)h << 8;
-    const int64_t t = (int64_t)c->ground_tol_q8;
-    return (h_q8 * t >= e_q8 * 256) && (h_q8 * 256 <= e_q8 * t);
-}
-
 // floor(sqrt(v)), 16 iterations at most.
 static uint32_t isqrt32(uint32_t v)
 {
@@ -990,7 +962,7 @@ DET_NOINLINE static uint32_t walk_windows(vd_detector_t *det, int pass, uint32_t
             const uint32_t oy = ((c->frame_h - h) % sy) / 2u;
             const uint32_t ncols = (c->frame_w - w - ox) / sx + 1u;
             for (uint32_t y = oy; y + h <= c->frame_h; y += sy) {
-                if (!win_row_ok(c, h, (int32_t)(y + h - 1u))) {
+                if (!vd_windows_row_ok(c, h, (int32_t)(y + h - 1u))) {
                     continue;
                 }
                 for (uint32_t i = 0; i < ncols; i++) {

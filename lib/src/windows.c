@@ -18,6 +18,7 @@
 // plus a few scalars. Capacity: min(cap, max_windows), overflow reported as
 // VD_ERR_CAPACITY.
 #include "vd/windows.h"
+#include "internal/windows_internal.h"
 
 #include <string.h>
 
@@ -92,8 +93,10 @@ vd_status_t vd_windows_resolve(vd_windows_cfg_t *cfg)
     return VD_OK;
 }
 
-// True when a window of height h with bottom row yb is allowed by a band and the ground model.
-static bool row_ok(const vd_windows_cfg_t *c, uint32_t h, int32_t yb)
+// True when a window of height h with bottom row yb is allowed by a band and the
+// ground model. Shared with the detector's streamed windows (windows_internal.h),
+// so both enumerate exactly the same windows.
+bool vd_windows_row_ok(const vd_windows_cfg_t *c, uint32_t h, int32_t yb)
 {
     bool band = false;
     for (uint32_t b = 0; b < c->n_bands; b++) {
@@ -149,7 +152,7 @@ static void walk(const vd_windows_cfg_t *c, vd_rect_t *out, size_t cap, size_t *
                 uint32_t oy = ((c->frame_h - h) % sy) / 2u;
                 uint32_t ncols = (c->frame_w - w - ox) / sx + 1u;
                 for (uint32_t y = oy; y + h <= c->frame_h; y += sy) {
-                    if (!row_ok(c, h, (int32_t)(y + h - 1u))) {
+                    if (!vd_windows_row_ok(c, h, (int32_t)(y + h - 1u))) {
                         continue;
                     }
                     all += ncols;

@@ -12,6 +12,7 @@
 #endif
 
 #include "vd_port/file.h"
+#include "port_err.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -25,22 +26,6 @@
 #include <stb_image.h>
 #endif
 
-static void set_err(char *err, size_t err_len, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-
-static void set_err(char *err, size_t err_len, const char *fmt, ...)
-{
-    if (err == NULL || err_len == 0u) {
-        return;
-    }
-    va_list ap;
-    va_start(ap, fmt);
-    (void)vsnprintf(err, err_len, fmt, ap);
-    va_end(ap);
-}
 
 static bool is_ws(uint8_t c)
 {
@@ -90,11 +75,11 @@ vd_status_t vd_pgm_parse_header(const uint8_t *buf, size_t len, uint32_t *width,
                                 uint32_t *maxval, size_t *data_offset, char *err, size_t err_len)
 {
     if (buf == NULL || width == NULL || height == NULL || maxval == NULL || data_offset == NULL) {
-        set_err(err, err_len, "PGM: NULL argument");
+        vd_port_set_err(err, err_len, "PGM: NULL argument");
         return VD_ERR_ARG;
     }
     if (len < 2u || buf[0] != 'P' || buf[1] != '5') {
-        set_err(err, err_len, "not a binary PGM (magic must be \"P5\")");
+        vd_port_set_err(err, err_len, "not a binary PGM (magic must be \"P5\")");
         return VD_ERR_FORMAT;
     }
     static const char *const names[3] = {"width", "height", "maxval"};
@@ -104,46 +89,46 @@ vd_status_t vd_pgm_parse_header(const uint8_t *buf, size_t len, uint32_t *width,
         size_t before = pos;
         pos = skip_ws(buf, len, pos);
         if (pos >= len) {
-            set_err(err, err_len, "PGM header truncated before %s", names[i]);
+            vd_port_set_err(err, err_len, "PGM header truncated before %s", names[i]);
             return VD_ERR_FORMAT;
         }
         if (pos == before) {
-            set_err(err, err_len, "PGM header: no whitespace before %s", names[i]);
+            vd_port_set_err(err, err_len, "PGM header: no whitespace before %s", names[i]);
             return VD_ERR_FORMAT;
         }
         int r = read_uint(buf, len, &pos, &vals[i]);
         if (r == -2) {
-            set_err(err, err_len, "PGM header: %s has too many digits", names[i]);
+            vd_port_set_err(err, err_len, "PGM header: %s has too many digits", names[i]);
             return VD_ERR_FORMAT;
         }
         if (r != 0) {
-            set_err(err, err_len, "PGM header: %s is not a number (byte 0x%02x at offset %zu)", names[i],
+            vd_port_set_err(err, err_len, "PGM header: %s is not a number (byte 0x%02x at offset %zu)", names[i],
                     (unsigned)buf[pos], pos);
             return VD_ERR_FORMAT;
         }
     }
     if (pos >= len || !is_ws(buf[pos])) {
-        set_err(err, err_len, "PGM header: %s", pos >= len ? "truncated after maxval" : "no whitespace after maxval");
+        vd_port_set_err(err, err_len, "PGM header: %s", pos >= len ? "truncated after maxval" : "no whitespace after maxval");
         return VD_ERR_FORMAT;
     }
     pos++;   // exactly one whitespace byte before the samples
     if (vals[0] == 0u || vals[1] == 0u || vals[0] > VD_MAX_DIM || vals[1] > VD_MAX_DIM) {
-        set_err(err, err_len, "PGM size %ux%u outside 1..%u", (unsigned)vals[0], (unsigned)vals[1], (unsigned)VD_MAX_DIM);
+        vd_port_set_err(err, err_len, "PGM size %ux%u outside 1..%u", (unsigned)vals[0], (unsigned)vals[1], (unsigned)VD_MAX_DIM);
         return VD_ERR_FORMAT;
     }
     if (vals[2] == 0u || vals[2] > 65535u) {
-        set_err(err, err_len, "PGM maxval %u outside 1..65535", (unsigned)vals[2]);
+        vd_port_set_err(err, err_len, "PGM maxval %u outside 1..65535", (unsigned)vals[2]);
         return VD_ERR_FORMAT;
     }
     size_t bpp = vals[2] < 256u ? 1u : 2u;
     size_t bytes;
     if ((size_t)vals[0] > SIZE_MAX / (size_t)vals[1] || (size_t)vals[0] * (size_t)vals[1] > SIZE_MAX / bpp) {
-        set_err(err, err_len, "PGM size %ux%u overflows", (unsigned)vals[0], (unsigned)vals[1]);
+        vd_port_set_err(err, err_len, "PGM size %ux%u overflows", (unsigned)vals[0], (unsigned)vals[1]);
         return VD_ERR_OVERFLOW;
     }
     bytes = (size_t)vals[0] * (size_t)vals[1] * bpp;
     if (len - pos < bytes) {
-        set_err(err, err_len, "PGM pixel data truncated: %zu of %zu bytes", len - pos, bytes);
+        vd_port_set_err(err, err_len, "PGM pixel data truncated: %zu of %zu bytes", len - pos, bytes);
         return VD_ERR_FORMAT;
     }
     *width = vals[0];
@@ -167,7 +152,7 @@ static vd_status_t decode_pgm(const uint8_t *buf, size_t len, vd_decoded_t *out,
     if (maxval < 256u) {
         uint8_t *px = (uint8_t *)malloc(n);
         if (px == NULL) {
-            set_err(err, err_len, "out of memory for a %ux%u frame", (unsigned)w, (unsigned)h);
+            vd_port_set_err(err, err_len, "out of memory for a %ux%u frame", (unsigned)w, (unsigned)h);
             return VD_ERR_IO;
         }
         memcpy(px, buf + off, n);
@@ -176,7 +161,7 @@ static vd_status_t decode_pgm(const uint8_t *buf, size_t len, vd_decoded_t *out,
     } else {
         uint16_t *px = (uint16_t *)malloc(n * 2u);
         if (px == NULL) {
-            set_err(err, err_len, "out of memory for a %ux%u frame", (unsigned)w, (unsigned)h);
+            vd_port_set_err(err, err_len, "out of memory for a %ux%u frame", (unsigned)w, (unsigned)h);
             return VD_ERR_IO;
         }
         const uint8_t *s = buf + off;
@@ -207,7 +192,7 @@ static vd_status_t decode_stb(const uint8_t *buf, size_t len, vd_decoded_t *out,
     const char *kind = is_png(buf, len) ? "PNG" : "JPEG";
 #if defined(VD_PORT_HAVE_STB)
     if (len > (size_t)INT_MAX) {
-        set_err(err, err_len, "%s too large (%zu bytes)", kind, len);
+        vd_port_set_err(err, err_len, "%s too large (%zu bytes)", kind, len);
         return VD_ERR_FORMAT;
     }
     int w = 0;
@@ -215,11 +200,11 @@ static vd_status_t decode_stb(const uint8_t *buf, size_t len, vd_decoded_t *out,
     int comp = 0;
     if (!stbi_info_from_memory(buf, (int)len, &w, &h, &comp)) {
         const char *why = stbi_failure_reason();
-        set_err(err, err_len, "%s header: %s", kind, why != NULL ? why : "unreadable");
+        vd_port_set_err(err, err_len, "%s header: %s", kind, why != NULL ? why : "unreadable");
         return VD_ERR_FORMAT;
     }
     if (w <= 0 || h <= 0 || (uint32_t)w > VD_MAX_DIM || (uint32_t)h > VD_MAX_DIM) {
-        set_err(err, err_len, "%s size %dx%d outside 1..%u", kind, w, h, (unsigned)VD_MAX_DIM);
+        vd_port_set_err(err, err_len, "%s size %dx%d outside 1..%u", kind, w, h, (unsigned)VD_MAX_DIM);
         return VD_ERR_FORMAT;
     }
     bool wide = stbi_is_16_bit_from_memory(buf, (int)len) != 0;
@@ -229,19 +214,19 @@ static vd_status_t decode_stb(const uint8_t *buf, size_t len, vd_decoded_t *out,
                      : (void *)stbi_load_from_memory(buf, (int)len, &dw, &dh, &comp, 1);
     if (pix == NULL) {
         const char *why = stbi_failure_reason();
-        set_err(err, err_len, "%s decode: %s", kind, why != NULL ? why : "failed");
+        vd_port_set_err(err, err_len, "%s decode: %s", kind, why != NULL ? why : "failed");
         return VD_ERR_FORMAT;
     }
     if (dw != w || dh != h) {
         stbi_image_free(pix);
-        set_err(err, err_len, "%s decode: size changed while decoding", kind);
+        vd_port_set_err(err, err_len, "%s decode: size changed while decoding", kind);
         return VD_ERR_FORMAT;
     }
     size_t bytes = (size_t)w * (size_t)h * (wide ? 2u : 1u);   // <= 2^27
     void *copy = malloc(bytes);
     if (copy == NULL) {
         stbi_image_free(pix);
-        set_err(err, err_len, "out of memory for a %dx%d frame", w, h);
+        vd_port_set_err(err, err_len, "out of memory for a %dx%d frame", w, h);
         return VD_ERR_IO;
     }
     memcpy(copy, pix, bytes);   // own the plane with malloc so vd_decoded_free() is plain free()
@@ -253,7 +238,7 @@ static vd_status_t decode_stb(const uint8_t *buf, size_t len, vd_decoded_t *out,
     return VD_OK;
 #else
     (void)out;
-    set_err(err, err_len, "%s support not built (stb_image not found)", kind);
+    vd_port_set_err(err, err_len, "%s support not built (stb_image not found)", kind);
     return VD_ERR_FORMAT;
 #endif
 }
@@ -261,29 +246,29 @@ static vd_status_t decode_stb(const uint8_t *buf, size_t len, vd_decoded_t *out,
 vd_status_t vd_image_decode(const uint8_t *buf, size_t len, vd_decoded_t *out, char *err, size_t err_len)
 {
     if (out == NULL) {
-        set_err(err, err_len, "decode: NULL output");
+        vd_port_set_err(err, err_len, "decode: NULL output");
         return VD_ERR_ARG;
     }
     memset(out, 0, sizeof(*out));
     if (buf == NULL) {
-        set_err(err, err_len, "decode: NULL buffer");
+        vd_port_set_err(err, err_len, "decode: NULL buffer");
         return VD_ERR_ARG;
     }
     if (len == 0u) {
-        set_err(err, err_len, "empty file");
+        vd_port_set_err(err, err_len, "empty file");
         return VD_ERR_FORMAT;
     }
     if (len >= 2u && buf[0] == 'P' && buf[1] == '5') {
         return decode_pgm(buf, len, out, err, err_len);
     }
     if (len >= 2u && buf[0] == 'P' && buf[1] >= '1' && buf[1] <= '7') {
-        set_err(err, err_len, "Netpbm P%c is not supported (only binary greymap P5)", (char)buf[1]);
+        vd_port_set_err(err, err_len, "Netpbm P%c is not supported (only binary greymap P5)", (char)buf[1]);
         return VD_ERR_FORMAT;
     }
     if (is_png(buf, len) || is_jpeg(buf, len)) {
         return decode_stb(buf, len, out, err, err_len);
     }
-    set_err(err, err_len, "unknown image format (not PGM P5, PNG or JPEG)");
+    vd_port_set_err(err, err_len, "unknown image format (not PGM P5, PNG or JPEG)");
     return VD_ERR_FORMAT;
 }
 
@@ -292,16 +277,16 @@ vd_status_t vd_raw_frame_count(size_t len, uint32_t width, uint32_t height, vd_p
 {
     if (n_frames == NULL || width == 0u || height == 0u || width > VD_MAX_DIM || height > VD_MAX_DIM ||
         (format != VD_PIX_U8 && format != VD_PIX_U16)) {
-        set_err(err, err_len, "raw: bad arguments (size %ux%u, format %d)", (unsigned)width, (unsigned)height, (int)format);
+        vd_port_set_err(err, err_len, "raw: bad arguments (size %ux%u, format %d)", (unsigned)width, (unsigned)height, (int)format);
         return VD_ERR_ARG;
     }
     size_t fb = (size_t)width * (size_t)height * (format == VD_PIX_U16 ? 2u : 1u);   // <= 2^27
     if (len == 0u) {
-        set_err(err, err_len, "raw file is empty");
+        vd_port_set_err(err, err_len, "raw file is empty");
         return VD_ERR_FORMAT;
     }
     if (len % fb != 0u) {
-        set_err(err, err_len, "raw file size %zu is not a multiple of the %ux%u frame size %zu", len, (unsigned)width,
+        vd_port_set_err(err, err_len, "raw file size %zu is not a multiple of the %ux%u frame size %zu", len, (unsigned)width,
                 (unsigned)height, fb);
         return VD_ERR_FORMAT;
     }
@@ -321,25 +306,25 @@ void vd_decoded_free(vd_decoded_t *d)
 vd_status_t vd_file_read_all(const char *path, uint8_t **buf, size_t *len, char *err, size_t err_len)
 {
     if (path == NULL || buf == NULL || len == NULL) {
-        set_err(err, err_len, "read: NULL argument");
+        vd_port_set_err(err, err_len, "read: NULL argument");
         return VD_ERR_ARG;
     }
     *buf = NULL;
     *len = 0u;
     FILE *fp = fopen(path, "rb");
     if (fp == NULL) {
-        set_err(err, err_len, "%s: cannot open: %s", path, strerror(errno));
+        vd_port_set_err(err, err_len, "%s: cannot open: %s", path, strerror(errno));
         return VD_ERR_IO;
     }
     struct stat sb;
     if (fstat(fileno(fp), &sb) != 0 || !S_ISREG(sb.st_mode)) {
         (void)fclose(fp);
-        set_err(err, err_len, "%s: not a regular file", path);
+        vd_port_set_err(err, err_len, "%s: not a regular file", path);
         return VD_ERR_IO;
     }
     if (sb.st_size < 0 || (uint64_t)sb.st_size > (uint64_t)VD_FILE_MAX_BYTES) {
         (void)fclose(fp);
-        set_err(err, err_len, "%s: file too large (%lld bytes, limit %u)", path, (long long)sb.st_size,
+        vd_port_set_err(err, err_len, "%s: file too large (%lld bytes, limit %u)", path, (long long)sb.st_size,
                 (unsigned)VD_FILE_MAX_BYTES);
         return VD_ERR_IO;
     }
@@ -347,7 +332,7 @@ vd_status_t vd_file_read_all(const char *path, uint8_t **buf, size_t *len, char 
     uint8_t *p = (uint8_t *)malloc(n != 0u ? n : 1u);
     if (p == NULL) {
         (void)fclose(fp);
-        set_err(err, err_len, "%s: out of memory (%zu bytes)", path, n);
+        vd_port_set_err(err, err_len, "%s: out of memory (%zu bytes)", path, n);
         return VD_ERR_IO;
     }
     size_t got = n != 0u ? fread(p, 1u, n, fp) : 0u;
@@ -355,7 +340,7 @@ vd_status_t vd_file_read_all(const char *path, uint8_t **buf, size_t *len, char 
     (void)fclose(fp);
     if (got != n || bad != 0) {
         free(p);
-        set_err(err, err_len, "%s: read error (%zu of %zu bytes)", path, got, n);
+        vd_port_set_err(err, err_len, "%s: read error (%zu of %zu bytes)", path, got, n);
         return VD_ERR_IO;
     }
     *buf = p;

@@ -10,6 +10,7 @@
 #endif
 
 #include "vd_port/writer.h"
+#include "port_err.h"
 
 #include <errno.h>
 #include <stdarg.h>
@@ -22,22 +23,6 @@
 #include <stb_image_write.h>
 #endif
 
-static void set_err(char *err, size_t err_len, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-
-static void set_err(char *err, size_t err_len, const char *fmt, ...)
-{
-    if (err == NULL || err_len == 0u) {
-        return;
-    }
-    va_list ap;
-    va_start(ap, fmt);
-    (void)vsnprintf(err, err_len, fmt, ap);
-    va_end(ap);
-}
 
 static bool tmp_name(const char *path, char *tmp, size_t n)
 {
@@ -53,7 +38,7 @@ static vd_status_t finish(const char *tmp, const char *path, bool ok, char *err,
         return VD_ERR_IO;
     }
     if (rename(tmp, path) != 0) {
-        set_err(err, err_len, "%s: cannot rename from %s: %s", path, tmp, strerror(errno));
+        vd_port_set_err(err, err_len, "%s: cannot rename from %s: %s", path, tmp, strerror(errno));
         (void)remove(tmp);
         return VD_ERR_IO;
     }
@@ -63,17 +48,17 @@ static vd_status_t finish(const char *tmp, const char *path, bool ok, char *err,
 vd_status_t vd_write_pgm(const char *path, const vd_frame_t *frame, char *err, size_t err_len)
 {
     if (path == NULL || frame == NULL || vd_frame_check(frame) != VD_OK) {
-        set_err(err, err_len, "write PGM: NULL path or invalid frame");
+        vd_port_set_err(err, err_len, "write PGM: NULL path or invalid frame");
         return VD_ERR_ARG;
     }
     char tmp[4200];
     if (!tmp_name(path, tmp, sizeof(tmp))) {
-        set_err(err, err_len, "write PGM: path too long");
+        vd_port_set_err(err, err_len, "write PGM: path too long");
         return VD_ERR_ARG;
     }
     FILE *fp = fopen(tmp, "wb");
     if (fp == NULL) {
-        set_err(err, err_len, "%s: cannot create: %s", tmp, strerror(errno));
+        vd_port_set_err(err, err_len, "%s: cannot create: %s", tmp, strerror(errno));
         return VD_ERR_IO;
     }
     bool wide = frame->format == VD_PIX_U16;
@@ -102,7 +87,7 @@ vd_status_t vd_write_pgm(const char *path, const vd_frame_t *frame, char *err, s
         ok = false;
     }
     if (!ok) {
-        set_err(err, err_len, "%s: write failed: %s", path, strerror(errno));
+        vd_port_set_err(err, err_len, "%s: write failed: %s", path, strerror(errno));
     }
     return finish(tmp, path, ok, err, err_len);
 }
@@ -303,17 +288,17 @@ static vd_status_t write_png(const char *path, uint32_t w, uint32_t h, int comp,
 #if defined(VD_PORT_HAVE_STB)
     char tmp[4200];
     if (!tmp_name(path, tmp, sizeof(tmp))) {
-        set_err(err, err_len, "write PNG: path too long");
+        vd_port_set_err(err, err_len, "write PNG: path too long");
         return VD_ERR_ARG;
     }
     if (stride > (size_t)0x7FFFFFFF) {
-        set_err(err, err_len, "write PNG: stride too large");
+        vd_port_set_err(err, err_len, "write PNG: stride too large");
         return VD_ERR_ARG;
     }
     errno = 0;
     bool ok = stbi_write_png(tmp, (int)w, (int)h, comp, data, (int)stride) != 0;
     if (!ok) {
-        set_err(err, err_len, "%s: PNG write failed%s%s", path, errno != 0 ? ": " : "", errno != 0 ? strerror(errno) : "");
+        vd_port_set_err(err, err_len, "%s: PNG write failed%s%s", path, errno != 0 ? ": " : "", errno != 0 ? strerror(errno) : "");
     }
     return finish(tmp, path, ok, err, err_len);
 #else
@@ -322,7 +307,7 @@ static vd_status_t write_png(const char *path, uint32_t w, uint32_t h, int comp,
     (void)comp;
     (void)data;
     (void)stride;
-    set_err(err, err_len, "%s: PNG output not built (stb_image_write not found)", path);
+    vd_port_set_err(err, err_len, "%s: PNG output not built (stb_image_write not found)", path);
     return VD_ERR_IO;
 #endif
 }
@@ -330,7 +315,7 @@ static vd_status_t write_png(const char *path, uint32_t w, uint32_t h, int comp,
 vd_status_t vd_write_png_rgb(const char *path, const vd_rgb_t *img, char *err, size_t err_len)
 {
     if (path == NULL || !rgb_ok(img)) {
-        set_err(err, err_len, "write PNG: NULL path or invalid canvas");
+        vd_port_set_err(err, err_len, "write PNG: NULL path or invalid canvas");
         return VD_ERR_ARG;
     }
     return write_png(path, img->width, img->height, 3, img->data, img->stride, err, err_len);
@@ -339,11 +324,11 @@ vd_status_t vd_write_png_rgb(const char *path, const vd_rgb_t *img, char *err, s
 vd_status_t vd_write_png_grey(const char *path, const vd_frame_t *frame, char *err, size_t err_len)
 {
     if (path == NULL || frame == NULL || vd_frame_check(frame) != VD_OK) {
-        set_err(err, err_len, "write PNG: NULL path or invalid frame");
+        vd_port_set_err(err, err_len, "write PNG: NULL path or invalid frame");
         return VD_ERR_ARG;
     }
     if (frame->format != VD_PIX_U8) {
-        set_err(err, err_len, "write PNG: only 8-bit frames (use vd_write_pgm for 16-bit)");
+        vd_port_set_err(err, err_len, "write PNG: only 8-bit frames (use vd_write_pgm for 16-bit)");
         return VD_ERR_FORMAT;
     }
     return write_png(path, frame->width, frame->height, 1, (const uint8_t *)frame->data, frame->stride, err, err_len);
