@@ -1136,6 +1136,12 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
         VD_TRY(window_source(det, frame, &nc, thr8));   // the overlay holds the integrals until here
         clock_add(det, VD_DET_STAGE_WINDOWS, &t0);
     }
+    // The observer sees every merged candidate before verification (nc <= max_candidates).
+    if (det->cfg.on_candidate != NULL) {
+        for (size_t i = 0; i < nc; i++) {
+            det->cfg.on_candidate(det->cfg.candidate_user, &det->cand[i]);
+        }
+    }
     // Verification of the merged list, compacted in place.
     size_t nv = 0u;
     for (size_t i = 0; i < nc; i++) {

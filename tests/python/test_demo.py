@@ -94,6 +94,11 @@ def test_clip_detections_and_eval(demo, clip_dir, model_args, tmp_path, depth):
     assert e["frames"] == 120 and e["classes"] == [1, 3] and e["vehicles"] > 300
     floor = TP_FLOOR_MODEL if has_model else TP_FLOOR_NO_MODEL
     assert e["tp_rate"] >= floor, e
+    # candidate recall (before verification) is the ceiling of the TP rate
+    assert e["vehicles_hot"] + e["vehicles_cold"] == e["vehicles"], e
+    assert e["tp_rate"] <= e["candidate_recall"] <= 1.0, e
+    assert 0.0 <= e["candidate_recall_hot"] <= 1.0 and 0.0 <= e["candidate_recall_cold"] <= 1.0, e
+    assert "candidate recall (ceiling of the TP rate)" in p.stdout
     if not has_model:
         assert e["fp_rate"] <= FP_CEIL_NO_MODEL, e
         # unverified candidates score 1.0; recovered targets (temporal analysis) 0.0

@@ -793,6 +793,68 @@ static void test_sources_merge_dedup_and_tags(void)
     }
 }
 
+// Candidate observer: sees exactly the merged list, in order, before verification.
+typedef struct {
+    size_t n;
+    vd_detection_t seen[256];
+} cand_log_t;
+static cand_log_t g_log;
+
+static void log_candidate(void *user, const vd_detection_t *cand)
+{
+    cand_log_t *l = (cand_log_t *)user;
+    if (l->n < 256u) {
+        l->seen[l->n] = *cand;
+    }
+    l->n++;
+}
+
+static void test_candidate_observer(void)
+{
+    fill(60u);
+    car8(20, 30, 200u);
+    rect8(100, 60, 24, 16, 10u);
+    vd_detector_cfg_t c = small_cfg();
+    c.sources = VD_DETECTOR_SRC_ALL;
+    c.windows = small_windows();
+    c.nms_iou_q15 = 32768u;             // nothing suppressed: without a model out == merged list
+    c.max_candidates = 200u;
+    c.max_detections = 200u;
+    c.dedup_iou_q15 = 16384u;
+    c.on_candidate = log_candidate;
+    c.candidate_user = &g_log;
+    init_or_fail(&c);
+    vd_frame_t f = frame8();
+    size_t n = 0u;
+    memset(&g_log, 0, sizeof(g_log));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, g_out, 1024u, &n));
+    const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
+    TEST_ASSERT_EQUAL_size_t(s->cand_hotspot + s->cand_contrast + s->cand_window, g_log.n);
+    TEST_ASSERT_TRUE(g_log.n >= 3u && g_log.n <= 200u);
+    TEST_ASSERT_EQUAL_size_t(n, g_log.n);
+    for (size_t i = 0; i < n; i++) {
+        TEST_ASSERT_EQUAL_INT32(g_out[i].box.x, g_log.seen[i].box.x);
+        TEST_ASSERT_EQUAL_INT32(g_out[i].box.y, g_log.seen[i].box.y);
+        TEST_ASSERT_EQUAL_INT32(g_out[i].box.w, g_log.seen[i].box.w);
+        TEST_ASSERT_EQUAL_INT32(g_out[i].box.h, g_log.seen[i].box.h);
+        TEST_ASSERT_EQUAL_UINT8(g_out[i].source, g_log.seen[i].source);
+        TEST_ASSERT_EQUAL_UINT8(0u, g_log.seen[i].score_q8);   // not yet verified
+    }
+    // Bounded by the budget.
+    c.max_candidates = 5u;
+    c.max_detections = 5u;
+    init_or_fail(&c);
+    memset(&g_log, 0, sizeof(g_log));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, g_out, 1024u, &n));
+    TEST_ASSERT_EQUAL_size_t(s->cand_hotspot + s->cand_contrast + s->cand_window, g_log.n);
+    TEST_ASSERT_TRUE(g_log.n <= 5u);
+    // A failing run (bad frame) calls nothing.
+    memset(&g_log, 0, sizeof(g_log));
+    f.width = 0u;
+    TEST_ASSERT_TRUE(vd_detector_run(&g_det, &f, g_out, 1024u, &n) != VD_OK);
+    TEST_ASSERT_EQUAL_size_t(0u, g_log.n);
+}
+
 static void test_sources_config_and_workspace(void)
 {
     size_t base = 0u;
@@ -887,5 +949,6 @@ int main(void)
     RUN_TEST(test_sources_merge_dedup_and_tags);
     RUN_TEST(test_sources_config_and_workspace);
     RUN_TEST(test_sources_workspace_contract);
+    RUN_TEST(test_candidate_observer);
     return UNITY_END();
 }

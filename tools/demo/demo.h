@@ -98,6 +98,8 @@ typedef struct demo_gt {
     char class_desc[512];   // "1 Car, 3 OtherVehicle"
     // running totals
     uint64_t frames, frames_unannotated, gt, det, det_ignored, tp, fp;
+    // candidate recall (demo_gt_candidates): vehicles hot / cold, and those covered by a candidate
+    uint64_t veh_hot, veh_cold, cov_hot, cov_cold;
 } demo_gt_t;
 
 typedef struct demo_det {
@@ -115,6 +117,14 @@ void demo_gt_free(demo_gt_t *gt);
 // matched (may be NULL, n entries): 1 = true positive, 0 = false positive, -1 = ignored.
 void demo_gt_frame(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32_t height,
                    const demo_det_t *det, size_t n, int8_t *matched);
+// Candidate recall of one frame (call once per frame demo_gt_frame evaluates,
+// with the same frame_name): each vehicle box is "covered" when a candidate
+// (the merged list before verification, vd_detector_cfg_t.on_candidate) has
+// IoU >= 0.5 with it, and "hot" when its box clipped to the frame holds a
+// pixel >= hot_thr (the frame's 8-bit or raw 16-bit threshold; a value above
+// the format's range means nothing is hot). O(candidates x boxes + box pixels).
+void demo_gt_candidates(demo_gt_t *gt, const char *frame_name, const vd_frame_t *frame, uint32_t hot_thr,
+                        const vd_rect_t *cand, size_t n);
 // IoU of two boxes given as x, y, w, h.
 double demo_iou(double ax, double ay, double aw, double ah, double bx, double by, double bw, double bh);
 // Prints the Table-2 figures and writes them as JSON (path may be NULL).

@@ -495,22 +495,76 @@ static int cmp_order(const void *a, const void *b)
     return x->index < y->index ? -1 : (x->index > y->index);
 }
 
+// The annotations of a frame (NULL: none; YOLO matches the file name's stem).
+static const demo_gt_image_t *frame_image(const demo_gt_t *gt, const char *frame_name)
+{
+    const char *base = demo_basename(frame_name);
+    if (!gt->yolo) {
+        return find_image(gt, base);
+    }
+    char stem[1024];
+    snprintf(stem, sizeof stem, "%s", base);
+    char *dot = strrchr(stem, '.');
+    if (dot != NULL) {
+        *dot = '\0';
+    }
+    return find_image(gt, stem);
+}
+
+// True when the box (clipped to the frame, whole pixels it touches) holds a pixel >= thr.
+static bool box_hot(const vd_frame_t *f, double x, double y, double w, double h, uint32_t thr)
+{
+    double x1 = fmax(floor(x), 0.0), y1 = fmax(floor(y), 0.0);
+    double x2 = fmin(ceil(x + w), (double)f->width), y2 = fmin(ceil(y + h), (double)f->height);
+    if (!(x2 > x1 && y2 > y1)) {
+        return false;
+    }
+    size_t c0 = (size_t)x1, c1 = (size_t)x2, r0 = (size_t)y1, r1 = (size_t)y2;
+    const uint8_t *base = f->data;
+    for (size_t r = r0; r < r1; r++) {
+        const uint8_t *row = base + r * f->stride;
+        for (size_t c = c0; c < c1; c++) {
+            uint32_t v = f->format == VD_PIX_U16 ? ((const uint16_t *)(const void *)row)[c] : row[c];
+            if (v >= thr) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+void demo_gt_candidates(demo_gt_t *gt, const char *frame_name, const vd_frame_t *frame, uint32_t hot_thr,
+                        const vd_rect_t *cand, size_t n)
+{
+    const demo_gt_image_t *im = frame_image(gt, frame_name);
+    if (im == NULL) {
+        return;   // not evaluated (COCO) or no objects (YOLO)
+    }
+    double sx = im->normalised ? frame->width : 1.0, sy = im->normalised ? frame->height : 1.0;
+    for (size_t b = 0; b < im->n; b++) {
+        const demo_gt_box_t *g = &im->box[b];
+        if (!g->vehicle) {
+            continue;
+        }
+        double gx = g->x * sx, gy = g->y * sy, gw = g->w * sx, gh = g->h * sy;
+        bool covered = false;
+        for (size_t i = 0; i < n && !covered; i++) {
+            covered = demo_iou(cand[i].x, cand[i].y, cand[i].w, cand[i].h, gx, gy, gw, gh) >= 0.5;
+        }
+        if (box_hot(frame, gx, gy, gw, gh, hot_thr)) {
+            gt->veh_hot++;
+            gt->cov_hot += covered;
+        } else {
+            gt->veh_cold++;
+            gt->cov_cold += covered;
+        }
+    }
+}
+
 void demo_gt_frame(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32_t height,
                    const demo_det_t *det, size_t n, int8_t *matched)
 {
-    const char *base = demo_basename(frame_name);
-    char stem[1024];
-    const demo_gt_image_t *im = NULL;
-    if (gt->yolo) {
-        snprintf(stem, sizeof stem, "%s", base);
-        char *dot = strrchr(stem, '.');
-        if (dot != NULL) {
-            *dot = '\0';
-        }
-        im = find_image(gt, stem);
-    } else {
-        im = find_image(gt, base);
-    }
+    const demo_gt_image_t *im = frame_image(gt, frame_name);
     gt->frames++;
     if (im == NULL && !gt->yolo) {
         // not listed in the annotations: not evaluated
@@ -616,6 +670,10 @@ void demo_gt_report(const demo_gt_t *gt, FILE *f)
             100.0 * ratio(gt->tp, gt->gt), 100.0 * ratio(gt->fp, gt->det), 100.0 * ratio(gt->tp, gt->det),
             100.0 * ratio(gt->tp, gt->gt), ratio(gt->fp, gt->frames), (unsigned long long)gt->tp,
             (unsigned long long)gt->fp, (unsigned long long)(gt->gt - gt->tp));
+    fprintf(f, "  candidate recall (ceiling of the TP rate): %.2f%% (hot %.2f%% of %llu, cold %.2f%% of %llu)\n",
+            100.0 * ratio(gt->cov_hot + gt->cov_cold, gt->veh_hot + gt->veh_cold), 100.0 * ratio(gt->cov_hot, gt->veh_hot),
+            (unsigned long long)gt->veh_hot, 100.0 * ratio(gt->cov_cold, gt->veh_cold),
+            (unsigned long long)gt->veh_cold);
 }
 
 vd_status_t demo_gt_write_json(const demo_gt_t *gt, const char *annotations, const char *path, char *err,
@@ -638,6 +696,10 @@ vd_status_t demo_gt_write_json(const demo_gt_t *gt, const char *annotations, con
             (unsigned long long)gt->frames, (unsigned long long)gt->frames_unannotated, (unsigned long long)gt->gt,
             (unsigned long long)gt->det, (unsigned long long)gt->det_ignored, (unsigned long long)gt->tp,
             (unsigned long long)gt->fp, (unsigned long long)(gt->gt - gt->tp));
+    fprintf(f, "\"candidate_recall\": %.6f, \"candidate_recall_hot\": %.6f, \"candidate_recall_cold\": %.6f, "
+               "\"vehicles_hot\": %llu, \"vehicles_cold\": %llu, ",
+            ratio(gt->cov_hot + gt->cov_cold, gt->veh_hot + gt->veh_cold), ratio(gt->cov_hot, gt->veh_hot),
+            ratio(gt->cov_cold, gt->veh_cold), (unsigned long long)gt->veh_hot, (unsigned long long)gt->veh_cold);
     fprintf(f, "\"tp_rate\": %.6f, \"fp_rate\": %.6f, \"precision\": %.6f, \"recall\": %.6f, \"fppi\": %.6f}\n",
             ratio(gt->tp, gt->gt), ratio(gt->fp, gt->det), ratio(gt->tp, gt->det), ratio(gt->tp, gt->gt),
             ratio(gt->fp, gt->frames));

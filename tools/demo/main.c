@@ -52,6 +52,8 @@ typedef struct run {
     vd_detection_t *dets;
     size_t dets_cap;
     demo_det_t *eval_dets;
+    vd_rect_t *cands;        // --eval: this frame's candidates before verification (max_candidates)
+    size_t n_cands, cap_cands;
     demo_gt_t gt;
     bool have_gt;
     char eval_path[4096];
@@ -402,6 +404,15 @@ static uint32_t raw_of_ck(const vd_calib_t *c, int32_t ck)
     return raw < 0 ? 0u : raw > 65535.0 ? 65535u : (uint32_t)lround(raw);
 }
 
+// Candidate observer (--eval): keeps the boxes the verifier will see.
+static void on_candidate(void *user, const vd_detection_t *cand)
+{
+    run_t *r = user;
+    if (r->n_cands < r->cap_cands) {
+        r->cands[r->n_cands++] = cand->box;
+    }
+}
+
 static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
 {
     vd_detector_cfg_t cfg = r->o.cfg;
@@ -412,6 +423,10 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     cfg.max_region_h = (uint16_t)(cfg.max_region_h > f->height ? f->height : cfg.max_region_h);
     cfg.clock_us = clock_us;
     cfg.clock_user = NULL;
+    if (r->have_gt) {
+        cfg.on_candidate = on_candidate;
+        cfg.candidate_user = r;
+    }
     size_t bytes = 0;
     const vd_model_t *m = r->have_model ? &r->model : NULL;
     vd_status_t st = vd_detector_workspace_size(&cfg, m, &bytes);
@@ -433,7 +448,9 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     r->dets_cap = (size_t)r->det.cfg.max_detections + r->det.cfg.max_tracks + 1u;
     r->dets = calloc(r->dets_cap, sizeof *r->dets);
     r->eval_dets = calloc(r->dets_cap, sizeof *r->eval_dets);
-    if (r->dets == NULL || r->eval_dets == NULL) {
+    r->cap_cands = r->det.cfg.max_candidates;
+    r->cands = calloc(r->cap_cands + 1u, sizeof *r->cands);
+    if (r->dets == NULL || r->eval_dets == NULL || r->cands == NULL) {
         snprintf(r->err, sizeof r->err, "out of memory");
         return VD_ERR_IO;
     }
@@ -454,6 +471,20 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     }
     r->det_ready = true;
     return VD_OK;
+}
+
+// The hot-spot threshold the detector used on this frame (stats; the resolved
+// setting when the hot-spot source is off; 65536 = nothing can be hot).
+static uint32_t hot_threshold(const run_t *r, const vd_frame_t *f)
+{
+    const vd_detector_stats_t *s = vd_detector_last_stats(&r->det);
+    if (f->format == VD_PIX_U16) {
+        if (r->det.raw_never_hot) {
+            return 65536u;
+        }
+        return s->hot_thr_raw != 0u ? s->hot_thr_raw : r->det.raw_thr;
+    }
+    return s->hot_thr_u8 != 0u ? s->hot_thr_u8 : r->det.cfg.hot_thr_u8;
 }
 
 static vd_status_t record_times(run_t *r, const vd_detector_stats_t *s, uint32_t wall_us)
@@ -531,6 +562,7 @@ static void cleanup(run_t *r)
     free(r->ws);
     free(r->dets);
     free(r->eval_dets);
+    free(r->cands);
     free(r->model_blob);
     if (r->have_gt) {
         demo_gt_free(&r->gt);
@@ -653,6 +685,7 @@ static int run(run_t *r)
             return fail(r, VD_ERR_FORMAT, m);
         }
         size_t n = 0;
+        r->n_cands = 0;
         st = vd_detector_run(&r->det, &f, r->dets, r->dets_cap, &n);
         if (st == VD_ERR_CAPACITY) {
             r->capacity_warnings++;
@@ -671,6 +704,7 @@ static int run(run_t *r)
                 r->eval_dets[i].score = score_of(&r->dets[i]);
             }
             demo_gt_frame(&r->gt, name, f.width, f.height, r->eval_dets, n, NULL);
+            demo_gt_candidates(&r->gt, name, &f, hot_threshold(r, &f), r->cands, r->n_cands);
         }
         if (r->staging) {
             st = draw_frame(r, name, &f, n);

@@ -48,6 +48,17 @@ class TemporalCfg(C.Structure):
                 ("search_radius", C.c_uint8), ("search_step", C.c_uint8)]
 
 
+class Detection(C.Structure):
+    _fields_ = [("box", clib.Rect), ("candidate", clib.Rect), ("contour_length", C.c_uint32),
+                ("track_id", C.c_uint32), ("complexity_q15", C.c_uint16), ("score_q8", C.c_uint8),
+                ("source", C.c_uint8), ("state", C.c_uint8), ("flags", C.c_uint8), ("hot_thr", C.c_uint8),
+                ("reserved", C.c_uint8)]
+
+
+# void (*on_candidate)(void *user, const vd_detection_t *cand)
+CANDIDATE_FN = C.CFUNCTYPE(None, C.c_void_p, C.POINTER(Detection))
+
+
 class DetectorCfg(C.Structure):
     _fields_ = [("max_width", C.c_uint32), ("max_height", C.c_uint32), ("max_runs", C.c_uint32),
                 ("thr_mode", C.c_uint8), ("hot_thr_u8", C.c_uint8), ("adaptive_floor_u8", C.c_uint8),
@@ -60,14 +71,8 @@ class DetectorCfg(C.Structure):
                 ("max_region_h", C.c_uint16), ("max_tracks", C.c_uint16), ("temporal", C.c_bool),
                 ("temporal_cfg", TemporalCfg), ("sources", C.c_uint8), ("win_min_std_u8", C.c_uint8),
                 ("dedup_iou_q15", C.c_uint16), ("contrast", ContrastCfg), ("windows", WindowsCfg),
-                ("clock_us", CLOCK_FN), ("clock_user", C.c_void_p)]
-
-
-class Detection(C.Structure):
-    _fields_ = [("box", clib.Rect), ("candidate", clib.Rect), ("contour_length", C.c_uint32),
-                ("track_id", C.c_uint32), ("complexity_q15", C.c_uint16), ("score_q8", C.c_uint8),
-                ("source", C.c_uint8), ("state", C.c_uint8), ("flags", C.c_uint8), ("hot_thr", C.c_uint8),
-                ("reserved", C.c_uint8)]
+                ("clock_us", CLOCK_FN), ("clock_user", C.c_void_p),
+                ("on_candidate", CANDIDATE_FN), ("candidate_user", C.c_void_p)]
 
 
 STAT_FIELDS = ("hot_thr_u8", "hot_thr_raw", "hot_pixels", "components", "kept", "refined", "verified",
@@ -122,7 +127,7 @@ def _struct_dict(s):
         v = getattr(s, name)
         if isinstance(v, C.Structure):
             v = _struct_dict(v)
-        elif name in ("clock_us", "clock_user"):
+        elif name in ("clock_us", "clock_user", "on_candidate", "candidate_user"):
             continue
         out[name] = v
     return out

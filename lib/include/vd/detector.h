@@ -63,6 +63,9 @@ enum {
     VD_DET_STAGE_COUNT
 };
 
+struct vd_detection;
+typedef struct vd_detection vd_detection_t;
+
 // Settings. A zeroed struct (or vd_detector_cfg_default()) gives the paper's
 // values; every field documents its zero meaning and range. Out-of-range
 // values make vd_detector_workspace_size()/vd_detector_init() return VD_ERR_ARG.
@@ -118,10 +121,19 @@ typedef struct vd_detector_cfg {
     // free-running microsecond counter (wrap-around is handled); NULL = no timing.
     uint32_t (*clock_us)(void *user);
     void *clock_user;
+    // Optional candidate observer (candidate recall, issue 7); NULL = off.
+    // Called once per merged candidate (all sources, after the dedup merge),
+    // in list order, just before verification: cand->box is the box the
+    // verifier samples, cand->candidate the region, cand->source set, score
+    // not yet filled. At most max_candidates calls per vd_detector_run; none
+    // when the run fails before the merge. The pointer is valid only during
+    // the call; the observer must not call back into this detector.
+    void (*on_candidate)(void *user, const vd_detection_t *cand);
+    void *candidate_user;
 } vd_detector_cfg_t;
 
 // One detection.
-typedef struct vd_detection {
+struct vd_detection {
     vd_rect_t box;               // image coordinates: box of the largest external contour of the refined region
     vd_rect_t candidate;         // image coordinates: the expanded candidate region that was refined
     uint32_t contour_length;     // points of that contour (times k when decimated), 0 for recovered
@@ -133,7 +145,7 @@ typedef struct vd_detection {
     uint8_t flags;               // VD_DET_FLAG_*
     uint8_t hot_thr;             // 8-bit threshold used (U16 frames: 0)
     uint8_t reserved;
-} vd_detection_t;
+};
 
 // Per-frame counts and times of the last vd_detector_run.
 typedef struct vd_detector_stats {
