@@ -7,6 +7,7 @@ import cv2
 import numpy as np
 
 from vdtools import refine
+from realdata import frame_paths
 
 DX = np.array([1, 1, 0, -1, -1, -1, 0, 1])
 DY = np.array([0, -1, -1, -1, 0, 1, 1, 1])
@@ -29,8 +30,7 @@ def assert_same_as_cv2(mask, what=""):
 
 
 def _frames(data_dir):
-    msrs = sorted((data_dir / "msrs" / "images").glob("*.png"))
-    uav = sorted((data_dir / "hit-uav" / "frames" / "images").glob("*.jpg"))
+    msrs, uav = frame_paths(data_dir)
     picks = msrs[::70] + uav[::60]   # 8 + 8 frames, night and day, both views
     assert len(picks) >= 10
     return picks

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from vdtools import pixel
+from realdata import frame_paths
 
 OTSU = cv2.THRESH_BINARY | cv2.THRESH_OTSU
 
@@ -17,11 +18,8 @@ def _cv_otsu(a):
 
 
 def _frames(data_dir):
-    paths = sorted((data_dir / "msrs" / "images").glob("*.png")) + \
-        sorted((data_dir / "hit-uav" / "frames" / "images").glob("*.jpg"))
-    if not paths:
-        pytest.skip(f"no frames under {data_dir}")
-    return paths
+    msrs, uav = frame_paths(data_dir)
+    return msrs + uav
 
 
 def test_equals_cv2_on_every_real_frame_and_rois(vdlib, data_dir):

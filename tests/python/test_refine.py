@@ -8,6 +8,7 @@ import numpy as np
 from scipy import ndimage
 
 from vdtools import refine
+from realdata import frame_paths
 
 CROSS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], bool)
 
@@ -76,9 +77,8 @@ def candidate_rois(img, limit=12):
 
 
 def _frames(data_dir):
-    msrs = sorted((data_dir / "msrs" / "images").glob("*N.png"))
-    uav = sorted((data_dir / "hit-uav" / "frames" / "images").glob("*.jpg"))
-    return msrs[::40] + uav[::60]
+    msrs, uav = frame_paths(data_dir)
+    return [p for p in msrs if p.name.endswith("N.png")][::40] + uav[::60]
 
 
 def test_real_candidates_match_reference(vdlib, data_dir):

@@ -5,14 +5,12 @@ import numpy as np
 import pytest
 
 from vdtools import clib, pixel
+from realdata import frame_paths
 
 
 def _frames(data_dir):
-    paths = sorted((data_dir / "msrs" / "images").glob("*.png")) + \
-        sorted((data_dir / "hit-uav" / "frames" / "images").glob("*.jpg"))
-    if not paths:
-        pytest.skip(f"no frames under {data_dir}")
-    return paths
+    msrs, uav = frame_paths(data_dir)
+    return msrs + uav
 
 
 def test_u8_equals_cv2_on_every_real_frame(vdlib, data_dir):
