@@ -493,11 +493,15 @@ def all_frames(data_dir, synth=True):
     return msrs + hit + seq + (load_synth() if synth else [])
 
 
-def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=True):
+def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=True, only_split=None):
     """Returns a dict of arrays: X (N,32,32) u8, y (N,) u8 (1 = vehicle), split (N,) str, source,
-    dataset, frame, group, rect (N,4) int32, hot (N,) bool; plus meta (dict)."""
+    dataset, frame, group, rect (N,4) int32, hot (N,) bool; plus meta (dict).
+    only_split: keep only that split's frames. Splits and per-frame generators do not depend on
+    the other frames, so its rows are byte-identical to the same split of a full build (this is
+    how CI gets the test split for the parity check without building the training set)."""
     data_dir = Path(data_dir or clib.DATA_DIR)
-    frames = frames if frames is not None else all_frames(data_dir)
+    if frames is None:
+        frames = all_frames(data_dir, synth=only_split in (None, "train"))
     split_of = assign_splits(frames, seed)
     sizes = {}
     for f in frames:
@@ -510,6 +514,8 @@ def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=T
     for i, fr in enumerate(it):
         rng = np.random.default_rng([seed, i])
         split = split_of[fr.group]
+        if only_split is not None and split != only_split:
+            continue
         vs = sizes.get(fr.dataset if fr.dataset != "seq" else "hit") or [(32, 32)]
         # the mined rows come after the issue-3 rows with their own generator, so those stay identical
         mined = mined_samples(read_frame(fr.path), fr, split, mode, np.random.default_rng([seed, i, 1])) \
@@ -538,8 +544,23 @@ def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=T
     return out
 
 
-def cache_path(mode, seed):
-    return CACHE / f"dataset_{mode}_s{seed}_v{BUILD_VERSION}.npz"
+def cache_path(mode, seed, only_split=None):
+    suffix = f"_{only_split}" if only_split else ""
+    return CACHE / f"dataset_{mode}_s{seed}_v{BUILD_VERSION}{suffix}.npz"
+
+
+def load_or_build_split(split, mode="grey", seed=0, data_dir=None, progress=False):
+    """One split's rows: taken from the full cached set when it exists, else built alone and cached."""
+    full = cache_path(mode, seed)
+    if full.exists():
+        ds = load(full)
+        return subset(ds, ds["split"] == split)
+    p = cache_path(mode, seed, split)
+    if p.exists():
+        return load(p)
+    ds = build(data_dir, mode, seed, progress=progress, only_split=split)
+    save(ds, p)
+    return ds
 
 
 def save(ds, path):
