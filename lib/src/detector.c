@@ -929,69 +929,49 @@ static uint32_t window_level(const vd_detector_t *det, const vd_rect_t *b)
     return (sd > 255u) ? 255u : sd;
 }
 
-// Walks the windows of x->wc in vd_windows_generate's order (height, aspect,
-// row, column) without storing them. pass 0: histogram of the pre-filter
-// levels >= win_min_std (det->hist); pass 1: merges the windows of level >
-// cut, and the first `ties` of level == cut. Returns the windows enumerated.
+// Pass state of the streamed windows (vd_windows_walk): pass 0 builds the
+// histogram of pre-filter levels >= win_min_std (det->hist); pass 1 merges the
+// windows of level > cut and the first `ties` of level == cut.
+typedef struct win_pass {
+    vd_detector_t *det;
+    int pass;
+    uint32_t cut;
+    uint32_t ties;
+    size_t *n;
+    uint8_t thr8;
+} win_pass_t;
+
+static void window_visit(void *ctx, const vd_rect_t *b)
+{
+    win_pass_t *p = (win_pass_t *)ctx;
+    vd_detector_t *det = p->det;
+    const uint32_t lv = window_level(det, b);
+    if (lv < det->cfg.win_min_std_u8) {
+        return;
+    }
+    if (p->pass == 0) {
+        det->hist[lv]++;
+        return;
+    }
+    if (lv < p->cut || (lv == p->cut && p->ties == 0u)) {
+        return;
+    }
+    if (lv == p->cut) {
+        p->ties--;
+    }
+    if (*p->n < det->cfg.max_candidates && merge_box(det, p->n, b, (uint8_t)VD_SOURCE_WINDOW, p->thr8)) {
+        det->stats.cand_window++;
+    }
+}
+
+// One pass over the windows of x->wc; returns the windows enumerated (saturated).
 DET_NOINLINE static uint32_t walk_windows(vd_detector_t *det, int pass, uint32_t cut, uint32_t ties, size_t *n,
                                           uint8_t thr8)
 {
-    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
-    const vd_windows_cfg_t *c = &x->wc;
-    const uint32_t min_std = det->cfg.win_min_std_u8;
-    uint32_t lo = VD_MAX_DIM;
-    uint32_t hi = 0u;
-    for (uint32_t k = 0; k < c->n_bands; k++) {
-        lo = (c->bands[k].min_h < lo) ? c->bands[k].min_h : lo;
-        hi = (c->bands[k].max_h > hi) ? c->bands[k].max_h : hi;
-    }
-    uint32_t all = 0u;
-    uint32_t h = lo;
-    for (uint32_t sc = 0; sc < VD_WINDOWS_MAX_SCALES && h <= hi; sc++) {
-        for (uint32_t a = 0; a < c->n_aspects && h <= c->frame_h; a++) {
-            uint32_t w = (h * 256u + c->aspect_q8[a] / 2u) / c->aspect_q8[a];
-            w = (w < 1u) ? 1u : w;
-            if (w > c->frame_w) {
-                continue;
-            }
-            uint32_t sx = (w * c->stride_q8) >> 8;
-            uint32_t sy = (h * c->stride_q8) >> 8;
-            sx = (sx < 1u) ? 1u : sx;
-            sy = (sy < 1u) ? 1u : sy;
-            const uint32_t ox = ((c->frame_w - w) % sx) / 2u;
-            const uint32_t oy = ((c->frame_h - h) % sy) / 2u;
-            const uint32_t ncols = (c->frame_w - w - ox) / sx + 1u;
-            for (uint32_t y = oy; y + h <= c->frame_h; y += sy) {
-                if (!vd_windows_row_ok(c, h, (int32_t)(y + h - 1u))) {
-                    continue;
-                }
-                for (uint32_t i = 0; i < ncols; i++) {
-                    vd_rect_t b = {(int32_t)(ox + i * sx), (int32_t)y, (int32_t)w, (int32_t)h};
-                    all++;
-                    const uint32_t lv = window_level(det, &b);
-                    if (lv < min_std) {
-                        continue;
-                    }
-                    if (pass == 0) {
-                        det->hist[lv]++;
-                        continue;
-                    }
-                    if (lv < cut || (lv == cut && ties == 0u)) {
-                        continue;
-                    }
-                    if (lv == cut) {
-                        ties--;
-                    }
-                    if (*n < det->cfg.max_candidates && merge_box(det, n, &b, (uint8_t)VD_SOURCE_WINDOW, thr8)) {
-                        det->stats.cand_window++;
-                    }
-                }
-            }
-        }
-        uint32_t nh = (h * c->scale_step_q8 + 128u) >> 8;
-        h = (nh > h) ? nh : h + 1u;
-    }
-    return all;
+    const cand_ctx_t *x = (const cand_ctx_t *)det->scratch;
+    win_pass_t p = {det, pass, cut, ties, n, thr8};
+    const uint64_t all = vd_windows_walk(&x->wc, window_visit, &p);
+    return (all > UINT32_MAX) ? UINT32_MAX : (uint32_t)all;
 }
 
 // Window source: pre-filter by cell-mean deviation, rank by it, and merge

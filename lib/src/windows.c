@@ -93,10 +93,8 @@ vd_status_t vd_windows_resolve(vd_windows_cfg_t *cfg)
     return VD_OK;
 }
 
-// True when a window of height h with bottom row yb is allowed by a band and the
-// ground model. Shared with the detector's streamed windows (windows_internal.h),
-// so both enumerate exactly the same windows.
-bool vd_windows_row_ok(const vd_windows_cfg_t *c, uint32_t h, int32_t yb)
+// True when a window of height h with bottom row yb is allowed by a band and the ground model.
+static bool row_ok(const vd_windows_cfg_t *c, uint32_t h, int32_t yb)
 {
     bool band = false;
     for (uint32_t b = 0; b < c->n_bands; b++) {
@@ -124,8 +122,9 @@ bool vd_windows_row_ok(const vd_windows_cfg_t *c, uint32_t h, int32_t yb)
     return (h_q8 * t >= e_q8 * 256) && (h_q8 * 256 <= e_q8 * t);
 }
 
-// Walks every window; writes the first `cap` into out, counts all in *total.
-static void walk(const vd_windows_cfg_t *c, vd_rect_t *out, size_t cap, size_t *written, uint64_t *total)
+// The one enumeration of windows (vd_windows_generate, vd_windows_count and the
+// detector's streamed windows all use it): height ladder, aspect, row, column.
+uint64_t vd_windows_walk(const vd_windows_cfg_t *c, vd_windows_visit_fn visit, void *ctx)
 {
     uint32_t lo = VD_MAX_DIM;
     uint32_t hi = 0u;
@@ -133,7 +132,6 @@ static void walk(const vd_windows_cfg_t *c, vd_rect_t *out, size_t cap, size_t *
         lo = (c->bands[b].min_h < lo) ? c->bands[b].min_h : lo;
         hi = (c->bands[b].max_h > hi) ? c->bands[b].max_h : hi;
     }
-    size_t n = 0u;
     uint64_t all = 0u;
     uint32_t h = lo;
     for (uint32_t s = 0; s < VD_WINDOWS_MAX_SCALES && h <= hi; s++) {
@@ -152,24 +150,38 @@ static void walk(const vd_windows_cfg_t *c, vd_rect_t *out, size_t cap, size_t *
                 uint32_t oy = ((c->frame_h - h) % sy) / 2u;
                 uint32_t ncols = (c->frame_w - w - ox) / sx + 1u;
                 for (uint32_t y = oy; y + h <= c->frame_h; y += sy) {
-                    if (!vd_windows_row_ok(c, h, (int32_t)(y + h - 1u))) {
+                    if (!row_ok(c, h, (int32_t)(y + h - 1u))) {
                         continue;
                     }
                     all += ncols;
-                    for (uint32_t i = 0; i < ncols && n < cap; i++) {
-                        out[n].x = (int32_t)(ox + i * sx);
-                        out[n].y = (int32_t)y;
-                        out[n].w = (int32_t)w;
-                        out[n].h = (int32_t)h;
-                        n++;
+                    if (visit == NULL) {
+                        continue;
+                    }
+                    for (uint32_t i = 0; i < ncols; i++) {
+                        const vd_rect_t win = {(int32_t)(ox + i * sx), (int32_t)y, (int32_t)w, (int32_t)h};
+                        visit(ctx, &win);
                     }
                 }
             }
         }
         h = next_height(h, c->scale_step_q8);
     }
-    *written = n;
-    *total = all;
+    return all;
+}
+
+typedef struct collect {
+    vd_rect_t *out;
+    size_t cap;
+    size_t n;
+} collect_t;
+
+// Visitor of vd_windows_generate: keeps the first `cap` windows.
+static void collect(void *ctx, const vd_rect_t *win)
+{
+    collect_t *c = (collect_t *)ctx;
+    if (c->n < c->cap) {
+        c->out[c->n++] = *win;
+    }
 }
 
 vd_status_t vd_windows_generate(const vd_windows_cfg_t *cfg, vd_rect_t *out, size_t cap, size_t *count)
@@ -181,11 +193,10 @@ vd_status_t vd_windows_generate(const vd_windows_cfg_t *cfg, vd_rect_t *out, siz
     vd_windows_cfg_t c = *cfg;
     VD_TRY(vd_windows_resolve(&c));
     size_t lim = (cap < (size_t)c.max_windows) ? cap : (size_t)c.max_windows;
-    size_t n = 0u;
-    uint64_t all = 0u;
-    walk(&c, out, lim, &n, &all);
-    *count = n;
-    return (all > (uint64_t)n) ? VD_ERR_CAPACITY : VD_OK;
+    collect_t col = {out, lim, 0u};
+    const uint64_t all = vd_windows_walk(&c, collect, &col);
+    *count = col.n;
+    return (all > (uint64_t)col.n) ? VD_ERR_CAPACITY : VD_OK;
 }
 
 vd_status_t vd_windows_count(const vd_windows_cfg_t *cfg, uint32_t *total)
@@ -195,9 +206,7 @@ vd_status_t vd_windows_count(const vd_windows_cfg_t *cfg, uint32_t *total)
     VD_VERIFY(cfg != NULL, VD_ERR_ARG);
     vd_windows_cfg_t c = *cfg;
     VD_TRY(vd_windows_resolve(&c));
-    size_t n = 0u;
-    uint64_t all = 0u;
-    walk(&c, NULL, 0u, &n, &all);
+    const uint64_t all = vd_windows_walk(&c, NULL, NULL);
     *total = (all > UINT32_MAX) ? UINT32_MAX : (uint32_t)all;
     return VD_OK;
 }
