@@ -53,46 +53,6 @@ void vd_refine_cfg_default(vd_refine_cfg_t *cfg)
     }
 }
 
-vd_status_t vd_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr)
-{
-    VD_VERIFY(hist != NULL && thr != NULL, VD_ERR_ARG);
-    uint64_t n = 0u;
-    uint64_t sum = 0u;
-    for (uint32_t i = 0; i < 256u; i++) {
-        n += hist[i];   // 256 * (2^32 - 1) fits in uint64
-        sum += (uint64_t)i * hist[i];
-    }
-    VD_VERIFY(n >= 1u && n <= VD_MAXDIST_MAX_COUNT, VD_ERR_RANGE);
-
-    const int64_t n_s = (int64_t)n;
-    const int64_t sum_s = (int64_t)sum;
-    int64_t c = 0;
-    int64_t s = 0;
-    uint64_t best_num = 0u;
-    uint64_t best_den = 1u;
-    int best_t = -1;
-    for (int t = 0; t < 255; t++) {
-        c += (int64_t)hist[t];
-        s += (int64_t)t * (int64_t)hist[t];
-        if (c == 0 || c == n_s) {
-            continue;
-        }
-        const int64_t d = s * n_s - sum_s * c;
-        const uint64_t ad = (uint64_t)(d < 0 ? -d : d);
-        const uint64_t num = ad * ad;
-        const uint64_t den = (uint64_t)(c * (n_s - c));
-        // num/den > best_num/best_den; strict, so the smallest T wins ties.
-        if (best_t < 0 || num * best_den > best_num * den) {
-            best_num = num;
-            best_den = den;
-            best_t = t;
-        }
-    }
-    VD_VERIFY(best_t >= 0, VD_ERR_RANGE);   // one grey level only
-    *thr = (uint8_t)best_t;
-    return VD_OK;
-}
-
 // Index of the lowest set bit of a one-bit word (de Bruijn multiply: no
 // count-trailing-zeros in C99).
 static uint32_t bit_index(uint32_t low)
@@ -130,7 +90,8 @@ static bool maxdist_levels(const uint32_t hist[256], const uint32_t present[8], 
             if (c == n_s) {
                 break;   // the last occupied level: class 2 empty
             }
-            // Bounds as in vd_maxdist_from_hist (n <= 225 here).
+            // n <= VD_MAXDIST_MAX_COUNT (255): |d| < 255 * 255 * 255, so d^2 < 2^48 and
+            // num * best_den < 2^48 * 2^14 fits uint64.
             const int64_t d = s * n_s - sum_s * c;
             const uint64_t ad = (uint64_t)(d < 0 ? -d : d);
             const uint64_t num = ad * ad;
@@ -144,6 +105,25 @@ static bool maxdist_levels(const uint32_t hist[256], const uint32_t present[8], 
     }
     *thr = (uint8_t)(best_t < 0 ? 0 : best_t);
     return best_t >= 0;
+}
+
+vd_status_t vd_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr)
+{
+    VD_VERIFY(hist != NULL && thr != NULL, VD_ERR_ARG);
+    uint64_t n = 0u;
+    uint64_t sum = 0u;
+    uint32_t present[8] = {0u};
+    for (uint32_t i = 0; i < 256u; i++) {
+        n += hist[i];   // 256 * (2^32 - 1) fits in uint64
+        sum += (uint64_t)i * hist[i];
+        present[i >> 5] |= (hist[i] != 0u ? 1u : 0u) << (i & 31u);
+    }
+    VD_VERIFY(n >= 1u && n <= VD_MAXDIST_MAX_COUNT, VD_ERR_RANGE);
+    // n <= 255, so sum <= 255 * 255 fits the helper's uint32.
+    uint8_t t = 0u;   // *thr is left alone on failure
+    VD_VERIFY(maxdist_levels(hist, present, (uint32_t)n, (uint32_t)sum, &t), VD_ERR_RANGE);  // one grey level only
+    *thr = t;
+    return VD_OK;
 }
 
 static bool fill_ws_size(uint32_t w, uint32_t h, size_t *bytes)
