@@ -58,6 +58,7 @@
 #include <string.h>
 
 #include "vd/contour.h"
+#include "vd/otsu.h"
 #include "vd/resample.h"
 #include "internal/vd_internal.h"
 
@@ -581,13 +582,10 @@ static uint32_t threshold_u8(vd_detector_t *det, const vd_view_u8_t *v)
     if (det->cfg.thr_mode != VD_DETECTOR_THR_ADAPTIVE) {
         return det->cfg.hot_thr_u8;
     }
-    memset(det->hist, 0, 256u * sizeof(uint32_t));
-    for (uint32_t y = 0; y < v->height; y++) {
-        const uint8_t *row = v->data + (size_t)y * v->stride;
-        for (uint32_t x = 0; x < v->width; x++) {
-            det->hist[row[x]]++;
-        }
-    }
+    // otsu.h's histogram (the run-counting one): the view was checked by the caller.
+    const vd_status_t st = vd_histogram_u8(v, NULL, det->hist);
+    VD_ASSERT(st == VD_OK);
+    (void)st;
     // Smallest level t with at least ceil(N * p / 1000) pixels <= t.
     uint64_t n = (uint64_t)v->width * v->height;
     uint64_t target = (n * det->cfg.adaptive_permille + 999u) / 1000u;
