@@ -10,11 +10,39 @@ export DEBIAN_FRONTEND=noninteractive
 # libv4l-dev: V4L2 port; libstb-dev: PNG/JPEG decode and PNG encode in host tools;
 # valgrind: leak checks and instruction counts; pkg-config: consumer test;
 # arm toolchains + qemu-user: cross builds and ARM test runs.
+# Every package is named explicitly: --no-install-recommends drops what a package only recommends
+# (the cross compilers' C libraries libc6-dev-*-cross were lost that way once).
+PKGS=(cmake ninja-build make gcc libc6-dev clang libclang-rt-14-dev llvm pkg-config libv4l-dev libstb-dev
+  valgrind binutils
+  gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib
+  gcc-arm-linux-gnueabihf libc6-dev-armhf-cross binutils-arm-linux-gnueabihf
+  gcc-aarch64-linux-gnu libc6-dev-arm64-cross binutils-aarch64-linux-gnu
+  qemu-user python3 python3-pip python3-venv)
 $SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends \
-  cmake ninja-build gcc clang libclang-rt-14-dev pkg-config libv4l-dev libstb-dev valgrind binutils \
-  gcc-arm-none-eabi libnewlib-arm-none-eabi gcc-arm-linux-gnueabihf gcc-aarch64-linux-gnu qemu-user \
-  python3 python3-pip >/dev/null
+$SUDO apt-get install -y -qq --no-install-recommends "${PKGS[@]}" >/dev/null
+
+# Each toolchain must compile AND link a trivial program; one clear line names the package otherwise.
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+printf 'int main(void){return 0;}\n' >"$tmp/t.c"
+printf '#include <stdint.h>\n#include <stddef.h>\nint LLVMFuzzerTestOneInput(const uint8_t *d, size_t n){(void)d;(void)n;return 0;}\n' >"$tmp/f.c"
+check() {  # name, package(s), command...
+  local name=$1 pkg=$2; shift 2
+  if ! "$@" >"$tmp/log" 2>&1; then
+    echo "setup.sh: $name cannot compile and link a trivial program; install: $pkg" >&2
+    sed 's/^/  /' "$tmp/log" | head -5 >&2
+    exit 1
+  fi
+}
+check "host gcc" "gcc libc6-dev" gcc "$tmp/t.c" -o "$tmp/a"
+check "clang" "clang" clang "$tmp/t.c" -o "$tmp/b"
+check "clang libFuzzer + ASan/UBSan" "libclang-rt-14-dev" clang -fsanitize=fuzzer,address,undefined "$tmp/f.c" -o "$tmp/c"
+check "arm-none-eabi" "gcc-arm-none-eabi libnewlib-arm-none-eabi" \
+  arm-none-eabi-gcc -mcpu=cortex-m7 -mthumb --specs=nosys.specs "$tmp/t.c" -o "$tmp/d"
+check "armhf" "gcc-arm-linux-gnueabihf libc6-dev-armhf-cross" arm-linux-gnueabihf-gcc "$tmp/t.c" -o "$tmp/e"
+check "aarch64" "gcc-aarch64-linux-gnu libc6-dev-arm64-cross" aarch64-linux-gnu-gcc "$tmp/t.c" -o "$tmp/g"
+check "qemu-arm (armhf program)" "qemu-user" qemu-arm -L /usr/arm-linux-gnueabihf "$tmp/e"
+check "qemu-aarch64 (aarch64 program)" "qemu-user" qemu-aarch64 -L /usr/aarch64-linux-gnu "$tmp/g"
+
 # Python tools (tools/pyproject.toml lists them): numpy, scikit-learn, scikit-image,
 # opencv-python-headless (oracle + benchmark peer), matplotlib (figures), tqdm, pytest.
 PIP="python3 -m pip"

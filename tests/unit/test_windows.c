@@ -212,7 +212,9 @@ static void test_random_vs_naive(void)
         TEST_ASSERT_TRUE(nr <= MAXW);
         TEST_ASSERT_EQUAL_INT(VD_OK, st);
         TEST_ASSERT_EQUAL_size_t(nr, n);
-        TEST_ASSERT_EQUAL_MEMORY(g_ref, g_out, n * sizeof(vd_rect_t));
+        if (n > 0u) {   // Unity rejects a zero-length comparison; n == nr == 0 is already checked
+            TEST_ASSERT_EQUAL_MEMORY(g_ref, g_out, n * sizeof(vd_rect_t));
+        }
         uint32_t total = 0;
         TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_count(&c, &total));
         TEST_ASSERT_EQUAL_UINT32((uint32_t)nr, total);

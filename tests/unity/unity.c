@@ -115,6 +115,9 @@ void UnityAssertEqualMemory(const void *expected, const void *actual, size_t len
 {
     const unsigned char *e = (const unsigned char *)expected;
     const unsigned char *a = (const unsigned char *)actual;
+    if (len == 0u || num == 0u) {   // as real Unity: a zero-length comparison is a test bug
+        fail_line(line, "You Asked Me To Compare Nothing, Which Was Pointless.", msg);
+    }
     if (e == NULL || a == NULL) {
         fail_line(line, "Memory pointer is NULL", msg);
     }
@@ -151,6 +154,9 @@ void UnityAssertEqualIntArray(const void *expected, const void *actual, size_t n
 {
     const unsigned char *e = (const unsigned char *)expected;
     const unsigned char *a = (const unsigned char *)actual;
+    if (len == 0u || num == 0u) {   // as real Unity: a zero-length comparison is a test bug
+        fail_line(line, "You Asked Me To Compare Nothing, Which Was Pointless.", msg);
+    }
     if (e == NULL || a == NULL) {
         fail_line(line, "Array pointer is NULL", msg);
     }

@@ -31,8 +31,9 @@ frame (u8/) and its 16-bit frame mapped to grey exactly as the detector maps 16-
 Car boxes (category 1) are positives and DontCare (4) boxes are ignored, sampled with the same rules as
 the real frames (data set "synth", group "synth-<seed>"); they go to the TRAIN split only, appended after
 the real frames, so every real row (and the val/test splits) is byte-identical to version 2.
-Splits are by frame group (MSRS number // 40, HIT-UAV T_H_A flight), about 70/15/15 of the frames
-of each set, fixed seed; the sequence flight is test only. Built sets are cached in tools/.cache/.
+Splits are by frame group (MSRS number // 40, HIT-UAV T_H_A flight), about 70/15/15, stable as the data
+grows: groups listed in split_groups.json keep their committed split, any other group is placed by a hash
+of its key alone (assign_splits); the sequence flight is test only. Built sets are cached in tools/.cache/.
 
 CLI: python3 -m vdtools.dataset --mode grey [--rebuild]   (prints counts per split and class)
 """
@@ -172,31 +173,45 @@ def load_synth(seeds=SYNTH_SEEDS, frames=SYNTH_FRAMES, root=None):
     return out
 
 
+SPLIT_FILE = Path(__file__).with_name("split_groups.json")
+
+
+def hash_split(group, seed=0):
+    """Split of a group that the committed split file does not list: a pure function of the group key
+    (and seed), so that it never depends on which other groups exist. SHA-256 of "seed:group" read as a
+    uniform number u in [0, 1): train below 0.70, val below 0.85, test otherwise."""
+    h = hashlib.sha256(f"{seed}:{group}".encode()).digest()
+    u = int.from_bytes(h[:8], "big") / 2.0 ** 64
+    edge = 0.0
+    for name, frac in zip(SPLITS, SPLIT_FRACTIONS):
+        edge += frac
+        if u < edge:
+            return name
+    return SPLITS[-1]
+
+
+def committed_splits():
+    """{group: split} of tools/vdtools/split_groups.json (the groups the committed models were built on)."""
+    return dict(json.loads(SPLIT_FILE.read_text())["groups"])
+
+
 def assign_splits(frames, seed=0):
-    """{group: split}: per data set, groups shuffled with `seed`, each given to the split that is
-    furthest below its target share of frames. Sequence groups are always test."""
+    """{group: split}, stable as data grows: a group's split never depends on the other groups.
+    Sequence groups are always test and synthetic groups always train; with seed 0 a group listed in
+    split_groups.json keeps the split it had when the committed models were trained; any other group
+    gets hash_split(group, seed)."""
+    fixed = committed_splits() if seed == 0 else {}
     out = {}
-    by_ds = {}
     for f in frames:
-        by_ds.setdefault(f.dataset, {}).setdefault(f.group, 0)
-        by_ds[f.dataset][f.group] += 1
-    for ds in sorted(by_ds):
-        groups = sorted(by_ds[ds])
-        if ds == "seq":
-            out.update({g: "test" for g in groups})
+        g = f.group
+        if g in out:
             continue
-        if ds == "synth":   # synthetic frames only ever train
-            out.update({g: "train" for g in groups})
-            continue
-        rng = np.random.default_rng(seed)
-        rng.shuffle(groups)
-        total = sum(by_ds[ds].values())
-        have = [0, 0, 0]
-        for g in groups:
-            deficit = [SPLIT_FRACTIONS[i] * total - have[i] for i in range(3)]
-            i = int(np.argmax(deficit))
-            out[g] = SPLITS[i]
-            have[i] += by_ds[ds][g]
+        if f.dataset == "seq":
+            out[g] = "test"
+        elif f.dataset == "synth":   # synthetic frames only ever train
+            out[g] = "train"
+        else:
+            out[g] = fixed.get(g) or hash_split(g, seed)
     return out
 
 
