@@ -191,3 +191,68 @@ def main(argv=None):
 
 if __name__ == "__main__":
     main()
+
+
+def match_flags(dets, gts):
+    """The rules of match_frame, per detection: dets [(box, score)], gts [(x, y, w, h, vehicle, ignore)]
+    -> ([(score, flag)] with flag 1 = TP, 0 = FP, None = ignored), list of matched gt indices."""
+    order = sorted(range(len(dets)), key=lambda i: (-dets[i][1], i))
+    used = [False] * len(gts)
+    out = []
+    for i in order:
+        box, score = dets[i]
+        best, best_k = 0.0, -1
+        for k, g in enumerate(gts):
+            if not g[4] or used[k]:
+                continue
+            v = iou(box, g[:4])
+            if v >= 0.5 and v > best:
+                best, best_k = v, k
+        if best_k >= 0:
+            used[best_k] = True
+            out.append((score, 1))
+            continue
+        ignored = False
+        for g in gts:
+            if not g[5]:
+                continue
+            gx, gy, gw, gh = g[:4]
+            ix = min(box[0] + box[2], gx + gw) - max(box[0], gx)
+            iy = min(box[1] + box[3], gy + gh) - max(box[1], gy)
+            inside = ix * iy / (box[2] * box[3]) if ix > 0 and iy > 0 and box[2] > 0 and box[3] > 0 else 0.0
+            if iou(box, g[:4]) >= 0.5 or inside >= 0.5:
+                ignored = True
+                break
+        out.append((score, None if ignored else 0))
+    return out, [k for k in range(len(gts)) if used[k]]
+
+
+def average_precision(frames):
+    """AP@0.5 over frames [(dets, gts)] with the matching rules above (all detections of all frames
+    pooled by score; all-point interpolated precision, as PASCAL VOC 2010+). Returns (ap, recall, precision)
+    arrays for the PR curve."""
+    flags = []
+    n_pos = 0
+    for dets, gts in frames:
+        f, _ = match_flags(dets, gts)
+        flags += [(s, t) for s, t in f if t is not None]
+        n_pos += sum(1 for g in gts if g[4])
+    if n_pos == 0:
+        return float("nan"), [], []
+    flags.sort(key=lambda st: -st[0])
+    tp = fp = 0
+    rec, prec = [], []
+    for _, t in flags:
+        tp += t
+        fp += 1 - t
+        rec.append(tp / n_pos)
+        prec.append(tp / (tp + fp))
+    # all-point interpolation: precision envelope, summed over recall steps
+    env = list(prec)
+    for i in range(len(env) - 2, -1, -1):
+        env[i] = max(env[i], env[i + 1])
+    ap, last_r = 0.0, 0.0
+    for r, p in zip(rec, env):
+        ap += (r - last_r) * p
+        last_r = r
+    return ap, rec, prec

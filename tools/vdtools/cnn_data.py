@@ -1,0 +1,69 @@
+# SPDX-License-Identifier: MIT
+"""Frames, boxes and targets for the CNN detector (issue 10), read from ../shared/data, never copied.
+
+The network sees the frame at HALF resolution, exactly as the C detector produces it: an exact 2x2 box
+average with round-half-up, (a + b + c + d + 2) >> 2 (the same bytes as cv2.INTER_AREA at scale 1/2), then
+the per-frame percentile stretch of the model header (vdtools.cnn_ref.preprocess; integer, equal to C).
+
+Splits are vdtools.dataset.assign_splits (groups: MSRS number // 40, HIT-UAV T_H_A flight; stable as data
+grows); the HIT-UAV sequence-0_100 flight is test only. Ground truth: MSRS class 2 (car), HIT-UAV Car and
+OtherVehicle; HIT-UAV DontCare boxes are ignore regions (no loss, no false positive).
+"""
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from . import dataset as D
+
+
+def half(img):
+    """Exact 2x2 box average, round half up (the C detector's resample for the network input)."""
+    h, w = img.shape[0] // 2 * 2, img.shape[1] // 2 * 2
+    a = img[:h, :w].astype(np.uint16)
+    return ((a[0::2, 0::2] + a[1::2, 0::2] + a[0::2, 1::2] + a[1::2, 1::2] + 2) >> 2).astype(np.uint8)
+
+
+@dataclass
+class Frame:
+    dataset: str
+    name: str
+    group: str
+    split: str
+    img: np.ndarray          # full-resolution uint8
+    boxes: np.ndarray        # (N, 4) float x, y, w, h in full-resolution pixels
+    ignore: np.ndarray       # (M, 4)
+    hot: np.ndarray          # (N,) bool: box holds a pixel >= the frame's 99th percentile (hot vehicle)
+
+
+def _hot_flags(img, boxes):
+    thr = np.percentile(img, 99.0)
+    out = []
+    for x, y, w, h in boxes:
+        x0, y0 = int(x), int(y)
+        roi = img[y0:y0 + max(1, int(h)), x0:x0 + max(1, int(w))]
+        out.append(bool(roi.size and roi.max() >= thr))
+    return np.array(out, bool)
+
+
+def load_frames(data_dir, splits=("train", "val", "test")):
+    """All annotated real frames of the wanted splits, images in memory (~1 400 frames, ~450 MB)."""
+    frames = D.all_frames(data_dir, synth=False)
+    split_of = D.assign_splits(frames)
+    out = []
+    for f in frames:
+        s = split_of[f.group]
+        if s not in splits:
+            continue
+        img = cv2.imread(str(f.path), cv2.IMREAD_GRAYSCALE)
+        if img is None:
+            raise IOError(f"cannot read {f.path}")
+        b = np.array(f.vehicles, np.float32).reshape(-1, 4)
+        ig = np.array(f.ignore, np.float32).reshape(-1, 4)
+        out.append(Frame(f.dataset, f.name, f.group, s, img, b, ig, _hot_flags(img, b)))
+    return out
+
+
+def family(fr):
+    """'msrs' (road level) or 'hit' (drone, incl. the sequence flight)."""
+    return "msrs" if fr.dataset == "msrs" else "hit"

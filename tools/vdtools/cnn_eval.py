@@ -1,0 +1,208 @@
+# SPDX-License-Identifier: MIT
+"""Accuracy of the CNN detector on a split of ../shared/data (docs/results/detector.md, CNN section).
+
+Per family (msrs = road level; hit = drone incl. the sequence-0_100 flight) and per split: AP@0.5 (the
+matching rules of vdtools.evaluate / vd_fir_demo --eval, ignore regions honoured, all-point interpolated
+precision), and TP rate / FP rate / hot and cold TP at score thresholds. Backends: the int8 network
+through the C library (`--backend c`, default; vd_cnn_run + vd_cnn_decode, equal bit for bit to the
+numpy reference), the numpy integer reference (`--backend ref`), or the float checkpoint (`--ckpt`).
+Boxes then go through overlap suppression at IoU 0.5 as in the detector.
+
+The operating point is chosen on the VAL split (largest threshold whose TP rate and FP rate meet the
+issue's bar on both families, else the best mean F1) and then only reported on the test split.
+
+    python3 -m vdtools.cnn_eval --model models/vd_cnn.vdm --split val --out /tmp/val.json
+    python3 -m vdtools.cnn_eval --model models/vd_cnn.vdm --split test --thr 0.35 --out /tmp/test.json [--pr out.png]
+"""
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import clib
+from . import cnn_data as CD
+from . import cnn_ref as R
+from . import cnn_vdm as V
+from .evaluate import average_precision, iou, match_flags
+
+THRESHOLDS = [round(0.05 * i, 2) for i in range(1, 20)]
+
+
+def nms(dets, thr=0.5):
+    """Greedy suppression by score: a box whose IoU with a kept one is > thr goes (the detector's rule)."""
+    keep = []
+    for d in sorted(dets, key=lambda d: -d[1]):
+        if all(iou(d[0], k[0]) <= thr for k in keep):
+            keep.append(d)
+    return keep
+
+
+def net_input(img):
+    """Half-resolution plane, padded (edge replicate) to a multiple of 16: the detector's network input."""
+    from .cnn_train import pad_to
+    return pad_to(CD.half(img))
+
+
+class Int8:
+    """Runs a .vdm through the C library (or the numpy reference)."""
+
+    def __init__(self, model_path, backend="c"):
+        self.blob = Path(model_path).read_bytes()
+        self.desc = V.unpack(self.blob)
+        self.backend = backend
+        self.c = V.CModel(self.blob) if backend == "c" else None
+
+    def __call__(self, img, frame_w, frame_h, thr_q=-128):
+        x = net_input(img)
+        fw, fh = x.shape[1] * 2, x.shape[0] * 2
+        if self.c is not None:
+            boxes = self.c.decode(self.c.run(x), fw, fh, thr_q=thr_q, max_peaks=100)
+        else:
+            boxes = R.decode(self.desc, R.run(self.desc, x), fw, fh, thr_q=thr_q, max_peaks=100)
+        out = []
+        for bx, by, bw, bh, s, _ in boxes:
+            x1, y1 = min(bx + bw, frame_w), min(by + bh, frame_h)
+            if x1 > bx and y1 > by:
+                out.append(((bx, by, x1 - bx, y1 - by), s / 32768.0))
+        return out
+
+
+class Float:
+    def __init__(self, ckpt):
+        import torch
+        from . import cnn_export as E
+        from . import cnn_train as T
+        self.torch, self.T = torch, T
+        self.net, _ = E.load_net(ckpt)
+
+    def __call__(self, img, frame_w, frame_h, thr_q=None):
+        with self.torch.no_grad():
+            o = self.net(self.T.to_input(net_input(img)))
+        return [((x * 2, y * 2, w * 2, h * 2), s) for x, y, w, h, s in self.T.decode_float(o, 0.02)]
+
+
+def run(pred, frames):
+    """[(family, frame, dets after suppression, gts)]."""
+    out = []
+    for fr in frames:
+        h, w = fr.img.shape
+        dets = nms(pred(fr.img, w, h))
+        gts = [tuple(b) + (True, False) for b in fr.boxes.tolist()] + \
+              [tuple(b) + (False, True) for b in fr.ignore.tolist()]
+        out.append((CD.family(fr), fr, dets, gts))
+    return out
+
+
+def figures(results, thresholds=THRESHOLDS):
+    """{family: {ap, n_frames, n_vehicles, pr: (recall, precision), at: {thr: {...}}}}."""
+    fams = {}
+    for fam, fr, dets, gts in results:
+        fams.setdefault(fam, []).append((fr, dets, gts))
+    rep = {}
+    for fam, items in sorted(fams.items()):
+        ap, rec, prec = average_precision([(d, g) for _, d, g in items])
+        at = {}
+        for t in thresholds:
+            tp = fp = n = hot_tp = hot_n = 0
+            for fr, dets, gts in items:
+                kept = [d for d in dets if d[1] >= t]
+                flags, matched = match_flags(kept, gts)
+                tp += sum(1 for _, f in flags if f == 1)
+                fp += sum(1 for _, f in flags if f == 0)
+                n += len(fr.boxes)
+                hot_n += int(fr.hot.sum())
+                hot_tp += sum(1 for k in matched if k < len(fr.boxes) and fr.hot[k])
+            cold_n = n - hot_n
+            at[t] = dict(tp=tp, fp=fp, fn=n - tp, tp_rate=tp / max(n, 1), fp_rate=fp / max(tp + fp, 1),
+                         hot_tp_rate=hot_tp / max(hot_n, 1), cold_tp_rate=(tp - hot_tp) / max(cold_n, 1),
+                         hot=hot_n, cold=cold_n)
+        rep[fam] = dict(ap=ap, n_frames=len(items), n_vehicles=sum(len(fr.boxes) for fr, _, _ in items),
+                        pr=(rec, prec), at=at)
+    return rep
+
+
+def choose_threshold(rep):
+    """Operating point on the val split: the threshold with TP >= 70 % and FP <= 30 % on every family and
+    the highest mean F1 among those; else the highest mean F1 overall."""
+    def f1(a):
+        p, r = 1 - a["fp_rate"], a["tp_rate"]
+        return 2 * p * r / max(p + r, 1e-9)
+    best = None
+    for t in THRESHOLDS:
+        ok = all(v["at"][t]["tp_rate"] >= 0.70 and v["at"][t]["fp_rate"] <= 0.30 for v in rep.values())
+        score = (ok, float(np.mean([f1(v["at"][t]) for v in rep.values()])))
+        if best is None or score > best[0]:
+            best = (score, t)
+    return best[1]
+
+
+def plot_pr(rep, path, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(5, 4), dpi=100)
+    for fam, v in rep.items():
+        rec, prec = v["pr"]
+        ax.plot(rec, prec, label=f"{fam} (AP@0.5 {100 * v['ap']:.1f})")
+    ax.set_xlabel("recall (TP rate)")
+    ax.set_ylabel("precision (1 - FP rate)")
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1.01)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower left")
+    ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def summary(rep, thr=None):
+    out = {}
+    for fam, v in rep.items():
+        d = dict(ap=v["ap"], n_frames=v["n_frames"], n_vehicles=v["n_vehicles"])
+        if thr is not None:
+            d["at_thr"] = v["at"][thr]
+        d["at"] = v["at"]
+        out[fam] = d
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--model", help=".vdm (int8)")
+    ap.add_argument("--ckpt", help="float checkpoint instead of --model")
+    ap.add_argument("--backend", default="c", choices=("c", "ref"))
+    ap.add_argument("--split", default="val", choices=("val", "test"))
+    ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
+    ap.add_argument("--thr", type=float, help="operating point to report (default: chosen here, val split only)")
+    ap.add_argument("--out", help="JSON report")
+    ap.add_argument("--pr", help="precision-recall PNG")
+    a = ap.parse_args(argv)
+    frames = CD.load_frames(a.data, splits=(a.split,))
+    pred = Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend)
+    t0 = time.time()
+    res = run(pred, frames)
+    sec = time.time() - t0
+    rep = figures(res)
+    thr = a.thr
+    if thr is None:
+        if a.split == "test":
+            raise SystemExit("choose the operating point on the val split, then pass --thr")
+        thr = choose_threshold(rep)
+    for fam, v in rep.items():
+        at = v["at"][thr]
+        print(f"{a.split} {fam}: {v['n_frames']} frames, {v['n_vehicles']} vehicles; AP@0.5 {100 * v['ap']:.1f}; "
+              f"at {thr}: TP {100 * at['tp_rate']:.1f} % FP {100 * at['fp_rate']:.1f} % "
+              f"(hot {100 * at['hot_tp_rate']:.1f} %, cold {100 * at['cold_tp_rate']:.1f} %)")
+    print(f"threshold {thr}; {len(frames)} frames in {sec:.1f} s")
+    if a.pr:
+        plot_pr(rep, a.pr, f"CNN detector, {a.split} split ({Path(a.model or a.ckpt).name})")
+    if a.out:
+        Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, thr=thr,
+                                               families=summary(rep, thr)), indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()

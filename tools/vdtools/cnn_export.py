@@ -1,0 +1,184 @@
+# SPDX-License-Identifier: MIT
+"""Post-training int8 quantisation of a trained CNN detector and export to the version-3 .vdm kind.
+
+Steps (docs/fixed-point.md "CNN", docs/model-format.md "CNN kind"):
+1. batch norm folded into the preceding convolution (w' = w g / sqrt(v + eps), b' = beta - m g / sqrt(v + eps));
+2. calibration: the folded float network runs on CALIB_FRAMES training-split frames (half resolution,
+   stretched, as in the detector); each tensor's range is the 99.99th percentile of its values (post-ReLU
+   tensors: [0, p]; the head: [min, max] with the heatmap logit clipped to [-8, 8]);
+3. tensors joined by upsample / concat share one scale (the C module copies them without requantising);
+4. weights int8 symmetric per output channel (scale max|w| / 127), biases int32 in accumulator units,
+   multipliers s_in s_w / s_out as Q31 + shift (TFLite QuantizeMultiplier), ReLU as act_min = out_zp;
+5. decode table: heatmap logit -> Q15 sigmoid, log sizes -> Q8 pixels, offsets -> Q8 cells.
+
+    python3 -m vdtools.cnn_export tools/.cache/cnn/main/best.pt --name vd_cnn --thr 0.3
+"""
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from . import clib
+from . import cnn_data as CD
+from . import cnn_train as T
+from . import cnn_vdm as V
+from .quantise import quantize_multiplier
+
+CALIB_FRAMES = 96
+OPS = {"conv": V.CONV3X3, "dw": V.DW3X3, "pw": V.PW1X1, "head": V.PW1X1, "up": V.UPSAMPLE2, "cat": V.CONCAT}
+
+
+def load_net(ckpt):
+    ck = torch.load(ckpt, weights_only=False, map_location="cpu")
+    net = T.Net(ck["arch"])
+    net.load_state_dict(ck["net"])
+    net.eval()
+    return net, ck
+
+
+def folded(net):
+    """Per layer (float weights in the C layout, float bias) after folding batch norm."""
+    out = []
+    for d in net.spec:
+        if d["mod"] is None:
+            out.append(None)
+            continue
+        seq = net.mods[d["mod"]]
+        conv = seq[0]
+        w = conv.weight.detach().double().numpy()          # (cout, cin/groups, kh, kw)
+        b = conv.bias.detach().double().numpy() if conv.bias is not None else np.zeros(w.shape[0])
+        if len(seq) > 1 and isinstance(seq[1], torch.nn.BatchNorm2d):
+            bn = seq[1]
+            g = (bn.weight / torch.sqrt(bn.running_var + bn.eps)).detach().double().numpy()
+            w = w * g[:, None, None, None]
+            b = bn.bias.detach().double().numpy() + (b - bn.running_mean.detach().double().numpy()) * g
+        out.append((w, b))
+    return out
+
+
+def calibrate(net, frames):
+    """Per tensor: (lo, hi) real range."""
+    vals = None
+    with torch.no_grad():
+        for fr in frames:
+            img = T.pad_to(CD.half(fr.img))
+            ts = net(T.to_input(img), return_all=True)
+            if vals is None:
+                vals = [[] for _ in ts]
+            for i, t in enumerate(ts):
+                a = t.numpy().ravel()
+                if a.size > 200000:
+                    a = a[:: a.size // 200000]
+                vals[i].append(a)
+    rng = []
+    for i, v in enumerate(vals):
+        a = np.concatenate(v)
+        rng.append((float(np.percentile(a, 0.01)), float(np.percentile(a, 99.99))))
+    return rng
+
+
+def quantise(net, ranges, thr_score=0.3, max_peaks=100, name="vd_cnn"):
+    L = len(net.spec)
+    head_t = L                        # the last tensor
+    # tensors joined by up / cat share one scale: union-find
+    parent = list(range(L + 1))
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+    def join(a, b):
+        parent[find(a)] = find(b)
+    for i, d in enumerate(net.spec):
+        if d["op"] == "up":
+            join(i + 1, d["in"])
+        elif d["op"] == "cat":
+            join(i + 1, d["in"])
+            join(i + 1, d["in2"])
+    hi = {}
+    for t in range(1, L + 1):
+        if t == head_t:
+            continue
+        r = find(t)
+        hi[r] = max(hi.get(r, 1e-6), ranges[t][1])
+    scale, zp = [1.0 / 255.0], [-128]
+    for t in range(1, L + 1):
+        if t == head_t:
+            lo_h, hi_h = ranges[t]
+            lo_h, hi_h = max(-8.0, min(lo_h, -0.5)), min(max(hi_h, 6.0), 16.0)
+            s = (hi_h - lo_h) / 255.0
+            scale.append(s)
+            zp.append(int(np.clip(round(-128 - lo_h / s), -128, 127)))
+        else:
+            scale.append(hi[find(t)] / 255.0)
+            zp.append(-128)
+    fl = folded(net)
+    layers = []
+    for i, d in enumerate(net.spec):
+        s_in, z_in = scale[d["in"]], zp[d["in"]]
+        s_out, z_out = scale[i + 1], zp[i + 1]
+        lay = dict(op=OPS[d["op"]], stride=d["stride"], **{"in": d["in"]}, in2=d["in2"], cin=d["cin"],
+                   cout=d["cout"], out_zp=z_out, act_min=-128, act_max=127)
+        if fl[i] is not None:
+            w, b = fl[i]
+            cout = w.shape[0]
+            sw = np.maximum(np.abs(w.reshape(cout, -1)).max(1), 1e-8) / 127.0
+            wq = np.clip(np.round(w / sw[:, None, None, None]), -127, 127).astype(np.int8)
+            if d["op"] == "conv":
+                wq = wq.transpose(0, 2, 3, 1)                  # OHWI
+            elif d["op"] == "dw":
+                wq = wq[:, 0].transpose(1, 2, 0)               # HWC
+            else:
+                wq = wq[:, :, 0, 0]                            # (cout, cin)
+            lay["w"] = np.ascontiguousarray(wq)
+            lay["bias"] = np.round(b / (s_in * sw)).astype(np.int64).clip(-(2 ** 31) + 1, 2 ** 31 - 1).astype(np.int32)
+            ms = [quantize_multiplier(float(s_in * sw[o] / s_out)) for o in range(cout)]
+            lay["mult"] = np.array([m for m, _ in ms], np.int32)
+            lay["shift"] = np.array([sh for _, sh in ms], np.int8)
+            if d["op"] != "head":
+                lay["act_min"] = z_out                         # ReLU
+        else:
+            lay["w"] = lay["bias"] = lay["mult"] = lay["shift"] = None
+        layers.append(lay)
+    s_h, z_h = scale[head_t], zp[head_t]
+    v = (np.arange(256) - 128 - z_h) * s_h                     # real value of each int8 code
+    table = np.zeros((5, 256), np.int64)
+    table[0] = np.round(32768.0 / (1.0 + np.exp(-v)))
+    table[1] = table[2] = np.clip(np.round(np.exp(np.minimum(v, math.log(4096))) * 256), 0, 4096 * 256)
+    table[3] = table[4] = np.clip(np.round(v * 256), -256, 512)
+    logit = math.log(thr_score / (1 - thr_score))
+    thr_q = int(np.clip(math.ceil(logit / s_h + z_h), -128, 127))
+    desc = dict(input_w=320, input_h=256, input_norm=1, input_zp=-128, out_stride=T.STRIDE, out_channels=5,
+                score_threshold_q=thr_q, max_peaks=max_peaks, name=name, layers=layers,
+                table=table.astype(np.int32), **T.NORM)
+    return desc, dict(scale=scale, zp=zp)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("ckpt")
+    ap.add_argument("--name", default="vd_cnn")
+    ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
+    ap.add_argument("--thr", type=float, default=0.3, help="default score threshold written into the header")
+    ap.add_argument("--out-dir", default=str(clib.REPO / "models"))
+    a = ap.parse_args(argv)
+    net, ck = load_net(a.ckpt)
+    frames = CD.load_frames(a.data, splits=("train",))
+    rng = np.random.default_rng(0)
+    calib = [frames[i] for i in rng.choice(len(frames), min(CALIB_FRAMES, len(frames)), replace=False)]
+    ranges = calibrate(net, calib)
+    desc, q = quantise(net, ranges, a.thr, name=a.name)
+    blob = V.pack(desc)
+    V.write_c_array(blob, a.name, a.out_dir)
+    # per-tensor real scales: the ONNX peer (vdtools.cnn_onnx) needs them; the .vdm holds only multipliers
+    meta = dict(scale=q["scale"], zp=q["zp"], ranges=ranges, arch=ck["arch"], step=ck.get("step"),
+                val_ap_float=ck.get("val_ap"), thr=a.thr)
+    Path(a.out_dir, f"{a.name}.scales.json").write_text(json.dumps(meta, indent=1) + "\n")
+    print(f"wrote {a.out_dir}/{a.name}.vdm ({len(blob)} bytes), step {ck.get('step')}, val AP (float) {ck.get('val_ap')}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,422 @@
+# SPDX-License-Identifier: MIT
+"""Trains the CNN vehicle detector of issue 10 (PyTorch, CPU) on ../shared/data's training split.
+
+Network: a small fully-convolutional CenterNet-style detector built ONLY from the ops vd's int8 CNN
+module runs (lib/include/vd/cnn.h): 3x3 convolution (stride 1/2, pad 1), depthwise 3x3, pointwise 1x1,
+x2 nearest upsample and channel concat for skips; batch norm is folded into the convolutions at export
+and ReLU becomes the int8 clamp. Input: the frame at half resolution (exact 2x2 box average) after the
+per-frame percentile stretch (input_norm 1 of the .vdm). Output at stride 4: a centre heatmap (focal loss
+of CenterNet, Zhou et al. 2019), log width / log height (L1, at the centre cell) and the sub-cell centre
+offset (L1).
+
+Training: random 192x192 crops of the half-resolution frames, MSRS (road level) and HIT-UAV (drone)
+drawn 50/50, augmented: horizontal flip, scale 0.75-1.5, gain/offset and gamma (AGC-like changes),
+Gaussian blur and noise; AdamW with a cosine schedule; checkpoints every 500 steps to --out. Frames of
+the val split choose the checkpoint/thresholds; the test split is never read here.
+
+    python3 -m vdtools.cnn_train --arch main --minutes 40 --out tools/.cache/cnn/main
+    python3 -m vdtools.cnn_train --arch compact --minutes 30 --out tools/.cache/cnn/compact
+
+Then vdtools.cnn_export quantises and writes models/vd_cnn_<arch>.vdm (docs/training.md).
+"""
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import torch
+import torch.nn as nn
+import torch.nn.functional as F
+
+from . import clib
+from . import cnn_data as CD
+from .evaluate import average_precision
+
+STRIDE = 4
+CROP = 192
+NORM = dict(norm_lo_permille=10, norm_hi_permille=995, norm_min_range=48)
+
+# Architectures: (op, args) in execution order; tensors are numbered as in the .vdm (0 = input,
+# i + 1 = output of layer i). ("save", name) labels the latest tensor for a later ("cat", name).
+ARCHS = {
+    # ~67 M multiply-adds at 320x256, ~110 k parameters
+    "main": [("conv", 16, 2), ("dw", 2), ("pw", 32), ("dw", 1), ("pw", 32), ("save", "s4"),
+             ("dw", 2), ("pw", 64), ("dw", 1), ("pw", 64), ("dw", 1), ("pw", 64), ("save", "s8"),
+             ("dw", 2), ("pw", 128), ("dw", 1), ("pw", 128), ("dw", 1), ("pw", 128),
+             ("pw", 64), ("up",), ("cat", "s8"), ("dw", 1), ("pw", 64),
+             ("pw", 16), ("up",), ("cat", "s4"), ("dw", 1), ("pw", 24),
+             ("dw", 1), ("head", 5)],
+    # Cortex-M variant: <= 15 M multiply-adds at 320x256, ~20 k parameters (int8: ~20 KiB)
+    "compact": [("conv", 8, 2), ("dw", 2), ("pw", 16), ("save", "s4"),
+                ("dw", 2), ("pw", 32), ("dw", 1), ("pw", 32), ("save", "s8"),
+                ("dw", 2), ("pw", 64), ("dw", 1), ("pw", 64),
+                ("pw", 32), ("up",), ("cat", "s8"), ("dw", 1), ("pw", 24),
+                ("pw", 8), ("up",), ("cat", "s4"), ("dw", 1), ("pw", 12),
+                ("dw", 1), ("head", 5)],
+}
+
+
+class Net(nn.Module):
+    """Executes an ARCHS list; `self.spec` is the layer list the exporter turns into .vdm layers."""
+
+    def __init__(self, arch):
+        super().__init__()
+        self.spec = []          # dicts: op, stride, in, in2, cin, cout, module index
+        self.mods = nn.ModuleList()
+        chans = [1]             # channels of tensor t
+        saved = {}
+        cur = 0
+        for item in ARCHS[arch]:
+            kind = item[0]
+            if kind == "save":
+                saved[item[1]] = cur
+                continue
+            cin = chans[cur]
+            if kind == "conv":
+                cout, s = item[1], item[2]
+                m = nn.Sequential(nn.Conv2d(cin, cout, 3, s, 1, bias=False), nn.BatchNorm2d(cout), nn.ReLU())
+                d = dict(op="conv", stride=s, cin=cin, cout=cout)
+            elif kind == "dw":
+                cout, s = cin, item[1]
+                m = nn.Sequential(nn.Conv2d(cin, cin, 3, s, 1, groups=cin, bias=False), nn.BatchNorm2d(cin), nn.ReLU())
+                d = dict(op="dw", stride=s, cin=cin, cout=cout)
+            elif kind == "pw":
+                cout = item[1]
+                m = nn.Sequential(nn.Conv2d(cin, cout, 1, bias=False), nn.BatchNorm2d(cout), nn.ReLU())
+                d = dict(op="pw", stride=1, cin=cin, cout=cout)
+            elif kind == "head":
+                cout = item[1]
+                conv = nn.Conv2d(cin, cout, 1, bias=True)
+                with torch.no_grad():
+                    conv.weight.mul_(0.1)
+                    conv.bias.zero_()
+                    conv.bias[0] = -2.19          # CenterNet prior: p = 0.1
+                    conv.bias[1:3] = 2.5          # log size ~ 12 px
+                    conv.bias[3:] = 0.5
+                m = nn.Sequential(conv)
+                d = dict(op="head", stride=1, cin=cin, cout=cout)
+            elif kind == "up":
+                m, cout = None, cin
+                d = dict(op="up", stride=1, cin=cin, cout=cin)
+            elif kind == "cat":
+                other = saved[item[1]]
+                m, cout = None, cin + chans[other]
+                d = dict(op="cat", stride=1, cin=cin, cout=cout, in2=other)
+            else:
+                raise ValueError(kind)
+            d["in"] = cur
+            d.setdefault("in2", 0)
+            d["mod"] = None
+            if m is not None:
+                d["mod"] = len(self.mods)
+                self.mods.append(m)
+            self.spec.append(d)
+            chans.append(cout)
+            cur = len(chans) - 1
+        self.n_out = chans[-1]
+
+    def forward(self, x, return_all=False):
+        t = [x]
+        for d in self.spec:
+            a = t[d["in"]]
+            if d["op"] == "up":
+                y = F.interpolate(a, scale_factor=2, mode="nearest")
+            elif d["op"] == "cat":
+                y = torch.cat([a, t[d["in2"]]], 1)
+            else:
+                y = self.mods[d["mod"]](a)
+            t.append(y)
+        return t if return_all else t[-1]
+
+
+def macs(net, w, h):
+    f, total = {0: 1}, 0
+    for i, d in enumerate(net.spec):
+        fi = f[d["in"]]
+        fo = fi * d["stride"] if d["op"] in ("conv", "dw") else (fi // 2 if d["op"] == "up" else fi)
+        f[i + 1] = fo
+        n = (w // fo) * (h // fo)
+        total += n * {"conv": 9 * d["cin"] * d["cout"], "dw": 9 * d["cout"], "pw": d["cin"] * d["cout"],
+                      "head": d["cin"] * d["cout"]}.get(d["op"], 0)
+    return total
+
+
+# ---------------------------------------------------------------- input normalisation
+
+def stretch(img, lo_pm=NORM["norm_lo_permille"], hi_pm=NORM["norm_hi_permille"], min_range=NORM["norm_min_range"]):
+    """The .vdm input_norm 1 percentile stretch (integer; the C module and cnn_ref do the same)."""
+    n = img.size
+    cum = np.cumsum(np.bincount(img.ravel(), minlength=256))
+    lo = int(np.argmax(cum > (n * lo_pm) // 1000))
+    k = (n * hi_pm) // 1000
+    hi = int(np.argmax(cum > k)) if cum[-1] > k else 255
+    r = max(hi - lo, min_range)
+    p = img.astype(np.int64) - lo
+    out = np.where(p <= 0, 0, np.minimum(255, (p * 510 + r) // (2 * r)))
+    return out.astype(np.uint8)
+
+
+# ---------------------------------------------------------------- augmentation and targets
+
+def photometric(img, rng):
+    """AGC-like changes on a uint8 half-resolution frame (before the stretch, as a camera would)."""
+    x = img.astype(np.float32) / 255.0
+    if rng.random() < 0.8:
+        g = math.exp(rng.uniform(-0.5, 0.5))
+        x = np.clip(x, 1e-4, 1) ** g                       # gamma
+    if rng.random() < 0.8:
+        x = x * rng.uniform(0.6, 1.4) + rng.uniform(-0.25, 0.25)   # gain / offset
+    if rng.random() < 0.3:
+        k = int(rng.choice([3, 5]))
+        x = cv2.GaussianBlur(x, (k, k), rng.uniform(0.5, 1.5))
+    if rng.random() < 0.5:
+        x = x + rng.normal(0, rng.uniform(0.005, 0.03), x.shape).astype(np.float32)
+    return np.clip(np.round(x * 255), 0, 255).astype(np.uint8)
+
+
+def sample(fr, rng, crop=CROP, augment=True):
+    """One training crop: (stretched uint8 crop, boxes (N,4) in crop pixels, ignore boxes)."""
+    img = CD.half(fr.img)
+    boxes = fr.boxes * 0.5
+    ign = fr.ignore * 0.5
+    if augment:
+        img = photometric(img, rng)
+    img = stretch(img)
+    s = rng.uniform(0.75, 1.5) if augment else 1.0
+    s = max(s, crop / min(img.shape))
+    if s != 1.0:
+        img = cv2.resize(img, (int(round(img.shape[1] * s)), int(round(img.shape[0] * s))),
+                         interpolation=cv2.INTER_LINEAR if s > 1 else cv2.INTER_AREA)
+        boxes, ign = boxes * s, ign * s
+    H, W = img.shape
+    # crops centred on a vehicle half of the time (MSRS has many frames without one)
+    if len(boxes) and rng.random() < 0.5:
+        b = boxes[rng.integers(len(boxes))]
+        cx, cy = b[0] + b[2] / 2 + rng.uniform(-crop / 3, crop / 3), b[1] + b[3] / 2 + rng.uniform(-crop / 3, crop / 3)
+        x0, y0 = int(np.clip(cx - crop / 2, 0, W - crop)), int(np.clip(cy - crop / 2, 0, H - crop))
+    else:
+        x0, y0 = int(rng.integers(0, W - crop + 1)), int(rng.integers(0, H - crop + 1))
+    img = img[y0:y0 + crop, x0:x0 + crop]
+    def shift(bb):
+        bb = bb.copy()
+        if len(bb):
+            bb[:, 0] -= x0
+            bb[:, 1] -= y0
+        return bb
+    boxes, ign = shift(boxes), shift(ign)
+    if augment and rng.random() < 0.5:
+        img = img[:, ::-1]
+        if len(boxes):
+            boxes[:, 0] = crop - boxes[:, 0] - boxes[:, 2]
+        if len(ign):
+            ign[:, 0] = crop - ign[:, 0] - ign[:, 2]
+    # keep boxes whose centre is inside the crop; clip them to it
+    def clip(bb, need_centre=True):
+        out = []
+        for x, y, w, h in bb:
+            cx, cy = x + w / 2, y + h / 2
+            if need_centre and not (0 <= cx < crop and 0 <= cy < crop):
+                continue
+            x1, y1 = min(crop, x + w), min(crop, y + h)
+            x, y = max(0.0, x), max(0.0, y)
+            if x1 - x >= 1 and y1 - y >= 1:
+                out.append((x, y, x1 - x, y1 - y))
+        return np.array(out, np.float32).reshape(-1, 4)
+    return np.ascontiguousarray(img), clip(boxes), clip(ign, False)
+
+
+def targets(boxes, ign, size, stride=STRIDE):
+    """CenterNet targets on the (size/stride)^2 grid: heatmap (elliptic Gaussian, TTFNet-style sigma =
+    0.54 * side / 6 in cells, at least 0.5), loss mask (0 inside ignore boxes), size/offset targets and
+    their mask at the centre cell."""
+    g = size // stride
+    hm = np.zeros((g, g), np.float32)
+    mask = np.ones((g, g), np.float32)
+    reg = np.zeros((4, g, g), np.float32)
+    regm = np.zeros((g, g), np.float32)
+    ys, xs = np.mgrid[0:g, 0:g].astype(np.float32)
+    for x, y, w, h in ign:
+        mask[int(y // stride):int(math.ceil((y + h) / stride)), int(x // stride):int(math.ceil((x + w) / stride))] = 0
+    for x, y, w, h in boxes:
+        cx, cy = (x + w / 2) / stride, (y + h / 2) / stride
+        ix, iy = min(g - 1, int(cx)), min(g - 1, int(cy))
+        sx, sy = max(0.5, 0.54 * w / stride / 6), max(0.5, 0.54 * h / stride / 6)
+        gau = np.exp(-((xs - ix) ** 2) / (2 * sx * sx) - ((ys - iy) ** 2) / (2 * sy * sy))
+        hm = np.maximum(hm, gau)
+        hm[iy, ix] = 1.0
+        mask[iy, ix] = 1.0
+        reg[:, iy, ix] = (math.log(max(w, 1.0)), math.log(max(h, 1.0)), cx - ix, cy - iy)
+        regm[iy, ix] = 1.0
+    return hm, mask, reg, regm
+
+
+def batch(frames_by_fam, rng, n, crop=CROP):
+    xs, hms, ms, regs, regms = [], [], [], [], []
+    fams = list(frames_by_fam)
+    for i in range(n):
+        fam = fams[i % len(fams)]
+        lst = frames_by_fam[fam]
+        img, b, ig = sample(lst[rng.integers(len(lst))], rng, crop)
+        hm, m, reg, regm = targets(b, ig, crop)
+        xs.append(img)
+        hms.append(hm)
+        ms.append(m)
+        regs.append(reg)
+        regms.append(regm)
+    x = torch.from_numpy(np.stack(xs)[:, None].astype(np.float32) / 255.0)
+    return (x, torch.from_numpy(np.stack(hms)), torch.from_numpy(np.stack(ms)),
+            torch.from_numpy(np.stack(regs)), torch.from_numpy(np.stack(regms)))
+
+
+def loss_fn(out, hm, m, reg, regm):
+    logit = out[:, 0]
+    p = torch.sigmoid(logit).clamp(1e-4, 1 - 1e-4)
+    pos = (hm >= 1.0).float()
+    neg = (1 - pos) * m
+    pos_l = -(torch.log(p) * (1 - p) ** 2 * pos).sum()
+    neg_l = -(torch.log(1 - p) * p ** 2 * (1 - hm) ** 4 * neg).sum()
+    npos = pos.sum().clamp(min=1)
+    hm_l = (pos_l + neg_l) / npos
+    r = (out[:, 1:5] - reg).abs().sum(1)
+    size_l = (r * regm).sum() / regm.sum().clamp(min=1)
+    return hm_l + 0.5 * size_l, hm_l.item(), size_l.item()
+
+
+# ---------------------------------------------------------------- float decoding and evaluation
+
+def to_input(img_half):
+    return torch.from_numpy(stretch(img_half)[None, None].astype(np.float32) / 255.0)
+
+
+def pad_to(img, a=16):
+    h, w = img.shape
+    H, W = (h + a - 1) // a * a, (w + a - 1) // a * a
+    if (H, W) == (h, w):
+        return img
+    return np.pad(img, ((0, H - h), (0, W - w)), mode="edge")
+
+
+def decode_float(out, thr=0.05, k=100, stride=STRIDE):
+    """Float twin of vd_cnn_decode: 3x3 peaks, top-k, boxes in network-input pixels (x, y, w, h, score)."""
+    o = out[0]
+    p = torch.sigmoid(o[0])
+    mx = F.max_pool2d(p[None, None], 3, 1, 1)[0, 0]
+    peaks = (p == mx) & (p >= thr)
+    ys, xs = torch.nonzero(peaks, as_tuple=True)
+    sc = p[ys, xs]
+    order = torch.argsort(sc, descending=True)[:k]
+    res = []
+    for i in order.tolist():
+        y, x = int(ys[i]), int(xs[i])
+        w, h = math.exp(float(o[1, y, x])), math.exp(float(o[2, y, x]))
+        cx, cy = (x + float(o[3, y, x])) * stride, (y + float(o[4, y, x])) * stride
+        res.append((cx - w / 2, cy - h / 2, w, h, float(sc[i])))
+    return res
+
+
+def nms(dets, thr=0.5):
+    from .evaluate import iou
+    keep = []
+    for d in sorted(dets, key=lambda d: -d[4]):
+        if all(iou(d[:4], k[:4]) < thr for k in keep):
+            keep.append(d)
+    return keep
+
+
+def gts_of(fr):
+    return [tuple(b) + (True, False) for b in fr.boxes.tolist()] + [tuple(b) + (False, True) for b in fr.ignore.tolist()]
+
+
+@torch.no_grad()
+def evaluate(net, frames, thr=0.05):
+    """{family: AP@0.5} of the float network on full frames (boxes back to full resolution)."""
+    net.eval()
+    per = {}
+    for fr in frames:
+        img = pad_to(CD.half(fr.img))
+        out = net(to_input(img))
+        dets = [((x * 2, y * 2, w * 2, h * 2), s) for x, y, w, h, s in nms(decode_float(out, thr))]
+        per.setdefault(CD.family(fr), []).append((dets, gts_of(fr)))
+    net.train()
+    return {f: average_precision(v)[0] for f, v in per.items()}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--arch", default="main", choices=sorted(ARCHS))
+    ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--minutes", type=float, default=40.0)
+    ap.add_argument("--batch", type=int, default=16)
+    ap.add_argument("--lr", type=float, default=3e-3)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--eval-every", type=int, default=1000)
+    ap.add_argument("--resume", action="store_true")
+    a = ap.parse_args(argv)
+    torch.set_num_threads(a.threads)
+    torch.manual_seed(a.seed)
+    rng = np.random.default_rng(a.seed)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    frames = CD.load_frames(a.data, splits=("train", "val"))
+    train = [f for f in frames if f.split == "train"]
+    val = [f for f in frames if f.split == "val"]
+    by_fam = {}
+    for f in train:
+        by_fam.setdefault(CD.family(f), []).append(f)
+    print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }), val {len(val)}", flush=True)
+    net = Net(a.arch)
+    print(f"arch {a.arch}: {sum(p.numel() for p in net.parameters())} parameters, "
+          f"{macs(net, 320, 256) / 1e6:.1f} M MACs at 320x256", flush=True)
+    opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=1e-4)
+    step, t_used, log = 0, 0.0, []
+    if a.resume and (out / "last.pt").exists():
+        ck = torch.load(out / "last.pt", weights_only=False)
+        net.load_state_dict(ck["net"])
+        opt.load_state_dict(ck["opt"])
+        step, t_used, log = ck["step"], ck["t_used"], ck["log"]
+    budget = a.minutes * 60
+    t0 = time.time() - t_used
+    best = -1.0
+    while True:
+        el = time.time() - t0
+        if el >= budget:
+            break
+        lr = a.lr * 0.5 * (1 + math.cos(math.pi * min(1.0, el / budget)))
+        if step < 200:
+            lr *= (step + 1) / 200
+        for g in opt.param_groups:
+            g["lr"] = lr
+        x, hm, m, reg, regm = batch(by_fam, rng, a.batch)
+        o = net(x)
+        loss, hl, sl = loss_fn(o, hm, m, reg, regm)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        step += 1
+        if step % 50 == 0:
+            print(f"step {step} t {el / 60:.1f} min lr {lr:.2e} loss {loss.item():.3f} hm {hl:.3f} size {sl:.3f}", flush=True)
+        if step % a.eval_every == 0 or time.time() - t0 >= budget:
+            aps = evaluate(net, val)
+            mean = float(np.nanmean(list(aps.values())))
+            log.append(dict(step=step, minutes=(time.time() - t0) / 60, val_ap=aps))
+            print(f"== step {step}: val AP {aps}", flush=True)
+            if mean > best:
+                best = mean
+                torch.save(dict(net=net.state_dict(), arch=a.arch, step=step, val_ap=aps), out / "best.pt")
+        if step % 250 == 0:
+            torch.save(dict(net=net.state_dict(), opt=opt.state_dict(), step=step, t_used=time.time() - t0,
+                            log=log, arch=a.arch), out / "last.pt")
+    aps = evaluate(net, val)
+    log.append(dict(step=step, minutes=(time.time() - t0) / 60, val_ap=aps))
+    torch.save(dict(net=net.state_dict(), arch=a.arch, step=step, val_ap=aps), out / "final.pt")
+    (out / "log.json").write_text(json.dumps(log, indent=1))
+    print(f"done: {step} steps, val AP {aps}", flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,592 @@
+# SPDX-License-Identifier: MIT
+"""The CNN kind of the .vdm model file (format version 3, /work/cnn_spec.md, docs/model-format.md):
+pack an integer CNN description into a blob, parse one back, validate it the way vd_cnn_load does,
+write it as a const C array for flash, and run it through the C library (vd_cnn_* via ctypes).
+
+A description ("desc") is a plain dict:
+    input_w, input_h            nominal network input size (multiples of the model's alignment A)
+    input_norm                  0 none (q = pixel - 128), 1 per-frame percentile stretch
+    norm_lo_permille, norm_hi_permille, norm_min_range   (all 0 when input_norm is 0)
+    input_zp                    -128
+    out_stride                  4 or 8 (the downsample factor of the head tensor)
+    out_channels                3 or 5 (channels of the head tensor)
+    score_threshold_q           default int8 heatmap threshold of decoding
+    max_peaks                   default top-K of decoding, 1..1024
+    name                        <= 16 printable ASCII characters
+    layers                      list of dicts, layer i produces tensor i+1 (tensor 0 is the input):
+        op (CONV3X3..CONCAT or its name), stride, in, in2, cin, cout, out_zp, act_min, act_max,
+        w      int8   CONV3X3 [cout][3][3][cin], DW3X3 [3][3][cout], PW1X1 [cout][cin], else None
+        bias   int32 [cout], mult int32 [cout] in [2^30, 2^31-1], shift int8 [cout] in [-31, 7]
+               (None for MAXPOOL2 / UPSAMPLE2 / CONCAT)
+    table                       int32 [out_channels][256] decode table, indexed by int8 value + 128
+
+    blob = pack(desc)            # bytes; ValueError when vd_cnn_load would reject the description
+    desc = unpack(blob)          # ValueError when the blob is malformed
+    write_c_array(blob, "vd_cnn_x", "models")   # models/vd_cnn_x.vdm, vd_cnn_x_vdm.c, vd_cnn_x_vdm.h
+    m = CModel(blob); head = m.run(img_u8); boxes = m.decode(head, fw, fh)   # the C library (ctypes)
+"""
+import ctypes as C
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from vdtools import clib
+
+MAGIC = b"VDMF"
+VERSION = 3
+HEADER_SIZE = 128
+LAYER_ENTRY_SIZE = 32
+KIND_CNN = 2
+MAX_LAYERS = 32          # VD_CNN_MAX_LAYERS
+MAX_CHANNELS = 1024
+MAX_F = 1024             # largest downsample factor of any tensor
+MAX_SIDE = 4096
+MAX_PEAKS = 1024
+NAME_LEN = 16
+CRC_FROM = 16            # the CRC covers bytes [16, total_size)
+INT32_MAX = (1 << 31) - 1
+MULT_MIN, MULT_MAX = 1 << 30, INT32_MAX
+SHIFT_MIN, SHIFT_MAX = -31, 7
+SCORE_MAX = 32768        # Q15 1.0
+SIZE_MAX_Q8 = 4096 * 256
+OFF_MIN_Q8, OFF_MAX_Q8 = -256, 512
+
+CONV3X3, DW3X3, PW1X1, MAXPOOL2, UPSAMPLE2, CONCAT = 1, 2, 3, 4, 5, 6
+OP_NAMES = {CONV3X3: "conv3x3", DW3X3: "dw3x3", PW1X1: "pw1x1", MAXPOOL2: "maxpool2",
+            UPSAMPLE2: "upsample2", CONCAT: "concat"}
+OP_IDS = {v: k for k, v in OP_NAMES.items()}
+WEIGHTED = (CONV3X3, DW3X3, PW1X1)
+
+# magic, version, header_size, total_size, crc, kind, input_norm, n_layers, out_channels, input_w,
+# input_h, norm_lo_permille, norm_hi_permille, norm_min_range, input_zp, out_stride, layer_table,
+# decode_table, score_threshold_q, reserved0, max_peaks, flags, name, reserved1
+HEADER_FMT = "<4sHHIIBBBBHHHHHbBIIbBHI16s64s"
+# op, stride, in, in2, cin, cout, out_zp, act_min, act_max, reserved0, weights, bias, mult, shift, reserved1
+LAYER_FMT = "<BBBBHHbbbBIIIII"
+assert struct.calcsize(HEADER_FMT) == HEADER_SIZE and struct.calcsize(LAYER_FMT) == LAYER_ENTRY_SIZE
+
+HEADER_KEYS = ("input_w", "input_h", "input_norm", "norm_lo_permille", "norm_hi_permille", "norm_min_range",
+               "input_zp", "out_stride", "out_channels", "score_threshold_q", "max_peaks", "name")
+
+
+def op_id(op):
+    """The op number (1..6) of an op given by number or name ("conv3x3", ...)."""
+    if isinstance(op, str):
+        if op.lower() not in OP_IDS:
+            raise ValueError(f"unknown op {op!r} (one of {sorted(OP_IDS)})")
+        return OP_IDS[op.lower()]
+    return int(op)
+
+
+def k_of(op, cin):
+    """Number of multiply-adds per output value (the K of the accumulator bound); 0 for ops 4-6."""
+    return {CONV3X3: 9 * cin, DW3X3: 9, PW1X1: cin}.get(op, 0)
+
+
+def bias_bound(op, cin):
+    """Largest |bias| vd_cnn_load accepts: INT32_MAX - K * 127 * 255."""
+    return INT32_MAX - k_of(op, cin) * 127 * 255
+
+
+def weight_shape(op, cin, cout):
+    return {CONV3X3: (cout, 3, 3, cin), DW3X3: (3, 3, cout), PW1X1: (cout, cin)}.get(op)
+
+
+def _int_array(v, dtype, lo, hi, what, shape=None):
+    """v as a numpy array of dtype after checking every value lies in [lo, hi] (no silent wrap)."""
+    if v is None:
+        raise ValueError(f"{what}: missing")
+    a = np.asarray(v)
+    if a.dtype.kind not in "iub":
+        raise ValueError(f"{what}: integer array expected, got {a.dtype}")
+    if shape is not None and a.size != int(np.prod(shape)):
+        raise ValueError(f"{what}: {a.size} values, expected {int(np.prod(shape))} (shape {shape})")
+    a64 = a.astype(np.int64)
+    if a64.size and (a64.min() < lo or a64.max() > hi):
+        raise ValueError(f"{what}: values must lie in [{lo}, {hi}] (found {a64.min()}..{a64.max()})")
+    a = a64.astype(dtype)
+    return a.reshape(shape) if shape is not None else a
+
+
+def _int(d, key, lo, hi, where=""):
+    if key not in d:
+        raise ValueError(f"{where}{key}: missing")
+    v = d[key]
+    try:
+        iv = int(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}{key}: integer expected, got {v!r}") from None
+    if iv != v or not lo <= iv <= hi:
+        raise ValueError(f"{where}{key} = {v!r} outside [{lo}, {hi}]")
+    return iv
+
+
+def validate(desc):
+    """Checks desc like vd_cnn_load checks a blob; returns a normalised copy (ints, numpy arrays in the
+    canonical shapes, op numbers) or raises ValueError naming the first offending field."""
+    if not isinstance(desc, dict):
+        raise ValueError("desc must be a dict")
+    out = {}
+    norm = out["input_norm"] = _int(desc, "input_norm", 0, 1)
+    if norm == 1:
+        lo = out["norm_lo_permille"] = _int(desc, "norm_lo_permille", 0, 999)
+        out["norm_hi_permille"] = _int(desc, "norm_hi_permille", lo + 1, 1000)
+        out["norm_min_range"] = _int(desc, "norm_min_range", 1, 255)
+    else:
+        for k in ("norm_lo_permille", "norm_hi_permille", "norm_min_range"):
+            out[k] = _int(dict(desc, **{k: desc.get(k, 0)}), k, 0, 0)
+    out["input_zp"] = _int(dict(desc, input_zp=desc.get("input_zp", -128)), "input_zp", -128, -128)
+    out["out_stride"] = _int(desc, "out_stride", 4, 8)
+    if out["out_stride"] not in (4, 8):
+        raise ValueError(f"out_stride must be 4 or 8, not {out['out_stride']}")
+    out["out_channels"] = _int(desc, "out_channels", 3, 5)
+    if out["out_channels"] not in (3, 5):
+        raise ValueError(f"out_channels must be 3 or 5, not {out['out_channels']}")
+    out["input_w"] = _int(desc, "input_w", 1, MAX_SIDE)
+    out["input_h"] = _int(desc, "input_h", 1, MAX_SIDE)
+    out["score_threshold_q"] = _int(desc, "score_threshold_q", -128, 127)
+    out["max_peaks"] = _int(desc, "max_peaks", 1, MAX_PEAKS)
+    name = desc.get("name", "")
+    name = name.decode("ascii") if isinstance(name, bytes) else str(name)
+    if len(name) > NAME_LEN or any(not 0x20 <= ord(c) <= 0x7E for c in name):
+        raise ValueError(f"name {name!r}: at most {NAME_LEN} printable ASCII characters")
+    out["name"] = name
+
+    layers = desc.get("layers")
+    if not isinstance(layers, (list, tuple)) or not 1 <= len(layers) <= MAX_LAYERS:
+        raise ValueError(f"layers: a list of 1..{MAX_LAYERS} layers expected")
+    chans, fs, zps = [1], [1], [out["input_zp"]]
+    nl = []
+    for i, L in enumerate(layers):
+        where = f"layer {i}: "
+        op = op_id(L.get("op"))
+        if op not in OP_NAMES:
+            raise ValueError(f"{where}unknown op {op}")
+        n = {"op": op}
+        n["stride"] = _int(L, "stride", 1, 2 if op in (CONV3X3, DW3X3) else 1, where)
+        n["in"] = _int(L, "in", 0, i, where)
+        n["in2"] = _int(dict(L, in2=L.get("in2", 0)), "in2", 0, i if op == CONCAT else 0, where)
+        n["cin"] = _int(L, "cin", 1, MAX_CHANNELS, where)
+        n["cout"] = _int(L, "cout", 1, MAX_CHANNELS, where)
+        n["out_zp"] = _int(L, "out_zp", -128, 127, where)
+        n["act_min"] = _int(L, "act_min", -128, 127, where)
+        n["act_max"] = _int(L, "act_max", n["act_min"], 127, where)
+        a, cin, cout = n["in"], n["cin"], n["cout"]
+        if cin != chans[a]:
+            raise ValueError(f"{where}cin {cin} != {chans[a]} channels of tensor {a}")
+        f = fs[a]
+        if op in (CONV3X3, DW3X3):
+            f *= n["stride"]
+        elif op == MAXPOOL2:
+            f *= 2
+        elif op == UPSAMPLE2:
+            if f < 2:
+                raise ValueError(f"{where}UPSAMPLE2 of tensor {a} at full input resolution (f = 1)")
+            f //= 2
+        if f > MAX_F:
+            raise ValueError(f"{where}downsample factor {f} > {MAX_F}")
+        if op in (DW3X3, MAXPOOL2, UPSAMPLE2) and cout != cin:
+            raise ValueError(f"{where}cout {cout} must equal cin {cin} for {OP_NAMES[op]}")
+        if op in (MAXPOOL2, UPSAMPLE2, CONCAT):
+            if n["act_min"] != -128 or n["act_max"] != 127:
+                raise ValueError(f"{where}{OP_NAMES[op]} needs act_min -128 and act_max 127")
+            if n["out_zp"] != zps[a]:
+                raise ValueError(f"{where}out_zp {n['out_zp']} must equal the zero point {zps[a]} of tensor {a}")
+        if op == CONCAT:
+            b = n["in2"]
+            if cout != cin + chans[b]:
+                raise ValueError(f"{where}CONCAT cout {cout} != cin {cin} + {chans[b]} channels of tensor {b}")
+            if fs[b] != fs[a]:
+                raise ValueError(f"{where}CONCAT of tensors {a} (f {fs[a]}) and {b} (f {fs[b]}): sizes differ")
+            if zps[b] != zps[a]:
+                raise ValueError(f"{where}CONCAT zero points differ ({zps[a]} vs {zps[b]})")
+        if op in WEIGHTED:
+            n["w"] = _int_array(L.get("w"), np.int8, -128, 127, where + "w", weight_shape(op, cin, cout))
+            bb = bias_bound(op, cin)
+            n["bias"] = _int_array(L.get("bias"), np.int32, -bb, bb, where + "bias", (cout,))
+            n["mult"] = _int_array(L.get("mult"), np.int32, MULT_MIN, MULT_MAX, where + "mult", (cout,))
+            n["shift"] = _int_array(L.get("shift"), np.int8, SHIFT_MIN, SHIFT_MAX, where + "shift", (cout,))
+        else:
+            for k in ("w", "bias", "mult", "shift"):
+                if L.get(k) is not None and np.asarray(L[k]).size:
+                    raise ValueError(f"{where}{OP_NAMES[op]} has no {k} array")
+                n[k] = None
+        chans.append(cout)
+        fs.append(f)
+        zps.append(n["out_zp"])
+        nl.append(n)
+    out["layers"] = nl
+    if chans[-1] != out["out_channels"]:
+        raise ValueError(f"the last layer has {chans[-1]} channels, out_channels is {out['out_channels']}")
+    if fs[-1] != out["out_stride"]:
+        raise ValueError(f"the last tensor's downsample factor {fs[-1]} != out_stride {out['out_stride']}")
+    align = max(fs)
+    for k in ("input_w", "input_h"):
+        if out[k] % align:
+            raise ValueError(f"{k} {out[k]} is not a multiple of the model's alignment {align}")
+
+    t = _int_array(desc.get("table"), np.int32, -(1 << 31), INT32_MAX, "table", (out["out_channels"], 256))
+    if t[0].min() < 0 or t[0].max() > SCORE_MAX or np.any(np.diff(t[0].astype(np.int64)) < 0):
+        raise ValueError("table[0] (score): must be non-decreasing Q15 values in [0, 32768]")
+    if t[1:3].min() < 0 or t[1:3].max() > SIZE_MAX_Q8:
+        raise ValueError(f"table[1..2] (box size): Q8 values in [0, {SIZE_MAX_Q8}]")
+    if out["out_channels"] == 5 and (t[3:5].min() < OFF_MIN_Q8 or t[3:5].max() > OFF_MAX_Q8):
+        raise ValueError(f"table[3..4] (offset): Q8 values in [{OFF_MIN_Q8}, {OFF_MAX_Q8}]")
+    out["table"] = t
+    return out
+
+
+def alignment(desc):
+    """A: the largest downsample factor over all tensors (run sizes must be multiples of it)."""
+    return max(tensor_factors(desc))
+
+
+def tensor_factors(desc):
+    """Downsample factor f of every tensor 0..L (desc assumed valid)."""
+    fs = [1]
+    for L in desc["layers"]:
+        op, f = op_id(L["op"]), fs[L["in"]]
+        if op in (CONV3X3, DW3X3):
+            f *= int(L["stride"])
+        elif op == MAXPOOL2:
+            f *= 2
+        elif op == UPSAMPLE2:
+            f //= 2
+        fs.append(f)
+    return fs
+
+
+def tensor_zps(desc):
+    """Zero point of every tensor 0..L."""
+    return [int(desc.get("input_zp", -128))] + [int(L["out_zp"]) for L in desc["layers"]]
+
+
+def _align4(n):
+    return (n + 3) & ~3
+
+
+def pack(desc, check=True):
+    """bytes of the version-3 .vdm blob of desc. With check (default) desc is validated first
+    (ValueError as vd_cnn_load would reject it); check=False packs a possibly invalid desc as is
+    (for loader tests), still requiring the arrays to fit their fields."""
+    d = validate(desc) if check else desc
+    layers = d["layers"]
+    table_off = HEADER_SIZE
+    pos = table_off + LAYER_ENTRY_SIZE * len(layers)
+    entries, chunks = [], []
+    for L in layers:
+        op = op_id(L["op"])
+        offs = [0, 0, 0, 0]
+        if L.get("w") is not None:
+            arrays = [np.asarray(L["w"]).astype(np.int8).tobytes(), np.asarray(L["bias"]).astype("<i4").tobytes(),
+                      np.asarray(L["mult"]).astype("<i4").tobytes(), np.asarray(L["shift"]).astype(np.int8).tobytes()]
+            for j, a in enumerate(arrays):
+                pos = _align4(pos)
+                offs[j] = pos
+                chunks.append((pos, a))
+                pos += len(a)
+        entries.append(struct.pack(LAYER_FMT, op, int(L["stride"]), int(L["in"]), int(L.get("in2", 0)),
+                                   int(L["cin"]), int(L["cout"]), int(L["out_zp"]), int(L["act_min"]),
+                                   int(L["act_max"]), 0, *offs, 0))
+    pos = _align4(pos)
+    dec_off = pos
+    table = np.asarray(d["table"]).astype("<i4").tobytes()
+    chunks.append((dec_off, table))
+    total = _align4(dec_off + len(table))
+    buf = bytearray(total)
+    buf[table_off:table_off + len(entries) * LAYER_ENTRY_SIZE] = b"".join(entries)
+    for off, a in chunks:
+        buf[off:off + len(a)] = a
+    name = str(d.get("name", "")).encode("ascii")
+    hdr = struct.pack(HEADER_FMT, MAGIC, VERSION, HEADER_SIZE, total, 0, KIND_CNN, int(d["input_norm"]),
+                      len(layers), int(d["out_channels"]), int(d["input_w"]), int(d["input_h"]),
+                      int(d.get("norm_lo_permille", 0)), int(d.get("norm_hi_permille", 0)),
+                      int(d.get("norm_min_range", 0)), int(d.get("input_zp", -128)), int(d["out_stride"]),
+                      table_off, dec_off, int(d["score_threshold_q"]), 0, int(d["max_peaks"]), 0,
+                      name.ljust(NAME_LEN, b"\0"), bytes(64))
+    buf[:HEADER_SIZE] = hdr
+    struct.pack_into("<I", buf, 12, zlib.crc32(bytes(buf[CRC_FROM:])) & 0xFFFFFFFF)
+    return bytes(buf)
+
+
+def fix_crc(blob):
+    """The blob with its CRC field recomputed (for tests that corrupt structure)."""
+    buf = bytearray(blob)
+    total = struct.unpack_from("<I", buf, 8)[0]
+    struct.pack_into("<I", buf, 12, zlib.crc32(bytes(buf[CRC_FROM:total])) & 0xFFFFFFFF)
+    return bytes(buf)
+
+
+def unpack(blob, check=True):
+    """desc of a version-3 CNN blob; ValueError when the container is malformed (magic, version,
+    sizes, CRC, kind, reserved fields, array offsets) or, with check, the model is invalid."""
+    blob = bytes(blob)
+    if len(blob) < HEADER_SIZE:
+        raise ValueError(f"blob of {len(blob)} bytes is shorter than the {HEADER_SIZE}-byte header")
+    (magic, version, hsize, total, crc, kind, norm, n, cout, in_w, in_h, lo, hi, min_range, zp, ostride, table_off,
+     dec_off, thr, r0, max_peaks, flags, name, r1) = struct.unpack_from(HEADER_FMT, blob, 0)
+    if magic != MAGIC:
+        raise ValueError("not a .vdm blob (magic)")
+    if version != VERSION:
+        raise ValueError(f"format version {version}: the CNN kind is version {VERSION}")
+    if hsize != HEADER_SIZE:
+        raise ValueError(f"header_size {hsize} != {HEADER_SIZE}")
+    if total % 4 or total < HEADER_SIZE or total > len(blob):
+        raise ValueError(f"total_size {total} (blob has {len(blob)} bytes)")
+    if zlib.crc32(blob[CRC_FROM:total]) & 0xFFFFFFFF != crc:
+        raise ValueError(".vdm CRC mismatch")
+    if kind != KIND_CNN:
+        raise ValueError(f"kind {kind} is not the CNN kind ({KIND_CNN})")
+    if r0 or flags or any(r1):
+        raise ValueError("reserved header fields / flags must be 0")
+    if not 1 <= n <= MAX_LAYERS:
+        raise ValueError(f"n_layers {n} outside 1..{MAX_LAYERS}")
+    nb = name.split(b"\0", 1)
+    if len(nb) == 2 and any(nb[1]):
+        raise ValueError("name: bytes after the first NUL must be 0")
+    arrays_from = table_off + LAYER_ENTRY_SIZE * n
+    if table_off < HEADER_SIZE or table_off % 4 or arrays_from > total:
+        raise ValueError(f"layer_table offset {table_off}")
+
+    spans = []
+
+    def arr(off, count, dtype, what):
+        size = count * np.dtype(dtype).itemsize
+        if off % 4 or off < arrays_from or off + size > total:
+            raise ValueError(f"{what}: offset {off} (+{size}) outside [{arrays_from}, {total}) or unaligned")
+        spans.append((off, off + size, what))
+        return np.frombuffer(blob, dtype, count, off).copy()
+
+    layers = []
+    for i in range(n):
+        (op, stride, a, b, cin, co, ozp, amin, amax, lr0, ow, ob, om, osh, lr1) = struct.unpack_from(
+            LAYER_FMT, blob, table_off + i * LAYER_ENTRY_SIZE)
+        if lr0 or lr1:
+            raise ValueError(f"layer {i}: reserved fields must be 0")
+        L = {"op": op, "stride": stride, "in": a, "in2": b, "cin": cin, "cout": co, "out_zp": ozp,
+             "act_min": amin, "act_max": amax, "w": None, "bias": None, "mult": None, "shift": None}
+        shape = weight_shape(op, cin, co)
+        if shape is not None:
+            L["w"] = arr(ow, int(np.prod(shape)), np.int8, f"layer {i} weights").reshape(shape)
+            L["bias"] = arr(ob, co, "<i4", f"layer {i} bias").astype(np.int32)
+            L["mult"] = arr(om, co, "<i4", f"layer {i} mult").astype(np.int32)
+            L["shift"] = arr(osh, co, np.int8, f"layer {i} shift")
+        elif ow or ob or om or osh:
+            raise ValueError(f"layer {i}: op {op} must have array offsets 0")
+        layers.append(L)
+    table = arr(dec_off, cout * 256, "<i4", "decode table").astype(np.int32).reshape(cout, 256)
+    spans.sort()
+    for (_, e0, w0), (s1, _, w1) in zip(spans, spans[1:]):
+        if s1 < e0:
+            raise ValueError(f"{w0} and {w1} overlap")
+    desc = {"input_w": in_w, "input_h": in_h, "input_norm": norm, "norm_lo_permille": lo, "norm_hi_permille": hi,
+            "norm_min_range": min_range, "input_zp": zp, "out_stride": ostride, "out_channels": cout,
+            "score_threshold_q": thr, "max_peaks": max_peaks, "name": nb[0].decode("ascii", "replace"),
+            "layers": layers, "table": table}
+    return validate(desc) if check else desc
+
+
+# ------------------------------------------------------------------ C array for flash
+def write_c_array(blob, name, out_dir):
+    """Writes <out_dir>/<name>.vdm and <name>_vdm.c / <name>_vdm.h (8-byte aligned const array and
+    the accessor `const void *vd_model_<name>(size_t *bytes)`, as vdtools.export does for the DBN);
+    returns the three paths."""
+    from vdtools import export
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    h, c = export.c_sources(bytes(blob), name, source=f"{name}.vdm")
+    h = h.replace("The quantised DBN model", "The int8 CNN model").replace("vd_dbn_load()", "vd_cnn_load()")
+    c = c.replace("The quantised DBN model", "The int8 CNN model").replace("(vd_dbn_load needs 4)",
+                                                                          "(vd_cnn_load needs 4)")
+    paths = (out / f"{name}.vdm", out / f"{name}_vdm.c", out / f"{name}_vdm.h")
+    paths[0].write_bytes(bytes(blob))
+    paths[1].write_text(c)
+    paths[2].write_text(h)
+    return paths
+
+
+# ------------------------------------------------------------------ C binding (vd/cnn.h)
+# The CNN's ctypes prototypes live here, next to the format, as the DBN's live in vdtools.vdm
+# (vdtools.clib only loads the library and holds the shared structs).
+KEEP_TENSORS = 1          # VD_CNN_KEEP_TENSORS
+THR_DEFAULT = -(1 << 31)  # VD_CNN_THR_DEFAULT
+
+
+class CnnLayer(C.Structure):
+    """Mirror of vd_cnn_layer_t."""
+    _fields_ = [("op", C.c_uint8), ("stride", C.c_uint8), ("in_", C.c_uint8), ("in2", C.c_uint8),
+                ("cin", C.c_uint16), ("cout", C.c_uint16), ("out_zp", C.c_int8), ("act_min", C.c_int8),
+                ("act_max", C.c_int8), ("w", C.c_void_p), ("bias", C.c_void_p), ("mult", C.c_void_p),
+                ("shift", C.c_void_p)]
+
+
+class CnnModel(C.Structure):
+    """Mirror of vd_cnn_model_t."""
+    _fields_ = [("blob", C.c_void_p), ("size", C.c_uint32), ("crc32", C.c_uint32), ("format_version", C.c_uint16),
+                ("input_norm", C.c_uint8), ("out_channels", C.c_uint8), ("input_w", C.c_uint16),
+                ("input_h", C.c_uint16), ("norm_lo_permille", C.c_uint16), ("norm_hi_permille", C.c_uint16),
+                ("norm_min_range", C.c_uint16), ("input_zp", C.c_int8), ("out_stride", C.c_uint8),
+                ("score_threshold_q", C.c_int8), ("max_peaks", C.c_uint16), ("align", C.c_uint32),
+                ("name", C.c_char * 17), ("n_layers", C.c_uint32), ("layers", CnnLayer * MAX_LAYERS),
+                ("decode_table", C.c_void_p)]
+
+
+class CnnOutput(C.Structure):
+    """Mirror of vd_cnn_output_t."""
+    _fields_ = [("data", C.c_void_p), ("w", C.c_uint32), ("h", C.c_uint32), ("c", C.c_uint32),
+                ("stride", C.c_uint32), ("zp", C.c_int32)]
+
+
+class CnnBox(C.Structure):
+    """Mirror of vd_cnn_box_t."""
+    _fields_ = [("rect", clib.Rect), ("score_q15", C.c_uint16), ("logit", C.c_int8)]
+
+
+_bound = False
+
+
+def lib():
+    """The shared C library with the vd_cnn_* prototypes declared (OSError / AttributeError when the
+    library is not built or has no CNN module)."""
+    global _bound
+    lb = clib.load()
+    if not _bound:
+        M, O = C.POINTER(CnnModel), C.POINTER(CnnOutput)
+        sz = C.POINTER(C.c_size_t)
+        lb.vd_cnn_load.argtypes = [M, C.c_void_p, C.c_size_t]
+        lb.vd_cnn_workspace_size.argtypes = [M, C.c_uint32, C.c_uint32, sz]
+        lb.vd_cnn_workspace_size_ex.argtypes = [M, C.c_uint32, C.c_uint32, C.c_uint32, sz]
+        lb.vd_cnn_run.argtypes = [M, C.c_void_p, C.c_uint32, C.c_uint32, C.c_uint32, C.c_void_p, C.c_size_t, O]
+        lb.vd_cnn_run_ex.argtypes = [M, C.c_void_p, C.c_uint32, C.c_uint32, C.c_uint32, C.c_uint32, C.c_void_p,
+                                     C.c_size_t, O]
+        lb.vd_cnn_tensor.argtypes = [M, C.c_void_p, C.c_size_t, C.c_uint32, C.c_uint32, C.c_uint32, O]
+        lb.vd_cnn_decode.argtypes = [M, O, C.c_int32, C.c_uint32, C.c_uint32, C.c_uint32, C.POINTER(CnnBox),
+                                     C.c_size_t, sz]
+        lb.vd_cnn_macs.argtypes = [M, C.c_uint32, C.c_uint32, C.POINTER(C.c_uint64)]
+        for f in (lb.vd_cnn_load, lb.vd_cnn_workspace_size, lb.vd_cnn_workspace_size_ex, lb.vd_cnn_run,
+                  lb.vd_cnn_run_ex, lb.vd_cnn_tensor, lb.vd_cnn_decode, lb.vd_cnn_macs):
+            f.restype = C.c_int
+        _bound = True
+    return lb
+
+
+def aligned_copy(blob, offset=0):
+    """(keepalive, address) of a copy of blob at an 8-byte aligned address + offset."""
+    keep = np.zeros((len(blob) + offset + 15) // 8, dtype=np.uint64)
+    addr = keep.ctypes.data + offset
+    C.memmove(addr, bytes(blob), len(blob))
+    return keep, addr
+
+
+def c_load(blob, offset=0, nbytes=None):
+    """Status of vd_cnn_load on a copy of blob (for tests); the model struct is not kept."""
+    keep, addr = aligned_copy(blob, offset)
+    m = CnnModel()
+    st = lib().vd_cnn_load(C.byref(m), addr, len(blob) if nbytes is None else nbytes)
+    del keep
+    return st
+
+
+def tensor_array(o):
+    """Copy of a vd_cnn_output_t's tensor as int8 [h, w, c]."""
+    n = o.w * o.h * o.c
+    return np.ctypeslib.as_array((C.c_int8 * n).from_address(o.data)).reshape(o.h, o.w, o.c).copy()
+
+
+class CModel:
+    """A blob loaded by vd_cnn_load (kept alive, 8-byte aligned), with workspaces per input size.
+
+        m = CModel(blob)
+        head = m.run(img_u8)                        # int8 [Ho, Wo, C_out] (copy), vd_cnn_run
+        ts = m.run_all(img_u8)                      # every tensor, vd_cnn_run_ex(KEEP_TENSORS) + vd_cnn_tensor
+        boxes = m.decode(head, frame_w, frame_h)    # [(x, y, w, h, score_q15, logit)], vd_cnn_decode
+    """
+
+    def __init__(self, blob):
+        self._keep, addr = aligned_copy(blob)
+        self.m = CnnModel()
+        clib.check(lib().vd_cnn_load(C.byref(self.m), addr, len(blob)), "vd_cnn_load")
+        self._ws = {}
+        zps = [self.m.input_zp] + [self.m.layers[i].out_zp for i in range(self.m.n_layers)]
+        self.head_zp = int(zps[-1])
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def workspace_size(self, w, h, flags=0):
+        n = C.c_size_t()
+        clib.check(lib().vd_cnn_workspace_size_ex(C.byref(self.m), w, h, flags, C.byref(n)),
+                   "vd_cnn_workspace_size_ex")
+        return n.value
+
+    def workspace(self, w, h, flags=0):
+        """(keepalive, address, bytes) of this model's workspace for w x h (cached)."""
+        k = (w, h, flags)
+        if k not in self._ws:
+            n = self.workspace_size(w, h, flags)
+            buf, ptr = clib.workspace(n)
+            self._ws[k] = (buf, ptr.value, n)
+        return self._ws[k]
+
+    def run_status(self, img_u8, flags=0, ws=None):
+        """(status, vd_cnn_output_t) of vd_cnn_run_ex on a 2-D uint8 array (row stride = its strides[0])."""
+        a = np.asarray(img_u8)
+        if a.dtype != np.uint8 or a.ndim != 2 or a.strides[1] != 1:
+            raise ValueError("a 2-D uint8 plane with contiguous rows expected")
+        h, w = a.shape
+        _buf, addr, n = ws if ws is not None else self.workspace(w, h, flags)
+        out = CnnOutput()
+        st = lib().vd_cnn_run_ex(C.byref(self.m), a.ctypes.data, w, h, a.strides[0], flags, addr, n, C.byref(out))
+        return st, out
+
+    def run(self, img_u8):
+        """Head tensor int8 [Ho, Wo, C_out] (a copy) of vd_cnn_run on a uint8 plane."""
+        a = np.asarray(img_u8)
+        st, out = self.run_status(a)
+        clib.check(st, "vd_cnn_run")
+        return tensor_array(out)
+
+    def run_all(self, img_u8):
+        """Every tensor [t0, ..., tL] (copies) of one run with VD_CNN_KEEP_TENSORS."""
+        a = np.asarray(img_u8)
+        h, w = a.shape
+        buf, addr, n = self.workspace(w, h, KEEP_TENSORS)
+        st, _ = self.run_status(a, KEEP_TENSORS)
+        clib.check(st, "vd_cnn_run_ex")
+        out = []
+        for i in range(self.m.n_layers + 1):
+            t = CnnOutput()
+            clib.check(lib().vd_cnn_tensor(C.byref(self.m), addr, n, w, h, i, C.byref(t)), f"vd_cnn_tensor {i}")
+            out.append(tensor_array(t))
+        return out
+
+    def decode_status(self, head, frame_w, frame_h, thr_q=None, max_peaks=None, capacity=None):
+        """(status, boxes) of vd_cnn_decode on a head tensor given as int8 [Ho, Wo, C_out] (any head, e.g.
+        hand-made: it is wrapped in a vd_cnn_output_t with the model's out_stride and head zero point).
+        thr_q None: VD_CNN_THR_DEFAULT; max_peaks None: 0 (header's); capacity None: VD_CNN_MAX_PEAKS."""
+        hd = np.ascontiguousarray(head, dtype=np.int8)
+        out = CnnOutput(hd.ctypes.data, hd.shape[1], hd.shape[0], hd.shape[2], self.m.out_stride, self.head_zp)
+        cap = MAX_PEAKS if capacity is None else int(capacity)
+        boxes = (CnnBox * max(cap, 1))()
+        count = C.c_size_t(0)
+        st = lib().vd_cnn_decode(C.byref(self.m), C.byref(out), THR_DEFAULT if thr_q is None else int(thr_q),
+                                 0 if max_peaks is None else int(max_peaks), int(frame_w), int(frame_h),
+                                 boxes if cap > 0 else None, cap, C.byref(count))
+        res = [(b.rect.x, b.rect.y, b.rect.w, b.rect.h, b.score_q15, b.logit) for b in boxes[:count.value]]
+        return st, res
+
+    def decode(self, head, frame_w, frame_h, thr_q=None, max_peaks=None, capacity=None):
+        """Boxes [(x, y, w, h, score_q15, logit)] of vd_cnn_decode (see decode_status)."""
+        st, res = self.decode_status(head, frame_w, frame_h, thr_q, max_peaks, capacity)
+        clib.check(st, "vd_cnn_decode")
+        return res
+
+    def macs(self, w, h):
+        n = C.c_uint64()
+        clib.check(lib().vd_cnn_macs(C.byref(self.m), w, h, C.byref(n)), "vd_cnn_macs")
+        return n.value
