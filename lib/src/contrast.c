@@ -22,6 +22,7 @@
 // table 168). Workspace as vd_contrast_workspace_size; capacity `cap`
 // components.
 #include "vd/contrast.h"
+#include "vd/threshold.h"
 
 #include <string.h>
 
@@ -328,18 +329,10 @@ vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cf
         for (size_t i = 0; i < npix; i++) {
             hist[map[i]]++;
         }
-        // Smallest level t with at least ceil(N * p / 1000) pixels <= t (as the detector's adaptive threshold).
-        uint64_t target = ((uint64_t)npix * c.permille + 999u) / 1000u;
-        uint64_t cum = 0u;
-        uint32_t t = 255u;
-        for (uint32_t i = 0; i < 256u; i++) {
-            cum += hist[i];
-            if (cum >= target) {
-                t = i;
-                break;
-            }
-        }
-        thr = (t > thr) ? t : thr;
+        // max(thr_u8, p-th percentile of the map), as the detector's adaptive threshold.
+        uint8_t t = 0u;
+        VD_TRY(vd_threshold_percentile_u8(hist, c.permille, (uint8_t)thr, &t));
+        thr = t;
     }
     for (size_t i = 0; i < npix; i++) {
         map[i] = (map[i] >= thr) ? 255u : 0u;

@@ -446,8 +446,10 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         return VD_ERR_ARG;
     }
     det->raw_thr = raw;
-    int64_t span = (int64_t)c.grey_hi_ck - c.grey_lo_ck;
-    det->grey_mul_q16 = ((int64_t)255 * 65536 + span / 2) / span;
+    if (vd_calib_grey_init(&det->grey, &c.calib, c.grey_lo_ck, c.grey_hi_ck) != VD_OK) {
+        memset(det, 0, sizeof(*det));
+        return VD_ERR_ARG;   // unreachable after resolve_cfg; kept as a guard
+    }
     if (c.temporal) {
         VD_TRY(vd_temporal_init(&det->temporal, &c.temporal_cfg, det->tracks, c.max_tracks));
     }
@@ -474,17 +476,6 @@ static void clock_add(vd_detector_t *det, int stage, uint32_t *t0)
     *t0 = t1;
 }
 
-
-static uint8_t grey_of_raw(const vd_detector_t *det, uint32_t raw)
-{
-    int32_t ck = 0;
-    (void)vd_calib_ck_from_raw(&det->cfg.calib, (uint16_t)raw, &ck);
-    int64_t g = (((int64_t)ck - det->cfg.grey_lo_ck) * det->grey_mul_q16 + 32768) >> 16;
-    if (g < 0) {
-        return 0u;
-    }
-    return (g > 255) ? 255u : (uint8_t)g;
-}
 
 // Builds the region plane in the overlay's crop buffer when needed (16-bit
 // frames, or regions above max_region_*); 8-bit regions that fit are read
@@ -525,7 +516,7 @@ DET_NOINLINE static vd_status_t make_plane(vd_detector_t *det, const vd_frame_t 
                 }
             }
             uint32_t avg = (uint32_t)((sum + n / 2u) / n);
-            crop[(size_t)cy * cw + cx] = (f->format == VD_PIX_U8) ? (uint8_t)avg : grey_of_raw(det, avg);
+            crop[(size_t)cy * cw + cx] = (f->format == VD_PIX_U8) ? (uint8_t)avg : vd_calib_grey_u8(&det->grey, (uint16_t)avg);
         }
     }
     p->view.data = crop;
@@ -575,30 +566,21 @@ static vd_status_t detector_probe(void *user, const vd_rect_t *box, uint16_t *co
     return VD_OK;
 }
 
-// The 8-bit hot threshold: constant, or max(floor, p-th percentile) from a
-// histogram of the frame (adaptive mode).
+// The 8-bit hot threshold: constant, or max(floor, p-th percentile) of the
+// frame's histogram (adaptive mode).
 static uint32_t threshold_u8(vd_detector_t *det, const vd_view_u8_t *v)
 {
     if (det->cfg.thr_mode != VD_DETECTOR_THR_ADAPTIVE) {
         return det->cfg.hot_thr_u8;
     }
-    // otsu.h's histogram (the run-counting one): the view was checked by the caller.
-    const vd_status_t st = vd_histogram_u8(v, NULL, det->hist);
+    // The view was checked by the caller, permille by resolve_cfg: neither call can fail.
+    uint8_t t = 0u;
+    vd_status_t st = vd_histogram_u8(v, NULL, det->hist);
+    VD_ASSERT(st == VD_OK);
+    st = vd_threshold_percentile_u8(det->hist, det->cfg.adaptive_permille, det->cfg.adaptive_floor_u8, &t);
     VD_ASSERT(st == VD_OK);
     (void)st;
-    // Smallest level t with at least ceil(N * p / 1000) pixels <= t.
-    uint64_t n = (uint64_t)v->width * v->height;
-    uint64_t target = (n * det->cfg.adaptive_permille + 999u) / 1000u;
-    uint64_t cum = 0u;
-    uint32_t t = 255u;
-    for (uint32_t i = 0; i < 256u; i++) {
-        cum += det->hist[i];
-        if (cum >= target) {
-            t = i;
-            break;
-        }
-    }
-    return (t > det->cfg.adaptive_floor_u8) ? t : det->cfg.adaptive_floor_u8;
+    return t;
 }
 
 // Hot-spot components straight from the frame (no mask: the labeller
@@ -883,7 +865,7 @@ DET_NOINLINE static void cell_integrals(vd_detector_t *det, const vd_frame_t *f)
             }
             uint32_t g = (sum + CELL * CELL / 2u) / (CELL * CELL);
             if (f->format != VD_PIX_U8) {
-                g = grey_of_raw(det, g);
+                g = vd_calib_grey_u8(&det->grey, (uint16_t)g);
             }
             r1 += g;
             r2 += g * g;

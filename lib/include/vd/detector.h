@@ -183,7 +183,7 @@ typedef struct vd_detector {
     const vd_model_t *model;
     uint16_t raw_thr;            // resolved 16-bit threshold
     bool raw_never_hot;          // threshold above the calibrated range
-    int64_t grey_mul_q16;        // 255 * 2^16 / (grey_hi - grey_lo), rounded
+    vd_calib_grey_t grey;        // 16-bit frames: temperature -> grey map (grey_lo_ck, grey_hi_ck)
     uint32_t in_w, in_h;         // model input (32 x 32)
     // Workspace slices (carved once in init).
     vd_component_t *comps;
