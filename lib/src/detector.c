@@ -495,34 +495,19 @@ DET_NOINLINE static vd_status_t make_plane(vd_detector_t *det, const vd_frame_t 
         p->roi = *region;
         return VD_OK;
     }
-    uint32_t cw = rw / p->kx;
-    uint32_t ch = rh / p->ky;
-    uint32_t n = p->kx * p->ky;
-    for (uint32_t cy = 0; cy < ch; cy++) {
-        for (uint32_t cx = 0; cx < cw; cx++) {
-            uint64_t sum = 0u;
-            size_t x0 = (size_t)region->x + (size_t)cx * p->kx;
-            size_t y0 = (size_t)region->y + (size_t)cy * p->ky;
-            for (uint32_t j = 0; j < p->ky; j++) {
-                const uint8_t *row = (const uint8_t *)f->data + (y0 + j) * f->stride;
-                for (uint32_t i = 0; i < p->kx; i++) {
-                    if (f->format == VD_PIX_U8) {
-                        sum += row[x0 + i];
-                    } else {
-                        uint16_t v;
-                        memcpy(&v, row + 2u * (x0 + i), sizeof(v));
-                        sum += v;
-                    }
-                }
-            }
-            uint32_t avg = (uint32_t)((sum + n / 2u) / n);
-            crop[(size_t)cy * cw + cx] = (f->format == VD_PIX_U8) ? (uint8_t)avg : vd_calib_grey_u8(&det->grey, (uint16_t)avg);
-        }
+    const uint32_t cw = rw / p->kx;
+    const uint32_t ch = rh / p->ky;
+    vd_image_u8_t out = {crop, cw, ch, cw};
+    if (f->format == VD_PIX_U8) {
+        vd_view_u8_t v;
+        VD_TRY(vd_frame_view_u8(f, &v));
+        VD_TRY(vd_resample_box_u8(&v, region, p->kx, p->ky, &out));
+    } else {
+        vd_view_u16_t v;
+        VD_TRY(vd_frame_view_u16(f, &v));
+        VD_TRY(vd_resample_box_u16(&v, region, p->kx, p->ky, &det->grey, &out));
     }
-    p->view.data = crop;
-    p->view.width = cw;
-    p->view.height = ch;
-    p->view.stride = cw;
+    p->view = vd_image_u8_view(&out);
     p->roi.x = 0;
     p->roi.y = 0;
     p->roi.w = (int32_t)cw;
