@@ -82,57 +82,16 @@
 // difference of four corners is exact when the true window sum fits).
 #define MAX_CELLS 66051u
 
-void vd_detector_cfg_default(vd_detector_cfg_t *cfg)
-{
-    if (cfg == NULL) {
-        return;
-    }
-    memset(cfg, 0, sizeof(*cfg));
-    cfg->max_width = DEF_W;
-    cfg->max_height = DEF_H;
-    cfg->thr_mode = VD_DETECTOR_THR_CONSTANT;
-    cfg->hot_thr_u8 = 150u;
-    cfg->adaptive_floor_u8 = 96u;
-    cfg->adaptive_permille = 990u;
-    cfg->hot_thr_ck = VD_CK_PER_0C + 3000;
-    cfg->calib.gain_q16 = 65536;
-    cfg->calib.offset_ck = 0;
-    cfg->grey_lo_ck = cfg->hot_thr_ck - 3000;
-    cfg->grey_hi_ck = cfg->hot_thr_ck + 2100;
-    vd_cc_rules_default(&cfg->rules);
-    cfg->expand_w_q8 = VD_EXPAND_W_Q8;
-    cfg->expand_h_q8 = VD_EXPAND_H_Q8;
-    cfg->median_ksize = 3u;
-    cfg->edge_step = 5u;
-    cfg->window = 5u;
-    cfg->score_thr_q8 = 128u;
-    cfg->nms_iou_q15 = 16384u;
-    cfg->max_components = 256u;
-    cfg->max_candidates = 64u;
-    cfg->max_detections = 32u;
-    cfg->max_region_w = (uint16_t)DEF_REGION;
-    cfg->max_region_h = (uint16_t)DEF_REGION;
-    cfg->max_tracks = 32u;
-    cfg->max_runs = DEF_RUNS;
-    cfg->temporal = false;
-    vd_temporal_cfg_default(&cfg->temporal_cfg);
-    cfg->sources = VD_DETECTOR_SRC_HOTSPOT;
-    cfg->win_min_std_u8 = DEF_WIN_MIN_STD;
-    cfg->dedup_iou_q15 = DEF_DEDUP_Q15;
-    cfg->contrast.radius = 16u;
-    cfg->contrast.thr_u8 = 24u;
-    cfg->contrast.permille = 950u;
-    vd_cc_rules_default(&cfg->contrast.rules);
-}
-
-// Fills zero fields with defaults and checks ranges.
+// Fills zero fields with defaults and checks ranges; sub-settings are resolved
+// by their own modules. Each default is written here once: the explicit
+// defaults (vd_detector_cfg_default) are a zeroed cfg resolved.
 static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c)
 {
     if (in == NULL) {
-        vd_detector_cfg_default(c);
-        return VD_OK;
+        memset(c, 0, sizeof(*c));
+    } else {
+        *c = *in;
     }
-    *c = *in;
     if (c->max_width == 0u) { c->max_width = DEF_W; }
     if (c->max_height == 0u) { c->max_height = DEF_H; }
     VD_VERIFY(c->max_width <= VD_MAX_DIM && c->max_height <= VD_MAX_DIM, VD_ERR_ARG);
@@ -148,12 +107,7 @@ static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c
     if (c->grey_lo_ck == 0) { c->grey_lo_ck = c->hot_thr_ck - 3000; }
     if (c->grey_hi_ck == 0) { c->grey_hi_ck = c->hot_thr_ck + 2100; }
     VD_VERIFY(c->grey_lo_ck < c->grey_hi_ck, VD_ERR_ARG);
-    if (c->rules.aspect_min_q8 == 0u && c->rules.aspect_max_q8 == 0u && c->rules.min_area == 0u &&
-        c->rules.max_area == 0u) {
-        vd_cc_rules_default(&c->rules);
-    }
-    VD_VERIFY(c->rules.aspect_min_q8 <= c->rules.aspect_max_q8, VD_ERR_ARG);
-    VD_VERIFY(c->rules.max_area == 0u || c->rules.min_area <= c->rules.max_area, VD_ERR_ARG);
+    VD_TRY(vd_cc_rules_resolve(&c->rules));
     if (c->expand_w_q8 == 0u) { c->expand_w_q8 = VD_EXPAND_W_Q8; }
     if (c->expand_h_q8 == 0u) { c->expand_h_q8 = VD_EXPAND_H_Q8; }
     VD_VERIFY(c->expand_w_q8 >= 256u && c->expand_w_q8 <= 2048u, VD_ERR_ARG);
@@ -184,19 +138,8 @@ static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c
     if (c->win_min_std_u8 == 0u) { c->win_min_std_u8 = DEF_WIN_MIN_STD; }
     if (c->dedup_iou_q15 == 0u) { c->dedup_iou_q15 = DEF_DEDUP_Q15; }
     VD_VERIFY(c->dedup_iou_q15 <= 32768u, VD_ERR_ARG);
-    // Contrast: the ranges vd_contrast_candidates checks, so a bad value fails in init, not per frame.
-    vd_contrast_cfg_t *k = &c->contrast;
-    if (k->radius == 0u) { k->radius = 16u; }
-    if (k->thr_u8 == 0u) { k->thr_u8 = 24u; }
-    if (k->permille == 0u) { k->permille = 950u; }
-    if (k->rules.aspect_min_q8 == 0u && k->rules.aspect_max_q8 == 0u && k->rules.min_area == 0u &&
-        k->rules.max_area == 0u) {
-        vd_cc_rules_default(&k->rules);
-    }
-    VD_VERIFY(k->radius <= VD_CONTRAST_MAX_RADIUS && k->polarity <= VD_CONTRAST_COLD, VD_ERR_ARG);
-    VD_VERIFY(k->thr_mode <= VD_CONTRAST_THR_PERCENTILE && k->permille <= 1000u, VD_ERR_ARG);
-    VD_VERIFY(k->rules.aspect_min_q8 <= k->rules.aspect_max_q8, VD_ERR_ARG);
-    VD_VERIFY(k->rules.max_area == 0u || k->rules.min_area <= k->rules.max_area, VD_ERR_ARG);
+    // Contrast: checked even when the source is off, as before.
+    VD_TRY(vd_contrast_cfg_resolve(&c->contrast));
     // Windows: checked for the largest frame (each frame resolves its own copy).
     VD_VERIFY(c->windows.frame_w <= VD_MAX_DIM && c->windows.frame_h <= VD_MAX_DIM, VD_ERR_ARG);
     vd_windows_cfg_t wc = c->windows;
@@ -206,12 +149,17 @@ static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c
     if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
         VD_VERIFY((c->max_width / CELL) * (c->max_height / CELL) <= MAX_CELLS, VD_ERR_ARG);
     }
-    // The temporal settings are checked (and resolved) by vd_temporal_init.
-    vd_track_t probe_track;
-    vd_temporal_t probe_t;
-    VD_TRY(vd_temporal_init(&probe_t, &c->temporal_cfg, &probe_track, 1u));
-    c->temporal_cfg = probe_t.cfg;
-    return VD_OK;
+    return vd_temporal_cfg_resolve(&c->temporal_cfg);
+}
+
+void vd_detector_cfg_default(vd_detector_cfg_t *cfg)
+{
+    if (cfg == NULL) {
+        return;
+    }
+    const vd_status_t st = resolve_cfg(NULL, cfg);   // the defaults always resolve
+    VD_ASSERT(st == VD_OK);
+    (void)st;
 }
 
 // The 8-bit plane of one region: `view` with `roi` (in view coordinates),
