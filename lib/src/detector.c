@@ -60,6 +60,7 @@
 #include "vd/contour.h"
 #include "vd/otsu.h"
 #include "vd/resample.h"
+#include "vd/suppress.h"
 #include "internal/vd_internal.h"
 
 // Keeps a helper's locals out of its caller's frame while the caller makes
@@ -195,7 +196,6 @@ typedef struct cand_ctx {
     vd_contour_t best;
     vd_rect_t vb;            // contour box in plane coordinates
     vd_cc_stats_t cs;
-    vd_detection_t tmp;      // sort temporary of suppress()
     vd_windows_cfg_t wc;     // window source: resolved for the current frame
     uint32_t gw, gh;         // cell grid of the window pre-filter
 } cand_ctx_t;
@@ -693,11 +693,9 @@ DET_NOINLINE static vd_status_t verify_candidate(vd_detector_t *det, const vd_fr
 // already there (IoU > dedup_iou). Returns true when appended.
 static bool merge_box(vd_detector_t *det, size_t *n, const vd_rect_t *box, uint8_t src, uint8_t thr8)
 {
-    for (size_t i = 0; i < *n; i++) {
-        if (vd_rect_iou_q15(box, &det->cand[i].box) > det->cfg.dedup_iou_q15) {
-            det->stats.deduplicated++;
-            return false;
-        }
+    if (vd_suppress_overlaps(box, det->cand, *n, det->cfg.dedup_iou_q15)) {
+        det->stats.deduplicated++;
+        return false;
     }
     vd_detection_t *d = &det->cand[*n];
     memset(d, 0, sizeof(*d));
@@ -928,42 +926,6 @@ DET_NOINLINE static vd_status_t window_source(vd_detector_t *det, const vd_frame
     return VD_OK;
 }
 
-// Stable sort by score (best first), then greedy suppression; returns kept.
-DET_NOINLINE static size_t suppress(vd_detector_t *det, size_t n)
-{
-    vd_detection_t *d = det->cand;
-    vd_detection_t *v = &((cand_ctx_t *)det->scratch)->tmp;
-    for (size_t i = 1; i < n; i++) {
-        *v = d[i];
-        size_t j = i;
-        while (j > 0u && d[j - 1u].score_q8 < v->score_q8) {
-            d[j] = d[j - 1u];
-            j--;
-        }
-        d[j] = *v;
-    }
-    size_t kept = 0u;
-    for (size_t i = 0; i < n; i++) {
-        bool ok = true;
-        for (size_t j = 0; j < kept; j++) {
-            if (vd_rect_iou_q15(&d[i].box, &d[j].box) > det->cfg.nms_iou_q15) {
-                ok = false;
-                break;
-            }
-        }
-        if (!ok) {
-            det->stats.suppressed++;
-            continue;
-        }
-        if (kept >= det->cfg.max_detections) {
-            det->stats.overflow_detections++;
-            continue;
-        }
-        d[kept++] = d[i];
-    }
-    return kept;
-}
-
 vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
                             size_t *count)
 {
@@ -1047,7 +1009,11 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
             nv++;
         }
     }
-    size_t nk = suppress(det, nv);
+    size_t nk = 0u;
+    vd_suppress_stats_t ss;
+    VD_TRY(vd_suppress_nms(det->cand, nv, det->cfg.nms_iou_q15, det->cfg.max_detections, &nk, &ss));
+    s->suppressed = ss.suppressed;
+    s->overflow_detections += ss.overflow;
     clock_add(det, VD_DET_STAGE_NMS, &t0);
     if (s->overflow_detections != 0u) {
         result = VD_ERR_CAPACITY;
