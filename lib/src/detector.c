@@ -53,7 +53,6 @@
 // plus the deepest stage below it (refine -> median; docs/embedded.md); no
 // recursion.
 #include "vd/detector.h"
-#include "internal/windows_internal.h"
 
 #include <string.h>
 
@@ -77,11 +76,6 @@
 #define DEF_RUNS 24576u
 #define DEF_WIN_MIN_STD 4u
 #define DEF_DEDUP_Q15 22938u   // 0.7
-#define CELL 4u                // window pre-filter cell side (pixels)
-// Largest cell grid whose sums of squared cell means fit in uint32 for any
-// window: cells * 255^2 < 2^32 (the integral itself wraps modulo 2^32, and a
-// difference of four corners is exact when the true window sum fits).
-#define MAX_CELLS 66051u
 
 // Fills zero fields with defaults and checks ranges; sub-settings are resolved
 // by their own modules. Each default is written here once: the explicit
@@ -148,7 +142,8 @@ static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c
     wc.frame_h = c->max_height;
     VD_TRY(vd_windows_resolve(&wc));
     if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
-        VD_VERIFY((c->max_width / CELL) * (c->max_height / CELL) <= MAX_CELLS, VD_ERR_ARG);
+        size_t integrals = 0u;   // VD_ERR_ARG when the cell grid is too large for uint32 integrals
+        VD_TRY(vd_windows_prefilter_workspace_size(c->max_width, c->max_height, &integrals));
     }
     return vd_temporal_cfg_resolve(&c->temporal_cfg);
 }
@@ -186,18 +181,20 @@ typedef struct region_bufs {
 // the deepest call chain (run -> vd_refine_region -> median) keeps within the
 // stack budget of vd_detector_run (docs/embedded.md).
 typedef struct cand_ctx {
+    // Ordered by alignment (pointer-aligned members first), so the struct has
+    // no padding: its size is part of the workspace figure.
     region_bufs_t b;         // fixed once init has carved the overlay
-    vd_refine_cfg_t rc;      // fixed in init
-    vd_rect_t region;        // expanded candidate (image coordinates)
+    vd_windows_prefilter_t pf;   // window source: the current frame's integrals (in the overlay)
     region_plane_t p;
-    vd_refine_stats_t rs;
     vd_image_u8_t m;         // refine output view on b.rmask
     vd_view_u8_t mv;
+    vd_rect_t region;        // expanded candidate (image coordinates)
+    vd_refine_stats_t rs;
     vd_contour_t best;
     vd_rect_t vb;            // contour box in plane coordinates
     vd_cc_stats_t cs;
-    vd_windows_cfg_t wc;     // window source: resolved for the current frame
-    uint32_t gw, gh;         // cell grid of the window pre-filter
+    vd_windows_cfg_t wc;     // window source: settings for the current frame
+    vd_refine_cfg_t rc;      // fixed in init
 } cand_ctx_t;
 
 static void region_bufs(const vd_detector_t *det, region_bufs_t *b)
@@ -264,10 +261,8 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
         VD_TRY(vd_contrast_workspace_size(c->max_width, c->max_height, &l->contrast));
     }
     if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
-        // Two (gw+1) x (gh+1) uint32 integrals (cell means, squared cell means);
         // 640 x 512: 166 152 bytes, inside the region buffers' share of the overlay.
-        l->integral = 2u * ((size_t)c->max_width / CELL + 1u) * ((size_t)c->max_height / CELL + 1u) *
-                      sizeof(uint32_t);
+        VD_TRY(vd_windows_prefilter_workspace_size(c->max_width, c->max_height, &l->integral));
     }
     return VD_OK;
 }
@@ -739,190 +734,38 @@ DET_NOINLINE static vd_status_t contrast_source(vd_detector_t *det, const vd_fra
     return result;
 }
 
-// floor(sqrt(v)), 16 iterations at most.
-static uint32_t isqrt32(uint32_t v)
-{
-    uint32_t r = 0u;
-    uint32_t bit = 1u << 30;
-    for (uint32_t i = 0; i < 16u && bit > v; i++) {
-        bit >>= 2;
-    }
-    for (uint32_t i = 0; i < 16u && bit != 0u; i++) {
-        if (v >= r + bit) {
-            v -= r + bit;
-            r = (r >> 1) + bit;
-        } else {
-            r >>= 1;
-        }
-        bit >>= 2;
-    }
-    return r;
-}
-
-// Integral images of the 4x4-cell means g (rounded) and of g^2 over the
-// gw x gh cell grid (the last W % 4 columns and H % 4 rows are not covered),
-// in the overlay; uint32 wrap-around is harmless (see MAX_CELLS).
-DET_NOINLINE static void cell_integrals(vd_detector_t *det, const vd_frame_t *f)
-{
-    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
-    const uint32_t gw = f->width / CELL;
-    const uint32_t gh = f->height / CELL;
-    const size_t stride = (size_t)gw + 1u;
-    uint32_t *s1 = (uint32_t *)(void *)det->overlay;
-    uint32_t *s2 = s1 + stride * ((size_t)gh + 1u);
-    x->gw = gw;
-    x->gh = gh;
-    memset(s1, 0, stride * sizeof(uint32_t));
-    memset(s2, 0, stride * sizeof(uint32_t));
-    for (uint32_t gy = 0; gy < gh; gy++) {
-        uint32_t r1 = 0u;
-        uint32_t r2 = 0u;
-        const size_t at = ((size_t)gy + 1u) * stride;
-        s1[at] = 0u;
-        s2[at] = 0u;
-        for (uint32_t gx = 0; gx < gw; gx++) {
-            uint32_t sum = 0u;
-            for (uint32_t j = 0; j < CELL; j++) {
-                const uint8_t *row = (const uint8_t *)f->data + ((size_t)gy * CELL + j) * f->stride;
-                for (uint32_t i = 0; i < CELL; i++) {
-                    if (f->format == VD_PIX_U8) {
-                        sum += row[(size_t)gx * CELL + i];
-                    } else {
-                        uint16_t v;
-                        memcpy(&v, row + 2u * ((size_t)gx * CELL + i), sizeof(v));
-                        sum += v;
-                    }
-                }
-            }
-            uint32_t g = (sum + CELL * CELL / 2u) / (CELL * CELL);
-            if (f->format != VD_PIX_U8) {
-                g = vd_calib_grey_u8(&det->grey, (uint16_t)g);
-            }
-            r1 += g;
-            r2 += g * g;
-            s1[at + gx + 1u] = s1[at - stride + gx + 1u] + r1;
-            s2[at + gx + 1u] = s2[at - stride + gx + 1u] + r2;
-        }
-    }
-}
-
-// Pre-filter level of a window: floor(standard deviation) of the cell means
-// of the cells inside it (at least one cell per axis), clamped to 255.
-static uint32_t window_level(const vd_detector_t *det, const vd_rect_t *b)
-{
-    const cand_ctx_t *x = (const cand_ctx_t *)det->scratch;
-    const uint32_t gw = x->gw;
-    const uint32_t gh = x->gh;
-    if (gw == 0u || gh == 0u) {
-        return 0u;
-    }
-    const size_t stride = (size_t)gw + 1u;
-    const uint32_t *s1 = (const uint32_t *)(const void *)det->overlay;
-    const uint32_t *s2 = s1 + stride * ((size_t)gh + 1u);
-    uint32_t x0 = ((uint32_t)b->x + CELL - 1u) / CELL;
-    uint32_t x1 = ((uint32_t)b->x + (uint32_t)b->w) / CELL;
-    uint32_t y0 = ((uint32_t)b->y + CELL - 1u) / CELL;
-    uint32_t y1 = ((uint32_t)b->y + (uint32_t)b->h) / CELL;
-    x1 = (x1 > gw) ? gw : x1;
-    y1 = (y1 > gh) ? gh : y1;
-    x0 = (x0 >= x1) ? ((x1 > 0u) ? x1 - 1u : 0u) : x0;
-    y0 = (y0 >= y1) ? ((y1 > 0u) ? y1 - 1u : 0u) : y0;
-    x1 = (x1 <= x0) ? x0 + 1u : x1;
-    y1 = (y1 <= y0) ? y0 + 1u : y1;
-    const uint32_t a1 = s1[(size_t)y1 * stride + x1] - s1[(size_t)y0 * stride + x1] -
-                        s1[(size_t)y1 * stride + x0] + s1[(size_t)y0 * stride + x0];
-    const uint32_t a2 = s2[(size_t)y1 * stride + x1] - s2[(size_t)y0 * stride + x1] -
-                        s2[(size_t)y1 * stride + x0] + s2[(size_t)y0 * stride + x0];
-    const uint64_t n = (uint64_t)(x1 - x0) * (y1 - y0);
-    const uint64_t num = n * a2 - (uint64_t)a1 * a1;   // n^2 * variance >= 0
-    const uint32_t var = (uint32_t)(num / (n * n));
-    const uint32_t sd = isqrt32(var);
-    return (sd > 255u) ? 255u : sd;
-}
-
-// Pass state of the streamed windows (vd_windows_walk): pass 0 builds the
-// histogram of pre-filter levels >= win_min_std (det->hist); pass 1 merges the
-// windows of level > cut and the first `ties` of level == cut.
-typedef struct win_pass {
+// Window visitor of vd_windows_rank: merges the window while the budget has room.
+typedef struct win_merge {
     vd_detector_t *det;
-    int pass;
-    uint32_t cut;
-    uint32_t ties;
     size_t *n;
     uint8_t thr8;
-} win_pass_t;
+} win_merge_t;
 
 static void window_visit(void *ctx, const vd_rect_t *b)
 {
-    win_pass_t *p = (win_pass_t *)ctx;
-    vd_detector_t *det = p->det;
-    const uint32_t lv = window_level(det, b);
-    if (lv < det->cfg.win_min_std_u8) {
-        return;
-    }
-    if (p->pass == 0) {
-        det->hist[lv]++;
-        return;
-    }
-    if (lv < p->cut || (lv == p->cut && p->ties == 0u)) {
-        return;
-    }
-    if (lv == p->cut) {
-        p->ties--;
-    }
-    if (*p->n < det->cfg.max_candidates && merge_box(det, p->n, b, (uint8_t)VD_SOURCE_WINDOW, p->thr8)) {
+    win_merge_t *m = (win_merge_t *)ctx;
+    vd_detector_t *det = m->det;
+    if (*m->n < det->cfg.max_candidates && merge_box(det, m->n, b, (uint8_t)VD_SOURCE_WINDOW, m->thr8)) {
         det->stats.cand_window++;
     }
 }
 
-// One pass over the windows of x->wc; returns the windows enumerated (saturated).
-DET_NOINLINE static uint32_t walk_windows(vd_detector_t *det, int pass, uint32_t cut, uint32_t ties, size_t *n,
-                                          uint8_t thr8)
-{
-    const cand_ctx_t *x = (const cand_ctx_t *)det->scratch;
-    win_pass_t p = {det, pass, cut, ties, n, thr8};
-    const uint64_t all = vd_windows_walk(&x->wc, window_visit, &p);
-    return (all > UINT32_MAX) ? UINT32_MAX : (uint32_t)all;
-}
-
-// Window source: pre-filter by cell-mean deviation, rank by it, and merge
-// the best windows into the room left of max_candidates (windows beyond it
-// are dropped by design: not a capacity error).
+// Window source: pre-filter by cell-mean deviation, rank by it, and merge the
+// best windows into the room left of max_candidates (windows.h; windows
+// beyond it are dropped by design: not a capacity error).
 DET_NOINLINE static vd_status_t window_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
 {
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     x->wc = det->cfg.windows;
     x->wc.frame_w = f->width;
     x->wc.frame_h = f->height;
-    VD_TRY(vd_windows_resolve(&x->wc));
-    cell_integrals(det, f);
-    memset(det->hist, 0, 256u * sizeof(uint32_t));
-    det->stats.windows = walk_windows(det, 0, 0u, 0u, n, thr8);
+    VD_TRY(vd_windows_prefilter_init(&x->pf, f, &det->grey, det->overlay, det->overlay_bytes));
     const size_t room = (*n < det->cfg.max_candidates) ? det->cfg.max_candidates - *n : 0u;
-    // Highest levels first: cut = the level where the room runs out.
-    uint64_t cum = 0u;
-    uint32_t cut = det->cfg.win_min_std_u8;
-    uint32_t ties = det->hist[cut];
-    for (uint32_t k = 0; k < 256u; k++) {
-        const uint32_t lv = 255u - k;
-        if (lv < det->cfg.win_min_std_u8) {
-            break;
-        }
-        if (cum + det->hist[lv] > room) {
-            cut = lv;
-            ties = (uint32_t)(room - cum);
-            break;
-        }
-        cum += det->hist[lv];
-    }
-    uint64_t passed = 0u;
-    for (uint32_t k = det->cfg.win_min_std_u8; k < 256u; k++) {
-        passed += det->hist[k];
-    }
-    det->stats.windows_passed = (uint32_t)passed;
-    if (room > 0u) {
-        (void)walk_windows(det, 1, cut, ties, n, thr8);
-    }
+    win_merge_t m = {det, n, thr8};
+    vd_windows_rank_stats_t rs;
+    VD_TRY(vd_windows_rank(&x->wc, &x->pf, det->cfg.win_min_std_u8, room, det->hist, window_visit, &m, &rs));
+    det->stats.windows = rs.windows;
+    det->stats.windows_passed = rs.passed;
     return VD_OK;
 }
 
