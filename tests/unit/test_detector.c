@@ -88,6 +88,51 @@ static void test_defaults_zeroed_equals_explicit(void)
     TEST_ASSERT_EQUAL_size_t(a, c);
 }
 
+static void test_cfg_resolve(void)
+{
+    vd_detector_cfg_t z;
+    vd_detector_cfg_t d;
+    memset(&z, 0, sizeof(z));
+    vd_detector_cfg_default(&d);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_cfg_resolve(&z));
+    TEST_ASSERT_EQUAL_MEMORY(&d, &z, sizeof(z));
+    // Sub-settings come from their modules' resolvers.
+    vd_contrast_cfg_t k;
+    memset(&k, 0, sizeof(k));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_cfg_resolve(&k));
+    TEST_ASSERT_EQUAL_MEMORY(&k, &d.contrast, sizeof(k));
+    vd_temporal_cfg_t t;
+    vd_temporal_cfg_default(&t);
+    TEST_ASSERT_EQUAL_MEMORY(&t, &d.temporal_cfg, sizeof(t));
+    vd_windows_cfg_t w;
+    memset(&w, 0, sizeof(w));
+    TEST_ASSERT_EQUAL_MEMORY(&w, &d.windows, sizeof(w));   // kept as given: each frame resolves its own
+    // Derived defaults follow the given values; resolving twice changes nothing.
+    memset(&z, 0, sizeof(z));
+    z.max_width = 100u;
+    z.max_candidates = 20u;
+    z.hot_thr_ck = 31315;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_cfg_resolve(&z));
+    TEST_ASSERT_EQUAL_UINT16(100u, z.max_region_w);
+    TEST_ASSERT_EQUAL_UINT16(176u, z.max_region_h);
+    TEST_ASSERT_EQUAL_UINT16(20u, z.max_detections);
+    TEST_ASSERT_EQUAL_INT32(28315, z.grey_lo_ck);
+    TEST_ASSERT_EQUAL_INT32(33415, z.grey_hi_ck);
+    d = z;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_cfg_resolve(&d));
+    TEST_ASSERT_EQUAL_MEMORY(&z, &d, sizeof(z));
+    // Out of range, here and in the sub-settings.
+    z = small_cfg(); z.dedup_iou_q15 = 32769u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_cfg_resolve(&z));
+    z = small_cfg(); z.contrast.permille = 1001u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_cfg_resolve(&z));
+    z = small_cfg(); z.temporal_cfg.search_radius = 64u; z.temporal_cfg.search_step = 1u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_cfg_resolve(&z));
+    z = small_cfg(); z.rules.aspect_min_q8 = 10u; z.rules.aspect_max_q8 = 9u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_cfg_resolve(&z));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_cfg_resolve(NULL));
+}
+
 static void test_car_kept_lamp_and_pole_rejected(void)
 {
     fill(40u);
@@ -907,6 +952,7 @@ int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_defaults_zeroed_equals_explicit);
+    RUN_TEST(test_cfg_resolve);
     RUN_TEST(test_car_kept_lamp_and_pole_rejected);
     RUN_TEST(test_two_cars_and_nothing);
     RUN_TEST(test_u16_radiometric);

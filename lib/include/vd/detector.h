@@ -169,7 +169,7 @@ typedef struct vd_detector {
     size_t dbn_ws_bytes;
     uint8_t *overlay;            // labelling scratch (run budget), reused per candidate for region buffers
     size_t overlay_bytes;
-    void *scratch;               // per-candidate state (private to detector.c)
+    void *scratch;               // per-candidate state (private: internal/detector_internal.h)
     void *contrast_ws;           // contrast source workspace (NULL when the source is off)
     size_t contrast_ws_bytes;
     size_t cc_ws_bytes;
@@ -184,6 +184,16 @@ typedef struct vd_detector {
 
 // Fills *cfg with the explicit defaults (same result as a zeroed cfg).
 void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
+
+// Resolves cfg in place, as vd_detector_workspace_size and vd_detector_init
+// do with their copy: zero fields take the defaults documented above (rules,
+// contrast and temporal_cfg through vd_cc_rules_resolve,
+// vd_contrast_cfg_resolve and vd_temporal_cfg_resolve), then every range is
+// checked. `windows` is checked for max_width x max_height but kept as given
+// (each frame resolves its own copy). vd_detector_cfg_default() is a zeroed
+// cfg resolved.
+// Returns VD_OK; VD_ERR_ARG for NULL cfg or a value out of range.
+vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 
 // Workspace bytes for `cfg` (NULL = defaults) and the model's input size and
 // mode: a pure function of both (model NULL = no DBN scratch). Layout in
