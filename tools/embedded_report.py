@@ -33,7 +33,7 @@ REPO = Path(__file__).resolve().parents[1]
 STACK_BUDGET = {"vd_detector_run": 2048}
 # Indirect call sites resolved to the lib/ functions they reach (suffix of the .ci node title).
 # A key names a global function, or "file.c:function" for a static one.
-INDIRECT = {"vd_temporal_update": [":detector_probe"], "windows.c:walk": [":collect", ":rank_visit"],
+INDIRECT = {"vd_temporal_update": ["vd_det_probe"], "windows.c:walk": [":collect", ":rank_visit"],
             "windows.c:rank_visit": [":window_visit"]}
 WORKSPACE_GOAL = 256 * 1024
 DATA = REPO.parent / "shared" / "data"

@@ -44,11 +44,15 @@ static uint32_t clock_now(const vd_detector_t *det)
     return (det->cfg.clock_us != NULL) ? det->cfg.clock_us(det->cfg.clock_user) : 0u;
 }
 
-// Temporal recovery probe: the complexity of the expanded box, refined as a candidate.
-static vd_status_t detector_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15)
+// Stable sort by score and greedy suppression of det->cand[0..n); *kept
+// survive. Out of line: its counts stay off the frame of the deep calls.
+VD_DET_NOINLINE static vd_status_t suppress(vd_detector_t *det, size_t n, size_t *kept)
 {
-    vd_detector_t *det = (vd_detector_t *)user;
-    return vd_det_box_complexity(det, det->frame, box, complexity_q15);
+    vd_suppress_stats_t ss;
+    VD_TRY(vd_suppress_nms(det->cand, n, det->cfg.nms_iou_q15, det->cfg.max_detections, kept, &ss));
+    det->stats.suppressed = ss.suppressed;
+    det->stats.overflow_detections += ss.overflow;
+    return VD_OK;
 }
 
 // A target recovered by temporal analysis, as a detection (score 0).
@@ -150,10 +154,7 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
         }
     }
     size_t nk = 0u;
-    vd_suppress_stats_t ss;
-    VD_TRY(vd_suppress_nms(det->cand, nv, det->cfg.nms_iou_q15, det->cfg.max_detections, &nk, &ss));
-    s->suppressed = ss.suppressed;
-    s->overflow_detections += ss.overflow;
+    VD_TRY(suppress(det, nv, &nk));
     vd_det_clock_add(det, VD_DET_STAGE_NMS, &t0);
     if (s->overflow_detections != 0u) {
         result = VD_ERR_CAPACITY;
@@ -168,7 +169,7 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
         }
         det->frame = frame;
         size_t nobs = 0u;
-        st = vd_temporal_update(&det->temporal, det->obs, nk, nk + det->cfg.max_tracks, &nobs, detector_probe, det);
+        st = vd_temporal_update(&det->temporal, det->obs, nk, nk + det->cfg.max_tracks, &nobs, vd_det_probe, det);
         det->frame = NULL;
         if (st == VD_ERR_CAPACITY) {
             result = VD_ERR_CAPACITY;

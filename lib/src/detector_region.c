@@ -85,9 +85,10 @@ static uint16_t region_complexity(const vd_refine_stats_t *rs, const region_plan
     return vd_temporal_complexity_q15(rs->edge_points, area);
 }
 
-vd_status_t vd_det_box_complexity(vd_detector_t *det, const vd_frame_t *f, const vd_rect_t *box,
-                                  uint16_t *complexity_q15)
+vd_status_t vd_det_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15)
 {
+    vd_detector_t *det = (vd_detector_t *)user;
+    const vd_frame_t *f = det->frame;
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     VD_TRY(vd_rect_expand(box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &x->region));
     VD_TRY(refine_region(det, f, x));

@@ -88,8 +88,8 @@ vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_
 // Samples and scores one merged candidate (any source); *keep = score >= score_thr
 // (always true without a model: score 255, flag UNVERIFIED).
 vd_status_t vd_det_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d, bool *keep, uint32_t *t0);
-// Complexity of `box` expanded and refined as a candidate (temporal recovery).
-vd_status_t vd_det_box_complexity(vd_detector_t *det, const vd_frame_t *f, const vd_rect_t *box,
-                                  uint16_t *complexity_q15);
+// Temporal recovery probe (vd_temporal_probe_fn, user = the detector): the
+// complexity of `box` expanded and refined as a candidate, in det->frame.
+vd_status_t vd_det_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15);
 
 #endif
