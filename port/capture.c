@@ -5,19 +5,18 @@
 // one held frame at a time (so no buffer is handed out twice), release only
 // of the held frame, stop/start cycles, close from any state. Back ends
 // (port/v4l2, port/file) only do their I/O. Bounds: O(1) per call plus the
-// back end's work; no allocation here.
+// back end's work; no allocation here. Choosing a back end by name
+// (vd_capture_open) is capture_open.c: the back ends call this layer, never
+// the other way round.
 #ifndef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L
 #endif
 
 #include "vd_port/capture.h"
-#include "vd_port/file.h"
-#include "vd_port/v4l2.h"
 
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
-#include <sys/stat.h>
 
 void vd_capture_opts_default(vd_capture_opts_t *opts)
 {
@@ -46,47 +45,6 @@ void vd_capture_attach(vd_capture_t *cap, const vd_capture_ops_t *ops, void *imp
     cap->ops = ops;
     cap->impl = impl;
     cap->state = VD_CAPTURE_OPEN;
-}
-
-static bool starts_with(const char *s, const char *prefix)
-{
-    return strncmp(s, prefix, strlen(prefix)) == 0;
-}
-
-vd_status_t vd_capture_open(vd_capture_t *cap, const char *input, const vd_capture_opts_t *opts)
-{
-    vd_capture_opts_t def;
-    if (cap == NULL) {
-        return VD_ERR_ARG;
-    }
-    memset(cap, 0, sizeof(*cap));
-    if (input == NULL || input[0] == '\0') {
-        return vd_capture_fail(cap, VD_ERR_ARG, "no input given");
-    }
-    if (opts == NULL) {
-        vd_capture_opts_default(&def);
-        opts = &def;
-    }
-    // "/dev/..." is a camera unless it is a plain file or folder (e.g. frames in /dev/shm).
-    struct stat sb;
-    bool is_dev = starts_with(input, "/dev/") &&
-                  (stat(input, &sb) != 0 || (!S_ISDIR(sb.st_mode) && !S_ISREG(sb.st_mode)));
-    if (is_dev) {
-#if defined(VD_PORT_HAVE_V4L2_BACKEND)
-        vd_v4l2_cfg_t cfg;
-        memset(&cfg, 0, sizeof(cfg));
-        cfg.device = input;
-        cfg.width = opts->width;
-        cfg.height = opts->height;
-        cfg.fps = opts->fps;
-        cfg.format = opts->format;
-        cfg.n_buffers = opts->n_buffers;
-        return vd_v4l2_open(cap, &cfg);
-#else
-        return vd_capture_fail(cap, VD_ERR_NODEV, "%s: built without the V4L2 back end", input);
-#endif
-    }
-    return vd_file_open(cap, input, VD_FILE_AUTO, opts);
 }
 
 vd_status_t vd_capture_start(vd_capture_t *cap)

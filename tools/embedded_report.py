@@ -16,7 +16,7 @@ Stack depth comes from GCC's -fstack-usage / -fcallgraph-info=su: each
 function's own frame plus the deepest path through its callees (lib/ has no
 recursion, so the graph is a DAG; a cycle is reported). Indirect calls that
 lib/ makes to its own code (vd_temporal_update -> the detector's recovery
-probe, vd_windows_walk -> its visitors) are resolved through INDIRECT; the others are user callbacks (the
+probe, the window walk -> its visitors) are resolved through INDIRECT; the others are user callbacks (the
 detector's clock_us, a probe passed to vd_temporal_update directly), listed in
 the report and counted as 0 bytes.
 """
@@ -32,7 +32,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 STACK_BUDGET = {"vd_detector_run": 2048}
 # Indirect call sites resolved to the lib/ functions they reach (suffix of the .ci node title).
-INDIRECT = {"vd_temporal_update": [":detector_probe"], "vd_windows_walk": [":window_visit", ":collect"]}
+# A key names a global function, or "file.c:function" for a static one.
+INDIRECT = {"vd_temporal_update": ["vd_det_probe"], "windows.c:walk": [":collect", ":rank_visit"],
+            "windows.c:rank_visit": [":window_visit"]}
 WORKSPACE_GOAL = 256 * 1024
 DATA = REPO.parent / "shared" / "data"
 SOFT_FLOAT = re.compile(r"^__aeabi_[fd]|^__(add|sub|mul|div|fix|float|extend|trunc)\w*[sd]f")
@@ -93,8 +95,10 @@ def parse_callgraph(bdir):
         for m in re.finditer(r'edge: \{ sourcename: "([^"]+)" targetname: "([^"]+)"', text):
             edges[m.group(1)].add(m.group(2))
     # Resolve the known indirect calls; keep the others as "__indirect_call" (user callbacks).
-    for caller, suffixes in INDIRECT.items():
-        if "__indirect_call" in edges.get(caller, ()):
+    for key, suffixes in INDIRECT.items():
+        for caller in [c for c in list(edges) if c == key or c.endswith("/" + key)]:
+            if "__indirect_call" not in edges[caller]:
+                continue
             targets = [t for t in frame for suf in suffixes if t.endswith(suf)]
             if targets:
                 edges[caller].discard("__indirect_call")

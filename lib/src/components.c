@@ -579,6 +579,23 @@ void vd_cc_rules_default(vd_cc_rules_t *rules)
     rules->max_area = 0u;
 }
 
+// The consistency that vd_cc_rules_resolve and vd_components_filter demand.
+static vd_status_t rules_check(const vd_cc_rules_t *rules)
+{
+    VD_VERIFY(rules->aspect_min_q8 <= rules->aspect_max_q8, VD_ERR_ARG);
+    VD_VERIFY(rules->max_area == 0u || rules->min_area <= rules->max_area, VD_ERR_ARG);
+    return VD_OK;
+}
+
+vd_status_t vd_cc_rules_resolve(vd_cc_rules_t *rules)
+{
+    VD_VERIFY(rules != NULL, VD_ERR_ARG);
+    if (rules->aspect_min_q8 == 0u && rules->aspect_max_q8 == 0u && rules->min_area == 0u && rules->max_area == 0u) {
+        vd_cc_rules_default(rules);
+    }
+    return rules_check(rules);
+}
+
 // round-half-up(256 * h / w) for w, h >= 1; 512 * h < 2^41 in uint64.
 static uint64_t cc_aspect_q8(const vd_rect_t *b)
 {
@@ -591,8 +608,7 @@ vd_status_t vd_components_filter(vd_component_t *comps, size_t n, const vd_cc_ru
     VD_VERIFY(kept != NULL, VD_ERR_ARG);
     *kept = 0u;
     VD_VERIFY(rules != NULL && (comps != NULL || n == 0u), VD_ERR_ARG);
-    VD_VERIFY(rules->aspect_min_q8 <= rules->aspect_max_q8, VD_ERR_ARG);
-    VD_VERIFY(rules->max_area == 0u || rules->min_area <= rules->max_area, VD_ERR_ARG);
+    VD_TRY(rules_check(rules));
     for (size_t i = 0u; i < n; i++) { // validate all before touching any
         VD_VERIFY(comps[i].box.w > 0 && comps[i].box.h > 0, VD_ERR_ARG);
     }

@@ -22,6 +22,7 @@
 // table 168). Workspace as vd_contrast_workspace_size; capacity `cap`
 // components.
 #include "vd/contrast.h"
+#include "vd/threshold.h"
 
 #include <string.h>
 
@@ -275,27 +276,16 @@ vd_status_t vd_contrast_workspace_size(uint32_t max_width, uint32_t max_height, 
     return cand_layout(max_width, max_height, &map, &col, &cc, bytes);
 }
 
-// Fills zero fields with the defaults and checks the ranges.
-static vd_status_t resolve(const vd_contrast_cfg_t *in, vd_contrast_cfg_t *c)
+vd_status_t vd_contrast_cfg_resolve(vd_contrast_cfg_t *c)
 {
-    if (in == NULL) {
-        memset(c, 0, sizeof(*c));
-    } else {
-        *c = *in;
-    }
+    VD_VERIFY(c != NULL, VD_ERR_ARG);
     if (c->radius == 0u) { c->radius = (uint16_t)DEF_RADIUS; }
     if (c->thr_u8 == 0u) { c->thr_u8 = (uint8_t)DEF_THR; }
     if (c->permille == 0u) { c->permille = (uint16_t)DEF_PERMILLE; }
-    if (c->rules.aspect_min_q8 == 0u && c->rules.aspect_max_q8 == 0u && c->rules.min_area == 0u &&
-        c->rules.max_area == 0u) {
-        vd_cc_rules_default(&c->rules);
-    }
     VD_VERIFY(c->radius <= VD_CONTRAST_MAX_RADIUS, VD_ERR_ARG);
     VD_VERIFY(c->polarity <= VD_CONTRAST_COLD && c->thr_mode <= VD_CONTRAST_THR_PERCENTILE, VD_ERR_ARG);
     VD_VERIFY(c->permille <= 1000u, VD_ERR_ARG);
-    VD_VERIFY(c->rules.aspect_min_q8 <= c->rules.aspect_max_q8, VD_ERR_ARG);
-    VD_VERIFY(c->rules.max_area == 0u || c->rules.min_area <= c->rules.max_area, VD_ERR_ARG);
-    return VD_OK;
+    return vd_cc_rules_resolve(&c->rules);
 }
 
 vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cfg_t *cfg, void *ws, size_t bytes,
@@ -307,7 +297,12 @@ vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cf
     VD_VERIFY(out != NULL || cap == 0u, VD_ERR_ARG);
     VD_TRY(vd_view_u8_check(src));
     vd_contrast_cfg_t c;
-    VD_TRY(resolve(cfg, &c));
+    if (cfg == NULL) {
+        memset(&c, 0, sizeof(c));
+    } else {
+        c = *cfg;
+    }
+    VD_TRY(vd_contrast_cfg_resolve(&c));
     size_t map_b, col_b, cc_b, need;
     VD_TRY(cand_layout(src->width, src->height, &map_b, &col_b, &cc_b, &need));
     vd_arena_t a;
@@ -328,18 +323,10 @@ vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cf
         for (size_t i = 0; i < npix; i++) {
             hist[map[i]]++;
         }
-        // Smallest level t with at least ceil(N * p / 1000) pixels <= t (as the detector's adaptive threshold).
-        uint64_t target = ((uint64_t)npix * c.permille + 999u) / 1000u;
-        uint64_t cum = 0u;
-        uint32_t t = 255u;
-        for (uint32_t i = 0; i < 256u; i++) {
-            cum += hist[i];
-            if (cum >= target) {
-                t = i;
-                break;
-            }
-        }
-        thr = (t > thr) ? t : thr;
+        // max(thr_u8, p-th percentile of the map), as the detector's adaptive threshold.
+        uint8_t t = 0u;
+        VD_TRY(vd_threshold_percentile_u8(hist, c.permille, (uint8_t)thr, &t));
+        thr = t;
     }
     for (size_t i = 0; i < npix; i++) {
         map[i] = (map[i] >= thr) ? 255u : 0u;

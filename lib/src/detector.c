@@ -1,458 +1,38 @@
 // SPDX-License-Identifier: MIT
-// The detector pipeline: chains threshold, components, refine, contour, resample, DBN, suppression and temporal analysis.
+// The detector pipeline of one frame: candidate sources, refinement, verification, suppression, temporal analysis.
 //
 // Algorithm: paper 001 ("Night-time vehicle detection in FIR images with a
-// DBN"), sections 2-4: constant hot-spot threshold (150 on 8-bit, ~30 C),
-// 8-connected regions kept by aspect 0.3..1.5 and area >= 120, expanded 1.5x
-// horizontally and 2x vertically; per candidate: median 3x3, Otsu, hole
-// filling, edge image, local max-distance thresholds at every 5th edge point
-// (refine.h), outer contour (contour.h); DBN verification of a 32x32 sample;
-// then greedy overlap suppression, and paper 000 section 4 temporal analysis
-// (temporal.h) when enabled. Adaptive threshold (not in the paper) for
-// AGC-scaled 8-bit video: max(floor, p-th percentile of the frame).
+// DBN"), sections 2-4, and paper 000 section 4. vd_detector_run orchestrates:
+//  1. hot-spot components of the frame (threshold + labelling), kept by the
+//     shape rules (aspect 0.3..1.5, area >= 120), the first max_candidates;
+//  2. each refined (expanded 1.5x by 2x, refine.h, contour.h) into a box that
+//     starts the merged candidate list, then the other sources appended
+//     (issue 7; contrast.h, windows.h; cfg.sources, default hot spots only);
+//  3. every merged candidate sampled at 32x32 and scored by the DBN (dbn.h),
+//     kept when score >= score_thr;
+//  4. stable sort by score and greedy overlap suppression (suppress.h), the
+//     first max_detections;
+//  5. temporal analysis when enabled (temporal.h): track ids and states, and
+//     recovered targets appended, measured by refining the box as a candidate.
+// The stages live in detector_sources.c (1-2) and detector_region.c (2-3);
+// configuration and workspace in detector_init.c; shared state in
+// internal/detector_internal.h.
 //
-// Candidate sources (issue 7; cfg.sources, default hot spots only): hot-spot
-// candidates are refined first and their contour boxes start one merged list;
-// then contrast components (contrast.h, 8-bit frames) and sliding windows
-// (windows.h bands, streamed in vd_windows_generate's order, never stored) are
-// appended unless a box already in the list overlaps them by IoU > dedup_iou;
-// every candidate in the list is then sampled (32x32) and scored by the DBN.
-// Windows and contrast boxes are verified as they are (no refinement). The
-// window pre-filter: a 4x4-cell mean image and its integral images (sum and
-// sum of squares, uint32) give each window's standard deviation of cell means
-// in O(1); windows below win_min_std are skipped (flat road, sky: measured on
-// MSRS/HIT-UAV training frames, a threshold of 4 keeps every window that
-// matches a car and drops about half of all windows), and the rest are ranked
-// by that deviation (a 256-bin histogram pass, then a collecting pass) so the
-// most structured windows fill the room left in max_candidates.
-//
-// 16-bit frames: candidates come from the radiometric plane (threshold in
-// centi-kelvin through vd_calib_t); the 8-bit plane that refine and the DBN
-// need is made per region by the linear map grey = (T - lo) * 255 / (hi - lo)
-// clamped to 0..255 (a fixed window around the threshold, like a Lepton AGC
-// with a fixed range), computed as ((T - lo) * mul_q16 + 2^15) >> 16 with
-// mul_q16 = round(255 * 2^16 / (hi - lo)): |error| <= 1 grey level.
-//
-// Memory: one workspace carved in init (layout in docs/architecture.md). No
-// hot mask is made: components are labelled straight from the frame with a
-// run budget (components.h), and that labelling workspace shares one
-// "overlay" buffer with the per-candidate region buffers, which are only used
-// after labelling; inside those, the contour tracer reuses the refine
-// workspace.
-// Regions larger than max_region_w x max_region_h are box-averaged by
-// per-axis integer factors kx, ky first (one rounded division per output
-// pixel, each after kx*ky >= 2 additions).
-//
-// Bounds: time O(W*H) for the (adaptive) histogram, labelling, the contrast
-// map and the cell integrals; O(windows * (1 + max_candidates)) for the two
-// window passes and the merge; plus, per candidate
-// (<= max_candidates), O(region) for refine/contour and the DBN's
-// multiply-adds; NMS O(max_candidates^2); temporal as temporal.h with at most
-// 289 refine probes per missed confirmed track. Stack: vd_detector_run's own
-// frame 136 bytes (Cortex-M7 -Os; per-candidate state is in the workspace),
-// plus the deepest stage below it (refine -> median; docs/embedded.md); no
-// recursion.
+// Bounds: time O(W*H) for threshold, labelling and the contrast/window
+// sources, O(windows * (1 + max_candidates)) for the window walks and the
+// merge, plus per candidate (<= max_candidates) O(region) for refine and
+// contour and the DBN's multiply-adds; NMS O(max_candidates^2); temporal as
+// temporal.h with at most 289 refine probes per missed confirmed track.
+// Stack: vd_detector_run's own frame about 136 bytes (Cortex-M7 -Os;
+// per-candidate state is in the workspace), plus the deepest stage below it
+// (refine -> median; docs/embedded.md); no recursion.
 #include "vd/detector.h"
-#include "internal/windows_internal.h"
 
 #include <string.h>
 
-#include "vd/contour.h"
-#include "vd/otsu.h"
-#include "vd/resample.h"
+#include "vd/suppress.h"
+#include "internal/detector_internal.h"
 #include "internal/vd_internal.h"
-
-// Keeps a helper's locals out of its caller's frame while the caller makes
-// the deep calls (refine -> median): the stack budget of vd_detector_run.
-#if defined(__GNUC__)
-#define DET_NOINLINE __attribute__((noinline))
-#else
-#define DET_NOINLINE
-#endif
-
-#define DEF_W 640u
-#define DEF_H 512u
-#define DEF_REGION 176u
-#define DEF_RUNS 24576u
-#define DEF_WIN_MIN_STD 4u
-#define DEF_DEDUP_Q15 22938u   // 0.7
-#define CELL 4u                // window pre-filter cell side (pixels)
-// Largest cell grid whose sums of squared cell means fit in uint32 for any
-// window: cells * 255^2 < 2^32 (the integral itself wraps modulo 2^32, and a
-// difference of four corners is exact when the true window sum fits).
-#define MAX_CELLS 66051u
-
-void vd_detector_cfg_default(vd_detector_cfg_t *cfg)
-{
-    if (cfg == NULL) {
-        return;
-    }
-    memset(cfg, 0, sizeof(*cfg));
-    cfg->max_width = DEF_W;
-    cfg->max_height = DEF_H;
-    cfg->thr_mode = VD_DETECTOR_THR_CONSTANT;
-    cfg->hot_thr_u8 = 150u;
-    cfg->adaptive_floor_u8 = 96u;
-    cfg->adaptive_permille = 990u;
-    cfg->hot_thr_ck = VD_CK_PER_0C + 3000;
-    cfg->calib.gain_q16 = 65536;
-    cfg->calib.offset_ck = 0;
-    cfg->grey_lo_ck = cfg->hot_thr_ck - 3000;
-    cfg->grey_hi_ck = cfg->hot_thr_ck + 2100;
-    vd_cc_rules_default(&cfg->rules);
-    cfg->expand_w_q8 = VD_EXPAND_W_Q8;
-    cfg->expand_h_q8 = VD_EXPAND_H_Q8;
-    cfg->median_ksize = 3u;
-    cfg->edge_step = 5u;
-    cfg->window = 5u;
-    cfg->score_thr_q8 = 128u;
-    cfg->nms_iou_q15 = 16384u;
-    cfg->max_components = 256u;
-    cfg->max_candidates = 64u;
-    cfg->max_detections = 32u;
-    cfg->max_region_w = (uint16_t)DEF_REGION;
-    cfg->max_region_h = (uint16_t)DEF_REGION;
-    cfg->max_tracks = 32u;
-    cfg->max_runs = DEF_RUNS;
-    cfg->temporal = false;
-    vd_temporal_cfg_default(&cfg->temporal_cfg);
-    cfg->sources = VD_DETECTOR_SRC_HOTSPOT;
-    cfg->win_min_std_u8 = DEF_WIN_MIN_STD;
-    cfg->dedup_iou_q15 = DEF_DEDUP_Q15;
-    cfg->contrast.radius = 16u;
-    cfg->contrast.thr_u8 = 24u;
-    cfg->contrast.permille = 950u;
-    vd_cc_rules_default(&cfg->contrast.rules);
-}
-
-// Fills zero fields with defaults and checks ranges.
-static vd_status_t resolve_cfg(const vd_detector_cfg_t *in, vd_detector_cfg_t *c)
-{
-    if (in == NULL) {
-        vd_detector_cfg_default(c);
-        return VD_OK;
-    }
-    *c = *in;
-    if (c->max_width == 0u) { c->max_width = DEF_W; }
-    if (c->max_height == 0u) { c->max_height = DEF_H; }
-    VD_VERIFY(c->max_width <= VD_MAX_DIM && c->max_height <= VD_MAX_DIM, VD_ERR_ARG);
-    VD_VERIFY(c->thr_mode <= VD_DETECTOR_THR_ADAPTIVE, VD_ERR_ARG);
-    if (c->hot_thr_u8 == 0u) { c->hot_thr_u8 = 150u; }
-    if (c->adaptive_floor_u8 == 0u) { c->adaptive_floor_u8 = 96u; }
-    if (c->adaptive_permille == 0u) { c->adaptive_permille = 990u; }
-    VD_VERIFY(c->adaptive_permille <= 1000u, VD_ERR_ARG);
-    if (c->hot_thr_ck == 0) { c->hot_thr_ck = VD_CK_PER_0C + 3000; }
-    VD_VERIFY(c->hot_thr_ck > 0 && c->hot_thr_ck <= 1000000, VD_ERR_ARG);   // <= 10 000 K
-    if (c->calib.gain_q16 == 0) { c->calib.gain_q16 = 65536; }
-    VD_VERIFY(c->calib.gain_q16 > 0, VD_ERR_ARG);
-    if (c->grey_lo_ck == 0) { c->grey_lo_ck = c->hot_thr_ck - 3000; }
-    if (c->grey_hi_ck == 0) { c->grey_hi_ck = c->hot_thr_ck + 2100; }
-    VD_VERIFY(c->grey_lo_ck < c->grey_hi_ck, VD_ERR_ARG);
-    if (c->rules.aspect_min_q8 == 0u && c->rules.aspect_max_q8 == 0u && c->rules.min_area == 0u &&
-        c->rules.max_area == 0u) {
-        vd_cc_rules_default(&c->rules);
-    }
-    VD_VERIFY(c->rules.aspect_min_q8 <= c->rules.aspect_max_q8, VD_ERR_ARG);
-    VD_VERIFY(c->rules.max_area == 0u || c->rules.min_area <= c->rules.max_area, VD_ERR_ARG);
-    if (c->expand_w_q8 == 0u) { c->expand_w_q8 = VD_EXPAND_W_Q8; }
-    if (c->expand_h_q8 == 0u) { c->expand_h_q8 = VD_EXPAND_H_Q8; }
-    VD_VERIFY(c->expand_w_q8 >= 256u && c->expand_w_q8 <= 2048u, VD_ERR_ARG);
-    VD_VERIFY(c->expand_h_q8 >= 256u && c->expand_h_q8 <= 2048u, VD_ERR_ARG);
-    if (c->median_ksize == 0u) { c->median_ksize = 3u; }
-    VD_VERIFY(c->median_ksize == 1u || c->median_ksize == 3u || c->median_ksize == 5u, VD_ERR_ARG);
-    if (c->edge_step == 0u) { c->edge_step = 5u; }
-    if (c->window == 0u) { c->window = 5u; }
-    VD_VERIFY(c->window >= 3u && c->window <= VD_REFINE_MAX_WINDOW && (c->window & 1u) == 1u, VD_ERR_ARG);
-    if (c->score_thr_q8 == 0u) { c->score_thr_q8 = 128u; }
-    if (c->nms_iou_q15 == 0u) { c->nms_iou_q15 = 16384u; }
-    VD_VERIFY(c->nms_iou_q15 <= 32768u, VD_ERR_ARG);
-    if (c->max_components == 0u) { c->max_components = 256u; }
-    if (c->max_candidates == 0u) { c->max_candidates = 64u; }
-    VD_VERIFY(c->max_candidates <= 4096u, VD_ERR_ARG);
-    if (c->max_detections == 0u) {
-        c->max_detections = (uint16_t)(c->max_candidates < 32u ? c->max_candidates : 32u);
-    }
-    VD_VERIFY(c->max_detections <= c->max_candidates, VD_ERR_ARG);
-    if (c->max_region_w == 0u) { c->max_region_w = (uint16_t)(c->max_width < DEF_REGION ? c->max_width : DEF_REGION); }
-    if (c->max_region_h == 0u) { c->max_region_h = (uint16_t)(c->max_height < DEF_REGION ? c->max_height : DEF_REGION); }
-    VD_VERIFY(c->max_region_w <= c->max_width && c->max_region_h <= c->max_height, VD_ERR_ARG);
-    if (c->max_tracks == 0u) { c->max_tracks = 32u; }
-    if (c->max_runs == 0u) { c->max_runs = DEF_RUNS; }
-    VD_VERIFY(c->max_tracks <= 1024u, VD_ERR_ARG);
-    if (c->sources == 0u) { c->sources = VD_DETECTOR_SRC_HOTSPOT; }
-    VD_VERIFY(c->sources <= VD_DETECTOR_SRC_ALL, VD_ERR_ARG);
-    if (c->win_min_std_u8 == 0u) { c->win_min_std_u8 = DEF_WIN_MIN_STD; }
-    if (c->dedup_iou_q15 == 0u) { c->dedup_iou_q15 = DEF_DEDUP_Q15; }
-    VD_VERIFY(c->dedup_iou_q15 <= 32768u, VD_ERR_ARG);
-    // Contrast: the ranges vd_contrast_candidates checks, so a bad value fails in init, not per frame.
-    vd_contrast_cfg_t *k = &c->contrast;
-    if (k->radius == 0u) { k->radius = 16u; }
-    if (k->thr_u8 == 0u) { k->thr_u8 = 24u; }
-    if (k->permille == 0u) { k->permille = 950u; }
-    if (k->rules.aspect_min_q8 == 0u && k->rules.aspect_max_q8 == 0u && k->rules.min_area == 0u &&
-        k->rules.max_area == 0u) {
-        vd_cc_rules_default(&k->rules);
-    }
-    VD_VERIFY(k->radius <= VD_CONTRAST_MAX_RADIUS && k->polarity <= VD_CONTRAST_COLD, VD_ERR_ARG);
-    VD_VERIFY(k->thr_mode <= VD_CONTRAST_THR_PERCENTILE && k->permille <= 1000u, VD_ERR_ARG);
-    VD_VERIFY(k->rules.aspect_min_q8 <= k->rules.aspect_max_q8, VD_ERR_ARG);
-    VD_VERIFY(k->rules.max_area == 0u || k->rules.min_area <= k->rules.max_area, VD_ERR_ARG);
-    // Windows: checked for the largest frame (each frame resolves its own copy).
-    VD_VERIFY(c->windows.frame_w <= VD_MAX_DIM && c->windows.frame_h <= VD_MAX_DIM, VD_ERR_ARG);
-    vd_windows_cfg_t wc = c->windows;
-    wc.frame_w = c->max_width;
-    wc.frame_h = c->max_height;
-    VD_TRY(vd_windows_resolve(&wc));
-    if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
-        VD_VERIFY((c->max_width / CELL) * (c->max_height / CELL) <= MAX_CELLS, VD_ERR_ARG);
-    }
-    // The temporal settings are checked (and resolved) by vd_temporal_init.
-    vd_track_t probe_track;
-    vd_temporal_t probe_t;
-    VD_TRY(vd_temporal_init(&probe_t, &c->temporal_cfg, &probe_track, 1u));
-    c->temporal_cfg = probe_t.cfg;
-    return VD_OK;
-}
-
-// The 8-bit plane of one region: `view` with `roi` (in view coordinates),
-// and the per-axis factors mapping roi pixels to image pixels.
-typedef struct region_plane {
-    vd_view_u8_t view;
-    vd_rect_t roi;
-    vd_rect_t region;   // image coordinates
-    uint32_t kx, ky;
-} region_plane_t;
-
-// Region buffers carved from the overlay (valid after labelling).
-typedef struct region_bufs {
-    uint8_t *crop;
-    uint8_t *rmask;
-    void *refine_ws;
-    void *contour_ws;
-    vd_point_t *points;
-    vd_contour_t *contours;
-} region_bufs_t;
-
-// Per-candidate state. It lives in the workspace, not on the stack, so that
-// the deepest call chain (run -> vd_refine_region -> median) keeps within the
-// stack budget of vd_detector_run (docs/embedded.md).
-typedef struct cand_ctx {
-    region_bufs_t b;         // fixed once init has carved the overlay
-    vd_refine_cfg_t rc;      // fixed in init
-    vd_rect_t region;        // expanded candidate (image coordinates)
-    region_plane_t p;
-    vd_refine_stats_t rs;
-    vd_image_u8_t m;         // refine output view on b.rmask
-    vd_view_u8_t mv;
-    vd_contour_t best;
-    vd_rect_t vb;            // contour box in plane coordinates
-    vd_cc_stats_t cs;
-    vd_detection_t tmp;      // sort temporary of suppress()
-    vd_windows_cfg_t wc;     // window source: resolved for the current frame
-    uint32_t gw, gh;         // cell grid of the window pre-filter
-} cand_ctx_t;
-
-static void region_bufs(const vd_detector_t *det, region_bufs_t *b)
-{
-    size_t rsz = (size_t)det->cfg.max_region_w * det->cfg.max_region_h;
-    vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // overlay is aligned (carved by init)
-    b->crop = (uint8_t *)vd_arena_take(&a, rsz);
-    b->rmask = (uint8_t *)vd_arena_take(&a, rsz);
-    const size_t work_at = a.used;
-    b->refine_ws = vd_arena_take(&a, det->refine_ws_bytes);
-    a.used = work_at;   // the tracer's buffers overlay the refine workspace (see overlay_size)
-    b->contour_ws = vd_arena_take(&a, det->contour_ws_bytes);
-    b->points = (vd_point_t *)vd_arena_take(&a, det->points_cap * sizeof(vd_point_t));
-    b->contours = (vd_contour_t *)vd_arena_take(&a, det->contours_cap * sizeof(vd_contour_t));
-    VD_ASSERT(b->refine_ws != NULL && b->contours != NULL);
-}
-
-static void refine_cfg_of(const vd_detector_t *det, vd_refine_cfg_t *rc)
-{
-    rc->median_ksize = (det->cfg.median_ksize == 1u) ? 0u : det->cfg.median_ksize;
-    rc->edge_step = det->cfg.edge_step;
-    rc->window = det->cfg.window;
-}
-
-// Byte sizes of every workspace slice.
-typedef struct layout {
-    size_t comps, cand, obs, tracks, hist, sample, dbn, scratch;
-    size_t cc, crop, rmask, refine, contour, points, contours;
-    size_t contrast, integral;
-    size_t points_cap, contours_cap;
-} layout_t;
-
-static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, layout_t *l)
-{
-    memset(l, 0, sizeof(*l));
-    size_t rw = c->max_region_w;
-    size_t rh = c->max_region_h;
-    VD_VERIFY(vd_mul_size(c->max_components, sizeof(vd_component_t), &l->comps), VD_ERR_OVERFLOW);
-    VD_VERIFY(vd_mul_size(c->max_candidates, sizeof(vd_detection_t), &l->cand), VD_ERR_OVERFLOW);
-    if (c->temporal) {
-        l->obs = ((size_t)c->max_detections + c->max_tracks) * sizeof(vd_temporal_obs_t);
-        l->tracks = (size_t)c->max_tracks * sizeof(vd_track_t);
-    }
-    l->hist = 256u * sizeof(uint32_t);
-    l->scratch = sizeof(cand_ctx_t);
-    if (model != NULL) {
-        VD_VERIFY(model->blob != NULL && model->input_w > 0u && model->input_h > 0u, VD_ERR_MODEL);
-        VD_VERIFY(model->input_mode == VD_DBN_INPUT_GREY || model->input_mode == VD_DBN_INPUT_SHAPE, VD_ERR_MODEL);
-        l->sample = (size_t)model->input_w * model->input_h;
-        vd_status_t st = vd_dbn_workspace_size(model, &l->dbn);
-        VD_VERIFY(st == VD_OK, VD_ERR_MODEL);
-    }
-    VD_TRY(vd_components_workspace_size_runs(c->max_width, c->max_height, c->max_runs, &l->cc));
-    l->crop = rw * rh;
-    l->rmask = rw * rh;
-    VD_TRY(vd_refine_workspace_size((uint32_t)rw, (uint32_t)rh, &l->refine));
-    VD_TRY(vd_contours_workspace_size((uint32_t)rw, (uint32_t)rh, &l->contour));
-    // Room for a few outlines around the region; more only sets CONTOUR_TRUNC.
-    l->points_cap = 8u * (rw + rh);
-    l->contours_cap = 64u;
-    l->points = l->points_cap * sizeof(vd_point_t);
-    l->contours = l->contours_cap * sizeof(vd_contour_t);
-    if ((c->sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
-        VD_TRY(vd_contrast_workspace_size(c->max_width, c->max_height, &l->contrast));
-    }
-    if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
-        // Two (gw+1) x (gh+1) uint32 integrals (cell means, squared cell means);
-        // 640 x 512: 166 152 bytes, inside the region buffers' share of the overlay.
-        l->integral = 2u * ((size_t)c->max_width / CELL + 1u) * ((size_t)c->max_height / CELL + 1u) *
-                      sizeof(uint32_t);
-    }
-    return VD_OK;
-}
-
-// The overlay holds A = the labelling workspace (run budget) while labelling,
-// then B = crop + region mask + W per candidate, where W is the refine
-// workspace, reused by the contour tracer (its plane, points and contours)
-// once vd_refine_region has returned; C = the window pre-filter's integrals
-// between the hot-spot refinement and the verification of all candidates.
-static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *total)
-{
-    size_t a = 0u;
-    size_t b = 0u;
-    size_t tr = 0u;
-    size_t rf = 0u;
-    VD_VERIFY(vd_size_add_slice(&a, l->cc), VD_ERR_OVERFLOW);
-    VD_VERIFY(vd_size_add_slice(&rf, l->refine), VD_ERR_OVERFLOW);
-    VD_VERIFY(vd_size_add_slice(&tr, l->contour) && vd_size_add_slice(&tr, l->points) &&
-              vd_size_add_slice(&tr, l->contours), VD_ERR_OVERFLOW);
-    const size_t work = rf > tr ? rf : tr;
-    VD_VERIFY(vd_size_add_slice(&b, l->crop) && vd_size_add_slice(&b, l->rmask) && vd_size_add_slice(&b, work),
-              VD_ERR_OVERFLOW);
-    *work_out = work;
-    *total = a > b ? a : b;
-    *total = (l->integral > *total) ? l->integral : *total;
-    return VD_OK;
-}
-
-static vd_status_t total_size(const layout_t *l, size_t *bytes)
-{
-    size_t ov;
-    size_t a;
-    VD_TRY(overlay_size(l, &a, &ov));
-    size_t t = 0u;
-    VD_VERIFY(vd_size_add_slice(&t, l->comps) && vd_size_add_slice(&t, l->cand) &&
-              vd_size_add_slice(&t, l->obs) && vd_size_add_slice(&t, l->tracks) &&
-              vd_size_add_slice(&t, l->hist) && vd_size_add_slice(&t, l->scratch) &&
-              vd_size_add_slice(&t, l->sample) &&
-              vd_size_add_slice(&t, l->dbn) && vd_size_add_slice(&t, l->contrast) &&
-              vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
-    *bytes = t;
-    return VD_OK;
-}
-
-vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_model_t *model, size_t *bytes)
-{
-    VD_VERIFY(bytes != NULL, VD_ERR_ARG);
-    vd_detector_cfg_t c;
-    VD_TRY(resolve_cfg(cfg, &c));
-    layout_t l;
-    VD_TRY(plan(&c, model, &l));
-    return total_size(&l, bytes);
-}
-
-// Slices of the arena; VD_ERR_WORKSPACE when one does not fit.
-static void *take(vd_arena_t *a, size_t bytes, bool *ok)
-{
-    if (bytes == 0u) {
-        return NULL;
-    }
-    void *p = vd_arena_take(a, bytes);
-    if (p == NULL) {
-        *ok = false;
-    }
-    return p;
-}
-
-vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_model_t *model,
-                             void *ws, size_t bytes)
-{
-    VD_VERIFY(det != NULL, VD_ERR_ARG);
-    vd_detector_cfg_t c;
-    VD_TRY(resolve_cfg(cfg, &c));
-    layout_t l;
-    VD_TRY(plan(&c, model, &l));
-    size_t need;
-    VD_TRY(total_size(&l, &need));
-    vd_arena_t arena;
-    VD_TRY(vd_arena_init(&arena, ws, bytes));
-    VD_VERIFY(bytes >= need, VD_ERR_WORKSPACE);
-
-    memset(det, 0, sizeof(*det));
-    det->cfg = c;
-    det->model = model;
-    bool ok = true;
-    det->comps = (vd_component_t *)take(&arena, l.comps, &ok);
-    det->cand = (vd_detection_t *)take(&arena, l.cand, &ok);
-    det->obs = (vd_temporal_obs_t *)take(&arena, l.obs, &ok);
-    det->tracks = (vd_track_t *)take(&arena, l.tracks, &ok);
-    det->hist = (uint32_t *)take(&arena, l.hist, &ok);
-    det->scratch = take(&arena, l.scratch, &ok);
-    det->sample = (uint8_t *)take(&arena, l.sample, &ok);
-    det->dbn_ws = take(&arena, l.dbn, &ok);
-    det->dbn_ws_bytes = l.dbn;
-    det->contrast_ws = take(&arena, l.contrast, &ok);
-    det->contrast_ws_bytes = l.contrast;
-    size_t work;
-    VD_TRY(overlay_size(&l, &work, &det->overlay_bytes));
-    det->overlay = (uint8_t *)take(&arena, det->overlay_bytes, &ok);
-    if (!ok) {
-        memset(det, 0, sizeof(*det));
-        return VD_ERR_WORKSPACE;   // unreachable when bytes >= need; kept as a guard
-    }
-    det->cc_ws_bytes = l.cc;
-    det->refine_ws_bytes = l.refine;
-    det->contour_ws_bytes = l.contour;
-    det->points_cap = l.points_cap;
-    det->contours_cap = l.contours_cap;
-    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
-    memset(x, 0, sizeof(*x));
-    region_bufs(det, &x->b);
-    refine_cfg_of(det, &x->rc);
-    if (model != NULL) {
-        det->in_w = model->input_w;
-        det->in_h = model->input_h;
-    }
-    // 16-bit threshold in raw units; above the calibrated range nothing is hot.
-    uint16_t raw = 0u;
-    vd_status_t st = vd_calib_raw_from_ck(&c.calib, c.hot_thr_ck, &raw);
-    if (st == VD_ERR_RANGE) {
-        det->raw_never_hot = true;
-    } else if (st != VD_OK) {
-        memset(det, 0, sizeof(*det));
-        return VD_ERR_ARG;
-    }
-    det->raw_thr = raw;
-    int64_t span = (int64_t)c.grey_hi_ck - c.grey_lo_ck;
-    det->grey_mul_q16 = ((int64_t)255 * 65536 + span / 2) / span;
-    if (c.temporal) {
-        VD_TRY(vd_temporal_init(&det->temporal, &c.temporal_cfg, det->tracks, c.max_tracks));
-    }
-    return VD_OK;
-}
 
 const vd_detector_stats_t *vd_detector_last_stats(const vd_detector_t *det)
 {
@@ -464,589 +44,30 @@ static uint32_t clock_now(const vd_detector_t *det)
     return (det->cfg.clock_us != NULL) ? det->cfg.clock_us(det->cfg.clock_user) : 0u;
 }
 
-static void clock_add(vd_detector_t *det, int stage, uint32_t *t0)
+// Stable sort by score and greedy suppression of det->cand[0..n); *kept
+// survive. Out of line: its counts stay off the frame of the deep calls.
+VD_DET_NOINLINE static vd_status_t suppress(vd_detector_t *det, size_t n, size_t *kept)
 {
-    if (det->cfg.clock_us == NULL) {
-        return;
-    }
-    uint32_t t1 = det->cfg.clock_us(det->cfg.clock_user);
-    det->stats.time_us[stage] += t1 - *t0;   // unsigned: wrap-around safe
-    *t0 = t1;
-}
-
-
-static uint8_t grey_of_raw(const vd_detector_t *det, uint32_t raw)
-{
-    int32_t ck = 0;
-    (void)vd_calib_ck_from_raw(&det->cfg.calib, (uint16_t)raw, &ck);
-    int64_t g = (((int64_t)ck - det->cfg.grey_lo_ck) * det->grey_mul_q16 + 32768) >> 16;
-    if (g < 0) {
-        return 0u;
-    }
-    return (g > 255) ? 255u : (uint8_t)g;
-}
-
-// Builds the region plane in the overlay's crop buffer when needed (16-bit
-// frames, or regions above max_region_*); 8-bit regions that fit are read
-// from the frame directly so the median sees the pixels around the ROI.
-DET_NOINLINE static vd_status_t make_plane(vd_detector_t *det, const vd_frame_t *f, const vd_rect_t *region,
-                              uint8_t *crop, region_plane_t *p)
-{
-    uint32_t rw = (uint32_t)region->w;
-    uint32_t rh = (uint32_t)region->h;
-    uint32_t mw = det->cfg.max_region_w;
-    uint32_t mh = det->cfg.max_region_h;
-    p->region = *region;
-    p->kx = (rw + mw - 1u) / mw;
-    p->ky = (rh + mh - 1u) / mh;
-    if (f->format == VD_PIX_U8 && p->kx == 1u && p->ky == 1u) {
-        VD_TRY(vd_frame_view_u8(f, &p->view));
-        p->roi = *region;
-        return VD_OK;
-    }
-    uint32_t cw = rw / p->kx;
-    uint32_t ch = rh / p->ky;
-    uint32_t n = p->kx * p->ky;
-    for (uint32_t cy = 0; cy < ch; cy++) {
-        for (uint32_t cx = 0; cx < cw; cx++) {
-            uint64_t sum = 0u;
-            size_t x0 = (size_t)region->x + (size_t)cx * p->kx;
-            size_t y0 = (size_t)region->y + (size_t)cy * p->ky;
-            for (uint32_t j = 0; j < p->ky; j++) {
-                const uint8_t *row = (const uint8_t *)f->data + (y0 + j) * f->stride;
-                for (uint32_t i = 0; i < p->kx; i++) {
-                    if (f->format == VD_PIX_U8) {
-                        sum += row[x0 + i];
-                    } else {
-                        uint16_t v;
-                        memcpy(&v, row + 2u * (x0 + i), sizeof(v));
-                        sum += v;
-                    }
-                }
-            }
-            uint32_t avg = (uint32_t)((sum + n / 2u) / n);
-            crop[(size_t)cy * cw + cx] = (f->format == VD_PIX_U8) ? (uint8_t)avg : grey_of_raw(det, avg);
-        }
-    }
-    p->view.data = crop;
-    p->view.width = cw;
-    p->view.height = ch;
-    p->view.stride = cw;
-    p->roi.x = 0;
-    p->roi.y = 0;
-    p->roi.w = (int32_t)cw;
-    p->roi.h = (int32_t)ch;
+    vd_suppress_stats_t ss;
+    VD_TRY(vd_suppress_nms(det->cand, n, det->cfg.nms_iou_q15, det->cfg.max_detections, kept, &ss));
+    det->stats.suppressed = ss.suppressed;
+    det->stats.overflow_detections += ss.overflow;
     return VD_OK;
 }
 
-// Refines x->region into x->b.rmask; sets x->p (its plane), x->m and x->rs.
-static vd_status_t refine_region(vd_detector_t *det, const vd_frame_t *f, cand_ctx_t *x)
+// A target recovered by temporal analysis, as a detection (score 0).
+static void recovered(const vd_detector_t *det, const vd_frame_t *f, const vd_temporal_obs_t *o, uint8_t thr8,
+                      vd_detection_t *d)
 {
-    VD_TRY(make_plane(det, f, &x->region, x->b.crop, &x->p));
-    x->m.data = x->b.rmask;
-    x->m.width = (uint32_t)x->p.roi.w;
-    x->m.height = (uint32_t)x->p.roi.h;
-    x->m.stride = (size_t)x->p.roi.w;
-    return vd_refine_region(&x->p.view, &x->p.roi, &x->rc, x->b.refine_ws, det->refine_ws_bytes, &x->m, &x->rs);
-}
-
-// Complexity (temporal.h) of a refined region: edge pixels / region pixels.
-// A mask that is empty or covers the whole region has no object outline (a
-// uniform region makes Otsu keep everything and its only "edges" are the
-// region border), so it counts as 0, which never resembles a vehicle.
-static uint16_t region_complexity(const vd_refine_stats_t *rs, const region_plane_t *p)
-{
-    uint32_t area = (uint32_t)p->roi.w * (uint32_t)p->roi.h;
-    if (rs->fg_pixels == 0u || rs->fg_pixels >= area) {
-        return 0u;
-    }
-    return vd_temporal_complexity_q15(rs->edge_points, area);
-}
-
-// Temporal recovery probe: the complexity of the expanded box, refined as a candidate.
-static vd_status_t detector_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15)
-{
-    vd_detector_t *det = (vd_detector_t *)user;
-    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
-    const vd_frame_t *f = det->frame;
-    VD_TRY(vd_rect_expand(box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &x->region));
-    VD_TRY(refine_region(det, f, x));
-    *complexity_q15 = region_complexity(&x->rs, &x->p);
-    return VD_OK;
-}
-
-// The 8-bit hot threshold: constant, or max(floor, p-th percentile) from a
-// histogram of the frame (adaptive mode).
-static uint32_t threshold_u8(vd_detector_t *det, const vd_view_u8_t *v)
-{
-    if (det->cfg.thr_mode != VD_DETECTOR_THR_ADAPTIVE) {
-        return det->cfg.hot_thr_u8;
-    }
-    // otsu.h's histogram (the run-counting one): the view was checked by the caller.
-    const vd_status_t st = vd_histogram_u8(v, NULL, det->hist);
-    VD_ASSERT(st == VD_OK);
-    (void)st;
-    // Smallest level t with at least ceil(N * p / 1000) pixels <= t.
-    uint64_t n = (uint64_t)v->width * v->height;
-    uint64_t target = (n * det->cfg.adaptive_permille + 999u) / 1000u;
-    uint64_t cum = 0u;
-    uint32_t t = 255u;
-    for (uint32_t i = 0; i < 256u; i++) {
-        cum += det->hist[i];
-        if (cum >= target) {
-            t = i;
-            break;
-        }
-    }
-    return (t > det->cfg.adaptive_floor_u8) ? t : det->cfg.adaptive_floor_u8;
-}
-
-// Hot-spot components straight from the frame (no mask: the labeller
-// compares with the threshold as it run-length encodes), with the run budget
-// of the overlay. Sets the threshold, hot pixel, run and overflow stats.
-// Returns VD_OK or VD_ERR_CAPACITY (components or runs; stats say which).
-DET_NOINLINE static vd_status_t hot_components(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint32_t *t0)
-{
-    vd_detector_stats_t *s = &det->stats;
-    vd_cc_stats_t *cs = &((cand_ctx_t *)det->scratch)->cs;
-    memset(cs, 0, sizeof(*cs));
-    vd_status_t st;
-    *n = 0u;
-    if (f->format == VD_PIX_U8) {
-        vd_view_u8_t v;
-        VD_TRY(vd_frame_view_u8(f, &v));
-        const uint32_t thr = threshold_u8(det, &v);
-        s->hot_thr_u8 = thr;
-        clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
-        st = vd_components_label_thr_u8(&v, NULL, (uint8_t)thr, det->overlay, det->cc_ws_bytes, det->comps,
-                                        det->cfg.max_components, n, cs);
-    } else {
-        vd_view_u16_t v16;
-        VD_TRY(vd_frame_view_u16(f, &v16));
-        s->hot_thr_raw = det->raw_thr;
-        clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
-        if (det->raw_never_hot) {
-            return VD_OK;
-        }
-        st = vd_components_label_thr_u16(&v16, NULL, det->raw_thr, det->overlay, det->cc_ws_bytes, det->comps,
-                                         det->cfg.max_components, n, cs);
-    }
-    if (st != VD_OK && st != VD_ERR_CAPACITY) {
-        return st;
-    }
-    s->hot_pixels = cs->pixels;
-    s->runs = cs->runs;
-    if (cs->labels > det->cfg.max_components) {
-        s->overflow_components = 1u;
-    }
-    if (cs->rows < f->height) {
-        // Run budget exhausted: keep the components of rows [0, rows) that
-        // end above the last labelled row (the others may continue below).
-        s->overflow_runs = f->height - cs->rows;
-        size_t k = 0u;
-        for (size_t i = 0; i < *n; i++) {
-            if ((uint32_t)(det->comps[i].box.y + det->comps[i].box.h) < cs->rows) {
-                det->comps[k++] = det->comps[i];
-            }
-        }
-        *n = k;
-    }
-    return st;
-}
-
-// Index of the contour with the largest box area (then length; first wins).
-static size_t largest_contour(const vd_contour_t *c, size_t n)
-{
-    size_t best = 0u;
-    for (size_t i = 1; i < n; i++) {
-        uint64_t ai = (uint64_t)c[i].box.w * (uint64_t)c[i].box.h;
-        uint64_t ab = (uint64_t)c[best].box.w * (uint64_t)c[best].box.h;
-        if (ai > ab || (ai == ab && c[i].length > c[best].length)) {
-            best = i;
-        }
-    }
-    return best;
-}
-
-// Hot-spot candidate: expands the component, refines the region and traces
-// its contour; *ok = false when the region has no contour. Fills d's box,
-// candidate region, contour length, complexity and flags (not the score).
-DET_NOINLINE static vd_status_t refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
-                                           vd_detection_t *d, bool *ok, uint32_t *t0)
-{
-    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
-    *ok = false;
     memset(d, 0, sizeof(*d));
-    if (vd_rect_expand(&comp->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &x->region) !=
-        VD_OK) {
-        return VD_OK;   // cannot happen for a component inside the frame
-    }
-    VD_TRY(refine_region(det, f, x));
-    const region_plane_t *p = &x->p;
-    if (p->kx > 1u || p->ky > 1u) {
-        d->flags |= VD_DET_FLAG_DECIMATED;
-        det->stats.decimated++;
-    }
-    clock_add(det, VD_DET_STAGE_REFINE, t0);
-
-    x->mv = vd_image_u8_view(&x->m);
-    size_t nc = 0u;
-    size_t np = 0u;
-    vd_status_t st = vd_contours_find_external(&x->mv, x->b.contour_ws, det->contour_ws_bytes, x->b.points, NULL,
-                                               det->points_cap, x->b.contours, det->contours_cap, &nc, &np);
-    if (st == VD_ERR_CAPACITY) {
-        d->flags |= VD_DET_FLAG_CONTOUR_TRUNC;
-        det->stats.overflow_contours++;
-    } else if (st != VD_OK) {
-        return st;
-    }
-    clock_add(det, VD_DET_STAGE_CONTOUR, t0);
-    if (nc == 0u) {
-        return VD_OK;
-    }
-    det->stats.refined++;
-    x->best = x->b.contours[largest_contour(x->b.contours, nc)];
-    const vd_contour_t *c = &x->best;
-    uint32_t kmax = p->kx > p->ky ? p->kx : p->ky;
-    d->box.x = x->region.x + c->box.x * (int32_t)p->kx;
-    d->box.y = x->region.y + c->box.y * (int32_t)p->ky;
-    d->box.w = c->box.w * (int32_t)p->kx;
-    d->box.h = c->box.h * (int32_t)p->ky;
-    d->candidate = x->region;
-    d->contour_length = c->length * kmax;
-    d->complexity_q15 = region_complexity(&x->rs, p);
-    d->source = (uint8_t)VD_SOURCE_HOTSPOT;
-    *ok = true;
-    return VD_OK;
-}
-
-// Samples and scores one merged candidate (any source); *keep = score >=
-// score_thr (always true without a model: score 255, flag UNVERIFIED).
-// The plane is rebuilt from d->candidate: hot spots are sampled under their
-// contour box inside the refined region, windows and contrast candidates
-// (candidate == box) as the whole box.
-DET_NOINLINE static vd_status_t verify_candidate(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d,
-                                                 bool *keep, uint32_t *t0)
-{
-    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
-    *keep = false;
-    if (det->model == NULL) {
-        d->score_q8 = 255u;
-        d->flags |= VD_DET_FLAG_UNVERIFIED;
-        det->stats.verified++;
-        *keep = true;
-        return VD_OK;
-    }
-    const region_plane_t *p = &x->p;
-    VD_TRY(make_plane(det, f, &d->candidate, x->b.crop, &x->p));
-    if (d->source != VD_SOURCE_HOTSPOT && (p->kx > 1u || p->ky > 1u)) {
-        d->flags |= VD_DET_FLAG_DECIMATED;
-    }
-    // The box in plane coordinates (exact: a hot-spot box is region + k * contour box).
-    x->vb.x = p->roi.x + (d->box.x - d->candidate.x) / (int32_t)p->kx;
-    x->vb.y = p->roi.y + (d->box.y - d->candidate.y) / (int32_t)p->ky;
-    x->vb.w = d->box.w / (int32_t)p->kx;
-    x->vb.h = d->box.h / (int32_t)p->ky;
-    x->vb.w = (x->vb.w < 1) ? 1 : x->vb.w;
-    x->vb.h = (x->vb.h < 1) ? 1 : x->vb.h;
-    if (det->model->input_mode == VD_DBN_INPUT_GREY) {
-        VD_TRY(vd_resample_u8(&p->view, &x->vb, det->sample, det->in_w, det->in_h));
-    } else {
-        // As samples.py: refine the box itself, then resample the whole mask.
-        x->m.data = x->b.rmask;
-        x->m.width = (uint32_t)x->vb.w;
-        x->m.height = (uint32_t)x->vb.h;
-        x->m.stride = (size_t)x->vb.w;
-        VD_TRY(vd_refine_region(&p->view, &x->vb, &x->rc, x->b.refine_ws, det->refine_ws_bytes, &x->m, NULL));
-        x->mv = vd_image_u8_view(&x->m);
-        VD_TRY(vd_resample_u8(&x->mv, NULL, det->sample, det->in_w, det->in_h));
-    }
-    clock_add(det, VD_DET_STAGE_SAMPLE, t0);
-    uint8_t score = 0u;
-    VD_TRY(vd_dbn_classify(det->model, det->sample, det->dbn_ws, det->dbn_ws_bytes, &score));
-    clock_add(det, VD_DET_STAGE_DBN, t0);
-    d->score_q8 = score;
-    if (score < det->cfg.score_thr_q8) {
-        return VD_OK;
-    }
-    det->stats.verified++;
-    *keep = true;
-    return VD_OK;
-}
-
-// Appends box (source src) to the merged list unless it duplicates a box
-// already there (IoU > dedup_iou). Returns true when appended.
-static bool merge_box(vd_detector_t *det, size_t *n, const vd_rect_t *box, uint8_t src, uint8_t thr8)
-{
-    for (size_t i = 0; i < *n; i++) {
-        if (vd_rect_iou_q15(box, &det->cand[i].box) > det->cfg.dedup_iou_q15) {
-            det->stats.deduplicated++;
-            return false;
-        }
-    }
-    vd_detection_t *d = &det->cand[*n];
-    memset(d, 0, sizeof(*d));
-    d->box = *box;
-    d->candidate = *box;
-    d->source = src;
+    d->box = o->box;
+    (void)vd_rect_expand(&o->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &d->candidate);
+    d->track_id = o->track_id;
+    d->complexity_q15 = o->complexity_q15;
+    d->source = VD_SOURCE_HOTSPOT;
+    d->state = VD_TRACK_RECOVERED;
+    d->flags = VD_DET_FLAG_RECOVERED;
     d->hot_thr = thr8;
-    (*n)++;
-    return true;
-}
-
-// Contrast source (8-bit frames): components of |I - box mean| >= thr with
-// the rules, into det->comps (free after the hot-spot stage), merged as is.
-// Returns VD_OK or VD_ERR_CAPACITY (components or the candidate budget).
-DET_NOINLINE static vd_status_t contrast_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
-{
-    if (f->format != VD_PIX_U8) {
-        return VD_OK;   // no whole-frame 8-bit plane of radiometric frames (documented in detector.h)
-    }
-    vd_view_u8_t v;
-    VD_TRY(vd_frame_view_u8(f, &v));
-    size_t nc = 0u;
-    vd_status_t result = VD_OK;
-    vd_status_t st = vd_contrast_candidates(&v, &det->cfg.contrast, det->contrast_ws, det->contrast_ws_bytes,
-                                            det->comps, det->cfg.max_components, &nc, NULL);
-    if (st == VD_ERR_CAPACITY) {
-        det->stats.overflow_components |= 2u;
-        result = VD_ERR_CAPACITY;
-    } else if (st != VD_OK) {
-        return st;
-    }
-    for (size_t i = 0; i < nc; i++) {
-        if (*n >= det->cfg.max_candidates) {
-            det->stats.overflow_candidates += (uint32_t)(nc - i);
-            return VD_ERR_CAPACITY;
-        }
-        if (merge_box(det, n, &det->comps[i].box, (uint8_t)VD_SOURCE_CONTRAST, thr8)) {
-            det->stats.cand_contrast++;
-        }
-    }
-    return result;
-}
-
-// floor(sqrt(v)), 16 iterations at most.
-static uint32_t isqrt32(uint32_t v)
-{
-    uint32_t r = 0u;
-    uint32_t bit = 1u << 30;
-    for (uint32_t i = 0; i < 16u && bit > v; i++) {
-        bit >>= 2;
-    }
-    for (uint32_t i = 0; i < 16u && bit != 0u; i++) {
-        if (v >= r + bit) {
-            v -= r + bit;
-            r = (r >> 1) + bit;
-        } else {
-            r >>= 1;
-        }
-        bit >>= 2;
-    }
-    return r;
-}
-
-// Integral images of the 4x4-cell means g (rounded) and of g^2 over the
-// gw x gh cell grid (the last W % 4 columns and H % 4 rows are not covered),
-// in the overlay; uint32 wrap-around is harmless (see MAX_CELLS).
-DET_NOINLINE static void cell_integrals(vd_detector_t *det, const vd_frame_t *f)
-{
-    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
-    const uint32_t gw = f->width / CELL;
-    const uint32_t gh = f->height / CELL;
-    const size_t stride = (size_t)gw + 1u;
-    uint32_t *s1 = (uint32_t *)(void *)det->overlay;
-    uint32_t *s2 = s1 + stride * ((size_t)gh + 1u);
-    x->gw = gw;
-    x->gh = gh;
-    memset(s1, 0, stride * sizeof(uint32_t));
-    memset(s2, 0, stride * sizeof(uint32_t));
-    for (uint32_t gy = 0; gy < gh; gy++) {
-        uint32_t r1 = 0u;
-        uint32_t r2 = 0u;
-        const size_t at = ((size_t)gy + 1u) * stride;
-        s1[at] = 0u;
-        s2[at] = 0u;
-        for (uint32_t gx = 0; gx < gw; gx++) {
-            uint32_t sum = 0u;
-            for (uint32_t j = 0; j < CELL; j++) {
-                const uint8_t *row = (const uint8_t *)f->data + ((size_t)gy * CELL + j) * f->stride;
-                for (uint32_t i = 0; i < CELL; i++) {
-                    if (f->format == VD_PIX_U8) {
-                        sum += row[(size_t)gx * CELL + i];
-                    } else {
-                        uint16_t v;
-                        memcpy(&v, row + 2u * ((size_t)gx * CELL + i), sizeof(v));
-                        sum += v;
-                    }
-                }
-            }
-            uint32_t g = (sum + CELL * CELL / 2u) / (CELL * CELL);
-            if (f->format != VD_PIX_U8) {
-                g = grey_of_raw(det, g);
-            }
-            r1 += g;
-            r2 += g * g;
-            s1[at + gx + 1u] = s1[at - stride + gx + 1u] + r1;
-            s2[at + gx + 1u] = s2[at - stride + gx + 1u] + r2;
-        }
-    }
-}
-
-// Pre-filter level of a window: floor(standard deviation) of the cell means
-// of the cells inside it (at least one cell per axis), clamped to 255.
-static uint32_t window_level(const vd_detector_t *det, const vd_rect_t *b)
-{
-    const cand_ctx_t *x = (const cand_ctx_t *)det->scratch;
-    const uint32_t gw = x->gw;
-    const uint32_t gh = x->gh;
-    if (gw == 0u || gh == 0u) {
-        return 0u;
-    }
-    const size_t stride = (size_t)gw + 1u;
-    const uint32_t *s1 = (const uint32_t *)(const void *)det->overlay;
-    const uint32_t *s2 = s1 + stride * ((size_t)gh + 1u);
-    uint32_t x0 = ((uint32_t)b->x + CELL - 1u) / CELL;
-    uint32_t x1 = ((uint32_t)b->x + (uint32_t)b->w) / CELL;
-    uint32_t y0 = ((uint32_t)b->y + CELL - 1u) / CELL;
-    uint32_t y1 = ((uint32_t)b->y + (uint32_t)b->h) / CELL;
-    x1 = (x1 > gw) ? gw : x1;
-    y1 = (y1 > gh) ? gh : y1;
-    x0 = (x0 >= x1) ? ((x1 > 0u) ? x1 - 1u : 0u) : x0;
-    y0 = (y0 >= y1) ? ((y1 > 0u) ? y1 - 1u : 0u) : y0;
-    x1 = (x1 <= x0) ? x0 + 1u : x1;
-    y1 = (y1 <= y0) ? y0 + 1u : y1;
-    const uint32_t a1 = s1[(size_t)y1 * stride + x1] - s1[(size_t)y0 * stride + x1] -
-                        s1[(size_t)y1 * stride + x0] + s1[(size_t)y0 * stride + x0];
-    const uint32_t a2 = s2[(size_t)y1 * stride + x1] - s2[(size_t)y0 * stride + x1] -
-                        s2[(size_t)y1 * stride + x0] + s2[(size_t)y0 * stride + x0];
-    const uint64_t n = (uint64_t)(x1 - x0) * (y1 - y0);
-    const uint64_t num = n * a2 - (uint64_t)a1 * a1;   // n^2 * variance >= 0
-    const uint32_t var = (uint32_t)(num / (n * n));
-    const uint32_t sd = isqrt32(var);
-    return (sd > 255u) ? 255u : sd;
-}
-
-// Pass state of the streamed windows (vd_windows_walk): pass 0 builds the
-// histogram of pre-filter levels >= win_min_std (det->hist); pass 1 merges the
-// windows of level > cut and the first `ties` of level == cut.
-typedef struct win_pass {
-    vd_detector_t *det;
-    int pass;
-    uint32_t cut;
-    uint32_t ties;
-    size_t *n;
-    uint8_t thr8;
-} win_pass_t;
-
-static void window_visit(void *ctx, const vd_rect_t *b)
-{
-    win_pass_t *p = (win_pass_t *)ctx;
-    vd_detector_t *det = p->det;
-    const uint32_t lv = window_level(det, b);
-    if (lv < det->cfg.win_min_std_u8) {
-        return;
-    }
-    if (p->pass == 0) {
-        det->hist[lv]++;
-        return;
-    }
-    if (lv < p->cut || (lv == p->cut && p->ties == 0u)) {
-        return;
-    }
-    if (lv == p->cut) {
-        p->ties--;
-    }
-    if (*p->n < det->cfg.max_candidates && merge_box(det, p->n, b, (uint8_t)VD_SOURCE_WINDOW, p->thr8)) {
-        det->stats.cand_window++;
-    }
-}
-
-// One pass over the windows of x->wc; returns the windows enumerated (saturated).
-DET_NOINLINE static uint32_t walk_windows(vd_detector_t *det, int pass, uint32_t cut, uint32_t ties, size_t *n,
-                                          uint8_t thr8)
-{
-    const cand_ctx_t *x = (const cand_ctx_t *)det->scratch;
-    win_pass_t p = {det, pass, cut, ties, n, thr8};
-    const uint64_t all = vd_windows_walk(&x->wc, window_visit, &p);
-    return (all > UINT32_MAX) ? UINT32_MAX : (uint32_t)all;
-}
-
-// Window source: pre-filter by cell-mean deviation, rank by it, and merge
-// the best windows into the room left of max_candidates (windows beyond it
-// are dropped by design: not a capacity error).
-DET_NOINLINE static vd_status_t window_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
-{
-    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
-    x->wc = det->cfg.windows;
-    x->wc.frame_w = f->width;
-    x->wc.frame_h = f->height;
-    VD_TRY(vd_windows_resolve(&x->wc));
-    cell_integrals(det, f);
-    memset(det->hist, 0, 256u * sizeof(uint32_t));
-    det->stats.windows = walk_windows(det, 0, 0u, 0u, n, thr8);
-    const size_t room = (*n < det->cfg.max_candidates) ? det->cfg.max_candidates - *n : 0u;
-    // Highest levels first: cut = the level where the room runs out.
-    uint64_t cum = 0u;
-    uint32_t cut = det->cfg.win_min_std_u8;
-    uint32_t ties = det->hist[cut];
-    for (uint32_t k = 0; k < 256u; k++) {
-        const uint32_t lv = 255u - k;
-        if (lv < det->cfg.win_min_std_u8) {
-            break;
-        }
-        if (cum + det->hist[lv] > room) {
-            cut = lv;
-            ties = (uint32_t)(room - cum);
-            break;
-        }
-        cum += det->hist[lv];
-    }
-    uint64_t passed = 0u;
-    for (uint32_t k = det->cfg.win_min_std_u8; k < 256u; k++) {
-        passed += det->hist[k];
-    }
-    det->stats.windows_passed = (uint32_t)passed;
-    if (room > 0u) {
-        (void)walk_windows(det, 1, cut, ties, n, thr8);
-    }
-    return VD_OK;
-}
-
-// Stable sort by score (best first), then greedy suppression; returns kept.
-DET_NOINLINE static size_t suppress(vd_detector_t *det, size_t n)
-{
-    vd_detection_t *d = det->cand;
-    vd_detection_t *v = &((cand_ctx_t *)det->scratch)->tmp;
-    for (size_t i = 1; i < n; i++) {
-        *v = d[i];
-        size_t j = i;
-        while (j > 0u && d[j - 1u].score_q8 < v->score_q8) {
-            d[j] = d[j - 1u];
-            j--;
-        }
-        d[j] = *v;
-    }
-    size_t kept = 0u;
-    for (size_t i = 0; i < n; i++) {
-        bool ok = true;
-        for (size_t j = 0; j < kept; j++) {
-            if (vd_rect_iou_q15(&d[i].box, &d[j].box) > det->cfg.nms_iou_q15) {
-                ok = false;
-                break;
-            }
-        }
-        if (!ok) {
-            det->stats.suppressed++;
-            continue;
-        }
-        if (kept >= det->cfg.max_detections) {
-            det->stats.overflow_detections++;
-            continue;
-        }
-        d[kept++] = d[i];
-    }
-    return kept;
 }
 
 vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
@@ -1070,7 +91,7 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     size_t n = 0u;
     vd_status_t st = VD_OK;
     if ((det->cfg.sources & VD_DETECTOR_SRC_HOTSPOT) != 0u) {
-        st = hot_components(det, frame, &n, &t0);
+        st = vd_det_hot_components(det, frame, &n, &t0);
     }
     if (st == VD_ERR_CAPACITY) {
         result = VD_ERR_CAPACITY;
@@ -1086,7 +107,7 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
         kept = det->cfg.max_candidates;
         result = VD_ERR_CAPACITY;
     }
-    clock_add(det, VD_DET_STAGE_COMPONENTS, &t0);
+    vd_det_clock_add(det, VD_DET_STAGE_COMPONENTS, &t0);
 
     // Hot spots: refined one by one (the labelling scratch is dead from here:
     // the overlay holds region buffers), their contour boxes start the merged list.
@@ -1094,7 +115,7 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     size_t nc = 0u;
     for (size_t i = 0; i < kept; i++) {
         bool ok = false;
-        VD_TRY(refine_hot(det, frame, &det->comps[i], &det->cand[nc], &ok, &t0));
+        VD_TRY(vd_det_refine_hot(det, frame, &det->comps[i], &det->cand[nc], &ok, &t0));
         if (ok) {
             det->cand[nc].hot_thr = thr8;
             nc++;
@@ -1102,17 +123,17 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     }
     s->cand_hotspot = (uint32_t)nc;
     if ((det->cfg.sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
-        st = contrast_source(det, frame, &nc, thr8);
+        st = vd_det_contrast_source(det, frame, &nc, thr8);
         if (st == VD_ERR_CAPACITY) {
             result = VD_ERR_CAPACITY;
         } else if (st != VD_OK) {
             return st;
         }
-        clock_add(det, VD_DET_STAGE_CONTRAST, &t0);
+        vd_det_clock_add(det, VD_DET_STAGE_CONTRAST, &t0);
     }
     if ((det->cfg.sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
-        VD_TRY(window_source(det, frame, &nc, thr8));   // the overlay holds the integrals until here
-        clock_add(det, VD_DET_STAGE_WINDOWS, &t0);
+        VD_TRY(vd_det_window_source(det, frame, &nc, thr8));   // the overlay holds the integrals until here
+        vd_det_clock_add(det, VD_DET_STAGE_WINDOWS, &t0);
     }
     // The observer sees every merged candidate before verification (nc <= max_candidates).
     if (det->cfg.on_candidate != NULL) {
@@ -1124,7 +145,7 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     size_t nv = 0u;
     for (size_t i = 0; i < nc; i++) {
         bool keep = false;
-        VD_TRY(verify_candidate(det, frame, &det->cand[i], &keep, &t0));
+        VD_TRY(vd_det_verify(det, frame, &det->cand[i], &keep, &t0));
         if (keep) {
             if (nv != i) {
                 det->cand[nv] = det->cand[i];
@@ -1132,8 +153,9 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
             nv++;
         }
     }
-    size_t nk = suppress(det, nv);
-    clock_add(det, VD_DET_STAGE_NMS, &t0);
+    size_t nk = 0u;
+    VD_TRY(suppress(det, nv, &nk));
+    vd_det_clock_add(det, VD_DET_STAGE_NMS, &t0);
     if (s->overflow_detections != 0u) {
         result = VD_ERR_CAPACITY;
     }
@@ -1147,7 +169,7 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
         }
         det->frame = frame;
         size_t nobs = 0u;
-        st = vd_temporal_update(&det->temporal, det->obs, nk, nk + det->cfg.max_tracks, &nobs, detector_probe, det);
+        st = vd_temporal_update(&det->temporal, det->obs, nk, nk + det->cfg.max_tracks, &nobs, vd_det_probe, det);
         det->frame = NULL;
         if (st == VD_ERR_CAPACITY) {
             result = VD_ERR_CAPACITY;
@@ -1161,27 +183,16 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
         }
         total = nobs;
         s->recovered = (uint32_t)(nobs - nk);
-        clock_add(det, VD_DET_STAGE_TEMPORAL, &t0);
+        vd_det_clock_add(det, VD_DET_STAGE_TEMPORAL, &t0);
     }
 
     size_t w = total < cap ? total : cap;
     for (size_t i = 0; i < w; i++) {
         if (i < nk) {
             out[i] = det->cand[i];
-            continue;
+        } else {
+            recovered(det, frame, &det->obs[i], thr8, &out[i]);
         }
-        const vd_temporal_obs_t *o = &det->obs[i];
-        vd_detection_t *d = &out[i];
-        memset(d, 0, sizeof(*d));
-        d->box = o->box;
-        (void)vd_rect_expand(&o->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, frame->width, frame->height,
-                             &d->candidate);
-        d->track_id = o->track_id;
-        d->complexity_q15 = o->complexity_q15;
-        d->source = VD_SOURCE_HOTSPOT;
-        d->state = VD_TRACK_RECOVERED;
-        d->flags = VD_DET_FLAG_RECOVERED;
-        d->hot_thr = thr8;
     }
     if (w < total) {
         s->overflow_detections += (uint32_t)(total - w);

@@ -2,9 +2,10 @@
 // Candidate-region segmentation of paper 001 §3: median, Otsu, hole filling,
 // edge image, local maximum-distance thresholds at every n-th edge point.
 //
-// Reference: paper 001 (FIR vehicle detection with a DBN), section 3, steps
-// 2-5, and eq. (1), which is Otsu's between-class criterion evaluated on the
-// histogram of a small window (see /work/shared/papers/README.md).
+// Reference: paper 001 (FIR vehicle detection with a DBN; README.md names the
+// papers), section 3, steps 2-5, and eq. (1), R(T) = (sum_{i<=T} i*P_i -
+// mu*P(T))^2 / (P(T) * (1 - P(T))): Otsu's between-class criterion evaluated
+// on the histogram of a small window.
 //
 // Algorithm of vd_refine_region on a w x h ROI:
 //   F = median (median.h) or a copy of the ROI; t = Otsu (otsu.h);

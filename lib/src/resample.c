@@ -23,7 +23,14 @@
 // Stack: the 16-entry x-tap table (128 bytes) + a few words. The rounded
 // quotient by the constant total T is a reciprocal multiply, exact for
 // T <= 2^23 (internal/recip_internal.h); larger totals divide.
+//
+// Box average (vd_resample_box_*): per output pixel the uint64 sum of its
+// kx x ky block, then one rounded division by kx*ky (<= 2^26, so the sum of
+// 16-bit pixels stays < 2^42); a 16-bit mean goes through the calibration's
+// grey map. Time O(cw*kx * ch*ky) <= O(roi area).
 #include "vd/resample.h"
+
+#include <string.h>
 
 #include "internal/recip_internal.h"
 #include "internal/vd_internal.h"
@@ -212,5 +219,67 @@ vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_
             }
         }
     }
+    return VD_OK;
+}
+
+// Box average of the ROI r of a plane of 1 (wide false) or 2 (wide true)
+// bytes per pixel into dst; 16-bit means are mapped through grey.
+static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_rect_t *r, uint32_t kx,
+                        uint32_t ky, const vd_calib_grey_t *grey, vd_image_u8_t *dst)
+{
+    const uint32_t n = kx * ky;
+    for (uint32_t cy = 0; cy < dst->height; cy++) {
+        uint8_t *out = dst->data + (size_t)cy * dst->stride;
+        for (uint32_t cx = 0; cx < dst->width; cx++) {
+            uint64_t sum = 0u;
+            const size_t x0 = (size_t)r->x + (size_t)cx * kx;
+            const size_t y0 = (size_t)r->y + (size_t)cy * ky;
+            for (uint32_t j = 0; j < ky; j++) {
+                const uint8_t *row = data + (y0 + j) * stride;
+                for (uint32_t i = 0; i < kx; i++) {
+                    if (wide) {
+                        uint16_t v;
+                        memcpy(&v, row + 2u * (x0 + i), sizeof(v));
+                        sum += v;
+                    } else {
+                        sum += row[x0 + i];
+                    }
+                }
+            }
+            const uint32_t avg = (uint32_t)((sum + n / 2u) / n);
+            out[cx] = wide ? vd_calib_grey_u8(grey, (uint16_t)avg) : (uint8_t)avg;
+        }
+    }
+}
+
+// Checks shared by both formats: factors, and dst of the decimated ROI size.
+static vd_status_t box_check(const vd_rect_t *r, uint32_t kx, uint32_t ky, const vd_image_u8_t *dst)
+{
+    VD_VERIFY(kx >= 1u && ky >= 1u && kx <= (uint32_t)r->w && ky <= (uint32_t)r->h, VD_ERR_ARG);
+    VD_TRY(vd_image_u8_check(dst));
+    VD_VERIFY(dst->width == (uint32_t)r->w / kx && dst->height == (uint32_t)r->h / ky, VD_ERR_ARG);
+    return VD_OK;
+}
+
+vd_status_t vd_resample_box_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint32_t kx, uint32_t ky,
+                               vd_image_u8_t *dst)
+{
+    vd_rect_t r;
+    VD_TRY(vd_view_u8_check(src));
+    VD_TRY(vd_roi_resolve(roi, src->width, src->height, &r));
+    VD_TRY(box_check(&r, kx, ky, dst));
+    box_average(src->data, src->stride, false, &r, kx, ky, NULL, dst);
+    return VD_OK;
+}
+
+vd_status_t vd_resample_box_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint32_t kx, uint32_t ky,
+                                const vd_calib_grey_t *grey, vd_image_u8_t *dst)
+{
+    vd_rect_t r;
+    VD_VERIFY(grey != NULL, VD_ERR_ARG);
+    VD_TRY(vd_view_u16_check(src));
+    VD_TRY(vd_roi_resolve(roi, src->width, src->height, &r));
+    VD_TRY(box_check(&r, kx, ky, dst));
+    box_average((const uint8_t *)(const void *)src->data, src->stride, true, &r, kx, ky, grey, dst);
     return VD_OK;
 }

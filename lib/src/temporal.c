@@ -121,34 +121,40 @@ static uint64_t inv_square_q32(uint32_t s)
     return (((uint64_t)1 << 32) + (s2 >> 1)) / s2;
 }
 
+vd_status_t vd_temporal_cfg_resolve(vd_temporal_cfg_t *c)
+{
+    VD_VERIFY(c != NULL, VD_ERR_ARG);
+    vd_temporal_cfg_t d;
+    vd_temporal_cfg_default(&d);
+    if (c->sigma_x == 0u) { c->sigma_x = d.sigma_x; }
+    if (c->sigma_y == 0u) { c->sigma_y = d.sigma_y; }
+    if (c->sigma_w == 0u) { c->sigma_w = d.sigma_w; }
+    if (c->sigma_h == 0u) { c->sigma_h = d.sigma_h; }
+    if (c->weight_c_q15 == 0u) { c->weight_c_q15 = d.weight_c_q15; }
+    if (c->match_thr_q15 == 0u) { c->match_thr_q15 = d.match_thr_q15; }
+    if (c->recover_thr_q15 == 0u) { c->recover_thr_q15 = d.recover_thr_q15; }
+    if (c->confirm_frames == 0u) { c->confirm_frames = d.confirm_frames; }
+    if (c->max_misses == 0u) { c->max_misses = d.max_misses; }
+    if (c->search_radius == 0u) { c->search_radius = d.search_radius; }
+    if (c->search_step == 0u) { c->search_step = d.search_step; }
+    VD_VERIFY(c->sigma_x <= 4096u && c->sigma_y <= 4096u && c->sigma_w <= 4096u && c->sigma_h <= 4096u, VD_ERR_ARG);
+    VD_VERIFY(c->weight_c_q15 <= 32768u && c->match_thr_q15 <= 32768u && c->recover_thr_q15 <= 32768u, VD_ERR_ARG);
+    VD_VERIFY(c->search_radius <= 64u && c->search_step <= 64u, VD_ERR_ARG);
+    VD_VERIFY(c->search_radius / c->search_step <= VD_TEMPORAL_MAX_SEARCH_STEPS, VD_ERR_ARG);
+    return VD_OK;
+}
+
 vd_status_t vd_temporal_init(vd_temporal_t *t, const vd_temporal_cfg_t *cfg, vd_track_t *tracks, size_t cap)
 {
     VD_VERIFY(t != NULL && tracks != NULL, VD_ERR_ARG);
     VD_VERIFY(cap >= 1u && cap <= VD_TEMPORAL_MAX_CAP, VD_ERR_ARG);
-    vd_temporal_cfg_t d;
     vd_temporal_cfg_t c;
-    vd_temporal_cfg_default(&d);
     if (cfg == NULL) {
-        c = d;
+        memset(&c, 0, sizeof(c));
     } else {
         c = *cfg;
     }
-    // Zero fields take their defaults.
-    if (c.sigma_x == 0u) { c.sigma_x = d.sigma_x; }
-    if (c.sigma_y == 0u) { c.sigma_y = d.sigma_y; }
-    if (c.sigma_w == 0u) { c.sigma_w = d.sigma_w; }
-    if (c.sigma_h == 0u) { c.sigma_h = d.sigma_h; }
-    if (c.weight_c_q15 == 0u) { c.weight_c_q15 = d.weight_c_q15; }
-    if (c.match_thr_q15 == 0u) { c.match_thr_q15 = d.match_thr_q15; }
-    if (c.recover_thr_q15 == 0u) { c.recover_thr_q15 = d.recover_thr_q15; }
-    if (c.confirm_frames == 0u) { c.confirm_frames = d.confirm_frames; }
-    if (c.max_misses == 0u) { c.max_misses = d.max_misses; }
-    if (c.search_radius == 0u) { c.search_radius = d.search_radius; }
-    if (c.search_step == 0u) { c.search_step = d.search_step; }
-    VD_VERIFY(c.sigma_x <= 4096u && c.sigma_y <= 4096u && c.sigma_w <= 4096u && c.sigma_h <= 4096u, VD_ERR_ARG);
-    VD_VERIFY(c.weight_c_q15 <= 32768u && c.match_thr_q15 <= 32768u && c.recover_thr_q15 <= 32768u, VD_ERR_ARG);
-    VD_VERIFY(c.search_radius <= 64u && c.search_step <= 64u, VD_ERR_ARG);
-    VD_VERIFY(c.search_radius / c.search_step <= VD_TEMPORAL_MAX_SEARCH_STEPS, VD_ERR_ARG);
+    VD_TRY(vd_temporal_cfg_resolve(&c));
 
     memset(t, 0, sizeof(*t));
     t->cfg = c;

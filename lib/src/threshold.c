@@ -6,12 +6,19 @@
 // radiometric threshold is turned into one raw threshold once per call
 // (vd_calib_raw_from_ck, closed form), so the per-pixel cost is the same as
 // for raw input. Reference: paper 001 (constant threshold 150, ~30 degC).
+// The percentile threshold walks the cumulative histogram once (256 steps).
+// The temperature -> grey map is ((T - lo) * mul_q16 + 2^15) >> 16 with
+// mul_q16 = round(255 * 2^16 / (hi - lo)) (one multiply per pixel instead of
+// a division), clamped to 0..255; the shift is a floor shift
+// (internal/shift_internal.h) because T - lo may be negative.
 // Bounds: time O(roi.w * roi.h); stack < 100 bytes; no workspace.
 // Arithmetic: raw * gain_q16 < 2^16 * 2^31 = 2^47 and ck - offset_ck is in
-// +-2^32, so (ck - offset_ck) * 65536 < 2^49: all in int64_t.
+// +-2^32, so (ck - offset_ck) * 65536 < 2^49: all in int64_t; in the grey
+// map |T - lo| < 2^32 and mul_q16 <= 255 * 2^16 < 2^24, product < 2^56.
 #include <string.h>
 
 #include "vd/threshold.h"
+#include "internal/shift_internal.h"
 #include "internal/vd_internal.h"
 
 // Common checks: valid views, ROI inside src, dst exactly ROI-sized.
@@ -66,8 +73,7 @@ vd_status_t vd_calib_ck_from_raw(const vd_calib_t *cal, uint16_t raw, int32_t *c
 {
     VD_VERIFY(cal != NULL && ck != NULL, VD_ERR_ARG);
     VD_VERIFY(cal->gain_q16 >= 0, VD_ERR_ARG);
-    // Non-negative product: adding half and shifting is round-half-up.
-    int64_t t = (int64_t)cal->offset_ck + (((int64_t)raw * (int64_t)cal->gain_q16 + 32768) >> 16);
+    int64_t t = (int64_t)cal->offset_ck + vd_shr_round_i64((int64_t)raw * (int64_t)cal->gain_q16, 16u);
     VD_VERIFY(t >= (int64_t)INT32_MIN && t <= (int64_t)INT32_MAX, VD_ERR_RANGE);
     *ck = (int32_t)t;
     return VD_OK;
@@ -125,4 +131,49 @@ vd_status_t vd_threshold_u16_ck(const vd_view_u16_t *src, const vd_rect_t *roi, 
     }
     VD_TRY(st);
     return vd_threshold_u16(src, roi, thr_raw, dst);
+}
+
+vd_status_t vd_calib_grey_init(vd_calib_grey_t *map, const vd_calib_t *cal, int32_t lo_ck, int32_t hi_ck)
+{
+    VD_VERIFY(map != NULL && cal != NULL, VD_ERR_ARG);
+    VD_VERIFY(cal->gain_q16 >= 0 && lo_ck < hi_ck, VD_ERR_ARG);
+    const int64_t span = (int64_t)hi_ck - lo_ck;
+    map->calib = *cal;
+    map->lo_ck = lo_ck;
+    map->hi_ck = hi_ck;
+    map->mul_q16 = ((int64_t)255 * 65536 + span / 2) / span;
+    return VD_OK;
+}
+
+uint8_t vd_calib_grey_u8(const vd_calib_grey_t *map, uint16_t raw)
+{
+    int32_t ck = 0;
+    (void)vd_calib_ck_from_raw(&map->calib, raw, &ck);   // out of int32: ck stays 0 (documented)
+    const int64_t g = vd_shr_round_i64(((int64_t)ck - map->lo_ck) * map->mul_q16, 16u);
+    if (g < 0) {
+        return 0u;
+    }
+    return (g > 255) ? 255u : (uint8_t)g;
+}
+
+vd_status_t vd_threshold_percentile_u8(const uint32_t hist[256], uint32_t permille, uint8_t floor_u8, uint8_t *thr)
+{
+    VD_VERIFY(hist != NULL && thr != NULL, VD_ERR_ARG);
+    VD_VERIFY(permille <= 1000u, VD_ERR_ARG);
+    uint64_t n = 0u;
+    for (uint32_t i = 0; i < 256u; i++) {
+        n += hist[i];
+    }
+    const uint64_t target = (n * permille + 999u) / 1000u;
+    uint64_t cum = 0u;
+    uint32_t t = 255u;
+    for (uint32_t i = 0; i < 256u; i++) {
+        cum += hist[i];
+        if (cum >= target) {
+            t = i;
+            break;
+        }
+    }
+    *thr = (t > floor_u8) ? (uint8_t)t : floor_u8;
+    return VD_OK;
 }

@@ -17,11 +17,21 @@
 // O(VD_WINDOWS_MAX_BANDS). Stack: a resolved copy of the config (~110 bytes)
 // plus a few scalars. Capacity: min(cap, max_windows), overflow reported as
 // VD_ERR_CAPACITY.
+//
+// Pre-filter (windows.h): the 4x4-cell means come from vd_resample_box_*
+// over strips of CHUNK cells (a stack row buffer), and are accumulated into
+// the uint32 integrals of g and g^2 (wrap-around is harmless, see
+// VD_WINDOWS_MAX_CELLS); a window's level is one difference of four corners
+// per integral, a 64-bit variance and a 16-step integer square root. Ranking
+// (vd_windows_rank): a 256-bin histogram of levels in a first walk, the cut
+// level from the top of it, and a second walk that hands out the windows
+// above the cut and the first ones at it, so nothing is stored and ties keep
+// the generator's order. Time O(W*H) for the pre-filter, O(windows) per walk.
 #include "vd/windows.h"
-#include "internal/windows_internal.h"
 
 #include <string.h>
 
+#include "vd/resample.h"
 #include "internal/vd_internal.h"
 
 #define DEF_MIN_H 10u
@@ -122,9 +132,11 @@ static bool row_ok(const vd_windows_cfg_t *c, uint32_t h, int32_t yb)
     return (h_q8 * t >= e_q8 * 256) && (h_q8 * 256 <= e_q8 * t);
 }
 
-// The one enumeration of windows (vd_windows_generate, vd_windows_count and the
-// detector's streamed windows all use it): height ladder, aspect, row, column.
-uint64_t vd_windows_walk(const vd_windows_cfg_t *c, vd_windows_visit_fn visit, void *ctx)
+// The one enumeration of windows of a resolved config (vd_windows_generate,
+// vd_windows_count and vd_windows_rank all use it): height ladder, aspect,
+// row, column; visit (NULL = only count) gets each window. Returns the number
+// of windows. Bounded: VD_WINDOWS_MAX_SCALES heights x n_aspects x rows x columns.
+static uint64_t walk(const vd_windows_cfg_t *c, vd_windows_visit_fn visit, void *ctx)
 {
     uint32_t lo = VD_MAX_DIM;
     uint32_t hi = 0u;
@@ -194,7 +206,7 @@ vd_status_t vd_windows_generate(const vd_windows_cfg_t *cfg, vd_rect_t *out, siz
     VD_TRY(vd_windows_resolve(&c));
     size_t lim = (cap < (size_t)c.max_windows) ? cap : (size_t)c.max_windows;
     collect_t col = {out, lim, 0u};
-    const uint64_t all = vd_windows_walk(&c, collect, &col);
+    const uint64_t all = walk(&c, collect, &col);
     *count = col.n;
     return (all > (uint64_t)col.n) ? VD_ERR_CAPACITY : VD_OK;
 }
@@ -206,7 +218,213 @@ vd_status_t vd_windows_count(const vd_windows_cfg_t *cfg, uint32_t *total)
     VD_VERIFY(cfg != NULL, VD_ERR_ARG);
     vd_windows_cfg_t c = *cfg;
     VD_TRY(vd_windows_resolve(&c));
-    const uint64_t all = vd_windows_walk(&c, NULL, NULL);
+    const uint64_t all = walk(&c, NULL, NULL);
     *total = (all > UINT32_MAX) ? UINT32_MAX : (uint32_t)all;
+    return VD_OK;
+}
+
+// Cells whose means are made per vd_resample_box_* call (a stack row buffer).
+#define CHUNK 64u
+
+vd_status_t vd_windows_prefilter_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes)
+{
+    VD_VERIFY(bytes != NULL, VD_ERR_ARG);
+    *bytes = 0u;
+    VD_VERIFY(max_width >= 1u && max_width <= VD_MAX_DIM && max_height >= 1u && max_height <= VD_MAX_DIM, VD_ERR_ARG);
+    VD_VERIFY((max_width / VD_WINDOWS_CELL) * (max_height / VD_WINDOWS_CELL) <= VD_WINDOWS_MAX_CELLS, VD_ERR_ARG);
+    // <= 2 * 2049 * 2049 * 4 bytes < 2^32: no overflow in a 32-bit size_t.
+    *bytes = 2u * ((size_t)max_width / VD_WINDOWS_CELL + 1u) * ((size_t)max_height / VD_WINDOWS_CELL + 1u) *
+             sizeof(uint32_t);
+    return VD_OK;
+}
+
+// Means of the cells [gx, gx + nc) of cell row gy into g.
+static vd_status_t cell_means(const vd_frame_t *f, const vd_calib_grey_t *grey, uint32_t gx, uint32_t gy,
+                              uint32_t nc, uint8_t *g)
+{
+    const vd_rect_t strip = {(int32_t)(gx * VD_WINDOWS_CELL), (int32_t)(gy * VD_WINDOWS_CELL),
+                             (int32_t)(nc * VD_WINDOWS_CELL), (int32_t)VD_WINDOWS_CELL};
+    vd_image_u8_t row = {g, nc, 1u, nc};
+    if (f->format == VD_PIX_U8) {
+        vd_view_u8_t v;
+        VD_TRY(vd_frame_view_u8(f, &v));
+        return vd_resample_box_u8(&v, &strip, VD_WINDOWS_CELL, VD_WINDOWS_CELL, &row);
+    }
+    vd_view_u16_t v;
+    VD_TRY(vd_frame_view_u16(f, &v));
+    return vd_resample_box_u16(&v, &strip, VD_WINDOWS_CELL, VD_WINDOWS_CELL, grey, &row);
+}
+
+vd_status_t vd_windows_prefilter_init(vd_windows_prefilter_t *pf, const vd_frame_t *frame,
+                                      const vd_calib_grey_t *grey, void *ws, size_t bytes)
+{
+    VD_VERIFY(pf != NULL, VD_ERR_ARG);
+    VD_TRY(vd_frame_check(frame));
+    VD_VERIFY(frame->format == VD_PIX_U8 || grey != NULL, VD_ERR_ARG);
+    size_t need = 0u;
+    VD_TRY(vd_windows_prefilter_workspace_size(frame->width, frame->height, &need));
+    VD_VERIFY(ws != NULL && ((uintptr_t)ws % VD_WORKSPACE_ALIGN) == 0u && bytes >= need, VD_ERR_WORKSPACE);
+    const uint32_t gw = frame->width / VD_WINDOWS_CELL;
+    const uint32_t gh = frame->height / VD_WINDOWS_CELL;
+    const size_t stride = (size_t)gw + 1u;
+    uint32_t *s1 = (uint32_t *)ws;
+    uint32_t *s2 = s1 + stride * ((size_t)gh + 1u);
+    memset(s1, 0, stride * sizeof(uint32_t));
+    memset(s2, 0, stride * sizeof(uint32_t));
+    uint8_t g[CHUNK];
+    for (uint32_t gy = 0; gy < gh; gy++) {
+        uint32_t r1 = 0u;
+        uint32_t r2 = 0u;
+        const size_t at = ((size_t)gy + 1u) * stride;
+        s1[at] = 0u;
+        s2[at] = 0u;
+        for (uint32_t gx0 = 0; gx0 < gw; gx0 += CHUNK) {
+            const uint32_t nc = (gw - gx0 < CHUNK) ? gw - gx0 : CHUNK;
+            VD_TRY(cell_means(frame, grey, gx0, gy, nc, g));
+            for (uint32_t i = 0; i < nc; i++) {
+                const size_t gx = (size_t)gx0 + i;
+                r1 += g[i];
+                r2 += (uint32_t)g[i] * g[i];
+                s1[at + gx + 1u] = s1[at - stride + gx + 1u] + r1;
+                s2[at + gx + 1u] = s2[at - stride + gx + 1u] + r2;
+            }
+        }
+    }
+    pf->sum = s1;
+    pf->gw = (uint16_t)gw;   // <= VD_MAX_DIM / 4
+    pf->gh = (uint16_t)gh;
+    return VD_OK;
+}
+
+// floor(sqrt(v)), 16 iterations at most.
+static uint32_t isqrt32(uint32_t v)
+{
+    uint32_t r = 0u;
+    uint32_t bit = 1u << 30;
+    for (uint32_t i = 0; i < 16u && bit > v; i++) {
+        bit >>= 2;
+    }
+    for (uint32_t i = 0; i < 16u && bit != 0u; i++) {
+        if (v >= r + bit) {
+            v -= r + bit;
+            r = (r >> 1) + bit;
+        } else {
+            r >>= 1;
+        }
+        bit >>= 2;
+    }
+    return r;
+}
+
+// Cells [*c0, *c1) of one axis under [p, p + len) on a grid of g cells (see
+// vd_windows_prefilter_level).
+static void cell_range(uint32_t p, uint32_t len, uint32_t g, uint32_t *c0, uint32_t *c1)
+{
+    uint32_t a = (p + VD_WINDOWS_CELL - 1u) / VD_WINDOWS_CELL;
+    uint32_t b = (p + len) / VD_WINDOWS_CELL;
+    b = (b > g) ? g : b;
+    a = (a >= b) ? ((b > 0u) ? b - 1u : 0u) : a;
+    b = (b <= a) ? a + 1u : b;
+    *c0 = a;
+    *c1 = b;
+}
+
+uint32_t vd_windows_prefilter_level(const vd_windows_prefilter_t *pf, const vd_rect_t *win)
+{
+    const uint32_t gw = pf->gw;
+    const uint32_t gh = pf->gh;
+    if (gw == 0u || gh == 0u) {
+        return 0u;
+    }
+    const size_t stride = (size_t)gw + 1u;
+    const uint32_t *s1 = pf->sum;
+    const uint32_t *s2 = s1 + stride * ((size_t)gh + 1u);
+    uint32_t x0, x1, y0, y1;
+    cell_range((uint32_t)win->x, (uint32_t)win->w, gw, &x0, &x1);
+    cell_range((uint32_t)win->y, (uint32_t)win->h, gh, &y0, &y1);
+    const uint32_t a1 = s1[(size_t)y1 * stride + x1] - s1[(size_t)y0 * stride + x1] -
+                        s1[(size_t)y1 * stride + x0] + s1[(size_t)y0 * stride + x0];
+    const uint32_t a2 = s2[(size_t)y1 * stride + x1] - s2[(size_t)y0 * stride + x1] -
+                        s2[(size_t)y1 * stride + x0] + s2[(size_t)y0 * stride + x0];
+    const uint64_t n = (uint64_t)(x1 - x0) * (y1 - y0);
+    const uint64_t num = n * a2 - (uint64_t)a1 * a1;   // n^2 * variance >= 0
+    const uint32_t var = (uint32_t)(num / (n * n));
+    const uint32_t sd = isqrt32(var);
+    return (sd > 255u) ? 255u : sd;
+}
+
+// State of the two walks of vd_windows_rank: pass 0 builds the histogram of
+// levels >= min_std; pass 1 hands out the windows of level > cut and the
+// first `ties` of level == cut.
+typedef struct rank_pass {
+    const vd_windows_prefilter_t *pf;
+    uint32_t *hist;
+    vd_windows_visit_fn visit;
+    void *ctx;
+    uint32_t min_std;
+    uint32_t cut;
+    uint32_t ties;
+    int pass;
+} rank_pass_t;
+
+static void rank_visit(void *ctx, const vd_rect_t *b)
+{
+    rank_pass_t *p = (rank_pass_t *)ctx;
+    const uint32_t lv = vd_windows_prefilter_level(p->pf, b);
+    if (lv < p->min_std) {
+        return;
+    }
+    if (p->pass == 0) {
+        p->hist[lv]++;
+        return;
+    }
+    if (lv < p->cut || (lv == p->cut && p->ties == 0u)) {
+        return;
+    }
+    if (lv == p->cut) {
+        p->ties--;
+    }
+    p->visit(p->ctx, b);
+}
+
+vd_status_t vd_windows_rank(const vd_windows_cfg_t *cfg, const vd_windows_prefilter_t *pf, uint8_t min_std,
+                            size_t room, uint32_t hist[256], vd_windows_visit_fn visit, void *ctx,
+                            vd_windows_rank_stats_t *stats)
+{
+    VD_VERIFY(cfg != NULL && pf != NULL && hist != NULL, VD_ERR_ARG);
+    VD_VERIFY(visit != NULL || room == 0u, VD_ERR_ARG);
+    vd_windows_cfg_t c = *cfg;
+    VD_TRY(vd_windows_resolve(&c));
+    memset(hist, 0, 256u * sizeof(uint32_t));
+    rank_pass_t p = {pf, hist, visit, ctx, min_std, 0u, 0u, 0};
+    const uint64_t all = walk(&c, rank_visit, &p);
+    // Highest levels first: cut = the level where the room runs out.
+    uint64_t cum = 0u;
+    p.cut = min_std;
+    p.ties = hist[min_std];
+    for (uint32_t k = 0; k < 256u; k++) {
+        const uint32_t lv = 255u - k;
+        if (lv < min_std) {
+            break;
+        }
+        if (cum + hist[lv] > room) {
+            p.cut = lv;
+            p.ties = (uint32_t)(room - cum);
+            break;
+        }
+        cum += hist[lv];
+    }
+    uint64_t passed = 0u;
+    for (uint32_t k = min_std; k < 256u; k++) {
+        passed += hist[k];
+    }
+    if (stats != NULL) {
+        stats->windows = (all > UINT32_MAX) ? UINT32_MAX : (uint32_t)all;
+        stats->passed = (uint32_t)passed;
+    }
+    if (room > 0u) {
+        p.pass = 1;
+        (void)walk(&c, rank_visit, &p);
+    }
     return VD_OK;
 }

@@ -965,6 +965,36 @@ static void test_expand_errors(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 640, 480, &out));
 }
 
+static void test_rules_resolve(void)
+{
+    vd_cc_rules_t r;
+    vd_cc_rules_t d;
+    vd_cc_rules_default(&d);
+    memset(&r, 0, sizeof(r));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_rules_resolve(&r));
+    TEST_ASSERT_EQUAL_MEMORY(&d, &r, sizeof(r));
+    TEST_ASSERT_EQUAL_UINT16(77u, r.aspect_min_q8);
+    TEST_ASSERT_EQUAL_UINT16(384u, r.aspect_max_q8);
+    TEST_ASSERT_EQUAL_UINT32(120u, r.min_area);
+    TEST_ASSERT_EQUAL_UINT32(0u, r.max_area);
+    // Any non-zero field: kept as given (no partial defaults).
+    memset(&r, 0, sizeof(r));
+    r.min_area = 50u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_rules_resolve(&r));
+    TEST_ASSERT_EQUAL_UINT16(0u, r.aspect_min_q8);
+    TEST_ASSERT_EQUAL_UINT16(0u, r.aspect_max_q8);
+    TEST_ASSERT_EQUAL_UINT32(50u, r.min_area);
+    r.aspect_min_q8 = 300u;
+    r.aspect_max_q8 = 299u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cc_rules_resolve(&r));
+    r.aspect_max_q8 = 300u;
+    r.max_area = 49u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cc_rules_resolve(&r));
+    r.max_area = 50u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_rules_resolve(&r));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cc_rules_resolve(NULL));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -993,5 +1023,6 @@ int main(void)
     RUN_TEST(test_expand_centre_and_rounding);
     RUN_TEST(test_expand_clips_every_edge);
     RUN_TEST(test_expand_errors);
+    RUN_TEST(test_rules_resolve);
     return UNITY_END();
 }

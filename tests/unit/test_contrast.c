@@ -332,6 +332,53 @@ static void test_arguments(void)
     TEST_ASSERT_EQUAL_size_t(0u, n);
 }
 
+static void test_cfg_resolve(void)
+{
+    vd_contrast_cfg_t c;
+    memset(&c, 0, sizeof(c));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_cfg_resolve(&c));
+    TEST_ASSERT_EQUAL_UINT16(16u, c.radius);
+    TEST_ASSERT_EQUAL_UINT8(24u, c.thr_u8);
+    TEST_ASSERT_EQUAL_UINT16(950u, c.permille);
+    TEST_ASSERT_EQUAL_UINT8(VD_CONTRAST_BOTH, c.polarity);
+    TEST_ASSERT_EQUAL_UINT8(VD_CONTRAST_THR_FIXED, c.thr_mode);
+    vd_cc_rules_t d;
+    vd_cc_rules_default(&d);
+    TEST_ASSERT_EQUAL_MEMORY(&d, &c.rules, sizeof(d));
+    // Resolving again changes nothing; given values are kept.
+    vd_contrast_cfg_t again = c;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_cfg_resolve(&again));
+    TEST_ASSERT_EQUAL_MEMORY(&c, &again, sizeof(c));
+    memset(&c, 0, sizeof(c));
+    c.radius = VD_CONTRAST_MAX_RADIUS;
+    c.polarity = VD_CONTRAST_COLD;
+    c.thr_mode = VD_CONTRAST_THR_PERCENTILE;
+    c.thr_u8 = 3u;
+    c.permille = 1000u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_cfg_resolve(&c));
+    TEST_ASSERT_EQUAL_UINT16(VD_CONTRAST_MAX_RADIUS, c.radius);
+    TEST_ASSERT_EQUAL_UINT8(3u, c.thr_u8);
+    TEST_ASSERT_EQUAL_UINT16(1000u, c.permille);
+    // Each range (the same ones vd_contrast_candidates rejects, see test_arguments).
+    memset(&c, 0, sizeof(c));
+    c.radius = VD_CONTRAST_MAX_RADIUS + 1u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_cfg_resolve(&c));
+    memset(&c, 0, sizeof(c));
+    c.polarity = 3u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_cfg_resolve(&c));
+    memset(&c, 0, sizeof(c));
+    c.thr_mode = 2u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_cfg_resolve(&c));
+    memset(&c, 0, sizeof(c));
+    c.permille = 1001u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_cfg_resolve(&c));
+    memset(&c, 0, sizeof(c));
+    c.rules.min_area = 10u;
+    c.rules.max_area = 9u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_cfg_resolve(&c));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contrast_cfg_resolve(NULL));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -342,5 +389,6 @@ int main(void)
     RUN_TEST(test_candidates_percentile_and_capacity);
     RUN_TEST(test_workspace_contract);
     RUN_TEST(test_arguments);
+    RUN_TEST(test_cfg_resolve);
     return UNITY_END();
 }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Unit tests of the fixed-point resampler: hand-worked cases, a naive reference, golden vectors, argument checks.
+// Unit tests of the fixed-point resampler and the box average: hand-worked cases, naive references, golden vectors,
+// argument checks.
 #include "unity.h"
 #include "testutil.h"
 
@@ -253,6 +254,136 @@ static void test_golden_vectors(void)
     }
 }
 
+static void test_box_hand_worked(void)
+{
+    // 5 x 3 ROI at (1, 1) of a 7 x 5 view, k = 2 x 1: dst 2 x 3; column 5 of the ROI (x = 6) is not read.
+    uint8_t src[5][7];
+    for (uint32_t y = 0; y < 5u; y++) {
+        for (uint32_t x = 0; x < 7u; x++) {
+            src[y][x] = (uint8_t)(10u * y + x);
+        }
+    }
+    src[2][5] = 200u;   // x = 5 is the ROI's last column: read by no 2 x 1 block
+    const vd_view_u8_t v = {&src[0][0], 7, 5, 7};
+    const vd_rect_t roi = {1, 1, 5, 3};
+    uint8_t out[3][2];
+    vd_image_u8_t d = {&out[0][0], 2, 3, 2};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&v, &roi, 2, 1, &d));
+    // Row 1: (11 + 12) / 2 = 11.5 -> 12 (half up), (13 + 14) / 2 = 13.5 -> 14.
+    TEST_ASSERT_EQUAL_UINT8(12u, out[0][0]);
+    TEST_ASSERT_EQUAL_UINT8(14u, out[0][1]);
+    TEST_ASSERT_EQUAL_UINT8(22u, out[1][0]);
+    TEST_ASSERT_EQUAL_UINT8(34u, out[2][1]);
+    // k = 1 x 1 copies the ROI; k = roi size gives one mean.
+    uint8_t copy[3][5];
+    vd_image_u8_t dc = {&copy[0][0], 5, 3, 5};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&v, &roi, 1, 1, &dc));
+    for (uint32_t y = 0; y < 3u; y++) {
+        TEST_ASSERT_EQUAL_UINT8_ARRAY(&src[1u + y][1], copy[y], 5);
+    }
+    uint8_t one = 0u;
+    vd_image_u8_t d1 = {&one, 1, 1, 1};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&v, &roi, 5, 3, &d1));
+    // (11+..+15 + 21+..+25 + 31+..+35) = 345, with 200 instead of 25: 520 / 15 = 34.67 -> 35.
+    TEST_ASSERT_EQUAL_UINT8(35u, one);
+}
+
+static void test_box_u16_grey(void)
+{
+    // TLinear, grey 0 at 0 C, 255 at 51 C: three pixels at 30.00 C and one at 30.02 C have the
+    // mean raw 30315.5 -> 30316 (half up), grey 150; the second block's mean 32767.5 -> 32768 is hot.
+    uint16_t px[2][4] = {{30315u, 30315u, 0u, 0u}, {30315u, 30317u, 65535u, 65535u}};
+    const vd_view_u16_t v = {&px[0][0], 4, 2, 8};
+    vd_calib_t cal = {65536, 0};
+    vd_calib_grey_t g;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &cal, VD_CK_PER_0C, VD_CK_PER_0C + 5100));
+    uint8_t out[2];
+    vd_image_u8_t d = {out, 2, 1, 2};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u16(&v, NULL, 2, 2, &g, &d));
+    TEST_ASSERT_EQUAL_UINT8(vd_calib_grey_u8(&g, 30316u), out[0]);
+    TEST_ASSERT_EQUAL_UINT8(150u, out[0]);
+    TEST_ASSERT_EQUAL_UINT8(255u, out[1]);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u16(&v, NULL, 2, 2, NULL, &d));
+}
+
+// Naive block means on random views, factors and ROIs (both formats).
+static void test_box_random_vs_naive(void)
+{
+    static uint8_t p8[40 * 37];
+    static uint16_t p16[40 * 37];
+    static uint8_t out[40 * 37];
+    uint32_t seed = 21u;
+    vd_calib_t cal = {3 * 65536 / 2, -1000};
+    vd_calib_grey_t g;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &cal, 20000, 60000));
+    for (int trial = 0; trial < 300; trial++) {
+        for (size_t i = 0; i < sizeof(p8); i++) {
+            p8[i] = (uint8_t)tu_rand(&seed);
+            p16[i] = (uint16_t)tu_rand(&seed);
+        }
+        const uint32_t w = 1u + tu_rand(&seed) % 37u;   // stride 40 (bytes for u8, pixels for u16)
+        const uint32_t h = 1u + tu_rand(&seed) % 37u;
+        vd_rect_t r;
+        r.w = (int32_t)(1u + tu_rand(&seed) % w);
+        r.h = (int32_t)(1u + tu_rand(&seed) % h);
+        r.x = (int32_t)(tu_rand(&seed) % (w - (uint32_t)r.w + 1u));
+        r.y = (int32_t)(tu_rand(&seed) % (h - (uint32_t)r.h + 1u));
+        const uint32_t kx = 1u + tu_rand(&seed) % (uint32_t)r.w;
+        const uint32_t ky = 1u + tu_rand(&seed) % (uint32_t)r.h;
+        const uint32_t cw = (uint32_t)r.w / kx;
+        const uint32_t ch = (uint32_t)r.h / ky;
+        const bool wide = (trial & 1) != 0;
+        vd_image_u8_t d = {out, cw, ch, cw + 3u};
+        if (wide) {
+            const vd_view_u16_t v = {p16, w, h, 80};
+            TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u16(&v, &r, kx, ky, &g, &d));
+        } else {
+            const vd_view_u8_t v = {p8, w, h, 40};
+            TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&v, &r, kx, ky, &d));
+        }
+        for (uint32_t cy = 0; cy < ch; cy++) {
+            for (uint32_t cx = 0; cx < cw; cx++) {
+                uint64_t sum = 0u;
+                for (uint32_t y = 0; y < ky; y++) {
+                    for (uint32_t x = 0; x < kx; x++) {
+                        const size_t at = ((size_t)r.y + cy * ky + y) * 40u + (size_t)r.x + cx * kx + x;
+                        sum += wide ? p16[at] : p8[at];
+                    }
+                }
+                const uint64_t n = (uint64_t)kx * ky;
+                const uint32_t mean = (uint32_t)(sum / n + ((sum % n) * 2u >= n ? 1u : 0u));
+                const uint8_t want = wide ? vd_calib_grey_u8(&g, (uint16_t)mean) : (uint8_t)mean;
+                TEST_ASSERT_EQUAL_UINT8(want, out[cy * (cw + 3u) + cx]);
+            }
+        }
+    }
+}
+
+static void test_box_args(void)
+{
+    uint8_t px[6 * 4] = {0};
+    uint8_t out[6 * 4];
+    const vd_view_u8_t v = {px, 6, 4, 6};
+    const vd_rect_t roi = {1, 0, 5, 4};
+    vd_image_u8_t d = {out, 2, 2, 2};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&v, &roi, 2, 2, &d));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u8(NULL, &roi, 2, 2, &d));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u8(&v, &roi, 2, 2, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u8(&v, &roi, 0, 2, &d));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u8(&v, &roi, 2, 0, &d));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u8(&v, &roi, 6, 2, &d));   // k > roi.w
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u8(&v, &roi, 3, 2, &d));   // dst should be 1 x 2
+    const vd_rect_t outside = {2, 0, 5, 4};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u8(&v, &outside, 2, 2, &d));
+    uint16_t px16[4] = {0};
+    const vd_view_u16_t v16 = {px16, 2, 2, 3};   // odd stride
+    vd_calib_t cal = {65536, 0};
+    vd_calib_grey_t g;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &cal, 0, 100));
+    vd_image_u8_t d1 = {out, 1, 1, 1};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u16(&v16, NULL, 2, 2, &g, &d1));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -267,5 +398,9 @@ int main(void)
     RUN_TEST(test_golden_vectors);
     RUN_TEST(test_recip256_exact);
     RUN_TEST(test_large_total_divides);
+    RUN_TEST(test_box_hand_worked);
+    RUN_TEST(test_box_u16_grey);
+    RUN_TEST(test_box_random_vs_naive);
+    RUN_TEST(test_box_args);
     return UNITY_END();
 }

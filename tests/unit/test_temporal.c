@@ -386,6 +386,53 @@ static void test_bad_arguments(void)
     TEST_ASSERT_EQUAL_UINT32(9830u, vd_temporal_similarity_q15(&t, &a, 5u, &b, 5u));
 }
 
+static void test_cfg_resolve(void)
+{
+    vd_temporal_cfg_t z;
+    vd_temporal_cfg_t d;
+    memset(&z, 0, sizeof(z));
+    vd_temporal_cfg_default(&d);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_cfg_resolve(&z));
+    TEST_ASSERT_EQUAL_MEMORY(&d, &z, sizeof(z));
+    TEST_ASSERT_EQUAL_UINT16(16u, z.sigma_x);
+    TEST_ASSERT_EQUAL_UINT16(9830u, z.weight_c_q15);
+    TEST_ASSERT_EQUAL_UINT16(26214u, z.recover_thr_q15);
+    TEST_ASSERT_EQUAL_UINT8(3u, z.confirm_frames);
+    TEST_ASSERT_EQUAL_UINT8(2u, z.search_step);
+    // Given fields are kept, the others filled.
+    memset(&z, 0, sizeof(z));
+    z.sigma_w = 4096u;
+    z.search_radius = 16u;
+    z.search_step = 2u;   // 16 / 2 = 8 steps: the limit
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_cfg_resolve(&z));
+    TEST_ASSERT_EQUAL_UINT16(4096u, z.sigma_w);
+    TEST_ASSERT_EQUAL_UINT16(16u, z.sigma_h);
+    TEST_ASSERT_EQUAL_UINT8(16u, z.search_radius);
+    // The init uses the same resolution: the tracker's copy equals the resolved cfg.
+    static vd_track_t tracks[1];
+    vd_temporal_t t;
+    vd_temporal_cfg_t given;
+    memset(&given, 0, sizeof(given));
+    given.sigma_w = 4096u;
+    given.search_radius = 16u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, &given, tracks, 1));
+    TEST_ASSERT_EQUAL_MEMORY(&z, &t.cfg, sizeof(z));
+    // Ranges.
+    memset(&z, 0, sizeof(z));
+    z.search_radius = 18u;   // 9 steps of 2
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.sigma_y = 4097u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.recover_thr_q15 = 32769u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.search_step = 65u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(NULL));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -401,5 +448,6 @@ int main(void)
     RUN_TEST(test_confirmed_track_recovered_at_most_max_misses_times);
     RUN_TEST(test_capacity_full);
     RUN_TEST(test_bad_arguments);
+    RUN_TEST(test_cfg_resolve);
     return UNITY_END();
 }

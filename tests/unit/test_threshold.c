@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: MIT
-// Unit tests of the constant thresholds and the linear radiometric calibration.
+// Unit tests of the constant and percentile thresholds, the linear radiometric calibration and its grey map.
 #include "unity.h"
 #include "testutil.h"
 
 #include <string.h>
+
+#include "internal/shift_internal.h"
 
 void setUp(void) {}
 void tearDown(void) {}
@@ -274,6 +276,155 @@ static void test_u16_ck_mask_vs_naive(void)
     TEST_ASSERT_EQUAL_UINT8_ARRAY(out2, out, 31 * 20);
 }
 
+// floor(x / d) for d > 0 by C's truncating division (a reference independent of shifts).
+static int64_t floor_div(int64_t x, int64_t d)
+{
+    int64_t q = x / d;
+    return (x % d != 0 && x < 0) ? q - 1 : q;
+}
+
+static void test_shift_helpers(void)
+{
+    TEST_ASSERT_TRUE(vd_shr_floor_i64(5, 1) == 2);
+    TEST_ASSERT_TRUE(vd_shr_floor_i64(-5, 1) == -3);
+    TEST_ASSERT_TRUE(vd_shr_floor_i64(-1, 16) == -1);
+    TEST_ASSERT_TRUE(vd_shr_floor_i64(-65536, 16) == -1);
+    TEST_ASSERT_TRUE(vd_shr_floor_i64(-65537, 16) == -2);
+    TEST_ASSERT_TRUE(vd_shr_floor_i64(INT64_MIN, 63) == -1);
+    TEST_ASSERT_TRUE(vd_shr_floor_i64(INT64_MAX, 63) == 0);
+    TEST_ASSERT_TRUE(vd_shr_round_i64(3, 1) == 2);      // 1.5 -> 2
+    TEST_ASSERT_TRUE(vd_shr_round_i64(-3, 1) == -1);    // -1.5 -> -1 (half up)
+    TEST_ASSERT_TRUE(vd_shr_round_i64(-32769, 16) == -1);
+    TEST_ASSERT_TRUE(vd_shr_round_i64(-32768, 16) == 0);
+    uint32_t seed = 5u;
+    for (int i = 0; i < 20000; i++) {
+        const uint64_t u = (((uint64_t)tu_rand(&seed) << 32) | tu_rand(&seed)) >> (1u + tu_rand(&seed) % 40u);
+        const int64_t x = ((u & 1u) != 0u) ? -(int64_t)(u >> 1) - 1 : (int64_t)(u >> 1);
+        uint32_t n = 1u + tu_rand(&seed) % 40u;
+        TEST_ASSERT_TRUE(vd_shr_floor_i64(x, n) == floor_div(x, (int64_t)1 << n));
+        if (x < INT64_MAX / 2 && x > INT64_MIN / 2) {
+            TEST_ASSERT_TRUE(vd_shr_round_i64(x, n) == floor_div(x + ((int64_t)1 << (n - 1u)), (int64_t)1 << n));
+        }
+    }
+}
+
+static void test_grey_map_hand_worked(void)
+{
+    // The detector's defaults: TLinear, grey 0 at 0 C, 255 at 51 C, the 30 C threshold at grey 150.
+    vd_calib_t cal = {65536, 0};
+    vd_calib_grey_t g;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &cal, VD_CK_PER_0C, VD_CK_PER_0C + 5100));
+    TEST_ASSERT_TRUE(g.mul_q16 == 3277);   // round(255 * 65536 / 5100) = round(3276.8)
+    TEST_ASSERT_EQUAL_UINT8(0u, vd_calib_grey_u8(&g, (uint16_t)VD_CK_PER_0C));
+    TEST_ASSERT_EQUAL_UINT8(150u, vd_calib_grey_u8(&g, (uint16_t)(VD_CK_PER_0C + 3000)));   // 150.01
+    TEST_ASSERT_EQUAL_UINT8(255u, vd_calib_grey_u8(&g, (uint16_t)(VD_CK_PER_0C + 5100)));
+    TEST_ASSERT_EQUAL_UINT8(255u, vd_calib_grey_u8(&g, 65535u));
+    // Below lo the product is negative: (-20 * 3277 + 32768) >> 16 = floor(-0.5001) = -1 -> 0.
+    TEST_ASSERT_EQUAL_UINT8(0u, vd_calib_grey_u8(&g, (uint16_t)(VD_CK_PER_0C - 20)));
+    TEST_ASSERT_EQUAL_UINT8(0u, vd_calib_grey_u8(&g, 0u));
+    // Rounding: 10 ck = 0.5 grey (3277 * 10 = 32770 >= 32768 rounds up), 9 ck = 0.45 grey.
+    TEST_ASSERT_EQUAL_UINT8(1u, vd_calib_grey_u8(&g, (uint16_t)(VD_CK_PER_0C + 10)));
+    TEST_ASSERT_EQUAL_UINT8(0u, vd_calib_grey_u8(&g, (uint16_t)(VD_CK_PER_0C + 9)));
+    // A gain of 2 ck per count and an offset: raw 100 = 1000 + 200 ck.
+    vd_calib_t c2 = {2 * 65536, 1000};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &c2, 1000, 1255));
+    TEST_ASSERT_TRUE(g.mul_q16 == 65536);
+    TEST_ASSERT_EQUAL_UINT8(200u, vd_calib_grey_u8(&g, 100u));
+    // Arguments.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_init(NULL, &cal, 0, 1));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_init(&g, NULL, 0, 1));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_init(&g, &cal, 5, 5));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_init(&g, &cal, 6, 5));
+    vd_calib_t neg = {-1, 0};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_init(&g, &neg, 0, 5));
+}
+
+// Random calibrations and windows against a division-based reference, and within
+// 1 grey level of the exact ratio for windows up to 65 536 ck.
+static void test_grey_map_random_vs_naive(void)
+{
+    uint32_t seed = 11u;
+    for (int trial = 0; trial < 200; trial++) {
+        vd_calib_t c;
+        c.gain_q16 = (int32_t)(tu_rand(&seed) % 400000u);
+        c.offset_ck = (int32_t)(tu_rand(&seed) % 40000u) - 5000;
+        int32_t lo = (int32_t)(tu_rand(&seed) % 60000u) - 5000;
+        int32_t span = 1 + (int32_t)(tu_rand(&seed) % 65536u);
+        vd_calib_grey_t g;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &c, lo, lo + span));
+        int64_t mul = floor_div((int64_t)255 * 65536 + span / 2, span);
+        TEST_ASSERT_TRUE(g.mul_q16 == mul);
+        for (int k = 0; k < 300; k++) {
+            uint16_t raw = (uint16_t)tu_rand(&seed);
+            int32_t t = 0;
+            TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_ck_from_raw(&c, raw, &t));
+            int64_t q = floor_div(((int64_t)t - lo) * mul + 32768, 65536);
+            uint8_t want = (uint8_t)(q < 0 ? 0 : (q > 255 ? 255 : q));
+            TEST_ASSERT_EQUAL_UINT8(want, vd_calib_grey_u8(&g, raw));
+            // |grey - exact| <= 1: 255 * (t - lo) within 1 * span of grey * span, clamped.
+            int64_t e = ((int64_t)t - lo) * 255;
+            int64_t lo_e = e - span;
+            int64_t hi_e = e + span;
+            int64_t gs = (int64_t)want * span;
+            TEST_ASSERT_TRUE((gs >= lo_e || want == 255u) && (gs <= hi_e || want == 0u));
+        }
+    }
+}
+
+// Percentile: the element of rank ceil(N * p / 1000) of the sorted pixels, raised to the floor.
+static void test_percentile_hand_worked_and_vs_sort(void)
+{
+    uint32_t h[256];
+    uint8_t t = 0u;
+    memset(h, 0, sizeof(h));
+    h[20] = 18600u;   // the detector test's dark frame: 600 of 19 200 px at 90..120
+    h[90] = 500u;
+    h[120] = 100u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_threshold_percentile_u8(h, 990u, 50u, &t));
+    TEST_ASSERT_EQUAL_UINT8(90u, t);   // rank 19 008 falls on level 90
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_threshold_percentile_u8(h, 990u, 96u, &t));
+    TEST_ASSERT_EQUAL_UINT8(96u, t);   // the floor wins
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_threshold_percentile_u8(h, 1000u, 0u, &t));
+    TEST_ASSERT_EQUAL_UINT8(120u, t);  // the maximum
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_threshold_percentile_u8(h, 0u, 7u, &t));
+    TEST_ASSERT_EQUAL_UINT8(7u, t);    // p = 0: level 0, so the floor
+    memset(h, 0, sizeof(h));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_threshold_percentile_u8(h, 500u, 3u, &t));
+    TEST_ASSERT_EQUAL_UINT8(3u, t);    // empty histogram: level 0, so the floor
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_threshold_percentile_u8(NULL, 500u, 0u, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_threshold_percentile_u8(h, 500u, 0u, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_threshold_percentile_u8(h, 1001u, 0u, &t));
+    // Random pixel sets against counting-sort ranks.
+    static uint8_t px[5000];
+    uint32_t seed = 3u;
+    for (int trial = 0; trial < 200; trial++) {
+        uint32_t n = 1u + tu_rand(&seed) % 5000u;
+        uint32_t spread = 1u + tu_rand(&seed) % 256u;
+        memset(h, 0, sizeof(h));
+        for (uint32_t i = 0; i < n; i++) {
+            px[i] = (uint8_t)(tu_rand(&seed) % spread);
+            h[px[i]]++;
+        }
+        uint32_t p = tu_rand(&seed) % 1001u;
+        uint8_t fl = (uint8_t)(tu_rand(&seed) % 64u);
+        uint32_t rank = (uint32_t)(((uint64_t)n * p + 999u) / 1000u);   // 1-based; 0 = none needed
+        uint32_t level = 0u;
+        if (rank > 0u) {
+            uint32_t seen = 0u;   // the rank-th smallest pixel, by counting
+            for (level = 0u; level < 256u; level++) {
+                for (uint32_t i = 0; i < n; i++) {
+                    seen += (px[i] == level) ? 1u : 0u;
+                }
+                if (seen >= rank) {
+                    break;
+                }
+            }
+        }
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_threshold_percentile_u8(h, p, fl, &t));
+        TEST_ASSERT_EQUAL_UINT8(level > fl ? level : fl, t);
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -285,5 +436,9 @@ int main(void)
     RUN_TEST(test_calib_round_half_up);
     RUN_TEST(test_calib_random_vs_search);
     RUN_TEST(test_u16_ck_mask_vs_naive);
+    RUN_TEST(test_shift_helpers);
+    RUN_TEST(test_grey_map_hand_worked);
+    RUN_TEST(test_grey_map_random_vs_naive);
+    RUN_TEST(test_percentile_hand_worked_and_vs_sort);
     return UNITY_END();
 }

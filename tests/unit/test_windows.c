@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Unit tests of windows.h: hand-worked grids, bands and the ground model, a naive reference on random
-// configurations, capacity, and argument checks.
+// configurations, capacity, and argument checks; the pre-filter's levels and the ranking against naive
+// references, its workspace contract.
 #include "unity.h"
 #include "testutil.h"
 
@@ -301,6 +302,284 @@ static void test_arguments(void)
     TEST_ASSERT_EQUAL_size_t(0u, n);
 }
 
+// ---------------------------------------------------------------- pre-filter and ranking
+
+#define PW 50u   // 12 x 9 cells; the last 2 columns and 1 row are not covered
+#define PH 37u
+
+static uint8_t g_px[PH][PW];
+static uint16_t g_px16[PH][PW];
+static uint64_t g_pf_ws[(2u * 13u * 10u * 4u) / 8u];
+
+static vd_frame_t frame8(void)
+{
+    vd_frame_t f = {g_px, PW, PH, PW, VD_PIX_U8, 0, 0};
+    return f;
+}
+
+static void prefilter8(vd_windows_prefilter_t *pf)
+{
+    const vd_frame_t f = frame8();
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_prefilter_init(pf, &f, NULL, g_pf_ws, sizeof(g_pf_ws)));
+}
+
+// Cells of one axis under [p, p + len) by membership: those lying entirely
+// inside; when none does, the one before the first cell ending beyond the window.
+static void naive_cells(uint32_t p, uint32_t len, uint32_t g, uint32_t *c0, uint32_t *c1)
+{
+    uint32_t n = 0u;
+    for (uint32_t c = 0; c < g; c++) {
+        if (4u * c >= p && 4u * c + 4u <= p + len) {
+            *c0 = (n == 0u) ? c : *c0;
+            *c1 = c + 1u;
+            n++;
+        }
+    }
+    if (n == 0u) {
+        uint32_t last = (p + len) / 4u;
+        last = (last > g) ? g : last;
+        *c0 = (last > 0u) ? last - 1u : 0u;
+        *c1 = *c0 + 1u;
+    }
+}
+
+// Cell mean g by direct summation, rounded half up (16-bit: raw mean, then grey).
+static uint32_t naive_mean(uint32_t cx, uint32_t cy, const vd_calib_grey_t *grey)
+{
+    uint32_t sum = 0u;
+    for (uint32_t j = 0; j < 4u; j++) {
+        for (uint32_t i = 0; i < 4u; i++) {
+            sum += (grey != NULL) ? g_px16[cy * 4u + j][cx * 4u + i] : g_px[cy * 4u + j][cx * 4u + i];
+        }
+    }
+    const uint32_t m = (sum + 8u) / 16u;
+    return (grey != NULL) ? vd_calib_grey_u8(grey, (uint16_t)m) : m;
+}
+
+static uint32_t naive_level(const vd_rect_t *b, const vd_calib_grey_t *grey)
+{
+    uint32_t x0 = 0u, x1 = 0u, y0 = 0u, y1 = 0u;
+    naive_cells((uint32_t)b->x, (uint32_t)b->w, PW / 4u, &x0, &x1);
+    naive_cells((uint32_t)b->y, (uint32_t)b->h, PH / 4u, &y0, &y1);
+    uint64_t s1 = 0u;
+    uint64_t s2 = 0u;
+    for (uint32_t cy = y0; cy < y1; cy++) {
+        for (uint32_t cx = x0; cx < x1; cx++) {
+            const uint64_t g = naive_mean(cx, cy, grey);
+            s1 += g;
+            s2 += g * g;
+        }
+    }
+    const uint64_t n = (uint64_t)(x1 - x0) * (y1 - y0);
+    const uint64_t var = (n * s2 - s1 * s1) / (n * n);
+    uint32_t r = 0u;
+    while ((uint64_t)(r + 1u) * (r + 1u) <= var) {
+        r++;
+    }
+    return r > 255u ? 255u : r;
+}
+
+static void test_prefilter_workspace_size(void)
+{
+    size_t b = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_prefilter_workspace_size(640u, 512u, &b));
+    TEST_ASSERT_EQUAL_size_t(166152u, b);   // 2 * 161 * 129 * 4
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_prefilter_workspace_size(PW, PH, &b));
+    TEST_ASSERT_EQUAL_size_t(sizeof(g_pf_ws), b);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_prefilter_workspace_size(3u, 3u, &b));   // no whole cell
+    TEST_ASSERT_EQUAL_size_t(8u, b);
+    // 257 x 257 = 66 049 cells fit, 258 x 257 = 66 306 do not.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_prefilter_workspace_size(1028u, 1028u, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_prefilter_workspace_size(1032u, 1028u, &b));
+    TEST_ASSERT_EQUAL_size_t(0u, b);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_prefilter_workspace_size(0u, 10u, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_prefilter_workspace_size(10u, VD_MAX_DIM + 1u, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_prefilter_workspace_size(10u, 10u, NULL));
+}
+
+static void test_prefilter_level_hand_worked(void)
+{
+    vd_windows_prefilter_t pf;
+    memset(g_px, 100, sizeof(g_px));
+    prefilter8(&pf);
+    const vd_rect_t all = {0, 0, (int32_t)PW, (int32_t)PH};
+    TEST_ASSERT_EQUAL_UINT32(0u, vd_windows_prefilter_level(&pf, &all));   // flat: no deviation
+    // Cells (0,0) = 100 and (1,0) = 120 (one pixel 116 -> mean 119.75 -> 120): sd of {100, 120} = 10.
+    for (uint32_t j = 0; j < 4u; j++) {
+        for (uint32_t i = 4; i < 8u; i++) {
+            g_px[j][i] = 120u;
+        }
+    }
+    g_px[0][4] = 116u;
+    prefilter8(&pf);
+    const vd_rect_t two = {0, 0, 8, 4};
+    TEST_ASSERT_EQUAL_UINT32(10u, vd_windows_prefilter_level(&pf, &two));
+    // x = 1..8 covers only cell 1 entirely: one cell, sd 0; x = 0..7 shifted by 3 rows: no whole
+    // cell row inside [3, 7), so the cell row 0 (the one before floor(7 / 4) = 1) is used.
+    const vd_rect_t inner = {1, 0, 8, 4};
+    TEST_ASSERT_EQUAL_UINT32(0u, vd_windows_prefilter_level(&pf, &inner));
+    const vd_rect_t low = {0, 3, 8, 4};
+    TEST_ASSERT_EQUAL_UINT32(10u, vd_windows_prefilter_level(&pf, &low));
+    // A window smaller than a cell at the origin: cell 0 alone.
+    const vd_rect_t tiny = {0, 0, 2, 2};
+    TEST_ASSERT_EQUAL_UINT32(0u, vd_windows_prefilter_level(&pf, &tiny));
+    // A window in the uncovered right margin (x 48..49): the last cell column (11).
+    g_px[0][44] = 0u;   // cell (11, 0): mean (15 * 100 + 0) / 16 = 93.75 -> 94
+    prefilter8(&pf);
+    const vd_rect_t margin = {44, 0, 6, 8};   // cells x [11, 12), y [0, 2): {94, 100}: sd 3
+    TEST_ASSERT_EQUAL_UINT32(3u, vd_windows_prefilter_level(&pf, &margin));
+    const vd_rect_t beyond = {48, 0, 2, 8};
+    TEST_ASSERT_EQUAL_UINT32(3u, vd_windows_prefilter_level(&pf, &beyond));
+    // Saturation at 255 is out of reach for 8-bit means (sd <= 127.5); a frame narrower than a cell gives 0.
+    vd_frame_t narrow = {g_px, 3, PH, PW, VD_PIX_U8, 0, 0};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_prefilter_init(&pf, &narrow, NULL, g_pf_ws, sizeof(g_pf_ws)));
+    const vd_rect_t n3 = {0, 0, 3, 8};
+    TEST_ASSERT_EQUAL_UINT32(0u, vd_windows_prefilter_level(&pf, &n3));
+}
+
+// Random frames (8- and 16-bit) and windows against the naive reference.
+static void test_prefilter_level_vs_naive(void)
+{
+    uint32_t seed = 77u;
+    vd_calib_t cal = {65536, 0};
+    vd_calib_grey_t grey;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&grey, &cal, 27000, 33000));
+    for (int trial = 0; trial < 40; trial++) {
+        const bool wide = (trial % 2) == 1;
+        const uint32_t spread = 1u + tu_rand(&seed) % 256u;
+        for (uint32_t y = 0; y < PH; y++) {
+            for (uint32_t x = 0; x < PW; x++) {
+                g_px[y][x] = (uint8_t)(tu_rand(&seed) % spread);
+                g_px16[y][x] = (uint16_t)(26500u + tu_rand(&seed) % (25u * spread));
+            }
+        }
+        vd_windows_prefilter_t pf;
+        const vd_frame_t f16 = {g_px16, PW, PH, 2u * PW, VD_PIX_U16, 0, 0};
+        const vd_frame_t f8 = frame8();
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_prefilter_init(&pf, wide ? &f16 : &f8, wide ? &grey : NULL,
+                                                                g_pf_ws, sizeof(g_pf_ws)));
+        for (int k = 0; k < 300; k++) {
+            vd_rect_t b;
+            b.w = (int32_t)(1u + tu_rand(&seed) % PW);
+            b.h = (int32_t)(1u + tu_rand(&seed) % PH);
+            b.x = (int32_t)(tu_rand(&seed) % (PW - (uint32_t)b.w + 1u));
+            b.y = (int32_t)(tu_rand(&seed) % (PH - (uint32_t)b.h + 1u));
+            TEST_ASSERT_EQUAL_UINT32(naive_level(&b, wide ? &grey : NULL), vd_windows_prefilter_level(&pf, &b));
+        }
+    }
+}
+
+typedef struct {
+    size_t n;
+    vd_rect_t got[MAXW / 4u];
+} rank_log_t;
+static rank_log_t g_log;
+
+static void log_window(void *ctx, const vd_rect_t *win)
+{
+    rank_log_t *l = (rank_log_t *)ctx;
+    l->got[l->n++] = *win;
+}
+
+// Ranking against a naive selection: the `room` windows of the highest levels
+// (>= min_std; equal levels in generator order), reported in generator order.
+static void test_rank_vs_naive(void)
+{
+    static uint32_t lv[MAXW];
+    static uint8_t pick[MAXW];
+    uint32_t seed = 31u;
+    uint32_t hist[256];
+    for (int trial = 0; trial < 30; trial++) {
+        for (uint32_t y = 0; y < PH; y++) {
+            for (uint32_t x = 0; x < PW; x++) {
+                g_px[y][x] = (uint8_t)(tu_rand(&seed) % (1u + (x * 7u + y) % 97u));   // texture varies
+            }
+        }
+        vd_windows_prefilter_t pf;
+        prefilter8(&pf);
+        vd_windows_cfg_t c;
+        base_cfg(&c, PW, PH);
+        one_band(&c, 0, (int32_t)PH - 1, 4, 30);
+        c.stride_q8 = (uint16_t)(64u + tu_rand(&seed) % 200u);
+        c.max_windows = 1048576u;
+        size_t nw = 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_generate(&c, g_ref, MAXW, &nw));
+        const uint8_t min_std = (uint8_t)(tu_rand(&seed) % 20u);
+        const size_t room = tu_rand(&seed) % (nw + 10u);
+        uint32_t passed = 0u;
+        for (size_t i = 0; i < nw; i++) {
+            lv[i] = vd_windows_prefilter_level(&pf, &g_ref[i]);
+            pick[i] = 0u;
+            passed += (lv[i] >= min_std) ? 1u : 0u;
+        }
+        size_t taken = 0u;
+        for (int level = 255; level >= (int)min_std && taken < room; level--) {
+            for (size_t i = 0; i < nw && taken < room; i++) {
+                if (lv[i] == (uint32_t)level) {
+                    pick[i] = 1u;
+                    taken++;
+                }
+            }
+        }
+        g_log.n = 0u;
+        vd_windows_rank_stats_t st;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_rank(&c, &pf, min_std, room, hist, log_window, &g_log, &st));
+        TEST_ASSERT_EQUAL_UINT32((uint32_t)nw, st.windows);
+        TEST_ASSERT_EQUAL_UINT32(passed, st.passed);
+        TEST_ASSERT_EQUAL_size_t(taken, g_log.n);
+        size_t k = 0u;
+        for (size_t i = 0; i < nw; i++) {
+            if (pick[i] != 0u) {
+                TEST_ASSERT_EQUAL_MEMORY(&g_ref[i], &g_log.got[k], sizeof(vd_rect_t));
+                k++;
+            }
+        }
+    }
+}
+
+static vd_status_t ws_prefilter(void *ws, size_t bytes, void *ctx)
+{
+    (void)ctx;
+    vd_windows_prefilter_t pf;
+    const vd_frame_t f = frame8();
+    return vd_windows_prefilter_init(&pf, &f, NULL, ws, bytes);
+}
+
+static void test_prefilter_and_rank_arguments(void)
+{
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_prefilter_workspace_size(PW, PH, &bytes));
+    tu_check_workspace_contract(bytes, ws_prefilter, NULL);
+    vd_windows_prefilter_t pf;
+    const vd_frame_t f8 = frame8();
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_prefilter_init(NULL, &f8, NULL, g_pf_ws, sizeof(g_pf_ws)));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_prefilter_init(&pf, NULL, NULL, g_pf_ws, sizeof(g_pf_ws)));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_windows_prefilter_init(&pf, &f8, NULL, NULL, sizeof(g_pf_ws)));
+    const vd_frame_t f16 = {g_px16, PW, PH, 2u * PW, VD_PIX_U16, 0, 0};
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_prefilter_init(&pf, &f16, NULL, g_pf_ws, sizeof(g_pf_ws)));
+    vd_frame_t bad = f8;
+    bad.format = (vd_pixfmt_t)7;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_FORMAT, vd_windows_prefilter_init(&pf, &bad, NULL, g_pf_ws, sizeof(g_pf_ws)));
+    prefilter8(&pf);
+    vd_windows_cfg_t c;
+    base_cfg(&c, PW, PH);
+    uint32_t hist[256];
+    vd_windows_rank_stats_t st;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_rank(NULL, &pf, 4u, 1u, hist, log_window, &g_log, &st));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_rank(&c, NULL, 4u, 1u, hist, log_window, &g_log, &st));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_rank(&c, &pf, 4u, 1u, NULL, log_window, &g_log, &st));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_rank(&c, &pf, 4u, 1u, hist, NULL, NULL, &st));
+    c.stride_q8 = 1000u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_windows_rank(&c, &pf, 4u, 1u, hist, log_window, &g_log, &st));
+    // Room 0: statistics only, no visitor needed.
+    c.stride_q8 = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_rank(&c, &pf, 0u, 0u, hist, NULL, NULL, &st));
+    uint32_t total = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_windows_count(&c, &total));
+    TEST_ASSERT_EQUAL_UINT32(total, st.windows);
+    TEST_ASSERT_EQUAL_UINT32(total, st.passed);   // min_std 0 passes everything
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -310,5 +589,10 @@ int main(void)
     RUN_TEST(test_random_vs_naive);
     RUN_TEST(test_capacity);
     RUN_TEST(test_arguments);
+    RUN_TEST(test_prefilter_workspace_size);
+    RUN_TEST(test_prefilter_level_hand_worked);
+    RUN_TEST(test_prefilter_level_vs_naive);
+    RUN_TEST(test_rank_vs_naive);
+    RUN_TEST(test_prefilter_and_rank_arguments);
     return UNITY_END();
 }

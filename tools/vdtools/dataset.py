@@ -141,7 +141,7 @@ def load_hit(data_dir):
 
 
 def grey_of_ck(a):
-    """The detector's 16-bit -> grey map (detector.c grey_of_raw, identity calibration), vectorised."""
+    """The detector's 16-bit -> grey map (vd_calib_grey_u8 in threshold.h, identity calibration), vectorised."""
     mul = (255 * 65536 + (GREY_HI_CK - GREY_LO_CK) // 2) // (GREY_HI_CK - GREY_LO_CK)
     g = ((a.astype(np.int64) - GREY_LO_CK) * mul + 32768) >> 16
     return np.clip(g, 0, 255).astype(np.uint8)

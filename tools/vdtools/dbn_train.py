@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""Trains DBN verifiers on the cached 32x32 data set and writes float models (.npz, contracts.md)
+"""Trains DBN verifiers on the cached 32x32 data set and writes float models (.npz, as vdtools/quantise.py defines)
 to tools/.cache/models/.
 
     python3 -m vdtools.dbn_train --mode grey --layers 576,256,64        # one model

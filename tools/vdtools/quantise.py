@@ -3,7 +3,7 @@
 lib/src/dbn.c runs, and the integer numpy reference that reproduces the C
 bit for bit.
 
-Float model (.npz, contract in /work/notes/contracts.md): mode ("grey"|"shape"),
+Float model (.npz; this docstring is its contract): mode ("grey"|"shape"),
 input_size (32), n_layers L, W0..W{L-1} float32 [out, in], b0..b{L-1} float32
 [out]; every layer sigmoid; the last layer has ONE unit = p(vehicle); input
 x = pixel / 255. Optional: input_norm ("none" | "minmax", default none) and

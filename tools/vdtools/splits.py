@@ -5,16 +5,16 @@ docs/results/detector.md.
 The split is vdtools.dataset.assign_splits (seed 0: groups MSRS number // 40, HIT-UAV T_H_A
 flight; the sequence-0_100 flight is test only), i.e. the frames the verifier never trained on.
 
-    python3 -m vdtools.splits --lists /tmp/vd-splits
+    python3 -m vdtools.splits --lists out/splits
         writes msrs_night.txt, msrs_day.txt, hit.txt, hit_night.txt, hit_day.txt, seq.txt
         (absolute frame paths, one per line) and prints the annotation path of each.
-    python3 -m vdtools.splits --lists /tmp/vd-splits --run --demo build/tools/vd_fir_demo \\
+    python3 -m vdtools.splits --lists out/splits --run --demo build/tools/vd_fir_demo \\
         --model models/vd_dbn_grey.vdm --out docs/results/detector.json [--sets msrs_night,seq] [--configs ...]
         runs the demo with --eval for every set x source configuration (CONFIGS) and collects the
         Table 2 figures, frames/s and the median stage times into one JSON file.
-    python3 -m vdtools.splits --lists /tmp/vd-splits --figures docs/results/figures --demo ... --model ...
+    python3 -m vdtools.splits --lists out/splits --figures docs/results/figures --demo ... --model ...
         the annotated frames of docs/results/detector.md (ground truth drawn in cyan, 320 px wide).
-    python3 -m vdtools.splits --lists /tmp/vd-splits --ceiling --out docs/results/detector.json
+    python3 -m vdtools.splits --lists out/splits --ceiling --out docs/results/detector.json
         candidate recall (the TP-rate ceiling) of the same configurations, through the C detector
         without a model (VD_LIB).
 """

@@ -159,6 +159,12 @@ typedef struct vd_cc_rules {
 // max_area 0 (no limit). Does nothing if rules is NULL.
 void vd_cc_rules_default(vd_cc_rules_t *rules);
 
+// Resolves rules in place: all four fields 0 take vd_cc_rules_default's
+// values (any other combination is kept as given), then the rules are checked.
+// Returns VD_OK; VD_ERR_ARG for NULL rules, aspect_min_q8 > aspect_max_q8, or
+// max_area != 0 with min_area > max_area.
+vd_status_t vd_cc_rules_resolve(vd_cc_rules_t *rules);
+
 // Keeps the components that pass `rules`, compacting comps[0..n) in place and
 // preserving their order (stable).
 //   comps  array of n components (may be NULL when n is 0); boxes need w, h >= 1.

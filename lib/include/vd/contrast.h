@@ -40,6 +40,13 @@ typedef struct vd_contrast_cfg {
     vd_cc_rules_t rules;       // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
 } vd_contrast_cfg_t;
 
+// Resolves cfg in place: zero fields take the defaults above (rules through
+// vd_cc_rules_resolve), then every range is checked, so a bad setting fails
+// where a configuration is accepted (the detector's init), not per frame.
+// Returns VD_OK; VD_ERR_ARG for NULL cfg, radius > VD_CONTRAST_MAX_RADIUS,
+// polarity or thr_mode unknown, permille > 1000, or rules rejected.
+vd_status_t vd_contrast_cfg_resolve(vd_contrast_cfg_t *cfg);
+
 // Workspace of vd_contrast_map_u8 for frames up to max_width wide: column sums,
 // 4 * max_width bytes. Returns VD_OK; VD_ERR_ARG for NULL bytes or a width of 0
 // or above VD_MAX_DIM.

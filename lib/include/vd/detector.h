@@ -13,6 +13,7 @@
 #include <stdbool.h>
 
 #include "vd/image.h"
+#include "vd/detection.h"
 #include "vd/status.h"
 #include "vd/threshold.h"
 #include "vd/components.h"
@@ -30,22 +31,11 @@ extern "C" {
 #define VD_DETECTOR_THR_CONSTANT 0u  // paper: constant threshold (hot_thr_u8 / hot_thr_ck)
 #define VD_DETECTOR_THR_ADAPTIVE 1u  // 8-bit frames: max(adaptive_floor_u8, frame percentile); U16 frames stay constant
 
-// Where a detection came from (vd_detection_t.source; DESIGN.md JSON "source").
-#define VD_SOURCE_HOTSPOT 1u    // "hotspot": hot-spot component, expanded and refined (paper 001)
-#define VD_SOURCE_WINDOW 2u     // "window": a sliding window (windows.h), verified as is
-#define VD_SOURCE_CONTRAST 3u   // "contrast": a local-contrast component (contrast.h), verified as is
-
 // Candidate sources a detector runs (cfg.sources, bit set).
 #define VD_DETECTOR_SRC_HOTSPOT 0x01u
 #define VD_DETECTOR_SRC_CONTRAST 0x02u
 #define VD_DETECTOR_SRC_WINDOW 0x04u
 #define VD_DETECTOR_SRC_ALL 0x07u
-
-// Detection flags (bit set).
-#define VD_DET_FLAG_UNVERIFIED 0x01u   // no model: not scored by the DBN (score 255)
-#define VD_DET_FLAG_DECIMATED  0x02u   // region larger than max_region_*: refined on a k x k box average
-#define VD_DET_FLAG_CONTOUR_TRUNC 0x04u // contour buffers overflowed: the largest of the contours found was used
-#define VD_DET_FLAG_RECOVERED  0x08u   // not detected in this frame: recovered by temporal analysis
 
 // Stages timed through cfg.clock_us (index into vd_detector_stats_t.time_us).
 enum {
@@ -62,9 +52,6 @@ enum {
     VD_DET_STAGE_TOTAL,
     VD_DET_STAGE_COUNT
 };
-
-struct vd_detection;
-typedef struct vd_detection vd_detection_t;
 
 // Settings. A zeroed struct (or vd_detector_cfg_default()) gives the paper's
 // values; every field documents its zero meaning and range. Out-of-range
@@ -132,20 +119,6 @@ typedef struct vd_detector_cfg {
     void *candidate_user;
 } vd_detector_cfg_t;
 
-// One detection.
-struct vd_detection {
-    vd_rect_t box;               // image coordinates: box of the largest external contour of the refined region
-    vd_rect_t candidate;         // image coordinates: the expanded candidate region that was refined
-    uint32_t contour_length;     // points of that contour (times k when decimated), 0 for recovered
-    uint32_t track_id;           // temporal track (0 = none / temporal off)
-    uint16_t complexity_q15;     // edge pixels of the refined region / its pixels (temporal.h)
-    uint8_t score_q8;            // DBN p(vehicle) in Q8 (0..255); 255 without a model; 0 for recovered
-    uint8_t source;              // VD_SOURCE_HOTSPOT / _WINDOW / _CONTRAST
-    uint8_t state;               // vd_track_state_t (VD_TRACK_NONE when temporal is off)
-    uint8_t flags;               // VD_DET_FLAG_*
-    uint8_t hot_thr;             // 8-bit threshold used (U16 frames: 0)
-    uint8_t reserved;
-};
 
 // Per-frame counts and times of the last vd_detector_run.
 typedef struct vd_detector_stats {
@@ -183,7 +156,7 @@ typedef struct vd_detector {
     const vd_model_t *model;
     uint16_t raw_thr;            // resolved 16-bit threshold
     bool raw_never_hot;          // threshold above the calibrated range
-    int64_t grey_mul_q16;        // 255 * 2^16 / (grey_hi - grey_lo), rounded
+    vd_calib_grey_t grey;        // 16-bit frames: temperature -> grey map (grey_lo_ck, grey_hi_ck)
     uint32_t in_w, in_h;         // model input (32 x 32)
     // Workspace slices (carved once in init).
     vd_component_t *comps;
@@ -196,7 +169,7 @@ typedef struct vd_detector {
     size_t dbn_ws_bytes;
     uint8_t *overlay;            // labelling scratch (run budget), reused per candidate for region buffers
     size_t overlay_bytes;
-    void *scratch;               // per-candidate state (private to detector.c)
+    void *scratch;               // per-candidate state (private: internal/detector_internal.h)
     void *contrast_ws;           // contrast source workspace (NULL when the source is off)
     size_t contrast_ws_bytes;
     size_t cc_ws_bytes;
@@ -212,6 +185,16 @@ typedef struct vd_detector {
 // Fills *cfg with the explicit defaults (same result as a zeroed cfg).
 void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
 
+// Resolves cfg in place, as vd_detector_workspace_size and vd_detector_init
+// do with their copy: zero fields take the defaults documented above (rules,
+// contrast and temporal_cfg through vd_cc_rules_resolve,
+// vd_contrast_cfg_resolve and vd_temporal_cfg_resolve), then every range is
+// checked. `windows` is checked for max_width x max_height but kept as given
+// (each frame resolves its own copy). vd_detector_cfg_default() is a zeroed
+// cfg resolved.
+// Returns VD_OK; VD_ERR_ARG for NULL cfg or a value out of range.
+vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
+
 // Workspace bytes for `cfg` (NULL = defaults) and the model's input size and
 // mode: a pure function of both (model NULL = no DBN scratch). Layout in
 // docs/architecture.md "Detector": fixed tables (components, candidates,
@@ -219,7 +202,7 @@ void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
 // max_runs runs, per-candidate region buffers of 7 bytes per pixel of
 // max_region_w x max_region_h). No buffer scales with the frame size except
 // the labeller's row buffers (~12 B per column). Defaults at 640 x 512:
-// 228 496 bytes (223.1 KiB) on 64-bit hosts, bounded by the region buffers.
+// 228 448 bytes (223.1 KiB) on 64-bit hosts, bounded by the region buffers.
 // Sources: windows add nothing at 640 x 512 (their two cell integrals,
 // 2 x 4 x (W/4+1) x (H/4+1) bytes = 166 152, share the overlay); contrast
 // adds vd_contrast_workspace_size(max_width, max_height) (1 650 696 bytes at

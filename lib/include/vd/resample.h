@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Fixed-point resampling of a candidate region to the network input size (32x32).
+// Fixed-point resampling: a candidate region to the network input size (32x32), and box averaging by integer
+// factors (regions larger than a buffer, cell means).
 #ifndef VD_RESAMPLE_H
 #define VD_RESAMPLE_H
 
@@ -8,6 +9,7 @@
 
 #include "vd/image.h"
 #include "vd/status.h"
+#include "vd/threshold.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -41,6 +43,31 @@ extern "C" {
 // stack < 256 bytes; no workspace.
 vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t *dst,
                            uint32_t dst_w, uint32_t dst_h);
+
+// Box average by integer factors (decimation):
+//   dst(cx, cy) = round-half-up(sum of the kx x ky block of src whose top-left
+//                 pixel is (roi.x + cx*kx, roi.y + cy*ky), divided by kx*ky),
+// exact in integers (uint64 sum). dst is (roi.w / kx) x (roi.h / ky): the
+// last roi.w % kx columns and roi.h % ky rows of the ROI are not read. The
+// detector uses it for regions larger than its region buffers (k = the ceiling
+// of region / bound per axis) and for the 4x4 cell means of the window
+// pre-filter (windows.h).
+//   src     8-bit view; roi NULL = whole view, else inside it.
+//   kx, ky  1..roi.w and 1..roi.h (so dst has at least one pixel).
+//   dst     writable, exactly (roi.w / kx) x (roi.h / ky), any stride; must
+//           not overlap src. Written only on VD_OK.
+// Returns VD_OK; VD_ERR_ARG for NULL pointers, invalid views, a ROI outside
+// src, a factor out of range or a dst of another size.
+// Time O(roi area); stack < 100 bytes; no workspace.
+vd_status_t vd_resample_box_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint32_t kx, uint32_t ky,
+                               vd_image_u8_t *dst);
+
+// The same for a 16-bit plane: each rounded block mean (0..65535) is mapped
+// to grey through `grey` (vd_calib_grey_u8, threshold.h), which must come
+// from vd_calib_grey_init. Other arguments, statuses and bounds as
+// vd_resample_box_u8 (VD_ERR_ARG also for a NULL grey).
+vd_status_t vd_resample_box_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint32_t kx, uint32_t ky,
+                                const vd_calib_grey_t *grey, vd_image_u8_t *dst);
 
 #ifdef __cplusplus
 }

@@ -103,10 +103,15 @@ typedef struct vd_temporal {
 // Fills *cfg with the defaults listed in vd_temporal_cfg_t (same as a zeroed cfg).
 void vd_temporal_cfg_default(vd_temporal_cfg_t *cfg);
 
+// Resolves cfg in place: zero fields take the defaults above, then every
+// field is checked against its documented range (and search_radius /
+// search_step <= 8). Returns VD_OK; VD_ERR_ARG for NULL cfg or a field out of range.
+vd_status_t vd_temporal_cfg_resolve(vd_temporal_cfg_t *cfg);
+
 // Initialises `t` over caller storage `tracks[cap]` (cap 1..65535), which
 // must outlive `t`; all slots are cleared. `cfg` may be NULL (defaults); it
-// is copied. Returns VD_ERR_ARG for NULL t/tracks, cap 0 or > 65535, or a
-// cfg field out of its documented range.
+// is copied and resolved (vd_temporal_cfg_resolve). Returns VD_ERR_ARG for
+// NULL t/tracks, cap 0 or > 65535, or a cfg field out of its documented range.
 vd_status_t vd_temporal_init(vd_temporal_t *t, const vd_temporal_cfg_t *cfg, vd_track_t *tracks, size_t cap);
 
 // Forgets every track (ids keep increasing).

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Constant hot-spot thresholds: 8-bit grey, 16-bit raw, and 16-bit radiometric via a linear calibration.
+// Hot-spot thresholds (constant 8-bit, 16-bit raw and radiometric, percentile) and the linear radiometric
+// calibration with its temperature -> grey map.
 #ifndef VD_THRESHOLD_H
 #define VD_THRESHOLD_H
 
@@ -70,6 +71,40 @@ vd_status_t vd_calib_raw_from_centi_celsius(const vd_calib_t *cal, int32_t centi
 // another size; VD_ERR_OVERFLOW as vd_threshold_u16.
 vd_status_t vd_threshold_u16_ck(const vd_view_u16_t *src, const vd_rect_t *roi, const vd_calib_t *cal,
                                 int32_t thr_ck, vd_image_u8_t *dst);
+
+// Linear map of temperatures to 8-bit grey, for the planes that refinement,
+// the window pre-filter and the network need from a 16-bit frame (a fixed
+// window around the hot threshold, like a Lepton AGC with a fixed range):
+//   grey(raw) = clamp(((T - lo_ck) * mul_q16 + 2^15) >> 16, 0, 255),
+//   mul_q16 = round-half-up(255 * 2^16 / (hi_ck - lo_ck)),
+// T = vd_calib_ck_from_raw(calib, raw) (a temperature beyond int32, possible
+// only with an extreme offset_ck, counts as 0 ck), >> a floor shift. The
+// result is within 1 grey level of clamp((T - lo_ck) * 255 / (hi_ck - lo_ck)).
+// Fill it with vd_calib_grey_init; the fields are read-only afterwards.
+typedef struct vd_calib_grey {
+    vd_calib_t calib;   // raw -> centi-kelvin
+    int32_t lo_ck;      // temperature of grey 0
+    int32_t hi_ck;      // temperature of grey 255 (> lo_ck)
+    int64_t mul_q16;    // 255 * 2^16 / (hi_ck - lo_ck), rounded; 1..255 * 2^16
+} vd_calib_grey_t;
+
+// Sets up `map` for vd_calib_grey_u8 (copies *cal).
+// Returns VD_OK; VD_ERR_ARG for NULL pointers, a negative gain or lo_ck >= hi_ck.
+vd_status_t vd_calib_grey_init(vd_calib_grey_t *map, const vd_calib_t *cal, int32_t lo_ck, int32_t hi_ck);
+
+// Grey level 0..255 of one raw value through an initialised map (above).
+// O(1), no checks: `map` must come from vd_calib_grey_init.
+uint8_t vd_calib_grey_u8(const vd_calib_grey_t *map, uint16_t raw);
+
+// Percentile threshold of a histogram: the smallest level t such that at
+// least ceil(N * permille / 1000) of the N counted pixels are <= t (N = the
+// sum of hist), raised to floor_u8: *thr = max(floor_u8, t). The
+// detector's adaptive hot-spot threshold (permille 990, floor 96, on the
+// frame's vd_histogram_u8) and contrast.h's percentile mode.
+//   hist      256 counts (any total, uint64 arithmetic).
+//   permille  0..1000 (0 gives t = 0, so *thr = floor_u8).
+// Returns VD_OK; VD_ERR_ARG for NULL pointers or permille > 1000.
+vd_status_t vd_threshold_percentile_u8(const uint32_t hist[256], uint32_t permille, uint8_t floor_u8, uint8_t *thr);
 
 #ifdef __cplusplus
 }

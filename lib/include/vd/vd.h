@@ -21,6 +21,8 @@
 #include "vd/resample.h"
 #include "vd/dbn.h"
 #include "vd/temporal.h"
+#include "vd/detection.h"
+#include "vd/suppress.h"
 #include "vd/detector.h"
 
 #endif

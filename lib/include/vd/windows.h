@@ -21,6 +21,14 @@
 //     k * (y_b - y_h) / t  <=  h  <=  k * (y_b - y_h) * t.
 // Drone views (HIT-UAV) have no horizon: leave the ground model off and give
 // one band with the altitude's size range.
+//
+// Pre-filter and ranking (not in the papers; issue 7). Most windows cover
+// flat road or sky. A window's level is the standard deviation of the 4x4-cell
+// means (vd_resample_box_*) of the cells inside it, from two integral images
+// (sum and sum of squares of the cell means) in O(1) per window. Windows below
+// a minimum level are dropped (a minimum of 4 keeps every window that matches
+// a car on MSRS/HIT-UAV training frames and drops about half of all windows),
+// and vd_windows_rank hands out the most structured ones that fit a budget.
 #ifndef VD_WINDOWS_H
 #define VD_WINDOWS_H
 
@@ -30,6 +38,7 @@
 #include "vd/config.h"
 #include "vd/status.h"
 #include "vd/image.h"
+#include "vd/threshold.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -105,6 +114,84 @@ vd_status_t vd_windows_generate(const vd_windows_cfg_t *cfg, vd_rect_t *out, siz
 // caller can size its buffer or choose a stride). Same errors as
 // vd_windows_resolve (VD_ERR_ARG also for NULL total).
 vd_status_t vd_windows_count(const vd_windows_cfg_t *cfg, uint32_t *total);
+
+// Called once per window, in vd_windows_generate's order; must not keep `win`.
+typedef void (*vd_windows_visit_fn)(void *ctx, const vd_rect_t *win);
+
+#define VD_WINDOWS_CELL 4u   // side of a pre-filter cell in pixels
+// Largest cell grid (cells per frame) whose sums of squared cell means fit
+// uint32 for any window: cells * 255^2 < 2^32. (The integrals themselves wrap
+// modulo 2^32; a difference of four corners is exact when the true window
+// sum fits.) 66 051 cells: e.g. 1024 x 1024 frames.
+#define VD_WINDOWS_MAX_CELLS 66051u
+
+// Integral images of one frame's cell means (vd_windows_prefilter_init).
+// Fields are private; valid while the workspace it was built in is.
+typedef struct vd_windows_prefilter {
+    const uint32_t *sum;   // (gw+1) x (gh+1) integral of the means, then the one of their squares
+    uint16_t gw;           // cell grid: frame width / 4 (<= 2048; the last width % 4 columns are not covered)
+    uint16_t gh;           // frame height / 4 (likewise the last rows)
+} vd_windows_prefilter_t;
+
+// Workspace of vd_windows_prefilter_init for frames up to max_width x
+// max_height: two (max_width/4 + 1) x (max_height/4 + 1) uint32 integrals
+// (166 152 bytes at 640 x 512).
+// Returns VD_OK; VD_ERR_ARG for NULL bytes, a dimension 0 or above
+// VD_MAX_DIM, or a cell grid above VD_WINDOWS_MAX_CELLS.
+vd_status_t vd_windows_prefilter_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
+
+// Builds the pre-filter of one frame in `ws`: the cell means g (rounded, as
+// vd_resample_box_u8 with k = 4; a 16-bit frame's means mapped to grey by
+// `grey`, as vd_resample_box_u16) and the integrals of g and g^2.
+//   pf     out; refers to ws, which must outlive its use.
+//   frame  8- or 16-bit frame (vd_frame_check).
+//   grey   16-bit frames: an initialised map (vd_calib_grey_init); ignored
+//          (may be NULL) for 8-bit frames.
+//   ws, bytes  VD_WORKSPACE_ALIGN-aligned, >= vd_windows_prefilter_workspace_size(frame size).
+// Returns VD_OK; VD_ERR_ARG for NULL pf/frame, a NULL grey with a 16-bit
+// frame, or a cell grid above VD_WINDOWS_MAX_CELLS; VD_ERR_FORMAT or VD_ERR_ARG
+// for a frame failing vd_frame_check; VD_ERR_WORKSPACE for a NULL, misaligned
+// or short workspace. Time O(W*H); stack < 200 bytes.
+vd_status_t vd_windows_prefilter_init(vd_windows_prefilter_t *pf, const vd_frame_t *frame,
+                                      const vd_calib_grey_t *grey, void *ws, size_t bytes);
+
+// Pre-filter level of a window: floor(standard deviation) of the cell means
+// g over the cells [cx0, cx1) x [cy0, cy1), clamped to 255 (the population
+// variance (n * sum g^2 - (sum g)^2) / n^2, floored, then an integer square
+// root). Per axis the cells are those lying entirely inside the window,
+// cx0 = ceil(x / 4), cx1 = min(floor((x + w) / 4), gw); when none does, the
+// one cell cx1 - 1 (cell 0 if cx1 is 0). 0 when the frame is narrower or
+// lower than one cell. O(1): `win` is not checked (a box of the frame the
+// pre-filter was built from; a box outside it gives some level, safely).
+uint32_t vd_windows_prefilter_level(const vd_windows_prefilter_t *pf, const vd_rect_t *win);
+
+// Counts of vd_windows_rank.
+typedef struct vd_windows_rank_stats {
+    uint32_t windows;   // windows enumerated (saturates at UINT32_MAX)
+    uint32_t passed;    // windows with level >= min_std (before the budget)
+} vd_windows_rank_stats_t;
+
+// The best windows of a frame within a budget: enumerates the windows of cfg
+// (as vd_windows_generate, without its max_windows cap) twice. Pass one makes
+// the histogram of the levels >= min_std; from it, the level `cut` where the
+// budget runs out (highest levels first). Pass two calls visit(ctx, win) for
+// every window of level > cut and for the first (room - windows above cut)
+// windows of level == cut, in vd_windows_generate's order: at most `room`
+// calls, the highest levels, ties in generator order.
+//   cfg      settings for the frame (frame_w/frame_h = the frame's size; zero
+//            fields = defaults; resolved internally, not modified).
+//   pf       the frame's pre-filter.
+//   min_std  lowest level passed (0..255).
+//   room     budget; 0 = only pass one (stats, no calls).
+//   hist     caller scratch of 256 counters (overwritten).
+//   visit    called per selected window (NULL only when room is 0).
+//   stats    out, may be NULL.
+// Returns VD_OK; VD_ERR_ARG for NULL cfg/pf/hist, a NULL visit with room > 0,
+// or a cfg rejected by vd_windows_resolve. Time O(windows) twice; stack: a
+// resolved copy of cfg plus ~100 bytes, plus the visitor's.
+vd_status_t vd_windows_rank(const vd_windows_cfg_t *cfg, const vd_windows_prefilter_t *pf, uint8_t min_std,
+                            size_t room, uint32_t hist[256], vd_windows_visit_fn visit, void *ctx,
+                            vd_windows_rank_stats_t *stats);
 
 #ifdef __cplusplus
 }

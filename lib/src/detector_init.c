@@ -1,0 +1,313 @@
+// SPDX-License-Identifier: MIT
+// The detector's configuration (defaults and checks) and its workspace: the size query, the layout and init.
+//
+// The workspace is carved once in init (layout in docs/architecture.md):
+// fixed tables (components, candidates, histogram, temporal, per-candidate
+// state, sample and DBN scratch, contrast) plus one "overlay" reused by the
+// stages of a frame in turn: the labelling workspace with its run budget,
+// then the per-candidate region buffers (crop, mask, refine workspace, which
+// the contour tracer reuses), and the window pre-filter's integrals in
+// between. No hot mask and no buffer per frame pixel except the labeller's
+// row buffers. Bounds: O(1) time and stack; no allocation.
+#include <string.h>
+
+#include "internal/detector_internal.h"
+#include "internal/vd_internal.h"
+
+#define DEF_W 640u
+#define DEF_H 512u
+#define DEF_REGION 176u
+#define DEF_RUNS 24576u
+#define DEF_WIN_MIN_STD 4u
+#define DEF_DEDUP_Q15 22938u   // 0.7
+
+// Each default of the detector's own fields is written here once; the
+// sub-settings are resolved by their modules. vd_detector_cfg_default is a
+// zeroed cfg resolved.
+vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *c)
+{
+    VD_VERIFY(c != NULL, VD_ERR_ARG);
+    if (c->max_width == 0u) { c->max_width = DEF_W; }
+    if (c->max_height == 0u) { c->max_height = DEF_H; }
+    VD_VERIFY(c->max_width <= VD_MAX_DIM && c->max_height <= VD_MAX_DIM, VD_ERR_ARG);
+    VD_VERIFY(c->thr_mode <= VD_DETECTOR_THR_ADAPTIVE, VD_ERR_ARG);
+    if (c->hot_thr_u8 == 0u) { c->hot_thr_u8 = 150u; }
+    if (c->adaptive_floor_u8 == 0u) { c->adaptive_floor_u8 = 96u; }
+    if (c->adaptive_permille == 0u) { c->adaptive_permille = 990u; }
+    VD_VERIFY(c->adaptive_permille <= 1000u, VD_ERR_ARG);
+    if (c->hot_thr_ck == 0) { c->hot_thr_ck = VD_CK_PER_0C + 3000; }
+    VD_VERIFY(c->hot_thr_ck > 0 && c->hot_thr_ck <= 1000000, VD_ERR_ARG);   // <= 10 000 K
+    if (c->calib.gain_q16 == 0) { c->calib.gain_q16 = 65536; }
+    VD_VERIFY(c->calib.gain_q16 > 0, VD_ERR_ARG);
+    if (c->grey_lo_ck == 0) { c->grey_lo_ck = c->hot_thr_ck - 3000; }
+    if (c->grey_hi_ck == 0) { c->grey_hi_ck = c->hot_thr_ck + 2100; }
+    VD_VERIFY(c->grey_lo_ck < c->grey_hi_ck, VD_ERR_ARG);
+    VD_TRY(vd_cc_rules_resolve(&c->rules));
+    if (c->expand_w_q8 == 0u) { c->expand_w_q8 = VD_EXPAND_W_Q8; }
+    if (c->expand_h_q8 == 0u) { c->expand_h_q8 = VD_EXPAND_H_Q8; }
+    VD_VERIFY(c->expand_w_q8 >= 256u && c->expand_w_q8 <= 2048u, VD_ERR_ARG);
+    VD_VERIFY(c->expand_h_q8 >= 256u && c->expand_h_q8 <= 2048u, VD_ERR_ARG);
+    if (c->median_ksize == 0u) { c->median_ksize = 3u; }
+    VD_VERIFY(c->median_ksize == 1u || c->median_ksize == 3u || c->median_ksize == 5u, VD_ERR_ARG);
+    if (c->edge_step == 0u) { c->edge_step = 5u; }
+    if (c->window == 0u) { c->window = 5u; }
+    VD_VERIFY(c->window >= 3u && c->window <= VD_REFINE_MAX_WINDOW && (c->window & 1u) == 1u, VD_ERR_ARG);
+    if (c->score_thr_q8 == 0u) { c->score_thr_q8 = 128u; }
+    if (c->nms_iou_q15 == 0u) { c->nms_iou_q15 = 16384u; }
+    VD_VERIFY(c->nms_iou_q15 <= 32768u, VD_ERR_ARG);
+    if (c->max_components == 0u) { c->max_components = 256u; }
+    if (c->max_candidates == 0u) { c->max_candidates = 64u; }
+    VD_VERIFY(c->max_candidates <= 4096u, VD_ERR_ARG);
+    if (c->max_detections == 0u) {
+        c->max_detections = (uint16_t)(c->max_candidates < 32u ? c->max_candidates : 32u);
+    }
+    VD_VERIFY(c->max_detections <= c->max_candidates, VD_ERR_ARG);
+    if (c->max_region_w == 0u) { c->max_region_w = (uint16_t)(c->max_width < DEF_REGION ? c->max_width : DEF_REGION); }
+    if (c->max_region_h == 0u) { c->max_region_h = (uint16_t)(c->max_height < DEF_REGION ? c->max_height : DEF_REGION); }
+    VD_VERIFY(c->max_region_w <= c->max_width && c->max_region_h <= c->max_height, VD_ERR_ARG);
+    if (c->max_tracks == 0u) { c->max_tracks = 32u; }
+    if (c->max_runs == 0u) { c->max_runs = DEF_RUNS; }
+    VD_VERIFY(c->max_tracks <= 1024u, VD_ERR_ARG);
+    if (c->sources == 0u) { c->sources = VD_DETECTOR_SRC_HOTSPOT; }
+    VD_VERIFY(c->sources <= VD_DETECTOR_SRC_ALL, VD_ERR_ARG);
+    if (c->win_min_std_u8 == 0u) { c->win_min_std_u8 = DEF_WIN_MIN_STD; }
+    if (c->dedup_iou_q15 == 0u) { c->dedup_iou_q15 = DEF_DEDUP_Q15; }
+    VD_VERIFY(c->dedup_iou_q15 <= 32768u, VD_ERR_ARG);
+    // Contrast: checked even when the source is off, as before.
+    VD_TRY(vd_contrast_cfg_resolve(&c->contrast));
+    // Windows: checked for the largest frame (each frame resolves its own copy).
+    VD_VERIFY(c->windows.frame_w <= VD_MAX_DIM && c->windows.frame_h <= VD_MAX_DIM, VD_ERR_ARG);
+    vd_windows_cfg_t wc = c->windows;
+    wc.frame_w = c->max_width;
+    wc.frame_h = c->max_height;
+    VD_TRY(vd_windows_resolve(&wc));
+    if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
+        size_t integrals = 0u;   // VD_ERR_ARG when the cell grid is too large for uint32 integrals
+        VD_TRY(vd_windows_prefilter_workspace_size(c->max_width, c->max_height, &integrals));
+    }
+    return vd_temporal_cfg_resolve(&c->temporal_cfg);
+}
+
+void vd_detector_cfg_default(vd_detector_cfg_t *cfg)
+{
+    if (cfg == NULL) {
+        return;
+    }
+    memset(cfg, 0, sizeof(*cfg));
+    const vd_status_t st = vd_detector_cfg_resolve(cfg);   // the defaults always resolve
+    VD_ASSERT(st == VD_OK);
+    (void)st;
+}
+
+// A resolved copy of cfg (NULL = defaults).
+static vd_status_t resolved(const vd_detector_cfg_t *cfg, vd_detector_cfg_t *c)
+{
+    if (cfg == NULL) {
+        memset(c, 0, sizeof(*c));
+    } else {
+        *c = *cfg;
+    }
+    return vd_detector_cfg_resolve(c);
+}
+
+static void region_bufs(const vd_detector_t *det, region_bufs_t *b)
+{
+    size_t rsz = (size_t)det->cfg.max_region_w * det->cfg.max_region_h;
+    vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // overlay is aligned (carved by init)
+    b->crop = (uint8_t *)vd_arena_take(&a, rsz);
+    b->rmask = (uint8_t *)vd_arena_take(&a, rsz);
+    const size_t work_at = a.used;
+    b->refine_ws = vd_arena_take(&a, det->refine_ws_bytes);
+    a.used = work_at;   // the tracer's buffers overlay the refine workspace (see overlay_size)
+    b->contour_ws = vd_arena_take(&a, det->contour_ws_bytes);
+    b->points = (vd_point_t *)vd_arena_take(&a, det->points_cap * sizeof(vd_point_t));
+    b->contours = (vd_contour_t *)vd_arena_take(&a, det->contours_cap * sizeof(vd_contour_t));
+    VD_ASSERT(b->refine_ws != NULL && b->contours != NULL);
+}
+
+static void refine_cfg_of(const vd_detector_t *det, vd_refine_cfg_t *rc)
+{
+    rc->median_ksize = (det->cfg.median_ksize == 1u) ? 0u : det->cfg.median_ksize;
+    rc->edge_step = det->cfg.edge_step;
+    rc->window = det->cfg.window;
+}
+
+// Byte sizes of every workspace slice.
+typedef struct layout {
+    size_t comps, cand, obs, tracks, hist, sample, dbn, scratch;
+    size_t cc, crop, rmask, refine, contour, points, contours;
+    size_t contrast, integral;
+    size_t points_cap, contours_cap;
+} layout_t;
+
+static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, layout_t *l)
+{
+    memset(l, 0, sizeof(*l));
+    size_t rw = c->max_region_w;
+    size_t rh = c->max_region_h;
+    VD_VERIFY(vd_mul_size(c->max_components, sizeof(vd_component_t), &l->comps), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_mul_size(c->max_candidates, sizeof(vd_detection_t), &l->cand), VD_ERR_OVERFLOW);
+    if (c->temporal) {
+        l->obs = ((size_t)c->max_detections + c->max_tracks) * sizeof(vd_temporal_obs_t);
+        l->tracks = (size_t)c->max_tracks * sizeof(vd_track_t);
+    }
+    l->hist = 256u * sizeof(uint32_t);
+    l->scratch = sizeof(cand_ctx_t);
+    if (model != NULL) {
+        VD_VERIFY(model->blob != NULL && model->input_w > 0u && model->input_h > 0u, VD_ERR_MODEL);
+        VD_VERIFY(model->input_mode == VD_DBN_INPUT_GREY || model->input_mode == VD_DBN_INPUT_SHAPE, VD_ERR_MODEL);
+        l->sample = (size_t)model->input_w * model->input_h;
+        vd_status_t st = vd_dbn_workspace_size(model, &l->dbn);
+        VD_VERIFY(st == VD_OK, VD_ERR_MODEL);
+    }
+    VD_TRY(vd_components_workspace_size_runs(c->max_width, c->max_height, c->max_runs, &l->cc));
+    l->crop = rw * rh;
+    l->rmask = rw * rh;
+    VD_TRY(vd_refine_workspace_size((uint32_t)rw, (uint32_t)rh, &l->refine));
+    VD_TRY(vd_contours_workspace_size((uint32_t)rw, (uint32_t)rh, &l->contour));
+    // Room for a few outlines around the region; more only sets CONTOUR_TRUNC.
+    l->points_cap = 8u * (rw + rh);
+    l->contours_cap = 64u;
+    l->points = l->points_cap * sizeof(vd_point_t);
+    l->contours = l->contours_cap * sizeof(vd_contour_t);
+    if ((c->sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
+        VD_TRY(vd_contrast_workspace_size(c->max_width, c->max_height, &l->contrast));
+    }
+    if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
+        // 640 x 512: 166 152 bytes, inside the region buffers' share of the overlay.
+        VD_TRY(vd_windows_prefilter_workspace_size(c->max_width, c->max_height, &l->integral));
+    }
+    return VD_OK;
+}
+
+// The overlay holds A = the labelling workspace (run budget) while labelling,
+// then B = crop + region mask + W per candidate, where W is the refine
+// workspace, reused by the contour tracer (its plane, points and contours)
+// once vd_refine_region has returned; C = the window pre-filter's integrals
+// between the hot-spot refinement and the verification of all candidates.
+static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *total)
+{
+    size_t a = 0u;
+    size_t b = 0u;
+    size_t tr = 0u;
+    size_t rf = 0u;
+    VD_VERIFY(vd_size_add_slice(&a, l->cc), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_size_add_slice(&rf, l->refine), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_size_add_slice(&tr, l->contour) && vd_size_add_slice(&tr, l->points) &&
+              vd_size_add_slice(&tr, l->contours), VD_ERR_OVERFLOW);
+    const size_t work = rf > tr ? rf : tr;
+    VD_VERIFY(vd_size_add_slice(&b, l->crop) && vd_size_add_slice(&b, l->rmask) && vd_size_add_slice(&b, work),
+              VD_ERR_OVERFLOW);
+    *work_out = work;
+    *total = a > b ? a : b;
+    *total = (l->integral > *total) ? l->integral : *total;
+    return VD_OK;
+}
+
+static vd_status_t total_size(const layout_t *l, size_t *bytes)
+{
+    size_t ov;
+    size_t a;
+    VD_TRY(overlay_size(l, &a, &ov));
+    size_t t = 0u;
+    VD_VERIFY(vd_size_add_slice(&t, l->comps) && vd_size_add_slice(&t, l->cand) &&
+              vd_size_add_slice(&t, l->obs) && vd_size_add_slice(&t, l->tracks) &&
+              vd_size_add_slice(&t, l->hist) && vd_size_add_slice(&t, l->scratch) &&
+              vd_size_add_slice(&t, l->sample) &&
+              vd_size_add_slice(&t, l->dbn) && vd_size_add_slice(&t, l->contrast) &&
+              vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
+    *bytes = t;
+    return VD_OK;
+}
+
+vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_model_t *model, size_t *bytes)
+{
+    VD_VERIFY(bytes != NULL, VD_ERR_ARG);
+    vd_detector_cfg_t c;
+    VD_TRY(resolved(cfg, &c));
+    layout_t l;
+    VD_TRY(plan(&c, model, &l));
+    return total_size(&l, bytes);
+}
+
+// Slices of the arena; VD_ERR_WORKSPACE when one does not fit.
+static void *take(vd_arena_t *a, size_t bytes, bool *ok)
+{
+    if (bytes == 0u) {
+        return NULL;
+    }
+    void *p = vd_arena_take(a, bytes);
+    if (p == NULL) {
+        *ok = false;
+    }
+    return p;
+}
+
+vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_model_t *model,
+                             void *ws, size_t bytes)
+{
+    VD_VERIFY(det != NULL, VD_ERR_ARG);
+    vd_detector_cfg_t c;
+    VD_TRY(resolved(cfg, &c));
+    layout_t l;
+    VD_TRY(plan(&c, model, &l));
+    size_t need;
+    VD_TRY(total_size(&l, &need));
+    vd_arena_t arena;
+    VD_TRY(vd_arena_init(&arena, ws, bytes));
+    VD_VERIFY(bytes >= need, VD_ERR_WORKSPACE);
+
+    memset(det, 0, sizeof(*det));
+    det->cfg = c;
+    det->model = model;
+    bool ok = true;
+    det->comps = (vd_component_t *)take(&arena, l.comps, &ok);
+    det->cand = (vd_detection_t *)take(&arena, l.cand, &ok);
+    det->obs = (vd_temporal_obs_t *)take(&arena, l.obs, &ok);
+    det->tracks = (vd_track_t *)take(&arena, l.tracks, &ok);
+    det->hist = (uint32_t *)take(&arena, l.hist, &ok);
+    det->scratch = take(&arena, l.scratch, &ok);
+    det->sample = (uint8_t *)take(&arena, l.sample, &ok);
+    det->dbn_ws = take(&arena, l.dbn, &ok);
+    det->dbn_ws_bytes = l.dbn;
+    det->contrast_ws = take(&arena, l.contrast, &ok);
+    det->contrast_ws_bytes = l.contrast;
+    size_t work;
+    VD_TRY(overlay_size(&l, &work, &det->overlay_bytes));
+    det->overlay = (uint8_t *)take(&arena, det->overlay_bytes, &ok);
+    if (!ok) {
+        memset(det, 0, sizeof(*det));
+        return VD_ERR_WORKSPACE;   // unreachable when bytes >= need; kept as a guard
+    }
+    det->cc_ws_bytes = l.cc;
+    det->refine_ws_bytes = l.refine;
+    det->contour_ws_bytes = l.contour;
+    det->points_cap = l.points_cap;
+    det->contours_cap = l.contours_cap;
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
+    memset(x, 0, sizeof(*x));
+    region_bufs(det, &x->b);
+    refine_cfg_of(det, &x->rc);
+    if (model != NULL) {
+        det->in_w = model->input_w;
+        det->in_h = model->input_h;
+    }
+    // 16-bit threshold in raw units; above the calibrated range nothing is hot.
+    uint16_t raw = 0u;
+    vd_status_t st = vd_calib_raw_from_ck(&c.calib, c.hot_thr_ck, &raw);
+    if (st == VD_ERR_RANGE) {
+        det->raw_never_hot = true;
+    } else if (st != VD_OK) {
+        memset(det, 0, sizeof(*det));
+        return VD_ERR_ARG;
+    }
+    det->raw_thr = raw;
+    if (vd_calib_grey_init(&det->grey, &c.calib, c.grey_lo_ck, c.grey_hi_ck) != VD_OK) {
+        memset(det, 0, sizeof(*det));
+        return VD_ERR_ARG;   // unreachable after vd_detector_cfg_resolve; kept as a guard
+    }
+    if (c.temporal) {
+        VD_TRY(vd_temporal_init(&det->temporal, &c.temporal_cfg, det->tracks, c.max_tracks));
+    }
+    return VD_OK;
+}

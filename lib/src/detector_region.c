@@ -1,0 +1,211 @@
+// SPDX-License-Identifier: MIT
+// The detector's per-candidate work: the region plane, refinement and contour of hot spots, the 32x32 sample
+// and its DBN score, and the complexity probe of temporal recovery.
+//
+// Algorithm (paper 001 sections 3-4): a hot-spot component is expanded
+// (vd_rect_expand, 1.5x by 2x), its region refined (refine.h: median, Otsu,
+// holes, edges, local max-distance thresholds) and traced (contour.h); the
+// outer contour with the largest box gives the detection box. Every merged
+// candidate is then resampled to the model's input (resample.h; grey mode:
+// the plane under the box, shape mode: the box refined again, as
+// tools/vdtools/samples.py makes training samples) and scored (dbn.h).
+// Region plane: 8-bit regions within max_region_w x max_region_h are read
+// from the frame (so the median sees the pixels around the ROI); larger
+// regions are box-averaged by per-axis factors kx, ky (vd_resample_box_*),
+// and 16-bit regions are mapped to grey (vd_calib_grey_u8), into the
+// overlay's crop buffer.
+// Bounds: O(region) per candidate for the plane, refine and contour, plus the
+// DBN's multiply-adds; state in the workspace (cand_ctx_t); stack: the deepest
+// chain is vd_refine_region -> median (docs/embedded.md); no recursion.
+#include <string.h>
+
+#include "vd/resample.h"
+#include "internal/detector_internal.h"
+#include "internal/vd_internal.h"
+
+// Builds the region plane in the overlay's crop buffer when needed (16-bit
+// frames, or regions above max_region_*); 8-bit regions that fit are read
+// from the frame directly so the median sees the pixels around the ROI.
+VD_DET_NOINLINE static vd_status_t make_plane(vd_detector_t *det, const vd_frame_t *f, const vd_rect_t *region,
+                              uint8_t *crop, region_plane_t *p)
+{
+    uint32_t rw = (uint32_t)region->w;
+    uint32_t rh = (uint32_t)region->h;
+    uint32_t mw = det->cfg.max_region_w;
+    uint32_t mh = det->cfg.max_region_h;
+    p->region = *region;
+    p->kx = (rw + mw - 1u) / mw;
+    p->ky = (rh + mh - 1u) / mh;
+    if (f->format == VD_PIX_U8 && p->kx == 1u && p->ky == 1u) {
+        VD_TRY(vd_frame_view_u8(f, &p->view));
+        p->roi = *region;
+        return VD_OK;
+    }
+    const uint32_t cw = rw / p->kx;
+    const uint32_t ch = rh / p->ky;
+    vd_image_u8_t out = {crop, cw, ch, cw};
+    if (f->format == VD_PIX_U8) {
+        vd_view_u8_t v;
+        VD_TRY(vd_frame_view_u8(f, &v));
+        VD_TRY(vd_resample_box_u8(&v, region, p->kx, p->ky, &out));
+    } else {
+        vd_view_u16_t v;
+        VD_TRY(vd_frame_view_u16(f, &v));
+        VD_TRY(vd_resample_box_u16(&v, region, p->kx, p->ky, &det->grey, &out));
+    }
+    p->view = vd_image_u8_view(&out);
+    p->roi.x = 0;
+    p->roi.y = 0;
+    p->roi.w = (int32_t)cw;
+    p->roi.h = (int32_t)ch;
+    return VD_OK;
+}
+
+// Refines x->region into x->b.rmask; sets x->p (its plane), x->m and x->rs.
+static vd_status_t refine_region(vd_detector_t *det, const vd_frame_t *f, cand_ctx_t *x)
+{
+    VD_TRY(make_plane(det, f, &x->region, x->b.crop, &x->p));
+    x->m.data = x->b.rmask;
+    x->m.width = (uint32_t)x->p.roi.w;
+    x->m.height = (uint32_t)x->p.roi.h;
+    x->m.stride = (size_t)x->p.roi.w;
+    return vd_refine_region(&x->p.view, &x->p.roi, &x->rc, x->b.refine_ws, det->refine_ws_bytes, &x->m, &x->rs);
+}
+
+// Complexity (temporal.h) of a refined region: edge pixels / region pixels.
+// A mask that is empty or covers the whole region has no object outline (a
+// uniform region makes Otsu keep everything and its only "edges" are the
+// region border), so it counts as 0, which never resembles a vehicle.
+static uint16_t region_complexity(const vd_refine_stats_t *rs, const region_plane_t *p)
+{
+    uint32_t area = (uint32_t)p->roi.w * (uint32_t)p->roi.h;
+    if (rs->fg_pixels == 0u || rs->fg_pixels >= area) {
+        return 0u;
+    }
+    return vd_temporal_complexity_q15(rs->edge_points, area);
+}
+
+vd_status_t vd_det_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15)
+{
+    vd_detector_t *det = (vd_detector_t *)user;
+    const vd_frame_t *f = det->frame;
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
+    VD_TRY(vd_rect_expand(box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &x->region));
+    VD_TRY(refine_region(det, f, x));
+    *complexity_q15 = region_complexity(&x->rs, &x->p);
+    return VD_OK;
+}
+
+// Index of the contour with the largest box area (then length; first wins).
+static size_t largest_contour(const vd_contour_t *c, size_t n)
+{
+    size_t best = 0u;
+    for (size_t i = 1; i < n; i++) {
+        uint64_t ai = (uint64_t)c[i].box.w * (uint64_t)c[i].box.h;
+        uint64_t ab = (uint64_t)c[best].box.w * (uint64_t)c[best].box.h;
+        if (ai > ab || (ai == ab && c[i].length > c[best].length)) {
+            best = i;
+        }
+    }
+    return best;
+}
+
+vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
+                              vd_detection_t *d, bool *ok, uint32_t *t0)
+{
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
+    *ok = false;
+    memset(d, 0, sizeof(*d));
+    if (vd_rect_expand(&comp->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &x->region) !=
+        VD_OK) {
+        return VD_OK;   // cannot happen for a component inside the frame
+    }
+    VD_TRY(refine_region(det, f, x));
+    const region_plane_t *p = &x->p;
+    if (p->kx > 1u || p->ky > 1u) {
+        d->flags |= VD_DET_FLAG_DECIMATED;
+        det->stats.decimated++;
+    }
+    vd_det_clock_add(det, VD_DET_STAGE_REFINE, t0);
+
+    x->mv = vd_image_u8_view(&x->m);
+    size_t nc = 0u;
+    size_t np = 0u;
+    vd_status_t st = vd_contours_find_external(&x->mv, x->b.contour_ws, det->contour_ws_bytes, x->b.points, NULL,
+                                               det->points_cap, x->b.contours, det->contours_cap, &nc, &np);
+    if (st == VD_ERR_CAPACITY) {
+        d->flags |= VD_DET_FLAG_CONTOUR_TRUNC;
+        det->stats.overflow_contours++;
+    } else if (st != VD_OK) {
+        return st;
+    }
+    vd_det_clock_add(det, VD_DET_STAGE_CONTOUR, t0);
+    if (nc == 0u) {
+        return VD_OK;
+    }
+    det->stats.refined++;
+    x->best = x->b.contours[largest_contour(x->b.contours, nc)];
+    const vd_contour_t *c = &x->best;
+    uint32_t kmax = p->kx > p->ky ? p->kx : p->ky;
+    d->box.x = x->region.x + c->box.x * (int32_t)p->kx;
+    d->box.y = x->region.y + c->box.y * (int32_t)p->ky;
+    d->box.w = c->box.w * (int32_t)p->kx;
+    d->box.h = c->box.h * (int32_t)p->ky;
+    d->candidate = x->region;
+    d->contour_length = c->length * kmax;
+    d->complexity_q15 = region_complexity(&x->rs, p);
+    d->source = (uint8_t)VD_SOURCE_HOTSPOT;
+    *ok = true;
+    return VD_OK;
+}
+
+// The plane is rebuilt from d->candidate: hot spots are sampled under their
+// contour box inside the refined region, windows and contrast candidates
+// (candidate == box) as the whole box.
+vd_status_t vd_det_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d, bool *keep, uint32_t *t0)
+{
+    cand_ctx_t *x = (cand_ctx_t *)det->scratch;
+    *keep = false;
+    if (det->model == NULL) {
+        d->score_q8 = 255u;
+        d->flags |= VD_DET_FLAG_UNVERIFIED;
+        det->stats.verified++;
+        *keep = true;
+        return VD_OK;
+    }
+    const region_plane_t *p = &x->p;
+    VD_TRY(make_plane(det, f, &d->candidate, x->b.crop, &x->p));
+    if (d->source != VD_SOURCE_HOTSPOT && (p->kx > 1u || p->ky > 1u)) {
+        d->flags |= VD_DET_FLAG_DECIMATED;
+    }
+    // The box in plane coordinates (exact: a hot-spot box is region + k * contour box).
+    x->vb.x = p->roi.x + (d->box.x - d->candidate.x) / (int32_t)p->kx;
+    x->vb.y = p->roi.y + (d->box.y - d->candidate.y) / (int32_t)p->ky;
+    x->vb.w = d->box.w / (int32_t)p->kx;
+    x->vb.h = d->box.h / (int32_t)p->ky;
+    x->vb.w = (x->vb.w < 1) ? 1 : x->vb.w;
+    x->vb.h = (x->vb.h < 1) ? 1 : x->vb.h;
+    if (det->model->input_mode == VD_DBN_INPUT_GREY) {
+        VD_TRY(vd_resample_u8(&p->view, &x->vb, det->sample, det->in_w, det->in_h));
+    } else {
+        // As samples.py: refine the box itself, then resample the whole mask.
+        x->m.data = x->b.rmask;
+        x->m.width = (uint32_t)x->vb.w;
+        x->m.height = (uint32_t)x->vb.h;
+        x->m.stride = (size_t)x->vb.w;
+        VD_TRY(vd_refine_region(&p->view, &x->vb, &x->rc, x->b.refine_ws, det->refine_ws_bytes, &x->m, NULL));
+        x->mv = vd_image_u8_view(&x->m);
+        VD_TRY(vd_resample_u8(&x->mv, NULL, det->sample, det->in_w, det->in_h));
+    }
+    vd_det_clock_add(det, VD_DET_STAGE_SAMPLE, t0);
+    uint8_t score = 0u;
+    VD_TRY(vd_dbn_classify(det->model, det->sample, det->dbn_ws, det->dbn_ws_bytes, &score));
+    vd_det_clock_add(det, VD_DET_STAGE_DBN, t0);
+    d->score_q8 = score;
+    if (score < det->cfg.score_thr_q8) {
+        return VD_OK;
+    }
+    det->stats.verified++;
+    *keep = true;
+    return VD_OK;
+}
