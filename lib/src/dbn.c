@@ -4,7 +4,8 @@
 // Algorithm: a stack of fully connected sigmoid layers (the fine-tuned DBN of
 // paper 001 section 4 / paper 000 section 3). Per output unit o:
 //   acc  = bias[o] + sum_i w[o][i] * a[i]        int8 x uint8 -> int32
-//   z_q8 = vd_dbn_requantize(acc, mult[o], shift[o])   (TFLite requantise)
+//   z_q8 = vd_dbn_requantize(acc, mult[o], shift[o])   (TFLite requantise,
+//          lib/src/internal/requant.h, shared with the CNN)
 //   a'   = sigmoid_table[clamp(z_q8, -2048, 2048) + 2048]  (uint8, Q8)
 // The last layer has one unit: its activation is the score.
 // Input normalisation (format version 2, header field input_norm): with
@@ -26,6 +27,7 @@
 #include "vd/dbn.h"
 
 #include "internal/crc32.h"
+#include "internal/requant.h"
 #include "internal/vd_internal.h"
 #include "dbn_sigmoid_table.h"
 
@@ -64,9 +66,9 @@
 // The one activation this version knows: sigmoid by the Q8 table.
 #define ACT_SIGMOID_Q8 1u
 
-#define SHIFT_MIN (-31)
-#define SHIFT_MAX 7
-#define MULT_MIN_Q31 0x40000000L
+#define SHIFT_MIN VD_RQ_SHIFT_MIN
+#define SHIFT_MAX VD_RQ_SHIFT_MAX
+#define MULT_MIN_Q31 VD_RQ_MULT_MIN
 #define MAX_ABS_PRODUCT (127L * 255L)
 
 #define N_SEGMENTS (4u * VD_DBN_MAX_LAYERS)
@@ -101,57 +103,9 @@ static int16_t rd_i16(const uint8_t *p)
     return (u <= (uint16_t)INT16_MAX) ? (int16_t)u : (int16_t)(-(int32_t)(uint16_t)~u - 1);
 }
 
-// Floor shift right of a signed value (C99 leaves >> of negatives
-// implementation-defined): ~x is non-negative when x is negative.
-static int32_t asr32(int32_t x, int32_t n)
-{
-    return (x >= 0) ? (x >> n) : ~((~x) >> n);
-}
-
-// gemmlowp SaturatingRoundingDoublingHighMul: round(a*b / 2^31) with ties
-// away from zero via the nudge, truncating division as in C.
-static int32_t srdhm(int32_t a, int32_t b)
-{
-    if (a == INT32_MIN && b == INT32_MIN) {
-        return INT32_MAX;
-    }
-    int64_t ab = (int64_t)a * (int64_t)b;
-    int64_t nudge = (ab >= 0) ? ((int64_t)1 << 30) : (1 - ((int64_t)1 << 30));
-    return (int32_t)((ab + nudge) / ((int64_t)1 << 31));
-}
-
-// gemmlowp RoundingDivideByPOT: x / 2^e rounded half away from zero, e 0..31.
-static int32_t rounding_divide_by_pot(int32_t x, int32_t e)
-{
-    const uint32_t mask = ((uint32_t)1 << (uint32_t)e) - 1u;
-    const uint32_t remainder = (uint32_t)x & mask;
-    uint32_t threshold = mask >> 1;
-    if (x < 0) {
-        threshold += 1u;
-    }
-    int32_t r = asr32(x, e);
-    if (remainder > threshold) {
-        r += 1;
-    }
-    return r;
-}
-
 int32_t vd_dbn_requantize(int32_t acc, int32_t mult_q31, int32_t shift)
 {
-    VD_ASSERT(shift >= SHIFT_MIN && shift <= SHIFT_MAX);
-    VD_ASSERT(mult_q31 >= 0);
-    int32_t x = acc;
-    if (shift > 0) {
-        int64_t v = (int64_t)acc * ((int64_t)1 << shift);
-        if (v > INT32_MAX) {
-            v = INT32_MAX;
-        } else if (v < INT32_MIN) {
-            v = INT32_MIN;
-        }
-        x = (int32_t)v;
-    }
-    const int32_t right = (shift < 0) ? -shift : 0;
-    return rounding_divide_by_pot(srdhm(x, mult_q31), right);
+    return vd_rq_requantize(acc, mult_q31, shift);
 }
 
 uint8_t vd_dbn_sigmoid_q8(int32_t z_q8)
@@ -380,7 +334,7 @@ static void layer_forward(const vd_dbn_layer_t *l, const uint8_t *in, uint8_t *o
         for (uint32_t i = 0u; i < l->in; i++) {
             acc += (int32_t)w[i] * (int32_t)in[i];
         }
-        const int32_t z_q8 = vd_dbn_requantize(acc, rd_i32(l->mult_le + 4u * (size_t)o), l->shift[o]);
+        const int32_t z_q8 = vd_rq_requantize(acc, rd_i32(l->mult_le + 4u * (size_t)o), l->shift[o]);
         out[o] = vd_dbn_sigmoid_q8(z_q8);
     }
 }

@@ -20,6 +20,7 @@
 #include "vd/contrast.h"
 #include "vd/resample.h"
 #include "vd/dbn.h"
+#include "vd/cnn.h"
 #include "vd/temporal.h"
 #include "vd/detection.h"
 #include "vd/suppress.h"

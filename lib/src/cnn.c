@@ -1,0 +1,1313 @@
+// SPDX-License-Identifier: MIT
+// int8 CNN: in-place .vdm (version 3) validation, liveness-planned workspace, HWC kernels, decoding.
+//
+// Algorithm: a fully convolutional network over int8 HWC tensors (channels
+// innermost). Tensor 0 is the grey frame as int8 (pixel - 128, or a per-frame
+// percentile stretch), layer i writes tensor i+1 with one of six ops:
+// 3x3 convolution and depthwise 3x3 (padding 1, stride 1/2), pointwise 1x1,
+// 2x2 max-pool, x2 nearest upsample, channel concat. Weighted ops compute
+//   out = clamp(zp_out + requantize(bias + sum w * (x - zp_in)), act_min, act_max)
+// with TFLite's double-rounding requantisation (internal/requant.h, folded
+// into one 64-bit floor shift per value). Decoding (CenterNet-like): 3x3
+// local maxima of the heatmap channel with a raster-order tie rule, top-K by
+// insertion, boxes from Q8 decode tables, rounded to frame pixels.
+// Kernels (plain C99 written for gcc/clang auto-vectorisation; HWC, so the
+// innermost loops run over contiguous channels):
+//  * CONV3X3 / PW1X1: blocks of 16 output pixels as int16 rows (x - zp_in),
+//    zero-padded to a multiple of 8 (for CONV3X3 the 3x3 taps gathered,
+//    padding taps 0), dotted with an int16 copy of the weights [cout][Kp]:
+//    four int32 reductions at a time over fixed 8-wide chunks (pmaddwd),
+//    then one requantisation loop per output channel over the 16 values with
+//    the channel's constants loop-invariant (vectorised: pmuludq, psrlq).
+//  * DW3X3: per output pixel, 9 tap pointers (a padding tap points at a row
+//    filled with zp_in), 16 channels per pass with the 9 products written
+//    out; |w x| <= 128 * 128 fits int16, so x - zp_in is hoisted into the
+//    bias (bias - zp_in sum w) and products are 16-bit multiplies; without a
+//    weight of -128 two products still fit int16 and are added before
+//    widening.
+// Reference: TFLite/CMSIS-NN int8 quantisation; the numpy integer reference
+// tools/vdtools/cnn_ref.py (bit-exact); format docs/model-format.md ("CNN
+// kind"), arithmetic docs/fixed-point.md ("cnn").
+// Bounds: load O(total_size) (CRC, per-channel arrays, decode table) plus
+// O((4 L + 1)^2) overlap checks. Run: vd_cnn_macs() multiply-adds, one
+// requantisation per output value, O(width*height) for the input; the plan
+// (O(items^2), items <= 2 + 2 L) lives in the workspace's run record. Stack
+// (Cortex-M7 -Os, worst call chain): load ~420 B, run ~730 B, workspace
+// query and vd_cnn_tensor ~950 B (the plan), decode ~300 B. Accumulators: |sum w (x - zp)|
+// <= K * 128 * 255 < 2^31 for K <= 9 * 1024; the bias is added modulo 2^32
+// (no undefined behaviour; exact whenever the true sum fits int32, which
+// the loader's bias bound guarantees for weights in -127..127).
+#include "vd/cnn.h"
+
+#include "internal/cnn_internal.h"
+#include "internal/crc32.h"
+#include "internal/requant.h"
+#include "internal/vd_internal.h"
+
+#include <string.h>
+
+#if VD_CNN_MAX_LAYERS < 1 || VD_CNN_MAX_LAYERS > 32
+#error "VD_CNN_MAX_LAYERS must be 1..32 (format version 3; tensor indices and lifetimes are bytes)"
+#endif
+
+// Keeps a kernel out of its caller. Inlined into the layer loop, gcc -O3
+// vectorises the pixel-block loop of gemm_block instead of the dot products
+// and the whole network runs 2.5x slower (measured, gcc 12); the layer
+// kernels kept apart also keep vd_cnn_run's frame small (their locals are
+// not summed). A hint only: compilers without the attribute get plain C.
+#if defined(__GNUC__)
+#define CNN_NOINLINE __attribute__((noinline))
+#else
+#define CNN_NOINLINE
+#endif
+
+// Header fields.
+#define H_MAGIC 0u
+#define H_VERSION 4u
+#define H_HEADER_SIZE 6u
+#define H_TOTAL 8u
+#define H_CRC 12u
+#define H_KIND 16u
+#define H_NORM 17u
+#define H_N_LAYERS 18u
+#define H_OUT_CH 19u
+#define H_IN_W 20u
+#define H_IN_H 22u
+#define H_NORM_LO 24u
+#define H_NORM_HI 26u
+#define H_NORM_MIN 28u
+#define H_IN_ZP 30u
+#define H_OUT_STRIDE 31u
+#define H_LAYER_TABLE 32u
+#define H_DECODE 36u
+#define H_THR 40u
+#define H_RES0 41u
+#define H_MAX_PEAKS 42u
+#define H_FLAGS 44u
+#define H_NAME 48u
+#define H_NAME_LEN 16u
+#define H_RES1 64u
+
+// Layer entry fields.
+#define E_OP 0u
+#define E_STRIDE 1u
+#define E_IN 2u
+#define E_IN2 3u
+#define E_CIN 4u
+#define E_COUT 6u
+#define E_ZP 8u
+#define E_AMIN 9u
+#define E_AMAX 10u
+#define E_RES0 11u
+#define E_W 12u
+#define E_BIAS 16u
+#define E_MULT 20u
+#define E_SHIFT 24u
+#define E_RES1 28u
+
+#define MAGIC_U32 0x464D4456u   // "VDMF"
+#define MAX_ABS_PRODUCT (127L * 255L)
+#define INPUT_ZP (-128)
+
+
+// ------------------------------------------------------------ byte reading
+
+static uint16_t rd_u16(const uint8_t *p)
+{
+    return (uint16_t)((uint16_t)p[0] | (uint16_t)((uint16_t)p[1] << 8));
+}
+
+static uint32_t rd_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+
+static int32_t rd_i32(const uint8_t *p)
+{
+    return vd_rq_u32_to_i32(rd_u32(p));
+}
+
+static int8_t u8_to_i8(uint8_t u)
+{
+    return (u <= 127u) ? (int8_t)u : (int8_t)((int32_t)u - 256);
+}
+
+static uint32_t round_up(uint32_t n, uint32_t a)
+{
+    return (n + a - 1u) / a * a;
+}
+
+// ------------------------------------------------------------ layer chain
+
+// Tensor shapes implied by the layers: channels, downsample factor, zero point.
+typedef struct chain {
+    uint16_t chan[VD_CNN_MAX_TENSORS];
+    uint16_t f[VD_CNN_MAX_TENSORS];
+    int8_t zp[VD_CNN_MAX_TENSORS];
+} chain_t;
+
+static bool weighted(uint32_t op)
+{
+    return op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_DW3X3 || op == VD_CNN_OP_PW1X1;
+}
+
+// K of the accumulator bound (multiply-adds per output value).
+static uint32_t k_of(const vd_cnn_layer_t *L)
+{
+    switch (L->op) {
+    case VD_CNN_OP_CONV3X3:
+        return 9u * L->cin;
+    case VD_CNN_OP_DW3X3:
+        return 9u;
+    case VD_CNN_OP_PW1X1:
+        return L->cin;
+    default:
+        return 0u;
+    }
+}
+
+// Byte lengths of the four arrays of a layer (weights, bias, mult, shift).
+static void array_lens(const vd_cnn_layer_t *L, uint32_t len[4])
+{
+    const uint32_t cout = L->cout;
+    len[0] = (L->op == VD_CNN_OP_DW3X3) ? 9u * cout : k_of(L) * cout;
+    len[1] = weighted(L->op) ? 4u * cout : 0u;
+    len[2] = len[1];
+    len[3] = weighted(L->op) ? cout : 0u;
+}
+
+// Structural rules of layer l given the tensors before it; on success the
+// shape of tensor l+1 is appended to c. Shared by the loader and the state
+// check of run, so a model struct that was not made by vd_cnn_load cannot
+// index outside its tensors.
+static bool chain_step(const vd_cnn_layer_t *L, uint32_t l, chain_t *c)
+{
+    const uint32_t op = L->op;
+    if (op < VD_CNN_OP_CONV3X3 || op > VD_CNN_OP_CONCAT) {
+        return false;
+    }
+    const uint32_t max_stride = (op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_DW3X3) ? 2u : 1u;
+    if (L->stride < 1u || L->stride > max_stride || L->in > l) {
+        return false;
+    }
+    if (op == VD_CNN_OP_CONCAT ? L->in2 > l : L->in2 != 0u) {
+        return false;
+    }
+    if (L->cin < 1u || L->cin > VD_CNN_MAX_CHANNELS || L->cout < 1u || L->cout > VD_CNN_MAX_CHANNELS) {
+        return false;
+    }
+    if (L->cin != c->chan[L->in] || L->act_min > L->act_max) {
+        return false;
+    }
+    uint32_t f = c->f[L->in];
+    if (op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_DW3X3) {
+        f *= L->stride;
+    } else if (op == VD_CNN_OP_MAXPOOL2) {
+        f *= 2u;
+    } else if (op == VD_CNN_OP_UPSAMPLE2) {
+        if (f < 2u) {
+            return false;
+        }
+        f /= 2u;
+    }
+    if (f > VD_CNN_MAX_FACTOR) {
+        return false;
+    }
+    if ((op == VD_CNN_OP_DW3X3 || op == VD_CNN_OP_MAXPOOL2 || op == VD_CNN_OP_UPSAMPLE2) && L->cout != L->cin) {
+        return false;
+    }
+    if (op >= VD_CNN_OP_MAXPOOL2) {
+        // Copies without requantising: same scale and zero point, no clamp.
+        if (L->act_min != -128 || L->act_max != 127 || L->out_zp != c->zp[L->in]) {
+            return false;
+        }
+        if (L->w != NULL || L->bias != NULL || L->mult != NULL || L->shift != NULL) {
+            return false;
+        }
+    } else if (L->w == NULL || L->bias == NULL || L->mult == NULL || L->shift == NULL) {
+        return false;
+    }
+    if (op == VD_CNN_OP_CONCAT) {
+        const uint32_t b = L->in2;
+        if ((uint32_t)L->cout != (uint32_t)L->cin + c->chan[b] || c->f[b] != c->f[L->in] || c->zp[b] != c->zp[L->in]) {
+            return false;
+        }
+    }
+    c->chan[l + 1u] = L->cout;
+    c->f[l + 1u] = (uint16_t)f;
+    c->zp[l + 1u] = L->out_zp;
+    return true;
+}
+
+// The whole chain of m; false if any rule fails or the head does not match
+// the header. *align receives the largest factor.
+static bool chain_make(const vd_cnn_model_t *m, chain_t *c, uint32_t *align)
+{
+    c->chan[0] = 1u;
+    c->f[0] = 1u;
+    c->zp[0] = INPUT_ZP;
+    uint32_t a = 1u;
+    for (uint32_t l = 0u; l < m->n_layers; l++) {
+        if (!chain_step(&m->layers[l], l, c)) {
+            return false;
+        }
+        a = (c->f[l + 1u] > a) ? c->f[l + 1u] : a;
+    }
+    *align = a;
+    return c->chan[m->n_layers] == m->out_channels && c->f[m->n_layers] == m->out_stride;
+}
+
+// ------------------------------------------------------------------ loader
+
+static bool all_zero(const uint8_t *p, size_t n)
+{
+    for (size_t i = 0u; i < n; i++) {
+        if (p[i] != 0u) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// Name: printable ASCII, then only NULs.
+static bool name_ok(const uint8_t *p)
+{
+    bool ended = false;
+    for (uint32_t i = 0u; i < H_NAME_LEN; i++) {
+        if (p[i] == 0u) {
+            ended = true;
+        } else if (ended || p[i] < 0x20u || p[i] > 0x7Eu) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// One array: 4-byte aligned, inside [lo, total), no size overflow.
+static bool segment_ok(uint32_t off, uint32_t len, uint32_t lo, uint32_t total)
+{
+    return (off % 4u) == 0u && off >= lo && (uint64_t)off + len <= (uint64_t)total;
+}
+
+// Layer entry l of the blob as a vd_cnn_layer_t (array pointers set when
+// the offsets are nonzero; they are range-checked separately). offs gets the
+// four raw offsets.
+static void entry_read(const uint8_t *b, uint32_t table, uint32_t l, vd_cnn_layer_t *L, uint32_t offs[4])
+{
+    const uint8_t *e = b + table + l * VD_CNN_LAYER_ENTRY_SIZE;
+    L->op = e[E_OP];
+    L->stride = e[E_STRIDE];
+    L->in = e[E_IN];
+    L->in2 = e[E_IN2];
+    L->cin = rd_u16(e + E_CIN);
+    L->cout = rd_u16(e + E_COUT);
+    L->out_zp = u8_to_i8(e[E_ZP]);
+    L->act_min = u8_to_i8(e[E_AMIN]);
+    L->act_max = u8_to_i8(e[E_AMAX]);
+    offs[0] = rd_u32(e + E_W);
+    offs[1] = rd_u32(e + E_BIAS);
+    offs[2] = rd_u32(e + E_MULT);
+    offs[3] = rd_u32(e + E_SHIFT);
+    L->w = offs[0] ? (const int8_t *)(const void *)(b + offs[0]) : NULL;
+    L->bias = offs[1] ? b + offs[1] : NULL;
+    L->mult = offs[2] ? b + offs[2] : NULL;
+    L->shift = offs[3] ? (const int8_t *)(const void *)(b + offs[3]) : NULL;
+}
+
+// Per-channel checks: multiplier, shift, bias bound (no int32 overflow).
+static bool values_ok(const vd_cnn_layer_t *L)
+{
+    const int64_t bias_max = (int64_t)INT32_MAX - (int64_t)k_of(L) * MAX_ABS_PRODUCT;
+    for (uint32_t o = 0u; o < L->cout; o++) {
+        const int32_t mult = rd_i32(L->mult + 4u * (size_t)o);
+        const int64_t bias = rd_i32(L->bias + 4u * (size_t)o);
+        const int32_t sh = L->shift[o];
+        if (mult < VD_RQ_MULT_MIN || sh < VD_RQ_SHIFT_MIN || sh > VD_RQ_SHIFT_MAX) {
+            return false;
+        }
+        if (bias > bias_max || bias < -bias_max) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// Array s of the blob: s < 4 n_layers is array s % 4 of layer s / 4, s ==
+// 4 n_layers the decode table. Read back from the blob so the overlap check
+// needs no list on the stack.
+static void segment_get(const uint8_t *b, uint32_t table, uint32_t n_layers, uint32_t dec_off, uint32_t dec_len,
+                        uint32_t s, uint32_t *off, uint32_t *len)
+{
+    if (s == 4u * n_layers) {
+        *off = dec_off;
+        *len = dec_len;
+        return;
+    }
+    vd_cnn_layer_t L;
+    uint32_t offs[4], lens[4];
+    entry_read(b, table, s / 4u, &L, offs);
+    array_lens(&L, lens);
+    *off = offs[s % 4u];
+    *len = lens[s % 4u];
+}
+
+static bool decode_table_ok(const uint8_t *t, uint32_t n_ch)
+{
+    int32_t prev = 0;
+    for (uint32_t ch = 0u; ch < n_ch; ch++) {
+        for (uint32_t i = 0u; i < 256u; i++) {
+            const int32_t v = rd_i32(t + 4u * (ch * 256u + i));
+            if (ch == 0u) {
+                // Score: Q15 probability, non-decreasing in the logit.
+                if (v < 0 || v > VD_CNN_SCORE_ONE_Q15 || (i > 0u && v < prev)) {
+                    return false;
+                }
+                prev = v;
+            } else if (ch <= 2u) {
+                if (v < 0 || (int64_t)v > VD_CNN_SIZE_MAX_Q8) {
+                    return false;
+                }
+            } else if (v < VD_CNN_OFFSET_MIN_Q8 || v > VD_CNN_OFFSET_MAX_Q8) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes)
+{
+    VD_VERIFY(m != NULL && blob != NULL && bytes != 0u, VD_ERR_ARG);
+    VD_VERIFY(((uintptr_t)blob % 4u) == 0u, VD_ERR_ARG);
+    const uint8_t *b = (const uint8_t *)blob;
+    VD_VERIFY(bytes >= VD_CNN_HEADER_SIZE, VD_ERR_MODEL);
+
+    // Container, before trusting any size.
+    VD_VERIFY(rd_u32(b + H_MAGIC) == MAGIC_U32, VD_ERR_MODEL);
+    VD_VERIFY(rd_u16(b + H_VERSION) == VD_CNN_FORMAT_VERSION, VD_ERR_MODEL);
+    VD_VERIFY(rd_u16(b + H_HEADER_SIZE) == VD_CNN_HEADER_SIZE, VD_ERR_MODEL);
+    const uint32_t total = rd_u32(b + H_TOTAL);
+    VD_VERIFY(total >= VD_CNN_HEADER_SIZE && (size_t)total <= bytes && (total % 4u) == 0u, VD_ERR_MODEL);
+    const uint32_t crc = rd_u32(b + H_CRC);
+    VD_VERIFY(vd_crc32(0u, b + H_KIND, (size_t)total - H_KIND) == crc, VD_ERR_MODEL);
+
+    // Header fields.
+    const uint32_t norm = b[H_NORM];
+    const uint32_t n_layers = b[H_N_LAYERS];
+    const uint32_t n_ch = b[H_OUT_CH];
+    const uint32_t in_w = rd_u16(b + H_IN_W);
+    const uint32_t in_h = rd_u16(b + H_IN_H);
+    const uint32_t lo = rd_u16(b + H_NORM_LO);
+    const uint32_t hi = rd_u16(b + H_NORM_HI);
+    const uint32_t min_range = rd_u16(b + H_NORM_MIN);
+    const uint32_t out_stride = b[H_OUT_STRIDE];
+    const uint32_t table = rd_u32(b + H_LAYER_TABLE);
+    const uint32_t dec_off = rd_u32(b + H_DECODE);
+    const uint32_t max_peaks = rd_u16(b + H_MAX_PEAKS);
+    VD_VERIFY(b[H_KIND] == VD_CNN_KIND, VD_ERR_MODEL);
+    if (norm == VD_CNN_NORM_NONE) {
+        VD_VERIFY(lo == 0u && hi == 0u && min_range == 0u, VD_ERR_MODEL);
+    } else {
+        VD_VERIFY(norm == VD_CNN_NORM_PERCENTILE && lo < hi && hi <= 1000u && min_range >= 1u && min_range <= 255u,
+                  VD_ERR_MODEL);
+    }
+    VD_VERIFY(n_layers >= 1u && n_layers <= VD_CNN_MAX_LAYERS, VD_ERR_MODEL);
+    VD_VERIFY(n_ch == 3u || n_ch == 5u, VD_ERR_MODEL);
+    VD_VERIFY(in_w >= 1u && in_w <= VD_CNN_MAX_SIDE && in_h >= 1u && in_h <= VD_CNN_MAX_SIDE, VD_ERR_MODEL);
+    VD_VERIFY(u8_to_i8(b[H_IN_ZP]) == INPUT_ZP, VD_ERR_MODEL);
+    VD_VERIFY(out_stride == 4u || out_stride == 8u, VD_ERR_MODEL);
+    VD_VERIFY(b[H_RES0] == 0u && rd_u32(b + H_FLAGS) == 0u, VD_ERR_MODEL);
+    VD_VERIFY(max_peaks >= 1u && max_peaks <= VD_CNN_MAX_PEAKS, VD_ERR_MODEL);
+    VD_VERIFY(name_ok(b + H_NAME), VD_ERR_MODEL);
+    VD_VERIFY(all_zero(b + H_RES1, VD_CNN_HEADER_SIZE - H_RES1), VD_ERR_MODEL);
+    VD_VERIFY(table >= VD_CNN_HEADER_SIZE && (table % 4u) == 0u, VD_ERR_MODEL);
+    VD_VERIFY((uint64_t)table + (uint64_t)n_layers * VD_CNN_LAYER_ENTRY_SIZE <= (uint64_t)total, VD_ERR_MODEL);
+    const uint32_t table_end = table + n_layers * VD_CNN_LAYER_ENTRY_SIZE;
+    const uint32_t dec_len = 4u * 256u * n_ch;
+    VD_VERIFY(segment_ok(dec_off, dec_len, table_end, total), VD_ERR_MODEL);
+
+    // Layers: fields, arrays in range, chain rules, per-channel values.
+    chain_t c;
+    c.chan[0] = 1u;
+    c.f[0] = 1u;
+    c.zp[0] = INPUT_ZP;
+    uint32_t align = 1u;
+    for (uint32_t l = 0u; l < n_layers; l++) {
+        vd_cnn_layer_t L;
+        uint32_t offs[4], lens[4];
+        entry_read(b, table, l, &L, offs);
+        const uint8_t *e = b + table + l * VD_CNN_LAYER_ENTRY_SIZE;
+        VD_VERIFY(e[E_RES0] == 0u && rd_u32(e + E_RES1) == 0u, VD_ERR_MODEL);
+        // Chain first: it bounds cin and cout, so the array lengths below
+        // cannot wrap (9 * 1024 * 1024 < 2^32).
+        VD_VERIFY(chain_step(&L, l, &c), VD_ERR_MODEL);
+        array_lens(&L, lens);
+        for (uint32_t s = 0u; s < 4u; s++) {
+            if (lens[s] == 0u) {
+                VD_VERIFY(offs[s] == 0u, VD_ERR_MODEL);
+            } else {
+                VD_VERIFY(segment_ok(offs[s], lens[s], table_end, total), VD_ERR_MODEL);
+            }
+        }
+        if (weighted(L.op)) {
+            VD_VERIFY(values_ok(&L), VD_ERR_MODEL);
+        }
+        align = (c.f[l + 1u] > align) ? c.f[l + 1u] : align;
+    }
+    VD_VERIFY(c.chan[n_layers] == n_ch && c.f[n_layers] == out_stride, VD_ERR_MODEL);
+    VD_VERIFY(in_w % align == 0u && in_h % align == 0u, VD_ERR_MODEL);
+
+    // Disjoint arrays: a crafted blob must not alias weights with multipliers.
+    const uint32_t n_seg = 4u * n_layers + 1u;
+    for (uint32_t i = 0u; i < n_seg; i++) {
+        uint32_t oi, li;
+        segment_get(b, table, n_layers, dec_off, dec_len, i, &oi, &li);
+        if (li == 0u) {
+            continue;
+        }
+        for (uint32_t j = i + 1u; j < n_seg; j++) {
+            uint32_t oj, lj;
+            segment_get(b, table, n_layers, dec_off, dec_len, j, &oj, &lj);
+            VD_VERIFY(lj == 0u || (uint64_t)oi + li <= oj || (uint64_t)oj + lj <= oi, VD_ERR_MODEL);
+        }
+    }
+    VD_VERIFY(decode_table_ok(b + dec_off, n_ch), VD_ERR_MODEL);
+
+    // Everything checked: fill *m (cannot fail from here).
+    m->blob = b;
+    m->size = total;
+    m->crc32 = crc;
+    m->format_version = (uint16_t)VD_CNN_FORMAT_VERSION;
+    m->input_norm = (uint8_t)norm;
+    m->out_channels = (uint8_t)n_ch;
+    m->input_w = (uint16_t)in_w;
+    m->input_h = (uint16_t)in_h;
+    m->norm_lo_permille = (uint16_t)lo;
+    m->norm_hi_permille = (uint16_t)hi;
+    m->norm_min_range = (uint16_t)min_range;
+    m->input_zp = INPUT_ZP;
+    m->out_stride = (uint8_t)out_stride;
+    m->score_threshold_q = u8_to_i8(b[H_THR]);
+    m->max_peaks = (uint16_t)max_peaks;
+    m->align = align;
+    memcpy(m->name, b + H_NAME, H_NAME_LEN);
+    m->name[H_NAME_LEN] = '\0';
+    m->n_layers = n_layers;
+    memset(m->layers, 0, sizeof m->layers);
+    for (uint32_t l = 0u; l < n_layers; l++) {
+        uint32_t offs[4];
+        entry_read(b, table, l, &m->layers[l], offs);
+    }
+    m->decode_table = b + dec_off;
+    return VD_OK;
+}
+
+// State check of a model struct: cheap, and enough that run and decode stay
+// inside the tensors whatever the struct holds (the array pointers into the
+// blob are trusted, as vd_cnn_load set them).
+static bool model_ok(const vd_cnn_model_t *m, chain_t *c)
+{
+    uint32_t align = 0u;
+    if (m->blob == NULL || m->decode_table == NULL || m->n_layers < 1u || m->n_layers > VD_CNN_MAX_LAYERS ||
+        (m->out_channels != 3u && m->out_channels != 5u) || (m->out_stride != 4u && m->out_stride != 8u) ||
+        m->input_norm > VD_CNN_NORM_PERCENTILE || m->input_zp != INPUT_ZP) {
+        return false;
+    }
+    if (m->input_norm == VD_CNN_NORM_PERCENTILE &&
+        !(m->norm_lo_permille < m->norm_hi_permille && m->norm_hi_permille <= 1000u && m->norm_min_range >= 1u &&
+          m->norm_min_range <= 255u)) {
+        return false;
+    }
+    return chain_make(m, c, &align) && align == m->align;
+}
+
+static bool size_ok(const vd_cnn_model_t *m, uint32_t width, uint32_t height)
+{
+    return width >= 1u && width <= VD_CNN_MAX_SIDE && height >= 1u && height <= VD_CNN_MAX_SIDE &&
+           width % m->align == 0u && height % m->align == 0u;
+}
+
+// ------------------------------------------------------------------ planner
+
+static uint32_t item_of_tensor(uint32_t t)
+{
+    return (t == 0u) ? 0u : 2u + 2u * (t - 1u);
+}
+
+// Scratch of a weighted layer, as offsets from its start: int16 weights,
+// int16 rows (CONV3X3/PW1X1) or the zero-point row (DW3X3), then the
+// per-channel requantisation constants (vd_rq_ch_t). Returns the total in bytes.
+typedef struct scratch_layout {
+    uint32_t w16, rows, ch;
+} scratch_layout_t;
+
+static uint64_t scratch_layout(const vd_cnn_layer_t *L, scratch_layout_t *s)
+{
+    uint32_t w_bytes, r_bytes;
+    if (L->op == VD_CNN_OP_DW3X3) {
+        const uint32_t cp = round_up(L->cout, VD_CNN_DWB);
+        w_bytes = 2u * 9u * cp;
+        r_bytes = cp;
+    } else if (L->op == VD_CNN_OP_CONV3X3 || L->op == VD_CNN_OP_PW1X1) {
+        const uint32_t kp = round_up(k_of(L), VD_CNN_KCHUNK);
+        w_bytes = 2u * L->cout * kp;
+        r_bytes = 2u * VD_CNN_NPIX * kp;
+    } else {
+        memset(s, 0, sizeof *s);
+        return 0u;
+    }
+    // Each piece starts at a multiple of VD_CNN_ITEM_ALIGN; cin, cout <= 1024
+    // keep every size below 2^26.
+    s->w16 = 0u;
+    s->rows = round_up(w_bytes, VD_CNN_ITEM_ALIGN);
+    s->ch = s->rows + round_up(r_bytes, VD_CNN_ITEM_ALIGN);
+    return (uint64_t)s->ch + round_up((uint32_t)(L->cout * sizeof(vd_rq_ch_t)), VD_CNN_ITEM_ALIGN);
+}
+
+static uint64_t tensor_bytes(const chain_t *c, uint32_t t, uint32_t width, uint32_t height)
+{
+    return (uint64_t)(width / c->f[t]) * (uint64_t)(height / c->f[t]) * (uint64_t)c->chan[t];
+}
+
+// Deterministic first-fit liveness planner. Items are placed in index order
+// (tensor 0, histogram, then per layer its output and its scratch), each at
+// the lowest offset (multiple of VD_CNN_ITEM_ALIGN) where it overlaps no placed
+// item whose lifetime intersects its own. A list of placed items sorted by
+// offset makes one item O(items), the plan O(items^2).
+static vd_status_t plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+                             uint32_t flags, vd_cnn_plan_t *p)
+{
+    const uint32_t n = m->n_layers;
+    const bool keep = (flags & VD_CNN_KEEP_TENSORS) != 0u;
+    uint8_t last_read[VD_CNN_MAX_TENSORS];
+    for (uint32_t t = 0u; t <= n; t++) {
+        last_read[t] = (uint8_t)t;
+    }
+    for (uint32_t l = 0u; l < n; l++) {
+        const vd_cnn_layer_t *L = &m->layers[l];
+        last_read[L->in] = (uint8_t)(l + 1u);
+        if (L->op == VD_CNN_OP_CONCAT) {
+            last_read[L->in2] = (uint8_t)(l + 1u);
+        }
+    }
+    p->n_items = 2u + 2u * n;
+    for (uint32_t i = 0u; i < p->n_items; i++) {
+        uint64_t len;
+        uint32_t first, last;
+        if (i == 0u) {
+            len = (uint64_t)width * height;
+            first = 0u;
+            last = keep ? n : last_read[0];
+        } else if (i == 1u) {
+            len = (m->input_norm == VD_CNN_NORM_PERCENTILE) ? VD_CNN_HIST_BYTES : 0u;
+            first = 0u;
+            last = 0u;
+        } else if (i % 2u == 0u) {
+            const uint32_t t = i / 2u;   // tensor t = layer t-1's output
+            len = tensor_bytes(c, t, width, height);
+            first = t;
+            last = (keep || t == n) ? n : last_read[t];
+        } else {
+            scratch_layout_t s;
+            len = scratch_layout(&m->layers[i / 2u - 1u], &s);
+            first = i / 2u;
+            last = first;
+        }
+        VD_VERIFY(len <= (uint64_t)UINT32_MAX - 2u * VD_CNN_ITEM_ALIGN, VD_ERR_OVERFLOW);
+        p->len[i] = round_up((uint32_t)len, VD_CNN_ITEM_ALIGN);
+        p->first[i] = (uint8_t)first;
+        p->last[i] = (uint8_t)last;
+    }
+
+    uint8_t order[VD_CNN_MAX_ITEMS];   // placed items by offset
+    uint32_t n_placed = 0u;
+    uint64_t end = 0u;
+    for (uint32_t i = 0u; i < p->n_items; i++) {
+        p->off[i] = 0u;
+        if (p->len[i] == 0u) {
+            continue;
+        }
+        uint64_t off = 0u;
+        uint32_t pos = 0u;   // insertion point in order[]
+        for (uint32_t k = 0u; k < n_placed; k++) {
+            const uint32_t j = order[k];
+            if (p->first[j] > p->last[i] || p->first[i] > p->last[j]) {
+                continue;   // never live at the same time
+            }
+            if (off + p->len[i] <= p->off[j]) {
+                break;      // fits in the gap before j
+            }
+            const uint64_t e = (uint64_t)p->off[j] + p->len[j];
+            off = (e > off) ? e : off;
+        }
+        VD_VERIFY(off + p->len[i] <= (uint64_t)UINT32_MAX - VD_CNN_REC_BYTES, VD_ERR_OVERFLOW);
+        p->off[i] = (uint32_t)off;
+        while (pos < n_placed && p->off[order[pos]] <= p->off[i]) {
+            pos++;
+        }
+        for (uint32_t k = n_placed; k > pos; k--) {
+            order[k] = order[k - 1u];
+        }
+        order[pos] = (uint8_t)i;
+        n_placed++;
+        end = (off + p->len[i] > end) ? off + p->len[i] : end;
+    }
+    for (uint32_t i = 0u; i < p->n_items; i++) {
+        p->off[i] += VD_CNN_REC_BYTES;
+    }
+    VD_VERIFY(end + VD_CNN_REC_BYTES <= (uint64_t)UINT32_MAX && end + VD_CNN_REC_BYTES <= (uint64_t)SIZE_MAX,
+              VD_ERR_OVERFLOW);
+    p->total = (uint32_t)(end + VD_CNN_REC_BYTES);
+    p->flags = flags;
+    p->width = width;
+    p->height = height;
+    p->crc = m->crc32;
+    p->size = m->size;
+    return VD_OK;
+}
+
+vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
+                                     size_t *bytes)
+{
+    VD_VERIFY(m != NULL && bytes != NULL && (flags & ~VD_CNN_KEEP_TENSORS) == 0u, VD_ERR_ARG);
+    chain_t c;
+    VD_VERIFY(model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(size_ok(m, width, height), VD_ERR_ARG);
+    vd_cnn_plan_t p;
+    VD_TRY(plan_make(m, &c, width, height, flags, &p));
+    *bytes = p.total;
+    return VD_OK;
+}
+
+vd_status_t vd_cnn_workspace_size(const vd_cnn_model_t *m, uint32_t width, uint32_t height, size_t *bytes)
+{
+    return vd_cnn_workspace_size_ex(m, width, height, 0u, bytes);
+}
+
+vd_status_t vd_cnn_macs(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint64_t *macs)
+{
+    VD_VERIFY(m != NULL && macs != NULL, VD_ERR_ARG);
+    chain_t c;
+    VD_VERIFY(model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(size_ok(m, width, height), VD_ERR_ARG);
+    uint64_t sum = 0u;
+    for (uint32_t l = 0u; l < m->n_layers; l++) {
+        const vd_cnn_layer_t *L = &m->layers[l];
+        const uint64_t px = (uint64_t)(width / c.f[l + 1u]) * (height / c.f[l + 1u]);
+        const uint64_t per = (L->op == VD_CNN_OP_DW3X3) ? 9u * (uint64_t)L->cout : (uint64_t)k_of(L) * L->cout;
+        sum += px * per;
+    }
+    *macs = sum;
+    return VD_OK;
+}
+
+// ------------------------------------------------------------------ kernels
+
+// Requantisation of one layer: per-channel constants (in its scratch) and
+// the output clamp relative to the zero point.
+typedef struct rq {
+    const vd_rq_ch_t *ch;
+    int32_t zp;
+    int32_t lo;      // act_min - zp
+    int32_t hi;      // act_max - zp
+    bool general;    // some channel has shift > 0 (saturating left shift first)
+} rq_t;
+
+// One output value from z = requantize(sum + bias): clamp, zero point.
+static inline int8_t rq_out(int32_t z, int32_t zp, int32_t lo, int32_t hi)
+{
+    z = (z < lo) ? lo : z;
+    z = (z > hi) ? hi : z;
+    return (int8_t)(z + zp);
+}
+
+// VD_CNN_NPIX values of one channel. With the channel's constants in locals
+// the loop vectorises (gcc, SSE2: pmuludq, psrlq): requantisation would
+// otherwise cost as much as the multiply-adds.
+static inline void rq_row(const int32_t *acc, const vd_rq_ch_t *c, const rq_t *q, int8_t *z8)
+{
+    const int32_t zp = q->zp, lo = q->lo, hi = q->hi;
+    if (q->general) {
+        for (size_t p = 0u; p < VD_CNN_NPIX; p++) {
+            z8[p] = rq_out(vd_rq_apply(acc[p], c), zp, lo, hi);
+        }
+        return;
+    }
+    const uint64_t k = c->k;
+    const uint32_t mult = c->mult, dk = c->dk, rsh = c->rsh, off = c->off, bias = (uint32_t)c->bias;
+    const int32_t thr = c->thr;
+    for (size_t p = 0u; p < VD_CNN_NPIX; p++) {
+        const int32_t x = vd_rq_u32_to_i32(bias + (uint32_t)acc[p]);
+        z8[p] = rq_out(vd_rq_z(x, k, mult, dk, thr, rsh, off), zp, lo, hi);
+    }
+}
+
+// Fills the scratch constants of a weighted layer; returns the view on them.
+static void rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s, rq_t *q)
+{
+    vd_rq_ch_t *ch = (vd_rq_ch_t *)(void *)(scr + s->ch);
+    for (uint32_t o = 0u; o < L->cout; o++) {
+        vd_rq_prepare(rd_i32(L->mult + 4u * (size_t)o), L->shift[o], rd_i32(L->bias + 4u * (size_t)o), &ch[o]);
+    }
+    q->ch = ch;
+    q->general = false;
+    for (uint32_t o = 0u; o < L->cout; o++) {
+        q->general = q->general || ch[o].lsh != 0u;
+    }
+    q->zp = L->out_zp;
+    q->lo = L->act_min - L->out_zp;
+    q->hi = L->act_max - L->out_zp;
+}
+
+// Geometry of one layer's input and output tensors.
+typedef struct geom {
+    uint32_t wi, hi, ci;   // input width, height, channels
+    uint32_t wo, ho, co;   // output
+    int32_t zp_in;
+} geom_t;
+
+// CONV3X3 / PW1X1 core: VD_CNN_NPIX int16 rows of kp values (kp a multiple
+// of VD_CNN_KCHUNK) against the int16 weights [cout][kp]. Per output
+// channel, passes of four int32 dot products over fixed 8-wide chunks
+// (pmaddwd), then one requantisation loop over the block (rq_row); writes
+// npix (1..VD_CNN_NPIX) output pixels of cout channels at out. Indices are
+// size_t and accumulators local: an int8 store may alias anything.
+CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_t *w16, const rq_t *q, size_t cout,
+                                    int8_t *out, uint32_t npix)
+{
+    const vd_rq_ch_t *ch = q->ch;
+    for (size_t o = 0u; o < cout; o++) {
+        const int16_t *wo = w16 + o * kp;
+        int32_t acc[VD_CNN_NPIX];
+        for (size_t p = 0u; p < VD_CNN_NPIX; p += 4u) {
+            const int16_t *r0 = rows + p * kp;
+            const int16_t *r1 = r0 + kp;
+            const int16_t *r2 = r1 + kp;
+            const int16_t *r3 = r2 + kp;
+            int32_t a0 = 0, a1 = 0, a2 = 0, a3 = 0;
+            for (size_t k = 0u; k < kp; k += VD_CNN_KCHUNK) {
+                for (size_t j = 0u; j < VD_CNN_KCHUNK; j++) {
+                    const int32_t wv = wo[k + j];
+                    a0 += wv * r0[k + j];
+                    a1 += wv * r1[k + j];
+                    a2 += wv * r2[k + j];
+                    a3 += wv * r3[k + j];
+                }
+            }
+            acc[p] = a0;
+            acc[p + 1u] = a1;
+            acc[p + 2u] = a2;
+            acc[p + 3u] = a3;
+        }
+        int8_t z8[VD_CNN_NPIX];
+        rq_row(acc, &ch[o], q, z8);
+        int8_t *d = out + o;
+        for (size_t p = 0u; p < npix; p++) {
+            d[p * cout] = z8[p];
+        }
+    }
+}
+
+CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, const int8_t *in, int8_t *out,
+                                     uint8_t *scr)
+{
+    scratch_layout_t s;
+    (void)scratch_layout(L, &s);
+    rq_t q;
+    rq_setup(L, scr, &s, &q);
+    const size_t k = k_of(L);
+    const size_t kp = round_up((uint32_t)k, VD_CNN_KCHUNK);
+    int16_t *w16 = (int16_t *)(void *)(scr + s.w16);
+    int16_t *rows = (int16_t *)(void *)(scr + s.rows);
+    for (size_t o = 0u; o < g->co; o++) {
+        const int8_t *src = L->w + o * k;
+        int16_t *dst = w16 + o * kp;
+        for (size_t i = 0u; i < k; i++) {
+            dst[i] = src[i];
+        }
+        for (size_t i = k; i < kp; i++) {
+            dst[i] = 0;
+        }
+    }
+    // Zero once: the K..kp tails stay zero, and rows of a short last block
+    // hold finite values whose results are not stored.
+    memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
+    const size_t ci = g->ci;
+    const int16_t zp = (int16_t)g->zp_in;
+    const uint32_t n_px = g->wo * g->ho;
+    const int32_t step = L->stride;
+    const bool pw = L->op == VD_CNN_OP_PW1X1;
+    for (uint32_t p0 = 0u; p0 < n_px; p0 += VD_CNN_NPIX) {
+        const uint32_t npix = (n_px - p0 < VD_CNN_NPIX) ? n_px - p0 : VD_CNN_NPIX;
+        for (uint32_t i = 0u; i < npix; i++) {
+            int16_t *r = rows + (size_t)i * kp;
+            const uint32_t p = p0 + i;
+            if (pw) {
+                const int8_t *x = in + (size_t)p * ci;
+                for (size_t c = 0u; c < ci; c++) {
+                    r[c] = (int16_t)(x[c] - zp);
+                }
+                continue;
+            }
+            // 3x3 taps in the weight order [ky][kx][c]; padding taps are 0.
+            const int32_t oy = (int32_t)(p / g->wo);
+            const int32_t ox = (int32_t)(p % g->wo);
+            for (int32_t ky = 0; ky < 3; ky++) {
+                const int32_t iy = oy * step - 1 + ky;
+                for (int32_t kx = 0; kx < 3; kx++) {
+                    const int32_t ix = ox * step - 1 + kx;
+                    int16_t *d = r + (size_t)(ky * 3 + kx) * ci;
+                    if (iy < 0 || iy >= (int32_t)g->hi || ix < 0 || ix >= (int32_t)g->wi) {
+                        for (size_t c = 0u; c < ci; c++) {
+                            d[c] = 0;
+                        }
+                    } else {
+                        const int8_t *x = in + ((size_t)iy * g->wi + (size_t)ix) * ci;
+                        for (size_t c = 0u; c < ci; c++) {
+                            d[c] = (int16_t)(x[c] - zp);
+                        }
+                    }
+                }
+            }
+        }
+        gemm_block(rows, kp, w16, &q, g->co, out + (size_t)p0 * g->co, npix);
+    }
+}
+
+// Depthwise sums of n channels from c0 (16 or 8 at two call sites, so the
+// loop has a constant trip count): one loop with the 9 products written
+// out, as a loop over the taps would load a new base pointer per tap, which
+// neither gcc nor clang vectorises. Products fit int16 (|w x| <= 128 * 128),
+// so they are 16-bit multiplies. Without a weight of -128, |w x| <= 16256
+// and two products still fit int16 (pairs): half the widenings to int32.
+// acc is a local array of the caller, so no int8 store can alias it.
+static inline void dw_sums(const int8_t *const t[9], const int16_t *w16, size_t cp, size_t c0, size_t n, bool pairs,
+                           int32_t *acc)
+{
+    const int16_t *w0 = w16 + c0;
+    const int16_t *w1 = w0 + cp, *w2 = w1 + cp, *w3 = w2 + cp, *w4 = w3 + cp;
+    const int16_t *w5 = w4 + cp, *w6 = w5 + cp, *w7 = w6 + cp, *w8 = w7 + cp;
+    const int8_t *x0 = t[0] + c0, *x1 = t[1] + c0, *x2 = t[2] + c0, *x3 = t[3] + c0, *x4 = t[4] + c0;
+    const int8_t *x5 = t[5] + c0, *x6 = t[6] + c0, *x7 = t[7] + c0, *x8 = t[8] + c0;
+    if (pairs) {
+        for (size_t j = 0u; j < n; j++) {
+            acc[j] = (int32_t)(int16_t)(w0[j] * x0[j] + w1[j] * x1[j]) + (int16_t)(w2[j] * x2[j] + w3[j] * x3[j]) +
+                     (int16_t)(w4[j] * x4[j] + w5[j] * x5[j]) + (int16_t)(w6[j] * x6[j] + w7[j] * x7[j]) +
+                     (int16_t)(w8[j] * x8[j]);
+        }
+        return;
+    }
+    for (size_t j = 0u; j < n; j++) {
+        acc[j] = (int32_t)(int16_t)(w0[j] * x0[j]) + (int16_t)(w1[j] * x1[j]) + (int16_t)(w2[j] * x2[j]) +
+                 (int16_t)(w3[j] * x3[j]) + (int16_t)(w4[j] * x4[j]) + (int16_t)(w5[j] * x5[j]) +
+                 (int16_t)(w6[j] * x6[j]) + (int16_t)(w7[j] * x7[j]) + (int16_t)(w8[j] * x8[j]);
+    }
+}
+
+static inline void dw_store(const int32_t *acc, size_t n, size_t c0, const rq_t *q, int8_t *o)
+{
+    const vd_rq_ch_t *ch = q->ch + c0;
+    const int32_t zp = q->zp, lo = q->lo, hi = q->hi;
+    int8_t *d = o + c0;
+    if (q->general) {
+        for (size_t j = 0u; j < n; j++) {
+            d[j] = rq_out(vd_rq_apply(acc[j], &ch[j]), zp, lo, hi);
+        }
+        return;
+    }
+    for (size_t j = 0u; j < n; j++) {
+        const vd_rq_ch_t *c = &ch[j];
+        const int32_t x = vd_rq_u32_to_i32((uint32_t)c->bias + (uint32_t)acc[j]);
+        d[j] = rq_out(vd_rq_z(x, c->k, c->mult, c->dk, c->thr, c->rsh, c->off), zp, lo, hi);
+    }
+}
+
+CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const int8_t *in, int8_t *out, uint8_t *scr)
+{
+    scratch_layout_t s;
+    (void)scratch_layout(L, &s);
+    rq_t q;
+    rq_setup(L, scr, &s, &q);
+    const size_t c_n = g->co;
+    const size_t cp = round_up((uint32_t)c_n, VD_CNN_DWB);
+    int16_t *w16 = (int16_t *)(void *)(scr + s.w16);
+    int8_t *zrow = (int8_t *)(void *)(scr + s.rows);
+    vd_rq_ch_t *ch = (vd_rq_ch_t *)(void *)(scr + s.ch);
+    bool pairs = true;
+    for (size_t c = 0u; c < c_n; c++) {
+        int32_t wsum = 0;
+        for (size_t k = 0u; k < 9u; k++) {
+            const int8_t wv = L->w[k * c_n + c];
+            w16[k * cp + c] = wv;
+            wsum += wv;
+            pairs = pairs && wv != -128;
+        }
+        // bias - zp_in * sum w, modulo 2^32 like the accumulation.
+        ch[c].bias = vd_rq_u32_to_i32((uint32_t)ch[c].bias - (uint32_t)(g->zp_in * wsum));
+        zrow[c] = (int8_t)g->zp_in;
+    }
+    const int32_t step = L->stride;
+    for (uint32_t oy = 0u; oy < g->ho; oy++) {
+        for (uint32_t ox = 0u; ox < g->wo; ox++) {
+            const int8_t *t[9];
+            for (int32_t ky = 0; ky < 3; ky++) {
+                const int32_t iy = (int32_t)oy * step - 1 + ky;
+                for (int32_t kx = 0; kx < 3; kx++) {
+                    const int32_t ix = (int32_t)ox * step - 1 + kx;
+                    const bool inside = iy >= 0 && iy < (int32_t)g->hi && ix >= 0 && ix < (int32_t)g->wi;
+                    t[ky * 3 + kx] = inside ? in + ((size_t)iy * g->wi + (size_t)ix) * c_n : zrow;
+                }
+            }
+            int8_t *o = out + ((size_t)oy * g->wo + ox) * c_n;
+            int32_t acc[VD_CNN_DWB];
+            size_t c0 = 0u;
+            for (; c0 + VD_CNN_DWB <= c_n; c0 += VD_CNN_DWB) {
+                dw_sums(t, w16, cp, c0, VD_CNN_DWB, pairs, acc);
+                dw_store(acc, VD_CNN_DWB, c0, &q, o);
+            }
+            if (c0 + VD_CNN_DWB / 2u <= c_n) {
+                dw_sums(t, w16, cp, c0, VD_CNN_DWB / 2u, pairs, acc);
+                dw_store(acc, VD_CNN_DWB / 2u, c0, &q, o);
+                c0 += VD_CNN_DWB / 2u;
+            }
+            if (c0 < c_n) {
+                dw_sums(t, w16, cp, c0, c_n - c0, pairs, acc);
+                dw_store(acc, c_n - c0, c0, &q, o);
+            }
+        }
+    }
+}
+
+static void run_maxpool(const geom_t *g, const int8_t *in, int8_t *out)
+{
+    const uint32_t c_n = g->co;
+    const size_t row = (size_t)g->wi * c_n;
+    for (uint32_t y = 0u; y < g->ho; y++) {
+        for (uint32_t x = 0u; x < g->wo; x++) {
+            const int8_t *a = in + ((size_t)(2u * y) * g->wi + 2u * x) * c_n;
+            const int8_t *b = a + c_n;
+            const int8_t *c = a + row;
+            const int8_t *d = c + c_n;
+            int8_t *o = out + ((size_t)y * g->wo + x) * c_n;
+            for (uint32_t k = 0u; k < c_n; k++) {
+                const int8_t m1 = (a[k] > b[k]) ? a[k] : b[k];
+                const int8_t m2 = (c[k] > d[k]) ? c[k] : d[k];
+                o[k] = (m1 > m2) ? m1 : m2;
+            }
+        }
+    }
+}
+
+static void run_upsample(const geom_t *g, const int8_t *in, int8_t *out)
+{
+    const uint32_t c_n = g->co;
+    const size_t row = (size_t)g->wo * c_n;
+    for (uint32_t y = 0u; y < g->ho; y++) {
+        int8_t *o = out + (size_t)y * row;
+        if (y & 1u) {
+            memcpy(o, o - row, row);   // odd rows repeat the row above
+            continue;
+        }
+        const int8_t *src = in + (size_t)(y / 2u) * g->wi * c_n;
+        for (uint32_t x = 0u; x < g->wo; x++) {
+            memcpy(o + (size_t)x * c_n, src + (size_t)(x / 2u) * c_n, c_n);
+        }
+    }
+}
+
+static void run_concat(const vd_cnn_layer_t *L, const geom_t *g, const int8_t *a, const int8_t *b, int8_t *out)
+{
+    const uint32_t ca = L->cin;
+    const uint32_t cb = (uint32_t)L->cout - L->cin;
+    const uint32_t n_px = g->wo * g->ho;
+    for (uint32_t p = 0u; p < n_px; p++) {
+        memcpy(out + (size_t)p * L->cout, a + (size_t)p * ca, ca);
+        memcpy(out + (size_t)p * L->cout + ca, b + (size_t)p * cb, cb);
+    }
+}
+
+// Tensor 0 from the grey plane: q = pixel - 128, or the percentile stretch
+// through a 256-entry table (256 divisions per frame, none per pixel).
+CNN_NOINLINE static void preprocess(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h,
+                                    uint32_t stride, int8_t *t0, uint8_t *hist_area)
+{
+    if (m->input_norm != VD_CNN_NORM_PERCENTILE) {
+        for (uint32_t y = 0u; y < h; y++) {
+            const uint8_t *row = img + (size_t)y * stride;
+            int8_t *d = t0 + (size_t)y * w;
+            for (uint32_t x = 0u; x < w; x++) {
+                d[x] = (int8_t)((int32_t)row[x] - 128);
+            }
+        }
+        return;
+    }
+    uint32_t *hist = (uint32_t *)(void *)hist_area;
+    int8_t *lut = (int8_t *)(void *)(hist_area + 256u * 4u);
+    memset(hist, 0, 256u * sizeof(uint32_t));
+    for (uint32_t y = 0u; y < h; y++) {
+        const uint8_t *row = img + (size_t)y * stride;
+        for (uint32_t x = 0u; x < w; x++) {
+            hist[row[x]]++;
+        }
+    }
+    const uint64_t n = (uint64_t)w * h;
+    const uint64_t t_lo = n * m->norm_lo_permille / 1000u;
+    const uint64_t t_hi = n * m->norm_hi_permille / 1000u;
+    uint64_t cum = 0u;
+    uint32_t lo = 255u, hi = 255u;
+    bool have_lo = false, have_hi = false;
+    for (uint32_t v = 0u; v < 256u; v++) {
+        cum += hist[v];
+        if (!have_lo && cum > t_lo) {
+            lo = v;
+            have_lo = true;
+        }
+        if (!have_hi && cum > t_hi) {
+            hi = v;
+            have_hi = true;
+        }
+    }
+    // t_hi >= t_lo, so hi >= lo.
+    const uint32_t r = (hi - lo > m->norm_min_range) ? hi - lo : m->norm_min_range;
+    for (uint32_t v = 0u; v < 256u; v++) {
+        uint32_t p = 0u;
+        if (v > lo) {
+            p = ((v - lo) * 510u + r) / (2u * r);
+            p = (p > 255u) ? 255u : p;
+        }
+        lut[v] = (int8_t)((int32_t)p - 128);
+    }
+    for (uint32_t y = 0u; y < h; y++) {
+        const uint8_t *row = img + (size_t)y * stride;
+        int8_t *d = t0 + (size_t)y * w;
+        for (uint32_t x = 0u; x < w; x++) {
+            d[x] = lut[row[x]];
+        }
+    }
+}
+
+// ------------------------------------------------------------------ run
+
+static int8_t *tensor_at(uint8_t *ws, const vd_cnn_plan_t *p, uint32_t t)
+{
+    return (int8_t *)(void *)(ws + p->off[item_of_tensor(t)]);
+}
+
+vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
+                          uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
+{
+    VD_VERIFY(m != NULL && img != NULL && out != NULL && (flags & ~VD_CNN_KEEP_TENSORS) == 0u, VD_ERR_ARG);
+    chain_t c;
+    VD_VERIFY(model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(size_ok(m, width, height) && stride_bytes >= width, VD_ERR_ARG);
+    VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
+    VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
+    uint8_t *base = (uint8_t *)ws;
+    vd_cnn_plan_t *p = (vd_cnn_plan_t *)ws;
+    p->magic = 0u;
+    VD_TRY(plan_make(m, &c, width, height, flags, p));
+    VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
+
+    preprocess(m, img, width, height, stride_bytes, tensor_at(base, p, 0u), base + p->off[1]);
+    for (uint32_t l = 0u; l < m->n_layers; l++) {
+        const vd_cnn_layer_t *L = &m->layers[l];
+        geom_t g;
+        g.wi = width / c.f[L->in];
+        g.hi = height / c.f[L->in];
+        g.ci = c.chan[L->in];
+        g.wo = width / c.f[l + 1u];
+        g.ho = height / c.f[l + 1u];
+        g.co = c.chan[l + 1u];
+        g.zp_in = c.zp[L->in];
+        const int8_t *in = tensor_at(base, p, L->in);
+        int8_t *o = tensor_at(base, p, l + 1u);
+        uint8_t *scr = base + p->off[3u + 2u * l];
+        switch (L->op) {
+        case VD_CNN_OP_CONV3X3:
+        case VD_CNN_OP_PW1X1:
+            run_conv_pw(L, &g, in, o, scr);
+            break;
+        case VD_CNN_OP_DW3X3:
+            run_dw(L, &g, in, o, scr);
+            break;
+        case VD_CNN_OP_MAXPOOL2:
+            run_maxpool(&g, in, o);
+            break;
+        case VD_CNN_OP_UPSAMPLE2:
+            run_upsample(&g, in, o);
+            break;
+        default:
+            run_concat(L, &g, in, tensor_at(base, p, L->in2), o);
+            break;
+        }
+    }
+    const uint32_t n = m->n_layers;
+    out->data = tensor_at(base, p, n);
+    out->w = width / c.f[n];
+    out->h = height / c.f[n];
+    out->c = c.chan[n];
+    out->stride = c.f[n];
+    out->zp = c.zp[n];
+    p->magic = VD_CNN_REC_MAGIC;
+    return VD_OK;
+}
+
+vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
+                       uint32_t stride_bytes, void *ws, size_t bytes, vd_cnn_output_t *out)
+{
+    return vd_cnn_run_ex(m, img, width, height, stride_bytes, 0u, ws, bytes, out);
+}
+
+vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes, uint32_t width, uint32_t height,
+                          uint32_t index, vd_cnn_output_t *t)
+{
+    VD_VERIFY(m != NULL && t != NULL, VD_ERR_ARG);
+    chain_t c;
+    VD_VERIFY(model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(size_ok(m, width, height) && index <= m->n_layers, VD_ERR_ARG);
+    VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
+    VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
+    const vd_cnn_plan_t *rec = (const vd_cnn_plan_t *)ws;
+    VD_VERIFY(rec->magic == VD_CNN_REC_MAGIC && rec->width == width && rec->height == height && rec->crc == m->crc32 &&
+                  rec->size == m->size && (rec->flags & ~VD_CNN_KEEP_TENSORS) == 0u,
+              VD_ERR_STATE);
+    // The layout is recomputed, not read back: the record only says which.
+    vd_cnn_plan_t p;
+    VD_TRY(plan_make(m, &c, width, height, rec->flags, &p));
+    VD_VERIFY(bytes >= p.total, VD_ERR_WORKSPACE);
+    const uint32_t it = item_of_tensor(index);
+    for (uint32_t j = 0u; j < p.n_items; j++) {
+        const bool later = p.first[j] > p.last[it];
+        const bool overlap = p.len[j] != 0u && (uint64_t)p.off[j] < (uint64_t)p.off[it] + p.len[it] &&
+                             (uint64_t)p.off[it] < (uint64_t)p.off[j] + p.len[j];
+        VD_VERIFY(!(later && overlap), VD_ERR_STATE);
+    }
+    t->data = (const int8_t *)((const uint8_t *)ws + p.off[it]);
+    t->w = width / c.f[index];
+    t->h = height / c.f[index];
+    t->c = c.chan[index];
+    t->stride = c.f[index];
+    t->zp = c.zp[index];
+    return VD_OK;
+}
+
+// ------------------------------------------------------------------ decode
+
+static int32_t table_at(const vd_cnn_model_t *m, uint32_t ch, int32_t v)
+{
+    return rd_i32(m->decode_table + 4u * (ch * 256u + (uint32_t)(v + 128)));
+}
+
+// floor(a / d) for d > 0 (C division truncates toward zero).
+static int64_t floor_div(int64_t a, int64_t d)
+{
+    int64_t q = a / d;
+    if ((a % d) != 0 && a < 0) {
+        q -= 1;
+    }
+    return q;
+}
+
+static int64_t clamp64(int64_t v, int64_t lo, int64_t hi)
+{
+    return (v < lo) ? lo : ((v > hi) ? hi : v);
+}
+
+// Heatmap peak test: > the neighbours before (y, x) in raster order, >= the
+// ones after, so a plateau yields exactly its first cell in raster order.
+static bool is_peak(const int8_t *hm, uint32_t w, uint32_t h, uint32_t c_n, uint32_t x, uint32_t y)
+{
+    const int32_t v = hm[((size_t)y * w + x) * c_n];
+    for (int32_t dy = -1; dy <= 1; dy++) {
+        for (int32_t dx = -1; dx <= 1; dx++) {
+            const int32_t ny = (int32_t)y + dy;
+            const int32_t nx = (int32_t)x + dx;
+            if ((dy == 0 && dx == 0) || ny < 0 || nx < 0 || ny >= (int32_t)h || nx >= (int32_t)w) {
+                continue;
+            }
+            const int32_t nv = hm[((size_t)ny * w + (size_t)nx) * c_n];
+            const bool before = dy < 0 || (dy == 0 && dx < 0);
+            if (before ? !(v > nv) : !(v >= nv)) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, int32_t thr_q, uint32_t max_peaks,
+                          uint32_t frame_w, uint32_t frame_h, vd_cnn_box_t *boxes, size_t capacity, size_t *count)
+{
+    VD_VERIFY(m != NULL && out != NULL && count != NULL && (boxes != NULL || capacity == 0u), VD_ERR_ARG);
+    chain_t c;
+    VD_VERIFY(model_ok(m, &c), VD_ERR_STATE);
+    const uint32_t s = m->out_stride;
+    VD_VERIFY(out->data != NULL && out->c == m->out_channels && out->stride == s && out->w >= 1u &&
+                  out->h >= 1u && out->w <= VD_CNN_MAX_SIDE / s && out->h <= VD_CNN_MAX_SIDE / s,
+              VD_ERR_ARG);
+    VD_VERIFY(frame_w >= 1u && frame_w <= VD_MAX_DIM && frame_h >= 1u && frame_h <= VD_MAX_DIM, VD_ERR_ARG);
+    int32_t thr = m->score_threshold_q;
+    if (thr_q != VD_CNN_THR_DEFAULT) {
+        VD_VERIFY(thr_q >= -128 && thr_q <= 127, VD_ERR_ARG);
+        thr = thr_q;
+    }
+    uint32_t k_max = (max_peaks == 0u) ? m->max_peaks : max_peaks;
+    const size_t k = ((size_t)k_max < capacity) ? (size_t)k_max : capacity;
+    const uint32_t w = out->w, h = out->h, c_n = out->c;
+    const int8_t *hm = out->data;
+
+    // 1-2. Peaks in raster order into the top-K array (logit descending,
+    // then raster order: an equal logit found later goes after).
+    size_t n = 0u;
+    for (uint32_t y = 0u; y < h && k > 0u; y++) {
+        for (uint32_t x = 0u; x < w; x++) {
+            const int32_t v = hm[((size_t)y * w + x) * c_n];
+            if (v < thr || (n == k && v <= boxes[k - 1u].logit) || !is_peak(hm, w, h, c_n, x, y)) {
+                continue;
+            }
+            size_t pos = n;
+            while (pos > 0u && boxes[pos - 1u].logit < v) {
+                pos--;
+            }
+            const size_t keep = (n < k) ? n : k - 1u;   // entries that stay
+            if (keep > pos) {
+                memmove(&boxes[pos + 1u], &boxes[pos], (keep - pos) * sizeof boxes[0]);
+            }
+            boxes[pos].rect.x = (int32_t)x;   // grid cell until step 3
+            boxes[pos].rect.y = (int32_t)y;
+            boxes[pos].rect.w = 0;
+            boxes[pos].rect.h = 0;
+            boxes[pos].logit = (int8_t)v;
+            boxes[pos].score_q15 = 0u;
+            n = keep + 1u;
+        }
+    }
+
+    // 3. Boxes, in frame pixels (int64 throughout).
+    const int64_t den_x = (int64_t)w * s * 256;   // network input width in Q8
+    const int64_t den_y = (int64_t)h * s * 256;
+    for (size_t i = 0u; i < n; i++) {
+        vd_cnn_box_t *b = &boxes[i];
+        const uint32_t x = (uint32_t)b->rect.x, y = (uint32_t)b->rect.y;
+        const int8_t *cell = hm + ((size_t)y * w + x) * c_n;
+        const int64_t off_x = (c_n == 5u) ? table_at(m, 3u, cell[3]) : 128;
+        const int64_t off_y = (c_n == 5u) ? table_at(m, 4u, cell[4]) : 128;
+        const int64_t cx = ((int64_t)x * 256 + off_x) * s;
+        const int64_t cy = ((int64_t)y * 256 + off_y) * s;
+        const int64_t bw = table_at(m, 1u, cell[1]);
+        const int64_t bh = table_at(m, 2u, cell[2]);
+        const int64_t x0n = cx - bw / 2, x1n = x0n + bw;
+        const int64_t y0n = cy - bh / 2, y1n = y0n + bh;
+        const int64_t x0 = clamp64(floor_div(x0n * frame_w + den_x / 2, den_x), 0, (int64_t)frame_w - 1);
+        const int64_t x1 = clamp64(floor_div(x1n * frame_w + den_x / 2, den_x), x0 + 1, frame_w);
+        const int64_t y0 = clamp64(floor_div(y0n * frame_h + den_y / 2, den_y), 0, (int64_t)frame_h - 1);
+        const int64_t y1 = clamp64(floor_div(y1n * frame_h + den_y / 2, den_y), y0 + 1, frame_h);
+        b->rect.x = (int32_t)x0;
+        b->rect.y = (int32_t)y0;
+        b->rect.w = (int32_t)(x1 - x0);
+        b->rect.h = (int32_t)(y1 - y0);
+        b->score_q15 = (uint16_t)table_at(m, 0u, b->logit);
+    }
+    *count = n;
+    return VD_OK;
+}

@@ -1,0 +1,48 @@
+// SPDX-License-Identifier: MIT
+// Private constants of the CNN module (lib/src/cnn.c): workspace run record, kernel block sizes.
+#ifndef VD_CNN_INTERNAL_H
+#define VD_CNN_INTERNAL_H
+
+#include <stdint.h>
+
+#include "vd/cnn.h"
+
+// Workspace plan items: item 0 tensor 0, item 1 the stretch histogram, then
+// per layer l its output tensor (2 + 2l) and its scratch (3 + 2l).
+#define VD_CNN_MAX_ITEMS (2u + 2u * VD_CNN_MAX_LAYERS)
+// Every item starts at a multiple of this (from the workspace start) and its
+// length is rounded up to it.
+#define VD_CNN_ITEM_ALIGN 16u
+#define VD_CNN_REC_MAGIC 0x524E4E43u   // "CNNR"
+// Output pixels per block of the CONV3X3 / PW1X1 kernel (a multiple of 4), and its K chunk
+// (K is zero-padded to a multiple of it).
+#define VD_CNN_NPIX 16u
+#define VD_CNN_KCHUNK 8u
+// Channels per pass of the depthwise kernel (weight copies padded to it).
+#define VD_CNN_DWB 16u
+// Stretch histogram (uint32[256]) and its int8 lookup table.
+#define VD_CNN_HIST_BYTES (256u * 4u + 256u)
+
+// The run record at the start of the workspace: the plan of the run and,
+// after a complete run, the key vd_cnn_tensor checks. Offsets are from the
+// workspace start; item lifetimes are steps (0 = input, l + 1 = layer l).
+typedef struct vd_cnn_plan {
+    uint32_t magic;           // VD_CNN_REC_MAGIC after a complete run, else 0
+    uint32_t flags;
+    uint32_t width;
+    uint32_t height;
+    uint32_t crc;             // model identity
+    uint32_t size;
+    uint32_t n_items;
+    uint32_t total;           // workspace bytes, record included
+    uint32_t off[VD_CNN_MAX_ITEMS];
+    uint32_t len[VD_CNN_MAX_ITEMS];
+    uint8_t first[VD_CNN_MAX_ITEMS];
+    uint8_t last[VD_CNN_MAX_ITEMS];
+} vd_cnn_plan_t;
+
+// Bytes of the record (items start after it).
+#define VD_CNN_REC_BYTES \
+    ((uint32_t)((sizeof(vd_cnn_plan_t) + VD_CNN_ITEM_ALIGN - 1u) / VD_CNN_ITEM_ALIGN * VD_CNN_ITEM_ALIGN))
+
+#endif

@@ -1,0 +1,1665 @@
+// SPDX-License-Identifier: MIT
+// Unit tests of the int8 CNN (vd/cnn.h): hand-worked ops, requantisation, stretch, planner, decoding,
+// random models against a naive reference, hostile blobs.
+//
+// Test models are written by a small C writer (tm_write) in the layout of
+// docs/model-format.md, so the test needs no Python. The naive reference
+// (ref_forward) is the spec's formula evaluated directly: int64 sums over
+// in-range taps of w * (x - zp), vd_rq_requantize, clamp.
+#include "unity.h"
+#include "testutil.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "internal/cnn_internal.h"
+#include "internal/crc32.h"
+#include "internal/requant.h"
+
+void setUp(void) {}
+void tearDown(void) {}
+
+// ------------------------------------------------------------ model writer
+
+#define BLOB_CAP (1u << 20)
+
+static union {
+    uint64_t align;
+    uint8_t b[BLOB_CAP + 16u];
+} g_blob;
+
+// One layer of a test model; arrays are NULL for ops 4-6.
+typedef struct tl {
+    uint8_t op, stride, in, in2;
+    uint16_t cin, cout;
+    int8_t zp, amin, amax;
+    const int8_t *w;
+    const int32_t *bias;
+    const int32_t *mult;
+    const int8_t *shift;
+} tl_t;
+
+typedef struct tm {
+    uint8_t norm;
+    uint16_t in_w, in_h, lo, hi, min_range;
+    uint8_t out_stride, n_ch;
+    int8_t thr;
+    uint16_t max_peaks;
+    const char *name;
+    uint32_t n;
+    tl_t L[VD_CNN_MAX_LAYERS];
+    const int32_t *table;   // [n_ch][256]
+} tm_t;
+
+static void wr16(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)(v & 0xFFu);
+    p[1] = (uint8_t)((v >> 8) & 0xFFu);
+}
+
+static void wr32(uint8_t *p, uint32_t v)
+{
+    wr16(p, v & 0xFFFFu);
+    wr16(p + 2, v >> 16);
+}
+
+static uint32_t rd32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+
+static uint32_t al4(uint32_t x)
+{
+    return (x + 3u) & ~3u;
+}
+
+static void fix_crc(uint8_t *b)
+{
+    const uint32_t total = rd32(b + 8);
+    wr32(b + 12, vd_crc32(0u, b + 16, total - 16u));
+}
+
+static uint32_t w_len(const tl_t *L)
+{
+    switch (L->op) {
+    case VD_CNN_OP_CONV3X3:
+        return 9u * L->cin * L->cout;
+    case VD_CNN_OP_DW3X3:
+        return 9u * L->cout;
+    case VD_CNN_OP_PW1X1:
+        return (uint32_t)L->cin * L->cout;
+    default:
+        return 0u;
+    }
+}
+
+// Writes the .vdm blob of d into b (layout of the exporter: header, layer
+// table, per layer weights/bias/mult/shift each 4-aligned, decode table);
+// returns total_size.
+static uint32_t tm_write(const tm_t *d, uint8_t *b)
+{
+    uint32_t pos = VD_CNN_HEADER_SIZE + VD_CNN_LAYER_ENTRY_SIZE * d->n;
+    for (uint32_t l = 0u; l < d->n; l++) {
+        const tl_t *L = &d->L[l];
+        if (L->w != NULL) {
+            pos = al4(pos) + w_len(L);
+            pos = al4(pos) + 8u * L->cout;
+            pos = al4(pos) + 4u * L->cout;
+            pos += L->cout;
+        }
+    }
+    const uint32_t dec = al4(pos);
+    const uint32_t total = al4(dec + 4u * 256u * d->n_ch);
+    TEST_ASSERT_TRUE(total <= BLOB_CAP);
+    memset(b, 0, total);
+    memcpy(b, "VDMF", 4);
+    wr16(b + 4, 3u);
+    wr16(b + 6, 128u);
+    wr32(b + 8, total);
+    b[16] = 2u;
+    b[17] = d->norm;
+    b[18] = (uint8_t)d->n;
+    b[19] = d->n_ch;
+    wr16(b + 20, d->in_w);
+    wr16(b + 22, d->in_h);
+    wr16(b + 24, d->lo);
+    wr16(b + 26, d->hi);
+    wr16(b + 28, d->min_range);
+    b[30] = 0x80u;   // -128
+    b[31] = d->out_stride;
+    wr32(b + 32, 128u);
+    wr32(b + 36, dec);
+    b[40] = (uint8_t)d->thr;
+    wr16(b + 42, d->max_peaks);
+    if (d->name != NULL) {
+        memcpy(b + 48, d->name, strlen(d->name));
+    }
+    pos = VD_CNN_HEADER_SIZE + VD_CNN_LAYER_ENTRY_SIZE * d->n;
+    for (uint32_t l = 0u; l < d->n; l++) {
+        const tl_t *L = &d->L[l];
+        uint8_t *e = b + 128u + 32u * l;
+        e[0] = L->op;
+        e[1] = L->stride;
+        e[2] = L->in;
+        e[3] = L->in2;
+        wr16(e + 4, L->cin);
+        wr16(e + 6, L->cout);
+        e[8] = (uint8_t)L->zp;
+        e[9] = (uint8_t)L->amin;
+        e[10] = (uint8_t)L->amax;
+        if (L->w == NULL) {
+            continue;
+        }
+        pos = al4(pos);
+        wr32(e + 12, pos);
+        memcpy(b + pos, L->w, w_len(L));
+        pos = al4(pos + w_len(L));
+        wr32(e + 16, pos);
+        for (uint32_t o = 0u; o < L->cout; o++) {
+            wr32(b + pos + 4u * o, (uint32_t)L->bias[o]);
+        }
+        pos += 4u * L->cout;
+        wr32(e + 20, pos);
+        for (uint32_t o = 0u; o < L->cout; o++) {
+            wr32(b + pos + 4u * o, (uint32_t)L->mult[o]);
+        }
+        pos += 4u * L->cout;
+        wr32(e + 24, pos);
+        memcpy(b + pos, L->shift, L->cout);
+        pos += L->cout;
+    }
+    for (uint32_t i = 0u; i < 256u * d->n_ch; i++) {
+        wr32(b + dec + 4u * i, (uint32_t)d->table[i]);
+    }
+    fix_crc(b);
+    return total;
+}
+
+// Default decode table: score i * 128, sizes i * 128 (i / 2 px), offsets
+// clamp(4 i - 256, -256, 512).
+static int32_t g_table[5 * 256];
+
+static void table_default(void)
+{
+    for (int32_t i = 0; i < 256; i++) {
+        g_table[i] = i * 128;
+        g_table[256 + i] = i * 128;
+        g_table[512 + i] = i * 128;
+        const int32_t off = 4 * i - 256;
+        g_table[768 + i] = off > 512 ? 512 : off;
+        g_table[1024 + i] = off > 512 ? 512 : off;
+    }
+}
+
+static tl_t layer_weighted(uint8_t op, uint8_t stride, uint8_t in, uint16_t cin, uint16_t cout, int8_t zp,
+                           const int8_t *w, const int32_t *bias, const int32_t *mult, const int8_t *shift)
+{
+    tl_t L;
+    memset(&L, 0, sizeof L);
+    L.op = op;
+    L.stride = stride;
+    L.in = in;
+    L.cin = cin;
+    L.cout = cout;
+    L.zp = zp;
+    L.amin = -128;
+    L.amax = 127;
+    L.w = w;
+    L.bias = bias;
+    L.mult = mult;
+    L.shift = shift;
+    return L;
+}
+
+static tl_t layer_copy(uint8_t op, uint8_t in, uint8_t in2, uint16_t cin, uint16_t cout, int8_t zp)
+{
+    tl_t L;
+    memset(&L, 0, sizeof L);
+    L.op = op;
+    L.stride = 1u;
+    L.in = in;
+    L.in2 = in2;
+    L.cin = cin;
+    L.cout = cout;
+    L.zp = zp;
+    L.amin = -128;
+    L.amax = 127;
+    return L;
+}
+
+static void tm_init(tm_t *d, uint16_t w, uint16_t h, uint8_t n_ch, uint8_t out_stride)
+{
+    memset(d, 0, sizeof *d);
+    table_default();
+    d->in_w = w;
+    d->in_h = h;
+    d->n_ch = n_ch;
+    d->out_stride = out_stride;
+    d->thr = 0;
+    d->max_peaks = 100u;
+    d->name = "test";
+    d->table = g_table;
+}
+
+static vd_status_t tm_load(const tm_t *d, vd_cnn_model_t *m)
+{
+    const uint32_t total = tm_write(d, g_blob.b);
+    return vd_cnn_load(m, g_blob.b, total);
+}
+
+// Identity requantisation (mult 2^30, shift 1: x * 2 * 2^30 / 2^31 = x).
+static const int32_t k_mult1[8] = {1 << 30, 1 << 30, 1 << 30, 1 << 30, 1 << 30, 1 << 30, 1 << 30, 1 << 30};
+static const int8_t k_shift1[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+static const int32_t k_zero[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+// Weights of a head pw cin -> 3 (w[o][c] = k_head_w[o * cin + c]): with
+// 2 input channels the head is (c0, 0, c0), with 1 (c0, 0, 0).
+static const int8_t k_head_w[3 * 4] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+
+// Runs d on img (w x h, contiguous) keeping every tensor; the workspace stays
+// allocated in guarded slot 0 until run_free().
+static vd_cnn_model_t g_m;
+static void *g_ws;
+static size_t g_ws_bytes;
+
+static void run_keep(const tm_t *d, const uint8_t *img, uint32_t w, uint32_t h, vd_cnn_output_t *head)
+{
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(d, &g_m));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&g_m, w, h, VD_CNN_KEEP_TENSORS, &g_ws_bytes));
+    g_ws = tu_guarded_alloc(0, g_ws_bytes);
+    memset(g_ws, 0x5A, g_ws_bytes);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run_ex(&g_m, img, w, h, w, VD_CNN_KEEP_TENSORS, g_ws, g_ws_bytes, head));
+    tu_guard_check(0);
+}
+
+static void run_free(void)
+{
+    tu_guarded_free(0);
+    g_ws = NULL;
+}
+
+static void expect_tensor(uint32_t w, uint32_t h, uint32_t index, const int8_t *want, uint32_t tw, uint32_t th,
+                          uint32_t tc)
+{
+    vd_cnn_output_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&g_m, g_ws, g_ws_bytes, w, h, index, &t));
+    TEST_ASSERT_EQUAL_UINT32(tw, t.w);
+    TEST_ASSERT_EQUAL_UINT32(th, t.h);
+    TEST_ASSERT_EQUAL_UINT32(tc, t.c);
+    TEST_ASSERT_EQUAL_INT8_ARRAY(want, t.data, tw * th * tc);
+}
+
+// ------------------------------------------------------------ naive reference
+
+typedef struct ref_shape {
+    uint32_t c[VD_CNN_MAX_TENSORS], f[VD_CNN_MAX_TENSORS];
+    int32_t zp[VD_CNN_MAX_TENSORS];
+} ref_shape_t;
+
+static void ref_shapes(const tm_t *d, ref_shape_t *s)
+{
+    s->c[0] = 1u;
+    s->f[0] = 1u;
+    s->zp[0] = -128;
+    for (uint32_t l = 0u; l < d->n; l++) {
+        const tl_t *L = &d->L[l];
+        uint32_t f = s->f[L->in];
+        if (L->op == VD_CNN_OP_CONV3X3 || L->op == VD_CNN_OP_DW3X3) {
+            f *= L->stride;
+        } else if (L->op == VD_CNN_OP_MAXPOOL2) {
+            f *= 2u;
+        } else if (L->op == VD_CNN_OP_UPSAMPLE2) {
+            f /= 2u;
+        }
+        s->c[l + 1u] = L->cout;
+        s->f[l + 1u] = f;
+        s->zp[l + 1u] = L->zp;
+    }
+}
+
+static int8_t ref_out(const tl_t *L, uint32_t o, int64_t sum)
+{
+    const int64_t acc = (int64_t)L->bias[o] + sum;
+    TEST_ASSERT_TRUE(acc >= INT32_MIN && acc <= INT32_MAX);
+    int32_t z = vd_rq_requantize((int32_t)acc, L->mult[o], L->shift[o]) + L->zp;
+    z = z < L->amin ? L->amin : (z > L->amax ? L->amax : z);
+    return (int8_t)z;
+}
+
+// Every tensor of d on img (w x h); t[i] are malloc'd, caller frees.
+static void ref_forward(const tm_t *d, const uint8_t *img, uint32_t w, uint32_t h, int8_t *t[VD_CNN_MAX_TENSORS])
+{
+    ref_shape_t s;
+    ref_shapes(d, &s);
+    t[0] = malloc((size_t)w * h);
+    TEST_ASSERT_NOT_NULL(t[0]);
+    if (d->norm == 0u) {
+        for (uint32_t i = 0u; i < w * h; i++) {
+            t[0][i] = (int8_t)(img[i] - 128);
+        }
+    } else {
+        uint32_t hist[256] = {0};
+        for (uint32_t i = 0u; i < w * h; i++) {
+            hist[img[i]]++;
+        }
+        const uint64_t n = (uint64_t)w * h;
+        const uint64_t tl = n * d->lo / 1000u, th = n * d->hi / 1000u;
+        int32_t lo = -1, hi = -1;
+        uint64_t cum = 0u;
+        for (int32_t v = 0; v < 256; v++) {
+            cum += hist[v];
+            if (lo < 0 && cum > tl) {
+                lo = v;
+            }
+            if (hi < 0 && cum > th) {
+                hi = v;
+            }
+        }
+        hi = hi < 0 ? 255 : hi;
+        const int32_t r = (hi - lo > (int32_t)d->min_range) ? hi - lo : (int32_t)d->min_range;
+        for (uint32_t i = 0u; i < w * h; i++) {
+            int32_t p = 0;
+            if (img[i] > lo) {
+                p = ((img[i] - lo) * 510 + r) / (2 * r);
+                p = p > 255 ? 255 : p;
+            }
+            t[0][i] = (int8_t)(p - 128);
+        }
+    }
+    for (uint32_t l = 0u; l < d->n; l++) {
+        const tl_t *L = &d->L[l];
+        const uint32_t wi = w / s.f[L->in], hi = h / s.f[L->in], ci = s.c[L->in];
+        const uint32_t wo = w / s.f[l + 1u], ho = h / s.f[l + 1u], co = L->cout;
+        const int32_t zin = s.zp[L->in];
+        const int8_t *x = t[L->in];
+        int8_t *y = malloc((size_t)wo * ho * co);
+        TEST_ASSERT_NOT_NULL(y);
+        t[l + 1u] = y;
+        for (uint32_t oy = 0u; oy < ho; oy++) {
+            for (uint32_t ox = 0u; ox < wo; ox++) {
+                int8_t *yo = y + ((size_t)oy * wo + ox) * co;
+                for (uint32_t o = 0u; o < co; o++) {
+                    int64_t sum = 0;
+                    switch (L->op) {
+                    case VD_CNN_OP_CONV3X3:
+                    case VD_CNN_OP_DW3X3:
+                        for (int32_t ky = 0; ky < 3; ky++) {
+                            for (int32_t kx = 0; kx < 3; kx++) {
+                                const int32_t iy = (int32_t)(oy * L->stride) - 1 + ky;
+                                const int32_t ix = (int32_t)(ox * L->stride) - 1 + kx;
+                                if (iy < 0 || ix < 0 || iy >= (int32_t)hi || ix >= (int32_t)wi) {
+                                    continue;
+                                }
+                                const int8_t *xp = x + ((size_t)iy * wi + (size_t)ix) * ci;
+                                if (L->op == VD_CNN_OP_DW3X3) {
+                                    sum += (int64_t)L->w[(ky * 3 + kx) * (int32_t)co + (int32_t)o] * (xp[o] - zin);
+                                } else {
+                                    for (uint32_t c = 0u; c < ci; c++) {
+                                        sum += (int64_t)L->w[((o * 3u + (uint32_t)ky) * 3u + (uint32_t)kx) * ci + c] *
+                                               (xp[c] - zin);
+                                    }
+                                }
+                            }
+                        }
+                        yo[o] = ref_out(L, o, sum);
+                        break;
+                    case VD_CNN_OP_PW1X1:
+                        for (uint32_t c = 0u; c < ci; c++) {
+                            sum += (int64_t)L->w[o * ci + c] * (x[((size_t)oy * wi + ox) * ci + c] - zin);
+                        }
+                        yo[o] = ref_out(L, o, sum);
+                        break;
+                    case VD_CNN_OP_MAXPOOL2: {
+                        int8_t m = -128;
+                        for (uint32_t k = 0u; k < 4u; k++) {
+                            const int8_t v = x[((size_t)(2u * oy + k / 2u) * wi + 2u * ox + k % 2u) * ci + o];
+                            m = v > m ? v : m;
+                        }
+                        yo[o] = m;
+                        break;
+                    }
+                    case VD_CNN_OP_UPSAMPLE2:
+                        yo[o] = x[((size_t)(oy / 2u) * wi + ox / 2u) * ci + o];
+                        break;
+                    default: {
+                        const uint32_t cb = co - ci;
+                        yo[o] = (o < ci) ? x[((size_t)oy * wo + ox) * ci + o]
+                                         : t[L->in2][((size_t)oy * wo + ox) * cb + (o - ci)];
+                        break;
+                    }
+                    }
+                }
+            }
+        }
+    }
+}
+
+// ------------------------------------------------------------ requantisation
+
+static void test_requant_reference_rounding_and_saturation(void)
+{
+    // srdhm rounds ties toward +inf: 3 * 0.5 -> 2, -3 * 0.5 -> -1.
+    TEST_ASSERT_EQUAL_INT32(2, vd_rq_requantize(3, 1 << 30, 0));
+    TEST_ASSERT_EQUAL_INT32(-1, vd_rq_requantize(-3, 1 << 30, 0));
+    // RoundingDivideByPOT: half away from zero, and the two roundings compound:
+    // 5 * 0.25: high = round(2.5) = 3, then 3 / 2 = 1.5 -> 2.
+    TEST_ASSERT_EQUAL_INT32(2, vd_rq_requantize(5, 1 << 30, -1));
+    TEST_ASSERT_EQUAL_INT32(-1, vd_rq_requantize(-5, 1 << 30, -1));   // high -2 -> -1
+    TEST_ASSERT_EQUAL_INT32(-2, vd_rq_requantize(-6, 1 << 30, -1));   // high -3 -> -1.5 -> -2
+    // Identity (mult 2^30, shift 1) and saturation of acc << shift.
+    TEST_ASSERT_EQUAL_INT32(-77, vd_rq_requantize(-77, 1 << 30, 1));
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX / 2 + 1, vd_rq_requantize(INT32_MAX, 1 << 30, 1));
+    TEST_ASSERT_EQUAL_INT32(INT32_MIN / 2, vd_rq_requantize(INT32_MIN, 1 << 30, 1));
+    // (2^31 - 1)^2 / 2^31 = 2^31 - 2 + 2^-31 -> INT32_MAX - 1.
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX - 1, vd_rq_requantize(1 << 30, INT32_MAX, 7));
+    TEST_ASSERT_EQUAL_INT32(INT32_MIN + 1, vd_rq_requantize(-(1 << 30), INT32_MAX, 7));
+    // Largest right shifts: high 2^30, / 2^31 = 0.5 -> 1 (half away from zero);
+    // high 2^31 - 2, / 2^30 -> 2.
+    TEST_ASSERT_EQUAL_INT32(1, vd_rq_requantize(INT32_MAX, 1 << 30, -31));
+    TEST_ASSERT_EQUAL_INT32(0, vd_rq_requantize(INT32_MAX / 2, 1 << 30, -31));
+    TEST_ASSERT_EQUAL_INT32(-1, vd_rq_requantize(INT32_MIN, 1 << 30, -31));
+    TEST_ASSERT_EQUAL_INT32(2, vd_rq_requantize(INT32_MAX, INT32_MAX, -30));
+}
+
+static int32_t rq_fast_ref(int32_t acc, int32_t mult, int32_t shift)
+{
+    vd_rq_ch_t c;
+    vd_rq_prepare(mult, shift, 0, &c);
+    return vd_rq_apply(acc, &c);
+}
+
+// The kernels' one-shift form equals the two-step reference everywhere.
+static void test_requant_one_shift_form_matches_reference(void)
+{
+    static const int32_t accs[] = {INT32_MIN, INT32_MIN + 1, -(1 << 30), -65537, -65536, -4097, -3, -2, -1,
+                                   0, 1, 2, 3, 4095, 65535, 1 << 30, INT32_MAX - 1, INT32_MAX};
+    static const int32_t mults[] = {1 << 30, (1 << 30) + 1, 0x5A5A5A5A, 0x7FFFFFFE, INT32_MAX};
+    for (size_t a = 0u; a < sizeof accs / sizeof accs[0]; a++) {
+        for (size_t k = 0u; k < sizeof mults / sizeof mults[0]; k++) {
+            for (int32_t s = VD_RQ_SHIFT_MIN; s <= VD_RQ_SHIFT_MAX; s++) {
+                TEST_ASSERT_EQUAL_INT32(vd_rq_requantize(accs[a], mults[k], s), rq_fast_ref(accs[a], mults[k], s));
+            }
+        }
+    }
+    uint32_t st = 12345u;
+    for (int i = 0; i < 300000; i++) {
+        const uint32_t r = tu_rand(&st);
+        // Mix of full-range and small accumulators (where ties happen).
+        const int32_t acc = (i & 1) ? (int32_t)(tu_rand(&st) % 200001u) - 100000 : (int32_t)(r ^ tu_rand(&st));
+        const int32_t mult = (int32_t)(0x40000000u + (tu_rand(&st) & 0x3FFFFFFFu));
+        const int32_t s = (int32_t)(tu_rand(&st) % 39u) - 31;
+        TEST_ASSERT_EQUAL_INT32(vd_rq_requantize(acc, mult, s), rq_fast_ref(acc, mult, s));
+    }
+}
+
+// ------------------------------------------------------------ hand-worked ops
+
+// Test image: 4x4, pixel = y * 4 + x, so tensor 0 - zp = pixel (0..15).
+static uint8_t g_img16[16];
+
+static void img16(void)
+{
+    for (uint32_t i = 0u; i < 16u; i++) {
+        g_img16[i] = (uint8_t)i;
+    }
+}
+
+// 3x3 conv weights [o][ky][kx][c] for 2 -> 2 channels: o0 sums channel 0
+// over the 3x3 window; o1 = 2 * channel 1 at the centre + channel 0 at the
+// top-left tap.
+static void conv_weights(int8_t w[36])
+{
+    memset(w, 0, 36);
+    for (uint32_t k = 0u; k < 9u; k++) {
+        w[k * 2u] = 1;
+    }
+    w[18 + 4 * 2 + 1] = 2;
+    w[18 + 0] = 1;
+}
+
+static const int8_t k_w_pm[2] = {1, -1};   // pw 1 -> 2: (p, -p)
+
+static void conv_model(tm_t *d, uint8_t stride, const int8_t *w)
+{
+    tm_init(d, 4u, 4u, 3u, 4u);
+    d->L[0] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 0u, 1u, 2u, 0, k_w_pm, k_zero, k_mult1, k_shift1);
+    d->L[1] = layer_weighted(VD_CNN_OP_CONV3X3, stride, 1u, 2u, 2u, 0, w, k_zero, k_mult1, k_shift1);
+    uint32_t n = 2u;
+    d->L[n++] = layer_copy(VD_CNN_OP_MAXPOOL2, 2u, 0u, 2u, 2u, 0);
+    if (stride == 1u) {
+        d->L[n] = layer_copy(VD_CNN_OP_MAXPOOL2, (uint8_t)n, 0u, 2u, 2u, 0);
+        n++;
+    }
+    d->L[n] = layer_weighted(VD_CNN_OP_PW1X1, 1u, (uint8_t)n, 2u, 3u, 0, k_head_w, k_zero, k_mult1, k_shift1);
+    d->n = n + 1u;
+}
+
+static void test_conv3x3_stride1_padding_hand_worked(void)
+{
+    img16();
+    int8_t w[36];
+    conv_weights(w);
+    tm_t d;
+    conv_model(&d, 1u, w);
+    vd_cnn_output_t head;
+    run_keep(&d, g_img16, 4u, 4u, &head);
+    // o0 = sum of pixels in the 3x3 window (padding taps contribute 0):
+    //   10 18 24 18 / 27 45 54 39 / 51 81 90 63 / 42 66 72 50
+    // o1 = -2 p(y,x) + p(y-1,x-1) (0 outside):
+    //   0 -2 -4 -6 / -8 -10 -11 -12 / -16 -14 -15 -16 / -24 -18 -19 -20
+    static const int8_t t2[32] = {10, 0,   18, -2,  24, -4,  18, -6,  27, -8,  45, -10, 54, -11, 39, -12,
+                                  51, -16, 81, -14, 90, -15, 63, -16, 42, -24, 66, -18, 72, -19, 50, -20};
+    expect_tensor(4u, 4u, 2u, t2, 4u, 4u, 2u);
+    // Max-pool 2x2 of those, then again.
+    static const int8_t t3[8] = {45, 0, 54, -4, 81, -14, 90, -15};
+    expect_tensor(4u, 4u, 3u, t3, 2u, 2u, 2u);
+    static const int8_t t4[2] = {90, 0};
+    expect_tensor(4u, 4u, 4u, t4, 1u, 1u, 2u);
+    static const int8_t hd[3] = {90, 0, 90};   // k_head_w for 2 channels: (c0, 0, c0)
+    TEST_ASSERT_EQUAL_UINT32(1u, head.w);
+    TEST_ASSERT_EQUAL_UINT32(3u, head.c);
+    TEST_ASSERT_EQUAL_UINT32(4u, head.stride);
+    TEST_ASSERT_EQUAL_INT8_ARRAY(hd, head.data, 3);
+    uint64_t macs = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_macs(&g_m, 4u, 4u, &macs));
+    TEST_ASSERT_EQUAL_UINT64(16u * 2u + 16u * 9u * 2u * 2u + 1u * 2u * 3u, macs);
+    run_free();
+}
+
+static void test_conv3x3_stride2_hand_worked(void)
+{
+    img16();
+    int8_t w[36];
+    conv_weights(w);
+    tm_t d;
+    conv_model(&d, 2u, w);
+    vd_cnn_output_t head;
+    run_keep(&d, g_img16, 4u, 4u, &head);
+    // Outputs at input positions (0,0), (0,2), (2,0), (2,2) of the stride-1 map.
+    static const int8_t t2[8] = {10, 0, 24, -4, 51, -16, 90, -15};
+    expect_tensor(4u, 4u, 2u, t2, 2u, 2u, 2u);
+    static const int8_t hd[3] = {90, 0, 90};
+    TEST_ASSERT_EQUAL_INT8_ARRAY(hd, head.data, 3);
+    run_free();
+}
+
+// Depthwise after a zero point of 5 (padding taps read the zero-point row),
+// output zero point -3, clamp [-10, 127]; c0 x0.5 (shift 0), c1 x0.25 (shift -1).
+static void dw_model(tm_t *d, uint8_t stride, int8_t w[18])
+{
+    static const int32_t mult[2] = {1 << 30, 1 << 30};
+    static const int8_t shift[2] = {0, -1};
+    memset(w, 0, 18);
+    for (uint32_t k = 0u; k < 9u; k++) {
+        w[k * 2u] = 1;
+    }
+    w[4 * 2 + 1] = 2;
+    w[0 * 2 + 1] = 1;
+    tm_init(d, 4u, 4u, 3u, 4u);
+    d->L[0] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 0u, 1u, 2u, 5, k_w_pm, k_zero, k_mult1, k_shift1);
+    d->L[1] = layer_weighted(VD_CNN_OP_DW3X3, stride, 1u, 2u, 2u, -3, w, k_zero, mult, shift);
+    d->L[1].amin = -10;
+    uint32_t n = 2u;
+    d->L[n++] = layer_copy(VD_CNN_OP_MAXPOOL2, 2u, 0u, 2u, 2u, -3);
+    if (stride == 1u) {
+        d->L[n] = layer_copy(VD_CNN_OP_MAXPOOL2, (uint8_t)n, 0u, 2u, 2u, -3);
+        n++;
+    }
+    d->L[n] = layer_weighted(VD_CNN_OP_PW1X1, 1u, (uint8_t)n, 2u, 3u, 0, k_head_w, k_zero, k_mult1, k_shift1);
+    d->n = n + 1u;
+}
+
+static void test_depthwise_hand_worked(void)
+{
+    img16();
+    int8_t w[18];
+    tm_t d;
+    dw_model(&d, 1u, w);
+    vd_cnn_output_t head;
+    run_keep(&d, g_img16, 4u, 4u, &head);
+    // Tensor 1: (p + 5, 5 - p), zero point 5.
+    int8_t t1[32];
+    for (int32_t p = 0; p < 16; p++) {
+        t1[2 * p] = (int8_t)(p + 5);
+        t1[2 * p + 1] = (int8_t)(5 - p);
+    }
+    expect_tensor(4u, 4u, 1u, t1, 4u, 4u, 2u);
+    // c0: S = 3x3 sums (see the conv test), z = high = floor((S + 1) / 2)
+    // (srdhm ties up), out = z - 3:
+    //   5 9 12 9 / 14 23 27 20 / 26 41 45 32 / 21 33 36 25  -> minus 3.
+    // c1: a = -(2p + p(y-1,x-1)) = 0 -2 -4 -6 / -8 -10 -13 -16 / -16 -22 -25 -28 / -24 -34 -37 -40;
+    //   high = floor((a + 1) / 2) = 0 -1 -2 -3 / -4 -5 -6 -8 / -8 -11 -12 -14 / -12 -17 -18 -20;
+    //   z = high / 2 half away from zero = 0 -1 -1 -2 / -2 -3 -3 -4 / -4 -6 -6 -7 / -6 -9 -9 -10;
+    //   out = max(z - 3, -10).
+    static const int8_t t2[32] = {2,  -3, 6,  -4, 9,  -4, 6,  -5,  11, -5,  20, -6,  24, -6,  17, -7,
+                                  23, -7, 38, -9, 42, -9, 29, -10, 18, -9,  30, -10, 33, -10, 22, -10};
+    expect_tensor(4u, 4u, 2u, t2, 4u, 4u, 2u);
+    run_free();
+
+    dw_model(&d, 2u, w);
+    run_keep(&d, g_img16, 4u, 4u, &head);
+    static const int8_t s2[8] = {2, -3, 9, -4, 23, -7, 42, -9};
+    expect_tensor(4u, 4u, 2u, s2, 2u, 2u, 2u);
+    run_free();
+}
+
+static void test_pointwise_hand_worked(void)
+{
+    img16();
+    static const int8_t w0[3] = {1, 2, -3};
+    static const int8_t w1[6] = {3, -1, 1, 2, -1, 1};
+    static const int32_t b1[2] = {7, -1};
+    static const int32_t m1[2] = {1 << 30, 1 << 30};
+    static const int8_t s1[2] = {1, 0};
+    tm_t d;
+    tm_init(&d, 4u, 4u, 3u, 4u);
+    d.L[0] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 0u, 1u, 3u, 0, w0, k_zero, k_mult1, k_shift1);
+    d.L[1] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 1u, 3u, 2u, 4, w1, b1, m1, s1);
+    d.L[2] = layer_copy(VD_CNN_OP_MAXPOOL2, 2u, 0u, 2u, 2u, 4);
+    d.L[3] = layer_copy(VD_CNN_OP_MAXPOOL2, 3u, 0u, 2u, 2u, 4);
+    d.L[4] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 4u, 2u, 3u, 0, k_head_w, k_zero, k_mult1, k_shift1);
+    d.n = 5u;
+    vd_cnn_output_t head;
+    run_keep(&d, g_img16, 4u, 4u, &head);
+    // Tensor 1 = (p, 2p, -3p). o0 = 3p - 2p - 3p + 7 = 7 - 2p (x1), + zp 4;
+    // o1 = 2p - 2p - 3p - 1 = -3p - 1, x0.5: floor((-3p - 1 + 1) / 2) = floor(-3p / 2), + 4.
+    int8_t t2[32];
+    for (int32_t p = 0; p < 16; p++) {
+        t2[2 * p] = (int8_t)(11 - 2 * p);
+        t2[2 * p + 1] = (int8_t)((-3 * p - (p & 1)) / 2 + 4);
+    }
+    expect_tensor(4u, 4u, 2u, t2, 4u, 4u, 2u);
+    run_free();
+}
+
+static void test_upsample_and_concat_hand_worked(void)
+{
+    img16();
+    static const int8_t w1[1] = {1};
+    tm_t d;
+    tm_init(&d, 4u, 4u, 3u, 4u);
+    d.L[0] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 0u, 1u, 1u, 0, w1, k_zero, k_mult1, k_shift1);
+    d.L[1] = layer_copy(VD_CNN_OP_MAXPOOL2, 1u, 0u, 1u, 1u, 0);
+    d.L[2] = layer_copy(VD_CNN_OP_UPSAMPLE2, 2u, 0u, 1u, 1u, 0);
+    d.L[3] = layer_copy(VD_CNN_OP_CONCAT, 3u, 1u, 1u, 2u, 0);
+    d.L[4] = layer_copy(VD_CNN_OP_MAXPOOL2, 4u, 0u, 2u, 2u, 0);
+    d.L[5] = layer_copy(VD_CNN_OP_MAXPOOL2, 5u, 0u, 2u, 2u, 0);
+    d.L[6] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 6u, 2u, 3u, 0, k_head_w, k_zero, k_mult1, k_shift1);
+    d.n = 7u;
+    vd_cnn_output_t head;
+    run_keep(&d, g_img16, 4u, 4u, &head);
+    static const int8_t t2[4] = {5, 7, 13, 15};
+    expect_tensor(4u, 4u, 2u, t2, 2u, 2u, 1u);
+    static const int8_t t3[16] = {5, 5, 7, 7, 5, 5, 7, 7, 13, 13, 15, 15, 13, 13, 15, 15};
+    expect_tensor(4u, 4u, 3u, t3, 4u, 4u, 1u);
+    int8_t t4[32];
+    for (uint32_t p = 0u; p < 16u; p++) {
+        t4[2u * p] = t3[p];
+        t4[2u * p + 1u] = (int8_t)p;
+    }
+    expect_tensor(4u, 4u, 4u, t4, 4u, 4u, 2u);
+    static const int8_t t5[8] = {5, 5, 7, 7, 13, 13, 15, 15};
+    expect_tensor(4u, 4u, 5u, t5, 2u, 2u, 2u);
+    run_free();
+}
+
+// Tensor 0 of a 4x4 image through a model with the given normalisation.
+static void stretch_model(tm_t *d, uint8_t norm, uint16_t lo, uint16_t hi, uint16_t min_range)
+{
+    tm_init(d, 4u, 4u, 3u, 4u);
+    d->norm = norm;
+    d->lo = lo;
+    d->hi = hi;
+    d->min_range = min_range;
+    d->L[0] = layer_copy(VD_CNN_OP_MAXPOOL2, 0u, 0u, 1u, 1u, -128);
+    d->L[1] = layer_copy(VD_CNN_OP_MAXPOOL2, 1u, 0u, 1u, 1u, -128);
+    d->L[2] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 2u, 1u, 3u, 0, k_head_w, k_zero, k_mult1, k_shift1);
+    d->n = 3u;
+}
+
+static void test_input_stretch_hand_worked(void)
+{
+    tm_t d;
+    vd_cnn_output_t head;
+    // No normalisation: q = pixel - 128.
+    static const uint8_t raw[16] = {0, 1, 127, 128, 129, 254, 255, 7, 0, 0, 0, 0, 0, 0, 0, 0};
+    stretch_model(&d, 0u, 0u, 0u, 0u);
+    run_keep(&d, raw, 4u, 4u, &head);
+    static const int8_t q0[16] = {-128, -127, -1, 0, 1, 126, 127, -121, -128, -128, -128, -128, -128, -128, -128, -128};
+    expect_tensor(4u, 4u, 0u, q0, 4u, 4u, 1u);
+    run_free();
+
+    // Four levels, 4 pixels each; n = 16, lo 250 permille -> count 4, hi 750 -> 12.
+    // lo = smallest v with cum(v) > 4 = 20, hi = smallest with cum > 12 = 40, r = 20:
+    // 10, 20 -> 0; 30 -> (10 * 510 + 20) / 40 = 128; 40 -> (20 * 510 + 20) / 40 = 255.
+    static const uint8_t lv[16] = {10, 20, 30, 40, 40, 30, 20, 10, 10, 20, 30, 40, 40, 30, 20, 10};
+    stretch_model(&d, 1u, 250u, 750u, 4u);
+    run_keep(&d, lv, 4u, 4u, &head);
+    int8_t q1[16];
+    for (uint32_t i = 0u; i < 16u; i++) {
+        q1[i] = (int8_t)(lv[i] <= 20u ? -128 : (lv[i] == 30u ? 0 : 127));
+    }
+    expect_tensor(4u, 4u, 0u, q1, 4u, 4u, 1u);
+    run_free();
+
+    // Nearly flat: lo = hi = 100, r = min_range 4: 101 -> (510 + 4) / 8 = 64.
+    uint8_t flat[16];
+    memset(flat, 100, sizeof flat);
+    flat[5] = 101;
+    stretch_model(&d, 1u, 250u, 750u, 4u);
+    run_keep(&d, flat, 4u, 4u, &head);
+    int8_t q2[16];
+    memset(q2, 0x80, sizeof q2);
+    q2[5] = 64 - 128;
+    expect_tensor(4u, 4u, 0u, q2, 4u, 4u, 1u);
+    run_free();
+
+    // hi 1000 permille: no level has cum > n, so hi = 255. lo 0 -> the minimum (50).
+    // r = 205: 65 -> (15 * 510 + 205) / 410 = 19; 50 -> 0.
+    uint8_t ramp[16];
+    for (uint32_t i = 0u; i < 16u; i++) {
+        ramp[i] = (uint8_t)(50u + i);
+    }
+    stretch_model(&d, 1u, 0u, 1000u, 1u);
+    run_keep(&d, ramp, 4u, 4u, &head);
+    int8_t q3[16];
+    for (uint32_t i = 0u; i < 16u; i++) {
+        q3[i] = (int8_t)((int32_t)((i * 510u + 205u) / 410u) - 128);
+    }
+    TEST_ASSERT_EQUAL_INT8(-128, q3[0]);
+    TEST_ASSERT_EQUAL_INT8(19 - 128, q3[15]);
+    expect_tensor(4u, 4u, 0u, q3, 4u, 4u, 1u);
+    run_free();
+}
+
+// ------------------------------------------------------------ planner
+
+// Chain on 8x8: pw 1->2 (T1 128 B), maxpool (T2 32), maxpool (T3 8 -> 16),
+// pw 2->3 (T4 12 -> 16). K = cin is padded to Kp = 8 (VD_CNN_KCHUNK).
+// Scratch of pw 1->2: int16 weights 2 * 2 * 8 = 32, int16 rows of 16 pixels
+// 2 * 16 * 8 = 256, constants 2 * sizeof(vd_rq_ch_t) = 64: 352. Of pw 2->3:
+// 48 + 256 + 96 = 400.
+static void chain_model(tm_t *d)
+{
+    static const int8_t w0[2] = {1, 2};
+    tm_init(d, 8u, 8u, 3u, 4u);
+    d->L[0] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 0u, 1u, 2u, 0, w0, k_zero, k_mult1, k_shift1);
+    d->L[1] = layer_copy(VD_CNN_OP_MAXPOOL2, 1u, 0u, 2u, 2u, 0);
+    d->L[2] = layer_copy(VD_CNN_OP_MAXPOOL2, 2u, 0u, 2u, 2u, 0);
+    d->L[3] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 3u, 2u, 3u, 0, k_head_w, k_zero, k_mult1, k_shift1);
+    d->n = 4u;
+}
+
+static void test_planner_chain_and_skip(void)
+{
+    tm_t d;
+    vd_cnn_model_t m;
+    size_t bytes = 0u;
+    chain_model(&d);
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    // First fit, items in order (lifetime in steps):
+    //   T0 64 [0,1] @0; T1 128 [1,2] @64; S0 352 [1,1] @192;
+    //   T2 32 [2,3] @0 (T0 dead); T3 16 [3,4] @32; T4 16 [4,4] @0; S3 400 [4,4] @48.
+    // End = 544 (S0).
+    TEST_ASSERT_EQUAL_UINT32(8u, VD_CNN_KCHUNK);
+    TEST_ASSERT_EQUAL_UINT32(16u, VD_CNN_NPIX);
+    TEST_ASSERT_EQUAL_UINT32(32u, (uint32_t)sizeof(vd_rq_ch_t));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 8u, 8u, &bytes));
+    TEST_ASSERT_EQUAL_UINT32(VD_CNN_REC_BYTES + 544u, bytes);
+    // Keeping every tensor: T0 @0, T1 @64, S0 @192..544, T2 @192 (S0 is
+    // dead at step 2), T3 @224, T4 @240, S3 @256..656.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&m, 8u, 8u, VD_CNN_KEEP_TENSORS, &bytes));
+    TEST_ASSERT_EQUAL_UINT32(VD_CNN_REC_BYTES + 656u, bytes);
+
+    // Skip: pw 1->2 (T1, read again by the concat), maxpool (T2 32),
+    // upsample (T3 128), concat(T3, T1) (T4 8x8x4 = 256), maxpool (T5 64),
+    // maxpool (T6 16), pw 4->3 (T7 16, scratch 400):
+    //   T0 @0 [0,1]; T1 @64 [1,4]; S0 @192..544 [1,1]; T2 @0 [2,3]; T3 @192 [3,4];
+    //   T4 @320..576 [4,5]; T5 @0 [5,6]; T6 @64 [6,7]; T7 @0 [7,7]; S6 @80..480 [7,7].
+    // End = 576 (T4).
+    static const int8_t w0[2] = {1, 2};
+    tm_init(&d, 8u, 8u, 3u, 4u);
+    d.L[0] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 0u, 1u, 2u, 0, w0, k_zero, k_mult1, k_shift1);
+    d.L[1] = layer_copy(VD_CNN_OP_MAXPOOL2, 1u, 0u, 2u, 2u, 0);
+    d.L[2] = layer_copy(VD_CNN_OP_UPSAMPLE2, 2u, 0u, 2u, 2u, 0);
+    d.L[3] = layer_copy(VD_CNN_OP_CONCAT, 3u, 1u, 2u, 4u, 0);
+    d.L[4] = layer_copy(VD_CNN_OP_MAXPOOL2, 4u, 0u, 4u, 4u, 0);
+    d.L[5] = layer_copy(VD_CNN_OP_MAXPOOL2, 5u, 0u, 4u, 4u, 0);
+    d.L[6] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 6u, 4u, 3u, 0, k_head_w, k_zero, k_mult1, k_shift1);
+    d.n = 7u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 8u, 8u, &bytes));
+    TEST_ASSERT_EQUAL_UINT32(VD_CNN_REC_BYTES + 576u, bytes);
+    // With the stretch, the histogram (1280 B, live at step 0 only) meets
+    // only T0's lifetime: @64..1344; every other item keeps its place
+    // (nothing after step 0 conflicts with it); end = 1344.
+    d.norm = 1u;
+    d.lo = 10u;
+    d.hi = 990u;
+    d.min_range = 8u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 8u, 8u, &bytes));
+    TEST_ASSERT_EQUAL_UINT32(VD_CNN_REC_BYTES + 1344u, bytes);
+    // Pure function: the same query twice, and a larger input scales tensors.
+    size_t again = 0u, big = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 8u, 8u, &again));
+    TEST_ASSERT_EQUAL_UINT32(bytes, again);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 16u, 8u, &big));
+    TEST_ASSERT_TRUE(big > bytes);
+}
+
+typedef struct run_ctx {
+    const vd_cnn_model_t *m;
+    const uint8_t *img;
+    uint32_t w, h;
+} run_ctx_t;
+
+static vd_status_t run_fn(void *ws, size_t bytes, void *ctx)
+{
+    const run_ctx_t *c = (const run_ctx_t *)ctx;
+    vd_cnn_output_t out;
+    return vd_cnn_run(c->m, c->img, c->w, c->h, c->w, ws, bytes, &out);
+}
+
+// Every size query with guard bytes: size - 1 fails, exact size works, guards intact.
+static void test_workspace_contract(void)
+{
+    tm_t d;
+    vd_cnn_model_t m;
+    chain_model(&d);
+    d.norm = 1u;
+    d.lo = 5u;
+    d.hi = 995u;
+    d.min_range = 16u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    uint8_t img[64];
+    for (uint32_t i = 0u; i < 64u; i++) {
+        img[i] = (uint8_t)(i * 5u);
+    }
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 8u, 8u, &bytes));
+    run_ctx_t ctx = {&m, img, 8u, 8u};
+    tu_check_workspace_contract(bytes, run_fn, &ctx);
+    // A too-small buffer for even the record.
+    uint64_t tiny[4];
+    vd_cnn_output_t out;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_run(&m, img, 8u, 8u, 8u, tiny, sizeof tiny, &out));
+}
+
+static void test_tensor_liveness_and_state(void)
+{
+    tm_t d;
+    chain_model(&d);
+    uint8_t img[64];
+    memset(img, 200, sizeof img);
+    vd_cnn_model_t m;
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 8u, 8u, &bytes));
+    uint8_t *ws = tu_guarded_alloc(1, bytes);
+    memset(ws, 0, bytes);
+    vd_cnn_output_t t, out;
+    // No run yet.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_tensor(&m, ws, bytes, 8u, 8u, 4u, &t));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run(&m, img, 8u, 8u, 8u, ws, bytes, &out));
+    // Head: alive, same view as run's. T3 @32 is never overwritten (T4 @0,
+    // S3 @48). T0 and T1 are (T2 @0, S3 over T1's bytes).
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&m, ws, bytes, 8u, 8u, 4u, &t));
+    TEST_ASSERT_EQUAL_PTR(out.data, t.data);
+    TEST_ASSERT_EQUAL_UINT32(3u, t.c);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&m, ws, bytes, 8u, 8u, 3u, &t));
+    TEST_ASSERT_EQUAL_UINT32(2u, t.w);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_tensor(&m, ws, bytes, 8u, 8u, 0u, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_tensor(&m, ws, bytes, 8u, 8u, 1u, &t));
+    // Other size or index: refused.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_tensor(&m, ws, bytes, 16u, 8u, 4u, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_tensor(&m, ws, bytes, 8u, 8u, 5u, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_tensor(&m, ws, bytes, 8u, 6u, 4u, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_tensor(&m, ws, bytes, 8u, 8u, 4u, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_tensor(&m, ws, 16u, 8u, 8u, 4u, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_tensor(&m, NULL, bytes, 8u, 8u, 4u, &t));
+    // A failed run invalidates the record.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_run(&m, img, 8u, 8u, 8u, ws, bytes - 1u, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_tensor(&m, ws, bytes, 8u, 8u, 4u, &t));
+    tu_guard_check(1);
+    tu_guarded_free(1);
+}
+
+static void test_run_arguments(void)
+{
+    tm_t d;
+    chain_model(&d);
+    vd_cnn_model_t m;
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    TEST_ASSERT_EQUAL_UINT32(4u, m.align);
+    uint8_t img[16 * 8];
+    memset(img, 9, sizeof img);
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 16u, 8u, &bytes));
+    uint8_t *ws = tu_guarded_alloc(1, bytes);
+    vd_cnn_output_t out;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run(&m, img, 16u, 8u, 16u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_UINT32(4u, out.w);
+    TEST_ASSERT_EQUAL_UINT32(2u, out.h);
+    // Strided input: 8x8 view of the 16-wide plane.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run(&m, img, 8u, 8u, 16u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, img, 8u, 8u, 7u, ws, bytes, &out));
+    // Sizes: not a multiple of A = 4, zero, too large.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, img, 6u, 8u, 16u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, img, 8u, 2u, 16u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, img, 0u, 8u, 16u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 4100u, 8u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 0u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 8u, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 8u, 8u, 2u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(NULL, img, 8u, 8u, 16u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, NULL, 8u, 8u, 16u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, img, 8u, 8u, 16u, ws, bytes, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_ex(&m, img, 8u, 8u, 16u, 4u, ws, bytes, &out));
+    uint64_t macs;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_macs(&m, 8u, 8u, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_macs(&m, 9u, 8u, &macs));
+    // A model that was not loaded.
+    vd_cnn_model_t zero;
+    memset(&zero, 0, sizeof zero);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_run(&zero, img, 8u, 8u, 16u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_workspace_size(&zero, 8u, 8u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_macs(&zero, 8u, 8u, &macs));
+    // A model struct edited after loading (layer chain broken) is refused, not run.
+    vd_cnn_model_t bad = m;
+    bad.layers[3].in = 3u;
+    bad.layers[3].cin = 7u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_run(&bad, img, 8u, 8u, 16u, ws, bytes, &out));
+    tu_guard_check(1);
+    tu_guarded_free(1);
+}
+
+// ------------------------------------------------------------ decode
+
+// A head tensor filled by hand: heatmap values hm (w x h), other channels
+// from `rest` (c - 1 values for every cell) unless set per cell later.
+static int8_t g_head[8 * 8 * 5];
+
+static void head_fill(vd_cnn_output_t *o, const int8_t *hm, uint32_t w, uint32_t h, uint32_t c, uint32_t stride)
+{
+    for (uint32_t i = 0u; i < w * h; i++) {
+        g_head[i * c] = hm[i];
+        for (uint32_t k = 1u; k < c; k++) {
+            g_head[i * c + k] = -128;
+        }
+    }
+    o->data = g_head;
+    o->w = w;
+    o->h = h;
+    o->c = c;
+    o->stride = stride;
+    o->zp = 0;
+}
+
+static void test_decode_peaks_plateaus_ties_topk(void)
+{
+    tm_t d;
+    chain_model(&d);
+    vd_cnn_model_t m;
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    // 5 x 4 grid (network 20 x 16). (1,0) ties (0,0) but comes after it:
+    // not a peak. (3,1) < (2,2) after it; (4,1) ties (3,1) before it.
+    // (0,3) ties (0,2) before it. Peaks: (0,0) 10, (2,2) 9, (4,3) 9, (0,2) 3.
+    static const int8_t hm[20] = {10, 10, 0, 0, 5, 0, 0, 0, 7, 7, 3, 0, 9, 0, 0, 3, 0, 0, 0, 9};
+    vd_cnn_output_t o;
+    head_fill(&o, hm, 5u, 4u, 3u, 4u);
+    vd_cnn_box_t b[10];
+    size_t n = 99u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 1, 0u, 20u, 16u, b, 10u, &n));
+    TEST_ASSERT_EQUAL_UINT32(4u, (uint32_t)n);
+    // Sizes 0 (table[1][0] = 0): one-pixel boxes at the cell centres
+    // (x * 4 + 2 px), equal ties ordered by raster index.
+    static const int32_t want[4][4] = {{2, 2, 1, 1}, {10, 10, 1, 1}, {18, 14, 1, 1}, {2, 10, 1, 1}};
+    static const int8_t logit[4] = {10, 9, 9, 3};
+    for (uint32_t i = 0u; i < 4u; i++) {
+        TEST_ASSERT_EQUAL_INT8(logit[i], b[i].logit);
+        TEST_ASSERT_EQUAL_UINT16((uint16_t)((logit[i] + 128) * 128), b[i].score_q15);
+        TEST_ASSERT_EQUAL_INT32(want[i][0], b[i].rect.x);
+        TEST_ASSERT_EQUAL_INT32(want[i][1], b[i].rect.y);
+        TEST_ASSERT_EQUAL_INT32(want[i][2], b[i].rect.w);
+        TEST_ASSERT_EQUAL_INT32(want[i][3], b[i].rect.h);
+    }
+    // Header threshold 0 gives the same peaks (no zero cell is a peak).
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, VD_CNN_THR_DEFAULT, 0u, 20u, 16u, b, 10u, &n));
+    TEST_ASSERT_EQUAL_UINT32(4u, (uint32_t)n);
+    // Top-K by capacity and by max_peaks; the tie keeps raster order.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 1, 0u, 20u, 16u, b, 2u, &n));
+    TEST_ASSERT_EQUAL_UINT32(2u, (uint32_t)n);
+    TEST_ASSERT_EQUAL_INT32(2, b[0].rect.x);
+    TEST_ASSERT_EQUAL_INT32(10, b[1].rect.x);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 1, 3u, 20u, 16u, b, 10u, &n));
+    TEST_ASSERT_EQUAL_UINT32(3u, (uint32_t)n);
+    TEST_ASSERT_EQUAL_INT32(18, b[2].rect.x);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 1, 1u, 20u, 16u, b, 10u, &n));
+    TEST_ASSERT_EQUAL_UINT32(1u, (uint32_t)n);
+    TEST_ASSERT_EQUAL_INT8(10, b[0].logit);
+    // Threshold 4 drops the 3; threshold 11 drops everything.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 4, 0u, 20u, 16u, b, 10u, &n));
+    TEST_ASSERT_EQUAL_UINT32(3u, (uint32_t)n);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 11, 0u, 20u, 16u, b, 10u, &n));
+    TEST_ASSERT_EQUAL_UINT32(0u, (uint32_t)n);
+    // Capacity 0 with no array.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 1, 0u, 20u, 16u, NULL, 0u, &n));
+    TEST_ASSERT_EQUAL_UINT32(0u, (uint32_t)n);
+
+    // A flat map is one plateau: one peak, its first cell. A 2x2 plateau
+    // inside a lower map: its top-left cell.
+    int8_t flat[20];
+    memset(flat, 0x80, sizeof flat);
+    head_fill(&o, flat, 5u, 4u, 3u, 4u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, -128, 0u, 20u, 16u, b, 10u, &n));
+    TEST_ASSERT_EQUAL_UINT32(1u, (uint32_t)n);
+    TEST_ASSERT_EQUAL_INT32(2, b[0].rect.x);
+    TEST_ASSERT_EQUAL_INT32(2, b[0].rect.y);
+    memset(flat, 0, sizeof flat);
+    flat[6] = flat[7] = flat[11] = flat[12] = 5;
+    head_fill(&o, flat, 5u, 4u, 3u, 4u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 1, 0u, 20u, 16u, b, 10u, &n));
+    TEST_ASSERT_EQUAL_UINT32(1u, (uint32_t)n);
+    TEST_ASSERT_EQUAL_INT32(1 * 4 + 2, b[0].rect.x);
+    TEST_ASSERT_EQUAL_INT32(1 * 4 + 2, b[0].rect.y);
+}
+
+static void test_decode_box_rounding_and_clamping(void)
+{
+    static const int8_t w5[10] = {1, 0, 0, 1, 0, 0, 0, 0, 0, 0};
+    tm_t d;
+    chain_model(&d);
+    d.n_ch = 5u;
+    d.L[3].cout = 5u;
+    d.L[3].w = w5;
+    vd_cnn_model_t m;
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    // 4 x 3 grid, stride 4: network 16 x 12. Default table: size i * 128
+    // (i = value + 128), offset 4 i - 256.
+    int8_t hm[12];
+    memset(hm, -100, sizeof hm);
+    hm[1 * 4 + 1] = 50;
+    hm[2 * 4 + 3] = 40;
+    hm[0 * 4 + 3] = 30;
+    vd_cnn_output_t o;
+    head_fill(&o, hm, 4u, 3u, 5u, 4u);
+    int8_t *a = g_head + (1 * 4 + 1) * 5;   // (1,1): w 8 px, h 4 px, offsets 0.5 cell
+    a[1] = -112;
+    a[2] = -120;
+    a[3] = -32;
+    a[4] = -32;
+    int8_t *bb = g_head + (2 * 4 + 3) * 5;  // (3,2): w 127.5 px, h 5 px, offsets -1, 0
+    bb[1] = 127;
+    bb[2] = -118;
+    bb[3] = -128;
+    bb[4] = -64;
+    int8_t *c = g_head + (0 * 4 + 3) * 5;   // (3,0): size 0, offsets +2, -1 cells
+    c[1] = -128;
+    c[2] = -128;
+    c[3] = 64;
+    c[4] = -128;
+    vd_cnn_box_t b[4];
+    size_t n = 0u;
+    // Frame = network size.
+    // (1,1): cx = (256 + 128) * 4 = 1536 (6 px), x 2..10; cy 6 px, y 4..8.
+    // (3,2): cx = (768 - 256) * 4 = 2048, x0n = 2048 - 16320 -> -56 -> 0,
+    //   x1n = 18368 = 71.75 px -> 72 -> 16 (frame); cy = 2048, y0n = 1408
+    //   = 5.5 px -> 6 (half up), y1n = 2688 = 10.5 px -> 11.
+    // (3,0): cx = (768 + 512) * 4 = 20 px -> x0 15 (frame - 1), x1 16;
+    //   cy = -4 px -> y0 0, y1 = max(-4, y0 + 1) = 1.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 0, 0u, 16u, 12u, b, 4u, &n));
+    TEST_ASSERT_EQUAL_UINT32(3u, (uint32_t)n);
+    static const int32_t want[3][4] = {{2, 4, 8, 4}, {0, 6, 16, 5}, {15, 0, 1, 1}};
+    for (uint32_t i = 0u; i < 3u; i++) {
+        TEST_ASSERT_EQUAL_INT32(want[i][0], b[i].rect.x);
+        TEST_ASSERT_EQUAL_INT32(want[i][1], b[i].rect.y);
+        TEST_ASSERT_EQUAL_INT32(want[i][2], b[i].rect.w);
+        TEST_ASSERT_EQUAL_INT32(want[i][3], b[i].rect.h);
+    }
+    TEST_ASSERT_EQUAL_UINT16(178u * 128u, b[0].score_q15);
+    // Frame twice the network: exact doubling.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 0, 0u, 32u, 24u, b, 4u, &n));
+    TEST_ASSERT_EQUAL_INT32(4, b[0].rect.x);
+    TEST_ASSERT_EQUAL_INT32(8, b[0].rect.y);
+    TEST_ASSERT_EQUAL_INT32(16, b[0].rect.w);
+    TEST_ASSERT_EQUAL_INT32(8, b[0].rect.h);
+    // 30 x 20: X(512) = floor((512 * 30 + 2048) / 4096) = 4, X(2560) = 19;
+    // Y(1024) = floor((1024 * 20 + 1536) / 3072) = 7, Y(2048) = 13.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &o, 0, 0u, 30u, 20u, b, 4u, &n));
+    TEST_ASSERT_EQUAL_INT32(4, b[0].rect.x);
+    TEST_ASSERT_EQUAL_INT32(7, b[0].rect.y);
+    TEST_ASSERT_EQUAL_INT32(15, b[0].rect.w);
+    TEST_ASSERT_EQUAL_INT32(6, b[0].rect.h);
+
+    // Arguments.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &o, 128, 0u, 16u, 12u, b, 4u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &o, -129, 0u, 16u, 12u, b, 4u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &o, 0, 0u, 0u, 12u, b, 4u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &o, 0, 0u, 16u, VD_MAX_DIM + 1u, b, 4u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &o, 0, 0u, 16u, 12u, NULL, 4u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &o, 0, 0u, 16u, 12u, b, 4u, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, NULL, 0, 0u, 16u, 12u, b, 4u, &n));
+    vd_cnn_output_t bad = o;
+    bad.c = 3u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &bad, 0, 0u, 16u, 12u, b, 4u, &n));
+    bad = o;
+    bad.stride = 8u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &bad, 0, 0u, 16u, 12u, b, 4u, &n));
+    bad = o;
+    bad.data = NULL;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &bad, 0, 0u, 16u, 12u, b, 4u, &n));
+    bad = o;
+    bad.w = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_decode(&m, &bad, 0, 0u, 16u, 12u, b, 4u, &n));
+    vd_cnn_model_t zero;
+    memset(&zero, 0, sizeof zero);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_decode(&zero, &o, 0, 0u, 16u, 12u, b, 4u, &n));
+}
+
+// ------------------------------------------------------------ random models vs the naive reference
+
+static int8_t g_wpool[1u << 17];
+static int32_t g_ipool[1u << 14];
+static int8_t g_spool[1u << 13];
+static uint32_t g_wn, g_in, g_sn;
+
+static void pools_reset(void)
+{
+    g_wn = g_in = g_sn = 0u;
+}
+
+// Random weights (full int8 range, -128 included), small biases, Q31
+// multipliers, shifts mostly -12..-8 (outputs spread over int8) with some
+// anywhere in -31..7 (saturation and deep right shifts), random zero point and clamp.
+// Weights in -128..127, or -127..127 (what symmetric quantisation gives; the
+// depthwise kernel then adds products in pairs) when g_wsym is set.
+static bool g_wsym;
+
+static tl_t rnd_weighted(uint32_t *st, uint8_t op, uint8_t stride, uint8_t in, uint16_t cin, uint16_t cout)
+{
+    tl_t L;
+    memset(&L, 0, sizeof L);
+    L.op = op;
+    L.stride = stride;
+    L.in = in;
+    L.cin = cin;
+    L.cout = cout;
+    L.zp = (int8_t)((int32_t)(tu_rand(st) % 41u) - 20);
+    const uint32_t act = tu_rand(st) % 10u;
+    L.amin = -128;
+    L.amax = 127;
+    if (act < 3u) {
+        L.amin = L.zp;   // ReLU
+    } else if (act < 5u) {
+        L.amin = (int8_t)((int32_t)(tu_rand(st) % 100u) - 100);
+        L.amax = (int8_t)(L.amin + (int32_t)(tu_rand(st) % (uint32_t)(128 - L.amin)));
+    }
+    const uint32_t wl = w_len(&L);
+    TEST_ASSERT_TRUE(g_wn + wl <= sizeof g_wpool && g_in + 2u * cout <= 1u << 14 && g_sn + cout <= sizeof g_spool);
+    int8_t *w = g_wpool + g_wn;
+    int32_t *bias = g_ipool + g_in;
+    int32_t *mult = bias + cout;
+    int8_t *shift = g_spool + g_sn;
+    g_wn += wl;
+    g_in += 2u * cout;
+    g_sn += cout;
+    for (uint32_t i = 0u; i < wl; i++) {
+        w[i] = (int8_t)(g_wsym ? (int32_t)(tu_rand(st) % 255u) - 127 : (int32_t)(tu_rand(st) & 0xFFu) - 128);
+    }
+    for (uint32_t o = 0u; o < cout; o++) {
+        bias[o] = (int32_t)(tu_rand(st) % 8001u) - 4000;
+        mult[o] = (int32_t)(0x40000000u + (tu_rand(st) & 0x3FFFFFFFu));
+        const uint32_t r = tu_rand(st) % 20u;
+        shift[o] = (int8_t)(r < 16u ? -8 - (int32_t)(r % 5u) : (int32_t)(tu_rand(st) % 39u) - 31);
+    }
+    L.w = w;
+    L.bias = bias;
+    L.mult = mult;
+    L.shift = shift;
+    return L;
+}
+
+// Architecture 0: stride-2 stem, depthwise-separable blocks (odd channel
+// counts: 17 and 33 exercise the 16-channel tails, cin 17 the K padding),
+// upsample + concat skip, head 5 channels at stride 4. Architecture 1: full
+// 3x3 convolutions (stride 1 and 2, cin 3 and 6), max-pools, head 3 at stride 8.
+static void rnd_model(tm_t *d, uint32_t arch, uint32_t seed)
+{
+    uint32_t st = seed * 2654435761u + 1u;
+    pools_reset();
+    g_wsym = (seed / 2u) % 2u == 1u;
+    if (arch == 0u) {
+        tm_init(d, 8u, 8u, 5u, 4u);
+        d->L[0] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 2u, 0u, 1u, 8u);
+        d->L[1] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 2u, 1u, 8u, 8u);
+        d->L[2] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 2u, 8u, 12u);
+        d->L[3] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 3u, 12u, 12u);
+        d->L[4] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 4u, 12u, 17u);
+        d->L[5] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 2u, 5u, 17u, 17u);
+        d->L[6] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 6u, 17u, 33u);
+        d->L[7] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 7u, 33u, 33u);
+        d->L[2].zp = d->L[7].zp;   // the concat below needs equal zero points
+        d->L[8] = layer_copy(VD_CNN_OP_UPSAMPLE2, 8u, 0u, 33u, 33u, d->L[7].zp);
+        d->L[9] = layer_copy(VD_CNN_OP_CONCAT, 9u, 3u, 33u, 45u, d->L[7].zp);
+        d->L[10] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 10u, 45u, 45u);
+        d->L[11] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 11u, 45u, 5u);
+        d->n = 12u;
+    } else {
+        tm_init(d, 8u, 8u, 3u, 8u);
+        d->L[0] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 1u, 0u, 1u, 3u);
+        d->L[1] = layer_copy(VD_CNN_OP_MAXPOOL2, 1u, 0u, 3u, 3u, d->L[0].zp);
+        d->L[2] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 2u, 2u, 3u, 6u);
+        d->L[3] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 1u, 3u, 6u, 7u);
+        d->L[4] = layer_copy(VD_CNN_OP_MAXPOOL2, 4u, 0u, 7u, 7u, d->L[3].zp);
+        d->L[5] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 5u, 7u, 3u);
+        d->n = 6u;
+    }
+    if (seed % 2u == 1u) {
+        d->norm = 1u;
+        d->lo = (uint16_t)(tu_rand(&st) % 100u);
+        d->hi = (uint16_t)(900u + tu_rand(&st) % 101u);
+        d->min_range = (uint16_t)(1u + tu_rand(&st) % 64u);
+    }
+}
+
+static void rnd_image(uint8_t *img, uint32_t w, uint32_t h, uint32_t seed)
+{
+    uint32_t st = seed + 77u;
+    for (uint32_t y = 0u; y < h; y++) {
+        for (uint32_t x = 0u; x < w; x++) {
+            const uint32_t noise = tu_rand(&st) % 64u;
+            img[y * w + x] = (uint8_t)((seed % 3u == 0u) ? tu_rand(&st) & 0xFFu : (x * 7u + y * 3u + noise) & 0xFFu);
+        }
+    }
+}
+
+static void test_random_models_match_naive_reference(void)
+{
+    static const uint32_t sizes[5][2] = {{8, 8}, {16, 8}, {24, 16}, {40, 24}, {56, 40}};
+    static uint8_t img[56 * 40];
+    uint32_t checked = 0u;
+    for (uint32_t arch = 0u; arch < 2u; arch++) {
+        for (uint32_t seed = 0u; seed < 4u; seed++) {
+            tm_t d;
+            rnd_model(&d, arch, seed);
+            for (uint32_t si = 0u; si < 5u; si++) {
+                const uint32_t w = sizes[si][0], h = sizes[si][1];
+                rnd_image(img, w, h, seed * 5u + si);
+                int8_t *ref[VD_CNN_MAX_TENSORS];
+                ref_forward(&d, img, w, h, ref);
+                vd_cnn_output_t head;
+                run_keep(&d, img, w, h, &head);
+                for (uint32_t t = 0u; t <= d.n; t++) {
+                    vd_cnn_output_t x;
+                    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&g_m, g_ws, g_ws_bytes, w, h, t, &x));
+                    char msg[64];
+                    snprintf(msg, sizeof msg, "arch %u seed %u size %ux%u tensor %u", (unsigned)arch,
+                             (unsigned)seed, (unsigned)w, (unsigned)h, (unsigned)t);
+                    TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(ref[t], x.data, x.w * x.h * x.c, msg);
+                    checked += x.w * x.h * x.c;
+                }
+                // The shared-memory plan gives the same head, whatever the
+                // workspace held before.
+                const size_t keep_bytes = g_ws_bytes;
+                int8_t head_copy[1024];
+                TEST_ASSERT_TRUE(head.w * head.h * head.c <= sizeof head_copy);
+                memcpy(head_copy, head.data, head.w * head.h * head.c);
+                run_free();
+                size_t bytes = 0u;
+                TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&g_m, w, h, &bytes));
+                TEST_ASSERT_TRUE(bytes <= keep_bytes);
+                uint8_t *ws = tu_guarded_alloc(1, bytes);
+                memset(ws, 0xA5, bytes);
+                vd_cnn_output_t h2;
+                TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run(&g_m, img, w, h, w, ws, bytes, &h2));
+                TEST_ASSERT_EQUAL_INT8_ARRAY(head_copy, h2.data, h2.w * h2.h * h2.c);
+                tu_guard_check(1);
+                tu_guarded_free(1);
+                for (uint32_t t = 0u; t <= d.n; t++) {
+                    free(ref[t]);
+                }
+            }
+        }
+    }
+    TEST_ASSERT_TRUE(checked > 100000u);
+}
+
+// Depthwise at the int16 limits: weights +-127 (pairs path) or -128 (single
+// products) on inputs -128 / 127, i.e. products of 16256 / 16384 and pair
+// sums of 32512 / 32258, against the naive reference.
+static void test_depthwise_extremes_match_reference(void)
+{
+    static int8_t w[9 * 17];
+    static const int32_t bias[17] = {0};
+    static int32_t mult[17], m_id[17];
+    static int8_t shift[17], s_id[17];
+    static const int8_t wh[3 * 17] = {1, 1, 1};
+    static const int32_t zero3[3] = {0, 0, 0};
+    for (uint32_t c = 0u; c < 17u; c++) {
+        mult[c] = 0x40000000 + (int32_t)c * 12345;
+        shift[c] = (int8_t)(-10 - (int32_t)(c % 3u));
+        m_id[c] = 1 << 30;
+        s_id[c] = 1;
+    }
+    uint8_t img[16 * 8];
+    for (uint32_t i = 0u; i < sizeof img; i++) {
+        img[i] = (i % 5u < 3u) ? 0u : 255u;
+    }
+    for (int variant = 0; variant < 3; variant++) {
+        for (uint32_t i = 0u; i < sizeof w; i++) {
+            w[i] = (int8_t)(variant == 0 ? -127 : variant == 1 ? ((i & 1u) ? 127 : -127) : -128);
+        }
+        static const int8_t w17[17] = {1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1};
+        tm_t d;
+        tm_init(&d, 16u, 8u, 3u, 4u);
+        // Tensor 1 = pixel - 128 on 17 channels: -128 or 127.
+        d.L[0] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 0u, 1u, 17u, -128, w17, bias, m_id, s_id);
+        d.L[1] = layer_weighted(VD_CNN_OP_DW3X3, 1u, 1u, 17u, 17u, 3, w, bias, mult, shift);
+        d.L[2] = layer_copy(VD_CNN_OP_MAXPOOL2, 2u, 0u, 17u, 17u, 3);
+        d.L[3] = layer_copy(VD_CNN_OP_MAXPOOL2, 3u, 0u, 17u, 17u, 3);
+        d.L[4] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 4u, 17u, 3u, 0, wh, zero3, k_mult1, k_shift1);
+        d.n = 5u;
+        int8_t *ref[VD_CNN_MAX_TENSORS];
+        ref_forward(&d, img, 16u, 8u, ref);
+        vd_cnn_output_t head;
+        run_keep(&d, img, 16u, 8u, &head);
+        TEST_ASSERT_EQUAL_INT8(-128, ref[1][0]);
+        TEST_ASSERT_EQUAL_INT8(127, ref[1][17 * 3]);
+        for (uint32_t t = 0u; t <= d.n; t++) {
+            vd_cnn_output_t x;
+            TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&g_m, g_ws, g_ws_bytes, 16u, 8u, t, &x));
+            TEST_ASSERT_EQUAL_INT8_ARRAY(ref[t], x.data, x.w * x.h * x.c);
+            free(ref[t]);
+        }
+        run_free();
+    }
+}
+
+// ------------------------------------------------------------ hostile blobs
+
+// Every op, a skip and the stretch: conv s2 1->4 (zp 2), dw 4 (zp -1),
+// pw 4->6 (zp 2), maxpool, upsample, concat(t5, t1) -> 10 (zp 2), dw s2 10,
+// pw 10->n_ch. 8x8 input, A = 4, head at stride 4.
+static uint32_t hostile_model(uint8_t n_ch, uint8_t *b)
+{
+    tm_t d;
+    uint32_t st = 99u;
+    pools_reset();
+    tm_init(&d, 8u, 8u, n_ch, 4u);
+    d.norm = 1u;
+    d.lo = 20u;
+    d.hi = 980u;
+    d.min_range = 10u;
+    d.max_peaks = 50u;
+    d.thr = -7;
+    d.name = "hostile";
+    d.L[0] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 2u, 0u, 1u, 4u);
+    d.L[0].zp = 2;
+    d.L[1] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 1u, 4u, 4u);
+    d.L[1].zp = -1;
+    d.L[2] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 2u, 4u, 6u);
+    d.L[2].zp = 2;
+    d.L[3] = layer_copy(VD_CNN_OP_MAXPOOL2, 3u, 0u, 6u, 6u, 2);
+    d.L[4] = layer_copy(VD_CNN_OP_UPSAMPLE2, 4u, 0u, 6u, 6u, 2);
+    d.L[5] = layer_copy(VD_CNN_OP_CONCAT, 5u, 1u, 6u, 10u, 2);
+    d.L[6] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 2u, 6u, 10u, 10u);
+    d.L[7] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 7u, 10u, n_ch);
+    d.n = 8u;
+    return tm_write(&d, b);
+}
+
+static uint8_t *entry(uint8_t *b, uint32_t l)
+{
+    return b + 128u + 32u * l;
+}
+
+// Structural corruption k of the hostile model (n_ch 3; cases from
+// N_CORRUPT3 on use the n_ch 5 model). Returns false past the last case.
+// *total may be changed (cases on total_size); *fix tells whether to
+// recompute the CRC.
+#define N_CORRUPT3 84
+#define N_CORRUPT 86
+
+static bool corrupt(int k, uint8_t *b, uint32_t *total, bool *fix)
+{
+    *fix = true;
+    uint8_t *e2 = entry(b, 2u);
+    const uint32_t dec = rd32(b + 36);
+    switch (k) {
+    case 0: wr16(b + 4, 2u); break;                     // version 2 (a DBN version)
+    case 1: wr16(b + 4, 4u); break;
+    case 2: wr16(b + 4, 1u); break;
+    case 3: wr16(b + 6, 64u); break;                    // header size
+    case 4: b[16] = 1u; break;                          // kind
+    case 5: b[16] = 0u; break;
+    case 6: b[17] = 2u; break;                          // input_norm
+    case 7: wr16(b + 24, 980u); break;                  // lo == hi
+    case 8: wr16(b + 26, 1001u); break;                 // hi > 1000
+    case 9: wr16(b + 28, 0u); break;                    // min_range 0
+    case 10: wr16(b + 28, 256u); break;
+    case 11: b[17] = 0u; break;                         // no stretch but parameters set
+    case 12: b[18] = 0u; break;                         // n_layers
+    case 13: b[18] = 33u; break;
+    case 14: b[18] = 7u; break;                         // head would be 10 channels at stride 4
+    case 15: b[19] = 4u; break;                         // out_channels
+    case 16: b[19] = 5u; break;                         // != head channels
+    case 17: wr16(b + 20, 0u); break;                   // input_w
+    case 18: wr16(b + 20, 4100u); break;
+    case 19: wr16(b + 20, 10u); break;                  // not a multiple of A = 4
+    case 20: wr16(b + 22, 6u); break;
+    case 21: b[30] = 0x81u; break;                      // input_zp -127
+    case 22: b[31] = 8u; break;                         // out_stride != head factor 4
+    case 23: b[31] = 2u; break;
+    case 24: wr32(b + 32, 124u); break;                 // layer table inside the header
+    case 25: wr32(b + 32, 130u); break;                 // misaligned
+    case 26: wr32(b + 32, *total - 16u); break;         // past the end
+    case 27: wr32(b + 36, dec + 2u); break;             // decode table misaligned
+    case 28: wr32(b + 36, dec + 4u); break;             // past the end
+    case 29: wr32(b + 36, 128u); break;                 // over the layer table
+    case 30: wr32(b + 36, rd32(entry(b, 0u) + 12)); break;   // over layer 0's weights
+    case 31: b[41] = 1u; break;                         // reserved
+    case 32: wr16(b + 42, 0u); break;                   // max_peaks
+    case 33: wr16(b + 42, 1025u); break;
+    case 34: wr32(b + 44, 1u); break;                   // flags
+    case 35: b[49] = 0x7Fu; break;                      // name not printable
+    case 36: b[48 + 8] = 'x'; break;                    // text after the NUL
+    case 37: b[64] = 1u; break;                         // reserved tail
+    case 38: b[127] = 0x80u; break;
+    case 39: e2[0] = 0u; break;                         // op
+    case 40: e2[0] = 7u; break;
+    case 41: e2[1] = 2u; break;                         // pw stride 2
+    case 42: entry(b, 0u)[1] = 3u; break;               // conv stride 3
+    case 43: entry(b, 0u)[1] = 0u; break;
+    case 44: entry(b, 3u)[1] = 2u; break;               // maxpool stride field 2
+    case 45: e2[2] = 3u; break;                         // in from the future
+    case 46: e2[3] = 1u; break;                         // in2 on a non-concat
+    case 47: entry(b, 5u)[3] = 6u; break;               // concat in2 from the future
+    case 48: entry(b, 5u)[2] = 6u; break;
+    case 49: wr16(e2 + 4, 5u); break;                   // cin != channels of tensor 2
+    case 50: wr16(e2 + 6, 0u); break;                   // cout
+    case 51: wr16(e2 + 6, 1025u); break;
+    case 52: wr16(entry(b, 1u) + 6, 5u); break;         // depthwise cout != cin
+    case 53: wr16(entry(b, 3u) + 6, 5u); break;         // maxpool cout != cin
+    case 54: e2[9] = 10u; e2[10] = 5u; break;           // act_min > act_max
+    case 55: entry(b, 3u)[8] = 3u; break;               // maxpool zero point changes
+    case 56: entry(b, 3u)[9] = 0x81u; break;            // maxpool act_min -127
+    case 57: entry(b, 4u)[10] = 126u; break;            // upsample act_max 126
+    case 58: entry(b, 4u)[2] = 0u; wr16(entry(b, 4u) + 4, 1u); wr16(entry(b, 4u) + 6, 1u); break;  // upsample at f 1
+    case 59: entry(b, 5u)[3] = 4u; wr16(entry(b, 5u) + 6, 12u); break;  // concat of f 2 and f 4
+    case 60: entry(b, 5u)[3] = 2u; break;               // concat zero points 2 and -1
+    case 61: wr16(entry(b, 5u) + 6, 11u); break;        // concat cout != 6 + 4
+    case 62: entry(b, 5u)[8] = 3u; break;               // concat out_zp
+    case 63: e2[11] = 1u; break;                        // layer reserved byte
+    case 64: wr32(e2 + 28, 4u); break;                  // layer reserved word
+    case 65: wr32(e2 + 12, 0u); break;                  // pw without weights
+    case 66: wr32(entry(b, 3u) + 12, rd32(e2 + 12)); break;   // maxpool with an array
+    case 67: wr32(e2 + 16, rd32(e2 + 16) + 1u); break;  // bias misaligned
+    case 68: wr32(e2 + 20, rd32(e2 + 16)); break;       // mult over bias
+    case 69: wr32(e2 + 24, *total - 4u); break;         // shift past the end
+    case 70: wr32(e2 + 12, 128u); break;                // weights over the layer table
+    case 71: wr32(b + rd32(e2 + 20), 0x3FFFFFFFu); break;     // mult < 2^30
+    case 72: wr32(b + rd32(e2 + 20) + 4u, 0x80000000u); break; // mult negative
+    case 73: b[rd32(e2 + 24)] = 0xE0u; break;           // shift -32
+    case 74: b[rd32(e2 + 24) + 5u] = 8u; break;         // shift 8
+    case 75: wr32(b + rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 127 * 255 + 1)); break;  // bias bound
+    case 76: wr32(b + rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 127 * 255) - 1)); break;
+    case 77: wr32(b + dec + 4u * 5u, rd32(b + dec + 4u * 4u) - 1u); break;  // score decreasing
+    case 78: wr32(b + dec + 4u * 255u, 32769u); break;  // score > 1.0
+    case 79: wr32(b + dec, 0xFFFFFFFFu); break;         // score -1
+    case 80: wr32(b + dec + 4u * (256u + 3u), 0xFFFFFFFFu); break;     // width -1
+    case 81: wr32(b + dec + 4u * (512u + 7u), 4096u * 256u + 1u); break;  // height too large
+    case 82: entry(b, 6u)[1] = 1u; break;               // head at stride 2 (dw s1)
+    case 83: wr32(b + 8, *total + 2u); *total += 2u; break;   // total not a multiple of 4
+    case 84: wr32(b + dec + 4u * (768u + 9u), (uint32_t)-257); break;  // (n_ch 5) x offset
+    case 85: wr32(b + dec + 4u * (1024u + 9u), 513u); break;           // y offset
+    default: return false;
+    }
+    return true;
+}
+
+static uint8_t g_work[BLOB_CAP + 16u];
+
+static void test_structural_corruptions_rejected(void)
+{
+    static union {
+        uint64_t align;
+        uint8_t b[16384];
+    } base;
+    int n_cases = 0;
+    for (int k = 0; k < N_CORRUPT; k++) {
+        const uint8_t n_ch = (k < N_CORRUPT3) ? 3u : 5u;
+        uint32_t total = hostile_model(n_ch, base.b);
+        vd_cnn_model_t m;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&m, base.b, total));
+        // A fresh, aligned copy with 8 spare bytes after it.
+        uint8_t *b = g_blob.b;
+        memcpy(b, base.b, total);
+        memset(b + total, 0, 8u);
+        bool fix = true;
+        TEST_ASSERT_TRUE(corrupt(k, b, &total, &fix));
+        if (fix) {
+            const uint32_t t = rd32(b + 8);
+            if (t >= 16u && t <= total + 8u) {
+                fix_crc(b);
+            }
+        }
+        memset(&m, 0x5A, sizeof m);
+        vd_cnn_model_t before = m;
+        char msg[40];
+        snprintf(msg, sizeof msg, "corruption %d", k);
+        TEST_ASSERT_EQUAL_INT_MESSAGE(VD_ERR_MODEL, vd_cnn_load(&m, b, total + 8u), msg);
+        TEST_ASSERT_EQUAL_MEMORY_MESSAGE(&before, &m, sizeof m, msg);   // *m untouched
+        n_cases++;
+    }
+    TEST_ASSERT_EQUAL_INT(N_CORRUPT, n_cases);
+    uint32_t total = 0u;
+    bool fix;
+    TEST_ASSERT_FALSE(corrupt(N_CORRUPT, base.b, &total, &fix));
+
+    // Boundary values that are valid: bias exactly at the bound, offsets -256
+    // and 512, score 32768, sizes 0 and 4096 * 256.
+    total = hostile_model(5u, g_blob.b);
+    uint8_t *b = g_blob.b;
+    const uint32_t dec = rd32(b + 36);
+    wr32(b + rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 127 * 255));
+    wr32(b + rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 127 * 255)));
+    wr32(b + dec + 4u * 255u, 32768u);
+    wr32(b + dec + 4u * 256u, 0u);
+    wr32(b + dec + 4u * 511u, 4096u * 256u);
+    wr32(b + dec + 4u * 768u, (uint32_t)-256);
+    wr32(b + dec + 4u * 1279u, 512u);
+    fix_crc(b);
+    vd_cnn_model_t m;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&m, b, total));
+    TEST_ASSERT_EQUAL_STRING("hostile", m.name);
+    TEST_ASSERT_EQUAL_INT8(-7, m.score_threshold_q);
+    TEST_ASSERT_EQUAL_UINT16(50u, m.max_peaks);
+    TEST_ASSERT_EQUAL_UINT32(4u, m.align);
+    TEST_ASSERT_EQUAL_UINT32(8u, m.n_layers);
+    // A DBN reader refuses the CNN kind.
+    vd_model_t dbn;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_dbn_load(&dbn, b, total));
+}
+
+static void test_every_bit_flip_and_truncation_rejected(void)
+{
+    const uint32_t total = hostile_model(3u, g_blob.b);
+    uint8_t *b = g_blob.b;
+    vd_cnn_model_t m;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&m, b, total));
+    // Flash padding after total_size is ignored.
+    memset(b + total, 0xFF, 8u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&m, b, total + 8u));
+    uint32_t flips = 0u;
+    for (uint32_t i = 0u; i < total; i++) {
+        for (uint32_t bit = 0u; bit < 8u; bit++) {
+            b[i] ^= (uint8_t)(1u << bit);
+            memset(&m, 0x33, sizeof m);
+            if (vd_cnn_load(&m, b, total + 8u) != VD_ERR_MODEL) {
+                char msg[48];
+                snprintf(msg, sizeof msg, "flip byte %u bit %u accepted", (unsigned)i, (unsigned)bit);
+                TEST_FAIL_MESSAGE(msg);
+            }
+            b[i] ^= (uint8_t)(1u << bit);
+            flips++;
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT32(8u * total, flips);
+    for (uint32_t len = 1u; len < total; len++) {
+        TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_cnn_load(&m, b, len));
+    }
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_load(&m, b, 0u));
+    // Misaligned pointers and NULLs.
+    for (uint32_t k = 1u; k < 4u; k++) {
+        memcpy(g_work + k, b, total);
+        TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_load(&m, g_work + k, total));
+    }
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_load(NULL, b, total));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_load(&m, NULL, total));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&m, b, total));
+    // The hostile model runs and decodes (the loaded pointers are usable).
+    uint8_t img[64];
+    for (uint32_t i = 0u; i < 64u; i++) {
+        img[i] = (uint8_t)(i * 37u);
+    }
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 8u, 8u, &bytes));
+    void *ws = tu_guarded_alloc(1, bytes);
+    vd_cnn_output_t out;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run(&m, img, 8u, 8u, 8u, ws, bytes, &out));
+    vd_cnn_box_t boxes[8];
+    size_t n = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(&m, &out, -128, 0u, 64u, 48u, boxes, 8u, &n));
+    TEST_ASSERT_TRUE(n >= 1u);
+    for (size_t i = 0u; i < n; i++) {
+        TEST_ASSERT_TRUE(boxes[i].rect.x >= 0 && boxes[i].rect.w >= 1 && boxes[i].rect.x + boxes[i].rect.w <= 64);
+        TEST_ASSERT_TRUE(boxes[i].rect.y >= 0 && boxes[i].rect.h >= 1 && boxes[i].rect.y + boxes[i].rect.h <= 48);
+    }
+    tu_guard_check(1);
+    tu_guarded_free(1);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_requant_reference_rounding_and_saturation);
+    RUN_TEST(test_requant_one_shift_form_matches_reference);
+    RUN_TEST(test_conv3x3_stride1_padding_hand_worked);
+    RUN_TEST(test_conv3x3_stride2_hand_worked);
+    RUN_TEST(test_depthwise_hand_worked);
+    RUN_TEST(test_pointwise_hand_worked);
+    RUN_TEST(test_upsample_and_concat_hand_worked);
+    RUN_TEST(test_input_stretch_hand_worked);
+    RUN_TEST(test_planner_chain_and_skip);
+    RUN_TEST(test_workspace_contract);
+    RUN_TEST(test_tensor_liveness_and_state);
+    RUN_TEST(test_run_arguments);
+    RUN_TEST(test_decode_peaks_plateaus_ties_topk);
+    RUN_TEST(test_decode_box_rounding_and_clamping);
+    RUN_TEST(test_random_models_match_naive_reference);
+    RUN_TEST(test_depthwise_extremes_match_reference);
+    RUN_TEST(test_structural_corruptions_rejected);
+    RUN_TEST(test_every_bit_flip_and_truncation_rejected);
+    return UNITY_END();
+}
