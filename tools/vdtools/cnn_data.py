@@ -24,6 +24,15 @@ def half(img):
     return ((a[0::2, 0::2] + a[1::2, 0::2] + a[0::2, 1::2] + a[1::2, 1::2] + 2) >> 2).astype(np.uint8)
 
 
+def pad_to(img, a=16):
+    """Pads a plane by edge replication to multiples of a (the network's alignment), as the detector does."""
+    h, w = img.shape
+    H, W = (h + a - 1) // a * a, (w + a - 1) // a * a
+    if (H, W) == (h, w):
+        return img
+    return np.pad(img, ((0, H - h), (0, W - w)), mode="edge")
+
+
 @dataclass
 class Frame:
     dataset: str
@@ -46,9 +55,11 @@ def _hot_flags(img, boxes):
     return np.array(out, bool)
 
 
-def load_frames(data_dir, splits=("train", "val", "test")):
-    """All annotated real frames of the wanted splits, images in memory (~1 400 frames, ~450 MB)."""
-    frames = D.all_frames(data_dir, synth=False)
+def load_frames(data_dir, splits=("train", "val", "test"), synth=False):
+    """All annotated real frames of the wanted splits, images in memory (~1 400 frames, ~450 MB); with
+    synth, also the synthetic training clips of vdtools.dataset.load_synth (seeds 101/102, never the
+    bundled clip's seed 1; train split only)."""
+    frames = D.all_frames(data_dir, synth=synth)
     split_of = D.assign_splits(frames)
     out = []
     for f in frames:
@@ -65,5 +76,5 @@ def load_frames(data_dir, splits=("train", "val", "test")):
 
 
 def family(fr):
-    """'msrs' (road level) or 'hit' (drone, incl. the sequence flight)."""
-    return "msrs" if fr.dataset == "msrs" else "hit"
+    """'msrs' (road level), 'synth' (synthetic clips) or 'hit' (drone, incl. the sequence flight)."""
+    return fr.dataset if fr.dataset in ("msrs", "synth") else "hit"

@@ -39,10 +39,10 @@ def nms(dets, thr=0.5):
     return keep
 
 
-def net_input(img):
-    """Half-resolution plane, padded (edge replicate) to a multiple of 16: the detector's network input."""
-    from .cnn_train import pad_to
-    return pad_to(CD.half(img))
+def net_input(img, align=16):
+    """Half-resolution plane, padded (edge replicate) to a multiple of the model's alignment: the
+    detector's network input."""
+    return CD.pad_to(CD.half(img), align)
 
 
 class Int8:
@@ -53,9 +53,10 @@ class Int8:
         self.desc = V.unpack(self.blob)
         self.backend = backend
         self.c = V.CModel(self.blob) if backend == "c" else None
+        self.align = V.alignment(self.desc)
 
     def __call__(self, img, frame_w, frame_h, thr_q=-128):
-        x = net_input(img)
+        x = net_input(img, self.align)
         fw, fh = x.shape[1] * 2, x.shape[0] * 2
         if self.c is not None:
             boxes = self.c.decode(self.c.run(x), fw, fh, thr_q=thr_q, max_peaks=100)
@@ -79,7 +80,7 @@ class Float:
 
     def __call__(self, img, frame_w, frame_h, thr_q=None):
         with self.torch.no_grad():
-            o = self.net(self.T.to_input(net_input(img)))
+            o = self.net(self.T.to_input(net_input(img, self.net.align)))
         return [((x * 2, y * 2, w * 2, h * 2), s) for x, y, w, h, s in self.T.decode_float(o, 0.02)]
 
 

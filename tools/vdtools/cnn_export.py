@@ -64,7 +64,7 @@ def calibrate(net, frames):
     vals = None
     with torch.no_grad():
         for fr in frames:
-            img = T.pad_to(CD.half(fr.img))
+            img = T.pad_to(CD.half(fr.img), net.align)
             ts = net(T.to_input(img), return_all=True)
             if vals is None:
                 vals = [[] for _ in ts]

@@ -37,6 +37,8 @@ from .evaluate import average_precision
 
 STRIDE = 4
 CROP = 192
+SIZE_WEIGHT = 1.0           # L1 of log sizes + offsets, against the focal heatmap loss
+SCALE = (0.6, 1.4)          # random rescale of the half-resolution frame (MSRS test cars are smaller than train)
 NORM = dict(norm_lo_permille=10, norm_hi_permille=995, norm_min_range=48)
 
 # Architectures: (op, args) in execution order; tensors are numbered as in the .vdm (0 = input,
@@ -46,6 +48,15 @@ ARCHS = {
     "main": [("conv", 16, 2), ("dw", 2), ("pw", 32), ("dw", 1), ("pw", 32), ("save", "s4"),
              ("dw", 2), ("pw", 64), ("dw", 1), ("pw", 64), ("dw", 1), ("pw", 64), ("save", "s8"),
              ("dw", 2), ("pw", 128), ("dw", 1), ("pw", 128), ("dw", 1), ("pw", 128),
+             ("pw", 64), ("up",), ("cat", "s8"), ("dw", 1), ("pw", 64),
+             ("pw", 16), ("up",), ("cat", "s4"), ("dw", 1), ("pw", 24),
+             ("dw", 1), ("head", 5)],
+    # main + a stride-32 stage (receptive field for cars up to ~300 px at road level), ~80 M multiply-adds
+    "wide": [("conv", 16, 2), ("dw", 2), ("pw", 32), ("dw", 1), ("pw", 32), ("save", "s4"),
+             ("dw", 2), ("pw", 64), ("dw", 1), ("pw", 64), ("dw", 1), ("pw", 64), ("save", "s8"),
+             ("dw", 2), ("pw", 128), ("dw", 1), ("pw", 128), ("save", "s16"),
+             ("dw", 2), ("pw", 160), ("dw", 1), ("pw", 160), ("dw", 1), ("pw", 160),
+             ("pw", 64), ("up",), ("cat", "s16"), ("dw", 1), ("pw", 128),
              ("pw", 64), ("up",), ("cat", "s8"), ("dw", 1), ("pw", 64),
              ("pw", 16), ("up",), ("cat", "s4"), ("dw", 1), ("pw", 24),
              ("dw", 1), ("head", 5)],
@@ -117,6 +128,12 @@ class Net(nn.Module):
             chans.append(cout)
             cur = len(chans) - 1
         self.n_out = chans[-1]
+        # input sides must be multiples of the largest downsampling factor (the .vdm's alignment)
+        f = [1]
+        for d in self.spec:
+            fi = f[d["in"]]
+            f.append(fi * d["stride"] if d["op"] in ("conv", "dw") else (fi // 2 if d["op"] == "up" else fi))
+        self.align = max(f)
 
     def forward(self, x, return_all=False):
         t = [x]
@@ -185,12 +202,13 @@ def sample(fr, rng, crop=CROP, augment=True):
     if augment:
         img = photometric(img, rng)
     img = stretch(img)
-    s = rng.uniform(0.75, 1.5) if augment else 1.0
-    s = max(s, crop / min(img.shape))
+    s = rng.uniform(SCALE[0], SCALE[1]) if augment else 1.0
     if s != 1.0:
         img = cv2.resize(img, (int(round(img.shape[1] * s)), int(round(img.shape[0] * s))),
                          interpolation=cv2.INTER_LINEAR if s > 1 else cv2.INTER_AREA)
         boxes, ign = boxes * s, ign * s
+    if min(img.shape) < crop:   # black padding: what the network's zero padding shows at a frame edge
+        img = np.pad(img, ((0, max(0, crop - img.shape[0])), (0, max(0, crop - img.shape[1]))))
     H, W = img.shape
     # crops centred on a vehicle half of the time (MSRS has many frames without one)
     if len(boxes) and rng.random() < 0.5:
@@ -248,16 +266,30 @@ def targets(boxes, ign, size, stride=STRIDE):
         hm = np.maximum(hm, gau)
         hm[iy, ix] = 1.0
         mask[iy, ix] = 1.0
-        reg[:, iy, ix] = (math.log(max(w, 1.0)), math.log(max(h, 1.0)), cx - ix, cy - iy)
-        regm[iy, ix] = 1.0
+        # size and offset are learnt at the centre cell and its 3x3 neighbours inside the box (weight = the
+        # Gaussian there), so that a peak one cell off still reads a good box; offsets then span [-1, 2)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                jy, jx = iy + dy, ix + dx
+                if not (0 <= jy < g and 0 <= jx < g) or not (x <= (jx + 0.5) * stride <= x + w and
+                                                            y <= (jy + 0.5) * stride <= y + h):
+                    continue
+                wgt = 1.0 if (dy, dx) == (0, 0) else float(gau[jy, jx])
+                if wgt > regm[jy, jx]:
+                    reg[:, jy, jx] = (math.log(max(w, 1.0)), math.log(max(h, 1.0)), cx - jx, cy - jy)
+                    regm[jy, jx] = wgt
     return hm, mask, reg, regm
+
+
+FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a batch
 
 
 def batch(frames_by_fam, rng, n, crop=CROP):
     xs, hms, ms, regs, regms = [], [], [], [], []
-    fams = list(frames_by_fam)
+    fams = sorted(frames_by_fam)
+    p = np.array([FAMILY_SHARE[f] for f in fams])
     for i in range(n):
-        fam = fams[i % len(fams)]
+        fam = fams[rng.choice(len(fams), p=p / p.sum())]
         lst = frames_by_fam[fam]
         img, b, ig = sample(lst[rng.integers(len(lst))], rng, crop)
         hm, m, reg, regm = targets(b, ig, crop)
@@ -282,7 +314,7 @@ def loss_fn(out, hm, m, reg, regm):
     hm_l = (pos_l + neg_l) / npos
     r = (out[:, 1:5] - reg).abs().sum(1)
     size_l = (r * regm).sum() / regm.sum().clamp(min=1)
-    return hm_l + 0.5 * size_l, hm_l.item(), size_l.item()
+    return hm_l + SIZE_WEIGHT * size_l, hm_l.item(), size_l.item()
 
 
 # ---------------------------------------------------------------- float decoding and evaluation
@@ -291,12 +323,7 @@ def to_input(img_half):
     return torch.from_numpy(stretch(img_half)[None, None].astype(np.float32) / 255.0)
 
 
-def pad_to(img, a=16):
-    h, w = img.shape
-    H, W = (h + a - 1) // a * a, (w + a - 1) // a * a
-    if (H, W) == (h, w):
-        return img
-    return np.pad(img, ((0, H - h), (0, W - w)), mode="edge")
+pad_to = CD.pad_to
 
 
 def decode_float(out, thr=0.05, k=100, stride=STRIDE):
@@ -336,7 +363,7 @@ def evaluate(net, frames, thr=0.05):
     net.eval()
     per = {}
     for fr in frames:
-        img = pad_to(CD.half(fr.img))
+        img = pad_to(CD.half(fr.img), net.align)
         out = net(to_input(img))
         dets = [((x * 2, y * 2, w * 2, h * 2), s) for x, y, w, h, s in nms(decode_float(out, thr))]
         per.setdefault(CD.family(fr), []).append((dets, gts_of(fr)))
@@ -356,15 +383,22 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--eval-every", type=int, default=1000)
     ap.add_argument("--resume", action="store_true")
+    ap.add_argument("--synth", action="store_true", help="add the synthetic training clips (15 %% of the crops)")
+    ap.add_argument("--exclude", choices=("msrs-night",), help="leave these frames out of training (the "
+                    "another-camera estimate of docs/results/detector.md: train without night MSRS, test on it)")
     a = ap.parse_args(argv)
     torch.set_num_threads(a.threads)
     torch.manual_seed(a.seed)
     rng = np.random.default_rng(a.seed)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    frames = CD.load_frames(a.data, splits=("train", "val"))
+    frames = CD.load_frames(a.data, splits=("train", "val"), synth=a.synth)
     train = [f for f in frames if f.split == "train"]
     val = [f for f in frames if f.split == "val"]
+    if a.exclude == "msrs-night":
+        night = lambda f: f.dataset == "msrs" and f.name.endswith("N.png")
+        train = [f for f in train if not night(f)]
+        val = [f for f in val if not night(f)]      # nor choose the checkpoint on them
     by_fam = {}
     for f in train:
         by_fam.setdefault(CD.family(f), []).append(f)

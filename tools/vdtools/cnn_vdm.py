@@ -86,8 +86,8 @@ def k_of(op, cin):
 
 
 def bias_bound(op, cin):
-    """Largest |bias| vd_cnn_load accepts: INT32_MAX - K * 127 * 255."""
-    return INT32_MAX - k_of(op, cin) * 127 * 255
+    """Largest |bias| vd_cnn_load accepts: INT32_MAX - K * 128 * 255 (weights may be -128)."""
+    return INT32_MAX - k_of(op, cin) * 128 * 255
 
 
 def weight_shape(op, cin, cout):
