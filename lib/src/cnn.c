@@ -10,7 +10,8 @@
 // with TFLite's double-rounding requantisation (internal/requant.h, folded
 // into one 64-bit floor shift per value). Decoding (CenterNet-like): 3x3
 // local maxima of the heatmap channel with a raster-order tie rule, top-K by
-// insertion, boxes from Q8 decode tables, rounded to frame pixels.
+// insertion, boxes from Q8 decode tables, rounded to frame pixels; a score
+// threshold maps to a logit threshold by binary search of the score table.
 // Kernels (plain C99 written for gcc/clang auto-vectorisation; HWC, so the
 // innermost loops run over contiguous channels):
 //  * CONV3X3 / PW1X1: blocks of 16 output pixels as int16 rows (x - zp_in),
@@ -34,9 +35,10 @@
 // (O(items^2), items <= 2 + 2 L) lives in the workspace's run record. Stack
 // (Cortex-M7 -Os, worst call chain): load ~420 B, run ~730 B, workspace
 // query and vd_cnn_tensor ~950 B (the plan), decode ~300 B. Accumulators: |sum w (x - zp)|
-// <= K * 128 * 255 < 2^31 for K <= 9 * 1024; the bias is added modulo 2^32
-// (no undefined behaviour; exact whenever the true sum fits int32, which
-// the loader's bias bound guarantees for weights in -127..127).
+// <= K * 128 * 255 < 2^31 for K <= 9 * 1024, and the loader's bias bound
+// |bias| <= INT32_MAX - K * 128 * 255 makes the whole sum fit int32 for every
+// int8 weight including -128 (the addition is still done modulo 2^32, so a
+// wrong bound could never be undefined behaviour).
 #include "vd/cnn.h"
 
 #include "internal/cnn_internal.h"
@@ -106,7 +108,7 @@
 #define E_RES1 28u
 
 #define MAGIC_U32 0x464D4456u   // "VDMF"
-#define MAX_ABS_PRODUCT (127L * 255L)
+#define MAX_ABS_PRODUCT (128L * 255L)   // weights may be -128: |w (x - zp)| <= 128 * 255
 #define INPUT_ZP (-128)
 
 
@@ -711,6 +713,7 @@ typedef struct rq {
     int32_t lo;      // act_min - zp
     int32_t hi;      // act_max - zp
     bool general;    // some channel has shift > 0 (saturating left shift first)
+    bool relu;       // lo >= 0: the sign correction of the rounding is not needed (rq_row)
 } rq_t;
 
 // One output value from z = requantize(sum + bias): clamp, zero point.
@@ -724,7 +727,7 @@ static inline int8_t rq_out(int32_t z, int32_t zp, int32_t lo, int32_t hi)
 // VD_CNN_NPIX values of one channel. With the channel's constants in locals
 // the loop vectorises (gcc, SSE2: pmuludq, psrlq): requantisation would
 // otherwise cost as much as the multiply-adds.
-static inline void rq_row(const int32_t *acc, const vd_rq_ch_t *c, const rq_t *q, int8_t *z8)
+CNN_NOINLINE static void rq_row(const int32_t *acc, const vd_rq_ch_t *c, const rq_t *q, int8_t *z8)
 {
     const int32_t zp = q->zp, lo = q->lo, hi = q->hi;
     if (q->general) {
@@ -736,6 +739,19 @@ static inline void rq_row(const int32_t *acc, const vd_rq_ch_t *c, const rq_t *q
     const uint64_t k = c->k;
     const uint32_t mult = c->mult, dk = c->dk, rsh = c->rsh, off = c->off, bias = (uint32_t)c->bias;
     const int32_t thr = c->thr;
+    if (q->relu) {
+        // lo >= 0 (act_min >= zp, every ReLU layer): vd_rq_z_nn, the form
+        // without the sign term, gives the same clamped output (proof at
+        // vd_rq_z_nn). Two loops: gcc vectorises both (pmuludq, psrlq).
+        int32_t t[VD_CNN_NPIX];
+        for (size_t p = 0u; p < VD_CNN_NPIX; p++) {
+            t[p] = vd_rq_z_nn(bias + (uint32_t)acc[p], k, mult, rsh, off);
+        }
+        for (size_t p = 0u; p < VD_CNN_NPIX; p++) {
+            z8[p] = rq_out(t[p], zp, lo, hi);
+        }
+        return;
+    }
     for (size_t p = 0u; p < VD_CNN_NPIX; p++) {
         const int32_t x = vd_rq_u32_to_i32(bias + (uint32_t)acc[p]);
         z8[p] = rq_out(vd_rq_z(x, k, mult, dk, thr, rsh, off), zp, lo, hi);
@@ -757,6 +773,7 @@ static void rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout
     q->zp = L->out_zp;
     q->lo = L->act_min - L->out_zp;
     q->hi = L->act_max - L->out_zp;
+    q->relu = q->lo >= 0;
 }
 
 // Geometry of one layer's input and output tensors.
@@ -915,6 +932,15 @@ static inline void dw_store(const int32_t *acc, size_t n, size_t c0, const rq_t 
         }
         return;
     }
+    if (q->relu) {
+        // lo >= 0: without the sign term, as rq_row.
+        for (size_t j = 0u; j < n; j++) {
+            const vd_rq_ch_t *c = &ch[j];
+            d[j] = rq_out(vd_rq_z_nn((uint32_t)c->bias + (uint32_t)acc[j], c->k, c->mult, c->rsh, c->off), zp, lo,
+                          hi);
+        }
+        return;
+    }
     for (size_t j = 0u; j < n; j++) {
         const vd_rq_ch_t *c = &ch[j];
         const int32_t x = vd_rq_u32_to_i32((uint32_t)c->bias + (uint32_t)acc[j]);
@@ -947,16 +973,31 @@ CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const 
         zrow[c] = (int8_t)g->zp_in;
     }
     const int32_t step = L->stride;
+    const size_t pstep = (size_t)step * c_n;   // input bytes per output pixel along a row
     for (uint32_t oy = 0u; oy < g->ho; oy++) {
+        // Row pointers of the three input rows (NULL above/below the tensor);
+        // per pixel only the column tests remain.
+        const int8_t *rowp[3];
+        for (int32_t ky = 0; ky < 3; ky++) {
+            const int32_t iy = (int32_t)oy * step - 1 + ky;
+            rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? in + (size_t)iy * g->wi * c_n : NULL;
+        }
         for (uint32_t ox = 0u; ox < g->wo; ox++) {
             const int8_t *t[9];
+            const int32_t ix0 = (int32_t)ox * step - 1;
+            const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)g->wi;
             for (int32_t ky = 0; ky < 3; ky++) {
-                const int32_t iy = (int32_t)oy * step - 1 + ky;
-                for (int32_t kx = 0; kx < 3; kx++) {
-                    const int32_t ix = (int32_t)ox * step - 1 + kx;
-                    const bool inside = iy >= 0 && iy < (int32_t)g->hi && ix >= 0 && ix < (int32_t)g->wi;
-                    t[ky * 3 + kx] = inside ? in + ((size_t)iy * g->wi + (size_t)ix) * c_n : zrow;
+                const int8_t *r = rowp[ky];
+                if (r == NULL) {
+                    t[ky * 3] = zrow;
+                    t[ky * 3 + 1] = zrow;
+                    t[ky * 3 + 2] = zrow;
+                    continue;
                 }
+                const int8_t *c1 = r + (size_t)ox * pstep;   // column ix0 + 1 (always inside)
+                t[ky * 3] = left ? c1 - c_n : zrow;
+                t[ky * 3 + 1] = c1;
+                t[ky * 3 + 2] = right ? c1 + c_n : zrow;
             }
             int8_t *o = out + ((size_t)oy * g->wo + ox) * c_n;
             int32_t acc[VD_CNN_DWB];
@@ -1309,5 +1350,26 @@ vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, i
         b->score_q15 = (uint16_t)table_at(m, 0u, b->logit);
     }
     *count = n;
+    return VD_OK;
+}
+
+vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, int32_t *thr_q)
+{
+    VD_VERIFY(m != NULL && thr_q != NULL && score_q15 <= (uint32_t)VD_CNN_SCORE_ONE_Q15, VD_ERR_ARG);
+    chain_t c;
+    VD_VERIFY(model_ok(m, &c), VD_ERR_STATE);
+    // Lower bound in the non-decreasing score table (the loader checked the order).
+    int32_t lo = -128;
+    int32_t hi = 128;   // one past 127: "no logit reaches it"
+    while (lo < hi) {
+        const int32_t mid = lo + (hi - lo) / 2;
+        if ((uint32_t)table_at(m, 0u, mid) >= score_q15) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    VD_VERIFY(lo <= 127, VD_ERR_RANGE);
+    *thr_q = lo;
     return VD_OK;
 }

@@ -3,29 +3,35 @@
 //
 // Algorithm: paper 001 ("Night-time vehicle detection in FIR images with a
 // DBN"), sections 2-4, and paper 000 section 4. vd_detector_run orchestrates:
+//  0. with the CNN source (issue 10, detector_cnn.c), the network's boxes
+//     start the merged candidate list; they skip the DBN unless cnn_rescore;
 //  1. hot-spot components of the frame (threshold + labelling), kept by the
 //     shape rules (aspect 0.3..1.5, area >= 120), the first max_candidates;
 //  2. each refined (expanded 1.5x by 2x, refine.h, contour.h) into a box that
-//     starts the merged candidate list, then the other sources appended
-//     (issue 7; contrast.h, windows.h; cfg.sources, default hot spots only);
+//     joins the merged candidate list (after the CNN boxes, deduplicated
+//     against them), then the other sources appended (issue 7; contrast.h,
+//     windows.h; cfg.sources, default hot spots only);
 //  3. every merged candidate sampled at 32x32 and scored by the DBN (dbn.h),
 //     kept when score >= score_thr;
 //  4. stable sort by score and greedy overlap suppression (suppress.h), the
 //     first max_detections;
 //  5. temporal analysis when enabled (temporal.h): track ids and states, and
 //     recovered targets appended, measured by refining the box as a candidate.
-// The stages live in detector_sources.c (1-2) and detector_region.c (2-3);
+// The stages live in detector_cnn.c (0), detector_sources.c (1-2) and detector_region.c (2-3);
 // configuration and workspace in detector_init.c; shared state in
 // internal/detector_internal.h.
 //
 // Bounds: time O(W*H) for threshold, labelling and the contrast/window
-// sources, O(windows * (1 + max_candidates)) for the window walks and the
-// merge, plus per candidate (<= max_candidates) O(region) for refine and
-// contour and the DBN's multiply-adds; NMS O(max_candidates^2); temporal as
-// temporal.h with at most 289 refine probes per missed confirmed track.
-// Stack: vd_detector_run's own frame about 136 bytes (Cortex-M7 -Os;
+// sources, the network's multiply-adds once per frame (vd_cnn_macs at the
+// half-resolution input) for the CNN source, O(windows * (1 + max_candidates))
+// for the window walks and the merge, plus per candidate (<= max_candidates)
+// O(region) for refine and contour and the DBN's multiply-adds; NMS
+// O(max_candidates^2); temporal as temporal.h with at most 289 refine probes
+// per missed confirmed track.
+// Stack: vd_detector_run's own frame about 112 bytes (Cortex-M7 -Os;
 // per-candidate state is in the workspace), plus the deepest stage below it
-// (refine -> median; docs/embedded.md); no recursion.
+// (the CNN source -> vd_cnn_run's kernels, 1 092 bytes in all; else refine ->
+// median; docs/embedded.md); no recursion.
 #include "vd/detector.h"
 
 #include <string.h>
@@ -64,7 +70,10 @@ static void recovered(const vd_detector_t *det, const vd_frame_t *f, const vd_te
     (void)vd_rect_expand(&o->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &d->candidate);
     d->track_id = o->track_id;
     d->complexity_q15 = o->complexity_q15;
-    d->source = VD_SOURCE_HOTSPOT;
+    // Recovery measures like a hot spot; a CNN-only detector labels it as its one source.
+    const uint8_t src = det->cfg.sources;
+    d->source = ((src & VD_DETECTOR_SRC_HOTSPOT) == 0u && (src & VD_DETECTOR_SRC_CNN) != 0u) ? (uint8_t)VD_SOURCE_CNN
+                                                                                            : (uint8_t)VD_SOURCE_HOTSPOT;
     d->state = VD_TRACK_RECOVERED;
     d->flags = VD_DET_FLAG_RECOVERED;
     d->hot_thr = thr8;
@@ -87,9 +96,21 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     uint32_t t0 = t_start;
     vd_status_t result = VD_OK;
 
+    // The network first: it uses the overlay, and its boxes lead the merged list.
+    size_t n_cnn = 0u;
+    vd_status_t st = VD_OK;
+    if ((det->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
+        st = vd_det_cnn_source(det, frame, &n_cnn);
+        if (st == VD_ERR_CAPACITY) {
+            result = VD_ERR_CAPACITY;
+        } else if (st != VD_OK) {
+            return st;
+        }
+        vd_det_clock_add(det, VD_DET_STAGE_CNN, &t0);
+    }
+
     // Labelling in the overlay, straight from the frame.
     size_t n = 0u;
-    vd_status_t st = VD_OK;
     if ((det->cfg.sources & VD_DETECTOR_SRC_HOTSPOT) != 0u) {
         st = vd_det_hot_components(det, frame, &n, &t0);
     }
@@ -102,26 +123,35 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     size_t kept = 0u;
     VD_TRY(vd_components_filter(det->comps, n, &det->cfg.rules, &kept));
     s->kept = (uint32_t)kept;
-    if (kept > det->cfg.max_candidates) {
-        s->overflow_candidates = (uint32_t)(kept - det->cfg.max_candidates);
-        kept = det->cfg.max_candidates;
+    const size_t room = det->cfg.max_candidates - n_cnn;   // n_cnn <= max_candidates
+    if (kept > room) {
+        s->overflow_candidates += (uint32_t)(kept - room);
+        kept = room;
         result = VD_ERR_CAPACITY;
     }
     vd_det_clock_add(det, VD_DET_STAGE_COMPONENTS, &t0);
 
     // Hot spots: refined one by one (the labelling scratch is dead from here:
-    // the overlay holds region buffers), their contour boxes start the merged list.
+    // the overlay holds region buffers), their contour boxes join the merged
+    // list behind the CNN boxes unless they duplicate one.
     uint8_t thr8 = (uint8_t)s->hot_thr_u8;
-    size_t nc = 0u;
+    for (size_t i = 0; i < n_cnn; i++) {
+        det->cand[i].hot_thr = thr8;
+    }
+    size_t nc = n_cnn;
     for (size_t i = 0; i < kept; i++) {
         bool ok = false;
         VD_TRY(vd_det_refine_hot(det, frame, &det->comps[i], &det->cand[nc], &ok, &t0));
+        if (ok && n_cnn > 0u && vd_suppress_overlaps(&det->cand[nc].box, det->cand, n_cnn, det->cfg.dedup_iou_q15)) {
+            s->deduplicated++;   // the network already has this one
+            ok = false;
+        }
         if (ok) {
             det->cand[nc].hot_thr = thr8;
             nc++;
         }
     }
-    s->cand_hotspot = (uint32_t)nc;
+    s->cand_hotspot = (uint32_t)(nc - n_cnn);
     if ((det->cfg.sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
         st = vd_det_contrast_source(det, frame, &nc, thr8);
         if (st == VD_ERR_CAPACITY) {

@@ -7,8 +7,11 @@
 // stages of a frame in turn: the labelling workspace with its run budget,
 // then the per-candidate region buffers (crop, mask, refine workspace, which
 // the contour tracer reuses), and the window pre-filter's integrals in
-// between. No hot mask and no buffer per frame pixel except the labeller's
-// row buffers. Bounds: O(1) time and stack; no allocation.
+// between; with the CNN source, first of all the network's input plane,
+// workspace and decoded boxes. No hot mask and no buffer per frame pixel
+// except the labeller's row buffers (and the CNN's half-resolution plane).
+// Bounds: O(1) time and stack, plus the CNN planner (O(layers^2), ~950 bytes
+// of stack, cnn.h) when the source is on; no allocation.
 #include <string.h>
 
 #include "internal/detector_internal.h"
@@ -69,7 +72,10 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *c)
     if (c->max_runs == 0u) { c->max_runs = DEF_RUNS; }
     VD_VERIFY(c->max_tracks <= 1024u, VD_ERR_ARG);
     if (c->sources == 0u) { c->sources = VD_DETECTOR_SRC_HOTSPOT; }
-    VD_VERIFY(c->sources <= VD_DETECTOR_SRC_ALL, VD_ERR_ARG);
+    VD_VERIFY(c->sources <= (VD_DETECTOR_SRC_ALL | VD_DETECTOR_SRC_CNN), VD_ERR_ARG);
+    // CNN: the model is checked by the size query and init (they see it loaded or not).
+    VD_VERIFY(c->cnn_score_thr_q15 <= (uint32_t)VD_CNN_SCORE_ONE_Q15 && c->cnn_rescore <= 1u, VD_ERR_ARG);
+    VD_VERIFY((c->sources & VD_DETECTOR_SRC_CNN) == 0u || c->cnn_model != NULL, VD_ERR_ARG);
     if (c->win_min_std_u8 == 0u) { c->win_min_std_u8 = DEF_WIN_MIN_STD; }
     if (c->dedup_iou_q15 == 0u) { c->dedup_iou_q15 = DEF_DEDUP_Q15; }
     VD_VERIFY(c->dedup_iou_q15 <= 32768u, VD_ERR_ARG);
@@ -137,8 +143,49 @@ typedef struct layout {
     size_t comps, cand, obs, tracks, hist, sample, dbn, scratch;
     size_t cc, crop, rmask, refine, contour, points, contours;
     size_t contrast, integral;
-    size_t points_cap, contours_cap;
+    size_t cnn_plane, cnn_ws, cnn_boxes;
+    size_t points_cap, contours_cap, cnn_boxes_cap;
+    int32_t cnn_thr_q;
+    bool cnn_never;
 } layout_t;
+
+// The CNN source's slices (they overlay the others: the network runs before
+// labelling) and its resolved threshold.
+static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
+{
+    const vd_cnn_model_t *m = c->cnn_model;
+    int32_t thr = 0;
+    // Score 0 always maps to -128: the call only checks that m is loaded.
+    vd_status_t st = vd_cnn_thr_from_score(m, 0u, &thr);
+    VD_VERIFY(st != VD_ERR_STATE, VD_ERR_MODEL);
+    VD_TRY(st);
+    l->cnn_thr_q = m->score_threshold_q;
+    if (c->cnn_score_thr_q15 != 0u) {
+        st = vd_cnn_thr_from_score(m, c->cnn_score_thr_q15, &l->cnn_thr_q);
+        if (st == VD_ERR_RANGE) {
+            l->cnn_never = true;   // no logit scores that high: nothing to run for
+        } else {
+            VD_TRY(st);
+        }
+    }
+    uint32_t nw = 0u;
+    uint32_t nh = 0u;
+    vd_det_cnn_input_size(m, c->max_width, c->max_height, &nw, &nh);
+    if (nw == 0u || nh == 0u) {
+        l->cnn_never = true;   // no half-resolution pixel in any frame
+        return VD_OK;
+    }
+    // Decoding scales to 2 nw x 2 nh, which must be a valid frame size.
+    VD_VERIFY(nw <= VD_CNN_MAX_SIDE && nh <= VD_CNN_MAX_SIDE && nw <= VD_MAX_DIM / 2u && nh <= VD_MAX_DIM / 2u,
+              VD_ERR_ARG);
+    st = vd_cnn_workspace_size(m, nw, nh, &l->cnn_ws);
+    VD_VERIFY(st != VD_ERR_STATE, VD_ERR_MODEL);
+    VD_TRY(st);
+    l->cnn_plane = (size_t)nw * nh;
+    l->cnn_boxes_cap = m->max_peaks;
+    l->cnn_boxes = l->cnn_boxes_cap * sizeof(vd_cnn_box_t);
+    return VD_OK;
+}
 
 static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, layout_t *l)
 {
@@ -177,6 +224,10 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
         // 640 x 512: 166 152 bytes, inside the region buffers' share of the overlay.
         VD_TRY(vd_windows_prefilter_workspace_size(c->max_width, c->max_height, &l->integral));
     }
+    if ((c->sources & VD_DETECTOR_SRC_CNN) != 0u) {
+        VD_VERIFY(c->cnn_rescore == 0u || model != NULL, VD_ERR_ARG);   // re-scoring needs the DBN
+        VD_TRY(plan_cnn(c, l));
+    }
     return VD_OK;
 }
 
@@ -184,11 +235,14 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
 // then B = crop + region mask + W per candidate, where W is the refine
 // workspace, reused by the contour tracer (its plane, points and contours)
 // once vd_refine_region has returned; C = the window pre-filter's integrals
-// between the hot-spot refinement and the verification of all candidates.
+// between the hot-spot refinement and the verification of all candidates;
+// D = the CNN's plane, workspace and boxes, before labelling (the boxes are
+// copied into the candidate table before A is touched).
 static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *total)
 {
     size_t a = 0u;
     size_t b = 0u;
+    size_t d = 0u;
     size_t tr = 0u;
     size_t rf = 0u;
     VD_VERIFY(vd_size_add_slice(&a, l->cc), VD_ERR_OVERFLOW);
@@ -198,9 +252,12 @@ static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *tot
     const size_t work = rf > tr ? rf : tr;
     VD_VERIFY(vd_size_add_slice(&b, l->crop) && vd_size_add_slice(&b, l->rmask) && vd_size_add_slice(&b, work),
               VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_size_add_slice(&d, l->cnn_plane) && vd_size_add_slice(&d, l->cnn_ws) &&
+              vd_size_add_slice(&d, l->cnn_boxes), VD_ERR_OVERFLOW);
     *work_out = work;
     *total = a > b ? a : b;
     *total = (l->integral > *total) ? l->integral : *total;
+    *total = (d > *total) ? d : *total;
     return VD_OK;
 }
 
@@ -284,6 +341,17 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->contour_ws_bytes = l.contour;
     det->points_cap = l.points_cap;
     det->contours_cap = l.contours_cap;
+    if (l.cnn_plane != 0u) {
+        vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // D of overlay_size
+        det->cnn_plane = (uint8_t *)vd_arena_take(&a, l.cnn_plane);
+        det->cnn_ws = vd_arena_take(&a, l.cnn_ws);
+        det->cnn_ws_bytes = l.cnn_ws;
+        det->cnn_boxes = (vd_cnn_box_t *)vd_arena_take(&a, l.cnn_boxes);
+        det->cnn_boxes_cap = l.cnn_boxes_cap;
+        VD_ASSERT(det->cnn_boxes != NULL);
+    }
+    det->cnn_thr_q = l.cnn_thr_q;
+    det->cnn_never = l.cnn_never;
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     memset(x, 0, sizeof(*x));
     region_bufs(det, &x->b);

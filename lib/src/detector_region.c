@@ -160,12 +160,18 @@ vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_
 }
 
 // The plane is rebuilt from d->candidate: hot spots are sampled under their
-// contour box inside the refined region, windows and contrast candidates
-// (candidate == box) as the whole box.
+// contour box inside the refined region, windows, contrast and re-scored CNN
+// candidates (candidate == box) as the whole box; other CNN boxes keep the
+// network's score.
 vd_status_t vd_det_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d, bool *keep, uint32_t *t0)
 {
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     *keep = false;
+    if (d->source == VD_SOURCE_CNN && det->cfg.cnn_rescore == 0u) {
+        det->stats.verified++;   // scored by the network already
+        *keep = true;
+        return VD_OK;
+    }
     if (det->model == NULL) {
         d->score_q8 = 255u;
         d->flags |= VD_DET_FLAG_UNVERIFIED;

@@ -10,3 +10,15 @@ def frame_paths(data_dir):
     if not msrs or not uav:
         pytest.skip(f"MSRS or HIT-UAV frames missing under {data_dir}")
     return msrs, uav
+
+
+def frames_in_test_split(data_dir):
+    """The annotated real frames of the test split (vdtools.dataset: stable, group-wise split), in the
+    data set's order; skips the test when there are none."""
+    from vdtools import dataset as D
+    frames = D.all_frames(data_dir, synth=False)
+    split = D.assign_splits(frames)
+    out = [f for f in frames if split[f.group] == "test"]
+    if not out:
+        pytest.skip(f"no test-split frames under {data_dir}")
+    return out

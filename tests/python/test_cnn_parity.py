@@ -238,7 +238,7 @@ def test_loader_agrees_with_unpack_on_corrupted_blobs(cnn):
                 k = int(rng.integers(0, 3))
                 if k == 0:
                     struct.pack_into("<i", b, ob + 4 * j, int(rng.choice([1 << 30, -(1 << 31), (1 << 31) - 1,
-                                                                          (1 << 31) - 1 - 9 * 1024 * 127 * 255])))
+                                                                          (1 << 31) - 1 - 9 * 1024 * 128 * 255])))
                 elif k == 1:
                     struct.pack_into("<i", b, om + 4 * j, int(rng.choice([(1 << 30) - 1, 1 << 30, -1, 0,
                                                                           (1 << 31) - 1])))

@@ -27,7 +27,7 @@ FP_CEIL_NO_MODEL = 0.30
 TP_FLOOR_MODEL = 0.19
 
 STATES = {"new", "confirmed", "recovered"}
-SOURCES = {"hotspot", "window", "contrast"}
+SOURCES = {"hotspot", "window", "contrast", "cnn"}
 
 
 def build_dir():
@@ -48,9 +48,11 @@ def demo():
 
 @pytest.fixture(scope="session")
 def model_args():
-    # the demo's own default: models/vd_dbn_grey.vdm, else the first models/*.vdm (docs/demo.md)
+    # the demo's own DBN default: models/vd_dbn_grey.vdm, else the first DBN models/*.vdm (format
+    # versions 1-2; docs/demo.md). Naming it keeps the paper pipeline even when models/vd_cnn.vdm exists.
     models = [REPO / "models" / "vd_dbn_grey.vdm"]
-    models = [m for m in models if m.is_file()] or sorted((REPO / "models").glob("*.vdm"))
+    models = [m for m in models if m.is_file()] or [
+        m for m in sorted((REPO / "models").glob("*.vdm")) if int.from_bytes(m.read_bytes()[4:6], "little") in (1, 2)]
     return (["--model", str(models[0])], True) if models else (["--model", "none"], False)
 
 

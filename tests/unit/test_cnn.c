@@ -492,6 +492,51 @@ static void test_requant_one_shift_form_matches_reference(void)
     }
 }
 
+// The ReLU form (vd_rq_z_nn, sign term dropped) clamped at any lo >= 0
+// equals the clamped reference: exhaustively over small accumulators (where
+// the sign term matters), randomly over the full range.
+static int32_t rq_nn_ref(int32_t acc, int32_t mult, int32_t shift)
+{
+    vd_rq_ch_t c;
+    vd_rq_prepare(mult, shift, 0, &c);
+    return vd_rq_z_nn((uint32_t)acc, c.k, c.mult, c.rsh, c.off);
+}
+
+static int32_t max_i32(int32_t a, int32_t b)
+{
+    return (a > b) ? a : b;
+}
+
+static void test_requant_relu_form_matches_reference(void)
+{
+    static const int32_t mults[] = {1 << 30, (1 << 30) + 1, 0x5A5A5A5A, 0x7FFFFFFE, INT32_MAX};
+    static const int32_t los[] = {0, 1, 255};
+    for (size_t k = 0u; k < sizeof mults / sizeof mults[0]; k++) {
+        for (int32_t s = VD_RQ_SHIFT_MIN; s <= 0; s++) {
+            for (int32_t acc = -3000; acc <= 3000; acc++) {
+                const int32_t ref = vd_rq_requantize(acc, mults[k], s);
+                const int32_t nn = rq_nn_ref(acc, mults[k], s);
+                for (size_t l = 0u; l < sizeof los / sizeof los[0]; l++) {
+                    TEST_ASSERT_EQUAL_INT32(max_i32(ref, los[l]), max_i32(nn, los[l]));
+                }
+            }
+        }
+    }
+    uint32_t st = 777u;
+    for (int i = 0; i < 300000; i++) {
+        const uint32_t r = tu_rand(&st);
+        const int32_t acc = (i & 1) ? (int32_t)(tu_rand(&st) % 2000001u) - 1000000 : (int32_t)(r ^ tu_rand(&st));
+        const int32_t mult = (int32_t)(0x40000000u + (tu_rand(&st) & 0x3FFFFFFFu));
+        const int32_t s = -(int32_t)(tu_rand(&st) % 32u);
+        const int32_t ref = vd_rq_requantize(acc, mult, s);
+        const int32_t nn = rq_nn_ref(acc, mult, s);
+        TEST_ASSERT_EQUAL_INT32(max_i32(ref, 0), max_i32(nn, 0));
+        if (ref > 0) {
+            TEST_ASSERT_EQUAL_INT32(ref, nn);
+        }
+    }
+}
+
 // ------------------------------------------------------------ hand-worked ops
 
 // Test image: 4x4, pixel = y * 4 + x, so tensor 0 - zp = pixel (0..15).
@@ -562,7 +607,7 @@ static void test_conv3x3_stride1_padding_hand_worked(void)
     TEST_ASSERT_EQUAL_INT8_ARRAY(hd, head.data, 3);
     uint64_t macs = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_macs(&g_m, 4u, 4u, &macs));
-    TEST_ASSERT_EQUAL_UINT64(16u * 2u + 16u * 9u * 2u * 2u + 1u * 2u * 3u, macs);
+    TEST_ASSERT_TRUE(macs == (uint64_t)(16u * 2u + 16u * 9u * 2u * 2u + 1u * 2u * 3u));   // no Unity 64-bit asserts on 32-bit targets
     run_free();
 }
 
@@ -1502,8 +1547,8 @@ static bool corrupt(int k, uint8_t *b, uint32_t *total, bool *fix)
     case 72: wr32(b + rd32(e2 + 20) + 4u, 0x80000000u); break; // mult negative
     case 73: b[rd32(e2 + 24)] = 0xE0u; break;           // shift -32
     case 74: b[rd32(e2 + 24) + 5u] = 8u; break;         // shift 8
-    case 75: wr32(b + rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 127 * 255 + 1)); break;  // bias bound
-    case 76: wr32(b + rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 127 * 255) - 1)); break;
+    case 75: wr32(b + rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 128 * 255 + 1)); break;  // bias bound
+    case 76: wr32(b + rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 128 * 255) - 1)); break;
     case 77: wr32(b + dec + 4u * 5u, rd32(b + dec + 4u * 4u) - 1u); break;  // score decreasing
     case 78: wr32(b + dec + 4u * 255u, 32769u); break;  // score > 1.0
     case 79: wr32(b + dec, 0xFFFFFFFFu); break;         // score -1
@@ -1562,8 +1607,8 @@ static void test_structural_corruptions_rejected(void)
     total = hostile_model(5u, g_blob.b);
     uint8_t *b = g_blob.b;
     const uint32_t dec = rd32(b + 36);
-    wr32(b + rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 127 * 255));
-    wr32(b + rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 127 * 255)));
+    wr32(b + rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 128 * 255));
+    wr32(b + rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 128 * 255)));
     wr32(b + dec + 4u * 255u, 32768u);
     wr32(b + dec + 4u * 256u, 0u);
     wr32(b + dec + 4u * 511u, 4096u * 256u);
@@ -1640,10 +1685,54 @@ static void test_every_bit_flip_and_truncation_rejected(void)
     tu_guarded_free(1);
 }
 
+// vd_cnn_thr_from_score: the smallest logit whose table score reaches a Q15
+// threshold (the detector's cnn_score_thr_q15), on plateaus and at the ends.
+static void test_thr_from_score(void)
+{
+    tm_t d;
+    chain_model(&d);
+    for (int32_t i = 0; i < 256; i++) {
+        g_table[i] = (i / 16) * 2048;   // plateaus of 16 logits; top score 30720
+    }
+    vd_cnn_model_t m;
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    static const uint32_t score[6] = {0u, 1u, 2048u, 2049u, 30719u, 30720u};
+    static const int32_t want[6] = {-128, -112, -112, -96, 112, 112};
+    int32_t thr = 77;
+    for (uint32_t k = 0u; k < 6u; k++) {
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_thr_from_score(&m, score[k], &thr));
+        TEST_ASSERT_EQUAL_INT32(want[k], thr);
+    }
+    // Against the definition, every 97th score.
+    for (uint32_t sc = 0u; sc <= 30720u; sc += 97u) {
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_thr_from_score(&m, sc, &thr));
+        TEST_ASSERT_TRUE((uint32_t)g_table[thr + 128] >= sc);
+        TEST_ASSERT_TRUE(thr == -128 || (uint32_t)g_table[thr + 127] < sc);
+    }
+    thr = 77;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_cnn_thr_from_score(&m, 30721u, &thr));
+    TEST_ASSERT_EQUAL_INT32(77, thr);   // unchanged
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_thr_from_score(&m, 32769u, &thr));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_thr_from_score(NULL, 0u, &thr));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_thr_from_score(&m, 0u, NULL));
+    vd_cnn_model_t zero;
+    memset(&zero, 0, sizeof zero);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_thr_from_score(&zero, 0u, &thr));
+    // Default table (score = (v + 128) * 128): 1.0 is out of reach, 32640 is logit 127.
+    chain_model(&d);
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_thr_from_score(&m, 32640u, &thr));
+    TEST_ASSERT_EQUAL_INT32(127, thr);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_cnn_thr_from_score(&m, 32768u, &thr));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_thr_from_score(&m, 129u, &thr));
+    TEST_ASSERT_EQUAL_INT32(-126, thr);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_requant_reference_rounding_and_saturation);
+    RUN_TEST(test_requant_relu_form_matches_reference);
     RUN_TEST(test_requant_one_shift_form_matches_reference);
     RUN_TEST(test_conv3x3_stride1_padding_hand_worked);
     RUN_TEST(test_conv3x3_stride2_hand_worked);
@@ -1657,6 +1746,7 @@ int main(void)
     RUN_TEST(test_run_arguments);
     RUN_TEST(test_decode_peaks_plateaus_ties_topk);
     RUN_TEST(test_decode_box_rounding_and_clamping);
+    RUN_TEST(test_thr_from_score);
     RUN_TEST(test_random_models_match_naive_reference);
     RUN_TEST(test_depthwise_extremes_match_reference);
     RUN_TEST(test_structural_corruptions_rejected);

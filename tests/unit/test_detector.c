@@ -895,7 +895,7 @@ static void test_sources_config_and_workspace(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(640u, 512u, &cws));
     TEST_ASSERT_TRUE(all >= base + cws && all <= base + cws + 64u);
     size_t b = 0u;
-    c.sources = 8u;
+    c.sources = 0x10u;   // beyond the four sources (0x08 = CNN: test_detector_cnn.c)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
     c.sources = VD_DETECTOR_SRC_WINDOW;
     c.windows.stride_q8 = 1000u;

@@ -3,7 +3,9 @@
 //
 // Detector settings are one table: each has a flag "--name VALUE" and the
 // same key in the --config file ("name" or "name_with_underscores"). The
-// config file is applied first, flags after it, so flags win.
+// config file is applied first, flags after it, so flags win. A switch
+// setting (--cnn-rescore) may be given without a value on the command line
+// (= on); in the config file it takes true/false or "on"/"off".
 #include "demo.h"
 
 #include <ctype.h>
@@ -54,6 +56,9 @@ typedef enum setting_id {
     SET_CONTRAST_RADIUS,
     SET_CONTRAST_THR,
     SET_CONTRAST_POLARITY,
+    SET_CNN_MODEL,
+    SET_CNN_THR,
+    SET_CNN_RESCORE,
     SET_COUNT
 } setting_id_t;
 
@@ -62,6 +67,12 @@ typedef struct setting {
     const char *arg;
     const char *help;
 } setting_t;
+
+// Switch settings: the value may be left out on the command line (= on).
+static bool is_switch(int id)
+{
+    return id == SET_CNN_RESCORE;
+}
 
 static const setting_t k_settings[SET_COUNT] = {
     [SET_THR_MODE] = {"thr-mode", "constant|adaptive",
@@ -95,10 +106,13 @@ static const setting_t k_settings[SET_COUNT] = {
                       "temporal analysis: track ids, confirmed / recovered states (default on)"},
     [SET_MAX_TRACKS] = {"max-tracks", "N", "temporal track table size (default 32)"},
     [SET_SOURCES] = {"sources", "LIST",
-                     "candidate sources, comma separated: hotspot, contrast, window, or all (default hotspot, "
-                     "the paper's); all sources share --max-candidates"},
+                     "candidate sources, comma separated: hotspot, contrast, window, all (= the three of the "
+                     "paper pipeline) and cnn (the int8 network), e.g. hotspot,cnn; all sources share "
+                     "--max-candidates. Default: cnn when a CNN model is at hand (--cnn-model, a version-3 "
+                     "--model, or models/vd_cnn.vdm when no --model is given), else hotspot (the paper's)"},
     [SET_DEDUP_IOU] = {"dedup-iou", "F",
-                       "merge: drop a contrast/window candidate overlapping an earlier one by IoU > F (default 0.7)"},
+                       "merge: drop a hot-spot/contrast/window candidate overlapping an earlier one (CNN boxes "
+                       "come first) by IoU > F (default 0.7)"},
     [SET_WIN_PRESET] = {"window-preset", "msrs|hit|table1",
                         "window bands for a mounting: msrs = road level 640x480 (horizon 230, ground slope 1.6, "
                         "x2 tolerance, Table 1 bands), hit = drone (heights 12..120 everywhere, half stride), "
@@ -120,13 +134,22 @@ static const setting_t k_settings[SET_COUNT] = {
     [SET_CONTRAST_THR] = {"contrast-thr", "U8", "contrast source: |I - local mean| threshold (default 24)"},
     [SET_CONTRAST_POLARITY] = {"contrast-polarity", "both|warm|cold",
                                "contrast source: which direction counts (default both)"},
+    [SET_CNN_MODEL] = {"cnn-model", "FILE",
+                       "cnn source: version-3 .vdm network (default: --model if it is one, else "
+                       "models/vd_cnn.vdm)"},
+    [SET_CNN_THR] = {"cnn-thr", "P",
+                     "cnn source: keep boxes with network score >= P, 0..1 (default: the model's own threshold)"},
+    [SET_CNN_RESCORE] = {"cnn-rescore", "[on|off]",
+                         "cnn source: the DBN also scores each network box (whole box, as windows) and keeps it "
+                         "at >= --score-thr; the score is then the DBN's (needs a DBN model; default off)"},
 };
 
 void demo_args_usage(FILE *f)
 {
     fprintf(f,
             "usage: vd_fir_demo [options]\n"
-            "Detects vehicles in far-infrared frames with the vd library (paper 001 pipeline).\n\n"
+            "Detects vehicles in far-infrared frames with the vd library: an int8 CNN (--sources cnn,\n"
+            "the default when models/vd_cnn.vdm exists) or the paper 001 pipeline (--sources hotspot).\n\n"
             "input and outputs:\n"
             "  --input PATH        directory of frames (*.pgm *.png *.jpg *.raw *.y16, sorted by name), list file\n"
             "                      (*.txt / *.lst, one path per line), one image or raw file, or /dev/videoN\n"
@@ -138,8 +161,15 @@ void demo_args_usage(FILE *f)
             "  --pixfmt F          V4L2: grey or y16 (default: y16 if offered)\n"
             "  --timeout-ms N      V4L2: wait per frame (default 2000)\n"
             "  --frames N          stop after N frames (default: all; a camera runs until Ctrl-C)\n"
-            "  --model FILE        .vdm model (default: models/vd_dbn_grey.vdm, else the first models/*.vdm;\n"
-            "                      'none' = no model: every refined candidate is kept with score 1.0)\n"
+            "  --model FILE        .vdm model. A DBN (versions 1-2) verifies hot-spot/contrast/window candidates\n"
+            "                      (default: models/vd_dbn_grey.vdm, else the first DBN models/*.vdm; loaded only\n"
+            "                      when a source or --cnn-rescore needs it; 'none' = no DBN: every candidate is\n"
+            "                      kept with score 1.0 and the default sources are hotspot). A CNN (version 3) is\n"
+            "                      taken as --cnn-model. Without --sources, a DBN --model keeps the paper pipeline\n"
+            "                      and a CNN model (--cnn-model, a CNN --model, or models/vd_cnn.vdm when no\n"
+            "                      --model is given) makes the sources cnn; with the cnn source and no\n"
+            "                      --max-candidates/--max-detections, both become the model's top-K (+64\n"
+            "                      candidates for the other sources)\n"
             "  --out DIR           annotated PNG frames: boxes yellow = new, green = confirmed,\n"
             "                      magenta = recovered; track id and score above each box\n"
             "  --no-scores         do not draw the id/score text\n"
@@ -325,9 +355,23 @@ static bool apply_window_preset(vd_windows_cfg_t *w, const char *name)
     return true;
 }
 
-// Applies one detector setting; false (with msg) when the value is invalid.
-static bool apply_setting(vd_detector_cfg_t *cfg, setting_id_t id, const char *v, char *msg, size_t msg_len)
+static bool parse_switch(const char *v, bool *on)
 {
+    if (strcmp(v, "on") == 0 || strcmp(v, "true") == 0 || strcmp(v, "1") == 0) {
+        *on = true;
+    } else if (strcmp(v, "off") == 0 || strcmp(v, "false") == 0 || strcmp(v, "0") == 0) {
+        *on = false;
+    } else {
+        return false;
+    }
+    return true;
+}
+
+// Applies one detector setting; false (with msg) when the value is invalid.
+static bool apply_setting(demo_opts_t *o, setting_id_t id, const char *v, char *msg, size_t msg_len)
+{
+    vd_detector_cfg_t *cfg = &o->cfg;
+    bool on = false;
     double d, d2;
     uint32_t u = 0, u2 = 0;
     bool ok = true;
@@ -433,10 +477,12 @@ static bool apply_setting(vd_detector_cfg_t *cfg, setting_id_t id, const char *v
     case SET_MAX_CANDIDATES:
         ok = parse_u32(v, 1, 4096, &u);
         cfg->max_candidates = (uint16_t)u;
+        o->max_candidates_set = ok;
         break;
     case SET_MAX_DETECTIONS:
         ok = parse_u32(v, 1, 4096, &u);
         cfg->max_detections = (uint16_t)u;
+        o->max_detections_set = ok;
         break;
     case SET_MAX_REGION:
         ok = parse_size(v, &u, &u2) && u >= 16 && u2 >= 16 && u <= 65535 && u2 <= 65535;
@@ -444,13 +490,8 @@ static bool apply_setting(vd_detector_cfg_t *cfg, setting_id_t id, const char *v
         cfg->max_region_h = (uint16_t)u2;
         break;
     case SET_TEMPORAL:
-        if (strcmp(v, "on") == 0 || strcmp(v, "true") == 0 || strcmp(v, "1") == 0) {
-            cfg->temporal = true;
-        } else if (strcmp(v, "off") == 0 || strcmp(v, "false") == 0 || strcmp(v, "0") == 0) {
-            cfg->temporal = false;
-        } else {
-            ok = false;
-        }
+        ok = parse_switch(v, &on);
+        cfg->temporal = ok ? on : cfg->temporal;
         break;
     case SET_MAX_TRACKS:
         ok = parse_u32(v, 1, 1024, &u);
@@ -472,6 +513,8 @@ static bool apply_setting(vd_detector_cfg_t *cfg, setting_id_t id, const char *v
                     bits |= VD_DETECTOR_SRC_WINDOW;
                 } else if (strcmp(t, "all") == 0) {
                     bits |= VD_DETECTOR_SRC_ALL;
+                } else if (strcmp(t, "cnn") == 0) {
+                    bits |= VD_DETECTOR_SRC_CNN;
                 } else {
                     ok = false;
                 }
@@ -479,6 +522,7 @@ static bool apply_setting(vd_detector_cfg_t *cfg, setting_id_t id, const char *v
         }
         ok = ok && bits != 0;
         cfg->sources = (uint8_t)bits;
+        o->sources_set = ok;
         break;
     }
     case SET_DEDUP_IOU:
@@ -558,6 +602,26 @@ static bool apply_setting(vd_detector_cfg_t *cfg, setting_id_t id, const char *v
             ok = false;
         }
         break;
+    case SET_CNN_MODEL:
+        // Copied: a --config file's text is freed after parsing.
+        ok = v[0] != '\0' && strlen(v) < sizeof o->cnn_model_buf;
+        if (ok) {
+            snprintf(o->cnn_model_buf, sizeof o->cnn_model_buf, "%s", v);
+            o->cnn_model = o->cnn_model_buf;
+        }
+        break;
+    case SET_CNN_THR:
+        // Q15; p = 0 keeps every box (1/32768: 0 would mean the model's threshold)
+        ok = parse_double(v, 0.0, 1.0, &d);
+        if (ok) {
+            long q = lround(d * 32768.0);
+            cfg->cnn_score_thr_q15 = (uint16_t)(q < 1 ? 1 : q);
+        }
+        break;
+    case SET_CNN_RESCORE:
+        ok = parse_switch(v, &on);
+        cfg->cnn_rescore = ok ? (uint8_t)on : cfg->cnn_rescore;
+        break;
     default:
         ok = false;
         break;
@@ -586,7 +650,7 @@ static int find_setting(const char *name)
     return -1;
 }
 
-static bool load_config(vd_detector_cfg_t *cfg, const char *path, char *msg, size_t msg_len)
+static bool load_config(demo_opts_t *o, const char *path, char *msg, size_t msg_len)
 {
     char *text = NULL;
     size_t len = 0;
@@ -636,7 +700,7 @@ static bool load_config(vd_detector_cfg_t *cfg, const char *path, char *msg, siz
             break;
         }
         char m2[256];
-        if (!apply_setting(cfg, (setting_id_t)id, val, m2, sizeof m2)) {
+        if (!apply_setting(o, (setting_id_t)id, val, m2, sizeof m2)) {
             snprintf(msg, msg_len, "--config %s: %s", path, m2);
             ok = false;
             break;
@@ -685,6 +749,14 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
         }
         if (strncmp(a, "--", 2) != 0) {
             return usage_error("unexpected argument '%s'%s", a, "");
+        }
+        const int sid = find_setting(a + 2);
+        if (is_switch(sid) && strchr(a + 2, '_') == NULL) {
+            bool on;
+            if (i + 1 < argc && parse_switch(argv[i + 1], &on)) {
+                i++;   // its optional value; applied in the second pass
+            }
+            continue;
         }
         if (i + 1 >= argc) {
             return usage_error("%s needs a value%s", a, "");
@@ -756,12 +828,12 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
         }
     }
     char msg[600];
-    if (config != NULL && !load_config(&o->cfg, config, msg, sizeof msg)) {
+    if (config != NULL && !load_config(o, config, msg, sizeof msg)) {
         fprintf(stderr, "vd_fir_demo: error: %s (%s)\n", msg, vd_status_str(VD_ERR_FORMAT));
         return -1;
     }
     // Second pass: detector setting flags override the config file.
-    for (int i = 1; i + 1 < argc; i++) {
+    for (int i = 1; i < argc; i++) {
         if (strncmp(argv[i], "--", 2) != 0) {
             continue;
         }
@@ -769,7 +841,18 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
             continue;
         }
         int id = find_setting(argv[i] + 2);
-        if (id >= 0 && !apply_setting(&o->cfg, (setting_id_t)id, argv[i + 1], msg, sizeof msg)) {
+        if (is_switch(id)) {
+            bool on;
+            const char *v = (i + 1 < argc && parse_switch(argv[i + 1], &on)) ? argv[++i] : "on";
+            if (!apply_setting(o, (setting_id_t)id, v, msg, sizeof msg)) {
+                return usage_error("%s%s", msg, "");
+            }
+            continue;
+        }
+        if (i + 1 >= argc) {
+            break;   // the first pass made sure every other option has its value
+        }
+        if (id >= 0 && !apply_setting(o, (setting_id_t)id, argv[i + 1], msg, sizeof msg)) {
             return usage_error("%s%s", msg, "");
         }
         i++;   // skip the value

@@ -172,6 +172,11 @@ typedef struct demo_opts {
     bool quiet;                 // --quiet
     bool scores;                // draw score text (--no-scores turns off)
     vd_detector_cfg_t cfg;      // detector settings (--config FILE, then flags)
+    const char *cnn_model;      // --cnn-model FILE (flag or config); NULL = a CNN --model, else models/vd_cnn.vdm
+    char cnn_model_buf[4096];   // its copy (a config file's text is freed after parsing)
+    bool sources_set;           // --sources given (flag or config): no default source choice
+    bool max_candidates_set;    // --max-candidates / --max-detections given: not raised for the CNN
+    bool max_detections_set;
 } demo_opts_t;
 
 // Parses argv. Returns 0 to run, 1 after --help (exit 0), -1 on a usage error

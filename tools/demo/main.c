@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: MIT
 // vd_fir_demo: runs the vd detector on recorded frames or a V4L2 camera; writes annotated PNGs, JSON Lines, evaluation.
 //
-// Flow: options -> model (in place, vd_dbn_load) -> ground truth (--eval) ->
+// Flow: options -> models (in place: vd_cnn_load for the cnn source, vd_dbn_load
+// when a source needs the DBN; the default sources follow the models at hand)
+// -> ground truth (--eval) ->
 // capture (port/) -> per frame: vd_detector_run -> JSON line, drawing,
 // matching -> summary. Every output is written under a temporary name
 // (PNGs into a hidden staging directory inside --out) and renamed into place
@@ -36,7 +38,7 @@
 
 static const char *const k_stage_names[VD_DET_STAGE_COUNT] = {
     "threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "contrast", "windows",
-    "total"};
+    "cnn", "total"};
 
 typedef struct run {
     demo_opts_t o;
@@ -46,6 +48,10 @@ typedef struct run {
     vd_model_t model;
     bool have_model;
     char model_path[4096];
+    uint8_t *cnn_blob;
+    vd_cnn_model_t cnn;
+    bool have_cnn;
+    char cnn_path[4096];
     vd_detector_t det;
     void *ws;
     bool det_ready;
@@ -100,14 +106,37 @@ static int fail(run_t *r, vd_status_t st, const char *detail)
     return 1;
 }
 
-// --model omitted: models/vd_dbn_grey.vdm (the best full model, models/README.md),
-// else the first *.vdm (by name) of the source tree's models/.
+// Format version of a .vdm file (little-endian u16 at offset 4; 0 if unreadable):
+// 1-2 DBN, 3 CNN (VD_CNN_FORMAT_VERSION).
+static uint32_t vdm_version_of_file(const char *path)
+{
+    uint8_t h[6];
+    FILE *fp = fopen(path, "rb");
+    if (fp == NULL) {
+        return 0u;
+    }
+    size_t n = fread(h, 1, sizeof h, fp);
+    fclose(fp);
+    return n == sizeof h ? (uint32_t)h[4] | ((uint32_t)h[5] << 8) : 0u;
+}
+
+static uint32_t vdm_version(const uint8_t *b, size_t len)
+{
+    return len >= 6u ? (uint32_t)b[4] | ((uint32_t)b[5] << 8) : 0u;
+}
+
+static bool file_exists(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 && S_ISREG(sb.st_mode);
+}
+
+// DBN with --model omitted: models/vd_dbn_grey.vdm (the best full model,
+// models/README.md), else the first DBN *.vdm (by name) of the source tree's models/.
 static bool find_default_model(char *out, size_t cap)
 {
     snprintf(out, cap, "%s/vd_dbn_grey.vdm", VD_DEMO_MODELS_DIR);
-    FILE *fp = fopen(out, "rb");
-    if (fp != NULL) {
-        fclose(fp);
+    if (file_exists(out)) {
         return true;
     }
     DIR *dp = opendir(VD_DEMO_MODELS_DIR);
@@ -120,7 +149,12 @@ static bool find_default_model(char *out, size_t cap)
         size_t l = strlen(de->d_name);
         if (l > 4 && strcmp(de->d_name + l - 4, ".vdm") == 0 && de->d_name[0] != '.' &&
             (best[0] == '\0' || strcmp(de->d_name, best) < 0) && l < sizeof best) {
-            memcpy(best, de->d_name, l + 1);
+            char p[4096];
+            snprintf(p, sizeof p, "%s/%s", VD_DEMO_MODELS_DIR, de->d_name);
+            const uint32_t v = vdm_version_of_file(p);
+            if (v == 1u || v == 2u) {
+                memcpy(best, de->d_name, l + 1);
+            }
         }
     }
     closedir(dp);
@@ -131,35 +165,137 @@ static bool find_default_model(char *out, size_t cap)
     return true;
 }
 
-static vd_status_t load_model(run_t *r)
+// Reads a model file whole (malloc'd; NUL-terminated, so 8-byte aligned).
+static vd_status_t read_model(run_t *r, const char *opt, const char *path, uint8_t **blob, size_t *len)
 {
-    const char *path = r->o.model;
-    if (path != NULL && strcmp(path, "none") == 0) {
-        return VD_OK;
-    }
-    if (path == NULL) {
-        if (!find_default_model(r->model_path, sizeof r->model_path)) {
-            return VD_OK;
-        }
-    } else {
-        snprintf(r->model_path, sizeof r->model_path, "%s", path);
-    }
-    char *blob = NULL;
-    size_t len = 0;
+    char *b = NULL;
     char e[600];
-    vd_status_t st = demo_read_file(r->model_path, MODEL_MAX_BYTES, &blob, &len, e, sizeof e);
+    vd_status_t st = demo_read_file(path, MODEL_MAX_BYTES, &b, len, e, sizeof e);
     if (st != VD_OK) {
-        snprintf(r->err, sizeof r->err, "--model: %s", e);
+        snprintf(r->err, sizeof r->err, "%s: %s", opt, e);
         return st == VD_ERR_RANGE ? VD_ERR_MODEL : st;
     }
-    r->model_blob = (uint8_t *)blob;
-    st = vd_dbn_load(&r->model, blob, len);
-    if (st != VD_OK) {
-        snprintf(r->err, sizeof r->err, "--model %s: not a valid .vdm model", r->model_path);
-        return st;
-    }
-    r->have_model = true;
+    *blob = (uint8_t *)b;
     return VD_OK;
+}
+
+// The sources' models. --model is read first (a version-3 file is the CNN);
+// without --sources the sources follow the models at hand (demo.h); the CNN
+// is --cnn-model, else a CNN --model, else models/vd_cnn.vdm; the DBN is
+// loaded when a paper-pipeline source or --cnn-rescore needs it (and an
+// explicit DBN --model is always checked).
+static vd_status_t load_models(run_t *r)
+{
+    demo_opts_t *o = &r->o;
+    const char *mp = o->model;
+    const bool none = mp != NULL && strcmp(mp, "none") == 0;
+    uint8_t *mblob = NULL;
+    size_t mlen = 0;
+    bool model_is_cnn = false;
+    vd_status_t st;
+    if (mp != NULL && !none) {
+        st = read_model(r, "--model", mp, &mblob, &mlen);
+        if (st != VD_OK) {
+            return st;
+        }
+        model_is_cnn = vdm_version(mblob, mlen) == VD_CNN_FORMAT_VERSION;
+    }
+    char def_cnn[4096];
+    snprintf(def_cnn, sizeof def_cnn, "%s/vd_cnn.vdm", VD_DEMO_MODELS_DIR);
+    if (!o->sources_set) {
+        const bool cnn = o->cnn_model != NULL || model_is_cnn || (mp == NULL && file_exists(def_cnn));
+        o->cfg.sources = cnn ? VD_DETECTOR_SRC_CNN : VD_DETECTOR_SRC_HOTSPOT;
+    }
+    const bool want_cnn = (o->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
+    const bool want_dbn = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u || (want_cnn && o->cfg.cnn_rescore != 0u);
+    if (want_cnn) {
+        size_t clen = 0;
+        const char *opt = "--cnn-model";
+        if (o->cnn_model != NULL) {
+            snprintf(r->cnn_path, sizeof r->cnn_path, "%s", o->cnn_model);
+            st = read_model(r, opt, r->cnn_path, &r->cnn_blob, &clen);
+        } else if (model_is_cnn) {
+            opt = "--model";
+            snprintf(r->cnn_path, sizeof r->cnn_path, "%s", mp);
+            r->cnn_blob = mblob;
+            clen = mlen;
+            mblob = NULL;
+            st = VD_OK;
+        } else if (file_exists(def_cnn)) {
+            snprintf(r->cnn_path, sizeof r->cnn_path, "%s", def_cnn);
+            st = read_model(r, opt, r->cnn_path, &r->cnn_blob, &clen);
+        } else {
+            snprintf(r->err, sizeof r->err, "the cnn source needs a CNN model: --cnn-model FILE (%s not found)",
+                     def_cnn);
+            st = VD_ERR_ARG;
+        }
+        if (st == VD_OK) {
+            st = vd_cnn_load(&r->cnn, r->cnn_blob, clen);
+            if (st != VD_OK) {
+                snprintf(r->err, sizeof r->err, "%s %s: not a valid CNN .vdm model (version 3)", opt, r->cnn_path);
+            }
+        }
+        if (st != VD_OK) {
+            free(mblob);
+            return st;
+        }
+        r->have_cnn = true;
+        o->cfg.cnn_model = &r->cnn;
+        // Room for the model's top-K (and the paper sources' 64) unless set.
+        if (!o->max_candidates_set) {
+            uint32_t mc = r->cnn.max_peaks + (((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u) ? 64u : 0u);
+            o->cfg.max_candidates = (uint16_t)(mc > 4096u ? 4096u : mc);
+        }
+        if (!o->max_detections_set) {
+            o->cfg.max_detections = (uint16_t)(r->cnn.max_peaks < o->cfg.max_candidates ? r->cnn.max_peaks
+                                                                                      : o->cfg.max_candidates);
+        }
+    }
+    // An explicit DBN --model is checked even when no source needs it.
+    if (mblob != NULL && !model_is_cnn) {
+        snprintf(r->model_path, sizeof r->model_path, "%s", mp);
+        r->model_blob = mblob;
+        mblob = NULL;
+        st = vd_dbn_load(&r->model, r->model_blob, mlen);
+        if (st != VD_OK) {
+            snprintf(r->err, sizeof r->err, "--model %s: not a valid .vdm model", r->model_path);
+            return st;
+        }
+        r->have_model = want_dbn;
+    } else if (want_dbn && !none && find_default_model(r->model_path, sizeof r->model_path)) {
+        size_t len = 0;
+        st = read_model(r, "--model", r->model_path, &r->model_blob, &len);
+        if (st != VD_OK) {
+            free(mblob);
+            return st;
+        }
+        st = vd_dbn_load(&r->model, r->model_blob, len);
+        if (st != VD_OK) {
+            snprintf(r->err, sizeof r->err, "--model %s: not a valid .vdm model", r->model_path);
+            free(mblob);
+            return st;
+        }
+        r->have_model = true;
+    }
+    free(mblob);   // a CNN --model that no source uses
+    if (want_cnn && o->cfg.cnn_rescore != 0u && !r->have_model) {
+        snprintf(r->err, sizeof r->err, "--cnn-rescore needs a DBN model (--model FILE)");
+        return VD_ERR_ARG;
+    }
+    return VD_OK;
+}
+
+// "hotspot,cnn" etc. for the progress line.
+static void sources_text(uint8_t bits, char *out, size_t cap)
+{
+    static const char *const names[4] = {"hotspot", "contrast", "window", "cnn"};
+    out[0] = '\0';
+    for (unsigned k = 0; k < 4u; k++) {
+        if ((bits & (1u << k)) != 0u) {
+            size_t l = strlen(out);
+            snprintf(out + l, cap - l, "%s%s", l ? "," : "", names[k]);
+        }
+    }
 }
 
 static vd_status_t open_outputs(run_t *r)
@@ -260,16 +396,12 @@ static const char *state_name(uint8_t state)
     }
 }
 
-// The DESIGN.md names of vd_detection_t.source (the window/contrast sources
-// are numbered 2 and 3 until detector.h defines them).
-#ifndef VD_SOURCE_WINDOW
-#define VD_SOURCE_WINDOW 2u
-#endif
-#ifndef VD_SOURCE_CONTRAST
-#define VD_SOURCE_CONTRAST 3u
-#endif
+// The DESIGN.md names of vd_detection_t.source.
 static const char *source_name(uint8_t source)
 {
+    if (source == VD_SOURCE_CNN) {
+        return "cnn";
+    }
     if (source == VD_SOURCE_WINDOW) {
         return "window";
     }
@@ -564,6 +696,7 @@ static void cleanup(run_t *r)
     free(r->eval_dets);
     free(r->cands);
     free(r->model_blob);
+    free(r->cnn_blob);
     if (r->have_gt) {
         demo_gt_free(&r->gt);
     }
@@ -598,7 +731,7 @@ static int run(run_t *r)
             }
         }
     }
-    st = load_model(r);
+    st = load_models(r);
     if (st != VD_OK) {
         return fail(r, st, r->err);
     }
@@ -633,8 +766,13 @@ static int run(run_t *r)
         return fail(r, st, m);
     }
     if (!o->quiet) {
-        fprintf(stderr, "vd_fir_demo: input %s; model %s\n", o->input,
-                r->have_model ? r->model_path : "none (candidates are not verified; score 1.0)");
+        char src[64];
+        sources_text(o->cfg.sources, src, sizeof src);
+        const bool paper = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u;
+        fprintf(stderr, "vd_fir_demo: input %s; sources %s%s%s; DBN model %s\n", o->input, src,
+                r->have_cnn ? "; CNN model " : "", r->have_cnn ? r->cnn_path : "",
+                r->have_model ? r->model_path
+                              : (paper ? "none (candidates are not verified; score 1.0)" : "none (not needed)"));
     }
     st = open_outputs(r);
     if (st != VD_OK) {

@@ -238,7 +238,7 @@ def paper_model(repo):
     vdms = sorted((repo / "models").glob("*.vdm")) if (repo / "models").is_dir() else []
     for p in vdms:
         b = p.read_bytes()
-        if len(b) > 500_000:
+        if len(b) > 500_000 and int.from_bytes(b[4:6], "little") in (1, 2):   # a DBN (3 is the CNN)
             return b, p.name
     from vdtools import quantise, vdm
     fm = quantise.load_float(quantise.random_float_model(DBN_SIZES, seed=1))

@@ -24,10 +24,11 @@ THR_CONSTANT, THR_ADAPTIVE = 0, 1
 FLAG_UNVERIFIED, FLAG_DECIMATED, FLAG_CONTOUR_TRUNC, FLAG_RECOVERED = 0x01, 0x02, 0x04, 0x08
 STATES = {0: None, 1: "new", 2: "confirmed", 3: "recovered"}
 STAGES = ("threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "contrast", "windows",
-          "total")
-SRC_HOTSPOT, SRC_CONTRAST, SRC_WINDOW = 0x01, 0x02, 0x04
-SOURCE_BITS = {"hotspot": SRC_HOTSPOT, "contrast": SRC_CONTRAST, "window": SRC_WINDOW}
-SOURCE_NAMES = {1: "hotspot", 2: "window", 3: "contrast"}
+          "cnn", "total")
+SRC_HOTSPOT, SRC_CONTRAST, SRC_WINDOW, SRC_CNN = 0x01, 0x02, 0x04, 0x08
+SRC_ALL = 0x07   # VD_DETECTOR_SRC_ALL: the paper pipeline's three sources, not the CNN
+SOURCE_BITS = {"hotspot": SRC_HOTSPOT, "contrast": SRC_CONTRAST, "window": SRC_WINDOW, "cnn": SRC_CNN}
+SOURCE_NAMES = {1: "hotspot", 2: "window", 3: "contrast", 4: "cnn"}
 
 CLOCK_FN = C.CFUNCTYPE(C.c_uint32, C.c_void_p)
 
@@ -72,14 +73,16 @@ class DetectorCfg(C.Structure):
                 ("temporal_cfg", TemporalCfg), ("sources", C.c_uint8), ("win_min_std_u8", C.c_uint8),
                 ("dedup_iou_q15", C.c_uint16), ("contrast", ContrastCfg), ("windows", WindowsCfg),
                 ("clock_us", CLOCK_FN), ("clock_user", C.c_void_p),
-                ("on_candidate", CANDIDATE_FN), ("candidate_user", C.c_void_p)]
+                ("on_candidate", CANDIDATE_FN), ("candidate_user", C.c_void_p),
+                ("cnn_model", C.c_void_p), ("cnn_score_thr_q15", C.c_uint16), ("cnn_rescore", C.c_uint8),
+                ("reserved2", C.c_uint8)]
 
 
 STAT_FIELDS = ("hot_thr_u8", "hot_thr_raw", "hot_pixels", "components", "kept", "refined", "verified",
                "suppressed", "detections", "recovered", "decimated", "overflow_components",
                "overflow_candidates", "overflow_contours", "overflow_detections", "overflow_tracks",
                "runs", "overflow_runs", "cand_hotspot", "cand_contrast", "cand_window", "windows",
-               "windows_passed", "deduplicated")
+               "windows_passed", "deduplicated", "cnn_boxes", "cand_cnn")
 
 
 class Stats(C.Structure):
@@ -127,7 +130,7 @@ def _struct_dict(s):
         v = getattr(s, name)
         if isinstance(v, C.Structure):
             v = _struct_dict(v)
-        elif name in ("clock_us", "clock_user", "on_candidate", "candidate_user"):
+        elif name in ("clock_us", "clock_user", "on_candidate", "candidate_user", "cnn_model"):
             continue
         out[name] = v
     return out
@@ -169,7 +172,7 @@ def source_bits(names):
     bits = 0
     for n in names:
         n = n.strip()
-        bits |= 0x07 if n == "all" else SOURCE_BITS[n.rstrip("s") if n == "windows" else n]
+        bits |= SRC_ALL if n == "all" else SOURCE_BITS[n.rstrip("s") if n == "windows" else n]
     return bits
 
 
@@ -184,10 +187,32 @@ def _load_model(model):
     return m, blob
 
 
+def _load_cnn(cnn_model):
+    """(vd_cnn_model_t, keep-alive blob) of a version-3 .vdm given as a path or bytes (None: (None, None))."""
+    if cnn_model is None:
+        return None, None
+    from vdtools import cnn_vdm
+    data = Path(cnn_model).read_bytes() if isinstance(cnn_model, (str, Path)) else bytes(cnn_model)
+    keep, addr = cnn_vdm.aligned_copy(data)
+    m = cnn_vdm.CnnModel()
+    clib.check(cnn_vdm.lib().vd_cnn_load(C.byref(m), addr, len(data)), "vd_cnn_load")
+    return m, keep
+
+
+def _cfg_with_cnn(**kw):
+    """make_cfg(**kw) with cnn_model (a .vdm path or bytes) loaded: (cfg, keep-alive objects)."""
+    cm, keep = _load_cnn(kw.pop("cnn_model", None))
+    c = make_cfg(**kw)
+    if cm is not None:
+        c.cnn_model = C.addressof(cm)
+    return c, (cm, keep)
+
+
 def workspace_size(width=640, height=512, model=None, **cfg):
     """vd_detector_workspace_size for a width x height detector (other keywords:
-    vd_detector_cfg_t fields; model: path/bytes of a .vdm or None)."""
-    c = make_cfg(max_width=width, max_height=height, **cfg)
+    vd_detector_cfg_t fields, cnn_model a path/bytes of a version-3 .vdm; model: path/bytes of a DBN .vdm
+    or None)."""
+    c, _keep = _cfg_with_cnn(max_width=width, max_height=height, **cfg)
     m, _blob = _load_model(model)
     n = C.c_size_t()
     clib.check(_lib().vd_detector_workspace_size(C.byref(c), C.cast(m, C.c_void_p) if m is not None else None,
@@ -196,11 +221,12 @@ def workspace_size(width=640, height=512, model=None, **cfg):
 
 
 class Detector:
-    """One C detector with its own workspace. Keyword arguments: vd_detector_cfg_t fields."""
+    """One C detector with its own workspace. Keyword arguments: vd_detector_cfg_t fields
+    (cnn_model: path or bytes of a version-3 .vdm, with sources including "cnn")."""
 
     def __init__(self, model=None, clock=False, **cfg):
         lib = _lib()
-        self.cfg = make_cfg(**cfg)
+        self.cfg, self._cnn = _cfg_with_cnn(**cfg)
         self._clock_fn = None
         if clock:
             import time

@@ -230,6 +230,19 @@ vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes,
 vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, int32_t thr_q, uint32_t max_peaks,
                           uint32_t frame_w, uint32_t frame_h, vd_cnn_box_t *boxes, size_t capacity, size_t *count);
 
+// The int8 heatmap threshold of a score threshold: the smallest logit v in
+// -128..127 whose decoded score (decode table channel 0) is >= score_q15.
+// The loader checks that the score table never decreases, so for vd_cnn_decode
+// "logit >= *thr_q" is exactly "box score_q15 >= score_q15": a probability
+// threshold becomes a thr_q without changing which peaks top-K sees.
+//   score_q15  0..32768 (32768 = 1.0; 0 gives -128, every peak).
+//   thr_q      out: -128..127; written only on VD_OK.
+// Returns VD_OK; VD_ERR_ARG for NULL m/thr_q or score_q15 > 32768;
+// VD_ERR_STATE if m is not loaded; VD_ERR_RANGE when even logit 127 scores
+// below score_q15 (no box can pass).
+// Time O(n_layers) (model check) + 8 table reads (binary search); stack a few words.
+vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, int32_t *thr_q);
+
 // Multiply-adds of one run at width x height (CONV3X3 9*cin*cout, DW3X3 9*c,
 // PW1X1 cin*cout per output pixel).
 // Returns VD_OK; VD_ERR_ARG / VD_ERR_STATE as vd_cnn_workspace_size.

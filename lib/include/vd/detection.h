@@ -16,6 +16,7 @@ extern "C" {
 #define VD_SOURCE_HOTSPOT 1u    // "hotspot": hot-spot component, expanded and refined (paper 001)
 #define VD_SOURCE_WINDOW 2u     // "window": a sliding window (windows.h), verified as is
 #define VD_SOURCE_CONTRAST 3u   // "contrast": a local-contrast component (contrast.h), verified as is
+#define VD_SOURCE_CNN 4u        // "cnn": a box decoded from the int8 network (cnn.h); scored by it
 
 // Detection flags (bit set).
 #define VD_DET_FLAG_UNVERIFIED 0x01u   // no model: not scored by the DBN (score 255)
@@ -30,8 +31,9 @@ typedef struct vd_detection {
     uint32_t contour_length;     // points of that contour (times k when decimated), 0 for recovered
     uint32_t track_id;           // temporal track (0 = none / temporal off)
     uint16_t complexity_q15;     // edge pixels of the refined region / its pixels (temporal.h)
-    uint8_t score_q8;            // DBN p(vehicle) in Q8 (0..255); 255 without a model; 0 for recovered
-    uint8_t source;              // VD_SOURCE_HOTSPOT / _WINDOW / _CONTRAST
+    uint8_t score_q8;            // DBN p(vehicle) in Q8 (0..255); 255 without a model; 0 for recovered;
+                                 //   CNN boxes: the network's score (detector.h cnn_rescore)
+    uint8_t source;              // VD_SOURCE_HOTSPOT / _WINDOW / _CONTRAST / _CNN
     uint8_t state;               // vd_track_state_t (VD_TRACK_NONE when temporal is off)
     uint8_t flags;               // VD_DET_FLAG_*
     uint8_t hot_thr;             // 8-bit threshold used (U16 frames: 0)

@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: MIT
-// The FIR vehicle detector of paper 001: hot-spot candidates, contour refinement, DBN verification, overlap suppression.
+// The FIR vehicle detector of paper 001: hot-spot candidates, contour refinement, DBN verification, overlap suppression;
+// and the learned candidate source: an int8 CNN run once per frame (cnn.h).
 //
-// Lifetimes: the caller owns vd_detector_t, the workspace and the model; the
-// workspace and the model (and its blob) must outlive the detector. A frame
-// only needs to live during vd_detector_run(). Two detectors never share
-// state (no globals); one detector must not run in two threads at once.
+// Lifetimes: the caller owns vd_detector_t, the workspace and the models; the
+// workspace and the models (DBN and cfg.cnn_model, and their blobs) must
+// outlive the detector. A frame only needs to live during vd_detector_run().
+// Two detectors never share state (no globals); one detector must not run in
+// two threads at once (two may share the read-only models).
 #ifndef VD_DETECTOR_H
 #define VD_DETECTOR_H
 
@@ -19,6 +21,7 @@
 #include "vd/components.h"
 #include "vd/refine.h"
 #include "vd/dbn.h"
+#include "vd/cnn.h"
 #include "vd/temporal.h"
 #include "vd/contrast.h"
 #include "vd/windows.h"
@@ -35,6 +38,10 @@ extern "C" {
 #define VD_DETECTOR_SRC_HOTSPOT 0x01u
 #define VD_DETECTOR_SRC_CONTRAST 0x02u
 #define VD_DETECTOR_SRC_WINDOW 0x04u
+#define VD_DETECTOR_SRC_CNN 0x08u        // the int8 network (cfg.cnn_model)
+// The three sources of the paper pipeline (hot spots, contrast, windows). It
+// stays 0x07 without the CNN, so "all" keeps its meaning for existing users;
+// add VD_DETECTOR_SRC_CNN explicitly.
 #define VD_DETECTOR_SRC_ALL 0x07u
 
 // Stages timed through cfg.clock_us (index into vd_detector_stats_t.time_us).
@@ -49,7 +56,8 @@ enum {
     VD_DET_STAGE_TEMPORAL,       // vd_temporal_update incl. recovery probes
     VD_DET_STAGE_CONTRAST,       // contrast source: map, threshold, labelling, merge
     VD_DET_STAGE_WINDOWS,        // window source: cell integral image, pre-filter, ranking, merge
-    VD_DET_STAGE_TOTAL,
+    VD_DET_STAGE_CNN,            // CNN source: half-resolution input, vd_cnn_run, vd_cnn_decode, merge
+    VD_DET_STAGE_TOTAL,          // (indices before CNN keep their values; TOTAL and COUNT moved up by one)
     VD_DET_STAGE_COUNT
 };
 
@@ -84,7 +92,8 @@ typedef struct vd_detector_cfg {
     uint16_t nms_iou_q15;        // suppress a box whose IoU with a better one is > this, 1..32768; 0 = 16384 (0.5)
     uint16_t max_components;     // components labelled per frame, 1..65535; 0 = 256
     uint16_t max_candidates;     // candidates verified per frame, all sources together (the one per-frame
-                                 //   budget: hot spots first, then contrast, windows fill the rest), 1..4096; 0 = 64
+                                 //   budget: CNN boxes first, then hot spots, then contrast, windows fill the
+                                 //   rest), 1..4096; 0 = 64
     uint16_t max_detections;     // detections kept after NMS, 1..max_candidates; 0 = 32
     uint16_t max_region_w;       // refine region bound, 1..max_width; 0 = min(176, max_width);
     uint16_t max_region_h;       //   larger regions are box-averaged by k (flag DECIMATED); 0 = min(176, max_height)
@@ -92,11 +101,13 @@ typedef struct vd_detector_cfg {
     uint16_t max_tracks;         // temporal track table, 1..1024; 0 = 32 (only with temporal)
     bool temporal;               // run temporal analysis (temporal.h) inside vd_detector_run
     vd_temporal_cfg_t temporal_cfg;  // zero = defaults of temporal.h
-    // Candidate sources (issue 7). Order of the merged candidate list: hot
-    // spots, then contrast, then windows; a candidate whose box has IoU >
-    // dedup_iou with a box already in the list is dropped before verification.
-    // max_candidates is the one per-frame budget of all sources together.
-    uint8_t sources;             // VD_DETECTOR_SRC_* bit set, 0..7; 0 = VD_DETECTOR_SRC_HOTSPOT (paper)
+    // Candidate sources (issue 7). Order of the merged candidate list: CNN
+    // boxes, then hot spots, then contrast, then windows; a candidate whose
+    // box has IoU > dedup_iou with a box already in the list is dropped before
+    // verification (CNN boxes are never dropped among themselves: overlap
+    // suppression handles them). max_candidates is the one per-frame budget
+    // of all sources together.
+    uint8_t sources;             // VD_DETECTOR_SRC_* bit set, 0..15; 0 = VD_DETECTOR_SRC_HOTSPOT (paper)
     uint8_t win_min_std_u8;      // window pre-filter: a window is kept when the standard deviation of the
                                  //   4x4-cell means under it is >= this (grey levels), 1..255; 0 = 4
     uint16_t dedup_iou_q15;      // merge: 1..32768; 0 = 22938 (0.7, as docs/results/candidates.md)
@@ -117,6 +128,26 @@ typedef struct vd_detector_cfg {
     // the call; the observer must not call back into this detector.
     void (*on_candidate)(void *user, const vd_detection_t *cand);
     void *candidate_user;
+    // CNN source (issue 10; VD_DETECTOR_SRC_CNN). Appended here so the fields
+    // above keep their offsets. The network sees the frame at half resolution:
+    // 8-bit frames as the exact 2x2 box average rounded half up,
+    // (a + b + c + d + 2) >> 2 (vd_resample_box_u8); 16-bit frames as the
+    // rounded 2x2 mean of the raw values through the grey map of
+    // grey_lo_ck..grey_hi_ck (vd_resample_box_u16, as 16-bit refine regions).
+    // The plane is floor(W/2) x floor(H/2), padded to multiples of the model's
+    // alignment by repeating its last column and row; decoded boxes (scaled by
+    // 2, top max_peaks of the header) are clipped to the frame (empty ones
+    // dropped) and become candidates with box = candidate = the decoded box,
+    // score_q8 = min(255, (score_q15 + 64) >> 7) (Q15 -> Q8 rounded half up;
+    // 1.0 saturates at 255). Frames under 2 x 2 pixels give no CNN boxes.
+    const vd_cnn_model_t *cnn_model;  // loaded by vd_cnn_load; required when the source is on (else
+                                      //   VD_ERR_ARG), ignored otherwise; must outlive the detector
+    uint16_t cnn_score_thr_q15;  // boxes whose score_q15 < this are dropped (vd_cnn_thr_from_score), 1..32768;
+                                 //   0 = the model header's threshold; above the model's top score: no boxes
+    uint8_t cnn_rescore;         // 0: CNN boxes skip the DBN (score = CNN score); 1: the DBN scores them as it
+                                 //   scores windows (whole box) and keeps them when score >= score_thr; their
+                                 //   score is then the DBN's. 1 needs a DBN model (else VD_ERR_ARG)
+    uint8_t reserved2;           // 0
 } vd_detector_cfg_t;
 
 
@@ -146,7 +177,9 @@ typedef struct vd_detector_stats {
     uint32_t cand_window;
     uint32_t windows;              // windows enumerated (window source)
     uint32_t windows_passed;       // windows passing the pre-filter (before the budget)
-    uint32_t deduplicated;         // contrast/window candidates dropped by the merge (IoU > dedup_iou)
+    uint32_t deduplicated;         // hot-spot/contrast/window candidates dropped by the merge (IoU > dedup_iou)
+    uint32_t cnn_boxes;            // CNN boxes decoded (peaks >= the threshold, at most the header's max_peaks)
+    uint32_t cand_cnn;             // CNN boxes merged (clipped to the frame, within max_candidates)
     uint32_t time_us[VD_DET_STAGE_COUNT];  // per stage, 0 without clock_us
 } vd_detector_stats_t;
 
@@ -172,6 +205,13 @@ typedef struct vd_detector {
     void *scratch;               // per-candidate state (private: internal/detector_internal.h)
     void *contrast_ws;           // contrast source workspace (NULL when the source is off)
     size_t contrast_ws_bytes;
+    uint8_t *cnn_plane;          // CNN source (in the overlay; NULL when off): network input plane,
+    void *cnn_ws;                //   vd_cnn_run workspace for the largest input,
+    size_t cnn_ws_bytes;
+    vd_cnn_box_t *cnn_boxes;     //   decoded boxes (header max_peaks)
+    size_t cnn_boxes_cap;
+    int32_t cnn_thr_q;           // int8 heatmap threshold resolved from cnn_score_thr_q15
+    bool cnn_never;              // threshold above every score, or frames under 2 x 2: the network never runs
     size_t cc_ws_bytes;
     size_t refine_ws_bytes;
     size_t contour_ws_bytes;
@@ -207,15 +247,26 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 // 2 x 4 x (W/4+1) x (H/4+1) bytes = 166 152, share the overlay); contrast
 // adds vd_contrast_workspace_size(max_width, max_height) (1 650 696 bytes at
 // 640 x 512: a whole-frame contrast map and labelling, not yet embedded-sized).
-// Returns VD_OK; VD_ERR_ARG for NULL bytes or a cfg value out of range;
-// VD_ERR_MODEL for a model not filled by vd_dbn_load; VD_ERR_OVERFLOW if the
-// size does not fit size_t.
+// CNN: the network runs first in a frame, in the overlay, which must then
+// also hold D = the input plane nw x nh + vd_cnn_workspace_size(nw, nh) +
+// max_peaks boxes, with nw, nh = floor(max_width / 2), floor(max_height / 2)
+// rounded up to the model's alignment; the overlay is max(A, B, C, D). A
+// smaller frame runs the network at its own size inside that plan (the
+// planner's size grows with the input: measured on every aligned size of the
+// shipped model and 150 random ones; vd_cnn_run would answer VD_ERR_WORKSPACE
+// otherwise).
+// Returns VD_OK; VD_ERR_ARG for NULL bytes, a cfg value out of range, the CNN
+// source without cfg.cnn_model, cnn_rescore without a DBN model, or a network
+// input above VD_CNN_MAX_SIDE (or twice it above VD_MAX_DIM); VD_ERR_MODEL
+// for a model not filled by vd_dbn_load or a cnn_model not filled by
+// vd_cnn_load; VD_ERR_OVERFLOW if the size does not fit size_t.
 vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_model_t *model, size_t *bytes);
 
 // Initialises `det`: validates and copies cfg (NULL = defaults), resolves the
 // 16-bit threshold with the calibration, and carves `ws` once.
-//   model  a loaded model, or NULL: every refined candidate passes with score
-//          255 and VD_DET_FLAG_UNVERIFIED (useful before a model exists).
+//   model  a loaded DBN model, or NULL: every refined candidate passes with score
+//          255 and VD_DET_FLAG_UNVERIFIED (useful before a model exists; CNN
+//          boxes keep the network's score unless cnn_rescore, which needs it).
 //   ws     VD_WORKSPACE_ALIGN-aligned, >= vd_detector_workspace_size(cfg, model).
 // Returns VD_OK; VD_ERR_ARG for NULL det or a cfg out of range;
 // VD_ERR_MODEL as vd_detector_workspace_size; VD_ERR_WORKSPACE for a NULL,
@@ -244,6 +295,12 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 //    max_candidates in all (windows beyond the budget are dropped by design,
 //    not a capacity error); each is sampled as its whole box (no refinement)
 //    and scored by the same DBN]
+//   [CNN source (first, cfg.cnn_model): half-resolution plane (cfg comment) ->
+//    vd_cnn_run -> vd_cnn_decode (threshold from cnn_score_thr_q15, top
+//    max_peaks, frame 2 nw x 2 nh) -> boxes clipped to the frame start the
+//    merged list (beyond max_candidates: stats.overflow_candidates,
+//    VD_ERR_CAPACITY); hot spots and the other sources are then merged behind
+//    them with the dedup rule; CNN boxes skip the DBN unless cnn_rescore]
 //   -> overlap suppression (best score first, stable) -> temporal analysis
 //      (if enabled: ids, states, recovered targets appended).
 //   out, cap  caller array; detections best score first, recovered last.
@@ -255,9 +312,10 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 // candidates, runs, contour buffers, max_detections, cap, track table): everything
 // written is valid and the stats say which budget; other statuses of the
 // stages are passed on (then *count = 0).
-// Stack: own frame 136 bytes (Cortex-M7 -Os); worst case including the stages
-// (vd_refine_region -> vd_median5_u8, also via the temporal recovery probe)
-// in docs/embedded.md.
+// Stack: own frame 112 bytes (Cortex-M7 -Os); worst case including the stages
+// 1 092 bytes, through the CNN source (vd_cnn_run's kernels); without it
+// vd_refine_region -> vd_median5_u8, also via the temporal recovery probe
+// (tools/embedded_report.py, docs/embedded.md).
 vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
                             size_t *count);
 

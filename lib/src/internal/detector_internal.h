@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Private: the detector's per-candidate state and the functions its files share (detector.c runs the frame,
 // detector_init.c configures and carves the workspace, detector_sources.c fills the candidate list,
-// detector_region.c refines and verifies candidates).
+// detector_region.c refines and verifies candidates, detector_cnn.c runs the network source).
 #ifndef VD_DETECTOR_INTERNAL_H
 #define VD_DETECTOR_INTERNAL_H
 
@@ -79,6 +79,16 @@ vd_status_t vd_det_contrast_source(vd_detector_t *det, const vd_frame_t *f, size
 // The best pre-filtered windows merged into the room left (never a capacity error).
 vd_status_t vd_det_window_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8);
 
+// detector_cnn.c. The network's boxes appended to det->cand[*n..) (the list is
+// empty when it runs: CNN boxes come first). Uses the overlay (plane, network
+// workspace, decoded boxes), so it must run before the hot-spot labelling.
+// Returns VD_OK, VD_ERR_CAPACITY (boxes beyond max_candidates, counted in
+// stats.overflow_candidates) or a vd_cnn_* / resample status.
+vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n);
+// Network input size for a frame of w x h: floor(w / 2), floor(h / 2) rounded
+// up to the model's alignment (0 x 0 when either half is 0).
+void vd_det_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh);
+
 // detector_region.c.
 // Hot-spot candidate: expands the component, refines the region and traces
 // its contour; *ok = false when the region has no contour. Fills d's box,
@@ -86,7 +96,8 @@ vd_status_t vd_det_window_source(vd_detector_t *det, const vd_frame_t *f, size_t
 vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
                               vd_detection_t *d, bool *ok, uint32_t *t0);
 // Samples and scores one merged candidate (any source); *keep = score >= score_thr
-// (always true without a model: score 255, flag UNVERIFIED).
+// (always true without a model: score 255, flag UNVERIFIED; and for CNN boxes
+// without cnn_rescore, which keep the network's score).
 vd_status_t vd_det_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d, bool *keep, uint32_t *t0);
 // Temporal recovery probe (vd_temporal_probe_fn, user = the detector): the
 // complexity of `box` expanded and refined as a candidate, in det->frame.

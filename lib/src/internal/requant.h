@@ -156,6 +156,21 @@ static inline int32_t vd_rq_z(int32_t x, uint64_t k, uint32_t mult, uint32_t dk,
     return vd_rq_u32_to_i32((uint32_t)(v >> rsh) - off);
 }
 
+// vd_rq_z with the sign term dropped (n = 0 always), from xb = bias + sum
+// as uint32 (shift <= 0 only). Equal to vd_rq_z where x > thr. Where x <= thr
+// (high < 0) both are <= 0: the reference RoundingDivideByPOT(high, e) of a
+// negative high is <= 0, and the n = 0 value floor((high + 2^(e-1)) / 2^e)
+// is <= 0 because high + 2^(e-1) <= 2^(e-1) - 1 < 2^e (e = 0: dk = 0, the two
+// coincide). Hence max(vd_rq_z, lo) == max(vd_rq_z_nn, lo) for every lo >= 0:
+// kernels use it for layers with act_min >= zp (ReLU). Plain uint32/uint64
+// lanes with no compare, so gcc vectorises a loop of it (pmuludq, psrlq).
+// tests/unit/test_cnn.c checks it against vd_rq_requantize.
+static inline int32_t vd_rq_z_nn(uint32_t xb, uint64_t k, uint32_t mult, uint32_t rsh, uint32_t off)
+{
+    const uint64_t v = (uint64_t)(xb ^ 0x80000000u) * mult + k;
+    return vd_rq_u32_to_i32((uint32_t)(v >> rsh) - off);
+}
+
 // requantize(sum + bias) of one channel by the one-shift form.
 static inline int32_t vd_rq_apply(int32_t sum, const vd_rq_ch_t *c)
 {

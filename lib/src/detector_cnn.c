@@ -1,0 +1,121 @@
+// SPDX-License-Identifier: MIT
+// The detector's learned candidate source: the frame at half resolution through the int8 CNN, decoded boxes
+// into the merged candidate list.
+//
+// Algorithm (issue 10, CenterNet-style detection with cnn.h): the frame is
+// box-averaged 2x2 (8-bit: (a + b + c + d + 2) >> 2; 16-bit: the rounded raw
+// mean through the detector's grey map), the floor(W/2) x floor(H/2) plane is
+// padded to multiples of the model's alignment by repeating its last column
+// and row (numpy np.pad mode "edge"), the network runs once, its heatmap
+// peaks are decoded at the header's top-K into a 2 nw x 2 nh frame and each
+// box is clipped to the real frame (dropped when nothing is left). This is
+// exactly tools/vdtools/cnn_eval.py Int8.__call__ (net_input, decode,
+// clip) and tools/vdtools/cnn_detector.py, which tests/python compares with.
+// Bounds: O(W*H) for the plane and padding, vd_cnn_macs() multiply-adds for
+// the network, O(Wo*Ho*(1 + max_peaks)) for decoding, O(max_peaks) for the
+// merge. Memory: the overlay (plane, network workspace, boxes; see
+// detector_init.c). Stack: this file's frames plus vd_cnn_run (~730 bytes on
+// Cortex-M7 -Os); no recursion.
+#include <string.h>
+
+#include "vd/resample.h"
+#include "internal/detector_internal.h"
+#include "internal/vd_internal.h"
+
+void vd_det_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh)
+{
+    const uint32_t a = m->align;   // >= 1 for a loaded model
+    const uint32_t hw = w / 2u;
+    const uint32_t hh = h / 2u;
+    if (hw == 0u || hh == 0u) {
+        *nw = 0u;
+        *nh = 0u;
+        return;
+    }
+    *nw = (hw + a - 1u) / a * a;
+    *nh = (hh + a - 1u) / a * a;
+}
+
+// Half-resolution plane of f (hw x hh, row stride nw) padded to nw x nh by
+// repeating the last real column, then the last real row.
+VD_DET_NOINLINE static vd_status_t make_input(const vd_detector_t *det, const vd_frame_t *f, uint32_t nw,
+                                              uint32_t nh)
+{
+    const uint32_t hw = f->width / 2u;
+    const uint32_t hh = f->height / 2u;
+    uint8_t *p = det->cnn_plane;
+    vd_image_u8_t dst = {p, hw, hh, nw};
+    // The ROI is the even part of the frame: an odd last column/row is not read.
+    const vd_rect_t roi = {0, 0, (int32_t)(2u * hw), (int32_t)(2u * hh)};
+    if (f->format == VD_PIX_U8) {
+        vd_view_u8_t v;
+        VD_TRY(vd_frame_view_u8(f, &v));
+        VD_TRY(vd_resample_box_u8(&v, &roi, 2u, 2u, &dst));
+    } else {
+        vd_view_u16_t v;
+        VD_TRY(vd_frame_view_u16(f, &v));
+        VD_TRY(vd_resample_box_u16(&v, &roi, 2u, 2u, &det->grey, &dst));
+    }
+    if (nw > hw) {
+        for (uint32_t y = 0u; y < hh; y++) {
+            uint8_t *row = p + (size_t)y * nw;
+            memset(row + hw, row[hw - 1u], nw - hw);
+        }
+    }
+    for (uint32_t y = hh; y < nh; y++) {
+        memcpy(p + (size_t)y * nw, p + (size_t)(hh - 1u) * nw, nw);
+    }
+    return VD_OK;
+}
+
+// Q15 score -> Q8, rounded half up; 1.0 (32768) saturates at 255.
+static uint8_t score_q8_of(uint16_t score_q15)
+{
+    const uint32_t q = ((uint32_t)score_q15 + 64u) >> 7;
+    return (uint8_t)(q > 255u ? 255u : q);
+}
+
+vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n)
+{
+    if (det->cnn_never) {
+        return VD_OK;
+    }
+    const vd_cnn_model_t *m = det->cfg.cnn_model;
+    uint32_t nw = 0u;
+    uint32_t nh = 0u;
+    vd_det_cnn_input_size(m, f->width, f->height, &nw, &nh);
+    if (nw == 0u || nh == 0u) {
+        return VD_OK;   // a frame under 2 x 2 pixels has no half-resolution plane
+    }
+    VD_TRY(make_input(det, f, nw, nh));
+    vd_cnn_output_t head;
+    VD_TRY(vd_cnn_run(m, det->cnn_plane, nw, nh, nw, det->cnn_ws, det->cnn_ws_bytes, &head));
+    size_t nb = 0u;
+    VD_TRY(vd_cnn_decode(m, &head, det->cnn_thr_q, 0u, 2u * nw, 2u * nh, det->cnn_boxes, det->cnn_boxes_cap, &nb));
+    det->stats.cnn_boxes = (uint32_t)nb;
+    // Boxes in decode order (logit descending, then raster): the best keep the budget.
+    for (size_t i = 0u; i < nb; i++) {
+        const vd_cnn_box_t *b = &det->cnn_boxes[i];
+        const int32_t x1 = (b->rect.x + b->rect.w < (int32_t)f->width) ? b->rect.x + b->rect.w : (int32_t)f->width;
+        const int32_t y1 = (b->rect.y + b->rect.h < (int32_t)f->height) ? b->rect.y + b->rect.h : (int32_t)f->height;
+        if (x1 <= b->rect.x || y1 <= b->rect.y) {
+            continue;   // wholly in the padding
+        }
+        if (*n >= det->cfg.max_candidates) {
+            det->stats.overflow_candidates++;
+            continue;   // counted: each remaining box that would have been a candidate
+        }
+        vd_detection_t *d = &det->cand[*n];
+        memset(d, 0, sizeof(*d));
+        d->box.x = b->rect.x;
+        d->box.y = b->rect.y;
+        d->box.w = x1 - b->rect.x;
+        d->box.h = y1 - b->rect.y;
+        d->candidate = d->box;
+        d->score_q8 = score_q8_of(b->score_q15);
+        d->source = (uint8_t)VD_SOURCE_CNN;
+        (*n)++;
+        det->stats.cand_cnn++;
+    }
+    return (det->stats.overflow_candidates != 0u) ? VD_ERR_CAPACITY : VD_OK;
+}

@@ -1,0 +1,281 @@
+# SPDX-License-Identifier: MIT
+"""The detector's CNN source end to end: `vd_fir_demo --sources cnn` against the Python mirror of the
+detector (vdtools.cnn_detector: cnn_eval's network input, the numpy integer reference, cnn_eval.Int8's
+clipping, the C suppression rule), box for box and Q8 score for Q8 score -- on random networks over the
+bundled clip's frames and odd crops of them (no data needed), and on real test-split frames with
+models/vd_cnn.vdm (skipped without ../shared/data or that model). Also: the demo's CNN options and
+defaults, and the ctypes mirror of vd_detector_cfg_t / vd_detector_stats_t / vd_detection_t
+(vdtools.detector) against the C layout.
+
+Frames are handed to the demo as PGM files written from the very arrays Python uses, so JPEG decoders
+(stb_image in the demo, libjpeg in OpenCV) cannot make the two sides differ."""
+import ctypes as C
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vdtools import clip
+from vdtools import cnn_detector as CDet
+from vdtools import cnn_ref as R
+from vdtools import cnn_vdm as V
+from vdtools import detector as vdet
+from vdtools.clib import REPO
+
+from realdata import frames_in_test_split
+
+MODEL = REPO / "models" / "vd_cnn.vdm"
+
+
+def build_dir():
+    if os.environ.get("VD_BUILD_DIR"):
+        return Path(os.environ["VD_BUILD_DIR"])
+    if os.environ.get("VD_LIB"):
+        return Path(os.environ["VD_LIB"]).parent
+    return REPO / "build"
+
+
+@pytest.fixture(scope="module")
+def demo():
+    exe = build_dir() / "tools" / "vd_fir_demo"
+    if not exe.is_file():
+        pytest.skip(f"vd_fir_demo not built at {exe} (cmake --build build); set VD_BUILD_DIR")
+    return exe
+
+
+def run(demo, *args, check=True):
+    p = subprocess.run([str(demo), *map(str, args)], capture_output=True, text=True, timeout=300)
+    if check and p.returncode != 0:
+        raise AssertionError(f"vd_fir_demo failed ({p.returncode}): {p.stderr}")
+    return p
+
+
+def demo_dets(jsonl):
+    """{frame name: [((x, y, w, h), score_q8)]} of a JSON Lines file (the demo prints score_q8 / 255
+    with 3 decimals: round(score * 255) is exact)."""
+    out = {}
+    for line in Path(jsonl).read_text().splitlines():
+        r = json.loads(line)
+        dets = []
+        for d in r["detections"]:
+            assert d["source"] == "cnn" and d["track"] is None and d["state"] == "new", d
+            dets.append((tuple(d["box"]), int(round(d["score"] * 255))))
+        out[r["frame"]] = dets
+    return out
+
+
+def write_frames(directory, frames):
+    """{name: image} as 8-bit PGMs in directory (created)."""
+    directory.mkdir(parents=True, exist_ok=True)
+    for name, img in frames.items():
+        clip.write_pgm(directory / name, np.ascontiguousarray(img))
+    return directory
+
+
+def compare(dets, frames, desc, first_diff_msg="", **kw):
+    """Asserts demo detections == vdtools.cnn_detector.detect for every frame; returns the count."""
+    n = 0
+    for name, img in frames.items():
+        want = CDet.detect(desc, img, **kw)
+        assert dets[name] == want, f"{first_diff_msg}{name} ({img.shape[1]}x{img.shape[0]}): demo {dets[name]} " \
+                                   f"vs Python {want}"
+        n += len(want)
+    return n
+
+
+# ------------------------------------------------------------------ random networks, the bundled clip
+@pytest.fixture(scope="module")
+def clip_frames(tmp_path_factory):
+    """Three 640x512 8-bit clip frames and odd crops of them: {size tag: {name: image}}."""
+    out = tmp_path_factory.mktemp("cnnclip")
+    clip.generate(out, frames=3, seed=4)
+    full = {p.name: clip.read_pgm(p) for p in sorted((out / "u8").glob("*.pgm"))}
+    sets = {"640x512": full}
+    for w, h, x0, y0 in ((203, 157, 101, 77), (97, 61, 300, 200), (34, 18, 5, 9)):
+        sets[f"{w}x{h}"] = {k: v[y0:y0 + h, x0:x0 + w] for k, v in full.items()}
+    return sets
+
+
+@pytest.fixture(scope="module")
+def random_net(tmp_path_factory):
+    rng = np.random.default_rng(2024)
+    d = R.random_model(rng, out_channels=5, width=(6, 8, 8, 6), name="det_random")
+    d["score_threshold_q"] = 20
+    path = tmp_path_factory.mktemp("cnnnet") / "net.vdm"
+    path.write_bytes(V.pack(d))
+    return d, path
+
+
+def test_random_network_on_clip_frames(demo, clip_frames, random_net, tmp_path):
+    """Half resolution, edge padding to A = 8 (real convolutions see the padding), decoding, clipping,
+    the candidate budget and suppression: demo == Python on full and odd-sized frames, at the header's
+    threshold and at --cnn-thr."""
+    d, net = random_net
+    mp = int(d["max_peaks"])
+    total = 0
+    for tag, frames in clip_frames.items():
+        src = write_frames(tmp_path / tag, frames)
+        for thr in (None, 0.62):
+            jl = tmp_path / f"{tag}_{thr}.jsonl"
+            extra = [] if thr is None else ["--cnn-thr", thr]
+            run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--model", "none", "--temporal", "off",
+                "--json", jl, "--quiet", *extra)
+            q15 = 0 if thr is None else int(round(thr * 32768))
+            total += compare(demo_dets(jl), frames, d, f"thr {thr}: ", score_thr_q15=q15, max_candidates=mp,
+                             max_detections=mp)
+    assert total > 20, "the random network should find peaks on the clip"
+    # A version-3 --model is the CNN model, and without --sources it selects the cnn source.
+    frames = clip_frames["203x157"]
+    jl = tmp_path / "convenience.jsonl"
+    p = run(demo, "--input", tmp_path / "203x157", "--model", net, "--temporal", "off", "--json", jl)
+    assert "sources cnn" in p.stderr and "CNN model" in p.stderr, p.stderr
+    compare(demo_dets(jl), frames, d, "--model: ", max_candidates=mp, max_detections=mp)
+
+
+def test_budgets_and_suppression_rule(demo, clip_frames, random_net, tmp_path):
+    """Explicit budgets and overlap threshold: the detector keeps the best max_candidates boxes and
+    suppresses with the Q15 rule (vdtools.cnn_detector.nms_q15)."""
+    d, net = random_net
+    frames = clip_frames["640x512"]
+    src = write_frames(tmp_path / "f", frames)
+    jl = tmp_path / "b.jsonl"
+    p = run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--model", "none", "--temporal", "off",
+            "--max-candidates", 7, "--max-detections", 5, "--nms-iou", 0.2, "--cnn-thr", 0.001, "--json", jl,
+            "--quiet")
+    assert "budget" in p.stdout   # more peaks than 7: VD_ERR_CAPACITY noted, results valid
+    compare(demo_dets(jl), frames, d, score_thr_q15=int(round(0.001 * 32768)), max_candidates=7, max_detections=5,
+            nms_iou_q15=int(round(0.2 * 32768)))
+
+
+def test_nms_rule_is_q15():
+    """The C rule differs from a float IoU > 0.5 just above 0.5 (unions above 16384 px)."""
+    a, b = (0, 0, 200, 100), (0, 0, 200, 201)   # IoU = 20000 / 40200 = 0.4975 -> below
+    assert CDet.iou_q15(a, b) == (20000 << 15) // 40200
+    # inter 16385 px, union 32769 px: IoU 0.500015 > 0.5 in float, Q15 floor 16384 -> not > 16384
+    a, b = (0, 0, 16385, 1), (0, 0, 32769, 1)
+    assert 16385 / 32769 > 0.5 and CDet.iou_q15(a, b) == 16384
+    assert len(CDet.nms_q15([(a, 200), (b, 100)])) == 2
+    assert CDet.score_q8(32768) == 255 and CDet.score_q8(64) == 1 and CDet.score_q8(63) == 0
+
+
+# ------------------------------------------------------------------ real frames, the shipped model
+def _real_frames(data_dir, per_family=6):
+    """A few test-split frames per family (MSRS 640x480, HIT-UAV and its flight 640x512), read as
+    OpenCV reads them for the Python evaluation: {size tag: {name: image}}."""
+    import cv2
+    frames = frames_in_test_split(data_dir)
+    fams = {}
+    for f in frames:
+        fams.setdefault(f.dataset, []).append(f)
+    out = {}
+    for fam, fs in sorted(fams.items()):
+        for f in fs[::max(1, len(fs) // per_family)][:per_family]:
+            img = cv2.imread(str(f.path), cv2.IMREAD_GRAYSCALE)
+            assert img is not None, f.path
+            name = Path(f.name).stem + ".pgm"
+            out.setdefault(f"{img.shape[1]}x{img.shape[0]}", {})[name] = img
+    return out
+
+
+def test_real_frames_equal_python(demo, data_dir, tmp_path):
+    if not MODEL.is_file():
+        pytest.skip(f"no CNN model at {MODEL} (the trained network is committed there)")
+    from vdtools import cnn_eval
+    desc = V.unpack(MODEL.read_bytes())
+    mp = int(desc["max_peaks"])
+    ref = cnn_eval.Int8(MODEL, backend="ref")
+    total = 0
+    for tag, frames in _real_frames(data_dir).items():
+        src = write_frames(tmp_path / tag, frames)
+        jl = tmp_path / f"{tag}.jsonl"
+        run(demo, "--input", src, "--sources", "cnn", "--model", MODEL, "--temporal", "off", "--json", jl, "--quiet")
+        dets = demo_dets(jl)
+        total += compare(dets, frames, desc, max_candidates=mp, max_detections=mp)
+        if mp == 100:   # cnn_eval.Int8 decodes the top 100: the candidate stage is exactly cnn_eval's pipeline
+            thr = int(desc["score_threshold_q"])
+            for name, img in frames.items():
+                h, w = img.shape
+                got = [(b, int(round(s * 32768))) for b, s in ref(img, w, h, thr_q=thr)]
+                assert got == CDet.boxes(desc, img), name
+    assert total > 0
+
+
+# ------------------------------------------------------------------ demo options
+def test_demo_cnn_options(demo, clip_frames, random_net, tmp_path):
+    d, net = random_net
+    mp = int(d["max_peaks"])
+    p = run(demo, "--help")
+    for opt in ("--cnn-model", "--cnn-thr", "--cnn-rescore", "cnn"):
+        assert opt in p.stdout, opt
+    frames = clip_frames["97x61"]
+    src = write_frames(tmp_path / "f", frames)
+    # The config file takes the same keys as the flags.
+    cfg = tmp_path / "cfg.json"
+    cfg.write_text(json.dumps({"sources": "cnn", "cnn-model": str(net), "cnn_thr": 0.55, "temporal": False}))
+    jl = tmp_path / "cfg.jsonl"
+    run(demo, "--input", src, "--model", "none", "--config", cfg, "--json", jl, "--quiet")
+    compare(demo_dets(jl), frames, d, score_thr_q15=int(round(0.55 * 32768)), max_candidates=mp, max_detections=mp)
+    # cnn with hot spots: both sources may appear; nothing else.
+    jl2 = tmp_path / "both.jsonl"
+    run(demo, "--input", src, "--model", "none", "--sources", "hotspot,cnn", "--cnn-model", net, "--json", jl2,
+        "--quiet")
+    srcs = {x["source"] for line in jl2.read_text().splitlines() for x in json.loads(line)["detections"]}
+    assert srcs <= {"hotspot", "cnn"} and "cnn" in srcs
+    # Errors: one line, non-zero exit.
+    bad = [(["--sources", "cnn", "--cnn-model", tmp_path / "nope.vdm"], "--cnn-model"),
+           (["--sources", "cnn", "--cnn-model", cfg], "not a valid CNN"),
+           (["--cnn-model", net, "--model", "none", "--cnn-rescore"], "--cnn-rescore needs a DBN model"),
+           (["--cnn-thr", "1.5"], "cnn-thr")]
+    for args, msg in bad:
+        q = run(demo, "--input", src, "--quiet", *args, check=False)
+        assert q.returncode != 0 and len(q.stderr.strip().splitlines()) == 1 and msg in q.stderr, (args, q.stderr)
+    # --cnn-rescore takes an optional value; with a DBN every CNN box is scored by it.
+    dbn = REPO / "models" / "vd_dbn_grey.vdm"
+    if dbn.is_file():
+        for args in (["--cnn-rescore"], ["--cnn-rescore", "on"]):
+            q = run(demo, "--input", src, "--cnn-model", net, "--model", dbn, "--sources", "cnn", *args,
+                    "--temporal", "off")
+            assert f"DBN model {dbn}" in q.stderr, q.stderr
+        q = run(demo, "--input", src, "--cnn-model", net, "--model", dbn, "--sources", "cnn", "--cnn-rescore", "off",
+                "--temporal", "off")
+        assert "DBN model none (not needed)" in q.stderr, q.stderr
+    # Defaults: models/vd_cnn.vdm makes cnn the default source unless a DBN --model is named.
+    q = run(demo, "--input", src, "--temporal", "off")
+    assert ("sources cnn" in q.stderr) == MODEL.is_file(), q.stderr
+    if dbn.is_file():
+        q = run(demo, "--input", src, "--model", dbn, "--temporal", "off")
+        assert "sources hotspot" in q.stderr, q.stderr
+
+
+# ------------------------------------------------------------------ ctypes mirror
+def test_ctypes_mirror_matches_c_layout(tmp_path):
+    """Every field offset and struct size of vdtools.detector's ctypes structs equals the C compiler's."""
+    cc = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+    if cc is None:
+        pytest.skip("no C compiler on PATH")
+    structs = [("vd_detector_cfg_t", vdet.DetectorCfg), ("vd_detector_stats_t", vdet.Stats),
+               ("vd_detection_t", vdet.Detection)]
+    lines = ['#include <stddef.h>', '#include <stdio.h>', '#include "vd/detector.h"', "int main(void) {"]
+    want = []
+    for cname, cls in structs:
+        lines.append(f'  printf("%zu\\n", sizeof({cname}));')
+        want.append((cname, "sizeof", C.sizeof(cls)))
+        for fname, _ in cls._fields_:
+            lines.append(f'  printf("%zu\\n", offsetof({cname}, {fname}));')
+            want.append((cname, fname, getattr(cls, fname).offset))
+    lines.append('  printf("%zu\\n", sizeof(vd_detector_t));')
+    lines.append('  printf("%d\\n", (int)VD_DET_STAGE_COUNT);')
+    lines.append("  return 0; }")
+    (tmp_path / "layout.c").write_text("\n".join(lines) + "\n")
+    exe = tmp_path / "layout"
+    subprocess.run([cc, "-std=c99", "-I", str(REPO / "lib" / "include"), str(tmp_path / "layout.c"), "-o", str(exe)],
+                   check=True)
+    got = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.split()
+    for (cname, fname, v), g in zip(want, got):
+        assert int(g) == v, f"{cname}.{fname}: C {g}, ctypes {v}"
+    assert int(got[len(want)]) <= vdet._DET_BYTES, "vd_detector_t outgrew the ctypes buffer"
+    assert int(got[len(want) + 1]) == len(vdet.STAGES)

@@ -1,0 +1,660 @@
+// SPDX-License-Identifier: MIT
+// Unit tests of the detector's CNN source (VD_DETECTOR_SRC_CNN) with a hand-made network whose output is known.
+//
+// The network, written here as a version-3 .vdm (docs/model-format.md; the
+// same layout as tests/unit/test_cnn.c's writer, reduced to what this needs):
+// two 2x2 max-pools (alignment 4, out_stride 4), then a 1x1 convolution to the
+// five head channels with identity requantisation:
+//   heatmap = pixel - 128 of the brightest half-resolution pixel of the 4x4 cell,
+//   width, height, offset x, offset y = constants (the bias; weight 0).
+// With the decode table score = (v + 128) * 128, size = (v + 128) * 128 Q8
+// and offset = clamp(4 (v + 128) - 256, -256, 512) Q8, a box's score_q8 is
+// exactly that half-resolution pixel, and with the default constants (size 8
+// network px, offset 0.5 cell) the box of cell (cx, cy) is the 16 x 16 frame
+// square at (8 cx - 4, 8 cy - 4), clipped to the frame.
+#include "unity.h"
+#include "testutil.h"
+
+#include <stdbool.h>
+#include <string.h>
+
+#include "vd/detector.h"
+#include "vd/resample.h"
+#include "internal/crc32.h"
+#include "../data/dbn_golden.h"
+
+void setUp(void) {}
+void tearDown(void) {}
+
+#define MW 96u
+#define MH 80u
+
+static uint8_t g_px[MH][MW];
+static uint16_t g_px16[MH][MW];
+static vd_detector_t g_det;
+static uint64_t g_ws[2u * 1024u * 1024u / 8u];   // 2 MiB, aligned
+static vd_detection_t g_out[64];
+
+// ------------------------------------------------------------ the network
+
+// Head constants (int8 logits; see the file comment for what they decode to).
+typedef struct net {
+    int8_t size_w, size_h, off_x, off_y;
+    int8_t thr;            // header threshold
+    uint16_t max_peaks;
+    bool score_one;        // top score (logit 127) 32768 instead of 32640
+    bool score_half;       // scores (v + 128) * 128 + 64: exactly half a Q8 step above
+} net_t;
+
+#define SIZE_8PX (-112)    // (v + 128) * 128 Q8 = 2048 = 8 network px
+#define OFF_HALF (-32)     // 4 (v + 128) - 256 = 128 Q8 = half a cell (the centre)
+#define OFF_2CELLS 64      // 512 Q8 = two cells
+
+static net_t net_default(void)
+{
+    net_t n = {SIZE_8PX, SIZE_8PX, OFF_HALF, OFF_HALF, 0, 100u, false, false};
+    return n;
+}
+
+static union {
+    uint64_t align;
+    uint8_t b[8192];
+} g_blob;
+static vd_cnn_model_t g_cnn;
+
+static void wr16(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)(v & 0xFFu);
+    p[1] = (uint8_t)((v >> 8) & 0xFFu);
+}
+
+static void wr32(uint8_t *p, uint32_t v)
+{
+    wr16(p, v & 0xFFFFu);
+    wr16(p + 2, v >> 16);
+}
+
+// One layer-table entry; arrays at w/bias/mult/shift (0 = none).
+static void entry(uint8_t *e, uint8_t op, uint8_t in, uint16_t cout, int8_t zp, uint32_t w, uint32_t bias,
+                  uint32_t mult, uint32_t shift)
+{
+    e[0] = op;
+    e[1] = 1u;
+    e[2] = in;
+    wr16(e + 4, 1u);
+    wr16(e + 6, cout);
+    e[8] = (uint8_t)zp;
+    e[9] = 0x80u;   // act_min -128
+    e[10] = 0x7Fu;  // act_max 127
+    wr32(e + 12, w);
+    wr32(e + 16, bias);
+    wr32(e + 20, mult);
+    wr32(e + 24, shift);
+}
+
+// Writes the network into g_blob and loads it into g_cnn.
+static void net_load(const net_t *n)
+{
+    uint8_t *b = g_blob.b;
+    const uint32_t w = 224u, bias = 232u, mult = 252u, shift = 272u, dec = 280u;
+    const uint32_t total = dec + 5u * 256u * 4u;
+    memset(b, 0, total);
+    memcpy(b, "VDMF", 4);
+    wr16(b + 4, 3u);
+    wr16(b + 6, 128u);
+    wr32(b + 8, total);
+    b[16] = 2u;        // kind: CNN
+    b[17] = 0u;        // input_norm: pixel - 128
+    b[18] = 3u;        // layers
+    b[19] = 5u;        // head channels
+    wr16(b + 20, 16u); // nominal input 16 x 16
+    wr16(b + 22, 16u);
+    b[30] = 0x80u;     // input zero point -128
+    b[31] = 4u;        // out_stride
+    wr32(b + 32, 128u);
+    wr32(b + 36, dec);
+    b[40] = (uint8_t)n->thr;
+    wr16(b + 42, n->max_peaks);
+    memcpy(b + 48, "det_test", 8);
+    entry(b + 128, 4u, 0u, 1u, -128, 0u, 0u, 0u, 0u);   // MAXPOOL2
+    entry(b + 160, 4u, 1u, 1u, -128, 0u, 0u, 0u, 0u);   // MAXPOOL2
+    entry(b + 192, 3u, 2u, 5u, 0, w, bias, mult, shift); // PW1X1 1 -> 5
+    b[w] = 1u;   // heatmap weight; the other four are 0
+    const int32_t bs[5] = {-128, n->size_w, n->size_h, n->off_x, n->off_y};
+    for (uint32_t o = 0u; o < 5u; o++) {
+        wr32(b + bias + 4u * o, (uint32_t)bs[o]);
+        wr32(b + mult + 4u * o, 1u << 30);   // identity requantisation: mult 2^30, shift 1
+        b[shift + o] = 1u;
+    }
+    for (uint32_t i = 0u; i < 256u; i++) {
+        const int32_t off = 4 * (int32_t)i - 256;
+        wr32(b + dec + 4u * i, i * 128u + (n->score_half ? 64u : 0u));
+        wr32(b + dec + 4u * (256u + i), i * 128u);
+        wr32(b + dec + 4u * (512u + i), i * 128u);
+        wr32(b + dec + 4u * (768u + i), (uint32_t)(off > 512 ? 512 : off));
+        wr32(b + dec + 4u * (1024u + i), (uint32_t)(off > 512 ? 512 : off));
+    }
+    if (n->score_one) {
+        wr32(b + dec + 4u * 255u, 32768u);
+    }
+    wr32(b + 12, vd_crc32(0u, b + 16, total - 16u));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&g_cnn, b, total));
+    TEST_ASSERT_EQUAL_UINT32(4u, g_cnn.align);
+}
+
+// ------------------------------------------------------------ frames
+
+static void fill(uint8_t v)
+{
+    memset(g_px, v, sizeof(g_px));
+}
+
+static void rect8(uint32_t x, uint32_t y, uint32_t w, uint32_t h, uint8_t v)
+{
+    for (uint32_t j = y; j < y + h; j++) {
+        for (uint32_t i = x; i < x + w; i++) {
+            g_px[j][i] = v;
+        }
+    }
+}
+
+// A frame view of the top-left w x h of g_px (row stride MW).
+static vd_frame_t frame8(uint32_t w, uint32_t h)
+{
+    vd_frame_t f = {g_px, w, h, MW, VD_PIX_U8, 0, 0};
+    return f;
+}
+
+static vd_detector_cfg_t cnn_cfg(void)
+{
+    vd_detector_cfg_t c;
+    memset(&c, 0, sizeof(c));
+    c.max_width = MW;
+    c.max_height = MH;
+    c.sources = VD_DETECTOR_SRC_CNN;
+    c.cnn_model = &g_cnn;
+    return c;
+}
+
+static void init_or_fail(const vd_detector_cfg_t *c, const vd_model_t *dbn)
+{
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(c, dbn, &bytes));
+    TEST_ASSERT_TRUE(bytes <= sizeof(g_ws));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_init(&g_det, c, dbn, g_ws, bytes));
+}
+
+static size_t run_ok(const vd_frame_t *f)
+{
+    size_t n = 99u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, f, g_out, 64u, &n));
+    return n;
+}
+
+static void expect_box(const vd_detection_t *d, int32_t x, int32_t y, int32_t w, int32_t h, uint8_t score)
+{
+    TEST_ASSERT_EQUAL_INT32(x, d->box.x);
+    TEST_ASSERT_EQUAL_INT32(y, d->box.y);
+    TEST_ASSERT_EQUAL_INT32(w, d->box.w);
+    TEST_ASSERT_EQUAL_INT32(h, d->box.h);
+    TEST_ASSERT_EQUAL_UINT8(score, d->score_q8);
+}
+
+// ------------------------------------------------------------ tests
+
+// One bright 2x2 block: half-resolution pixel (200 + 200 + 201 + 201 + 2) >> 2
+// = 201 (200.5 rounded half up) in cell (3, 2).
+static void test_box_position_score_source(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    fill(20u);
+    rect8(26u, 18u, 2u, 1u, 200u);
+    rect8(26u, 19u, 2u, 1u, 201u);
+    vd_detector_cfg_t c = cnn_cfg();
+    init_or_fail(&c, NULL);
+    vd_frame_t f = frame8(64u, 48u);
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    const vd_detection_t *d = &g_out[0];
+    expect_box(d, 20, 12, 16, 16, 201u);
+    TEST_ASSERT_EQUAL_INT32(d->box.x, d->candidate.x);
+    TEST_ASSERT_EQUAL_INT32(d->box.w, d->candidate.w);
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, d->source);
+    TEST_ASSERT_EQUAL_UINT8(0u, d->flags);   // not UNVERIFIED: the network scored it
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NONE, d->state);
+    const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
+    TEST_ASSERT_EQUAL_UINT32(1u, s->cnn_boxes);
+    TEST_ASSERT_EQUAL_UINT32(1u, s->cand_cnn);
+    TEST_ASSERT_EQUAL_UINT32(1u, s->verified);
+    TEST_ASSERT_EQUAL_UINT32(0u, s->components);   // the hot-spot source is off
+    TEST_ASSERT_EQUAL_UINT32(1u, s->detections);
+    // A flat frame: every logit -108 is below the header threshold 0.
+    fill(20u);
+    TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
+    TEST_ASSERT_EQUAL_UINT32(0u, vd_detector_last_stats(&g_det)->cnn_boxes);
+    // Q15 -> Q8 rounds half up and saturates: with the top score 1.0 (32768,
+    // which would be 256 in Q8), pixel 255 scores 255; 254 * 128 = 32512 is 254.
+    n.score_one = true;
+    net_load(&n);
+    init_or_fail(&c, NULL);
+    rect8(26u, 18u, 2u, 2u, 255u);
+    rect8(50u, 34u, 2u, 2u, 254u);
+    TEST_ASSERT_EQUAL_size_t(2u, run_ok(&f));
+    expect_box(&g_out[0], 20, 12, 16, 16, 255u);
+    expect_box(&g_out[1], 44, 28, 16, 16, 254u);
+    // Half a step rounds up: 201 * 128 + 64 is 201.5 in Q8 -> 202.
+    n.score_one = false;
+    n.score_half = true;
+    net_load(&n);
+    init_or_fail(&c, NULL);
+    fill(20u);
+    rect8(26u, 18u, 2u, 2u, 201u);
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    expect_box(&g_out[0], 20, 12, 16, 16, 202u);
+}
+
+// Spots 150 (cell (2, 2)) and 220 (cell (9, 7)) for cnn_score_thr_q15.
+static void two_spots(void)
+{
+    fill(20u);
+    rect8(18u, 18u, 2u, 2u, 150u);
+    rect8(74u, 58u, 2u, 2u, 220u);
+}
+
+static void test_score_threshold(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    two_spots();
+    vd_frame_t f = frame8(MW, MH);
+    static const uint16_t thr[4] = {0u, 150u * 128u, 150u * 128u + 1u, 32768u};
+    static const size_t want[4] = {2u, 2u, 1u, 0u};
+    for (uint32_t k = 0u; k < 4u; k++) {
+        vd_detector_cfg_t c = cnn_cfg();
+        c.cnn_score_thr_q15 = thr[k];
+        init_or_fail(&c, NULL);
+        TEST_ASSERT_EQUAL_size_t(want[k], run_ok(&f));
+        if (want[k] >= 1u) {
+            expect_box(&g_out[0], 68, 52, 16, 16, 220u);   // best first
+        }
+        if (want[k] == 2u) {
+            expect_box(&g_out[1], 12, 12, 16, 16, 150u);
+        }
+    }
+    // A threshold below the header's lets more peaks through: 1/32768 is
+    // logit -127, so the background plateau's first cell (0, 0) (score 20; no
+    // spot next to it) is a peak too, its box clamped at the frame's corner.
+    vd_detector_cfg_t c = cnn_cfg();
+    c.cnn_score_thr_q15 = 1u;
+    init_or_fail(&c, NULL);
+    TEST_ASSERT_EQUAL_size_t(3u, run_ok(&f));
+    expect_box(&g_out[2], 0, 0, 12, 12, 20u);
+    // The header's threshold itself: 100 (pixel 228) keeps neither spot.
+    n.thr = 100;
+    net_load(&n);
+    c = cnn_cfg();
+    init_or_fail(&c, NULL);
+    TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
+}
+
+// Odd frame 61 x 45: the plane is 30 x 22 (the last odd column and row are
+// not read), padded to 32 x 24 by repeating column 29 and row 21; the box of
+// the corner spot is clipped to the frame.
+static void test_odd_frame_padding_and_clipping(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    fill(20u);
+    rect8(58u, 42u, 2u, 2u, 230u);
+    rect8(60u, 0u, 1u, 45u, 255u);   // column 60 and row 44: outside the 2x2 grid
+    rect8(0u, 44u, 61u, 1u, 255u);
+    vd_detector_cfg_t c = cnn_cfg();
+    init_or_fail(&c, NULL);
+    vd_frame_t f = frame8(61u, 45u);
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    expect_box(&g_out[0], 52, 36, 9, 9, 230u);   // 16 x 16 at (52, 36), clipped to 61 x 45
+    // The network input itself (white box: the plane stays in the overlay
+    // after a CNN-only run): exact 2x2 means rounded half up, then the last
+    // real column and row repeated, on a pseudo-random frame.
+    uint32_t seed = 12345u;
+    for (uint32_t y = 0u; y < 45u; y++) {
+        for (uint32_t x = 0u; x < 61u; x++) {
+            g_px[y][x] = (uint8_t)(tu_rand(&seed) & 0xFFu);
+        }
+    }
+    (void)run_ok(&f);
+    const uint8_t *p = g_det.cnn_plane;
+    for (uint32_t y = 0u; y < 24u; y++) {
+        for (uint32_t x = 0u; x < 32u; x++) {
+            const uint32_t sx = (x < 30u ? x : 29u) * 2u;
+            const uint32_t sy = (y < 22u ? y : 21u) * 2u;
+            const uint32_t sum = (uint32_t)g_px[sy][sx] + g_px[sy][sx + 1u] + g_px[sy + 1u][sx] +
+                                 g_px[sy + 1u][sx + 1u];
+            TEST_ASSERT_EQUAL_UINT8((uint8_t)((sum + 2u) >> 2), p[y * 32u + x]);
+        }
+    }
+    // A box wholly in the padding is dropped: with offsets of two cells the
+    // box of cell (6, 2) (half-resolution columns 24..27: real column 24 and
+    // its copies) lies right of a 50-pixel frame.
+    n.off_x = OFF_2CELLS;
+    net_load(&n);
+    fill(20u);
+    rect8(48u, 20u, 2u, 2u, 230u);
+    init_or_fail(&c, NULL);
+    f = frame8(50u, 40u);
+    TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
+    TEST_ASSERT_EQUAL_UINT32(1u, vd_detector_last_stats(&g_det)->cnn_boxes);
+    TEST_ASSERT_EQUAL_UINT32(0u, vd_detector_last_stats(&g_det)->cand_cnn);
+    // Frames under 2 x 2 pixels have no half-resolution plane: nothing, VD_OK.
+    n.off_x = OFF_HALF;
+    net_load(&n);
+    init_or_fail(&c, NULL);
+    f = frame8(1u, 40u);
+    TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
+    f = frame8(40u, 1u);
+    TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
+    // A detector sized for 1-pixel-wide frames never runs the network.
+    c.max_width = 1u;
+    c.max_region_w = 1u;
+    init_or_fail(&c, NULL);
+    f = frame8(1u, 40u);
+    TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
+}
+
+// 16-bit frames: the rounded raw 2x2 mean through the grey map. With the
+// default calibration and grey range (27315..32415 ck), raw 27315 + 20 k is grey k.
+static void test_u16_frame(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    vd_calib_grey_t map;
+    const vd_calib_t cal = {65536, 0};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&map, &cal, 27315, 32415));
+    TEST_ASSERT_EQUAL_UINT8(20u, vd_calib_grey_u8(&map, 27315u + 20u * 20u));
+    TEST_ASSERT_EQUAL_UINT8(201u, vd_calib_grey_u8(&map, 27315u + 20u * 201u));
+    for (uint32_t y = 0u; y < MH; y++) {
+        for (uint32_t x = 0u; x < MW; x++) {
+            g_px16[y][x] = (uint16_t)(27315u + 20u * 20u);
+        }
+    }
+    for (uint32_t y = 18u; y < 20u; y++) {
+        for (uint32_t x = 26u; x < 28u; x++) {
+            g_px16[y][x] = (uint16_t)(27315u + 20u * 201u);
+        }
+    }
+    vd_detector_cfg_t c = cnn_cfg();
+    init_or_fail(&c, NULL);
+    vd_frame_t f = {g_px16, 64u, 48u, MW * 2u, VD_PIX_U16, 0, 0};
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    expect_box(&g_out[0], 20, 12, 16, 16, 201u);
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[0].source);
+}
+
+static vd_status_t ws_run(void *ws, size_t bytes, void *ctx)
+{
+    (void)ctx;
+    vd_detector_cfg_t c = cnn_cfg();
+    c.sources |= VD_DETECTOR_SRC_HOTSPOT;
+    c.temporal = true;
+    vd_detector_t det;
+    vd_status_t st = vd_detector_init(&det, &c, NULL, ws, bytes);
+    if (st != VD_OK) {
+        return st;
+    }
+    vd_frame_t f = frame8(MW, MH);
+    size_t n = 0u;
+    for (int i = 0; i < 3; i++) {
+        st = vd_detector_run(&det, &f, g_out, 64u, &n);
+        if (st != VD_OK) {
+            return st;
+        }
+    }
+    return (n == 2u) ? VD_OK : VD_ERR_STATE;
+}
+
+static void test_workspace_contract(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    two_spots();
+    vd_detector_cfg_t c = cnn_cfg();
+    c.sources |= VD_DETECTOR_SRC_HOTSPOT;
+    c.temporal = true;
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &bytes));
+    tu_check_workspace_contract(bytes, ws_run, NULL);
+    // The network's share: plane 48 x 40 + its workspace + 100 boxes, inside the
+    // overlay (which it extends only when larger than the other stages' needs).
+    size_t cnn = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&g_cnn, 48u, 40u, &cnn));
+    TEST_ASSERT_TRUE(bytes >= cnn + 48u * 40u + 100u * sizeof(vd_cnn_box_t));
+    size_t base = 0u;
+    c.sources = VD_DETECTOR_SRC_HOTSPOT;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &base));
+    TEST_ASSERT_TRUE(bytes >= base);
+    // A larger frame: the network input and workspace grow with it.
+    c = cnn_cfg();
+    c.max_width = 640u;
+    c.max_height = 512u;
+    size_t big = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &big));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&g_cnn, 320u, 256u, &cnn));
+    TEST_ASSERT_TRUE(big >= cnn + 320u * 256u);
+}
+
+static void test_bad_configs(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    size_t b = 0u;
+    vd_detector_cfg_t c = cnn_cfg();
+    c.cnn_model = NULL;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_init(&g_det, &c, NULL, g_ws, sizeof(g_ws)));
+    vd_detector_cfg_t r = c;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_cfg_resolve(&r));
+    // Without the source the model pointer is ignored.
+    c.sources = VD_DETECTOR_SRC_HOTSPOT;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b));
+    c = cnn_cfg();
+    c.cnn_score_thr_q15 = 32769u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
+    c = cnn_cfg();
+    c.cnn_rescore = 2u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
+    c.cnn_rescore = 1u;   // re-scoring needs a DBN model
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_init(&g_det, &c, NULL, g_ws, sizeof(g_ws)));
+    c = cnn_cfg();
+    c.sources = 0x10u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
+    // A model struct that vd_cnn_load did not fill.
+    vd_cnn_model_t zero;
+    memset(&zero, 0, sizeof zero);
+    c = cnn_cfg();
+    c.cnn_model = &zero;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_detector_workspace_size(&c, NULL, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_detector_init(&g_det, &c, NULL, g_ws, sizeof(g_ws)));
+    // "all" stays the paper pipeline's three sources.
+    TEST_ASSERT_EQUAL_UINT32(0x07u, VD_DETECTOR_SRC_ALL);
+    TEST_ASSERT_EQUAL_UINT32(0u, VD_DETECTOR_SRC_ALL & VD_DETECTOR_SRC_CNN);
+}
+
+// CNN boxes lead the merged list; a hot spot that duplicates one is dropped
+// (dedup_iou), others follow; the budget is shared.
+typedef struct cand_log {
+    uint8_t source[16];
+    size_t n;
+} cand_log_t;
+
+static cand_log_t g_log;
+
+static void log_candidate(void *user, const vd_detection_t *cand)
+{
+    cand_log_t *l = (cand_log_t *)user;
+    if (l->n < 16u) {
+        l->source[l->n++] = cand->source;
+    }
+}
+
+// A hot car (30 x 20, body 200, tyres 230) at (20, 30) and a 2x2 spot of
+// 250 at (sx, sy); the network keeps only cells >= 240 (the spot).
+static void car_and_spot(uint32_t sx, uint32_t sy)
+{
+    fill(40u);
+    rect8(20u, 30u, 30u, 20u, 200u);
+    rect8(22u, 45u, 6u, 5u, 230u);
+    rect8(42u, 45u, 6u, 5u, 230u);
+    rect8(sx, sy, 2u, 2u, 250u);
+}
+
+static void test_merge_with_hotspots(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.sources = VD_DETECTOR_SRC_CNN | VD_DETECTOR_SRC_HOTSPOT;
+    c.cnn_score_thr_q15 = 240u * 128u;
+    c.on_candidate = log_candidate;
+    c.candidate_user = &g_log;
+    vd_frame_t f = frame8(MW, MH);
+    // Spot away from the car: both kept; the CNN box is first in the list.
+    car_and_spot(80u, 8u);
+    init_or_fail(&c, NULL);
+    memset(&g_log, 0, sizeof g_log);
+    TEST_ASSERT_EQUAL_size_t(2u, run_ok(&f));
+    TEST_ASSERT_EQUAL_size_t(2u, g_log.n);
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_log.source[0]);
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_HOTSPOT, g_log.source[1]);
+    // After suppression: the unverified hot spot (255) first, the CNN box (250).
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_HOTSPOT, g_out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DET_FLAG_UNVERIFIED, g_out[0].flags);
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[1].source);
+    expect_box(&g_out[1], 76, 4, 16, 16, 250u);
+    const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
+    TEST_ASSERT_EQUAL_UINT32(1u, s->cand_cnn);
+    TEST_ASSERT_EQUAL_UINT32(1u, s->cand_hotspot);
+    TEST_ASSERT_EQUAL_UINT32(0u, s->deduplicated);
+    // Spot inside the car and any overlap a duplicate: the hot spot is dropped.
+    car_and_spot(34u, 38u);
+    c.dedup_iou_q15 = 1u;
+    init_or_fail(&c, NULL);
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[0].source);
+    s = vd_detector_last_stats(&g_det);
+    TEST_ASSERT_EQUAL_UINT32(1u, s->refined);
+    TEST_ASSERT_EQUAL_UINT32(0u, s->cand_hotspot);
+    TEST_ASSERT_EQUAL_UINT32(1u, s->deduplicated);
+    // One candidate in all: the CNN box takes it, the hot spot overflows.
+    car_and_spot(80u, 8u);
+    c.dedup_iou_q15 = 0u;
+    c.max_candidates = 1u;
+    c.max_detections = 1u;
+    init_or_fail(&c, NULL);
+    size_t nd = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_detector_run(&g_det, &f, g_out, 64u, &nd));
+    TEST_ASSERT_EQUAL_size_t(1u, nd);
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[0].source);
+    TEST_ASSERT_EQUAL_UINT32(1u, vd_detector_last_stats(&g_det)->overflow_candidates);
+    // CNN boxes beyond the budget: the best is kept, the other counted.
+    two_spots();
+    c = cnn_cfg();
+    c.max_candidates = 1u;
+    c.max_detections = 1u;
+    init_or_fail(&c, NULL);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_detector_run(&g_det, &f, g_out, 64u, &nd));
+    TEST_ASSERT_EQUAL_size_t(1u, nd);
+    expect_box(&g_out[0], 68, 52, 16, 16, 220u);
+    TEST_ASSERT_EQUAL_UINT32(2u, vd_detector_last_stats(&g_det)->cnn_boxes);
+    TEST_ASSERT_EQUAL_UINT32(1u, vd_detector_last_stats(&g_det)->overflow_candidates);
+}
+
+// cnn_rescore: the DBN (the golden 8x8 model) scores the whole box.
+static void test_rescore_with_dbn(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    vd_model_t dbn;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_load(&dbn, golden_model.bytes, sizeof golden_model.bytes));
+    fill(20u);
+    rect8(26u, 18u, 2u, 2u, 201u);
+    rect8(22u, 14u, 3u, 9u, 90u);   // some texture under the box
+    vd_frame_t f = frame8(64u, 48u);
+    // The expected DBN score of the box (20, 12, 16, 16) sampled at 8 x 8.
+    vd_view_u8_t v = {&g_px[0][0], 64u, 48u, MW};
+    const vd_rect_t box = {20, 12, 16, 16};
+    uint8_t sample[64];
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_u8(&v, &box, sample, 8u, 8u));
+    size_t dbn_bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_workspace_size(&dbn, &dbn_bytes));
+    void *dws = tu_guarded_alloc(1, dbn_bytes);
+    uint8_t want = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_classify(&dbn, sample, dws, dbn_bytes, &want));
+    tu_guard_check(1);
+    tu_guarded_free(1);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.cnn_rescore = 1u;
+    c.score_thr_q8 = 1u;
+    init_or_fail(&c, &dbn);
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    expect_box(&g_out[0], 20, 12, 16, 16, want);
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(0u, g_out[0].flags);
+    // The DBN must accept it.
+    if (want < 255u) {
+        c.score_thr_q8 = (uint8_t)(want + 1u);
+        init_or_fail(&c, &dbn);
+        TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
+        TEST_ASSERT_EQUAL_UINT32(1u, vd_detector_last_stats(&g_det)->cand_cnn);
+    }
+    // Without re-scoring the DBN model is not used for CNN boxes.
+    c.cnn_rescore = 0u;
+    init_or_fail(&c, &dbn);
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    expect_box(&g_out[0], 20, 12, 16, 16, 201u);
+}
+
+static uint32_t g_clock;
+static uint32_t fake_clock(void *user)
+{
+    (void)user;
+    g_clock += 3u;
+    return g_clock;
+}
+
+static void test_clock_and_temporal(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    two_spots();
+    vd_detector_cfg_t c = cnn_cfg();
+    c.clock_us = fake_clock;
+    c.temporal = true;
+    init_or_fail(&c, NULL);
+    vd_frame_t f = frame8(MW, MH);
+    for (int i = 0; i < 4; i++) {
+        TEST_ASSERT_EQUAL_size_t(2u, run_ok(&f));
+    }
+    const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
+    TEST_ASSERT_EQUAL_UINT32(3u, s->time_us[VD_DET_STAGE_CNN]);
+    TEST_ASSERT_EQUAL_UINT32(0u, s->time_us[VD_DET_STAGE_THRESHOLD]);
+    TEST_ASSERT_TRUE(s->time_us[VD_DET_STAGE_TOTAL] >= s->time_us[VD_DET_STAGE_CNN]);
+    // Still boxes: tracked and confirmed like any detection.
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, g_out[0].state);
+    TEST_ASSERT_TRUE(g_out[0].track_id != 0u);
+}
+
+int main(void)
+{
+    UNITY_BEGIN();
+    RUN_TEST(test_box_position_score_source);
+    RUN_TEST(test_score_threshold);
+    RUN_TEST(test_odd_frame_padding_and_clipping);
+    RUN_TEST(test_u16_frame);
+    RUN_TEST(test_workspace_contract);
+    RUN_TEST(test_bad_configs);
+    RUN_TEST(test_merge_with_hotspots);
+    RUN_TEST(test_rescore_with_dbn);
+    RUN_TEST(test_clock_and_temporal);
+    return UNITY_END();
+}
