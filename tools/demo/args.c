@@ -76,8 +76,9 @@ static bool is_switch(int id)
 
 static const setting_t k_settings[SET_COUNT] = {
     [SET_THR_MODE] = {"thr-mode", "constant|adaptive",
-                      "hot-spot threshold: constant (paper; radiometric or fixed-gain cameras) or adaptive "
-                      "(8-bit AGC-scaled video: a frame percentile, never below --adaptive-floor)"},
+                      "hot-spot threshold: constant (paper, default; radiometric or fixed-gain cameras and "
+                      "bright drone video) or adaptive (8-bit dark road video: a frame percentile, never below "
+                      "--adaptive-floor)"},
     [SET_HOT_THR] = {"hot-thr", "U8", "8-bit constant threshold, hot = pixel >= U8 (default 150, paper)"},
     [SET_HOT_THR_C] = {"hot-thr-c", "DEGC", "16-bit frames: threshold in degrees Celsius (default 30.00)"},
     [SET_ADAPT_PCT] = {"adaptive-percentile", "P", "adaptive mode: frame percentile 0.1..100 (default 99)"},

@@ -15,6 +15,7 @@ import json
 import platform
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -443,14 +444,57 @@ def model_card(name, run, m):
     return "\n".join(lines)
 
 
+COMMITTED = {"grey": ("vd_dbn_grey", "vd_dbn_compact", "vd_dbn_compact_w"), "shape": ("vd_dbn_shape",)}
+
+
+def committed_rows(modes=("grey", "shape"), seed=0, log=print):
+    """The committed models/*.vdm (int8, the integer reference equal to vd_dbn_classify) on the current
+    test split, built alone (no training: tools/.cache/dataset_<mode>_s<seed>_v<N>_test.npz, ~1 min).
+    Same metrics as the Table 1 rows: issue-3 rows (accuracy / TP / FP / per set) and the mined rows."""
+    import struct
+    from . import quantise, vdm
+    out = {}
+    for mode in modes:
+        ds = dataset.load_or_build_split("test", mode, seed)
+        classic = np.isin(ds["source"], dataset.CLASSIC_SOURCES)
+        y = ds["y"].astype(np.int64)
+        xt = ds["X"].reshape(len(ds["X"]), -1)
+        counts = {"frames": int(len(set(ds["frame"].tolist()))), "groups": int(len(set(ds["group"].tolist())))}
+        for name in ("msrs", "hit", "seq"):
+            k = classic & (ds["dataset"] == name)
+            counts[name] = [int((k & (y == 1)).sum()), int((k & (y == 0)).sum())]   # pos, neg
+        counts.update({s: int((ds["source"] == s).sum()) for s in ("window", "contrast", "window_pos")})
+        models = {}
+        for name in COMMITTED[mode]:
+            blob = (MODELS_DIR / f"{name}.vdm").read_bytes()
+            r, _ = _row(quantise.quant_forward(vdm.unpack(blob), xt), y, 128, ds, classic)
+            r["crc32"] = "0x%08X" % struct.unpack_from("<I", blob, 12)[0]
+            models[name] = r
+            mm = r["mined"]
+            log(f"  {mode} {name} {r['crc32']}: acc {100 * r['accuracy']:.1f}% TP {100 * r['tp_rate']:.1f}% "
+                f"FP {100 * r['fp_rate']:.1f}% window FPPW {_pct(mm['window_fppw'])} contrast FPPW "
+                f"{_pct(mm['contrast_fppw'])} TP window-found {_pct(mm['window_tp'])}")
+        out[mode] = {"counts": counts, "models": models}
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Paper 001 Table 1 on our data: DBN depths vs HOG/Haar/LBP baselines.")
-    ap.add_argument("--mode", default="grey", help="grey, shape or grey,shape")
+    ap.add_argument("--mode", default=None, help="grey, shape or grey,shape (default grey; with --committed both)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--export", action="store_true", help="quantise + export models/<name>.vdm and model cards")
     ap.add_argument("--quick", action="store_true", help="4 epochs everywhere (smoke test; results not kept)")
     ap.add_argument("--render", action="store_true", help="only re-render verifier.md from verifier.json")
+    ap.add_argument("--committed", metavar="JSON", help="no training: score the committed models/*.vdm (int8) on "
+                    "the current test split (built alone, about a minute) and write the figures to JSON")
     a = ap.parse_args(argv)
+    if a.committed:
+        res = committed_rows(a.mode.split(",") if a.mode else ("grey", "shape"), a.seed)
+        res["command"] = "cd tools && VD_LIB=../build/libvd.so python3 -m vdtools.table1 " + \
+            " ".join(argv if argv is not None else sys.argv[1:])
+        Path(a.committed).write_text(json.dumps(res, indent=1, default=float) + "\n")
+        return
+    a.mode = a.mode or "grey"
     if a.render:
         res = json.loads((RESULTS / "verifier.json").read_text())
         (RESULTS / "verifier.md").write_text(render_md(res))
