@@ -37,6 +37,7 @@ def pad_to(img, a=16):
 class Frame:
     dataset: str
     name: str
+    path: str
     group: str
     split: str
     img: np.ndarray          # full-resolution uint8
@@ -71,8 +72,12 @@ def load_frames(data_dir, splits=("train", "val", "test"), synth=False):
             raise IOError(f"cannot read {f.path}")
         b = np.array(f.vehicles, np.float32).reshape(-1, 4)
         ig = np.array(f.ignore, np.float32).reshape(-1, 4)
-        out.append(Frame(f.dataset, f.name, f.group, s, img, b, ig, _hot_flags(img, b)))
+        out.append(Frame(f.dataset, f.name, str(f.path), f.group, s, img, b, ig, _hot_flags(img, b)))
     return out
+
+
+def frame_path(fr):
+    return fr.path
 
 
 def family(fr):

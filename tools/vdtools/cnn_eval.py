@@ -96,6 +96,37 @@ def run(pred, frames):
     return out
 
 
+def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval"):
+    """The whole C detector (vd_fir_demo --sources cnn, temporal off, score threshold 0.05 so that the
+    AP sees the low-score tail) on frames; results as run(). One demo call per family (file names of
+    the two HIT-UAV folders could collide)."""
+    import subprocess
+    tmp = Path(tmp)
+    tmp.mkdir(parents=True, exist_ok=True)
+    out = []
+    fams = {}
+    for fr in frames:
+        fams.setdefault(fr.dataset, []).append(fr)
+    for ds, frs in sorted(fams.items()):
+        lst, js = tmp / f"{ds}.txt", tmp / f"{ds}.jsonl"
+        paths = {}
+        for fr in frs:
+            p = CD.frame_path(fr)
+            paths[Path(p).name] = fr
+        lst.write_text("".join(f"{CD.frame_path(fr)}\n" for fr in frs))
+        cmd = [str(demo), "--input", str(lst), "--sources", "cnn", "--cnn-model", str(model), "--model", "none",
+               "--cnn-thr", "0.05", "--temporal", "off", "--json", str(js), "--quiet"] + list(extra)
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        for line in js.read_text().splitlines():
+            rec = json.loads(line)
+            fr = paths[Path(rec["frame"]).name]
+            dets = [(tuple(d["box"]), float(d["score"])) for d in rec["detections"]]
+            gts = [tuple(b) + (True, False) for b in fr.boxes.tolist()] + \
+                  [tuple(b) + (False, True) for b in fr.ignore.tolist()]
+            out.append((CD.family(fr), fr, dets, gts))
+    return out
+
+
 def figures(results, thresholds=THRESHOLDS):
     """{family: {ap, n_frames, n_vehicles, pr: (recall, precision), at: {thr: {...}}}}."""
     fams = {}
@@ -174,7 +205,10 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--model", help=".vdm (int8)")
     ap.add_argument("--ckpt", help="float checkpoint instead of --model")
-    ap.add_argument("--backend", default="c", choices=("c", "ref"))
+    ap.add_argument("--backend", default="c", choices=("c", "ref", "demo"),
+                    help="c: vd_cnn_run/decode + suppression here; ref: numpy reference; demo: the whole C "
+                         "detector through vd_fir_demo (--demo), the figures docs/results/detector.md reports")
+    ap.add_argument("--demo", default=str(clib.REPO / "build" / "tools" / "vd_fir_demo"))
     ap.add_argument("--split", default="val", choices=("val", "test"))
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
     ap.add_argument("--thr", type=float, help="operating point to report (default: chosen here, val split only)")
@@ -182,9 +216,11 @@ def main(argv=None):
     ap.add_argument("--pr", help="precision-recall PNG")
     a = ap.parse_args(argv)
     frames = CD.load_frames(a.data, splits=(a.split,))
-    pred = Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend)
     t0 = time.time()
-    res = run(pred, frames)
+    if a.backend == "demo" and not a.ckpt:
+        res = run_demo(a.demo, a.model, frames)
+    else:
+        res = run(Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend), frames)
     sec = time.time() - t0
     rep = figures(res)
     thr = a.thr
