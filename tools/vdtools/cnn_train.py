@@ -383,6 +383,8 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--eval-every", type=int, default=1000)
     ap.add_argument("--resume", action="store_true")
+    ap.add_argument("--init", help="start from this checkpoint's weights (fine-tuning; fresh optimiser and schedule)")
+    ap.add_argument("--share", help="crop shares per family, e.g. msrs=0.6,hit=0.3,synth=0.1 (default 0.45/0.40/0.15)")
     ap.add_argument("--synth", action="store_true", help="add the synthetic training clips (15 %% of the crops)")
     ap.add_argument("--exclude", choices=("msrs-night",), help="leave these frames out of training (the "
                     "another-camera estimate of docs/results/detector.md: train without night MSRS, test on it)")
@@ -404,6 +406,10 @@ def main(argv=None):
         by_fam.setdefault(CD.family(f), []).append(f)
     print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }), val {len(val)}", flush=True)
     net = Net(a.arch)
+    if a.init:
+        net.load_state_dict(torch.load(a.init, weights_only=False, map_location="cpu")["net"])
+    if a.share:
+        FAMILY_SHARE.update({k: float(v) for k, v in (kv.split("=") for kv in a.share.split(","))})
     print(f"arch {a.arch}: {sum(p.numel() for p in net.parameters())} parameters, "
           f"{macs(net, 320, 256) / 1e6:.1f} M MACs at 320x256", flush=True)
     opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=1e-4)
