@@ -67,7 +67,16 @@ static void recovered(const vd_detector_t *det, const vd_frame_t *f, const vd_te
 {
     memset(d, 0, sizeof(*d));
     d->box = o->box;
-    (void)vd_rect_expand(&o->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &d->candidate);
+    // A coasting track's predicted box may drift past the frame edge: report only the visible part; a
+    // box wholly outside becomes the 1x1 box at its nearest frame pixel, so the detection stays well-formed.
+    if (!vd_rect_clip(&d->box, f->width, f->height)) {
+        const int32_t fw = (int32_t)f->width, fh = (int32_t)f->height;
+        d->box.x = (o->box.x < 0) ? 0 : ((o->box.x >= fw) ? fw - 1 : o->box.x);
+        d->box.y = (o->box.y < 0) ? 0 : ((o->box.y >= fh) ? fh - 1 : o->box.y);
+        d->box.w = 1;
+        d->box.h = 1;
+    }
+    (void)vd_rect_expand(&d->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &d->candidate);
     d->track_id = o->track_id;
     d->complexity_q15 = o->complexity_q15;
     // Recovery measures like a hot spot; a CNN-only detector labels it as its one source.

@@ -3,12 +3,12 @@
 //
 // The workspace is carved once in init (layout in docs/architecture.md):
 // fixed tables (components, candidates, histogram, temporal, per-candidate
-// state, sample and DBN scratch, contrast) plus one "overlay" reused by the
-// stages of a frame in turn: the labelling workspace with its run budget,
-// then the per-candidate region buffers (crop, mask, refine workspace, which
-// the contour tracer reuses), and the window pre-filter's integrals in
-// between; with the CNN source, first of all the network's input plane,
-// workspace and decoded boxes. No hot mask and no buffer per frame pixel
+// state, sample and DBN scratch) plus one "overlay" reused by the stages of a
+// frame in turn: the labelling workspace with its run budget, then the
+// per-candidate region buffers (crop, mask, refine workspace, which the
+// contour tracer reuses), then the contrast source's strip workspace and the
+// window pre-filter's integrals; with the CNN source, first of all the
+// network's input plane, workspace and decoded boxes. No hot mask and no buffer per frame pixel
 // except the labeller's row buffers (and the CNN's half-resolution plane).
 // Bounds: O(1) time and stack, plus the CNN planner (O(layers^2), ~950 bytes
 // of stack, cnn.h) when the source is on; no allocation.
@@ -218,6 +218,7 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
     l->points = l->points_cap * sizeof(vd_point_t);
     l->contours = l->contours_cap * sizeof(vd_contour_t);
     if ((c->sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
+        // Row strips (640 x 512: 49 664 bytes), inside the overlay.
         VD_TRY(vd_contrast_workspace_size(c->max_width, c->max_height, &l->contrast));
     }
     if ((c->sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
@@ -237,7 +238,9 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
 // once vd_refine_region has returned; C = the window pre-filter's integrals
 // between the hot-spot refinement and the verification of all candidates;
 // D = the CNN's plane, workspace and boxes, before labelling (the boxes are
-// copied into the candidate table before A is touched).
+// copied into the candidate table before A is touched); E = the contrast
+// source's workspace, after the hot-spot refinement and before C (its
+// components go to the comps table, its boxes to the candidate table).
 static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *total)
 {
     size_t a = 0u;
@@ -257,6 +260,7 @@ static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *tot
     *work_out = work;
     *total = a > b ? a : b;
     *total = (l->integral > *total) ? l->integral : *total;
+    *total = (l->contrast > *total) ? l->contrast : *total;
     *total = (d > *total) ? d : *total;
     return VD_OK;
 }
@@ -271,8 +275,7 @@ static vd_status_t total_size(const layout_t *l, size_t *bytes)
               vd_size_add_slice(&t, l->obs) && vd_size_add_slice(&t, l->tracks) &&
               vd_size_add_slice(&t, l->hist) && vd_size_add_slice(&t, l->scratch) &&
               vd_size_add_slice(&t, l->sample) &&
-              vd_size_add_slice(&t, l->dbn) && vd_size_add_slice(&t, l->contrast) &&
-              vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
+              vd_size_add_slice(&t, l->dbn) && vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
     *bytes = t;
     return VD_OK;
 }
@@ -327,8 +330,6 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->sample = (uint8_t *)take(&arena, l.sample, &ok);
     det->dbn_ws = take(&arena, l.dbn, &ok);
     det->dbn_ws_bytes = l.dbn;
-    det->contrast_ws = take(&arena, l.contrast, &ok);
-    det->contrast_ws_bytes = l.contrast;
     size_t work;
     VD_TRY(overlay_size(&l, &work, &det->overlay_bytes));
     det->overlay = (uint8_t *)take(&arena, det->overlay_bytes, &ok);
@@ -337,6 +338,10 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         return VD_ERR_WORKSPACE;   // unreachable when bytes >= need; kept as a guard
     }
     det->cc_ws_bytes = l.cc;
+    if (l.contrast != 0u) {
+        det->contrast_ws = det->overlay;   // E of overlay_size
+        det->contrast_ws_bytes = l.contrast;
+    }
     det->refine_ws_bytes = l.refine;
     det->contour_ws_bytes = l.contour;
     det->points_cap = l.points_cap;

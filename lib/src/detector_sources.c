@@ -110,6 +110,8 @@ static bool merge_box(vd_detector_t *det, size_t *n, const vd_rect_t *box, uint8
 
 // Contrast source (8-bit frames): components of |I - box mean| >= thr with
 // the rules, into det->comps (free after the hot-spot stage), merged as is.
+// Its workspace is the overlay, free between the hot-spot refinement and the
+// window source.
 vd_status_t vd_det_contrast_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
 {
     if (f->format != VD_PIX_U8) {

@@ -13,6 +13,16 @@
 // needs no image: the detector's probe refines the region exactly as it
 // refines candidates, which keeps the complexities comparable).
 //
+// Beyond the paper (it assumes a fixed camera and fixed sigmas of 16 px): on
+// drone video the camera moves 10-60 px between frames while cars are 15-100
+// px, so (a) sigmas grow with the box (sigma_rel_q8) and (b) each detection
+// is compared with the track's predicted box: last box + this frame's global
+// motion (the displacement most tracks agree on, voted without scratch
+// memory among <= 16 tracks x 16 observations) + the track's own velocity
+// (Q4 px/frame, first measurement whole, then halfway to each new one).
+// Unmatched tracks coast to their prediction, so a missed target is searched
+// for, and later re-associated, where it should be. Flags restore the paper.
+//
 // Fixed point: S, S_C, S_S and C in Q15. The exponent is accumulated in Q16
 // from squared differences times reciprocals inv = round(2^32 / sigma^2)
 // computed once at init (relative error <= 0.5 / inv <= 2^-9 for sigma <=
@@ -21,10 +31,15 @@
 // interpolation over steps of 1/128: error <= h^2/8 = 7.6e-6, i.e. <= 0.25
 // LSB of Q15, plus 0.5 LSB final rounding => |error| <= 1 LSB, tested).
 //
+// Relative sigmas: term = d^2 * 2^32 / sigma_q8^2 with one 64-bit division
+// per term, only when the relative sigma exceeds the fixed one (else the
+// reciprocal above, bit-identical to the paper's mode).
+//
 // Bounds: update is O(T * D * min(T, D)) similarity evaluations for T tracks
 // and D observations (greedy best-first association without scratch memory),
-// plus at most 289 probe calls per missed confirmed track; no recursion,
-// stack < 200 bytes, no workspace (the caller owns the track table).
+// plus 16^4 comparisons for the global motion vote, plus at most 289 probe
+// calls per missed confirmed track; no recursion, own stack frame < 300
+// bytes (264 on Cortex-M7 -Os), no workspace (the caller owns the tracks).
 #include "vd/temporal.h"
 
 #include <string.h>
@@ -34,6 +49,9 @@
 #define VD_TEMPORAL_MAX_CAP 65535u
 #define VD_TEMPORAL_EXP_MAX_Q16 (16u << 16)
 #define VD_TEMPORAL_MAX_SEARCH_STEPS 8u
+#define VD_TEMPORAL_FLAGS_ALL \
+    (VD_TEMPORAL_FIXED_SIGMA | VD_TEMPORAL_NO_MOTION | VD_TEMPORAL_NO_GLOBAL | VD_TEMPORAL_RECOVER_NO_C)
+#define VD_TEMPORAL_MAX_SIDE (1 << 20)   // mean box side clamp: rel * side stays < 2^31 in Q8
 
 // round(2^30 * exp(-k / 128)), k = 0..128. Values computed by
 // tools/vdtools/detector.py:exp_tables() (math.exp, round half even);
@@ -113,6 +131,10 @@ void vd_temporal_cfg_default(vd_temporal_cfg_t *cfg)
     cfg->max_misses = 3u;
     cfg->search_radius = 4u;
     cfg->search_step = 2u;
+    cfg->sigma_rel_q8 = 384u;   // 1.5: fewest id switches on the HIT-UAV flight (vdtools.temporal_eval)
+    cfg->max_motion = 128u;
+    cfg->flags = 0u;
+    cfg->reserved = 0u;
 }
 
 static uint64_t inv_square_q32(uint32_t s)
@@ -137,10 +159,14 @@ vd_status_t vd_temporal_cfg_resolve(vd_temporal_cfg_t *c)
     if (c->max_misses == 0u) { c->max_misses = d.max_misses; }
     if (c->search_radius == 0u) { c->search_radius = d.search_radius; }
     if (c->search_step == 0u) { c->search_step = d.search_step; }
+    if (c->sigma_rel_q8 == 0u) { c->sigma_rel_q8 = d.sigma_rel_q8; }
+    if (c->max_motion == 0u) { c->max_motion = d.max_motion; }
     VD_VERIFY(c->sigma_x <= 4096u && c->sigma_y <= 4096u && c->sigma_w <= 4096u && c->sigma_h <= 4096u, VD_ERR_ARG);
     VD_VERIFY(c->weight_c_q15 <= 32768u && c->match_thr_q15 <= 32768u && c->recover_thr_q15 <= 32768u, VD_ERR_ARG);
     VD_VERIFY(c->search_radius <= 64u && c->search_step <= 64u, VD_ERR_ARG);
     VD_VERIFY(c->search_radius / c->search_step <= VD_TEMPORAL_MAX_SEARCH_STEPS, VD_ERR_ARG);
+    VD_VERIFY(c->sigma_rel_q8 <= 1024u && c->max_motion <= 4096u, VD_ERR_ARG);
+    VD_VERIFY((c->flags & ~VD_TEMPORAL_FLAGS_ALL) == 0u && c->reserved == 0u, VD_ERR_ARG);
     return VD_OK;
 }
 
@@ -196,6 +222,38 @@ static uint32_t exp_term_q16(int64_t d, uint64_t inv_q32, unsigned shift)
     return (v > VD_TEMPORAL_EXP_MAX_Q16) ? VD_TEMPORAL_EXP_MAX_Q16 : (uint32_t)v;
 }
 
+// Term d^2 / s^2 in Q16 for a relative sigma s_q8 (Q8 px); d in units of
+// 2^-(half) px: half = 1 for doubled centre coordinates. |d| < 2^15, so
+// d^2 << (32 - 2 half) < 2^62; s_q8 < 2^31 so s_q8^2 < 2^62. Larger |d|
+// (>= 16 k px: outside any frame) saturates, however large the boxes.
+static uint32_t rel_term_q16(int64_t d, uint64_t s_q8, unsigned half)
+{
+    uint64_t a = (uint64_t)(d < 0 ? -d : d);
+    if (a > 32767u) {
+        return VD_TEMPORAL_EXP_MAX_Q16;
+    }
+    uint64_t s2 = s_q8 * s_q8;
+    uint64_t v = ((a * a << (32u - 2u * half)) + (s2 >> 1)) / s2;
+    return (v > VD_TEMPORAL_EXP_MAX_Q16) ? VD_TEMPORAL_EXP_MAX_Q16 : (uint32_t)v;
+}
+
+// One axis: the fixed sigma's reciprocal unless rel * mean side is larger.
+static uint32_t axis_term_q16(const vd_temporal_t *t, int64_t d, uint64_t inv_q32, uint32_t sigma,
+                              int64_t side_sum, unsigned half)
+{
+    if ((t->cfg.flags & VD_TEMPORAL_FIXED_SIGMA) == 0u) {
+        int64_t side2 = side_sum < 0 ? 0 : side_sum;   // (w_a + w_b): twice the mean side
+        if (side2 > 2 * (int64_t)VD_TEMPORAL_MAX_SIDE) {
+            side2 = 2 * (int64_t)VD_TEMPORAL_MAX_SIDE;
+        }
+        uint64_t rel_q8 = ((uint64_t)t->cfg.sigma_rel_q8 * (uint64_t)side2) >> 1;
+        if (rel_q8 > ((uint64_t)sigma << 8)) {
+            return rel_term_q16(d, rel_q8, half);
+        }
+    }
+    return exp_term_q16(d, inv_q32, half ? 18u : 16u);
+}
+
 uint32_t vd_temporal_similarity_q15(const vd_temporal_t *t, const vd_rect_t *a, uint16_t ca_q15,
                                     const vd_rect_t *b, uint16_t cb_q15)
 {
@@ -208,23 +266,208 @@ uint32_t vd_temporal_similarity_q15(const vd_temporal_t *t, const vd_rect_t *a, 
     int64_t dcy2 = ((int64_t)2 * a->y + a->h) - ((int64_t)2 * b->y + b->h);
     int64_t dw = (int64_t)a->w - b->w;
     int64_t dh = (int64_t)a->h - b->h;
-    uint32_t x_q16 = exp_term_q16(dcx2, t->inv_sx2_q32, 18u);
-    x_q16 += exp_term_q16(dcy2, t->inv_sy2_q32, 18u);
-    x_q16 += exp_term_q16(dw, t->inv_sw2_q32, 16u);
-    x_q16 += exp_term_q16(dh, t->inv_sh2_q32, 16u);   // each <= 2^20: the sum cannot wrap
+    int64_t sw = (int64_t)a->w + b->w;
+    int64_t sh = (int64_t)a->h + b->h;
+    const vd_temporal_cfg_t *c = &t->cfg;
+    uint32_t x_q16 = axis_term_q16(t, dcx2, t->inv_sx2_q32, c->sigma_x, sw, 1u);
+    x_q16 += axis_term_q16(t, dcy2, t->inv_sy2_q32, c->sigma_y, sh, 1u);
+    x_q16 += axis_term_q16(t, dw, t->inv_sw2_q32, c->sigma_w, sw, 0u);
+    x_q16 += axis_term_q16(t, dh, t->inv_sh2_q32, c->sigma_h, sh, 0u);   // each <= 2^20: no wrap
     uint32_t ss_q15 = vd_temporal_exp_neg_q15(x_q16);
 
     uint32_t lo = ca_q15 < cb_q15 ? ca_q15 : cb_q15;
     uint32_t hi = ca_q15 < cb_q15 ? cb_q15 : ca_q15;
     uint32_t sc_q15;
     if (hi == 0u) {
-        sc_q15 = 32768u;            // two edge-free regions are equally complex
+        sc_q15 = 32768u;            // two edge-free / unmeasured (CNN) regions: no evidence against
     } else {
         sc_q15 = (uint32_t)((((uint64_t)lo << 15) + (hi >> 1)) / hi);
     }
     uint32_t wc = t->cfg.weight_c_q15;
     uint64_t s = (uint64_t)wc * sc_q15 + (uint64_t)(32768u - wc) * ss_q15;
     return (uint32_t)((s + 16384u) >> 15);
+}
+
+// a / b rounded half away from zero (b > 0); C99 division truncates toward 0.
+static int64_t div_round(int64_t a, int64_t b)
+{
+    return (a >= 0) ? (a + b / 2) / b : -((-a + b / 2) / b);
+}
+
+static int32_t sat_i32(int64_t v)
+{
+    return (v > INT32_MAX) ? INT32_MAX : (v < INT32_MIN) ? INT32_MIN : (int32_t)v;
+}
+
+static int16_t clamp_v_q4(int64_t v, int64_t lim)
+{
+    if (lim > 32767) {
+        lim = 32767;
+    }
+    return (int16_t)(v > lim ? lim : (v < -lim ? -lim : v));
+}
+
+// Offset of a track's prediction in Q4 px: global motion + own velocity.
+static int64_t pred_dx_q4(const vd_temporal_t *t, const vd_track_t *tr)
+{
+    return (int64_t)t->gx2 * 8 + tr->vx_q4;
+}
+
+static int64_t pred_dy_q4(const vd_temporal_t *t, const vd_track_t *tr)
+{
+    return (int64_t)t->gy2 * 8 + tr->vy_q4;
+}
+
+static vd_rect_t shifted(const vd_rect_t *b, int64_t dx_q4, int64_t dy_q4)
+{
+    vd_rect_t r = *b;
+    r.x = sat_i32((int64_t)r.x + div_round(dx_q4, 16));
+    r.y = sat_i32((int64_t)r.y + div_round(dy_q4, 16));
+    return r;
+}
+
+static vd_rect_t predicted(const vd_temporal_t *t, const vd_track_t *tr)
+{
+    return shifted(&tr->box, pred_dx_q4(t, tr), pred_dy_q4(t, tr));
+}
+
+// Sizes within a factor 2 of each other: the same object at about the same range.
+static bool size_compatible(const vd_rect_t *a, const vd_rect_t *b)
+{
+    return (int64_t)2 * a->w >= b->w && (int64_t)2 * b->w >= a->w && (int64_t)2 * a->h >= b->h &&
+           (int64_t)2 * b->h >= a->h;
+}
+
+// Doubled-coordinate displacement from a track (moved by its own velocity) to an observation.
+static void displacement2(const vd_track_t *tr, const vd_rect_t *o, int64_t *dx2, int64_t *dy2)
+{
+    *dx2 = ((int64_t)2 * o->x + o->w) - ((int64_t)2 * tr->box.x + tr->box.w) - div_round(tr->vx_q4, 8);
+    *dy2 = ((int64_t)2 * o->y + o->h) - ((int64_t)2 * tr->box.y + tr->box.h) - div_round(tr->vy_q4, 8);
+}
+
+static int64_t abs64(int64_t v)
+{
+    return v < 0 ? -v : v;
+}
+
+// Best agreeing observation of voter tr for displacement (dx2, dy2): within
+// half the track's box on each axis; returns the L1 distance or -1.
+static int64_t agrees(const vd_temporal_t *t, const vd_track_t *tr, const vd_temporal_obs_t *obs, size_t no,
+                      int64_t dx2, int64_t dy2, int64_t *bx2, int64_t *by2)
+{
+    int64_t best = -1;
+    int64_t lim = (int64_t)2 * t->cfg.max_motion;
+    for (size_t i = 0; i < no; i++) {
+        if (!size_compatible(&tr->box, &obs[i].box)) {
+            continue;
+        }
+        int64_t ex;
+        int64_t ey;
+        displacement2(tr, &obs[i].box, &ex, &ey);
+        if (abs64(ex) > lim || abs64(ey) > lim) {
+            continue;
+        }
+        int64_t ax = abs64(ex - dx2);
+        int64_t ay = abs64(ey - dy2);
+        if (ax <= tr->box.w && ay <= tr->box.h && (best < 0 || ax + ay < best)) {
+            best = ax + ay;
+            *bx2 = ex;
+            *by2 = ey;
+        }
+    }
+    return best;
+}
+
+// (0) Global motion (doubled px) into t->gx2/gy2: each (voter, observation)
+// pair proposes its displacement; the one most voters agree with wins (ties:
+// the smaller one), then the mean of the agreeing displacements. Voters:
+// the first 16 tracks matched in the previous frame; the first 16
+// observations (the detector's best). Fewer than 2 votes: no global motion.
+static void estimate_motion(vd_temporal_t *t, const vd_temporal_obs_t *obs, size_t n)
+{
+    uint16_t v[VD_TEMPORAL_MOTION_VOTERS];
+    size_t nv = 0u;
+    t->gx2 = 0;
+    t->gy2 = 0;
+    if ((t->cfg.flags & (VD_TEMPORAL_NO_MOTION | VD_TEMPORAL_NO_GLOBAL)) != 0u) {
+        return;
+    }
+    for (size_t k = 0; k < t->cap && nv < VD_TEMPORAL_MOTION_VOTERS; k++) {
+        if (t->tracks[k].id != 0u && t->tracks[k].misses == 0u) {
+            v[nv++] = (uint16_t)k;
+        }
+    }
+    size_t no = n < VD_TEMPORAL_MOTION_VOTERS ? n : VD_TEMPORAL_MOTION_VOTERS;
+    uint32_t best_votes = 0u;
+    int64_t bdx = 0;
+    int64_t bdy = 0;
+    int64_t lim = (int64_t)2 * t->cfg.max_motion;
+    for (size_t a = 0; a < nv; a++) {
+        const vd_track_t *ta = &t->tracks[v[a]];
+        for (size_t i = 0; i < no; i++) {
+            if (!size_compatible(&ta->box, &obs[i].box)) {
+                continue;
+            }
+            int64_t dx2;
+            int64_t dy2;
+            displacement2(ta, &obs[i].box, &dx2, &dy2);
+            if (abs64(dx2) > lim || abs64(dy2) > lim) {
+                continue;
+            }
+            uint32_t votes = 0u;
+            for (size_t b = 0; b < nv; b++) {
+                int64_t ux;
+                int64_t uy;
+                votes += agrees(t, &t->tracks[v[b]], obs, no, dx2, dy2, &ux, &uy) >= 0;
+            }
+            if (votes > best_votes ||
+                (votes == best_votes && abs64(dx2) + abs64(dy2) < abs64(bdx) + abs64(bdy))) {
+                best_votes = votes;
+                bdx = dx2;
+                bdy = dy2;
+            }
+        }
+    }
+    if (best_votes < 2u) {
+        return;
+    }
+    int64_t sx = 0;
+    int64_t sy = 0;
+    int64_t cnt = 0;
+    for (size_t b = 0; b < nv; b++) {
+        int64_t ux = 0;
+        int64_t uy = 0;
+        if (agrees(t, &t->tracks[v[b]], obs, no, bdx, bdy, &ux, &uy) >= 0) {
+            sx += ux;
+            sy += uy;
+            cnt++;
+        }
+    }
+    t->gx2 = (int32_t)div_round(sx, cnt);   // |mean| <= 2 * max_motion + box: fits
+    t->gy2 = (int32_t)div_round(sy, cnt);
+    t->stats.motion_votes = (uint32_t)cnt;
+    t->stats.motion_x = (int32_t)div_round(t->gx2, 2);
+    t->stats.motion_y = (int32_t)div_round(t->gy2, 2);
+}
+
+// Velocity after a match: the prediction error spread over the frames since
+// the last match; the first measurement is taken whole (no estimate yet),
+// later ones halfway (smooths detector jitter of a few px).
+static void update_velocity(const vd_temporal_t *t, vd_track_t *tr, const vd_rect_t *o)
+{
+    if ((t->cfg.flags & VD_TEMPORAL_NO_MOTION) != 0u) {
+        return;
+    }
+    int64_t px = ((int64_t)2 * tr->box.x + tr->box.w) * 8 + pred_dx_q4(t, tr);
+    int64_t py = ((int64_t)2 * tr->box.y + tr->box.h) * 8 + pred_dy_q4(t, tr);
+    int64_t ex = ((int64_t)2 * o->x + o->w) * 8 - px;
+    int64_t ey = ((int64_t)2 * o->y + o->h) * 8 - py;
+    int64_t frames = (int64_t)tr->misses + 1;
+    int64_t div = tr->moving ? 2 * frames : frames;
+    int64_t lim = (int64_t)t->cfg.max_motion * 16;
+    tr->vx_q4 = clamp_v_q4(tr->vx_q4 + div_round(ex, div), lim);
+    tr->vy_q4 = clamp_v_q4(tr->vy_q4 + div_round(ey, div), lim);
+    tr->moving = 1u;
 }
 
 static void track_clear(vd_track_t *tr)
@@ -237,8 +480,9 @@ static uint8_t sat_inc_u8(uint8_t v)
     return (uint8_t)(v < 255u ? v + 1u : 255u);
 }
 
-// Best-similarity region around a missed confirmed track; true if one
-// reaches recover_thr (box/complexity/similarity returned).
+// Best-similarity region around a missed confirmed track (its box has
+// already coasted to the prediction); true if one reaches recover_thr
+// (box/complexity/similarity returned).
 static bool recover_search(vd_temporal_t *t, const vd_track_t *tr, vd_temporal_probe_fn probe, void *user,
                            vd_rect_t *best_box, uint16_t *best_c, uint32_t *best_s)
 {
@@ -292,6 +536,8 @@ vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t 
         tracks[k].matched = 0u;
     }
 
+    estimate_motion(t, obs, n);
+
     // (1) Greedy association, best pair first. Each round fixes one pair, so
     // at most min(tracks, n) rounds.
     size_t rounds = (n < t->cap) ? n : t->cap;
@@ -305,11 +551,12 @@ vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t 
             if (tr->id == 0u || tr->matched) {
                 continue;
             }
+            vd_rect_t pb = predicted(t, tr);
             for (size_t i = 0; i < n; i++) {
                 if (obs[i].track_id != 0u) {
                     continue;
                 }
-                uint32_t s = vd_temporal_similarity_q15(t, &tr->box, tr->complexity_q15, &obs[i].box,
+                uint32_t s = vd_temporal_similarity_q15(t, &pb, tr->complexity_q15, &obs[i].box,
                                                         obs[i].complexity_q15);
                 if (s >= t->cfg.match_thr_q15 && (!any || s > best)) {
                     any = true;
@@ -325,6 +572,7 @@ vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t 
         // (2) The matched track takes the new observation.
         vd_track_t *tr = &tracks[bk];
         tr->matched = 1u;
+        update_velocity(t, tr, &obs[bi].box);
         tr->box = obs[bi].box;
         tr->complexity_q15 = obs[bi].complexity_q15;
         tr->similarity_q15 = (uint16_t)best;
@@ -354,6 +602,7 @@ vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t 
             continue;
         }
         tr->misses = sat_inc_u8(tr->misses);
+        tr->box = predicted(t, tr);   // coast: where it should be now
         if (!tr->confirmed) {
             tr->hits = 0u;     // confirmation needs consecutive frames
         }
@@ -365,6 +614,9 @@ vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t 
         tr->state = tr->confirmed ? (uint8_t)VD_TRACK_CONFIRMED : (uint8_t)VD_TRACK_NEW;
         if (!tr->confirmed || probe == NULL) {
             continue;
+        }
+        if (tr->complexity_q15 == 0u && (t->cfg.flags & VD_TEMPORAL_RECOVER_NO_C) == 0u) {
+            continue;   // no complexity (CNN): S_C = 1 only on an edge-free probe, i.e. background
         }
         vd_rect_t box = tr->box;
         uint16_t c = 0u;

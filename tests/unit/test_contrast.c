@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Unit tests of contrast.h: a hand-worked map, a naive box-mean reference on random frames (odd strides),
-// warm and cold candidates, percentile threshold, workspace contract and argument checks.
+// warm and cold candidates, percentile threshold, the row-strip candidates against the whole-frame
+// computation (map, threshold, vd_components_label, rules), workspace contract and argument checks.
 #include "unity.h"
 #include "testutil.h"
 
@@ -248,6 +249,152 @@ static void test_candidates_percentile_and_capacity(void)
     TEST_ASSERT_EQUAL_size_t(2u, n);
 }
 
+// The whole-frame computation the strips replaced: the map of the frame,
+// the threshold (fixed or percentile), vd_components_label on the mask, the
+// rules. Returns its status; *n, *thr as vd_contrast_candidates.
+#define CAND_CAP 4096u
+static vd_component_t g_ref_comps[CAND_CAP];
+static vd_component_t g_new_comps[CAND_CAP];
+static uint64_t g_cc_ws[144000u / 8u];     // vd_components_workspace_size(260, 135) = 143 800
+static uint64_t g_strip_ws[21000u / 8u];   // vd_contrast_workspace_size(260, 135) = 20 784
+
+static vd_status_t whole_frame_candidates(const vd_view_u8_t *v, const vd_contrast_cfg_t *cfg, size_t cap,
+                                          size_t *n, uint8_t *thr)
+{
+    vd_contrast_cfg_t c = *cfg;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_cfg_resolve(&c));
+    const uint32_t w = v->width;
+    const uint32_t h = v->height;
+    uint64_t col[(VD_MAX_DIM * 4u) / 8u];
+    vd_image_u8_t m = {g_ref, w, h, w};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_map_u8(v, c.radius, c.polarity, col, sizeof(col), &m));
+    uint32_t t = c.thr_u8;
+    if (c.thr_mode == VD_CONTRAST_THR_PERCENTILE) {
+        uint32_t hist[256];
+        memset(hist, 0, sizeof(hist));
+        for (size_t i = 0; i < (size_t)w * h; i++) {
+            hist[g_ref[i]]++;
+        }
+        uint8_t t8 = 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_threshold_percentile_u8(hist, c.permille, (uint8_t)t, &t8));
+        t = t8;
+    }
+    *thr = (uint8_t)t;
+    for (size_t i = 0; i < (size_t)w * h; i++) {
+        g_ref[i] = g_ref[i] >= t ? 255u : 0u;
+    }
+    size_t ccb = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(w, h, &ccb));
+    TEST_ASSERT_TRUE(ccb <= sizeof(g_cc_ws));
+    vd_view_u8_t mv = {g_ref, w, h, w};
+    size_t nl = 0u;
+    vd_status_t st = vd_components_label(&mv, NULL, g_cc_ws, ccb, g_ref_comps, cap, &nl);
+    TEST_ASSERT_TRUE(st == VD_OK || st == VD_ERR_CAPACITY);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_filter(g_ref_comps, nl, &c.rules, n));
+    return st;
+}
+
+// Frame content: 0 noise (many tiny components, merges everywhere), 1 smooth
+// with random rectangles, 2 combs and spirals of lines (components that are
+// two until a lower row joins them), 3 a constant frame with rare dots.
+static void fill_frame(uint32_t w, uint32_t h, size_t stride, uint32_t kind, uint32_t *seed)
+{
+    for (size_t i = 0; i < stride * h; i++) {
+        g_src[i] = kind == 0u ? (uint8_t)tu_rand(seed) : (uint8_t)(100u + tu_rand(seed) % 6u);
+    }
+    if (kind == 1u) {
+        for (uint32_t k = tu_rand(seed) % 12u; k > 0u; k--) {
+            uint32_t x0 = tu_rand(seed) % w, y0 = tu_rand(seed) % h;
+            uint32_t x1 = x0 + 1u + tu_rand(seed) % 30u, y1 = y0 + 1u + tu_rand(seed) % 20u;
+            uint8_t val = (uint8_t)tu_rand(seed);
+            for (uint32_t y = y0; y < y1 && y < h; y++) {
+                for (uint32_t x = x0; x < x1 && x < w; x++) {
+                    g_src[y * stride + x] = val;
+                }
+            }
+        }
+    } else if (kind == 2u) {
+        const uint32_t step = 2u + tu_rand(seed) % 5u;
+        for (uint32_t y = 0; y < h; y++) {
+            for (uint32_t x = 0; x < w; x++) {
+                // Vertical teeth joined at the bottom, and rings around the centre.
+                const uint32_t dx = x > w / 2u ? x - w / 2u : w / 2u - x;
+                const uint32_t dy = y > h / 2u ? y - h / 2u : h / 2u - y;
+                const uint32_t ring = (dx > dy ? dx : dy) % step == 0u;
+                if ((x % step == 0u && y < h - 1u) || y == h - 1u || ring) {
+                    g_src[y * stride + x] = 200u;
+                }
+            }
+        }
+    } else if (kind == 3u) {
+        for (uint32_t k = tu_rand(seed) % 40u; k > 0u; k--) {
+            g_src[(tu_rand(seed) % h) * stride + tu_rand(seed) % w] = 255u;
+        }
+    }
+}
+
+static void test_candidates_strips_vs_whole_frame(void)
+{
+    uint32_t seed = 4242u;
+    for (int it = 0; it < 400; it++) {
+        // Odd sizes, 1-row and 1-column frames, heights that are odd (a last pair of one row).
+        uint32_t w = 1u + tu_rand(&seed) % 260u;
+        uint32_t h = 1u + tu_rand(&seed) % 135u;
+        if (it % 17 == 0) { w = 1u; }
+        if (it % 19 == 0) { h = 1u; }
+        const size_t stride = w + tu_rand(&seed) % 5u;
+        fill_frame(w, h, stride, tu_rand(&seed) % 4u, &seed);
+        vd_contrast_cfg_t c;
+        memset(&c, 0, sizeof(c));
+        const uint32_t rr = tu_rand(&seed) % 4u;
+        c.radius = (uint16_t)(rr == 0u ? VD_CONTRAST_MAX_RADIUS : 1u + tu_rand(&seed) % (rr == 1u ? 4u : 40u));
+        c.polarity = (uint8_t)(tu_rand(&seed) % 3u);
+        c.thr_mode = (uint8_t)(tu_rand(&seed) % 2u);
+        c.thr_u8 = (uint8_t)(1u + tu_rand(&seed) % 60u);
+        c.permille = (uint16_t)(500u + tu_rand(&seed) % 501u);
+        if (tu_rand(&seed) % 2u != 0u) {   // rules that keep nearly everything
+            c.rules.aspect_min_q8 = 0u;
+            c.rules.aspect_max_q8 = 65535u;
+            c.rules.min_area = 1u;
+        }
+        // Caps: none, tiny (capacity errors: the first cap in label order), or room for all.
+        const uint32_t ck = tu_rand(&seed) % 3u;
+        const size_t cap = ck == 0u ? CAND_CAP : (ck == 1u ? tu_rand(&seed) % 9u : 256u);
+        vd_view_u8_t v = {g_src, w, h, stride};
+        size_t n_ref = 0u;
+        uint8_t thr_ref = 0u;
+        const vd_status_t st_ref = whole_frame_candidates(&v, &c, cap, &n_ref, &thr_ref);
+        size_t bytes = 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(w, h, &bytes));
+        TEST_ASSERT_TRUE(bytes <= sizeof(g_strip_ws));
+        memset(g_new_comps, 0xA5, sizeof(g_new_comps));
+        size_t n = 99u;
+        uint8_t thr = 0u;
+        const vd_status_t st = vd_contrast_candidates(&v, &c, g_strip_ws, bytes, g_new_comps, cap, &n, &thr);
+        TEST_ASSERT_EQUAL_INT(st_ref, st);
+        TEST_ASSERT_EQUAL_UINT8(thr_ref, thr);
+        TEST_ASSERT_EQUAL_size_t(n_ref, n);
+        if (n > 0u) {
+            TEST_ASSERT_EQUAL_MEMORY(g_ref_comps, g_new_comps, n * sizeof(vd_component_t));
+        }
+    }
+}
+
+// The strip workspace depends on the width only (a few row buffers), and is
+// far below the whole-frame map and labelling it replaced.
+static void test_candidates_workspace_is_strips(void)
+{
+    size_t a = 0u, b = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(640u, 512u, &a));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(640u, 1u, &b));
+    TEST_ASSERT_EQUAL_size_t(a, b);
+    TEST_ASSERT_EQUAL_size_t(49664u, a);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(641u, 512u, &b));
+    TEST_ASSERT_TRUE(b > a);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(VD_MAX_DIM, VD_MAX_DIM, &b));
+    TEST_ASSERT_TRUE(b < 700000u);
+}
+
 static vd_status_t ws_map(void *ws, size_t bytes, void *ctx)
 {
     (void)ctx;
@@ -258,10 +405,9 @@ static vd_status_t ws_map(void *ws, size_t bytes, void *ctx)
 
 static vd_status_t ws_cand(void *ws, size_t bytes, void *ctx)
 {
-    (void)ctx;
     vd_view_u8_t v = {g_src, 40, 30, 40};
     size_t n = 0;
-    return vd_contrast_candidates(&v, NULL, ws, bytes, g_comps, 256, &n, NULL);
+    return vd_contrast_candidates(&v, (const vd_contrast_cfg_t *)ctx, ws, bytes, g_comps, 256, &n, NULL);
 }
 
 static void test_workspace_contract(void)
@@ -273,10 +419,18 @@ static void test_workspace_contract(void)
     tu_check_workspace_contract(b, ws_map, NULL);
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(40, 30, &b));
     tu_check_workspace_contract(b, ws_cand, NULL);
-    size_t cc = 0;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(640, 480, &cc));
+    // Percentile mode (the histogram slice) and a noisy frame (every node slice in use).
+    for (size_t i = 0; i < 40u * 30u; i++) {
+        g_src[i] = (uint8_t)(i * 73u % 251u);
+    }
+    vd_contrast_cfg_t c;
+    memset(&c, 0, sizeof(c));
+    c.thr_mode = VD_CONTRAST_THR_PERCENTILE;
+    tu_check_workspace_contract(b, ws_cand, &c);
+    // Column sums (2 B), two map rows (2 B), three run rows (3 x 8 B per 2 columns),
+    // 3 nodes per 2 columns (4 + 4 + 32 B), the histogram.
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_contrast_workspace_size(640, 480, &b));
-    TEST_ASSERT_EQUAL_size_t(640u * 480u + 640u * 4u + 1024u + cc, b);
+    TEST_ASSERT_EQUAL_size_t(1280u + 1280u + 3u * 2560u + 2u * 3840u + 30720u + 1024u, b);
 }
 
 static void test_arguments(void)
@@ -387,6 +541,8 @@ int main(void)
     RUN_TEST(test_map_wide_and_extreme_vs_integral);
     RUN_TEST(test_candidates_cold_and_warm);
     RUN_TEST(test_candidates_percentile_and_capacity);
+    RUN_TEST(test_candidates_strips_vs_whole_frame);
+    RUN_TEST(test_candidates_workspace_is_strips);
     RUN_TEST(test_workspace_contract);
     RUN_TEST(test_arguments);
     RUN_TEST(test_cfg_resolve);

@@ -45,6 +45,16 @@ static vd_temporal_obs_t mk_obs(int32_t x, int32_t y, int32_t w, int32_t h, uint
     return o;
 }
 
+// Paper 000 exactly: fixed sigmas, no motion model. The hand-worked values
+// of the paper's formula below are checked in this mode.
+static void paper_init(vd_temporal_t *t, vd_track_t *tracks, size_t cap)
+{
+    vd_temporal_cfg_t cfg;
+    memset(&cfg, 0, sizeof(cfg));
+    cfg.flags = VD_TEMPORAL_FIXED_SIGMA | VD_TEMPORAL_NO_MOTION;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(t, &cfg, tracks, cap));
+}
+
 static void test_exp_table_accuracy(void)
 {
     uint32_t worst = 0u;
@@ -96,7 +106,7 @@ static void test_similarity_hand_worked(void)
 {
     static vd_track_t tracks[4];
     vd_temporal_t t;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 4));
+    paper_init(&t, tracks, 4);
     vd_rect_t a = {100, 100, 40, 30};
     vd_rect_t b = {116, 100, 40, 30};   // dx = sigma = 16: S_S = exp(-1)
     TEST_ASSERT_EQUAL_UINT32(32768u, vd_temporal_similarity_q15(&t, &a, 1000u, &a, 1000u));
@@ -116,7 +126,7 @@ static void test_similarity_vs_reference_random(void)
 {
     static vd_track_t tracks[1];
     vd_temporal_t t;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 1));
+    paper_init(&t, tracks, 1);
     uint32_t rng = 12345u;
     for (int i = 0; i < 5000; i++) {
         vd_rect_t a = {(int32_t)(tu_rand(&rng) % 600u), (int32_t)(tu_rand(&rng) % 400u),
@@ -140,7 +150,7 @@ static void test_moving_box_confirmed_at_t2(void)
 {
     static vd_track_t tracks[8];
     vd_temporal_t t;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 8));
+    paper_init(&t, tracks, 8);
     const uint8_t expect[5] = {VD_TRACK_NEW, VD_TRACK_NEW, VD_TRACK_CONFIRMED, VD_TRACK_CONFIRMED, VD_TRACK_CONFIRMED};
     uint32_t id = 0u;
     for (int f = 0; f < 5; f++) {
@@ -160,6 +170,197 @@ static void test_moving_box_confirmed_at_t2(void)
             // dx = 2 px with sigma 16: S_S = exp(-1/64), S_C = 1 -> S = 0.98916
             TEST_ASSERT_INT_WITHIN(2, 32413, (long)o[0].similarity_q15);
         }
+    }
+}
+
+// Defaults (relative sigma 1.5, motion model): a 40 x 30 target moving 20 px
+// per frame. Frame 1: no velocity yet, dx = 20 with sigma_x = max(16, 1.5 *
+// 40) = 60: S = 0.3 + 0.7 exp(-1/9) = 0.92639 (the paper's sigma 16 would
+// give 0.3 + 0.7 exp(-1.5625) = 0.447 < 0.5: a new track). Frame 2: the
+// velocity (20 px = 320 in Q4) predicts the box exactly: S = 1, confirmed.
+static void test_constant_velocity_confirmed_at_frame3(void)
+{
+    static vd_track_t tracks[4];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 4));
+    const uint8_t expect[4] = {VD_TRACK_NEW, VD_TRACK_NEW, VD_TRACK_CONFIRMED, VD_TRACK_CONFIRMED};
+    uint32_t id = 0u;
+    for (int f = 0; f < 4; f++) {
+        vd_temporal_obs_t o[1];
+        o[0] = mk_obs(100 + 20 * f, 80, 40, 30, 0u);
+        size_t count;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+        TEST_ASSERT_EQUAL_UINT8(expect[f], o[0].state);
+        TEST_ASSERT_EQUAL_UINT32(0u, t.stats.motion_votes);   // one track: no global motion
+        if (f == 0) {
+            id = o[0].track_id;
+            continue;
+        }
+        TEST_ASSERT_EQUAL_UINT32(id, o[0].track_id);
+        TEST_ASSERT_INT_WITHIN(2, f == 1 ? 30356 : 32768, (long)o[0].similarity_q15);
+        TEST_ASSERT_EQUAL_INT16(320, tracks[0].vx_q4);
+        TEST_ASSERT_EQUAL_INT16(0, tracks[0].vy_q4);
+    }
+    // The same sequence in the paper's mode never associates: 4 new tracks.
+    paper_init(&t, tracks, 4);
+    for (int f = 0; f < 4; f++) {
+        vd_temporal_obs_t o[1];
+        o[0] = mk_obs(100 + 20 * f, 80, 40, 30, 0u);
+        size_t count;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+        TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NEW, o[0].state);
+        TEST_ASSERT_EQUAL_UINT32((uint32_t)f + 1u, o[0].track_id);
+    }
+}
+
+// Relative sigma: for a 40 x 30 box sigma_x = 60, sigma_y = 45, so dx = 60 or
+// dy = 45 gives S_S = exp(-1), S = 0.3 + 0.7 / e = 0.55752 (18269, as the
+// paper's dx = 16 above); an 8 x 8 box keeps the 16 px floor (1.5 * 8 = 12).
+static void test_relative_sigma(void)
+{
+    static vd_track_t tracks[1];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 1));
+    vd_rect_t a = {100, 100, 40, 30};
+    vd_rect_t bx = {160, 100, 40, 30};
+    vd_rect_t by = {100, 145, 40, 30};
+    TEST_ASSERT_INT_WITHIN(1, 18269, (long)vd_temporal_similarity_q15(&t, &a, 1000u, &bx, 1000u));
+    TEST_ASSERT_INT_WITHIN(1, 18269, (long)vd_temporal_similarity_q15(&t, &a, 1000u, &by, 1000u));
+    // Size term: 40 -> 100 wide (mean 70, sigma 105): dW = 60 -> exp(-(60/105)^2) and the centre moves 30
+    // px (sigma 105 too): S_S = exp(-(3600 + 900) / 11025) = exp(-0.40816) = 0.66491 -> S = 0.76544
+    vd_rect_t big = {100, 100, 100, 30};
+    TEST_ASSERT_INT_WITHIN(2, 25082, (long)vd_temporal_similarity_q15(&t, &a, 0u, &big, 0u));
+    vd_temporal_t p;
+    static vd_track_t tp[1];
+    paper_init(&p, tp, 1);
+    vd_rect_t s0 = {10, 10, 8, 8};
+    vd_rect_t s1 = {22, 15, 8, 8};
+    TEST_ASSERT_EQUAL_UINT32(vd_temporal_similarity_q15(&p, &s0, 0u, &s1, 0u),
+                             vd_temporal_similarity_q15(&t, &s0, 0u, &s1, 0u));
+}
+
+// Four parked 20 x 20 cars 50 px apart; the camera pans 45 px left. The
+// nearest box of each track is then its right neighbour (5 px away): without
+// the global motion 3 of 4 ids switch. The vote: displacement -45 has 4
+// agreeing tracks, +5 only 3 -> motion -45, ids kept, exact predictions.
+static void test_global_motion_keeps_ids(void)
+{
+    for (int mode = 0; mode < 2; mode++) {
+        static vd_track_t tracks[8];
+        vd_temporal_t t;
+        vd_temporal_cfg_t cfg;
+        memset(&cfg, 0, sizeof(cfg));
+        cfg.flags = mode ? VD_TEMPORAL_NO_GLOBAL : 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, &cfg, tracks, 8));
+        vd_temporal_obs_t o[4];
+        size_t count;
+        uint32_t ids[4];
+        for (int i = 0; i < 4; i++) {
+            o[i] = mk_obs(100 + 50 * i, 80, 20, 20, 0u);
+        }
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 4, 4, &count, NULL, NULL));
+        for (int i = 0; i < 4; i++) {
+            ids[i] = o[i].track_id;
+            o[i] = mk_obs(55 + 50 * i, 80, 20, 20, 0u);
+        }
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 4, 4, &count, NULL, NULL));
+        if (mode == 0) {
+            TEST_ASSERT_EQUAL_UINT32(4u, t.stats.motion_votes);
+            TEST_ASSERT_EQUAL_INT32(-45, t.stats.motion_x);
+            TEST_ASSERT_EQUAL_INT32(0, t.stats.motion_y);
+            for (int i = 0; i < 4; i++) {
+                TEST_ASSERT_EQUAL_UINT32(ids[i], o[i].track_id);
+                TEST_ASSERT_EQUAL_UINT32(32768u, o[i].similarity_q15);
+            }
+        } else {
+            TEST_ASSERT_EQUAL_UINT32(0u, t.stats.motion_votes);
+            TEST_ASSERT_EQUAL_UINT32(ids[0], o[1].track_id);   // 105 taken by the track at 100
+            TEST_ASSERT_EQUAL_UINT32(ids[1], o[2].track_id);
+            TEST_ASSERT_EQUAL_UINT32(ids[2], o[3].track_id);
+        }
+    }
+}
+
+// A missed target coasts: the track box moves by its velocity, so the next
+// detection two frames on is predicted exactly (S = 1, same id); the velocity
+// is clamped to max_motion.
+static void test_velocity_prediction_and_bounds(void)
+{
+    static vd_track_t tracks[2];
+    vd_temporal_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, NULL, tracks, 2));
+    vd_temporal_obs_t o[1];
+    size_t count;
+    for (int f = 0; f < 3; f++) {
+        o[0] = mk_obs(200, 100 - 10 * f, 40, 30, 0u);
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+    }
+    uint32_t id = o[0].track_id;
+    TEST_ASSERT_EQUAL_INT16(-160, tracks[0].vy_q4);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 1, &count, NULL, NULL));   // missed
+    TEST_ASSERT_EQUAL_INT32(70, tracks[0].box.y);                                          // coasted
+    o[0] = mk_obs(200, 60, 40, 30, 0u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_UINT32(id, o[0].track_id);
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, o[0].state);
+    TEST_ASSERT_EQUAL_UINT32(32768u, o[0].similarity_q15);
+    TEST_ASSERT_EQUAL_INT16(-160, tracks[0].vy_q4);
+    // max_motion 16 px: a 100 px jump (matched thanks to sigma 4 * 40 = 160) is clamped to 16 px/frame.
+    vd_temporal_cfg_t cfg;
+    memset(&cfg, 0, sizeof(cfg));
+    cfg.max_motion = 16u;
+    cfg.sigma_rel_q8 = 1024u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, &cfg, tracks, 2));
+    o[0] = mk_obs(100, 100, 40, 30, 0u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+    id = o[0].track_id;
+    o[0] = mk_obs(200, 100, 40, 30, 0u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_UINT32(id, o[0].track_id);
+    TEST_ASSERT_EQUAL_INT16(256, tracks[0].vx_q4);
+    // Hostile coordinates saturate instead of wrapping when coasting.
+    o[0] = mk_obs(INT32_MAX - 56, 0, 40, 30, 0u);   // 16 px/frame: 3 coasts pass INT32_MAX
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, &cfg, tracks, 2));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+    o[0] = mk_obs(INT32_MAX - 40, 0, 40, 30, 0u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 1, &count, NULL, NULL));
+    for (int f = 0; f < 3; f++) {
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 1, &count, NULL, NULL));
+    }
+    TEST_ASSERT_EQUAL_INT32(INT32_MAX, tracks[0].box.x);
+}
+
+static vd_status_t flat_probe(void *user, const vd_rect_t *box, uint16_t *c)
+{
+    (void)box;
+    (*(int *)user)++;
+    *c = 0u;
+    return VD_OK;
+}
+
+// A confirmed track without complexity (a CNN detection) is not searched
+// for: on an edge-free probe S_C = 1 and S_S = 1 at the predicted box, so it
+// would "recover" background. VD_TEMPORAL_RECOVER_NO_C re-enables it.
+static void test_no_complexity_not_recovered(void)
+{
+    for (int mode = 0; mode < 2; mode++) {
+        static vd_track_t tracks[2];
+        vd_temporal_t t;
+        vd_temporal_cfg_t cfg;
+        memset(&cfg, 0, sizeof(cfg));
+        cfg.flags = mode ? VD_TEMPORAL_RECOVER_NO_C : 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(&t, &cfg, tracks, 2));
+        vd_temporal_obs_t o[2];
+        size_t count;
+        for (int f = 0; f < 3; f++) {
+            o[0] = mk_obs(100, 80, 40, 30, 0u);
+            TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 2, &count, NULL, NULL));
+        }
+        TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, o[0].state);
+        int calls = 0;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0, 2, &count, flat_probe, &calls));
+        TEST_ASSERT_EQUAL_size_t(mode ? 1u : 0u, count);
+        TEST_ASSERT_EQUAL_INT(mode ? 25 : 0, calls);
     }
 }
 
@@ -399,6 +600,9 @@ static void test_cfg_resolve(void)
     TEST_ASSERT_EQUAL_UINT16(26214u, z.recover_thr_q15);
     TEST_ASSERT_EQUAL_UINT8(3u, z.confirm_frames);
     TEST_ASSERT_EQUAL_UINT8(2u, z.search_step);
+    TEST_ASSERT_EQUAL_UINT16(384u, z.sigma_rel_q8);
+    TEST_ASSERT_EQUAL_UINT16(128u, z.max_motion);
+    TEST_ASSERT_EQUAL_UINT8(0u, z.flags);
     // Given fields are kept, the others filled.
     memset(&z, 0, sizeof(z));
     z.sigma_w = 4096u;
@@ -430,6 +634,18 @@ static void test_cfg_resolve(void)
     memset(&z, 0, sizeof(z));
     z.search_step = 65u;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.sigma_rel_q8 = 1025u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.max_motion = 4097u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.flags = 0x10u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.reserved = 1u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(NULL));
 }
 
@@ -441,6 +657,11 @@ int main(void)
     RUN_TEST(test_similarity_hand_worked);
     RUN_TEST(test_similarity_vs_reference_random);
     RUN_TEST(test_moving_box_confirmed_at_t2);
+    RUN_TEST(test_constant_velocity_confirmed_at_frame3);
+    RUN_TEST(test_relative_sigma);
+    RUN_TEST(test_global_motion_keeps_ids);
+    RUN_TEST(test_velocity_prediction_and_bounds);
+    RUN_TEST(test_no_complexity_not_recovered);
     RUN_TEST(test_two_targets_keep_their_ids);
     RUN_TEST(test_missed_frame_recovered);
     RUN_TEST(test_unconfirmed_not_recovered_and_false_alarm_stays_new);

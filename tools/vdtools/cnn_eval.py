@@ -96,7 +96,7 @@ def run(pred, frames):
     return out
 
 
-def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval"):
+def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval", paper=None):
     """The whole C detector (vd_fir_demo --sources cnn, temporal off, score threshold 0.05 so that the
     AP sees the low-score tail) on frames; results as run(). One demo call per family (file names of
     the two HIT-UAV folders could collide)."""
@@ -113,9 +113,12 @@ def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval"):
         for fr in frs:
             p = CD.frame_path(fr)
             paths[Path(p).name] = fr
-        lst.write_text("".join(f"{CD.frame_path(fr)}\n" for fr in frs))
-        cmd = [str(demo), "--input", str(lst), "--sources", "cnn", "--cnn-model", str(model), "--model", "none",
-               "--cnn-thr", "0.05", "--temporal", "off", "--json", str(js), "--quiet"] + list(extra)
+        lst.write_text("".join(f"{Path(CD.frame_path(fr)).resolve()}\n" for fr in frs))   # list entries are read relative to the list
+        if paper is None:
+            src = ["--sources", "cnn", "--cnn-model", str(model), "--model", "none", "--cnn-thr", "0.05"]
+        else:   # the paper pipeline with a DBN model, for the comparison rows (score threshold 0.05 for AP)
+            src = ["--model", str(model), "--score-thr", "0.05"] + list(paper)
+        cmd = [str(demo), "--input", str(lst)] + src + ["--temporal", "off", "--json", str(js), "--quiet"] + list(extra)
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
         for line in js.read_text().splitlines():
             rec = json.loads(line)
@@ -211,6 +214,8 @@ def main(argv=None):
     ap.add_argument("--demo", default=str(clib.REPO / "build" / "tools" / "vd_fir_demo"))
     ap.add_argument("--split", default="val", choices=("val", "test"))
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
+    ap.add_argument("--paper", help="evaluate the paper pipeline instead: demo flags, e.g. \"--sources hotspot\" "
+                    "(--model is then a DBN model; --backend demo)")
     ap.add_argument("--thr", type=float, help="operating point to report (default: chosen here, val split only)")
     ap.add_argument("--out", help="JSON report")
     ap.add_argument("--pr", help="precision-recall PNG")
@@ -218,7 +223,7 @@ def main(argv=None):
     frames = CD.load_frames(a.data, splits=(a.split,))
     t0 = time.time()
     if a.backend == "demo" and not a.ckpt:
-        res = run_demo(a.demo, a.model, frames)
+        res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split())
     else:
         res = run(Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend), frames)
     sec = time.time() - t0

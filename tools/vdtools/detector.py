@@ -46,7 +46,8 @@ class TemporalCfg(C.Structure):
     _fields_ = [("sigma_x", C.c_uint16), ("sigma_y", C.c_uint16), ("sigma_w", C.c_uint16),
                 ("sigma_h", C.c_uint16), ("weight_c_q15", C.c_uint16), ("match_thr_q15", C.c_uint16),
                 ("recover_thr_q15", C.c_uint16), ("confirm_frames", C.c_uint8), ("max_misses", C.c_uint8),
-                ("search_radius", C.c_uint8), ("search_step", C.c_uint8)]
+                ("search_radius", C.c_uint8), ("search_step", C.c_uint8), ("sigma_rel_q8", C.c_uint16),
+                ("max_motion", C.c_uint16), ("flags", C.c_uint8), ("reserved", C.c_uint8)]
 
 
 class Detection(C.Structure):

@@ -203,7 +203,7 @@ typedef struct vd_detector {
     uint8_t *overlay;            // labelling scratch (run budget), reused per candidate for region buffers
     size_t overlay_bytes;
     void *scratch;               // per-candidate state (private: internal/detector_internal.h)
-    void *contrast_ws;           // contrast source workspace (NULL when the source is off)
+    void *contrast_ws;           // contrast source workspace, in the overlay (NULL when the source is off)
     size_t contrast_ws_bytes;
     uint8_t *cnn_plane;          // CNN source (in the overlay; NULL when off): network input plane,
     void *cnn_ws;                //   vd_cnn_run workspace for the largest input,
@@ -244,13 +244,13 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 // the labeller's row buffers (~12 B per column). Defaults at 640 x 512:
 // 228 448 bytes (223.1 KiB) on 64-bit hosts, bounded by the region buffers.
 // Sources: windows add nothing at 640 x 512 (their two cell integrals,
-// 2 x 4 x (W/4+1) x (H/4+1) bytes = 166 152, share the overlay); contrast
-// adds vd_contrast_workspace_size(max_width, max_height) (1 650 696 bytes at
-// 640 x 512: a whole-frame contrast map and labelling, not yet embedded-sized).
+// 2 x 4 x (W/4+1) x (H/4+1) bytes = 166 152, share the overlay); nor does
+// contrast (vd_contrast_workspace_size, row strips: 49 664 bytes at 640 x 512,
+// E in the overlay, used between the hot-spot refinement and the windows).
 // CNN: the network runs first in a frame, in the overlay, which must then
 // also hold D = the input plane nw x nh + vd_cnn_workspace_size(nw, nh) +
 // max_peaks boxes, with nw, nh = floor(max_width / 2), floor(max_height / 2)
-// rounded up to the model's alignment; the overlay is max(A, B, C, D). A
+// rounded up to the model's alignment; the overlay is max(A, B, C, D, E). A
 // smaller frame runs the network at its own size inside that plan (the
 // planner's size grows with the input: measured on every aligned size of the
 // shipped model and 150 random ones; vd_cnn_run would answer VD_ERR_WORKSPACE

@@ -27,9 +27,27 @@ typedef enum vd_track_state {
 // Similarity of two boxes and complexities, paper 000 eq. (9)-(12):
 //   S = w_c * S_C + (1 - w_c) * S_S,  S_C = min(C_a, C_b) / max(C_a, C_b),
 //   S_S = exp(-(dx^2/sx^2 + dy^2/sy^2 + dW^2/sW^2 + dH^2/sH^2)),
-// dx, dy between box centres, dW, dH between sizes. All fields: 0 = default.
+// dx, dy between box centres, dW, dH between sizes. S_C = 1 when both
+// complexities are 0 (no measure, e.g. CNN detections: no evidence either
+// way), 0 when only one is 0.
+// Sigmas scale with the targets (unless VD_TEMPORAL_FIXED_SIGMA): sx = sW =
+// max(sigma_x / sigma_w, sigma_rel * mean width of a and b), sy = sH likewise
+// with heights, so a 60 px car may move further than a 15 px one.
+// Association compares each detection with the track's PREDICTED box (unless
+// VD_TEMPORAL_NO_MOTION): last box + global motion of this frame + the
+// track's own velocity. The global motion is the displacement most tracks
+// agree on (the camera's); the velocity is the smoothed remainder.
+// All fields: 0 = default.
+#define VD_TEMPORAL_FIXED_SIGMA   0x01u  // flags: paper 000's fixed sigmas (sigma_rel_q8 unused)
+#define VD_TEMPORAL_NO_MOTION     0x02u  // flags: no global motion, no velocities (paper 000)
+#define VD_TEMPORAL_NO_GLOBAL     0x04u  // flags: velocities only, no global motion estimate
+#define VD_TEMPORAL_RECOVER_NO_C  0x08u  // flags: also search for tracks whose complexity is 0 (see recovery)
+// Global motion: at most this many matched-last-frame tracks and leading
+// observations vote (bounds the O(N^4) vote to 16^4 comparisons).
+#define VD_TEMPORAL_MOTION_VOTERS 16u
+
 typedef struct vd_temporal_cfg {
-    uint16_t sigma_x;          // px, 1..4096, default 16
+    uint16_t sigma_x;          // px, 1..4096, default 16 (the minimum sigma with relative sigmas)
     uint16_t sigma_y;          // px, 1..4096, default 16
     uint16_t sigma_w;          // px, 1..4096, default 16
     uint16_t sigma_h;          // px, 1..4096, default 16
@@ -38,9 +56,15 @@ typedef struct vd_temporal_cfg {
     uint16_t recover_thr_q15;  // min S of a recovered region, 1..32768, default 26214 (0.8; > 0.7 needs S_C > 1/3)
     uint8_t confirm_frames;    // consecutive matched frames to confirm, 1..255, default 3 (t, t-1, t-2)
     uint8_t max_misses;        // track deleted after more consecutive unmatched frames than this, 1..255, default 3
-    uint8_t search_radius;     // recovery search: offsets -r..r px around the last box, 1..64, default 4
+    uint8_t search_radius;     // recovery search: offsets -r..r px around the predicted box, 1..64, default 4
     uint8_t search_step;       // recovery search step in px, 1..64, default 2; radius/step <= 8, so at most
                                // (2*8 + 1)^2 = 289 probes per missed confirmed track
+    uint16_t sigma_rel_q8;     // relative sigma, Q8 of the mean box side, 1..1024 (4.0), default 384 (1.5)
+    uint16_t max_motion;       // px per frame, 1..4096, default 128: larger displacements never vote for
+                               // the global motion, and velocities are clamped to it
+    uint8_t flags;             // VD_TEMPORAL_*, default 0 (relative sigmas, global motion, velocities,
+                               // no recovery of tracks without complexity)
+    uint8_t reserved;
 } vd_temporal_cfg_t;
 
 // One track slot. id 0 marks a free slot. Caller-owned storage (see init).
@@ -54,8 +78,11 @@ typedef struct vd_track {
     uint8_t confirmed;         // 1 once confirmed; stays until the track is deleted
     uint8_t state;             // vd_track_state_t at the last update
     uint8_t matched;           // internal: matched during the current update
-    uint8_t reserved[3];
+    uint8_t moving;            // 1 once a velocity was measured (two matched boxes)
+    uint8_t reserved[2];
     uint32_t age;              // frames since creation (saturating)
+    int16_t vx_q4;             // own velocity (beyond the global motion), Q4 px per frame
+    int16_t vy_q4;
 } vd_track_t;
 
 // An observation fed to / returned by vd_temporal_update(): a detection's box
@@ -78,6 +105,9 @@ typedef struct vd_temporal_stats {
     uint32_t deleted;          // tracks deleted after too many misses
     uint32_t probes;           // probe callback calls
     uint32_t overflow;         // observations left untracked (table full) + recoveries dropped (output full)
+    uint32_t motion_votes;     // tracks agreeing on the global motion (0: none found, motion 0)
+    int32_t motion_x;          // global motion of this frame, px
+    int32_t motion_y;
 } vd_temporal_stats_t;
 
 // Recovery probe: measures the complexity (Q15 edge-pixel ratio, the same
@@ -97,6 +127,8 @@ typedef struct vd_temporal {
     uint64_t inv_sy2_q32;
     uint64_t inv_sw2_q32;
     uint64_t inv_sh2_q32;
+    int32_t gx2;               // global motion of the current update, doubled px (internal)
+    int32_t gy2;
     vd_temporal_stats_t stats;
 } vd_temporal_t;
 
@@ -123,12 +155,20 @@ void vd_temporal_reset(vd_temporal_t *t);
 //   Recovered tracks are appended as obs[n..*count) with state
 //   VD_TRACK_RECOVERED, the found box and its complexity.
 //   probe/user: recovery search (may be NULL = no recovery).
-// Order: (1) greedy association, highest S first, pairs with S >= match_thr;
-// (2) matched tracks take the new box, hits+1, confirmed at confirm_frames;
-// (3) unmatched confirmed tracks are searched at offsets of search_step up to
-// search_radius around the last box (same size), best S >= recover_thr wins;
-// (4) other unmatched tracks age and are deleted after max_misses misses;
-// (5) unmatched observations start new tracks in free slots.
+// Order: (0) global motion: the displacement (track box + velocity ->
+// observation, both boxes of similar size, |d| <= max_motion) with which the
+// most voting tracks have an observation within half their box; >= 2 votes
+// needed, else 0; the mean of the agreeing displacements; (1) greedy
+// association of predicted boxes, highest S first, pairs with S >= match_thr;
+// (2) matched tracks take the new box, hits+1, confirmed at confirm_frames,
+// velocity updated (first measurement taken whole, later ones half-way);
+// (3) unmatched tracks coast to their predicted box; unmatched confirmed
+// tracks with a complexity (or with VD_TEMPORAL_RECOVER_NO_C) are searched at
+// offsets of search_step up to search_radius around it (same size), best S
+// >= recover_thr wins; (4) other unmatched tracks age and are deleted after
+// max_misses misses; (5) unmatched observations start new tracks in free slots.
+// Recovery needs a complexity: for a track without one (0) S_C only reaches
+// 1 on an edge-free probe, i.e. it would "recover" empty background.
 // Returns VD_OK; VD_ERR_ARG for NULL t/obs(with n>0)/count or n > cap or a
 // box with w or h <= 0; VD_ERR_CAPACITY when the track table was full for an
 // observation (its track_id = 0, state NONE) or recoveries did not fit in
