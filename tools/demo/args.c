@@ -43,6 +43,9 @@ typedef enum setting_id {
     SET_MAX_REGION,
     SET_TEMPORAL,
     SET_MAX_TRACKS,
+    SET_TRACK_SIGMA_REL,
+    SET_TRACK_MOTION,
+    SET_TRACK_RECOVER_NO_C,
     SET_SOURCES,
     SET_DEDUP_IOU,
     SET_WIN_PRESET,
@@ -106,6 +109,15 @@ static const setting_t k_settings[SET_COUNT] = {
     [SET_TEMPORAL] = {"temporal", "on|off",
                       "temporal analysis: track ids, confirmed / recovered states (default on)"},
     [SET_MAX_TRACKS] = {"max-tracks", "N", "temporal track table size (default 32)"},
+    [SET_TRACK_SIGMA_REL] = {"track-sigma-rel", "F|off",
+                             "temporal: association sigmas = max(16 px, F x box side), 0.004..4 (default 1.5); "
+                             "off = the paper's fixed 16 px"},
+    [SET_TRACK_MOTION] = {"track-motion", "on|velocity|off",
+                          "temporal: predict tracks by the frame's global motion and their velocity (on, "
+                          "default), velocity only, or not at all (off, the paper's)"},
+    [SET_TRACK_RECOVER_NO_C] = {"track-recover-unmeasured", "on|off",
+                                "temporal: also run recovery for tracks without a complexity (CNN "
+                                "detections; default off: it finds edge-free background)"},
     [SET_SOURCES] = {"sources", "LIST",
                      "candidate sources, comma separated: hotspot, contrast, window, all (= the three of the "
                      "paper pipeline) and cnn (the int8 network), e.g. hotspot,cnn; all sources share "
@@ -298,7 +310,7 @@ static bool parse_bands(const char *v, vd_windows_cfg_t *w)
         if (t.n_bands >= VD_WINDOWS_MAX_BANDS || sscanf(p, "%ld:%ld:%ld:%ld%n", &y0, &y1, &h0, &h1, &used) != 4) {
             return false;
         }
-        if (y0 < -(long)VD_MAX_DIM || y1 > 2L * VD_MAX_DIM || y0 > y1 || h0 < 1 || h0 > h1 || h1 > (long)VD_MAX_DIM) {
+        if (y0 < -(long)VD_MAX_DIM || y1 > 2L * (long)VD_MAX_DIM || y0 > y1 || h0 < 1 || h0 > h1 || h1 > (long)VD_MAX_DIM) {
             return false;
         }
         vd_window_band_t *b = &t.bands[t.n_bands++];
@@ -497,6 +509,32 @@ static bool apply_setting(demo_opts_t *o, setting_id_t id, const char *v, char *
     case SET_MAX_TRACKS:
         ok = parse_u32(v, 1, 1024, &u);
         cfg->max_tracks = (uint16_t)u;
+        break;
+    case SET_TRACK_SIGMA_REL:
+        if (strcmp(v, "off") == 0) {
+            cfg->temporal_cfg.flags |= VD_TEMPORAL_FIXED_SIGMA;
+            ok = true;
+        } else {
+            ok = parse_double(v, 1.0 / 256.0, 4.0, &d) && q_of(d, 256.0, 1.0 / 256.0, 4.0, &u);
+            cfg->temporal_cfg.sigma_rel_q8 = (uint16_t)u;
+            cfg->temporal_cfg.flags &= (uint8_t)~VD_TEMPORAL_FIXED_SIGMA;
+        }
+        break;
+    case SET_TRACK_MOTION:
+        ok = strcmp(v, "on") == 0 || strcmp(v, "velocity") == 0 || strcmp(v, "off") == 0;
+        if (ok) {
+            uint8_t fl = cfg->temporal_cfg.flags & (uint8_t)~(VD_TEMPORAL_NO_MOTION | VD_TEMPORAL_NO_GLOBAL);
+            fl |= (strcmp(v, "off") == 0) ? (uint8_t)VD_TEMPORAL_NO_MOTION
+                  : (strcmp(v, "velocity") == 0) ? (uint8_t)VD_TEMPORAL_NO_GLOBAL : (uint8_t)0u;
+            cfg->temporal_cfg.flags = fl;
+        }
+        break;
+    case SET_TRACK_RECOVER_NO_C:
+        ok = parse_switch(v, &on);
+        if (ok) {
+            cfg->temporal_cfg.flags = on ? (uint8_t)(cfg->temporal_cfg.flags | VD_TEMPORAL_RECOVER_NO_C)
+                                         : (uint8_t)(cfg->temporal_cfg.flags & (uint8_t)~VD_TEMPORAL_RECOVER_NO_C);
+        }
         break;
     case SET_SOURCES: {
         char buf[128];
@@ -713,15 +751,20 @@ static bool load_config(demo_opts_t *o, const char *path, char *msg, size_t msg_
     return ok;
 }
 
-static int usage_error(const char *fmt, const char *a, const char *b)
+static int usage_error(FILE *errf, const char *fmt, const char *a, const char *b)
 {
-    fprintf(stderr, "vd_fir_demo: error: ");
-    fprintf(stderr, fmt, a, b);
-    fprintf(stderr, " (%s; see --help)\n", vd_status_str(VD_ERR_ARG));
+    fprintf(errf, "vd_fir_demo: error: ");
+    fprintf(errf, fmt, a, b);
+    fprintf(errf, " (%s; see --help)\n", vd_status_str(VD_ERR_ARG));
     return -1;
 }
 
 int demo_args_parse(demo_opts_t *o, int argc, char **argv)
+{
+    return demo_args_parse_to(o, argc, argv, stdout, stderr);
+}
+
+int demo_args_parse_to(demo_opts_t *o, int argc, char **argv, FILE *out, FILE *errf)
 {
     memset(o, 0, sizeof *o);
     o->input = VD_DEMO_DEFAULT_INPUT;
@@ -736,7 +779,7 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            demo_args_usage(stdout);
+            demo_args_usage(out);
             return 1;
         }
         bool flag_only = strcmp(a, "--quiet") == 0 || strcmp(a, "--no-scores") == 0;
@@ -749,7 +792,7 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
             continue;
         }
         if (strncmp(a, "--", 2) != 0) {
-            return usage_error("unexpected argument '%s'%s", a, "");
+            return usage_error(errf, "unexpected argument '%s'%s", a, "");
         }
         const int sid = find_setting(a + 2);
         if (is_switch(sid) && strchr(a + 2, '_') == NULL) {
@@ -760,7 +803,7 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
             continue;
         }
         if (i + 1 >= argc) {
-            return usage_error("%s needs a value%s", a, "");
+            return usage_error(errf, "%s needs a value%s", a, "");
         }
         const char *v = argv[++i];
         const char *n = a + 2;
@@ -783,7 +826,7 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
             config = v;
         } else if (strcmp(n, "raw-size") == 0) {
             if (!parse_size(v, &o->raw_w, &o->raw_h)) {
-                return usage_error("bad --raw-size '%s'%s (expected WxH)", v, "");
+                return usage_error(errf, "bad --raw-size '%s'%s (expected WxH)", v, "");
             }
         } else if (strcmp(n, "raw-format") == 0) {
             if (strcmp(v, "u16") == 0) {
@@ -794,15 +837,15 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
             } else if (strcmp(v, "u8") == 0) {
                 o->raw_format = VD_PIX_U8;
             } else {
-                return usage_error("bad --raw-format '%s'%s (expected u16, u16be or u8)", v, "");
+                return usage_error(errf, "bad --raw-format '%s'%s (expected u16, u16be or u8)", v, "");
             }
         } else if (strcmp(n, "device-size") == 0) {
             if (!parse_size(v, &o->dev_w, &o->dev_h)) {
-                return usage_error("bad --device-size '%s'%s (expected WxH)", v, "");
+                return usage_error(errf, "bad --device-size '%s'%s (expected WxH)", v, "");
             }
         } else if (strcmp(n, "fps") == 0) {
             if (!parse_u32(v, 1, 1000, &o->fps)) {
-                return usage_error("bad --fps '%s'%s", v, "");
+                return usage_error(errf, "bad --fps '%s'%s", v, "");
             }
         } else if (strcmp(n, "pixfmt") == 0) {
             if (strcmp(v, "grey") == 0 || strcmp(v, "gray") == 0) {
@@ -810,27 +853,27 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
             } else if (strcmp(v, "y16") == 0) {
                 o->dev_format = VD_PIX_U16;
             } else {
-                return usage_error("bad --pixfmt '%s'%s (expected grey or y16)", v, "");
+                return usage_error(errf, "bad --pixfmt '%s'%s (expected grey or y16)", v, "");
             }
         } else if (strcmp(n, "timeout-ms") == 0) {
             uint32_t t;
             if (!parse_u32(v, 1, 3600000u, &t)) {
-                return usage_error("bad --timeout-ms '%s'%s", v, "");
+                return usage_error(errf, "bad --timeout-ms '%s'%s", v, "");
             }
             o->timeout_ms = (int32_t)t;
         } else if (strcmp(n, "frames") == 0) {
             uint32_t t;
             if (!parse_u32(v, 1, UINT32_MAX, &t)) {
-                return usage_error("bad --frames '%s'%s", v, "");
+                return usage_error(errf, "bad --frames '%s'%s", v, "");
             }
             o->max_frames = t;
         } else if (strchr(n, '_') != NULL || find_setting(n) < 0) {
-            return usage_error("unknown option '%s'%s", a, "");
+            return usage_error(errf, "unknown option '%s'%s", a, "");
         }
     }
     char msg[600];
     if (config != NULL && !load_config(o, config, msg, sizeof msg)) {
-        fprintf(stderr, "vd_fir_demo: error: %s (%s)\n", msg, vd_status_str(VD_ERR_FORMAT));
+        fprintf(errf, "vd_fir_demo: error: %s (%s)\n", msg, vd_status_str(VD_ERR_FORMAT));
         return -1;
     }
     // Second pass: detector setting flags override the config file.
@@ -846,7 +889,7 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
             bool on;
             const char *v = (i + 1 < argc && parse_switch(argv[i + 1], &on)) ? argv[++i] : "on";
             if (!apply_setting(o, (setting_id_t)id, v, msg, sizeof msg)) {
-                return usage_error("%s%s", msg, "");
+                return usage_error(errf, "%s%s", msg, "");
             }
             continue;
         }
@@ -854,12 +897,12 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv)
             break;   // the first pass made sure every other option has its value
         }
         if (id >= 0 && !apply_setting(o, (setting_id_t)id, argv[i + 1], msg, sizeof msg)) {
-            return usage_error("%s%s", msg, "");
+            return usage_error(errf, "%s%s", msg, "");
         }
         i++;   // skip the value
     }
     if (o->eval == NULL && !o->input_default && (o->classes != NULL || o->eval_out != NULL)) {
-        return usage_error("--classes and --eval-out need --eval%s%s", "", "");
+        return usage_error(errf, "--classes and --eval-out need --eval%s%s", "", "");
     }
     return 0;
 }

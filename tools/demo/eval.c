@@ -196,6 +196,12 @@ static bool json_int(const demo_json_t *d, int64_t idx, int64_t *out)
     return true;
 }
 
+// A class id: an integer that fits int32_t (demo_gt_box_t.cls, --classes).
+static bool json_class(const demo_json_t *d, int64_t idx, int64_t *out)
+{
+    return json_int(d, idx, out) && *out >= INT32_MIN && *out <= INT32_MAX;
+}
+
 typedef struct img_id {
     int64_t id;
     size_t index;   // into gt->img (before sorting)
@@ -249,7 +255,7 @@ static vd_status_t load_coco(demo_gt_t *gt, const char *path, const char *classe
         int64_t c = demo_json_first(&d, (uint32_t)cs);
         for (uint32_t k = 0; k < d.tok[cs].size && c >= 0; k++, c = demo_json_sibling(&d, (uint32_t)c)) {
             int64_t id;
-            if (n_cats < 256 && json_int(&d, demo_json_get(&d, (uint32_t)c, "id"), &id) &&
+            if (n_cats < 256 && json_class(&d, demo_json_get(&d, (uint32_t)c, "id"), &id) &&
                 demo_json_string(&d, demo_json_get(&d, (uint32_t)c, "name"), cats[n_cats].name,
                                  sizeof cats[n_cats].name)) {
                 cats[n_cats].id = (int32_t)id;
@@ -299,7 +305,7 @@ static vd_status_t load_coco(demo_gt_t *gt, const char *path, const char *classe
         int64_t bb = demo_json_get(&d, (uint32_t)a, "bbox");
         double v[4];
         bool ok = json_int(&d, demo_json_get(&d, (uint32_t)a, "image_id"), &image_id) &&
-                  json_int(&d, demo_json_get(&d, (uint32_t)a, "category_id"), &cat) && bb >= 0 &&
+                  json_class(&d, demo_json_get(&d, (uint32_t)a, "category_id"), &cat) && bb >= 0 &&
                   d.tok[bb].type == DEMO_JSON_ARRAY && d.tok[bb].size == 4;
         if (ok) {
             int64_t e = demo_json_first(&d, (uint32_t)bb);
@@ -338,6 +344,23 @@ out:
     return st;
 }
 
+// fgets that keeps a physical line one line: when it does not fit in line[cap]
+// (cap >= 2), the rest of it is read and dropped. A NUL byte in the line does
+// not hide its newline (the check looks at the buffer's last bytes).
+static bool read_line(char *line, size_t cap, FILE *f)
+{
+    line[cap - 1u] = '\1';
+    if (fgets(line, (int)cap, f) == NULL) {
+        return false;
+    }
+    if (line[cap - 1u] == '\0' && line[cap - 2u] != '\n') {
+        int c;
+        while ((c = fgetc(f)) != EOF && c != '\n') {
+        }
+    }
+    return true;
+}
+
 // Reads "classes.txt" (one name per line, line k = class k) from dir or its parent.
 static size_t yolo_class_names(const char *dir, cat_name_t *cats, size_t cap)
 {
@@ -354,14 +377,14 @@ static size_t yolo_class_names(const char *dir, cat_name_t *cats, size_t cap)
     }
     size_t n = 0;
     char line[256];
-    while (n < cap && fgets(line, sizeof line, f) != NULL) {
+    while (n < cap && read_line(line, sizeof line, f)) {   // a longer name is cut, still one class
         size_t l = strcspn(line, "\r\n");
         line[l] = '\0';
         // "2 car" (MSRS) or "car"
         char *s = line;
         char *end = NULL;
         long id = strtol(s, &end, 10);
-        if (end != s && (*end == ' ' || *end == '\t')) {
+        if (end != s && (*end == ' ' || *end == '\t') && id >= INT32_MIN && id <= INT32_MAX) {
             s = end;
             while (*s == ' ' || *s == '\t') {
                 s++;
@@ -419,22 +442,23 @@ static vd_status_t load_yolo(demo_gt_t *gt, const char *dir, const char *classes
         im->normalised = true;
         char line[512];
         unsigned lineno = 0;
-        while (fgets(line, sizeof line, f) != NULL) {
+        while (read_line(line, sizeof line, f)) {   // columns past the buffer are ignored, as extra ones are
             lineno++;
-            int cls;
+            long cls;
             double xc, yc, w, h;
             char extra;
             if (line[strspn(line, " \t\r\n")] == '\0') {
                 continue;
             }
-            int got = sscanf(line, "%d %lf %lf %lf %lf %c", &cls, &xc, &yc, &w, &h, &extra);
-            if (got != 5 && !(got == 6)) {
-                snprintf(err, err_len, "%s line %u: expected 'class xc yc w h'", path, lineno);
+            int got = sscanf(line, "%ld %lf %lf %lf %lf %c", &cls, &xc, &yc, &w, &h, &extra);
+            if ((got != 5 && got != 6) || cls < INT32_MIN || cls > INT32_MAX || !isfinite(xc) || !isfinite(yc) ||
+                !isfinite(w) || !isfinite(h)) {
+                snprintf(err, err_len, "%s line %u: expected 'class xc yc w h' (finite numbers)", path, lineno);
                 fclose(f);
                 closedir(dp);
                 return VD_ERR_FORMAT;
             }
-            demo_gt_box_t b = {xc - w / 2, yc - h / 2, w, h, cls, class_selected(gt, cls), false};
+            demo_gt_box_t b = {xc - w / 2, yc - h / 2, w, h, (int32_t)cls, class_selected(gt, (int32_t)cls), false};
             if (!add_box(im, &b)) {
                 fclose(f);
                 closedir(dp);

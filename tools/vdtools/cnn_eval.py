@@ -29,6 +29,27 @@ from .evaluate import average_precision, iou, match_flags
 
 THRESHOLDS = [round(0.05 * i, 2) for i in range(1, 20)]
 
+# Camera-like changes applied to the test frames (--perturb): a proxy for "another camera" (other AGC
+# curve, contrast, optics, sensor noise), deterministic (noise seeded per frame index).
+PERTURB = {
+    "gamma0.6": lambda a, r: 255.0 * (a / 255.0) ** 0.6,
+    "gamma1.6": lambda a, r: 255.0 * (a / 255.0) ** 1.6,
+    "lowcontrast": lambda a, r: 0.6 * a + 50.0,
+    "blur1.5": lambda a, r: __import__("cv2").GaussianBlur(a, (7, 7), 1.5),
+    "noise6": lambda a, r: a + r.normal(0, 6.0, a.shape),
+}
+
+
+def perturb(frames, name):
+    import copy
+    out = []
+    for i, fr in enumerate(frames):
+        g = copy.copy(fr)
+        a = fr.img.astype(np.float64)
+        g.img = np.clip(np.round(PERTURB[name](a, np.random.default_rng(i))), 0, 255).astype(np.uint8)
+        out.append(g)
+    return out
+
 
 def nms(dets, thr=0.5):
     """Greedy suppression by score: a box whose IoU with a kept one is > thr goes (the detector's rule)."""
@@ -217,10 +238,13 @@ def main(argv=None):
     ap.add_argument("--paper", help="evaluate the paper pipeline instead: demo flags, e.g. \"--sources hotspot\" "
                     "(--model is then a DBN model; --backend demo)")
     ap.add_argument("--thr", type=float, help="operating point to report (default: chosen here, val split only)")
+    ap.add_argument("--perturb", choices=sorted(PERTURB), help="camera-like change of the frames (backends c/ref)")
     ap.add_argument("--out", help="JSON report")
     ap.add_argument("--pr", help="precision-recall PNG")
     a = ap.parse_args(argv)
     frames = CD.load_frames(a.data, splits=(a.split,))
+    if a.perturb:
+        frames = perturb(frames, a.perturb)
     t0 = time.time()
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split())
