@@ -174,6 +174,21 @@ def _aligned(n, a=8):
     return (n + a - 1) // a * a
 
 
+def cnn_workspace():
+    """[(model, parameters, MACs at 320x256, frame, detector workspace bytes)] for the committed CNN models."""
+    rows = []
+    try:
+        from vdtools import detector as det, cnn_vdm as V, cnn_ref as R
+        for path in sorted((REPO / "models").glob("vd_cnn*.vdm")):
+            desc = V.unpack(path.read_bytes())
+            for w, h in ((640, 512), (640, 480)):
+                rows.append((path.stem, R.params(desc), R.macs(desc, 320, 256), f"{w}×{h}",
+                             det.workspace_size(w, h, sources="cnn", cnn_model=str(path))))
+    except Exception as e:  # report what is measurable; the page says so
+        print(f"note: CNN workspace not measured ({e})", file=sys.stderr)
+    return rows
+
+
 def detector_workspace():
     """(total bytes, [(part, bytes, note)]) of the default detector at 640x512, or (None, [])."""
     try:
@@ -347,6 +362,18 @@ def main():
                   "stack of 4 B/px in `refine.c`). The labelling workspace A (run budget) fits under B, so",
                   "`max_runs` up to (B − row buffers) / 8 costs nothing at this size. Nothing scales with the",
                   "frame except the labeller's row buffers (24 B per 2 columns + 4 B per 2 rows)."]
+    cnn_rows = cnn_workspace()
+    if cnn_rows:
+        lines += ["", "## Detector workspace with the CNN source (issue 10)", "",
+                  "`vd_detector_workspace_size` with `sources = cnn` and the committed CNN models (the network's",
+                  "own workspace is `vd_cnn_workspace_size` at half the frame size: every activation a later layer",
+                  "still needs, planned first-fit by liveness, plus the network input plane). Goal ≤ 256 KiB: **not",
+                  "met** — the stride-4 skip tensor (80×64×32 B for `vd_cnn`) and the first layers' outputs are live",
+                  "together; running the early layers in row bands (MCUNetV2-style) is not implemented.", "",
+                  "| model | parameters | MACs at 320×256 | frame | detector workspace (bytes) |",
+                  "|---|---:|---:|---|---:|"]
+        for name, params, macs, frame, b in cnn_rows:
+            lines.append(f"| `{name}` | {params} | {macs / 1e6:.1f} M | {frame} | {b} ({b / 1024:.0f} KiB) |")
     if runs:
         lines += ["", "## Labelling run counts on real frames", "",
                   "Horizontal runs of pixels ≥ threshold per frame (`vd_cc_stats_t.runs`), measured with the",
