@@ -239,7 +239,7 @@ def expand_rect(box, fw, fh, wscale=1.5, hscale=2.0):
     return _clip_box(cx - nw / 2, cy - nh / 2, nw, nh, fw, fh)
 
 
-# ---------------------------------------------------------------- candidate stage (C when available)
+# ---------------------------------------------------------------- candidate stage (the C library)
 
 def _candidates_cv2(img, thr):
     mask = (img >= thr).astype(np.uint8)
@@ -256,18 +256,16 @@ _CAND_IMPL = None
 
 
 def _candidate_impl():
-    """The C candidate stage through the bindings of helpers "pixel"/"components" if they are
-    present and the shared build has them, else the cv2 stand-in (same rules)."""
+    """The C candidate stage (vd_threshold_u8 -> vd_components_label -> filter) through the shared build.
+    There is no silent stand-in: if the library does not load, or disagrees with the cv2 oracle on the
+    probe image, building a data set fails here, so a training set is never made by different code."""
     global _CAND_IMPL
     if _CAND_IMPL is None:
-        _CAND_IMPL = ("cv2", _candidates_cv2)
-        try:
-            from . import pixel, components  # noqa: F401
-            fn = _make_c_candidates(pixel, components)
-            if fn is not None:
-                _CAND_IMPL = ("C", fn)
-        except Exception:  # bindings not written yet or library not built
-            pass
+        from . import pixel, components
+        fn = _make_c_candidates(pixel, components)
+        if fn is None:
+            raise RuntimeError("the C candidate stage disagrees with the cv2 oracle on the probe image")
+        _CAND_IMPL = ("C", fn)
     return _CAND_IMPL
 
 
@@ -313,35 +311,20 @@ def candidates(img):
 
 # ---------------------------------------------------------------- samples
 
-def _sample_cv2(img, rect, mode):
-    """Stand-in used only while the C sampler (vdtools.samples) is unavailable."""
-    x, y, w, h = rect
-    crop = img[y:y + h, x:x + w]
-    if mode == "grey":
-        return cv2.resize(crop, (32, 32), interpolation=cv2.INTER_AREA)
-    # rough stand-in for the paper's shape image (the C refine is the real one): median 3, Otsu
-    med = cv2.medianBlur(np.ascontiguousarray(crop), 3)
-    _, m = cv2.threshold(med, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
-    return cv2.resize(m, (32, 32), interpolation=cv2.INTER_AREA)
-
-
 _SAMPLE_IMPL = {}
 
 
 def sample_impl(mode="grey"):
-    """('C', fn) through vdtools.samples.sample32 (the device's resampler, and for 'shape' the C
-    refine) when it works on a probe, else ('cv2', stand-in)."""
+    """('C', fn) through vdtools.samples.sample32 (the device's resampler, and for 'shape' the C refine).
+    No stand-in: a library that fails to load or a probe of the wrong shape raises."""
     if mode not in _SAMPLE_IMPL:
-        _SAMPLE_IMPL[mode] = ("cv2", _sample_cv2)
-        try:
-            from . import samples
-            probe = (np.arange(64 * 48, dtype=np.uint32).reshape(48, 64) * 7 % 251).astype(np.uint8)
-            s = samples.sample32(probe, (3, 5, 40, 30), mode)
-            if np.asarray(s).shape == (32, 32):
-                _SAMPLE_IMPL[mode] = ("C", lambda img, rect, m: np.asarray(
-                    samples.sample32(img, tuple(int(v) for v in rect), m), dtype=np.uint8).reshape(32, 32))
-        except Exception:
-            pass
+        from . import samples
+        probe = (np.arange(64 * 48, dtype=np.uint32).reshape(48, 64) * 7 % 251).astype(np.uint8)
+        s = samples.sample32(probe, (3, 5, 40, 30), mode)
+        if np.asarray(s).shape != (32, 32):
+            raise RuntimeError(f"vdtools.samples.sample32 returned shape {np.asarray(s).shape} on the probe")
+        _SAMPLE_IMPL[mode] = ("C", lambda img, rect, m: np.asarray(
+            samples.sample32(img, tuple(int(v) for v in rect), m), dtype=np.uint8).reshape(32, 32))
     return _SAMPLE_IMPL[mode]
 
 
