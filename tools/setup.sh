@@ -45,6 +45,16 @@ check "qemu-aarch64 (aarch64 program)" "qemu-user" qemu-aarch64 -L /usr/aarch64-
 
 # Python tools (tools/pyproject.toml lists them): numpy, scikit-learn, scikit-image,
 # opencv-python-headless (oracle + benchmark peer), matplotlib (figures), tqdm, pytest.
-PIP="python3 -m pip"
-$PIP install -q --upgrade pip >/dev/null 2>&1 || true
-$PIP install -q -e "$(dirname "$0")"
+# Debian's own python3 is "externally managed" (PEP 668): pip refuses to install into it
+# unless told --break-system-packages. That installs into /usr/local as root, ~/.local
+# otherwise (Debian's packages under /usr stay untouched), where the README's plain
+# `python3` finds the tools; a venv would not be on that python3's path. A pyenv or venv
+# Python has no marker and is used as before. pip itself is upgraded only there: Debian's
+# pip is patched to use the system CA store, a PyPI pip would shadow it in /usr/local.
+PIP_INSTALL=(python3 -m pip install -q)
+if python3 -c 'import os, sys, sysconfig; sys.exit(not os.path.exists(os.path.join(sysconfig.get_path("stdlib"), "EXTERNALLY-MANAGED")))'; then
+  PIP_INSTALL+=(--break-system-packages)   # an install option: it must follow "install"
+else
+  "${PIP_INSTALL[@]}" --upgrade pip >/dev/null 2>&1 || true
+fi
+"${PIP_INSTALL[@]}" -e "$(dirname "$0")"

@@ -133,7 +133,9 @@ static void put_file(files_t *fs, const char *name, size_t name_len, const char 
         fs->label[slot] = name[0] != '.' && name_len >= 5u && memcmp(name + name_len - 4u, ".txt", 4u) == 0 &&
                           !(name_len == 11u && memcmp(name, "classes.txt", 11u) == 0);
         fs->lines[slot] = 0u;
-        snprintf(fs->stem[slot], sizeof fs->stem[0], "%.*s", (int)(name_len - 4u), name);
+        // name is not NUL-terminated: the precision must never go negative (name_len < 4 made
+        // it so, and "%.*s" with a negative precision reads up to a NUL, past the fuzz input)
+        snprintf(fs->stem[slot], sizeof fs->stem[0], "%.*s", (int)(name_len >= 4u ? name_len - 4u : 0u), name);
     } else {
         fs->label[slot] = false;   // appended to: its lines may have been joined, no count
     }
