@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
 """The numpy integer reference of the int8 CNN (vdtools.cnn_ref) and the version-3 .vdm packer
-(vdtools.cnn_vdm), against the binding spec (/work/cnn_spec.md, docs/model-format.md): hand-worked
+(vdtools.cnn_vdm), against the format and arithmetic of docs/model-format.md and docs/fixed-point.md: hand-worked
 cases for every op, the percentile stretch, requantisation and decoding; the vectorised kernels
 against naive loops written straight from the spec formulas; pack/unpack round trips and rejections."""
 import shutil

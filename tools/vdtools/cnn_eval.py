@@ -11,8 +11,8 @@ Boxes then go through overlap suppression at IoU 0.5 as in the detector.
 The operating point is chosen on the VAL split (largest threshold whose TP rate and FP rate meet the
 issue's bar on both families, else the best mean F1) and then only reported on the test split.
 
-    python3 -m vdtools.cnn_eval --model models/vd_cnn.vdm --split val --out /tmp/val.json
-    python3 -m vdtools.cnn_eval --model models/vd_cnn.vdm --split test --thr 0.35 --out /tmp/test.json [--pr out.png]
+    python3 -m vdtools.cnn_eval --model models/vd_cnn.vdm --split val --out out/val.json
+    python3 -m vdtools.cnn_eval --model models/vd_cnn.vdm --split test --thr 0.35 --out out/test.json [--pr out.png]
 """
 import argparse
 import json

@@ -4,7 +4,7 @@ of vd's C inference (docs/performance.md). Weights, biases and zero points are t
 onnxruntime needs are rebuilt from the per-tensor scales of the export (ONNX requantises in float, so its
 int8 outputs may differ from vd's by one step; the benchmark compares time, parity is vd's own test).
 
-    python3 -m vdtools.cnn_onnx models/vd_cnn.vdm --scales tools/.cache/cnn/vd_cnn.scales.json --out /tmp/vd_cnn.onnx
+    python3 -m vdtools.cnn_onnx models/vd_cnn.vdm --scales models/vd_cnn.scales.json --out out/vd_cnn.onnx
 """
 import argparse
 import json

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""The numpy integer reference of the int8 CNN (/work/cnn_spec.md): input normalisation, the six
+"""The numpy integer reference of the int8 CNN (docs/model-format.md "CNN kind", docs/fixed-point.md "cnn"): input normalisation, the six
 layer ops with TFLite requantisation, and the fixed-point decoding. vd_cnn_run / vd_cnn_decode
 (lib/src/cnn.c) must equal it bit for bit (tests/python/test_cnn_parity.py).
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""The CNN kind of the .vdm model file (format version 3, /work/cnn_spec.md, docs/model-format.md):
+"""The CNN kind of the .vdm model file (format version 3, docs/model-format.md):
 pack an integer CNN description into a blob, parse one back, validate it the way vd_cnn_load does,
 write it as a const C array for flash, and run it through the C library (vd_cnn_* via ctypes).
 
