@@ -12,11 +12,11 @@
 #      works wherever our machines can install packages at all;
 #   2. mounts /proc, /sys, /dev (recursive bind) and ../shared (read-only bind) into it,
 #      removed again by an EXIT trap;
-#   3. puts a clean clone of the repository's HEAD at /work/main (committed state only:
+#   3. puts a clean clone of the repository's HEAD at work/main inside the chroot (committed state only:
 #      uncommitted edits of this tree are NOT tested, unless --worktree) and ../shared
-#      at /work/shared, the layout the README assumes;
+#      at work/shared beside it, the layout the README assumes;
 #   4. runs the README's two commands (read from its first ```sh block) one after the
-#      other, as root, in /work/main, timing each, and prints one PASS/FAIL line.
+#      other, as root, in work/main, timing each, and prints one PASS/FAIL line.
 #
 # Usage: sudo tools/fresh_check.sh [options]
 #   --dir DIR          chroot directory (default: tools/.cache/fresh, ignored by git)
@@ -178,7 +178,7 @@ if [ -n "$not_before" ]; then
 fi
 
 # Each command runs in a clean environment (nothing of this shell's PATH, pyenv or
-# virtualenv leaks in), as root, in /work/main, like a user pasting it into a shell.
+# virtualenv leaks in), as root, in the chroot's work/main, like a user pasting it into a shell.
 results=() status=0
 for i in 0 1; do
   say "command $((i + 1)): ${cmds[$i]}"

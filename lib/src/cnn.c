@@ -42,6 +42,7 @@
 #include "vd/cnn.h"
 
 #include "internal/cnn_internal.h"
+#include "internal/blob_internal.h"
 #include "internal/crc32.h"
 #include "internal/requant.h"
 #include "internal/vd_internal.h"
@@ -261,36 +262,6 @@ static bool chain_make(const vd_cnn_model_t *m, chain_t *c, uint32_t *align)
 
 // ------------------------------------------------------------------ loader
 
-static bool all_zero(const uint8_t *p, size_t n)
-{
-    for (size_t i = 0u; i < n; i++) {
-        if (p[i] != 0u) {
-            return false;
-        }
-    }
-    return true;
-}
-
-// Name: printable ASCII, then only NULs.
-static bool name_ok(const uint8_t *p)
-{
-    bool ended = false;
-    for (uint32_t i = 0u; i < H_NAME_LEN; i++) {
-        if (p[i] == 0u) {
-            ended = true;
-        } else if (ended || p[i] < 0x20u || p[i] > 0x7Eu) {
-            return false;
-        }
-    }
-    return true;
-}
-
-// One array: 4-byte aligned, inside [lo, total), no size overflow.
-static bool segment_ok(uint32_t off, uint32_t len, uint32_t lo, uint32_t total)
-{
-    return (off % 4u) == 0u && off >= lo && (uint64_t)off + len <= (uint64_t)total;
-}
-
 // Layer entry l of the blob as a vd_cnn_layer_t (array pointers set when
 // the offsets are nonzero; they are range-checked separately). offs gets the
 // four raw offsets.
@@ -420,13 +391,13 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes)
     VD_VERIFY(out_stride == 4u || out_stride == 8u, VD_ERR_MODEL);
     VD_VERIFY(b[H_RES0] == 0u && rd_u32(b + H_FLAGS) == 0u, VD_ERR_MODEL);
     VD_VERIFY(max_peaks >= 1u && max_peaks <= VD_CNN_MAX_PEAKS, VD_ERR_MODEL);
-    VD_VERIFY(name_ok(b + H_NAME), VD_ERR_MODEL);
-    VD_VERIFY(all_zero(b + H_RES1, VD_CNN_HEADER_SIZE - H_RES1), VD_ERR_MODEL);
+    VD_VERIFY(vd_blob_name_ok(b + H_NAME, H_NAME_LEN), VD_ERR_MODEL);
+    VD_VERIFY(vd_blob_all_zero(b + H_RES1, VD_CNN_HEADER_SIZE - H_RES1), VD_ERR_MODEL);
     VD_VERIFY(table >= VD_CNN_HEADER_SIZE && (table % 4u) == 0u, VD_ERR_MODEL);
     VD_VERIFY((uint64_t)table + (uint64_t)n_layers * VD_CNN_LAYER_ENTRY_SIZE <= (uint64_t)total, VD_ERR_MODEL);
     const uint32_t table_end = table + n_layers * VD_CNN_LAYER_ENTRY_SIZE;
     const uint32_t dec_len = 4u * 256u * n_ch;
-    VD_VERIFY(segment_ok(dec_off, dec_len, table_end, total), VD_ERR_MODEL);
+    VD_VERIFY(vd_blob_segment_ok(dec_off, dec_len, table_end, total), VD_ERR_MODEL);
 
     // Layers: fields, arrays in range, chain rules, per-channel values.
     chain_t c;
@@ -448,7 +419,7 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes)
             if (lens[s] == 0u) {
                 VD_VERIFY(offs[s] == 0u, VD_ERR_MODEL);
             } else {
-                VD_VERIFY(segment_ok(offs[s], lens[s], table_end, total), VD_ERR_MODEL);
+                VD_VERIFY(vd_blob_segment_ok(offs[s], lens[s], table_end, total), VD_ERR_MODEL);
             }
         }
         if (weighted(L.op)) {

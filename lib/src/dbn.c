@@ -26,6 +26,7 @@
 // 4*VD_DBN_MAX_LAYERS pairs (256 bytes for 8 layers); classify a few words.
 #include "vd/dbn.h"
 
+#include "internal/blob_internal.h"
 #include "internal/crc32.h"
 #include "internal/requant.h"
 #include "internal/vd_internal.h"
@@ -125,36 +126,6 @@ typedef struct segment {
     uint32_t len;
 } segment_t;
 
-// Checks one array: 4-byte aligned, inside [lo, total), no size overflow.
-static bool segment_ok(uint32_t off, uint64_t len, uint32_t lo, uint32_t total)
-{
-    return (off % 4u) == 0u && off >= lo && len <= (uint64_t)total && (uint64_t)off + len <= (uint64_t)total;
-}
-
-static bool all_zero(const uint8_t *p, size_t n)
-{
-    for (size_t i = 0u; i < n; i++) {
-        if (p[i] != 0u) {
-            return false;
-        }
-    }
-    return true;
-}
-
-// Name: printable ASCII, then only NULs.
-static bool name_ok(const uint8_t *p)
-{
-    bool ended = false;
-    for (uint32_t i = 0u; i < HDR_NAME_LEN; i++) {
-        if (p[i] == 0u) {
-            ended = true;
-        } else if (ended || p[i] < 0x20u || p[i] > 0x7Eu) {
-            return false;
-        }
-    }
-    return true;
-}
-
 // Per-unit checks of one layer: multiplier, shift, bias bound.
 static bool layer_values_ok(const vd_dbn_layer_t *l)
 {
@@ -212,8 +183,8 @@ vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
     } else {
         VD_VERIFY(version >= 2u && norm == (uint8_t)VD_DBN_NORM_MINMAX && min_range >= 1u, VD_ERR_MODEL);
     }
-    VD_VERIFY(all_zero(b + HDR_RESERVED1, VD_DBN_HEADER_SIZE - HDR_RESERVED1), VD_ERR_MODEL);
-    VD_VERIFY(name_ok(b + HDR_NAME), VD_ERR_MODEL);
+    VD_VERIFY(vd_blob_all_zero(b + HDR_RESERVED1, VD_DBN_HEADER_SIZE - HDR_RESERVED1), VD_ERR_MODEL);
+    VD_VERIFY(vd_blob_name_ok(b + HDR_NAME, HDR_NAME_LEN), VD_ERR_MODEL);
     VD_VERIFY(table >= VD_DBN_HEADER_SIZE && table <= total && (table % 4u) == 0u, VD_ERR_MODEL);
     VD_VERIFY((uint64_t)table + (uint64_t)n_layers * VD_DBN_LAYER_ENTRY_SIZE <= (uint64_t)total, VD_ERR_MODEL);
     const uint32_t table_end = table + n_layers * VD_DBN_LAYER_ENTRY_SIZE;
@@ -237,7 +208,7 @@ vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
         const uint64_t lens[4] = {(uint64_t)n_in * n_out, 4u * (uint64_t)n_out, 4u * (uint64_t)n_out,
                                   (uint64_t)n_out};
         for (uint32_t s = 0u; s < 4u; s++) {
-            VD_VERIFY(segment_ok(offs[s], lens[s], table_end, total), VD_ERR_MODEL);
+            VD_VERIFY(vd_blob_segment_ok(offs[s], lens[s], table_end, total), VD_ERR_MODEL);
             seg[n_seg].off = offs[s];
             seg[n_seg].len = (uint32_t)lens[s];
             n_seg++;

@@ -121,38 +121,10 @@ class GroundTruth:
 
 def match_frame(dets, gts):
     """dets: [(box, score)], gts: [(x, y, w, h, vehicle, ignore)] -> (tp, fp, ignored, n_vehicles)."""
-    order = sorted(range(len(dets)), key=lambda i: (-dets[i][1], i))
-    used = [False] * len(gts)
-    tp = fp = ign = 0
-    for i in order:
-        box = dets[i][0]
-        best, best_k = 0.0, -1
-        for k, g in enumerate(gts):
-            if not g[4] or used[k]:
-                continue
-            v = iou(box, g[:4])
-            if v >= 0.5 and v > best:
-                best, best_k = v, k
-        if best_k >= 0:
-            used[best_k] = True
-            tp += 1
-            continue
-        ignored = False
-        for g in gts:
-            if not g[5]:
-                continue
-            gx, gy, gw, gh = g[:4]
-            ix = min(box[0] + box[2], gx + gw) - max(box[0], gx)
-            iy = min(box[1] + box[3], gy + gh) - max(box[1], gy)
-            inside = ix * iy / (box[2] * box[3]) if ix > 0 and iy > 0 and box[2] > 0 and box[3] > 0 else 0.0
-            if iou(box, g[:4]) >= 0.5 or inside >= 0.5:
-                ignored = True
-                break
-        if ignored:
-            ign += 1
-        else:
-            fp += 1
-    return tp, fp, ign, sum(1 for g in gts if g[4])
+    flags, _ = match_flags(dets, gts)
+    tp = sum(1 for _, f in flags if f == 1)
+    fp = sum(1 for _, f in flags if f == 0)
+    return tp, fp, len(flags) - tp - fp, sum(1 for g in gts if g[4])
 
 
 def evaluate_jsonl(jsonl, annotations, classes=None):
