@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from vdtools import clib
+from vdtools.vdm import aligned_copy   # one aligned-copy helper for both .vdm kinds
 
 MAGIC = b"VDMF"
 VERSION = 3
@@ -470,14 +471,6 @@ def lib():
             f.restype = C.c_int
         _bound = True
     return lb
-
-
-def aligned_copy(blob, offset=0):
-    """(keepalive, address) of a copy of blob at an 8-byte aligned address + offset."""
-    keep = np.zeros((len(blob) + offset + 15) // 8, dtype=np.uint64)
-    addr = keep.ctypes.data + offset
-    C.memmove(addr, bytes(blob), len(blob))
-    return keep, addr
 
 
 def c_load(blob, offset=0, nbytes=None):
