@@ -223,11 +223,15 @@ def workspace_size(width=640, height=512, model=None, **cfg):
 
 class Detector:
     """One C detector with its own workspace. Keyword arguments: vd_detector_cfg_t fields
-    (cnn_model: path or bytes of a version-3 .vdm, with sources including "cnn")."""
+    (cnn_model: path or bytes of a version-3 .vdm, with sources including "cnn"), or prepared_cfg: a
+    complete DetectorCfg (its cnn_model, if any, kept alive by the caller)."""
 
-    def __init__(self, model=None, clock=False, **cfg):
+    def __init__(self, model=None, clock=False, prepared_cfg=None, **cfg):
         lib = _lib()
-        self.cfg, self._cnn = _cfg_with_cnn(**cfg)
+        if prepared_cfg is not None:
+            self.cfg, self._cnn = prepared_cfg, None
+        else:
+            self.cfg, self._cnn = _cfg_with_cnn(**cfg)
         self._clock_fn = None
         if clock:
             import time

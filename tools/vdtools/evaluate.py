@@ -211,7 +211,15 @@ def average_precision(frames):
         n_pos += sum(1 for g in gts if g[4])
     if n_pos == 0:
         return float("nan"), [], []
-    flags.sort(key=lambda st: -st[0])
+    return ap_from_flags(flags, n_pos)
+
+
+def ap_from_flags(flags, n_pos):
+    """AP@0.5 of pooled [(score, 1 = TP / 0 = FP)] (ignored detections left out) over n_pos vehicles, as
+    average_precision: (ap, recall, precision); ties keep the given order."""
+    if n_pos == 0:
+        return float("nan"), [], []
+    flags = sorted(flags, key=lambda st: -st[0])
     tp = fp = 0
     rec, prec = [], []
     for _, t in flags:

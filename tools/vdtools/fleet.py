@@ -1,0 +1,757 @@
+# SPDX-License-Identifier: MIT
+"""Fleet-scale evaluation: the C detector over many recordings on a Dask cluster (docs/fleet.md).
+
+    python3 -m vdtools.fleet MANIFEST --out DIR [--scheduler ADDRESS | --workers N] [--shard-frames 256]
+                             [--config FILE] [--sources ...] [--cnn-model F] [--model F] [--temporal on|off]
+                             [--mine DIR]
+
+MANIFEST: JSON Lines or CSV, one recording per row: "input" (a directory, a list file, or one image /
+raw / video file the port reads; relative paths are relative to the manifest), optional "id", "gt"
+(COCO-like JSON or YOLO folder, as vd_fir_demo --eval), "classes", "raw_size" ("WxH"), "raw_format"
+(u16 | u16be | u8), and any metadata ("camera", "date", "daynight", ...).
+
+Each recording is cut into shards of consecutive frame files (a multi-frame raw file and a file whose
+frame count is unknown, e.g. a video, stay whole). A shard runs on one worker: the capture port
+(libvd_port.so) reads its frames exactly as vd_fir_demo does, a fresh C detector (libvd.so, the code
+firmware links; the model bytes and the settings travel with the task) runs on each frame, and the
+shard's JSON Lines (the DESIGN.md contract, byte for byte what `vd_fir_demo --json` writes for the same
+frames) and metrics are written under temporary names and renamed when complete. Temporal analysis starts
+afresh at each shard (a tracker reset), so a shard's output equals the demo run on that shard's frames.
+The driver skips complete shards (resume), merges each recording's shards, checks that every input frame
+appears exactly once, and writes DIR/report.json and DIR/report.md.
+"""
+import argparse
+import csv
+import hashlib
+import io
+import json
+import math
+import os
+import shutil
+import socket
+import sys
+import time
+from pathlib import Path
+
+from vdtools import clib
+
+FRAME_EXTS = (".pgm", ".png", ".jpg", ".jpeg", ".raw", ".y16", ".gray")   # file_capture.c, k_frame_exts
+RAW_EXTS = (".raw", ".y16", ".gray")
+LIST_EXTS = (".txt", ".lst")
+IMAGE_EXTS = (".pgm", ".png", ".jpg", ".jpeg")
+STAGES = ("threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "contrast", "windows",
+          "cnn", "total")
+SRC_HOTSPOT, SRC_CONTRAST, SRC_WINDOW, SRC_CNN, SRC_ALL = 0x01, 0x02, 0x04, 0x08, 0x07
+VERSION = 1   # of the shard files; part of every shard's key
+
+
+class FleetError(RuntimeError):
+    pass
+
+
+# ------------------------------------------------------------------ manifest and shards
+
+def _parse_size(s):
+    w, h = str(s).lower().split("x")
+    return int(w), int(h)
+
+
+def read_manifest(path):
+    """[{id, input, gt, classes, raw_size, raw_format, meta}] from a JSON Lines or CSV manifest."""
+    path = Path(path)
+    text = path.read_text()
+    rows = []
+    if path.suffix.lower() == ".csv":
+        rows = [{k: v for k, v in r.items() if v not in (None, "")} for r in csv.DictReader(io.StringIO(text))]
+    else:
+        for n, line in enumerate(text.splitlines(), 1):
+            if line.strip() and not line.lstrip().startswith("#"):
+                try:
+                    rows.append(json.loads(line))
+                except json.JSONDecodeError as e:
+                    raise FleetError(f"{path}:{n}: not JSON ({e})") from None
+    recs, seen = [], set()
+    base = path.resolve().parent
+    for n, r in enumerate(rows):
+        if "input" not in r:
+            raise FleetError(f"{path}: row {n + 1} has no \"input\"")
+        inp = (base / r["input"]).resolve()
+        rid = str(r.get("id") or f"{n:04d}-{inp.stem if inp.is_file() else inp.name}")
+        rid = "".join(c if c.isalnum() or c in "-_." else "_" for c in rid)
+        if rid in seen:
+            raise FleetError(f"{path}: recording id {rid!r} appears twice")
+        seen.add(rid)
+        meta = {k: v for k, v in r.items() if k not in ("id", "input", "gt", "classes", "raw_size", "raw_format")}
+        recs.append(dict(id=rid, input=str(inp), gt=str((base / r["gt"]).resolve()) if r.get("gt") else None,
+                         classes=r.get("classes"), raw_size=_parse_size(r["raw_size"]) if r.get("raw_size") else None,
+                         raw_format=r.get("raw_format", "u16"), meta=meta))
+    return recs
+
+
+def _raw_frames(path, raw_size, raw_format):
+    if raw_size is None:
+        raise FleetError(f"{path}: a raw file needs raw_size (WxH) in the manifest")
+    bpp = 1 if raw_format == "u8" else 2
+    n = os.path.getsize(path) // (raw_size[0] * raw_size[1] * bpp)
+    return n
+
+
+def frame_files(rec):
+    """[(path, n_frames, names)] of a recording in the port's order (names None: unknown, e.g. a video).
+    Directory: every frame file sorted by name (bytes); list file: its lines (relative to the list, '#'
+    comments); otherwise the file itself. A raw file with several frames names them file#k."""
+    inp = Path(rec["input"])
+    if inp.is_dir():
+        paths = sorted((p for p in inp.iterdir() if p.suffix.lower() in FRAME_EXTS and p.is_file()
+                        and not p.name.startswith(".")), key=lambda p: os.fsencode(p.name))
+    elif inp.suffix.lower() in LIST_EXTS:
+        paths = []
+        for line in inp.read_text().splitlines():
+            s = line.strip()
+            if s and not s.startswith("#"):
+                paths.append(Path(s) if s.startswith("/") else inp.parent / s)
+    else:
+        paths = [inp]
+    out = []
+    for p in paths:
+        ext = p.suffix.lower()
+        if ext in RAW_EXTS:
+            n = _raw_frames(p, rec["raw_size"], rec["raw_format"])
+            names = [p.name] if n == 1 else [f"{p.name}#{k}" for k in range(n)]
+            out.append((str(p), n, names))
+        elif ext in IMAGE_EXTS:
+            out.append((str(p), 1, [p.name]))
+        else:
+            out.append((str(p), None, None))   # a video or another input only the port knows
+    return out
+
+
+def plan(recs, shard_frames=256):
+    """Shards: [{rec, index, files, names}] -- consecutive files of one recording, about shard_frames frames
+    each (0: whole recordings); a file is never split. names: the frame names the shard must produce
+    (None when the port alone knows them)."""
+    shards = []
+    for rec in recs:
+        files = frame_files(rec)
+        if not files:
+            raise FleetError(f"recording {rec['id']}: no frames in {rec['input']}")
+        cur, count = [], 0
+        groups = []
+        for f in files:
+            if f[1] is None or (cur and shard_frames and count + f[1] > shard_frames):
+                if cur:
+                    groups.append(cur)
+                cur, count = [], 0
+            cur.append(f)
+            count += f[1] or 0
+            if f[1] is None:
+                groups.append(cur)
+                cur, count = [], 0
+        if cur:
+            groups.append(cur)
+        for k, g in enumerate(groups):
+            names = None if any(f[1] is None for f in g) else [n for f in g for n in f[2]]
+            shards.append(dict(rec=rec["id"], index=k, files=[f[0] for f in g], names=names))
+    return shards
+
+
+# ------------------------------------------------------------------ detector settings (as vd_fir_demo)
+
+SETTINGS = ("sources", "cnn-model", "model", "temporal", "cnn-thr", "thr-mode", "hot-thr", "max-candidates",
+            "max-detections", "max-tracks")
+
+
+def _vdm_version(blob):
+    return blob[4] | (blob[5] << 8) if len(blob) >= 6 else 0
+
+
+def _source_bits(text):
+    bits = 0
+    for t in str(text).replace("+", ",").split(","):
+        t = t.strip()
+        b = {"hotspot": SRC_HOTSPOT, "contrast": SRC_CONTRAST, "window": SRC_WINDOW, "windows": SRC_WINDOW,
+             "all": SRC_ALL, "cnn": SRC_CNN}.get(t)
+        if b is None:
+            raise FleetError(f"bad value {text!r} for sources")
+        bits |= b
+    return bits
+
+
+def _switch(v):
+    if isinstance(v, bool):
+        return v
+    if str(v) in ("on", "true", "1", "yes"):
+        return True
+    if str(v) in ("off", "false", "0", "no"):
+        return False
+    raise FleetError(f"bad switch value {v!r}")
+
+
+def resolve(settings, models_dir=None):
+    """vd_fir_demo's detector set-up (tools/demo/main.c load_models, args.c) for the settings it shares
+    with the fleet: ({cfg field: value}, cnn model bytes or None, DBN model bytes or None, description).
+    settings: {name: value} with the demo's names (dashes or underscores)."""
+    s = {k.replace("_", "-"): v for k, v in (settings or {}).items()}
+    bad = sorted(set(s) - set(SETTINGS))
+    if bad:
+        raise FleetError(f"settings not supported by vdtools.fleet: {', '.join(bad)} (supported: {', '.join(SETTINGS)})")
+    models_dir = Path(models_dir or clib.REPO / "models")
+    fields = {"temporal": _switch(s.get("temporal", True))}
+    if "thr-mode" in s:
+        fields["thr_mode"] = {"constant": 0, "adaptive": 1}[s["thr-mode"]]
+    if "hot-thr" in s:
+        fields["hot_thr_u8"] = int(s["hot-thr"])
+    for k in ("max-candidates", "max-detections", "max-tracks"):
+        if k in s:
+            fields[k.replace("-", "_")] = int(s[k])
+    if "cnn-thr" in s:
+        fields["cnn_score_thr_q15"] = max(1, int(math.floor(float(s["cnn-thr"]) * 32768.0 + 0.5)))
+    mp = s.get("model")
+    none = mp == "none"
+    mblob = Path(mp).read_bytes() if mp and not none else None
+    model_is_cnn = mblob is not None and _vdm_version(mblob) == 3
+    def_cnn = models_dir / "vd_cnn.vdm"
+    if "sources" in s:
+        sources = _source_bits(s["sources"])
+    else:
+        use_cnn = "cnn-model" in s or model_is_cnn or (mp is None and def_cnn.is_file())
+        sources = SRC_CNN if use_cnn else SRC_HOTSPOT
+    fields["sources"] = sources
+    cnn = dbn = None
+    desc = {"sources": sources}
+    if sources & SRC_CNN:
+        if "cnn-model" in s:
+            cnn, desc["cnn_model"] = Path(s["cnn-model"]).read_bytes(), Path(s["cnn-model"]).name
+        elif model_is_cnn:
+            cnn, desc["cnn_model"] = mblob, Path(mp).name
+        elif def_cnn.is_file():
+            cnn, desc["cnn_model"] = def_cnn.read_bytes(), def_cnn.name
+        else:
+            raise FleetError(f"the cnn source needs a CNN model: cnn-model FILE ({def_cnn} not found)")
+        from vdtools import detector as vdet
+        m, _keep = vdet._load_cnn(cnn)
+        if "max-candidates" not in s:
+            mc = int(m.max_peaks) + (64 if sources & SRC_ALL else 0)
+            fields["max_candidates"] = min(mc, 4096)
+        if "max-detections" not in s:
+            fields["max_detections"] = min(int(m.max_peaks), fields["max_candidates"])
+    want_dbn = bool(sources & SRC_ALL)
+    if mblob is not None and not model_is_cnn:
+        dbn, desc["dbn_model"] = (mblob if want_dbn else None), Path(mp).name
+    elif want_dbn and not none:
+        cand = models_dir / "vd_dbn_grey.vdm"
+        if not cand.is_file():
+            cand = next((p for p in sorted(models_dir.glob("*.vdm"), key=lambda p: os.fsencode(p.name))
+                         if not p.name.startswith(".") and _vdm_version(p.read_bytes()) in (1, 2)), None)
+        if cand is not None:
+            dbn, desc["dbn_model"] = cand.read_bytes(), cand.name
+    return fields, cnn, dbn, desc
+
+
+# ------------------------------------------------------------------ one shard (runs on a worker)
+
+def _atomic_write(path, data):
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp.{socket.gethostname()}.{os.getpid()}")
+    with open(tmp, "wb") as f:
+        f.write(data if isinstance(data, bytes) else data.encode())
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def shard_paths(out_dir, rec, index):
+    d = Path(out_dir) / "shards" / rec
+    return d / f"{index:05d}.jsonl", d / f"{index:05d}.json"
+
+
+class _Runner:
+    """The C detector set up as vd_fir_demo's init_detector does for the first frame's size."""
+
+    def __init__(self, fields, cnn, dbn, width, height):
+        import ctypes as C
+        from vdtools import detector as vdet
+        lib = vdet._lib()
+        cfg = vdet.DetectorCfg()
+        lib.vd_detector_cfg_default(C.byref(cfg))
+        for k, v in fields.items():
+            setattr(cfg, k, v)
+        self._cnn = vdet._load_cnn(cnn) if cnn is not None else (None, None)
+        if self._cnn[0] is not None:
+            cfg.cnn_model = C.addressof(self._cnn[0])
+        cfg.max_width, cfg.max_height = width, height
+        cfg.max_region_w = min(cfg.max_region_w, width)
+        cfg.max_region_h = min(cfg.max_region_h, height)
+        self.det = vdet.Detector(model=dbn, clock=True, prepared_cfg=cfg)
+        self.width, self.height = width, height
+
+
+def _json_line(name, seq, w, h, dets):
+    """One line exactly as tools/demo/main.c write_json_line prints it."""
+    parts = []
+    for d in dets:
+        tr = str(d["track"]) if d["track"] and d["state"] is not None else "null"
+        parts.append(f"{{\"box\": [{d['box'][0]}, {d['box'][1]}, {d['box'][2]}, {d['box'][3]}], "
+                     f"\"score\": {d['score_q8'] / 255.0:.3f}, \"track\": {tr}, \"source\": \"{d['source']}\", "
+                     f"\"state\": \"{d['state'] or 'new'}\"}}")
+    return (f"{{\"frame\": {json.dumps(name, ensure_ascii=False)}, \"seq\": {seq}, \"width\": {w}, \"height\": {h}, "
+            f"\"detections\": [{', '.join(parts)}]}}\n")
+
+
+_GT_CACHE = {}
+
+
+def _ground_truth(path, classes):
+    from vdtools.evaluate import GroundTruth
+    key = (path, str(classes), os.path.getmtime(path))
+    if key not in _GT_CACHE:
+        _GT_CACHE.clear()
+        _GT_CACHE[key] = GroundTruth(path, classes)
+    return _GT_CACHE[key]
+
+
+def _hot_flags(img, boxes):
+    """vdtools.cnn_data's rule: a vehicle is hot when its box holds a pixel >= the frame's 99th percentile."""
+    import numpy as np
+    thr = np.percentile(img, 99.0)
+    out = []
+    for x, y, w, h in boxes:
+        x0, y0 = max(int(x), 0), max(int(y), 0)
+        roi = img[y0:y0 + max(1, int(h)), x0:x0 + max(1, int(w))]
+        out.append(bool(roi.size and roi.max() >= thr))
+    return out
+
+
+def _crop_rect(box, fw, fh):
+    """The box with as much context again around it (2x each side, at least 32 px), clipped to the frame."""
+    x, y, w, h = box
+    cw, ch = max(2 * w, 32), max(2 * h, 32)
+    x0 = int(max(0, math.floor(x + w / 2 - cw / 2)))
+    y0 = int(max(0, math.floor(y + h / 2 - ch / 2)))
+    x1 = int(min(fw, math.ceil(x + w / 2 + cw / 2)))
+    y1 = int(min(fh, math.ceil(y + h / 2 + ch / 2)))
+    return x0, y0, x1 - x0, y1 - y0
+
+
+def _mine_frame(img, gts, kinds, stem, tmp_dir):
+    """Crops of one frame's false positives and misses: [(image entry, [annotations])] with the crop PNGs
+    written into tmp_dir. Annotations: every ground-truth vehicle (1 Car) and ignore region (4 DontCare)
+    that overlaps the crop, clipped and in crop coordinates; a false positive's crop has no vehicle
+    where the detector fired (a hard negative), a miss's crop has the missed vehicle (a hard positive)."""
+    import cv2
+    import numpy as np
+    from vdtools.dataset import grey_of_ck
+    fh, fw = img.shape
+    grey = img if img.dtype == np.uint8 else grey_of_ck(img)
+    out = []
+    for j, (kind, box, score) in enumerate(kinds):
+        cx, cy, cw, ch = _crop_rect(box, fw, fh)
+        if cw <= 0 or ch <= 0:
+            continue
+        fn = f"{stem}_{kind}{j}.png"
+        cv2.imwrite(str(Path(tmp_dir) / fn), grey[cy:cy + ch, cx:cx + cw])
+        anns = []
+        for g in gts:
+            if not (g[4] or g[5]):
+                continue
+            gx0, gy0 = max(g[0], cx), max(g[1], cy)
+            gx1, gy1 = min(g[0] + g[2], cx + cw), min(g[1] + g[3], cy + ch)
+            if gx1 > gx0 and gy1 > gy0:
+                anns.append(dict(bbox=[round(gx0 - cx, 2), round(gy0 - cy, 2), round(gx1 - gx0, 2), round(gy1 - gy0, 2)],
+                                 category_id=1 if g[4] else 4))
+        out.append((dict(filename=fn, width=cw, height=ch, kind=kind, crop=[cx, cy, cw, ch],
+                         box=[round(float(v), 2) for v in box], score=score), anns))
+    return out
+
+
+def run_shard(spec, models, on_frame=None):
+    """Runs one shard and commits its files; returns its metrics. spec: a plan() shard plus out, key,
+    settings (resolve()'s fields), recording (gt, classes, raw_size, raw_format, meta), mine (dir or None).
+    models: (cnn bytes, DBN bytes). on_frame(i): called after frame i is written (progress, fault tests).
+    A shard whose metrics file exists with the same key is not run again."""
+    import numpy as np
+    from vdtools import port
+    from vdtools.evaluate import match_flags
+    t_start = time.perf_counter()
+    jpath, mpath = shard_paths(spec["out"], spec["rec"], spec["index"])
+    if mpath.exists():
+        old = json.loads(mpath.read_text())
+        if old.get("key") == spec["key"]:
+            return old
+    rec = spec["recording"]
+    tag = f"{socket.gethostname()}.{os.getpid()}"
+    jpath.parent.mkdir(parents=True, exist_ok=True)
+    jtmp = jpath.with_name(f".{jpath.name}.tmp.{tag}")
+    # frames as the demo reads them: one capture over the shard's files
+    if len(spec["files"]) == 1:
+        src = spec["files"][0]
+        lst = None
+    else:
+        lst = jpath.with_name(f".{jpath.stem}.tmp.{tag}.lst")   # the port knows a list by its extension
+        lst.write_text("".join(f + "\n" for f in spec["files"]))
+        src = str(lst)
+    gt = _ground_truth(rec["gt"], rec.get("classes")) if rec.get("gt") else None
+    mine_dir = spec.get("mine")
+    mine_tmp = None
+    if mine_dir and gt is not None:
+        mine_tmp = Path(mine_dir) / "images" / f".tmp.{spec['rec']}.{spec['index']:05d}.{tag}"
+        mine_tmp.mkdir(parents=True, exist_ok=True)
+    cnn, dbn = models
+    runner = None
+    stage_us = [0] * len(STAGES)
+    acc = dict(frames=0, frames_annotated=0, detections=0, vehicles=0, tp=0, fp=0, ignored=0, hot=0, hot_tp=0)
+    ap_flags, names, mined = [], [], []
+    t_det = 0.0
+    try:
+        with open(jtmp, "w") as jf, port.Capture(src, rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
+            for i, (f, name) in enumerate(cap):
+                if runner is None:
+                    runner = _Runner(spec["settings"], cnn, dbn, f.width, f.height)
+                elif (f.width, f.height) != (runner.width, runner.height):
+                    raise FleetError(f"{name}: {f.width}x{f.height}, but the shard started with "
+                                     f"{runner.width}x{runner.height} frames")
+                t0 = time.perf_counter()
+                img = port.pixels(f)
+                dets, st = runner.det.run(img, seq=f.seq)
+                t_det += time.perf_counter() - t0
+                for k, s in enumerate(STAGES):
+                    stage_us[k] += st["time_us"][s]
+                jf.write(_json_line(name, f.seq, f.width, f.height, dets))
+                names.append(name)
+                acc["frames"] += 1
+                acc["detections"] += len(dets)
+                boxes = gt.boxes(name, f.width, f.height) if gt is not None else None
+                if boxes is not None:
+                    pairs = [(d["box"], round(d["score_q8"] / 255.0, 3)) for d in dets]
+                    flags, matched = match_flags(pairs, boxes)
+                    order = sorted(range(len(pairs)), key=lambda i2: (-pairs[i2][1], i2))
+                    veh = [k for k, g in enumerate(boxes) if g[4]]
+                    hot = _hot_flags(img, [boxes[k][:4] for k in veh])
+                    acc["frames_annotated"] += 1
+                    acc["vehicles"] += len(veh)
+                    acc["tp"] += sum(1 for _, t in flags if t == 1)
+                    acc["fp"] += sum(1 for _, t in flags if t == 0)
+                    acc["ignored"] += sum(1 for _, t in flags if t is None)
+                    acc["hot"] += sum(hot)
+                    acc["hot_tp"] += sum(1 for k, h in zip(veh, hot) if h and k in matched)
+                    ap_flags += [[s, t] for s, t in flags if t is not None]
+                    if mine_tmp is not None:
+                        kinds = [("fp", pairs[order[j]][0], pairs[order[j]][1])
+                                 for j, (_, t) in enumerate(flags) if t == 0]
+                        kinds += [("miss", list(boxes[k][:4]), None) for k in veh if k not in matched]
+                        if kinds:
+                            stem = f"{spec['rec']}_{Path(name).stem.replace('#', '_')}"
+                            for im, anns in _mine_frame(img, boxes, kinds, stem, mine_tmp):
+                                im.update(recording=spec["rec"], frame=name, seq=int(f.seq))
+                                mined.append((im, anns))
+                if on_frame is not None:
+                    on_frame(i)
+            jf.flush()
+            os.fsync(jf.fileno())
+        if spec["names"] is not None and names != spec["names"]:
+            raise FleetError(f"shard {spec['rec']}/{spec['index']}: read {len(names)} frames, expected "
+                             f"{len(spec['names'])} ({spec['files'][0]} ...)")
+        worker = "local"
+        try:
+            from distributed import get_worker
+            worker = get_worker().address
+        except (ImportError, ValueError):
+            pass
+        metrics = dict(key=spec["key"], rec=spec["rec"], index=spec["index"], meta=rec.get("meta", {}),
+                       names=names, worker=worker, pid=os.getpid(), wall_s=time.perf_counter() - t_start,
+                       detector_s=t_det, stage_us=dict(zip(STAGES, stage_us)), ap_flags=ap_flags,
+                       has_gt=gt is not None, mined=0, **acc)
+        # commit: crops, then the mining fragment, then the detections, and last the metrics (the shard's
+        # completion mark): a shard killed before the last rename is run again from scratch
+        if mine_tmp is not None:
+            final = Path(mine_dir) / "images"
+            for im, _ in mined:
+                os.replace(mine_tmp / im["filename"], final / im["filename"])
+            frag = Path(mine_dir) / "shards" / spec["rec"] / f"{spec['index']:05d}.json"
+            _atomic_write(frag, json.dumps([[im, anns] for im, anns in mined]))
+            metrics["mined"] = len(mined)
+        os.replace(jtmp, jpath)
+        _atomic_write(mpath, json.dumps(metrics))
+        return metrics
+    finally:
+        for p in (jtmp, lst):
+            if p is not None and p.exists():
+                p.unlink()
+        if mine_tmp is not None and mine_tmp.exists():
+            shutil.rmtree(mine_tmp, ignore_errors=True)
+
+
+# ------------------------------------------------------------------ driver
+
+def _key(shard, fields, models):
+    h = hashlib.sha256()
+    h.update(json.dumps([VERSION, shard["rec"], shard["index"], shard["files"], fields], sort_keys=True).encode())
+    for m in models:
+        h.update(hashlib.sha256(m or b"").digest())
+    return h.hexdigest()[:24]
+
+
+def _start_client(scheduler, workers):
+    from distributed import Client, LocalCluster
+    if scheduler:
+        return Client(scheduler), None
+    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=50)
+    return Client(cluster), cluster
+
+
+def _clean_tmp(out_dir, mine_dir):
+    """Removes temporary files of killed attempts (never a committed file)."""
+    for root in (Path(out_dir) / "shards", Path(mine_dir) / "images" if mine_dir else None):
+        if root is None or not root.exists():
+            continue
+        for p in list(root.rglob(".*.tmp.*")) + list(root.glob(".tmp.*")):
+            if p.is_dir():
+                shutil.rmtree(p, ignore_errors=True)
+            elif p.exists():
+                p.unlink()
+
+
+def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_frames=256, mine=None,
+        retries=2, shard_fn=None, client=None, log=print):
+    """The whole evaluation; returns the report dict (also DIR/report.json and DIR/report.md).
+    shard_fn: the task (default run_shard; tests wrap it to inject faults); client: an existing
+    distributed.Client (then scheduler/workers are not used). Raises FleetError when a shard fails for
+    good or a frame is missing or duplicated."""
+    out_dir = Path(out_dir).resolve()
+    recs = read_manifest(manifest)
+    fields, cnn, dbn, desc = resolve(settings)
+    shards = plan(recs, shard_frames)
+    byid = {r["id"]: r for r in recs}
+    mine_dir = str(Path(mine).resolve()) if mine else None
+    if mine_dir:
+        (Path(mine_dir) / "images").mkdir(parents=True, exist_ok=True)
+    _clean_tmp(out_dir, mine_dir)
+    todo, results = [], {}
+    for s in shards:
+        r = byid[s["rec"]]
+        s.update(out=str(out_dir), key=_key(s, fields, (cnn, dbn)), settings=fields, mine=mine_dir,
+                 recording=dict(gt=r["gt"], classes=r["classes"], raw_size=r["raw_size"],
+                                raw_format=r["raw_format"], meta=r["meta"]))
+        _, mpath = shard_paths(out_dir, s["rec"], s["index"])
+        if mpath.exists():
+            old = json.loads(mpath.read_text())
+            if old.get("key") != s["key"]:
+                raise FleetError(f"{mpath} holds a result of other settings, models or frames: use another --out")
+            if mine_dir and old.get("has_gt") and not (Path(mine_dir) / "shards" / s["rec"] /
+                                                       f"{s['index']:05d}.json").exists():
+                mpath.unlink()   # run again for its hard examples
+                todo.append(s)
+                continue
+            results[(s["rec"], s["index"])] = old
+        else:
+            todo.append(s)
+    log(f"vdtools.fleet: {len(recs)} recordings, {len(shards)} shards ({len(shards) - len(todo)} complete, "
+        f"{len(todo)} to run); sources {desc}")
+    cluster = None
+    n_workers = 0
+    wall = 0.0
+    if todo:
+        from distributed import as_completed
+        own = client is None
+        if own:
+            client, cluster = _start_client(scheduler, workers)
+        try:
+            n_workers = len(client.scheduler_info()["workers"])
+            mfut = client.scatter((cnn, dbn), broadcast=True)
+            t0 = time.perf_counter()   # cluster start-up is not part of the throughput
+            fn = shard_fn or run_shard
+            futs = {client.submit(fn, s, mfut, retries=retries, pure=False,
+                                  key=f"vd-shard-{s['rec']}-{s['index']:05d}-{s['key'][:8]}"): s for s in todo}
+            failed = []
+            for fut in as_completed(futs):
+                s = futs[fut]
+                if fut.status == "finished":
+                    results[(s["rec"], s["index"])] = fut.result()
+                else:
+                    failed.append((s, repr(fut.exception())))
+            if failed:
+                raise FleetError(f"{len(failed)} shards failed for good (rerun resumes): " +
+                                 "; ".join(f"{s['rec']}/{s['index']}: {e}" for s, e in failed[:5]))
+            wall = time.perf_counter() - t0
+        finally:
+            if own:
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+    _clean_tmp(out_dir, mine_dir)
+    report = reduce(recs, shards, results, out_dir, wall, n_workers, desc, mine_dir)
+    log(format_summary(report))
+    return report
+
+
+def _merge_recordings(recs, shards, out_dir):
+    """DIR/recordings/<id>.jsonl: the shards in order. Returns {id: frames} after checking every frame
+    exactly once (names as planned; shard files agree with their metrics)."""
+    per = {}
+    for s in shards:
+        per.setdefault(s["rec"], []).append(s)
+    counts = {}
+    problems = []
+    for rec in recs:
+        lines, names = [], []
+        for s in sorted(per[rec["id"]], key=lambda s: s["index"]):
+            jpath, mpath = shard_paths(out_dir, s["rec"], s["index"])
+            m = json.loads(mpath.read_text())
+            got = jpath.read_text().splitlines(keepends=True)
+            gnames = [json.loads(x)["frame"] for x in got]
+            if gnames != m["names"]:
+                problems.append(f"{jpath}: {len(gnames)} lines, metrics list {len(m['names'])} frames")
+            if s["names"] is not None and gnames != s["names"]:
+                problems.append(f"{jpath}: frames differ from the plan ({len(gnames)} vs {len(s['names'])})")
+            lines += got
+            names += gnames
+        expected = [n for s in per[rec["id"]] if s["names"] is not None for n in s["names"]]
+        if all(s["names"] is not None for s in per[rec["id"]]) and names != expected:
+            problems.append(f"recording {rec['id']}: {len(names)} frames out, {len(expected)} in")
+        seen = {}
+        for n in names:
+            seen[n] = seen.get(n, 0) + 1
+        dup = [n for n, c in seen.items() if c > 1]
+        if dup and len(set(expected)) == len(expected):
+            problems.append(f"recording {rec['id']}: frames twice: {dup[:3]}")
+        _atomic_write(Path(out_dir) / "recordings" / f"{rec['id']}.jsonl", "".join(lines))
+        counts[rec["id"]] = len(names)
+    if problems:
+        raise FleetError("exactly-once check failed: " + "; ".join(problems[:5]))
+    return counts
+
+
+def _ap(flags, n_pos):
+    from vdtools.evaluate import ap_from_flags
+    return ap_from_flags([tuple(f) for f in flags], n_pos)
+
+
+def _group_figures(ms):
+    tot = {k: sum(m[k] for m in ms) for k in ("frames_annotated", "vehicles", "tp", "fp", "ignored", "hot", "hot_tp")}
+    det = tot["tp"] + tot["fp"]
+    cold = tot["vehicles"] - tot["hot"]
+    r = lambda a, b: a / b if b else None
+    ap = _ap([f for m in ms for f in m["ap_flags"]], tot["vehicles"])[0]
+    return dict(tot, ap50=None if ap != ap else ap, tp_rate=r(tot["tp"], tot["vehicles"]), fp_rate=r(tot["fp"], det),
+                fppi=r(tot["fp"], tot["frames_annotated"]), hot_tp_rate=r(tot["hot_tp"], tot["hot"]),
+                cold_tp_rate=r(tot["tp"] - tot["hot_tp"], cold), cold=cold)
+
+
+def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=None):
+    """One report from the shard metrics (and the merged recordings): throughput, stages, accuracy."""
+    counts = _merge_recordings(recs, shards, out_dir)
+    ms = [results[(s["rec"], s["index"])] for s in shards]
+    frames = sum(m["frames"] for m in ms)
+    if frames != sum(counts.values()):
+        raise FleetError(f"exactly-once check failed: metrics count {frames} frames, recordings {sum(counts.values())}")
+    workers = {}
+    for m in ms:
+        w = workers.setdefault(m["worker"], dict(shards=0, frames=0, busy_s=0.0, detector_s=0.0))
+        w["shards"] += 1
+        w["frames"] += m["frames"]
+        w["busy_s"] += m["wall_s"]
+        w["detector_s"] += m["detector_s"]
+    for w in workers.values():
+        w["fps_busy"] = w["frames"] / w["busy_s"] if w["busy_s"] else None
+        w["fps_detector"] = w["frames"] / w["detector_s"] if w["detector_s"] else None
+    stage_ms = {s: sum(m["stage_us"][s] for m in ms) / 1000.0 / max(frames, 1) for s in STAGES}
+    busy = sum(m["wall_s"] for m in ms)
+    det_s = sum(m["detector_s"] for m in ms)
+    report = dict(recordings=len(recs), shards=len(shards), frames=frames, detections=sum(m["detections"] for m in ms),
+                  settings=desc, workers_in_cluster=n_workers, wall_s=wall_s,
+                  fps_total=frames / wall_s if wall_s > 0 and n_workers else None,
+                  shard_busy_s=busy, detector_s=det_s, overhead_per_shard_s=(busy - det_s) / max(len(ms), 1),
+                  stage_ms_per_frame=stage_ms, workers=workers, exactly_once=True)
+    gt_ms = [m for m in ms if m["has_gt"]]
+    if gt_ms:
+        acc = {"all": _group_figures(gt_ms)}
+        for key in ("camera", "daynight", "date"):
+            vals = sorted({str(m["meta"].get(key)) for m in gt_ms if key in m["meta"]})
+            for v in vals:
+                acc[f"{key}={v}"] = _group_figures([m for m in gt_ms if str(m["meta"].get(key)) == v])
+        report["accuracy"] = acc
+    if mine_dir:
+        report["mined"] = _merge_mined(recs, shards, mine_dir)
+    _atomic_write(Path(out_dir) / "report.json", json.dumps(report, indent=1))
+    _atomic_write(Path(out_dir) / "report.md", format_summary(report) + "\n")
+    return report
+
+
+def _merge_mined(recs, shards, mine_dir):
+    """mine_dir/annotations.json (the HIT-UAV COCO-like layout vdtools.dataset reads: images with
+    "filename", boxes under "annotation" and "annotations", 1 Car / 4 DontCare) from the shard fragments."""
+    from vdtools.clip import CATEGORIES
+    gt_recs = {r["id"] for r in recs if r["gt"]}
+    images, anns = [], []
+    for s in shards:
+        if s["rec"] not in gt_recs:
+            continue
+        frag = Path(mine_dir) / "shards" / s["rec"] / f"{s['index']:05d}.json"
+        for im, a in json.loads(frag.read_text()):
+            im = dict(im, id=len(images))
+            images.append(im)
+            for x in a:
+                anns.append(dict(x, id=len(anns), image_id=im["id"], iscrowd=0,
+                                 area=round(x["bbox"][2] * x["bbox"][3], 2)))
+    doc = dict(info={"description": "hard examples mined by vdtools.fleet: false positives (kind fp) and "
+                                    "missed vehicles (kind miss), crops with their frame references"},
+               categories=CATEGORIES, images=images, annotation=anns, annotations=anns)
+    _atomic_write(Path(mine_dir) / "annotations.json", json.dumps(doc))
+    return dict(crops=len(images), fp=sum(1 for i in images if i["kind"] == "fp"),
+                miss=sum(1 for i in images if i["kind"] == "miss"))
+
+
+def format_summary(r):
+    pct = lambda v: "n/a" if v is None else f"{100 * v:.2f}%"
+    lines = [f"vdtools.fleet: {r['recordings']} recordings, {r['shards']} shards, {r['frames']} frames "
+             f"(each exactly once), {r['detections']} detections"]
+    if r["fps_total"]:
+        lines.append(f"  {r['fps_total']:.1f} frames/s total over {r['workers_in_cluster']} workers "
+                     f"({r['wall_s']:.2f} s wall); overhead per shard {1000 * r['overhead_per_shard_s']:.1f} ms")
+    for w, v in sorted(r["workers"].items()):
+        if v["fps_busy"]:
+            lines.append(f"  worker {w}: {v['shards']} shards, {v['frames']} frames, {v['fps_busy']:.1f} frames/s "
+                         f"busy, {v['fps_detector']:.1f} frames/s in the detector")
+    lines.append("  ms per frame: " + ", ".join(f"{k} {v:.2f}" for k, v in r["stage_ms_per_frame"].items() if v > 0))
+    for g, a in r.get("accuracy", {}).items():
+        ap = "n/a" if a["ap50"] is None else f"{100 * a['ap50']:.1f}"
+        lines.append(f"  [{g}] {a['frames_annotated']} frames, {a['vehicles']} vehicles: AP@0.5 {ap}  "
+                     f"TP rate {pct(a['tp_rate'])}  FP rate {pct(a['fp_rate'])}  "
+                     f"(hot {pct(a['hot_tp_rate'])} of {a['hot']}, cold {pct(a['cold_tp_rate'])} of {a['cold']})")
+    if "mined" in r:
+        m = r["mined"]
+        lines.append(f"  mined {m['crops']} crops ({m['fp']} false positives, {m['miss']} misses)")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python3 -m vdtools.fleet", description=__doc__.split("\n\n")[0])
+    ap.add_argument("manifest", help="JSON Lines or CSV, one recording per row")
+    ap.add_argument("--out", required=True, help="output directory (shards/, recordings/, report.json, report.md)")
+    ap.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a LocalCluster here)")
+    ap.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
+    ap.add_argument("--shard-frames", type=int, default=256, help="frames per shard (0: whole recordings)")
+    ap.add_argument("--retries", type=int, default=2, help="retries of a shard that raises")
+    ap.add_argument("--mine", metavar="DIR", help="write false positives and misses (crops + frame references)")
+    ap.add_argument("--config", help="detector settings, a JSON object with vd_fir_demo's names")
+    for k in SETTINGS:
+        ap.add_argument(f"--{k}", dest="set_" + k.replace("-", "_"), help=f"as vd_fir_demo --{k}")
+    a = ap.parse_args(argv)
+    settings = json.loads(Path(a.config).read_text()) if a.config else {}
+    for k in SETTINGS:
+        v = getattr(a, "set_" + k.replace("-", "_"))
+        if v is not None:
+            settings[k] = v
+    try:
+        run(a.manifest, a.out, settings, scheduler=a.scheduler, workers=a.workers, shard_frames=a.shard_frames,
+            mine=a.mine, retries=a.retries)
+    except FleetError as e:
+        print(f"vdtools.fleet: error: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
