@@ -44,7 +44,8 @@ check "qemu-arm (armhf program)" "qemu-user" qemu-arm -L /usr/arm-linux-gnueabih
 check "qemu-aarch64 (aarch64 program)" "qemu-user" qemu-aarch64 -L /usr/aarch64-linux-gnu "$tmp/g"
 
 # Python tools (tools/pyproject.toml lists them): numpy, scikit-learn, scikit-image,
-# opencv-python-headless (oracle + benchmark peer), matplotlib (figures), tqdm, pytest.
+# opencv-python-headless (oracle + benchmark peer), matplotlib (figures), tqdm, pytest;
+# the "fleet" extra: dask[distributed] for vdtools.fleet and its fault tests (tests/python/test_fleet.py).
 # Debian's own python3 is "externally managed" (PEP 668): pip refuses to install into it
 # unless told --break-system-packages. That installs into /usr/local as root, ~/.local
 # otherwise (Debian's packages under /usr stay untouched), where the README's plain
@@ -57,4 +58,4 @@ if python3 -c 'import os, sys, sysconfig; sys.exit(not os.path.exists(os.path.jo
 else
   "${PIP_INSTALL[@]}" --upgrade pip >/dev/null 2>&1 || true
 fi
-"${PIP_INSTALL[@]}" -e "$(dirname "$0")"
+"${PIP_INSTALL[@]}" -e "$(dirname "$0")[fleet]"
