@@ -726,10 +726,44 @@ def format_summary(r):
     return "\n".join(lines)
 
 
+def shared_data_manifest(data_dir, out_dir):
+    """Writes out_dir/manifest.jsonl over ../shared/data (read in place, never copied): one recording per
+    MSRS block (day/night, frame number // 40: continuous drive samples), per HIT-UAV flight (T_H_A) and
+    the HIT-UAV sequence; each a list file of frame paths, with its ground truth and camera / daynight.
+    Returns the manifest path."""
+    data_dir, out_dir = Path(data_dir).resolve(), Path(out_dir).resolve()
+    lists = out_dir / "lists"
+    lists.mkdir(parents=True, exist_ok=True)
+    rows = []
+    groups = {}
+    for p in sorted((data_dir / "msrs" / "images").glob("*.png")):
+        dn = "day" if p.stem.endswith("D") else "night"
+        groups.setdefault((dn, int(p.stem[:-1]) // 40), []).append(p)
+    for (dn, blk), ps in sorted(groups.items()):
+        rid = f"msrs-{dn}-{blk:02d}"
+        (lists / f"{rid}.lst").write_text("".join(f"{p}\n" for p in ps))
+        rows.append(dict(id=rid, input=f"lists/{rid}.lst", gt=str(data_dir / "msrs" / "labels"), camera="msrs",
+                         daynight=dn))
+    for sub, cam in (("frames", "hit-uav"), ("sequence-0_100", "hit-uav-seq")):
+        flights = {}
+        for p in sorted((data_dir / "hit-uav" / sub / "images").glob("*.jpg")):
+            flights.setdefault("_".join(p.stem.split("_")[:3]), []).append(p)
+        for f, ps in sorted(flights.items()):
+            rid = f"{cam}-{f}"
+            (lists / f"{rid}.lst").write_text("".join(f"{p}\n" for p in ps))
+            rows.append(dict(id=rid, input=f"lists/{rid}.lst", gt=str(data_dir / "hit-uav" / sub / "annotations.json"),
+                             camera=cam, daynight="day" if f.startswith("0_") else "night"))
+    m = out_dir / "manifest.jsonl"
+    m.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    return m
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python3 -m vdtools.fleet", description=__doc__.split("\n\n")[0])
-    ap.add_argument("manifest", help="JSON Lines or CSV, one recording per row")
-    ap.add_argument("--out", required=True, help="output directory (shards/, recordings/, report.json, report.md)")
+    ap.add_argument("manifest", nargs="?", help="JSON Lines or CSV, one recording per row")
+    ap.add_argument("--out", help="output directory (shards/, recordings/, report.json, report.md)")
+    ap.add_argument("--shared-manifest", metavar="DIR", help="only write DIR/manifest.jsonl over ../shared/data "
+                    "(or $VD_DATA_DIR): MSRS blocks, HIT-UAV flights and sequence, each a recording")
     ap.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a LocalCluster here)")
     ap.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
     ap.add_argument("--shard-frames", type=int, default=256, help="frames per shard (0: whole recordings)")
@@ -739,6 +773,11 @@ def main(argv=None):
     for k in SETTINGS:
         ap.add_argument(f"--{k}", dest="set_" + k.replace("-", "_"), help=f"as vd_fir_demo --{k}")
     a = ap.parse_args(argv)
+    if a.shared_manifest:
+        print(shared_data_manifest(clib.DATA_DIR, a.shared_manifest))
+        return 0
+    if not a.manifest or not a.out:
+        ap.error("MANIFEST and --out are required")
     settings = json.loads(Path(a.config).read_text()) if a.config else {}
     for k in SETTINGS:
         v = getattr(a, "set_" + k.replace("-", "_"))
