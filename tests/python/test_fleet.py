@@ -36,7 +36,7 @@ def setup(tmp_path_factory, vdlib):
     rows[0]["gt"] = "c21/annotations.json"
     rows[1]["gt"] = "c22/annotations.json"
     (d / "manifest.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=50)
     client = Client(cluster)
     yield d, client

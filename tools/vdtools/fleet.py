@@ -194,7 +194,8 @@ def resolve(settings, models_dir=None):
     s = {k.replace("_", "-"): v for k, v in (settings or {}).items()}
     bad = sorted(set(s) - set(SETTINGS))
     if bad:
-        raise FleetError(f"settings not supported by vdtools.fleet: {', '.join(bad)} (supported: {', '.join(SETTINGS)})")
+        raise FleetError(f"settings not supported by vdtools.fleet: {', '.join(bad)} "
+                         f"(supported: {', '.join(SETTINGS)})")
     models_dir = Path(models_dir or clib.REPO / "models")
     fields = {"temporal": _switch(s.get("temporal", True))}
     if "thr-mode" in s:
@@ -358,8 +359,8 @@ def _mine_frame(img, gts, kinds, stem, tmp_dir):
             gx0, gy0 = max(g[0], cx), max(g[1], cy)
             gx1, gy1 = min(g[0] + g[2], cx + cw), min(g[1] + g[3], cy + ch)
             if gx1 > gx0 and gy1 > gy0:
-                anns.append(dict(bbox=[round(gx0 - cx, 2), round(gy0 - cy, 2), round(gx1 - gx0, 2), round(gy1 - gy0, 2)],
-                                 category_id=1 if g[4] else 4))
+                bbox = [round(gx0 - cx, 2), round(gy0 - cy, 2), round(gx1 - gx0, 2), round(gy1 - gy0, 2)]
+                anns.append(dict(bbox=bbox, category_id=1 if g[4] else 4))
         out.append((dict(filename=fn, width=cw, height=ch, kind=kind, crop=[cx, cy, cw, ch],
                          box=[round(float(v), 2) for v in box], score=score), anns))
     return out
@@ -370,10 +371,9 @@ def run_shard(spec, models, on_frame=None):
     settings (resolve()'s fields), recording (gt, classes, raw_size, raw_format, meta), mine (dir or None).
     models: (cnn bytes, DBN bytes). on_frame(i): called after frame i is written (progress, fault tests).
     A shard whose metrics file exists with the same key is not run again."""
-    import numpy as np
     from vdtools import port
     from vdtools.evaluate import match_flags
-    t_start = time.perf_counter()
+    t_start, cpu_start = time.perf_counter(), time.process_time()
     jpath, mpath = shard_paths(spec["out"], spec["rec"], spec["index"])
     if mpath.exists():
         old = json.loads(mpath.read_text())
@@ -460,6 +460,7 @@ def run_shard(spec, models, on_frame=None):
             pass
         metrics = dict(key=spec["key"], rec=spec["rec"], index=spec["index"], meta=rec.get("meta", {}),
                        names=names, worker=worker, pid=os.getpid(), wall_s=time.perf_counter() - t_start,
+                       cpu_s=time.process_time() - cpu_start,
                        detector_s=t_det, stage_us=dict(zip(STAGES, stage_us)), ap_flags=ap_flags,
                        has_gt=gt is not None, mined=0, **acc)
         # commit: crops, then the mining fragment, then the detections, and last the metrics (the shard's
@@ -497,7 +498,7 @@ def _start_client(scheduler, workers):
     if scheduler:
         return Client(scheduler), None
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=50)
+                           dashboard_address=":0", silence_logs=50)
     return Client(cluster), cluster
 
 
@@ -648,7 +649,8 @@ def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=Non
         raise FleetError(f"exactly-once check failed: metrics count {frames} frames, recordings {sum(counts.values())}")
     workers = {}
     for m in ms:
-        w = workers.setdefault(m["worker"], dict(shards=0, frames=0, busy_s=0.0, detector_s=0.0))
+        w = workers.setdefault(m["worker"], dict(shards=0, frames=0, busy_s=0.0, detector_s=0.0, cpu_s=0.0))
+        w["cpu_s"] += m.get("cpu_s", 0.0)
         w["shards"] += 1
         w["frames"] += m["frames"]
         w["busy_s"] += m["wall_s"]
@@ -656,13 +658,15 @@ def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=Non
     for w in workers.values():
         w["fps_busy"] = w["frames"] / w["busy_s"] if w["busy_s"] else None
         w["fps_detector"] = w["frames"] / w["detector_s"] if w["detector_s"] else None
+        w["fps_cpu"] = w["frames"] / w["cpu_s"] if w["cpu_s"] else None
     stage_ms = {s: sum(m["stage_us"][s] for m in ms) / 1000.0 / max(frames, 1) for s in STAGES}
     busy = sum(m["wall_s"] for m in ms)
     det_s = sum(m["detector_s"] for m in ms)
     report = dict(recordings=len(recs), shards=len(shards), frames=frames, detections=sum(m["detections"] for m in ms),
                   settings=desc, workers_in_cluster=n_workers, wall_s=wall_s,
                   fps_total=frames / wall_s if wall_s > 0 and n_workers else None,
-                  shard_busy_s=busy, detector_s=det_s, overhead_per_shard_s=(busy - det_s) / max(len(ms), 1),
+                  shard_busy_s=busy, detector_s=det_s, cpu_s=sum(m.get("cpu_s", 0.0) for m in ms),
+                  overhead_per_shard_s=(busy - det_s) / max(len(ms), 1),
                   stage_ms_per_frame=stage_ms, workers=workers, exactly_once=True)
     gt_ms = [m for m in ms if m["has_gt"]]
     if gt_ms:
@@ -713,7 +717,8 @@ def format_summary(r):
     for w, v in sorted(r["workers"].items()):
         if v["fps_busy"]:
             lines.append(f"  worker {w}: {v['shards']} shards, {v['frames']} frames, {v['fps_busy']:.1f} frames/s "
-                         f"busy, {v['fps_detector']:.1f} frames/s in the detector")
+                         f"busy, {v['fps_detector']:.1f} frames/s in the detector, "
+                         f"{v['fps_cpu']:.1f} frames per CPU second")
     lines.append("  ms per frame: " + ", ".join(f"{k} {v:.2f}" for k, v in r["stage_ms_per_frame"].items() if v > 0))
     for g, a in r.get("accuracy", {}).items():
         ap = "n/a" if a["ap50"] is None else f"{100 * a['ap50']:.1f}"
