@@ -128,7 +128,8 @@ def test_faults_resume_exactly_once_and_mining(setup, tmp_path):
     # an incomplete shard (no metrics: killed before its last rename) runs again, alone
     (out / "shards" / "rec1" / "00001.json").unlink()
     (out / "shards" / "rec1" / "00001.jsonl").write_text("partial\n")
-    fleet.run(manifest, out, shard_frames=SHARD, mine=mine, client=client,
+    # (through the scheduler's address, as --scheduler does)
+    fleet.run(manifest, out, shard_frames=SHARD, mine=mine, scheduler=client.scheduler.address,
               shard_fn=lambda s, m: counting(s, m, str(marks)), log=lambda m: None)
     assert sorted(p.name for p in marks.glob("ran-*")) == ["ran-rec1-1"]
     assert (out / "recordings" / "rec1.jsonl").read_text().splitlines() == ref["rec1"].splitlines()
