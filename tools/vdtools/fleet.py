@@ -666,7 +666,7 @@ def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=Non
                   settings=desc, workers_in_cluster=n_workers, wall_s=wall_s,
                   fps_total=frames / wall_s if wall_s > 0 and n_workers else None,
                   shard_busy_s=busy, detector_s=det_s, cpu_s=sum(m.get("cpu_s", 0.0) for m in ms),
-                  overhead_per_shard_s=(busy - det_s) / max(len(ms), 1),
+                  outside_detector_ms_per_frame=1000.0 * (busy - det_s) / max(frames, 1),
                   stage_ms_per_frame=stage_ms, workers=workers, exactly_once=True)
     gt_ms = [m for m in ms if m["has_gt"]]
     if gt_ms:
@@ -713,7 +713,8 @@ def format_summary(r):
              f"(each exactly once), {r['detections']} detections"]
     if r["fps_total"]:
         lines.append(f"  {r['fps_total']:.1f} frames/s total over {r['workers_in_cluster']} workers "
-                     f"({r['wall_s']:.2f} s wall); overhead per shard {1000 * r['overhead_per_shard_s']:.1f} ms")
+                     f"({r['wall_s']:.2f} s wall); in the tasks outside the detector (decoding, JSON, matching) "
+                     f"{r['outside_detector_ms_per_frame']:.2f} ms per frame")
     for w, v in sorted(r["workers"].items()):
         if v["fps_busy"]:
             lines.append(f"  worker {w}: {v['shards']} shards, {v['frames']} frames, {v['fps_busy']:.1f} frames/s "
