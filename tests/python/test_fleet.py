@@ -124,14 +124,15 @@ def test_faults_resume_exactly_once_and_mining(setup, tmp_path):
     # resume: nothing runs again
     rep2 = fleet.run(manifest, out, shard_frames=SHARD, mine=mine, client=client,
                      shard_fn=lambda s, m: counting(s, m, str(marks)), log=lambda m: None)
-    assert list(marks.glob("ran-*")) == [] and rep2["frames"] == 27
+    assert list(marks.glob("ran-*")) == [] and rep2["frames"] == 27 and rep2["frames_run"] == 0
     # an incomplete shard (no metrics: killed before its last rename) runs again, alone
     (out / "shards" / "rec1" / "00001.json").unlink()
     (out / "shards" / "rec1" / "00001.jsonl").write_text("partial\n")
     # (through the scheduler's address, as --scheduler does)
-    fleet.run(manifest, out, shard_frames=SHARD, mine=mine, scheduler=client.scheduler.address,
-              shard_fn=lambda s, m: counting(s, m, str(marks)), log=lambda m: None)
+    rep3 = fleet.run(manifest, out, shard_frames=SHARD, mine=mine, scheduler=client.scheduler.address,
+                     shard_fn=lambda s, m: counting(s, m, str(marks)), log=lambda m: None)
     assert sorted(p.name for p in marks.glob("ran-*")) == ["ran-rec1-1"]
+    assert rep3["frames_run"] == 4 and rep3["mined"] == rep["mined"]
     assert (out / "recordings" / "rec1.jsonl").read_text().splitlines() == ref["rec1"].splitlines()
 
     # a frame twice fails loudly
@@ -155,7 +156,7 @@ def test_manifest_csv_and_plan(tmp_path):
 
 def test_settings_follow_the_demo():
     fields, cnn, dbn, desc = fleet.resolve({})
-    assert desc == {"sources": fleet.SRC_CNN, "cnn_model": "vd_cnn.vdm"} and dbn is None
+    assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm"} and dbn is None
     assert fields["max_candidates"] == fields["max_detections"] == 100   # the shipped model's top-K
     fields, cnn, dbn, desc = fleet.resolve({"sources": "hotspot", "temporal": "off"})
     assert cnn is None and desc["dbn_model"] == "vd_dbn_grey.vdm" and fields["temporal"] is False

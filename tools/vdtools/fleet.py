@@ -219,7 +219,8 @@ def resolve(settings, models_dir=None):
         sources = SRC_CNN if use_cnn else SRC_HOTSPOT
     fields["sources"] = sources
     cnn = dbn = None
-    desc = {"sources": sources}
+    desc = {"sources": ",".join(n for n, b in (("hotspot", SRC_HOTSPOT), ("contrast", SRC_CONTRAST),
+                                               ("window", SRC_WINDOW), ("cnn", SRC_CNN)) if sources & b)}
     if sources & SRC_CNN:
         if "cnn-model" in s:
             cnn, desc["cnn_model"] = Path(s["cnn-model"]).read_bytes(), Path(s["cnn-model"]).name
@@ -549,7 +550,7 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
         else:
             todo.append(s)
     log(f"vdtools.fleet: {len(recs)} recordings, {len(shards)} shards ({len(shards) - len(todo)} complete, "
-        f"{len(todo)} to run); sources {desc}")
+        f"{len(todo)} to run); " + ", ".join(f"{k} {v}" for k, v in desc.items()))
     cluster = None
     n_workers = 0
     wall = 0.0
@@ -582,7 +583,8 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
                 if cluster is not None:
                     cluster.close()
     _clean_tmp(out_dir, mine_dir)
-    report = reduce(recs, shards, results, out_dir, wall, n_workers, desc, mine_dir)
+    ran = sum(results[(s["rec"], s["index"])]["frames"] for s in todo)
+    report = reduce(recs, shards, results, out_dir, wall, n_workers, desc, mine_dir, frames_run=ran)
     log(format_summary(report))
     return report
 
@@ -640,8 +642,9 @@ def _group_figures(ms):
                 cold_tp_rate=r(tot["tp"] - tot["hot_tp"], cold), cold=cold)
 
 
-def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=None):
-    """One report from the shard metrics (and the merged recordings): throughput, stages, accuracy."""
+def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=None, frames_run=0):
+    """One report from the shard metrics (and the merged recordings): throughput, stages, accuracy.
+    frames_run: frames of the shards this run computed (the others were complete already)."""
     counts = _merge_recordings(recs, shards, out_dir)
     ms = [results[(s["rec"], s["index"])] for s in shards]
     frames = sum(m["frames"] for m in ms)
@@ -664,7 +667,7 @@ def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=Non
     det_s = sum(m["detector_s"] for m in ms)
     report = dict(recordings=len(recs), shards=len(shards), frames=frames, detections=sum(m["detections"] for m in ms),
                   settings=desc, workers_in_cluster=n_workers, wall_s=wall_s,
-                  fps_total=frames / wall_s if wall_s > 0 and n_workers else None,
+                  frames_run=frames_run, fps_total=frames_run / wall_s if wall_s > 0 and n_workers else None,
                   shard_busy_s=busy, detector_s=det_s, cpu_s=sum(m.get("cpu_s", 0.0) for m in ms),
                   outside_detector_ms_per_frame=1000.0 * (busy - det_s) / max(frames, 1),
                   stage_ms_per_frame=stage_ms, workers=workers, exactly_once=True)
@@ -712,7 +715,8 @@ def format_summary(r):
     lines = [f"vdtools.fleet: {r['recordings']} recordings, {r['shards']} shards, {r['frames']} frames "
              f"(each exactly once), {r['detections']} detections"]
     if r["fps_total"]:
-        lines.append(f"  {r['fps_total']:.1f} frames/s total over {r['workers_in_cluster']} workers "
+        lines.append(f"  {r['fps_total']:.1f} frames/s total ({r['frames_run']} frames run now) over "
+                     f"{r['workers_in_cluster']} workers "
                      f"({r['wall_s']:.2f} s wall); in the tasks outside the detector (decoding, JSON, matching) "
                      f"{r['outside_detector_ms_per_frame']:.2f} ms per frame")
     for w, v in sorted(r["workers"].items()):
