@@ -120,6 +120,7 @@ def test_faults_resume_exactly_once_and_mining(setup, tmp_path):
         assert (mine / "images" / im["filename"]).exists()
         assert im["kind"] != "miss" or r.vehicles   # a miss's crop holds its vehicle
         assert im["frame"].endswith(".pgm") and im["recording"] in ("rec0", "rec1")
+        assert Path(im["frame_path"]).name == im["frame"] and Path(im["frame_path"]).is_file()
 
     # resume: nothing runs again
     rep2 = fleet.run(manifest, out, shard_frames=SHARD, mine=mine, client=client,

@@ -399,6 +399,7 @@ def run_shard(spec, models, on_frame=None):
         mine_tmp = Path(mine_dir) / "images" / f".tmp.{spec['rec']}.{spec['index']:05d}.{tag}"
         mine_tmp.mkdir(parents=True, exist_ok=True)
     cnn, dbn = models
+    by_name = {Path(p).name: p for p in spec["files"]}   # frame name -> file, for the mined crops' references
     runner = None
     stage_us = [0] * len(STAGES)
     acc = dict(frames=0, frames_annotated=0, detections=0, vehicles=0, tp=0, fp=0, ignored=0, hot=0, hot_tp=0)
@@ -444,7 +445,8 @@ def run_shard(spec, models, on_frame=None):
                         if kinds:
                             stem = f"{spec['rec']}_{Path(name).stem.replace('#', '_')}"
                             for im, anns in _mine_frame(img, boxes, kinds, stem, mine_tmp):
-                                im.update(recording=spec["rec"], frame=name, seq=int(f.seq))
+                                im.update(recording=spec["rec"], frame=name, seq=int(f.seq),
+                                          frame_path=by_name.get(name.split("#")[0]))
                                 mined.append((im, anns))
                 if on_frame is not None:
                     on_frame(i)
