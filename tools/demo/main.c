@@ -13,7 +13,6 @@
 // errors exit with 2. See docs/demo.md.
 #include "demo.h"
 
-#include <dirent.h>
 #include <errno.h>
 #include <signal.h>
 #include <math.h>
@@ -33,7 +32,6 @@
 #ifndef VD_DEMO_MODELS_DIR
 #define VD_DEMO_MODELS_DIR "models"
 #endif
-#define MODEL_MAX_BYTES (64u * 1024u * 1024u)
 #define MAX_DEVICE_RETRIES 5
 
 static const char *const k_stage_names[VD_DET_STAGE_COUNT] = {
@@ -44,14 +42,7 @@ typedef struct run {
     demo_opts_t o;
     bool device;
     vd_capture_t cap;
-    uint8_t *model_blob;
-    vd_model_t model;
-    bool have_model;
-    char model_path[4096];
-    uint8_t *cnn_blob;
-    vd_cnn_model_t cnn;
-    bool have_cnn;
-    char cnn_path[4096];
+    demo_models_t m;
     vd_detector_t det;
     void *ws;
     bool det_ready;
@@ -104,185 +95,6 @@ static int fail(run_t *r, vd_status_t st, const char *detail)
     (void)r;
     fprintf(stderr, "vd_fir_demo: error: %s (%s)\n", detail, vd_status_str(st));
     return 1;
-}
-
-// Format version of a .vdm file (little-endian u16 at offset 4; 0 if unreadable):
-// 1-2 DBN, 3 CNN (VD_CNN_FORMAT_VERSION).
-static uint32_t vdm_version_of_file(const char *path)
-{
-    uint8_t h[6];
-    FILE *fp = fopen(path, "rb");
-    if (fp == NULL) {
-        return 0u;
-    }
-    size_t n = fread(h, 1, sizeof h, fp);
-    fclose(fp);
-    return n == sizeof h ? (uint32_t)h[4] | ((uint32_t)h[5] << 8) : 0u;
-}
-
-static uint32_t vdm_version(const uint8_t *b, size_t len)
-{
-    return len >= 6u ? (uint32_t)b[4] | ((uint32_t)b[5] << 8) : 0u;
-}
-
-static bool file_exists(const char *path)
-{
-    struct stat sb;
-    return stat(path, &sb) == 0 && S_ISREG(sb.st_mode);
-}
-
-// DBN with --model omitted: models/vd_dbn_grey.vdm (the best full model,
-// models/README.md), else the first DBN *.vdm (by name) of the source tree's models/.
-static bool find_default_model(char *out, size_t cap)
-{
-    snprintf(out, cap, "%s/vd_dbn_grey.vdm", VD_DEMO_MODELS_DIR);
-    if (file_exists(out)) {
-        return true;
-    }
-    DIR *dp = opendir(VD_DEMO_MODELS_DIR);
-    if (dp == NULL) {
-        return false;
-    }
-    char best[1024] = "";
-    struct dirent *de;
-    while ((de = readdir(dp)) != NULL) {
-        size_t l = strlen(de->d_name);
-        if (l > 4 && strcmp(de->d_name + l - 4, ".vdm") == 0 && de->d_name[0] != '.' &&
-            (best[0] == '\0' || strcmp(de->d_name, best) < 0) && l < sizeof best) {
-            char p[4096];
-            snprintf(p, sizeof p, "%s/%s", VD_DEMO_MODELS_DIR, de->d_name);
-            const uint32_t v = vdm_version_of_file(p);
-            if (v == 1u || v == 2u) {
-                memcpy(best, de->d_name, l + 1);
-            }
-        }
-    }
-    closedir(dp);
-    if (best[0] == '\0') {
-        return false;
-    }
-    snprintf(out, cap, "%s/%s", VD_DEMO_MODELS_DIR, best);
-    return true;
-}
-
-// Reads a model file whole (malloc'd; NUL-terminated, so 8-byte aligned).
-static vd_status_t read_model(run_t *r, const char *opt, const char *path, uint8_t **blob, size_t *len)
-{
-    char *b = NULL;
-    char e[600];
-    vd_status_t st = demo_read_file(path, MODEL_MAX_BYTES, &b, len, e, sizeof e);
-    if (st != VD_OK) {
-        snprintf(r->err, sizeof r->err, "%s: %s", opt, e);
-        return st == VD_ERR_RANGE ? VD_ERR_MODEL : st;
-    }
-    *blob = (uint8_t *)b;
-    return VD_OK;
-}
-
-// The sources' models. --model is read first (a version-3 file is the CNN);
-// without --sources the sources follow the models at hand (demo.h); the CNN
-// is --cnn-model, else a CNN --model, else models/vd_cnn.vdm; the DBN is
-// loaded when a paper-pipeline source or --cnn-rescore needs it (and an
-// explicit DBN --model is always checked).
-static vd_status_t load_models(run_t *r)
-{
-    demo_opts_t *o = &r->o;
-    const char *mp = o->model;
-    const bool none = mp != NULL && strcmp(mp, "none") == 0;
-    uint8_t *mblob = NULL;
-    size_t mlen = 0;
-    bool model_is_cnn = false;
-    vd_status_t st;
-    if (mp != NULL && !none) {
-        st = read_model(r, "--model", mp, &mblob, &mlen);
-        if (st != VD_OK) {
-            return st;
-        }
-        model_is_cnn = vdm_version(mblob, mlen) == VD_CNN_FORMAT_VERSION;
-    }
-    char def_cnn[4096];
-    snprintf(def_cnn, sizeof def_cnn, "%s/vd_cnn.vdm", VD_DEMO_MODELS_DIR);
-    if (!o->sources_set) {
-        const bool cnn = o->cnn_model != NULL || model_is_cnn || (mp == NULL && file_exists(def_cnn));
-        o->cfg.sources = cnn ? VD_DETECTOR_SRC_CNN : VD_DETECTOR_SRC_HOTSPOT;
-    }
-    const bool want_cnn = (o->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
-    const bool want_dbn = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u || (want_cnn && o->cfg.cnn_rescore != 0u);
-    if (want_cnn) {
-        size_t clen = 0;
-        const char *opt = "--cnn-model";
-        if (o->cnn_model != NULL) {
-            snprintf(r->cnn_path, sizeof r->cnn_path, "%s", o->cnn_model);
-            st = read_model(r, opt, r->cnn_path, &r->cnn_blob, &clen);
-        } else if (model_is_cnn) {
-            opt = "--model";
-            snprintf(r->cnn_path, sizeof r->cnn_path, "%s", mp);
-            r->cnn_blob = mblob;
-            clen = mlen;
-            mblob = NULL;
-            st = VD_OK;
-        } else if (file_exists(def_cnn)) {
-            snprintf(r->cnn_path, sizeof r->cnn_path, "%s", def_cnn);
-            st = read_model(r, opt, r->cnn_path, &r->cnn_blob, &clen);
-        } else {
-            snprintf(r->err, sizeof r->err, "the cnn source needs a CNN model: --cnn-model FILE (%s not found)",
-                     def_cnn);
-            st = VD_ERR_ARG;
-        }
-        if (st == VD_OK) {
-            st = vd_cnn_load(&r->cnn, r->cnn_blob, clen);
-            if (st != VD_OK) {
-                snprintf(r->err, sizeof r->err, "%s %s: not a valid CNN .vdm model (version 3)", opt, r->cnn_path);
-            }
-        }
-        if (st != VD_OK) {
-            free(mblob);
-            return st;
-        }
-        r->have_cnn = true;
-        o->cfg.cnn_model = &r->cnn;
-        // Room for the model's top-K (and the paper sources' 64) unless set.
-        if (!o->max_candidates_set) {
-            uint32_t mc = r->cnn.max_peaks + (((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u) ? 64u : 0u);
-            o->cfg.max_candidates = (uint16_t)(mc > 4096u ? 4096u : mc);
-        }
-        if (!o->max_detections_set) {
-            o->cfg.max_detections = (uint16_t)(r->cnn.max_peaks < o->cfg.max_candidates ? r->cnn.max_peaks
-                                                                                      : o->cfg.max_candidates);
-        }
-    }
-    // An explicit DBN --model is checked even when no source needs it.
-    if (mblob != NULL && !model_is_cnn) {
-        snprintf(r->model_path, sizeof r->model_path, "%s", mp);
-        r->model_blob = mblob;
-        mblob = NULL;
-        st = vd_dbn_load(&r->model, r->model_blob, mlen);
-        if (st != VD_OK) {
-            snprintf(r->err, sizeof r->err, "--model %s: not a valid .vdm model", r->model_path);
-            return st;
-        }
-        r->have_model = want_dbn;
-    } else if (want_dbn && !none && find_default_model(r->model_path, sizeof r->model_path)) {
-        size_t len = 0;
-        st = read_model(r, "--model", r->model_path, &r->model_blob, &len);
-        if (st != VD_OK) {
-            free(mblob);
-            return st;
-        }
-        st = vd_dbn_load(&r->model, r->model_blob, len);
-        if (st != VD_OK) {
-            snprintf(r->err, sizeof r->err, "--model %s: not a valid .vdm model", r->model_path);
-            free(mblob);
-            return st;
-        }
-        r->have_model = true;
-    }
-    free(mblob);   // a CNN --model that no source uses
-    if (want_cnn && o->cfg.cnn_rescore != 0u && !r->have_model) {
-        snprintf(r->err, sizeof r->err, "--cnn-rescore needs a DBN model (--model FILE)");
-        return VD_ERR_ARG;
-    }
-    return VD_OK;
 }
 
 // "hotspot,cnn" etc. for the progress line.
@@ -547,12 +359,8 @@ static void on_candidate(void *user, const vd_detection_t *cand)
 
 static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
 {
-    vd_detector_cfg_t cfg = r->o.cfg;
-    cfg.max_width = f->width;
-    cfg.max_height = f->height;
-    // The region bound may not exceed the frame (frames smaller than the default 176 x 176).
-    cfg.max_region_w = (uint16_t)(cfg.max_region_w > f->width ? f->width : cfg.max_region_w);
-    cfg.max_region_h = (uint16_t)(cfg.max_region_h > f->height ? f->height : cfg.max_region_h);
+    vd_detector_cfg_t cfg;
+    demo_detector_cfg(&r->o, f->width, f->height, &cfg);
     cfg.clock_us = clock_us;
     cfg.clock_user = NULL;
     if (r->have_gt) {
@@ -560,7 +368,7 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
         cfg.candidate_user = r;
     }
     size_t bytes = 0;
-    const vd_model_t *m = r->have_model ? &r->model : NULL;
+    const vd_model_t *m = r->m.have_model ? &r->m.model : NULL;
     vd_status_t st = vd_detector_workspace_size(&cfg, m, &bytes);
     if (st != VD_OK) {
         snprintf(r->err, sizeof r->err, "detector settings rejected for %ux%u frames", (unsigned)f->width,
@@ -695,8 +503,7 @@ static void cleanup(run_t *r)
     free(r->dets);
     free(r->eval_dets);
     free(r->cands);
-    free(r->model_blob);
-    free(r->cnn_blob);
+    demo_models_free(&r->m);
     if (r->have_gt) {
         demo_gt_free(&r->gt);
     }
@@ -731,7 +538,7 @@ static int run(run_t *r)
             }
         }
     }
-    st = load_models(r);
+    st = demo_models_load(&r->m, &r->o, VD_DEMO_MODELS_DIR, r->err, sizeof r->err);
     if (st != VD_OK) {
         return fail(r, st, r->err);
     }
@@ -770,8 +577,8 @@ static int run(run_t *r)
         sources_text(o->cfg.sources, src, sizeof src);
         const bool paper = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u;
         fprintf(stderr, "vd_fir_demo: input %s; sources %s%s%s; DBN model %s\n", o->input, src,
-                r->have_cnn ? "; CNN model " : "", r->have_cnn ? r->cnn_path : "",
-                r->have_model ? r->model_path
+                r->m.have_cnn ? "; CNN model " : "", r->m.have_cnn ? r->m.cnn_path : "",
+                r->m.have_model ? r->m.model_path
                               : (paper ? "none (candidates are not verified; score 1.0)" : "none (not needed)"));
     }
     st = open_outputs(r);
