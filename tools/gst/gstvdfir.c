@@ -52,8 +52,16 @@ struct _GstVdFir {
 
 enum { PROP_0, PROP_MODEL, PROP_CONFIG, PROP_DRAW, PROP_SOURCES };
 
-// GRAY16_LE is read as the host's uint16 (vd's U16): little-endian hosts only.
-#define VDFIR_FORMATS "{ GRAY8, GRAY16_LE, I420, YV12, NV12, NV21, Y41B, Y42B, Y444 }"
+// 16-bit frames are read as the host's uint16 (vd's U16): GRAY16_LE on little-endian hosts
+// (GRAY16_BE on big-endian ones); videoconvert swaps bytes where needed.
+#if G_BYTE_ORDER == G_LITTLE_ENDIAN
+#define VDFIR_GRAY16 "GRAY16_LE"
+#define VDFIR_GRAY16_FORMAT GST_VIDEO_FORMAT_GRAY16_LE
+#else
+#define VDFIR_GRAY16 "GRAY16_BE"
+#define VDFIR_GRAY16_FORMAT GST_VIDEO_FORMAT_GRAY16_BE
+#endif
+#define VDFIR_FORMATS "{ GRAY8, " VDFIR_GRAY16 ", I420, YV12, NV12, NV21, Y41B, Y42B, Y444 }"
 
 G_DEFINE_TYPE(GstVdFir, gst_vdfir, GST_TYPE_VIDEO_FILTER)
 
@@ -277,7 +285,7 @@ static GstFlowReturn gst_vdfir_transform_frame_ip(GstVideoFilter *vf, GstVideoFr
         GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("vdfir: no detector (caps not negotiated)"), (NULL));
         return GST_FLOW_NOT_NEGOTIATED;
     }
-    const gboolean wide = GST_VIDEO_FRAME_FORMAT(frame) == GST_VIDEO_FORMAT_GRAY16_LE;
+    const gboolean wide = GST_VIDEO_FRAME_FORMAT(frame) == VDFIR_GRAY16_FORMAT;
     guint8 *plane = GST_VIDEO_FRAME_PLANE_DATA(frame, 0);
     const gsize stride = (gsize)GST_VIDEO_FRAME_PLANE_STRIDE(frame, 0);
     vd_frame_t f;
