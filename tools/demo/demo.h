@@ -154,8 +154,9 @@ const char *demo_basename(const char *path);
 #include "vd/detector.h"
 
 typedef struct demo_opts {
-    const char *input;          // --input (default: the bundled clip)
+    const char *input;          // --input (default: the bundled clip chosen by --clip)
     bool input_default;         // --input not given
+    const char *clip_eval;      // annotations of the bundled clip in use (NULL with --input)
     const char *model;          // --model FILE | none; NULL = auto (first models/*.vdm)
     const char *out_dir;        // --out
     const char *json;           // --json
