@@ -17,6 +17,7 @@
 
 #include <gst/gst.h>
 #include <gst/video/video.h>
+#include <glib/gstdio.h>
 
 #include "demo.h"
 #include "vd_port/capture.h"
@@ -148,6 +149,18 @@ static int cmd_png8(const char *out_dir, const char *in_dir, long max)
     g_dir_close(d);
     qsort(names->pdata, names->len, sizeof(gpointer), cmp_str);
     g_mkdir_with_parents(out_dir, 0777);
+    // Frames of an earlier run (e.g. a longer input) would join this sequence.
+    GDir *od = g_dir_open(out_dir, 0, NULL);
+    if (od != NULL) {
+        while ((n = g_dir_read_name(od)) != NULL) {
+            if (g_str_has_prefix(n, "frame_") && g_str_has_suffix(n, ".png")) {
+                gchar *old = g_build_filename(out_dir, n, NULL);
+                g_remove(old);
+                g_free(old);
+            }
+        }
+        g_dir_close(od);
+    }
     int rc = 0;
     guint count = 0;
     for (guint i = 0; i < names->len && (max <= 0 || (long)i < max); i++) {
