@@ -46,6 +46,9 @@ typedef struct got {
     size_t n, cap;
     size_t buffers;
     gboolean bad_meta;
+    gboolean draw;          // vdfir's draw property: each box's corner must then be white
+    size_t drawn_checked;   // boxes whose drawn corner was checked
+    size_t not_drawn;       // ... and found not white
 } got_t;
 
 static int fail(const char *what)
@@ -312,7 +315,36 @@ static void on_handoff(GstElement *sink, GstBuffer *buf, GstPad *pad, gpointer u
         read_fields(s, x);
         n++;
     }
+    size_t checked = 0, missing = 0;
+    GstCaps *caps = g->draw ? gst_pad_get_current_caps(pad) : NULL;
+    GstVideoInfo info;
+    GstVideoFrame vf;
+    if (caps != NULL && gst_video_info_from_caps(&info, caps) && gst_video_frame_map(&vf, &info, buf, GST_MAP_READ)) {
+        const guint8 *plane = GST_VIDEO_FRAME_PLANE_DATA(&vf, 0);
+        const gsize stride = (gsize)GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0);
+        const gboolean wide = GST_VIDEO_INFO_COMP_DEPTH(&info, 0) > 8;
+        for (size_t i = 0; i < MAX_DETS && checked < n; i++) {
+            if (d[i].w <= 0 || d[i].h <= 0) {
+                continue;
+            }
+            checked++;
+            if (d[i].x < 0 || d[i].y < 0 || d[i].x >= GST_VIDEO_INFO_WIDTH(&info) ||
+                d[i].y >= GST_VIDEO_INFO_HEIGHT(&info)) {
+                missing++;   // a box outside the frame cannot have been drawn
+                continue;
+            }
+            const guint8 *row = plane + (gsize)d[i].y * stride;
+            guint v = wide ? ((const guint16 *)(const void *)row)[d[i].x] : row[d[i].x];
+            missing += v != (wide ? 0xffffu : 0xffu);
+        }
+        gst_video_frame_unmap(&vf);
+    }
+    if (caps != NULL) {
+        gst_caps_unref(caps);
+    }
     g_mutex_lock(&g->lock);
+    g->drawn_checked += checked;
+    g->not_drawn += missing;
     frame_dets_t *f = frame_at(g, g->buffers++);
     g->bad_meta = g->bad_meta || bad;
     f->d = d;
@@ -410,6 +442,11 @@ static int cmd_compare(const char *jsonl, const char *desc)
         return fail("the pipeline needs fakesink name=sink");
     }
     g_object_set(sink, "signal-handoffs", TRUE, NULL);
+    GstElement *det = gst_bin_get_by_name(GST_BIN(pipe), "det");
+    if (det != NULL) {
+        g_object_get(det, "draw", &g.draw, NULL);
+        gst_object_unref(det);
+    }
     g_signal_connect(sink, "handoff", G_CALLBACK(on_handoff), &g);
     GstMessage *m = run_pipeline(pipe, on_message, &g);
     gst_object_unref(sink);
@@ -454,9 +491,15 @@ static int cmd_compare(const char *jsonl, const char *desc)
     if (rc == 0 && total == 0) {
         rc = fail("no detections on these frames: nothing was compared");
     }
+    // draw=true: the boxes are in the pixels too.
+    if (rc == 0 && g.draw && (g.not_drawn != 0 || g.drawn_checked != total)) {
+        fprintf(stderr, "test_gst_vdfir: FAIL: draw=true but %zu of %zu box corners are not white (%zu checked)\n",
+                g.not_drawn, total, g.drawn_checked);
+        rc = 1;
+    }
     if (rc == 0) {
-        printf("test_gst_vdfir: %zu frames, %zu detections: metas and messages equal the demo's JSON Lines\n", line,
-               total);
+        printf("test_gst_vdfir: %zu frames, %zu detections: metas and messages equal the demo's JSON Lines%s\n", line,
+               total, g.draw ? "; every box drawn" : "");
     }
     for (size_t i = 0; i < g.n; i++) {
         g_free(g.f[i].d);
