@@ -88,6 +88,14 @@ typedef struct demo_gt_image {
 
 #define DEMO_MAX_CLASSES 64
 
+// One counted detection (true or false positive; ignored ones are left out),
+// kept for the precision-recall curve and AP.
+typedef struct demo_gt_scored {
+    double score;
+    uint64_t order;   // evaluation order: ties in score keep it (as vdtools.evaluate.average_precision)
+    bool tp;
+} demo_gt_scored_t;
+
 typedef struct demo_gt {
     demo_gt_image_t *img;   // sorted by name
     size_t n, cap;
@@ -100,6 +108,10 @@ typedef struct demo_gt {
     uint64_t frames, frames_unannotated, gt, det, det_ignored, tp, fp;
     // candidate recall (demo_gt_candidates): vehicles hot / cold, and those covered by a candidate
     uint64_t veh_hot, veh_cold, cov_hot, cov_cold;
+    // every counted detection in evaluation order (malloc'd; demo_gt_pr)
+    demo_gt_scored_t *scored;
+    size_t n_scored, cap_scored;
+    bool scored_incomplete;   // out of memory on the way: no AP
 } demo_gt_t;
 
 typedef struct demo_det {
@@ -117,6 +129,21 @@ void demo_gt_free(demo_gt_t *gt);
 // matched (may be NULL, n entries): 1 = true positive, 0 = false positive, -1 = ignored.
 void demo_gt_frame(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32_t height,
                    const demo_det_t *det, size_t n, int8_t *matched);
+// demo_gt_frame that also reports which boxes of the frame's annotations
+// (demo_gt_image_of(gt, frame_name)->box[b]) a detection matched: gt_used[b]
+// (may be NULL; n_gt_used entries, boxes past it are not reported).
+void demo_gt_frame_ex(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32_t height,
+                      const demo_det_t *det, size_t n, int8_t *matched, bool *gt_used, size_t n_gt_used);
+// The annotations of a frame (YOLO: by the file name's stem); NULL if it has none.
+const demo_gt_image_t *demo_gt_image_of(const demo_gt_t *gt, const char *frame_name);
+// Precision-recall curve over all counted detections so far, pooled and sorted by
+// score (descending; ties in evaluation order), and its AP at IoU 0.5 with all-point
+// interpolation (PASCAL VOC 2010+; the same figure as vdtools.evaluate.average_precision).
+// *recall and *precision are malloc'd arrays of *n points (free them; NULL when *n is 0).
+// *ap is 0 when there are no vehicles. The curve ends at the detector's operating point
+// (its score threshold), so the AP is that of the detections it outputs.
+// Returns VD_OK; VD_ERR_STATE (a detection was lost to out-of-memory: no curve); VD_ERR_IO.
+vd_status_t demo_gt_pr(const demo_gt_t *gt, double **recall, double **precision, size_t *n, double *ap);
 // Candidate recall of one frame (call once per frame demo_gt_frame evaluates,
 // with the same frame_name): each vehicle box is "covered" when a candidate
 // (the merged list before verification, vd_detector_cfg_t.on_candidate) has
