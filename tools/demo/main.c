@@ -25,6 +25,7 @@
 
 #include "vd/vd.h"
 #include "vd_port/capture.h"
+#include "vd_port/file.h"
 #include "vd_port/writer.h"
 
 #ifndef VD_DEMO_CLIP_DIR
@@ -96,6 +97,13 @@ static uint32_t clock_us(void *user)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (uint32_t)((uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u);
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
 // One error line: "vd_fir_demo: error: <detail> (<status text>)".
@@ -779,7 +787,15 @@ static int run(run_t *r)
         return fail(r, st, r->err);
     }
     int retries = 0;
-    bool tty = isatty(2) != 0;
+    uint64_t total = 0;
+    if (!r->device && vd_file_frame_total(&r->cap, &total) != VD_OK) {
+        total = 0;
+    }
+    if (o->max_frames != 0 && (total == 0 ? r->device : total > o->max_frames)) {
+        total = o->max_frames;
+    }
+    demo_progress_t prog;
+    demo_progress_start(&prog, !o->quiet, isatty(STDERR_FILENO) != 0, total, now_s());
     // Recorded input ends at VD_ERR_RANGE + at_end; a device runs until --frames or an error.
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -858,14 +874,9 @@ static int run(run_t *r)
         if (st != VD_OK) {
             return fail(r, st, r->err);
         }
-        if (!o->quiet && (tty || r->frames % 50 == 0)) {
-            fprintf(stderr, "%s[%llu] %s: %zu detections%s", tty ? "\r" : "", (unsigned long long)r->frames, name, n,
-                    tty ? "\033[K" : "\n");
-        }
+        demo_progress_frame(&prog, stderr, r->frames, name, n, now_s());
     }
-    if (!o->quiet && tty) {
-        fputc('\n', stderr);
-    }
+    demo_progress_end(&prog, stderr);
     if (g_stop && !o->quiet) {
         fprintf(stderr, "vd_fir_demo: interrupted after %llu frames\n", (unsigned long long)r->frames);
     }
