@@ -211,6 +211,7 @@ typedef struct demo_opts {
     const char *eval;           // --eval
     const char *classes;        // --classes
     const char *eval_out;       // --eval-out
+    const char *report;         // --report DIR
     uint32_t raw_w, raw_h;      // --raw-size
     vd_pixfmt_t raw_format;     // --raw-format u16 (default) | u8
     bool raw_big_endian;        // --raw-format u16be

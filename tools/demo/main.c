@@ -11,7 +11,7 @@
 // Any capture error on recorded input (missing/truncated/undecodable file,
 // mixed sizes) ends the run with one line on stderr and exit status 1; usage
 // errors exit with 2. See docs/demo.md.
-#include "demo.h"
+#include "report.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -78,6 +78,11 @@ typedef struct run {
     uint32_t width, height;
     vd_pixfmt_t format;
     uint32_t grey_lo_raw, grey_hi_raw;
+    demo_report_t report;    // --report
+    bool have_report;
+    int8_t *matched;         // --eval: per detection of this frame (dets_cap)
+    bool *gt_used;           // --eval: per box of this frame's annotations
+    size_t cap_gt_used;
     char err[1024];
 } run_t;
 
@@ -588,9 +593,10 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     r->dets_cap = (size_t)r->det.cfg.max_detections + r->det.cfg.max_tracks + 1u;
     r->dets = calloc(r->dets_cap, sizeof *r->dets);
     r->eval_dets = calloc(r->dets_cap, sizeof *r->eval_dets);
+    r->matched = calloc(r->dets_cap, sizeof *r->matched);
     r->cap_cands = r->det.cfg.max_candidates;
     r->cands = calloc(r->cap_cands + 1u, sizeof *r->cands);
-    if (r->dets == NULL || r->eval_dets == NULL || r->cands == NULL) {
+    if (r->dets == NULL || r->eval_dets == NULL || r->matched == NULL || r->cands == NULL) {
         snprintf(r->err, sizeof r->err, "out of memory");
         return VD_ERR_IO;
     }
@@ -673,6 +679,33 @@ static double sum_us(const uint32_t *v, size_t n)
     return s;
 }
 
+// Matching of one frame (--eval) and its gallery entry (--report).
+static vd_status_t evaluate_frame(run_t *r, const char *name, const vd_frame_t *f, size_t n)
+{
+    const demo_gt_image_t *im = demo_gt_image_of(&r->gt, name);
+    const size_t nb = im != NULL ? im->n : 0;
+    if (nb > r->cap_gt_used) {
+        bool *p = realloc(r->gt_used, nb * sizeof *p);
+        if (p == NULL) {
+            snprintf(r->err, sizeof r->err, "out of memory");
+            return VD_ERR_IO;
+        }
+        r->gt_used = p;
+        r->cap_gt_used = nb;
+    }
+    if (nb > 0) {
+        memset(r->gt_used, 0, nb * sizeof *r->gt_used);
+    }
+    const uint64_t evaluated = r->gt.frames;
+    demo_gt_frame_ex(&r->gt, name, f->width, f->height, r->eval_dets, n, r->matched, r->gt_used, nb);
+    if (!r->have_report || r->gt.frames == evaluated) {
+        return VD_OK;   // no report, or a frame the annotations do not list
+    }
+    const bool wide = f->format == VD_PIX_U16;
+    return demo_report_frame(&r->report, r->frames, name, f, wide ? r->grey_lo_raw : 0, wide ? r->grey_hi_raw : 0,
+                             im, r->gt_used, r->eval_dets, r->matched, n, r->err, sizeof r->err);
+}
+
 static void summary(run_t *r)
 {
     double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
@@ -694,9 +727,52 @@ static void summary(run_t *r)
     }
 }
 
+// --report: index.html from the run's figures (the same as summary() prints).
+static vd_status_t write_report(run_t *r)
+{
+    double med[VD_DET_STAGE_COUNT], mean[VD_DET_STAGE_COUNT];
+    const char *names[VD_DET_STAGE_COUNT];
+    for (int k = 0; k < VD_DET_STAGE_COUNT; k++) {
+        names[k] = k_stage_names[k];
+        mean[k] = r->n_times ? sum_us(r->times[k], r->n_times) / (double)r->n_times / 1000.0 : 0.0;
+        med[k] = median_us(r->times[k], r->n_times) / 1000.0;
+    }
+    const double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
+    const double wall_total = sum_us(r->times[VD_DET_STAGE_COUNT], r->n_times);
+    char src[64], models[9000];
+    sources_text(r->o.cfg.sources, src, sizeof src);
+    snprintf(models, sizeof models, "%s%s%s%s%s", r->have_cnn ? "CNN " : "", r->have_cnn ? r->cnn_path : "",
+             r->have_cnn && r->have_model ? ", " : "", r->have_model ? "DBN " : "", r->have_model ? r->model_path : "");
+    if (!r->have_cnn && !r->have_model) {
+        snprintf(models, sizeof models, "none");
+    }
+    demo_report_info_t in;
+    memset(&in, 0, sizeof in);
+    in.input = r->o.input;
+    in.sources = src;
+    in.models = models;
+    in.annotations = r->o.eval != NULL ? r->o.eval : "";
+    in.frames = r->frames;
+    in.detections = r->detections;
+    in.width = r->width;
+    in.height = r->height;
+    in.u16 = r->format == VD_PIX_U16;
+    in.fps_detector = det_total > 0 ? (double)r->frames * 1e6 / det_total : 0.0;
+    in.fps_wall = wall_total > 0 ? (double)r->frames * 1e6 / wall_total : 0.0;
+    in.n_stages = VD_DET_STAGE_COUNT;
+    in.stage_names = names;
+    in.stage_median_ms = med;
+    in.stage_mean_ms = mean;
+    in.gt = r->have_gt ? &r->gt : NULL;
+    return demo_report_write(&r->report, &in, r->err, sizeof r->err);
+}
+
 static void cleanup(run_t *r)
 {
     discard_outputs(r);
+    demo_report_abort(&r->report);
+    free(r->matched);
+    free(r->gt_used);
     vd_capture_close(&r->cap);
     vd_rgb_free(&r->canvas);
     free(r->ws);
@@ -786,6 +862,13 @@ static int run(run_t *r)
     if (st != VD_OK) {
         return fail(r, st, r->err);
     }
+    if (o->report != NULL) {
+        st = demo_report_open(&r->report, o->report, r->err, sizeof r->err);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+        r->have_report = true;
+    }
     int retries = 0;
     uint64_t total = 0;
     if (!r->device && vd_file_frame_total(&r->cap, &total) != VD_OK) {
@@ -857,7 +940,11 @@ static int run(run_t *r)
                 r->eval_dets[i].box = r->dets[i].box;
                 r->eval_dets[i].score = score_of(&r->dets[i]);
             }
-            demo_gt_frame(&r->gt, name, f.width, f.height, r->eval_dets, n, NULL);
+            st = evaluate_frame(r, name, &f, n);
+            if (st != VD_OK) {
+                vd_capture_release(&r->cap, &f);
+                return fail(r, st, r->err);
+            }
             demo_gt_candidates(&r->gt, name, &f, hot_threshold(r, &f), r->cands, r->n_cands);
         }
         if (r->staging) {
@@ -890,6 +977,12 @@ static int run(run_t *r)
     }
     if (r->have_gt && o->eval_out != NULL) {
         st = demo_gt_write_json(&r->gt, o->eval, o->eval_out, r->err, sizeof r->err);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+    }
+    if (r->have_report) {
+        st = write_report(r);
         if (st != VD_OK) {
             return fail(r, st, r->err);
         }
