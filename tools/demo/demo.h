@@ -203,8 +203,9 @@ size_t demo_progress_text(char *buf, size_t cap, uint64_t done, uint64_t total, 
 #include "vd/detector.h"
 
 typedef struct demo_opts {
-    const char *input;          // --input (default: the bundled clip)
+    const char *input;          // --input (default: the bundled clip chosen by --clip)
     bool input_default;         // --input not given
+    const char *clip_eval;      // annotations of the bundled clip in use (NULL with --input)
     const char *model;          // --model FILE | none; NULL = auto (first models/*.vdm)
     const char *out_dir;        // --out
     const char *json;           // --json

@@ -28,9 +28,6 @@
 #include "vd_port/file.h"
 #include "vd_port/writer.h"
 
-#ifndef VD_DEMO_CLIP_DIR
-#define VD_DEMO_CLIP_DIR "build/clip"
-#endif
 #ifndef VD_DEMO_MODELS_DIR
 #define VD_DEMO_MODELS_DIR "models"
 #endif
@@ -803,13 +800,14 @@ static int run(run_t *r)
     if (o->input_default) {
         if (stat(o->input, &sb) != 0) {
             char m[1200];
-            snprintf(m, sizeof m, "the bundled clip is missing at %s: build it with 'cmake --build build --target "
-                                  "vd_clip' or pass --input",
+            snprintf(m, sizeof m, "the bundled clip is missing at %s: the HIT-UAV clip is part of the repository "
+                                  "(tools/demo/hit-uav-clip), the synthetic one is built by 'cmake --build build "
+                                  "--target vd_clip'; or pass --input",
                      o->input);
             return fail(r, VD_ERR_IO, m);
         }
-        if (o->eval == NULL) {
-            snprintf(r->eval_path, sizeof r->eval_path, "%s/annotations.json", VD_DEMO_CLIP_DIR);
+        if (o->eval == NULL && o->clip_eval != NULL) {
+            snprintf(r->eval_path, sizeof r->eval_path, "%s", o->clip_eval);
             if (stat(r->eval_path, &sb) == 0) {
                 o->eval = r->eval_path;
             }
