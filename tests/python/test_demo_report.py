@@ -240,3 +240,21 @@ def test_progress_one_updating_line_on_a_terminal(demo, clip_dir):
     assert done == sorted(done) and done[-1] == FRAMES   # the last frame is always shown
     rc, _, err = run_on_pty(demo, "--input", clip_dir / "u8", "--model", "none", "--quiet")
     assert rc == 0 and err == ""
+
+
+def test_error_after_progress_on_a_terminal_is_its_own_line(demo, clip_dir, tmp_path):
+    bad = tmp_path / "mixed"
+    bad.mkdir()
+    shutil.copy(clip_dir / "u16" / "frame_0000.pgm", bad / "a.pgm")
+    shutil.copy(clip_dir / "u8" / "frame_0001.pgm", bad / "b.pgm")   # 8-bit after 16-bit: an error
+    rc, _, err = run_on_pty(demo, "--input", bad, "--model", "none")
+    lines = err.replace("\r\n", "\n").rstrip("\n").split("\n")
+    assert rc == 1 and "\r[1/2 50%]" in lines[-2], lines
+    assert lines[-1].startswith("vd_fir_demo: error: "), lines   # not appended to the progress line
+
+
+def test_report_path_named_on_stderr(demo, clip_dir, tmp_path):
+    p = run(demo, "--input", clip_dir / "u8", "--model", "none", "--frames", 3, "--report", tmp_path / "r")
+    assert p.stderr.splitlines()[-1] == f"vd_fir_demo: report {tmp_path / 'r'}/index.html"
+    assert run(demo, "--input", clip_dir / "u8", "--model", "none", "--frames", 3, "--report", tmp_path / "q",
+               "--quiet").stderr == ""

@@ -77,6 +77,7 @@ typedef struct run {
     uint32_t grey_lo_raw, grey_hi_raw;
     demo_report_t report;    // --report
     bool have_report;
+    demo_progress_t prog;    // zeroed (off) until the frame loop starts
     int8_t *matched;         // --eval: per detection of this frame (dets_cap)
     bool *gt_used;           // --eval: per box of this frame's annotations
     size_t cap_gt_used;
@@ -111,7 +112,7 @@ static double now_s(void)
 // One error line: "vd_fir_demo: error: <detail> (<status text>)".
 static int fail(run_t *r, vd_status_t st, const char *detail)
 {
-    (void)r;
+    demo_progress_end(&r->prog, stderr);   // a progress line on a terminal is ended first
     fprintf(stderr, "vd_fir_demo: error: %s (%s)\n", detail, vd_status_str(st));
     return 1;
 }
@@ -875,8 +876,7 @@ static int run(run_t *r)
     if (o->max_frames != 0 && (total == 0 ? r->device : total > o->max_frames)) {
         total = o->max_frames;
     }
-    demo_progress_t prog;
-    demo_progress_start(&prog, !o->quiet, isatty(STDERR_FILENO) != 0, total, now_s());
+    demo_progress_start(&r->prog, !o->quiet, isatty(STDERR_FILENO) != 0, total, now_s());
     // Recorded input ends at VD_ERR_RANGE + at_end; a device runs until --frames or an error.
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -959,9 +959,9 @@ static int run(run_t *r)
         if (st != VD_OK) {
             return fail(r, st, r->err);
         }
-        demo_progress_frame(&prog, stderr, r->frames, name, n, now_s());
+        demo_progress_frame(&r->prog, stderr, r->frames, name, n, now_s());
     }
-    demo_progress_end(&prog, stderr);
+    demo_progress_end(&r->prog, stderr);
     if (g_stop && !o->quiet) {
         fprintf(stderr, "vd_fir_demo: interrupted after %llu frames\n", (unsigned long long)r->frames);
     }
@@ -990,6 +990,9 @@ static int run(run_t *r)
         return fail(r, st, r->err);
     }
     r->created[0][0] = r->created[1][0] = '\0';
+    if (r->have_report && !o->quiet) {
+        fprintf(stderr, "vd_fir_demo: report %s/index.html\n", r->report.dir);
+    }
     summary(r);
     if (r->have_gt) {
         demo_gt_report(&r->gt, stdout);
