@@ -9,7 +9,8 @@ export DEBIAN_FRONTEND=noninteractive
 # cmake/ninja/gcc: build; clang + libclang-rt-14-dev: clang build and libFuzzer;
 # libv4l-dev: V4L2 port; libstb-dev: PNG/JPEG decode and PNG encode in host tools;
 # valgrind: leak checks and instruction counts; pkg-config: consumer test;
-# arm toolchains + qemu-user: cross builds and ARM test runs.
+# arm toolchains + qemu-user: cross builds and ARM test runs;
+# chromium + fonts-dejavu-core: the test renders vd_fir_demo --report's page headless (text needs a font);
 # GStreamer element vdfir (tools/gst, docs/gstreamer.md): libgstreamer1.0-dev and
 # libgstreamer-plugins-base1.0-dev build it (gstreamer-1.0/-base/-video); its tests run real
 # pipelines with gstreamer1.0-tools (gst-inspect), gstreamer1.0-plugins-base (videoconvert,
@@ -23,6 +24,7 @@ PKGS=(cmake ninja-build make gcc libc6-dev clang libclang-rt-14-dev llvm pkg-con
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross binutils-arm-linux-gnueabihf
   gcc-aarch64-linux-gnu libc6-dev-arm64-cross binutils-aarch64-linux-gnu
   qemu-user python3 python3-pip python3-venv
+  chromium fonts-dejavu-core
   libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-tools gstreamer1.0-plugins-base
   gstreamer1.0-plugins-good)
 $SUDO apt-get update -qq
