@@ -119,20 +119,22 @@ static gboolean gst_vdfir_start(GstBaseTransform *bt)
         argv[argc++] = self->sources;
     }
     argv[argc] = NULL;
-    char *msg = NULL;
-    size_t msg_len = 0;
+    // The parser writes its error line (and --help text, never asked for) to streams.
+    char *msg = NULL, *help = NULL;
+    size_t msg_len = 0, help_len = 0;
     FILE *errf = open_memstream(&msg, &msg_len);
-    FILE *nul = fopen("/dev/null", "w");
+    FILE *outf = open_memstream(&help, &help_len);
     int a = -1;
-    if (errf != NULL && nul != NULL) {
-        a = demo_args_parse_to(&self->opts, argc, argv, nul, errf);
+    if (errf != NULL && outf != NULL) {
+        a = demo_args_parse_to(&self->opts, argc, argv, outf, errf);
     }
-    if (nul != NULL) {
-        fclose(nul);
+    if (outf != NULL) {
+        fclose(outf);
     }
     if (errf != NULL) {
         fclose(errf);
     }
+    free(help);
     if (a != 0) {
         gchar *m = g_strstrip(g_strdup(msg != NULL && msg[0] != '\0' ? msg : "invalid settings"));
         // The parser's line names the demo; the setting's text is what matters here.
