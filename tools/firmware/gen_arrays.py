@@ -60,8 +60,9 @@ def cmd_frames(args):
             write_pgm(Path(args.pgm_dir) / name, img)
         u16 = img.dtype.itemsize == 2
         raw = img.astype("<u2").tobytes() if u16 else img.tobytes()
-        # uint64_t union member: 8-byte alignment in plain C99 (16-bit planes need 2).
-        body.append(f"static const union {{ uint64_t align; uint8_t b[{len(raw)}]; }} frame{i} = {{ .b = {{")
+        # Own section (flash, placed by the linker script); uint64_t member: 8-byte alignment.
+        body.append(f"static const union {{ uint64_t align; uint8_t b[{len(raw)}]; }} frame{i}"
+                    f' __attribute__((section(".vd_frames"))) = {{ .b = {{')
         body.append(c_bytes(raw))
         body.append("} };")
         table.append(f'    {{"{name}", frame{i}.b, {img.shape[1]}u, {img.shape[0]}u, {1 if u16 else 0}u}},')

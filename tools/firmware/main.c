@@ -8,7 +8,9 @@
 // defaults), temporal analysis on, source cnn, max_candidates and
 // max_detections = the model's top-K, max_width/height = the frame size.
 // After the JSON lines, one "# vd_fw ..." line per frame and one summary
-// line report SysTick cycles and the stack high-water mark (tools/embedded_report.py).
+// line report SysTick cycles (whole vd_detector_run), the CNN stage's time
+// from the detector's clock callback, the instruction-count calibration and
+// the stack high-water mark (tools/embedded_report.py reads them).
 #include <stdint.h>
 #include <string.h>
 
@@ -208,6 +210,7 @@ int main(void)
         return fail("detections buffer", VD_ERR_CAPACITY);
     }
     uint64_t cycles[8] = {0};
+    uint32_t cnn_us[8] = {0};
     for (uint32_t i = 0; i < vd_fw_frame_count; i++) {
         const vd_fw_frame_t *f = &vd_fw_frames[i];
         vd_frame_t fr = {f->data, f->width, f->height, (size_t)f->width * (f->u16 ? 2u : 1u),
@@ -218,6 +221,7 @@ int main(void)
         uint64_t t1 = fw_ticks();
         if (i < 8u) {
             cycles[i] = t1 - t0;
+            cnn_us[i] = vd_detector_last_stats(&det)->time_us[VD_DET_STAGE_CNN];
         }
         if (st != VD_OK && st != VD_ERR_CAPACITY) {
             return fail(f->name, st);  // VD_ERR_CAPACITY: results valid, as the demo treats it
@@ -230,6 +234,8 @@ int main(void)
         sh_putu(i);
         sh_puts(" systick_cycles ");
         sh_putu((uint32_t)cycles[i]);
+        sh_puts(" cnn_stage_us ");
+        sh_putu(cnn_us[i]);
         sh_puts("\n");
     }
     sh_puts("# vd_fw calib_insns ");
