@@ -286,14 +286,15 @@ def firmware_section(fw, cnn_rows):
              "vd_fir_demo's settings, detections over semihosting (`tests/python/test_firmware.py` checks them",
              "byte for byte against vd_fir_demo). Measured by",
              "`python3 tools/embedded_report.py --firmware` (arm-none-eabi-gcc " + m7["gcc"] + ", newlib-nano for",
-             "`memcpy`/`memset` only).", "",
+             "`memcpy`/`memset`/`memmove` only).", "",
              "| board | build | flash (B) | RAM (B) | stack high-water (B) | instructions per frame | of which CNN stage |",
              "|---|---|---:|---:|---:|---:|---:|"]
     for d in fw:
         ins = d["insns"]
         lines.append(f"| `{d['machine']}` ({FW_BOARDS[d['toolchain']][1]}) | {d['build_type']} | {d['flash']} | "
                      f"{d['ram']} | {d['stack_used']} of {d['stack_size']} | "
-                     f"{min(ins) / 1e6:.1f} M – {max(ins) / 1e6:.1f} M | {min(d['cnn_us']) / 1e3:.1f} M |")
+                     f"{min(ins) / 1e6:.1f} M – {max(ins) / 1e6:.1f} M | "
+                     f"{min(d['cnn_us']) / 1e3:.1f} M – {max(d['cnn_us']) / 1e3:.1f} M |")
     lines += ["",
               f"Flash = {' + '.join(s for s in FW_FLASH)}: code and constants {sz['.text']} B (libvd and the",
               f"firmware), model {sz['.vd_model']} B, frames {sz['.vd_frames']} B (test input only: a camera",
@@ -313,7 +314,8 @@ def firmware_section(fw, cnn_rows):
               f"{m7['insn_per_tick']:.2f} instructions (resolution ±40 instructions). These are instructions an",
               "emulator executed: no pipeline, caches, wait states or dual issue; a real part's cycles differ.",
               "\"Of which CNN stage\" is `vd_detector_stats_t.time_us[VD_DET_STAGE_CNN]` through the detector's",
-              "clock callback (1 µs = 1 000 instructions here); the range is over the frames."]
+              "clock callback (1 µs = 1 000 instructions here); ranges are over the frames (the later frames",
+              "add temporal analysis of the tracks the first one started)."]
     if macs:
         best = min(d["insns"][0] for d in fw if d["toolchain"] == "cortex-m7")
         lines += ["",
