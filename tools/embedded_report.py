@@ -314,8 +314,8 @@ def firmware_section(fw, cnn_rows):
               f"{m7['insn_per_tick']:.2f} instructions (resolution ±40 instructions). These are instructions an",
               "emulator executed: no pipeline, caches, wait states or dual issue; a real part's cycles differ.",
               "\"Of which CNN stage\" is `vd_detector_stats_t.time_us[VD_DET_STAGE_CNN]` through the detector's",
-              "clock callback (1 µs = 1 000 instructions here); ranges are over the frames (the later frames",
-              "add temporal analysis of the tracks the first one started)."]
+              "clock callback (1 µs = 1 000 instructions here); ranges are over the frames; the rest of",
+              "`vd_detector_run` (merge, overlap suppression, temporal analysis) varies with the detections."]
     if macs:
         best = min(d["insns"][0] for d in fw if d["toolchain"] == "cortex-m7")
         lines += ["",
