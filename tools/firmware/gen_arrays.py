@@ -53,6 +53,8 @@ def cmd_frames(args):
     body, table = [], []
     if args.pgm_dir:
         Path(args.pgm_dir).mkdir(parents=True, exist_ok=True)
+        for old in Path(args.pgm_dir).glob("*.pgm"):  # frames of an earlier VD_FW_FRAMES
+            old.unlink()
     for i, p in enumerate(args.images):
         img = load_image(p)
         name = Path(p).stem + ".pgm"
