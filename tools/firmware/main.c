@@ -2,7 +2,8 @@
 // vd on a bare-metal Cortex-M: loads the CNN model from flash, runs
 // vd_detector_run on each frame in flash and prints the detections as JSON
 // Lines (the vd_fir_demo contract, byte for byte the same text) over
-// semihosting; exits 0, or 2 with the vd_status_str() text on an error.
+// semihosting; exits 0, or 2 with the vd_status_str() text on an error
+// (3: a fault, startup.c).
 //
 // The settings are vd_fir_demo's for a CNN model: zero config (the paper's
 // defaults), temporal analysis on, source cnn, max_candidates and
