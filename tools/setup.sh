@@ -10,7 +10,8 @@ export DEBIAN_FRONTEND=noninteractive
 # libv4l-dev: V4L2 port; libstb-dev: PNG/JPEG decode and PNG encode in host tools;
 # valgrind: leak checks and instruction counts; pkg-config: consumer test;
 # arm toolchains + qemu-user: cross builds and ARM test runs; qemu-system-arm: the bare-metal
-# firmware example (tools/firmware) on emulated MPS2 Cortex-M7/M4 boards.
+# firmware example (tools/firmware) on emulated MPS2 Cortex-M7/M4 boards;
+# chromium + fonts-dejavu-core: the test renders vd_fir_demo --report's page headless (text needs a font).
 # Every package is named explicitly: --no-install-recommends drops what a package only recommends
 # (the cross compilers' C libraries libc6-dev-*-cross were lost that way once).
 PKGS=(cmake ninja-build make gcc libc6-dev clang libclang-rt-14-dev llvm pkg-config libv4l-dev libstb-dev
@@ -18,7 +19,8 @@ PKGS=(cmake ninja-build make gcc libc6-dev clang libclang-rt-14-dev llvm pkg-con
   gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross binutils-arm-linux-gnueabihf
   gcc-aarch64-linux-gnu libc6-dev-arm64-cross binutils-aarch64-linux-gnu
-  qemu-user qemu-system-arm python3 python3-pip python3-venv)
+  qemu-user qemu-system-arm python3 python3-pip python3-venv
+  chromium fonts-dejavu-core)
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${PKGS[@]}" >/dev/null
 

@@ -203,6 +203,9 @@ void demo_args_usage(FILE *f)
             "  --classes LIST      vehicle classes for --eval, ids or names, comma separated (default: classes\n"
             "                      named car/othervehicle/vehicle/truck/bus/van; YOLO without names: 2 = MSRS car)\n"
             "  --eval-out FILE     write the evaluation figures as JSON\n"
+            "  --report DIR        DIR/index.html, one self-contained page: summary, stage times and, with\n"
+            "                      ground truth, TP/FP/AP, the precision-recall curve and a gallery of the\n"
+            "                      frames with misses and false positives\n"
             "  --quiet             no progress lines\n"
             "  --help              this text\n\n"
             "detector settings (also keys of --config FILE, a JSON object such as {\"hot-thr\": 150}; flags win):\n"
@@ -845,6 +848,8 @@ int demo_args_parse_to(demo_opts_t *o, int argc, char **argv, FILE *out, FILE *e
             o->classes = v;
         } else if (strcmp(n, "eval-out") == 0) {
             o->eval_out = v;
+        } else if (strcmp(n, "report") == 0) {
+            o->report = v;
         } else if (strcmp(n, "config") == 0) {
             config = v;
         } else if (strcmp(n, "raw-size") == 0) {

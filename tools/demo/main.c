@@ -11,7 +11,7 @@
 // Any capture error on recorded input (missing/truncated/undecodable file,
 // mixed sizes) ends the run with one line on stderr and exit status 1; usage
 // errors exit with 2. See docs/demo.md.
-#include "demo.h"
+#include "report.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -25,6 +25,7 @@
 
 #include "vd/vd.h"
 #include "vd_port/capture.h"
+#include "vd_port/file.h"
 #include "vd_port/writer.h"
 
 #ifndef VD_DEMO_MODELS_DIR
@@ -74,6 +75,12 @@ typedef struct run {
     uint32_t width, height;
     vd_pixfmt_t format;
     uint32_t grey_lo_raw, grey_hi_raw;
+    demo_report_t report;    // --report
+    bool have_report;
+    demo_progress_t prog;    // zeroed (off) until the frame loop starts
+    int8_t *matched;         // --eval: per detection of this frame (dets_cap)
+    bool *gt_used;           // --eval: per box of this frame's annotations
+    size_t cap_gt_used;
     char err[1024];
 } run_t;
 
@@ -95,10 +102,17 @@ static uint32_t clock_us(void *user)
     return (uint32_t)((uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u);
 }
 
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
 // One error line: "vd_fir_demo: error: <detail> (<status text>)".
 static int fail(run_t *r, vd_status_t st, const char *detail)
 {
-    (void)r;
+    demo_progress_end(&r->prog, stderr);   // a progress line on a terminal is ended first
     fprintf(stderr, "vd_fir_demo: error: %s (%s)\n", detail, vd_status_str(st));
     return 1;
 }
@@ -577,9 +591,10 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     r->dets_cap = (size_t)r->det.cfg.max_detections + r->det.cfg.max_tracks + 1u;
     r->dets = calloc(r->dets_cap, sizeof *r->dets);
     r->eval_dets = calloc(r->dets_cap, sizeof *r->eval_dets);
+    r->matched = calloc(r->dets_cap, sizeof *r->matched);
     r->cap_cands = r->det.cfg.max_candidates;
     r->cands = calloc(r->cap_cands + 1u, sizeof *r->cands);
-    if (r->dets == NULL || r->eval_dets == NULL || r->cands == NULL) {
+    if (r->dets == NULL || r->eval_dets == NULL || r->matched == NULL || r->cands == NULL) {
         snprintf(r->err, sizeof r->err, "out of memory");
         return VD_ERR_IO;
     }
@@ -662,6 +677,33 @@ static double sum_us(const uint32_t *v, size_t n)
     return s;
 }
 
+// Matching of one frame (--eval) and its gallery entry (--report).
+static vd_status_t evaluate_frame(run_t *r, const char *name, const vd_frame_t *f, size_t n)
+{
+    const demo_gt_image_t *im = demo_gt_image_of(&r->gt, name);
+    const size_t nb = im != NULL ? im->n : 0;
+    if (nb > r->cap_gt_used) {
+        bool *p = realloc(r->gt_used, nb * sizeof *p);
+        if (p == NULL) {
+            snprintf(r->err, sizeof r->err, "out of memory");
+            return VD_ERR_IO;
+        }
+        r->gt_used = p;
+        r->cap_gt_used = nb;
+    }
+    if (nb > 0) {
+        memset(r->gt_used, 0, nb * sizeof *r->gt_used);
+    }
+    const uint64_t evaluated = r->gt.frames;
+    demo_gt_frame_ex(&r->gt, name, f->width, f->height, r->eval_dets, n, r->matched, r->gt_used, nb);
+    if (!r->have_report || r->gt.frames == evaluated) {
+        return VD_OK;   // no report, or a frame the annotations do not list
+    }
+    const bool wide = f->format == VD_PIX_U16;
+    return demo_report_frame(&r->report, r->frames, name, f, wide ? r->grey_lo_raw : 0, wide ? r->grey_hi_raw : 0,
+                             im, r->gt_used, r->eval_dets, r->matched, n, r->err, sizeof r->err);
+}
+
 static void summary(run_t *r)
 {
     double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
@@ -683,9 +725,52 @@ static void summary(run_t *r)
     }
 }
 
+// --report: index.html from the run's figures (the same as summary() prints).
+static vd_status_t write_report(run_t *r)
+{
+    double med[VD_DET_STAGE_COUNT], mean[VD_DET_STAGE_COUNT];
+    const char *names[VD_DET_STAGE_COUNT];
+    for (int k = 0; k < VD_DET_STAGE_COUNT; k++) {
+        names[k] = k_stage_names[k];
+        mean[k] = r->n_times ? sum_us(r->times[k], r->n_times) / (double)r->n_times / 1000.0 : 0.0;
+        med[k] = median_us(r->times[k], r->n_times) / 1000.0;
+    }
+    const double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
+    const double wall_total = sum_us(r->times[VD_DET_STAGE_COUNT], r->n_times);
+    char src[64], models[9000];
+    sources_text(r->o.cfg.sources, src, sizeof src);
+    snprintf(models, sizeof models, "%s%s%s%s%s", r->have_cnn ? "CNN " : "", r->have_cnn ? r->cnn_path : "",
+             r->have_cnn && r->have_model ? ", " : "", r->have_model ? "DBN " : "", r->have_model ? r->model_path : "");
+    if (!r->have_cnn && !r->have_model) {
+        snprintf(models, sizeof models, "none");
+    }
+    demo_report_info_t in;
+    memset(&in, 0, sizeof in);
+    in.input = r->o.input;
+    in.sources = src;
+    in.models = models;
+    in.annotations = r->o.eval != NULL ? r->o.eval : "";
+    in.frames = r->frames;
+    in.detections = r->detections;
+    in.width = r->width;
+    in.height = r->height;
+    in.u16 = r->format == VD_PIX_U16;
+    in.fps_detector = det_total > 0 ? (double)r->frames * 1e6 / det_total : 0.0;
+    in.fps_wall = wall_total > 0 ? (double)r->frames * 1e6 / wall_total : 0.0;
+    in.n_stages = VD_DET_STAGE_COUNT;
+    in.stage_names = names;
+    in.stage_median_ms = med;
+    in.stage_mean_ms = mean;
+    in.gt = r->have_gt ? &r->gt : NULL;
+    return demo_report_write(&r->report, &in, r->err, sizeof r->err);
+}
+
 static void cleanup(run_t *r)
 {
     discard_outputs(r);
+    demo_report_abort(&r->report);
+    free(r->matched);
+    free(r->gt_used);
     vd_capture_close(&r->cap);
     vd_rgb_free(&r->canvas);
     free(r->ws);
@@ -776,8 +861,22 @@ static int run(run_t *r)
     if (st != VD_OK) {
         return fail(r, st, r->err);
     }
+    if (o->report != NULL) {
+        st = demo_report_open(&r->report, o->report, r->err, sizeof r->err);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+        r->have_report = true;
+    }
     int retries = 0;
-    bool tty = isatty(2) != 0;
+    uint64_t total = 0;
+    if (!r->device && vd_file_frame_total(&r->cap, &total) != VD_OK) {
+        total = 0;
+    }
+    if (o->max_frames != 0 && (total == 0 ? r->device : total > o->max_frames)) {
+        total = o->max_frames;
+    }
+    demo_progress_start(&r->prog, !o->quiet, isatty(STDERR_FILENO) != 0, total, now_s());
     // Recorded input ends at VD_ERR_RANGE + at_end; a device runs until --frames or an error.
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -839,7 +938,11 @@ static int run(run_t *r)
                 r->eval_dets[i].box = r->dets[i].box;
                 r->eval_dets[i].score = score_of(&r->dets[i]);
             }
-            demo_gt_frame(&r->gt, name, f.width, f.height, r->eval_dets, n, NULL);
+            st = evaluate_frame(r, name, &f, n);
+            if (st != VD_OK) {
+                vd_capture_release(&r->cap, &f);
+                return fail(r, st, r->err);
+            }
             demo_gt_candidates(&r->gt, name, &f, hot_threshold(r, &f), r->cands, r->n_cands);
         }
         if (r->staging) {
@@ -856,14 +959,9 @@ static int run(run_t *r)
         if (st != VD_OK) {
             return fail(r, st, r->err);
         }
-        if (!o->quiet && (tty || r->frames % 50 == 0)) {
-            fprintf(stderr, "%s[%llu] %s: %zu detections%s", tty ? "\r" : "", (unsigned long long)r->frames, name, n,
-                    tty ? "\033[K" : "\n");
-        }
+        demo_progress_frame(&r->prog, stderr, r->frames, name, n, now_s());
     }
-    if (!o->quiet && tty) {
-        fputc('\n', stderr);
-    }
+    demo_progress_end(&r->prog, stderr);
     if (g_stop && !o->quiet) {
         fprintf(stderr, "vd_fir_demo: interrupted after %llu frames\n", (unsigned long long)r->frames);
     }
@@ -881,11 +979,20 @@ static int run(run_t *r)
             return fail(r, st, r->err);
         }
     }
+    if (r->have_report) {
+        st = write_report(r);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+    }
     st = commit_outputs(r);
     if (st != VD_OK) {
         return fail(r, st, r->err);
     }
     r->created[0][0] = r->created[1][0] = '\0';
+    if (r->have_report && !o->quiet) {
+        fprintf(stderr, "vd_fir_demo: report %s/index.html\n", r->report.dir);
+    }
     summary(r);
     if (r->have_gt) {
         demo_gt_report(&r->gt, stdout);
