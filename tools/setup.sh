@@ -9,7 +9,14 @@ export DEBIAN_FRONTEND=noninteractive
 # cmake/ninja/gcc: build; clang + libclang-rt-14-dev: clang build and libFuzzer;
 # libv4l-dev: V4L2 port; libstb-dev: PNG/JPEG decode and PNG encode in host tools;
 # valgrind: leak checks and instruction counts; pkg-config: consumer test;
-# arm toolchains + qemu-user: cross builds and ARM test runs.
+# arm toolchains + qemu-user: cross builds and ARM test runs; qemu-system-arm: the bare-metal
+# firmware example (tools/firmware) on emulated MPS2 Cortex-M7/M4 boards;
+# chromium + fonts-dejavu-core: the test renders vd_fir_demo --report's page headless (text needs a font).
+# GStreamer element vdfir (tools/gst, docs/gstreamer.md): libgstreamer1.0-dev and
+# libgstreamer-plugins-base1.0-dev build it (gstreamer-1.0/-base/-video); its tests run real
+# pipelines with gstreamer1.0-tools (gst-inspect), gstreamer1.0-plugins-base (videoconvert,
+# videotestsrc, rawvideoparse, decodebin) and gstreamer1.0-plugins-good (multifilesrc, pngdec,
+# pngenc, jpegdec; v4l2src for cameras).
 # Every package is named explicitly: --no-install-recommends drops what a package only recommends
 # (the cross compilers' C libraries libc6-dev-*-cross were lost that way once).
 PKGS=(cmake ninja-build make gcc libc6-dev clang libclang-rt-14-dev llvm pkg-config libv4l-dev libstb-dev
@@ -17,7 +24,10 @@ PKGS=(cmake ninja-build make gcc libc6-dev clang libclang-rt-14-dev llvm pkg-con
   gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross binutils-arm-linux-gnueabihf
   gcc-aarch64-linux-gnu libc6-dev-arm64-cross binutils-aarch64-linux-gnu
-  qemu-user python3 python3-pip python3-venv)
+  qemu-user qemu-system-arm python3 python3-pip python3-venv
+  chromium fonts-dejavu-core
+  libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-tools gstreamer1.0-plugins-base
+  gstreamer1.0-plugins-good)
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${PKGS[@]}" >/dev/null
 
@@ -42,6 +52,23 @@ check "armhf" "gcc-arm-linux-gnueabihf libc6-dev-armhf-cross" arm-linux-gnueabih
 check "aarch64" "gcc-aarch64-linux-gnu libc6-dev-arm64-cross" aarch64-linux-gnu-gcc "$tmp/t.c" -o "$tmp/g"
 check "qemu-arm (armhf program)" "qemu-user" qemu-arm -L /usr/arm-linux-gnueabihf "$tmp/e"
 check "qemu-aarch64 (aarch64 program)" "qemu-user" qemu-aarch64 -L /usr/aarch64-linux-gnu "$tmp/g"
+check "qemu-system-arm (MPS2 AN500/AN386 boards)" "qemu-system-arm" \
+  sh -c 'qemu-system-arm -M help | grep -q mps2-an500 && qemu-system-arm -M help | grep -q mps2-an386'
+have() {  # name, package(s), command...: a library or plugin that must be present
+  local name=$1 pkg=$2; shift 2
+  if ! "$@" >"$tmp/log" 2>&1; then
+    echo "setup.sh: $name not found; install: $pkg" >&2
+    exit 1
+  fi
+}
+have "GStreamer development files" "libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev" \
+  pkg-config --exists gstreamer-1.0 gstreamer-base-1.0 gstreamer-video-1.0
+for el in videoconvert videotestsrc rawvideoparse decodebin; do
+  have "GStreamer element $el" "gstreamer1.0-tools gstreamer1.0-plugins-base" gst-inspect-1.0 --exists "$el"
+done
+for el in multifilesrc pngdec pngenc jpegdec; do
+  have "GStreamer element $el" "gstreamer1.0-tools gstreamer1.0-plugins-good" gst-inspect-1.0 --exists "$el"
+done
 
 # Python tools (tools/pyproject.toml lists them): numpy, scikit-learn, scikit-image,
 # opencv-python-headless (oracle + benchmark peer), matplotlib (figures), tqdm, pytest;

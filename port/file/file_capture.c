@@ -474,6 +474,28 @@ static const vd_capture_ops_t g_file_ops = {
     "file", file_start, file_next, file_release, file_stop, file_close, file_frame_name, file_format
 };
 
+vd_status_t vd_file_frame_total(const vd_capture_t *cap, uint64_t *frames)
+{
+    if (cap == NULL || frames == NULL || cap->ops != &g_file_ops || cap->impl == NULL) {
+        return VD_ERR_ARG;
+    }
+    const file_impl_t *f = impl_of(cap);
+    const uint64_t fb = (uint64_t)f->opts.raw_width * f->opts.raw_height * (f->opts.raw_format == VD_PIX_U16 ? 2u : 1u);
+    uint64_t n = 0u;
+    // One stat() per raw file: bounded by VD_FILE_MAX_FRAMES paths.
+    for (size_t i = 0; i < f->n_paths; i++) {
+        struct stat sb;
+        if (fb != 0u && is_raw_name(f->paths[i]) && stat(f->paths[i], &sb) == 0 && sb.st_size > 0 &&
+            (uint64_t)sb.st_size >= fb) {
+            n += (uint64_t)sb.st_size / fb;
+        } else {
+            n++;
+        }
+    }
+    *frames = n;
+    return VD_OK;
+}
+
 vd_status_t vd_file_open(vd_capture_t *cap, const char *path, vd_file_kind_t kind, const vd_capture_opts_t *opts)
 {
     if (cap == NULL) {

@@ -100,7 +100,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FZ_CHECK(rc == 0 || rc == 1 || rc == -1);
     if (rc == 0) {
         FZ_CHECK(o.input != NULL && (o.input_default || in_argv(o.input, argv, argc)));
-        const char *const ptrs[] = {o.model, o.out_dir, o.json, o.eval, o.classes, o.eval_out};
+        const char *const ptrs[] = {o.model, o.out_dir, o.json, o.eval, o.classes, o.eval_out, o.report};
         for (size_t k = 0u; k < sizeof ptrs / sizeof ptrs[0]; k++) {
             FZ_CHECK(ptrs[k] == NULL || in_argv(ptrs[k], argv, argc));
         }

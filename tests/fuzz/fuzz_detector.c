@@ -5,7 +5,11 @@
 // capacity, flags (model, temporal, fuzzed cfg, bit-packed pixels, small
 // max_*), a 32-bit mask of which cfg fields take fuzzed values (the others
 // stay 0 = paper default), the field values, then pixels. Flag 32 picks the shipped
-// 32x32 model instead of the tiny 8x8 one. Checks: the size
+// 32x32 model instead of the tiny 8x8 one. Flag 64 adds the CNN source with the shipped
+// compact network (models/vd_cnn_compact.vdm): one more byte picks the sources (with or
+// without the CNN bit, values above the documented set included), cnn_rescore (0..3) and
+// whether the network's score threshold is fuzzed (a u16, 0 = the model's, > 32768 invalid).
+// Checks: the size
 // query and init agree; a frame inside the configured maximum gives VD_OK or
 // VD_ERR_CAPACITY with every box inside the frame; a bad frame gives its
 // status and the same detector then still runs a good frame.
@@ -54,6 +58,27 @@ static const vd_model_t *test_model(int compact)
     return t;
 }
 
+// The shipped compact CNN, loaded once in place (NULL when absent or rejected).
+static const vd_cnn_model_t *test_cnn(void)
+{
+    static int tried;
+    static uint32_t blob[131072 / 4];
+    static vd_cnn_model_t m;
+    if (!tried) {
+        tried = 1;
+        memset(&m, 0, sizeof(m));
+        FILE *f = fopen(VD_SOURCE_DIR "/models/vd_cnn_compact.vdm", "rb");
+        if (f != NULL) {
+            const size_t n = fread(blob, 1u, sizeof(blob), f);
+            fclose(f);
+            if (n == 0u || n == sizeof(blob) || vd_cnn_load(&m, blob, n) != VD_OK) {
+                memset(&m, 0, sizeof(m));
+            }
+        }
+    }
+    return m.blob ? &m : NULL;
+}
+
 static int rect_inside(const vd_rect_t *r, uint32_t w, uint32_t h)
 {
     return r->w >= 1 && r->h >= 1 && r->x >= 0 && r->y >= 0 && (uint32_t)r->x + (uint32_t)r->w <= w &&
@@ -73,7 +98,8 @@ static void check_run(vd_status_t st, const vd_detection_t *out, size_t count, s
         FZ_CHECK(rect_inside(&d->box, w, h));
         if (!(d->flags & VD_DET_FLAG_RECOVERED)) {
             FZ_CHECK(rect_inside(&d->candidate, w, h));
-            if (!has_model) {
+            FZ_CHECK(d->source >= VD_SOURCE_HOTSPOT && d->source <= VD_SOURCE_CNN);
+            if (!has_model && d->source != VD_SOURCE_CNN) {
                 FZ_CHECK(d->score_q8 == 255u && (d->flags & VD_DET_FLAG_UNVERIFIED));
             }
         }
@@ -87,7 +113,7 @@ static void check_run(vd_status_t st, const vd_detection_t *out, size_t count, s
 // some of the four are set, reserved fields, a default max_detections above a small
 // max_candidates) or for max_region_w/h below 16, which detector.h documents as out of range but
 // the detector accepts (reported to its owner; tolerated here so CI stays green meanwhile).
-static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask)
+static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask, int has_model)
 {
     int open = 0;
     const int32_t hot = c->hot_thr_ck ? c->hot_thr_ck : 30315;
@@ -101,7 +127,9 @@ static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask)
         (c->window && (!(c->window & 1u) || c->window < 3u || c->window > VD_REFINE_MAX_WINDOW)) ||
         c->nms_iou_q15 > 32768u || cand > 4096u || (c->max_detections && c->max_detections > cand) ||
         c->max_region_w > c->max_width || c->max_region_h > c->max_height ||
-        (c->temporal && c->max_tracks > 1024u)) {
+        (c->temporal && c->max_tracks > 1024u) || c->sources > 0x0Fu || c->cnn_score_thr_q15 > 32768u ||
+        c->cnn_rescore > 1u || ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_model == NULL) ||
+        ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_rescore && !has_model)) {
         return -1;
     }
     if ((fmask & (0xFu << 9)) || (fmask & (1u << 27)) || (c->max_detections == 0u && cand < 32u) ||
@@ -164,12 +192,19 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FZ_FIELD(27, reserved0, fz_u8(&r));
     FZ_FIELD(28, max_runs, (uint32_t)fz_u16(&r));
 #undef FZ_FIELD
+    if (flags & 64u) {
+        const uint8_t cb = fz_u8(&r);
+        cfg.sources = (uint8_t)((cb & 0x0Fu) | ((cb & 0x80u) ? 0x10u : 0u));
+        cfg.cnn_rescore = (uint8_t)((cb >> 4) & 3u);
+        cfg.cnn_score_thr_q15 = (cb & 0x40u) ? (uint16_t)(fz_u16(&r) % 33000u) : 0u;
+        cfg.cnn_model = test_cnn();
+    }
 
     const vd_model_t *model = (flags & 1u) ? test_model((flags & 32u) != 0u) : NULL;
     size_t wsb = 0u;
     vd_status_t sq = vd_detector_workspace_size(&cfg, model, &wsb);
     FZ_CHECK(sq == VD_OK || sq == VD_ERR_ARG || sq == VD_ERR_OVERFLOW);
-    const int verdict = cfg_verdict(&cfg, fmask);
+    const int verdict = cfg_verdict(&cfg, fmask, model != NULL);
     if (verdict < 0) {
         FZ_CHECK(sq == VD_ERR_ARG);
     } else if (verdict > 0) {
@@ -231,8 +266,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 #ifdef FZ_DEBUG
         {
             const vd_detector_stats_t *s = vd_detector_last_stats(&det);
-            fprintf(stderr, "run %d: status %d, %zu detections (hot %u, comps %u, kept %u, refined %u, verified %u)\n", k,
-                    (int)st, count, s->hot_pixels, s->components, s->kept, s->refined, s->verified);
+            fprintf(stderr, "run %d: status %d, %zu detections (hot %u, comps %u, kept %u, refined %u, verified %u, cnn %u)\n", k,
+                    (int)st, count, s->hot_pixels, s->components, s->kept, s->refined, s->verified, s->cnn_boxes);
         }
 #endif
     }

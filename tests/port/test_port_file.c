@@ -211,6 +211,10 @@ static void test_raw_y16_multi_frame_file(void)
     o.raw_width = 4u;
     o.raw_height = 2u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_open(&g_cap, path, &o));
+    uint64_t total = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_file_frame_total(&g_cap, &total));
+    TEST_ASSERT_EQUAL_UINT64(3u, total);   // 48 bytes / (4 x 2 x 2) per frame
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_file_frame_total(&g_cap, NULL));
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_start(&g_cap));
     for (uint32_t f = 0; f < 3u; f++) {
         vd_frame_t fr;
@@ -409,6 +413,12 @@ static void test_directory_sorted_with_restart(void)
     char dir[600];
     (void)snprintf(dir, sizeof(dir), "%s/", pt_path(""));      // trailing slash is fine
     TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_capture_open(&g_cap, dir, NULL), vd_capture_error(&g_cap));
+    uint64_t total = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_file_frame_total(&g_cap, &total));
+    TEST_ASSERT_EQUAL_UINT64(3u, total);   // the three frames, not the hidden file, notes or sub-directory
+    vd_capture_t closed;
+    memset(&closed, 0, sizeof(closed));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_file_frame_total(&closed, &total));   // not a file capture
     for (int round = 0; round < 2; round++) {
         TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_start(&g_cap));
         expect_frame(0u, 11u, "/001.pgm");

@@ -14,9 +14,16 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifndef VD_DEMO_DEFAULT_INPUT
-#define VD_DEMO_DEFAULT_INPUT "build/clip/u16"
+// The bundled clips (tools/CMakeLists.txt sets both to absolute paths of the build):
+// the real HIT-UAV excerpt committed under tools/demo/hit-uav-clip (CC BY 4.0, the default),
+// and the synthetic radiometric clip generated at build time (--clip synthetic | synthetic-u8).
+#ifndef VD_DEMO_HIT_CLIP_DIR
+#define VD_DEMO_HIT_CLIP_DIR "tools/demo/hit-uav-clip"
 #endif
+#ifndef VD_DEMO_CLIP_DIR
+#define VD_DEMO_CLIP_DIR "build/clip"
+#endif
+#define VD_DEMO_DEFAULT_INPUT VD_DEMO_HIT_CLIP_DIR "/images"
 
 typedef enum setting_id {
     SET_THR_MODE,
@@ -166,7 +173,10 @@ void demo_args_usage(FILE *f)
             "input and outputs:\n"
             "  --input PATH        directory of frames (*.pgm *.png *.jpg *.raw *.y16, sorted by name), list file\n"
             "                      (*.txt / *.lst, one path per line), one image or raw file, or /dev/videoN\n"
-            "                      (default: the bundled synthetic clip, %s)\n"
+            "                      (default: the bundled clip, see --clip)\n"
+            "  --clip NAME         bundled clip used without --input: hit-uav (default: 38 real drone frames of\n"
+            "                      HIT-UAV, CC BY 4.0, %s), synthetic (generated 16-bit radiometric\n"
+            "                      night road, %s/u16) or synthetic-u8 (the same clip in 8 bits)\n"
             "  --raw-size WxH      frame size of raw files (required for raw input)\n"
             "  --raw-format F      raw samples: u16 (little-endian, default), u16be or u8\n"
             "  --device-size WxH   V4L2: requested frame size (default: the driver's)\n"
@@ -189,15 +199,18 @@ void demo_args_usage(FILE *f)
             "  --json FILE         detections as JSON Lines, one object per frame (docs/demo.md)\n"
             "  --eval ANNOTATIONS  compare with ground truth: COCO-like JSON (HIT-UAV layout too) or a YOLO\n"
             "                      label folder; prints TP rate, FP rate, precision, recall, FPPI\n"
-            "                      (default with the bundled clip: its annotations.json)\n"
+            "                      (default with a bundled clip: its annotations.json)\n"
             "  --classes LIST      vehicle classes for --eval, ids or names, comma separated (default: classes\n"
             "                      named car/othervehicle/vehicle/truck/bus/van; YOLO without names: 2 = MSRS car)\n"
             "  --eval-out FILE     write the evaluation figures as JSON\n"
+            "  --report DIR        DIR/index.html, one self-contained page: summary, stage times and, with\n"
+            "                      ground truth, TP/FP/AP, the precision-recall curve and a gallery of the\n"
+            "                      frames with misses and false positives\n"
             "  --quiet             no progress lines\n"
             "  --help              this text\n\n"
             "detector settings (also keys of --config FILE, a JSON object such as {\"hot-thr\": 150}; flags win):\n"
             "  --config FILE       read settings from FILE\n",
-            VD_DEMO_DEFAULT_INPUT);
+            VD_DEMO_HIT_CLIP_DIR, VD_DEMO_CLIP_DIR);
     for (size_t i = 0; i < SET_COUNT; i++) {
         char head[64];
         snprintf(head, sizeof head, "--%s %s", k_settings[i].name, k_settings[i].arg);
@@ -769,6 +782,8 @@ int demo_args_parse_to(demo_opts_t *o, int argc, char **argv, FILE *out, FILE *e
     memset(o, 0, sizeof *o);
     o->input = VD_DEMO_DEFAULT_INPUT;
     o->input_default = true;
+    o->clip_eval = VD_DEMO_HIT_CLIP_DIR "/annotations.json";
+    const char *clip_input = NULL;   // --clip's frames; applied after the first pass
     o->raw_format = VD_PIX_U16;
     o->timeout_ms = 2000;
     o->scores = true;
@@ -810,6 +825,17 @@ int demo_args_parse_to(demo_opts_t *o, int argc, char **argv, FILE *out, FILE *e
         if (strcmp(n, "input") == 0) {
             o->input = v;
             o->input_default = false;
+        } else if (strcmp(n, "clip") == 0) {
+            if (strcmp(v, "hit-uav") == 0) {
+                o->clip_eval = VD_DEMO_HIT_CLIP_DIR "/annotations.json";
+            } else if (strcmp(v, "synthetic") == 0 || strcmp(v, "synthetic-u8") == 0) {
+                o->clip_eval = VD_DEMO_CLIP_DIR "/annotations.json";
+            } else {
+                return usage_error(errf, "bad --clip '%s'%s (expected hit-uav, synthetic or synthetic-u8)", v, "");
+            }
+            clip_input = strcmp(v, "hit-uav") == 0 ? VD_DEMO_DEFAULT_INPUT
+                            : strcmp(v, "synthetic") == 0 ? VD_DEMO_CLIP_DIR "/u16"
+                                                          : VD_DEMO_CLIP_DIR "/u8";
         } else if (strcmp(n, "model") == 0) {
             o->model = v;
         } else if (strcmp(n, "out") == 0) {
@@ -822,6 +848,8 @@ int demo_args_parse_to(demo_opts_t *o, int argc, char **argv, FILE *out, FILE *e
             o->classes = v;
         } else if (strcmp(n, "eval-out") == 0) {
             o->eval_out = v;
+        } else if (strcmp(n, "report") == 0) {
+            o->report = v;
         } else if (strcmp(n, "config") == 0) {
             config = v;
         } else if (strcmp(n, "raw-size") == 0) {
@@ -870,6 +898,15 @@ int demo_args_parse_to(demo_opts_t *o, int argc, char **argv, FILE *out, FILE *e
         } else if (strchr(n, '_') != NULL || find_setting(n) < 0) {
             return usage_error(errf, "unknown option '%s'%s", a, "");
         }
+    }
+    if (clip_input != NULL) {
+        if (!o->input_default) {
+            return usage_error(errf, "--clip chooses a bundled clip: not with --input%s%s", "", "");
+        }
+        o->input = clip_input;
+    }
+    if (!o->input_default) {
+        o->clip_eval = NULL;
     }
     char msg[600];
     if (config != NULL && !load_config(o, config, msg, sizeof msg)) {

@@ -88,6 +88,14 @@ typedef struct demo_gt_image {
 
 #define DEMO_MAX_CLASSES 64
 
+// One counted detection (true or false positive; ignored ones are left out),
+// kept for the precision-recall curve and AP.
+typedef struct demo_gt_scored {
+    double score;
+    uint64_t order;   // evaluation order: ties in score keep it (as vdtools.evaluate.average_precision)
+    bool tp;
+} demo_gt_scored_t;
+
 typedef struct demo_gt {
     demo_gt_image_t *img;   // sorted by name
     size_t n, cap;
@@ -100,6 +108,10 @@ typedef struct demo_gt {
     uint64_t frames, frames_unannotated, gt, det, det_ignored, tp, fp;
     // candidate recall (demo_gt_candidates): vehicles hot / cold, and those covered by a candidate
     uint64_t veh_hot, veh_cold, cov_hot, cov_cold;
+    // every counted detection in evaluation order (malloc'd; demo_gt_pr)
+    demo_gt_scored_t *scored;
+    size_t n_scored, cap_scored;
+    bool scored_incomplete;   // out of memory on the way: no AP
 } demo_gt_t;
 
 typedef struct demo_det {
@@ -117,6 +129,21 @@ void demo_gt_free(demo_gt_t *gt);
 // matched (may be NULL, n entries): 1 = true positive, 0 = false positive, -1 = ignored.
 void demo_gt_frame(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32_t height,
                    const demo_det_t *det, size_t n, int8_t *matched);
+// demo_gt_frame that also reports which boxes of the frame's annotations
+// (demo_gt_image_of(gt, frame_name)->box[b]) a detection matched: gt_used[b]
+// (may be NULL; n_gt_used entries, boxes past it are not reported).
+void demo_gt_frame_ex(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32_t height,
+                      const demo_det_t *det, size_t n, int8_t *matched, bool *gt_used, size_t n_gt_used);
+// The annotations of a frame (YOLO: by the file name's stem); NULL if it has none.
+const demo_gt_image_t *demo_gt_image_of(const demo_gt_t *gt, const char *frame_name);
+// Precision-recall curve over all counted detections so far, pooled and sorted by
+// score (descending; ties in evaluation order), and its AP at IoU 0.5 with all-point
+// interpolation (PASCAL VOC 2010+; the same figure as vdtools.evaluate.average_precision).
+// *recall and *precision are malloc'd arrays of *n points (free them; NULL when *n is 0).
+// *ap is 0 when there are no vehicles. The curve ends at the detector's operating point
+// (its score threshold), so the AP is that of the detections it outputs.
+// Returns VD_OK; VD_ERR_STATE (a detection was lost to out-of-memory: no curve); VD_ERR_IO.
+vd_status_t demo_gt_pr(const demo_gt_t *gt, double **recall, double **precision, size_t *n, double *ap);
 // Candidate recall of one frame (call once per frame demo_gt_frame evaluates,
 // with the same frame_name): each vehicle box is "covered" when a candidate
 // (the merged list before verification, vd_detector_cfg_t.on_candidate) has
@@ -150,18 +177,42 @@ vd_status_t demo_mkdirs(const char *path, char *err, size_t err_len);
 const char *demo_basename(const char *path);
 
 // ---------------------------------------------------------------------------
+// Progress on stderr (progress.c): on a terminal one line redrawn in place,
+// otherwise a plain line every 50 frames and at the last one.
+typedef struct demo_progress {
+    bool on;          // false with --quiet: nothing is written
+    bool tty;         // stderr is a terminal
+    uint64_t total;   // frames expected (0 = unknown: no percentage, no time left)
+    double t0;        // start time, seconds (any monotonic clock)
+    double last;      // last redraw (terminal), seconds; < 0 before the first
+    bool drawn;       // a terminal line is on screen (ended by demo_progress_end)
+} demo_progress_t;
+
+void demo_progress_start(demo_progress_t *p, bool on, bool tty, uint64_t total, double now_s);
+// After frame number `done` (1-based) named `name` with n_det detections, at time now_s.
+void demo_progress_frame(demo_progress_t *p, FILE *f, uint64_t done, const char *name, size_t n_det, double now_s);
+// Ends a terminal line with a newline (nothing otherwise).
+void demo_progress_end(demo_progress_t *p, FILE *f);
+// The progress text without line control: "[done/total pct%] R frames/s, M:SS left | name: n detections"
+// ("[done] R frames/s | name: n detections" when total is 0). Returns its length (cut at cap - 1).
+size_t demo_progress_text(char *buf, size_t cap, uint64_t done, uint64_t total, double elapsed_s,
+                          const char *name, size_t n_det);
+
+// ---------------------------------------------------------------------------
 // Options (args.c).
 #include "vd/detector.h"
 
 typedef struct demo_opts {
-    const char *input;          // --input (default: the bundled clip)
+    const char *input;          // --input (default: the bundled clip chosen by --clip)
     bool input_default;         // --input not given
+    const char *clip_eval;      // annotations of the bundled clip in use (NULL with --input)
     const char *model;          // --model FILE | none; NULL = auto (first models/*.vdm)
     const char *out_dir;        // --out
     const char *json;           // --json
     const char *eval;           // --eval
     const char *classes;        // --classes
     const char *eval_out;       // --eval-out
+    const char *report;         // --report DIR
     uint32_t raw_w, raw_h;      // --raw-size
     vd_pixfmt_t raw_format;     // --raw-format u16 (default) | u8
     bool raw_big_endian;        // --raw-format u16be
@@ -186,5 +237,32 @@ int demo_args_parse(demo_opts_t *o, int argc, char **argv);
 // (demo_args_parse: stdout, stderr); no other side effect (--config is read).
 int demo_args_parse_to(demo_opts_t *o, int argc, char **argv, FILE *out, FILE *errf);
 void demo_args_usage(FILE *f);
+
+// ---------------------------------------------------------------------------
+// Models (models.c), shared by vd_fir_demo and the GStreamer element vdfir.
+#include "vd/cnn.h"
+#include "vd/dbn.h"
+
+typedef struct demo_models {
+    uint8_t *model_blob;        // DBN file (malloc'd); model points into it
+    vd_model_t model;
+    bool have_model;            // a source (or --cnn-rescore) uses the DBN
+    char model_path[4096];
+    uint8_t *cnn_blob;          // CNN file (malloc'd); cnn points into it
+    vd_cnn_model_t cnn;
+    bool have_cnn;
+    char cnn_path[4096];
+} demo_models_t;
+
+// Resolves and loads the models the options ask for (docs/demo.md "Which
+// sources by default"; defaults from models_dir): without --sources the
+// sources follow the models at hand; sets o->cfg.sources, o->cfg.cnn_model
+// (= &m->cnn, so m must not move while o->cfg is used) and, for the CNN, the
+// candidate/detection budgets not set by the user. On failure err names the
+// option and file. m must be zeroed before the first call.
+vd_status_t demo_models_load(demo_models_t *m, demo_opts_t *o, const char *models_dir, char *err, size_t err_len);
+void demo_models_free(demo_models_t *m);
+// The detector settings for width x height frames (the options' cfg sized to the frame).
+void demo_detector_cfg(const demo_opts_t *o, uint32_t width, uint32_t height, vd_detector_cfg_t *cfg);
 
 #endif

@@ -496,6 +496,9 @@ vd_status_t demo_gt_load(demo_gt_t *gt, const char *path, const char *classes_op
 
 void demo_gt_free(demo_gt_t *gt)
 {
+    free(gt->scored);
+    gt->scored = NULL;
+    gt->n_scored = gt->cap_scored = 0;
     for (size_t i = 0; i < gt->n; i++) {
         free(gt->img[i].name);
         free(gt->img[i].box);
@@ -533,6 +536,11 @@ static const demo_gt_image_t *frame_image(const demo_gt_t *gt, const char *frame
         *dot = '\0';
     }
     return find_image(gt, stem);
+}
+
+const demo_gt_image_t *demo_gt_image_of(const demo_gt_t *gt, const char *frame_name)
+{
+    return frame_image(gt, frame_name);
 }
 
 // True when the box (clipped to the frame, whole pixels it touches) holds a pixel >= thr.
@@ -585,8 +593,36 @@ void demo_gt_candidates(demo_gt_t *gt, const char *frame_name, const vd_frame_t 
     }
 }
 
+// Appends one counted detection to gt->scored (amortised doubling).
+static void add_scored(demo_gt_t *gt, double score, bool tp)
+{
+    if (gt->scored_incomplete) {
+        return;
+    }
+    if (gt->n_scored == gt->cap_scored) {
+        size_t nc = gt->cap_scored ? gt->cap_scored * 2 : 1024;
+        demo_gt_scored_t *p = realloc(gt->scored, nc * sizeof *p);
+        if (p == NULL) {
+            gt->scored_incomplete = true;
+            return;
+        }
+        gt->scored = p;
+        gt->cap_scored = nc;
+    }
+    gt->scored[gt->n_scored].score = score;
+    gt->scored[gt->n_scored].order = gt->n_scored;
+    gt->scored[gt->n_scored].tp = tp;
+    gt->n_scored++;
+}
+
 void demo_gt_frame(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32_t height,
                    const demo_det_t *det, size_t n, int8_t *matched)
+{
+    demo_gt_frame_ex(gt, frame_name, width, height, det, n, matched, NULL, 0);
+}
+
+void demo_gt_frame_ex(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32_t height,
+                      const demo_det_t *det, size_t n, int8_t *matched, bool *gt_used, size_t n_gt_used)
 {
     const demo_gt_image_t *im = frame_image(gt, frame_name);
     gt->frames++;
@@ -672,6 +708,12 @@ void demo_gt_frame(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32
         if (matched != NULL) {
             matched[ord[k].index] = m;
         }
+        if (m >= 0) {
+            add_scored(gt, d->score, m == 1);
+        }
+    }
+    for (size_t b = 0; gt_used != NULL && b < nb && b < n_gt_used; b++) {
+        gt_used[b] = used[b];
     }
     free(used);
     free(ord);
@@ -680,6 +722,81 @@ void demo_gt_frame(demo_gt_t *gt, const char *frame_name, uint32_t width, uint32
 static double ratio(uint64_t a, uint64_t b)
 {
     return b == 0 ? 0.0 : (double)a / (double)b;
+}
+
+static int cmp_scored(const void *a, const void *b)
+{
+    const demo_gt_scored_t *x = a, *y = b;
+    if (x->score != y->score) {
+        return x->score > y->score ? -1 : 1;
+    }
+    return x->order < y->order ? -1 : (x->order > y->order);
+}
+
+vd_status_t demo_gt_pr(const demo_gt_t *gt, double **recall, double **precision, size_t *n, double *ap)
+{
+    *recall = *precision = NULL;
+    *n = 0;
+    *ap = 0.0;
+    if (gt->scored_incomplete) {
+        return VD_ERR_STATE;
+    }
+    const size_t m = gt->n_scored;
+    demo_gt_scored_t *s = malloc((m + 1) * sizeof *s);
+    double *r = malloc((m + 1) * sizeof *r);
+    double *p = malloc((m + 1) * sizeof *p);
+    double *env = malloc((m + 1) * sizeof *env);
+    if (s == NULL || r == NULL || p == NULL || env == NULL) {
+        free(s);
+        free(r);
+        free(p);
+        free(env);
+        return VD_ERR_IO;
+    }
+    if (m > 0) {
+        memcpy(s, gt->scored, m * sizeof *s);
+    }
+    qsort(s, m, sizeof *s, cmp_scored);
+    uint64_t tp = 0, fp = 0;
+    for (size_t i = 0; i < m; i++) {
+        tp += s[i].tp;
+        fp += !s[i].tp;
+        r[i] = ratio(tp, gt->gt);
+        p[i] = ratio(tp, tp + fp);
+    }
+    // all-point interpolation: the precision envelope (max precision at any higher recall),
+    // summed over the recall steps
+    for (size_t i = m; i-- > 0;) {
+        env[i] = (i + 1 < m && env[i + 1] > p[i]) ? env[i + 1] : p[i];
+    }
+    double last_r = 0.0, sum = 0.0;
+    for (size_t i = 0; i < m && gt->gt > 0; i++) {
+        sum += (r[i] - last_r) * env[i];
+        last_r = r[i];
+    }
+    free(s);
+    free(env);
+    if (m == 0) {
+        free(r);
+        free(p);
+        r = p = NULL;
+    }
+    *recall = r;
+    *precision = p;
+    *n = m;
+    *ap = sum;
+    return VD_OK;
+}
+
+// AP of the counted detections (demo_gt_pr); false when it is not available.
+static bool gt_ap(const demo_gt_t *gt, double *ap)
+{
+    double *r, *p;
+    size_t n;
+    vd_status_t st = demo_gt_pr(gt, &r, &p, &n, ap);
+    free(r);
+    free(p);
+    return st == VD_OK;
 }
 
 void demo_gt_report(const demo_gt_t *gt, FILE *f)
@@ -694,6 +811,11 @@ void demo_gt_report(const demo_gt_t *gt, FILE *f)
             100.0 * ratio(gt->tp, gt->gt), 100.0 * ratio(gt->fp, gt->det), 100.0 * ratio(gt->tp, gt->det),
             100.0 * ratio(gt->tp, gt->gt), ratio(gt->fp, gt->frames), (unsigned long long)gt->tp,
             (unsigned long long)gt->fp, (unsigned long long)(gt->gt - gt->tp));
+    double ap = 0.0;
+    if (gt_ap(gt, &ap)) {
+        fprintf(f, "  AP %.2f%%  (IoU >= 0.5, all-point interpolated, over the %llu counted detections by score)\n",
+                100.0 * ap, (unsigned long long)gt->det);
+    }
     fprintf(f, "  candidate recall (ceiling of the TP rate): %.2f%% (hot %.2f%% of %llu, cold %.2f%% of %llu)\n",
             100.0 * ratio(gt->cov_hot + gt->cov_cold, gt->veh_hot + gt->veh_cold), 100.0 * ratio(gt->cov_hot, gt->veh_hot),
             (unsigned long long)gt->veh_hot, 100.0 * ratio(gt->cov_cold, gt->veh_cold),
@@ -724,6 +846,10 @@ vd_status_t demo_gt_write_json(const demo_gt_t *gt, const char *annotations, con
                "\"vehicles_hot\": %llu, \"vehicles_cold\": %llu, ",
             ratio(gt->cov_hot + gt->cov_cold, gt->veh_hot + gt->veh_cold), ratio(gt->cov_hot, gt->veh_hot),
             ratio(gt->cov_cold, gt->veh_cold), (unsigned long long)gt->veh_hot, (unsigned long long)gt->veh_cold);
+    double ap = 0.0;
+    if (gt_ap(gt, &ap)) {
+        fprintf(f, "\"ap\": %.6f, ", ap);
+    }
     fprintf(f, "\"tp_rate\": %.6f, \"fp_rate\": %.6f, \"precision\": %.6f, \"recall\": %.6f, \"fppi\": %.6f}\n",
             ratio(gt->tp, gt->gt), ratio(gt->fp, gt->det), ratio(gt->tp, gt->det), ratio(gt->tp, gt->gt),
             ratio(gt->fp, gt->frames));

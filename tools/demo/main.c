@@ -11,9 +11,8 @@
 // Any capture error on recorded input (missing/truncated/undecodable file,
 // mixed sizes) ends the run with one line on stderr and exit status 1; usage
 // errors exit with 2. See docs/demo.md.
-#include "demo.h"
+#include "report.h"
 
-#include <dirent.h>
 #include <errno.h>
 #include <signal.h>
 #include <math.h>
@@ -25,15 +24,12 @@
 
 #include "vd/vd.h"
 #include "vd_port/capture.h"
+#include "vd_port/file.h"
 #include "vd_port/writer.h"
 
-#ifndef VD_DEMO_CLIP_DIR
-#define VD_DEMO_CLIP_DIR "build/clip"
-#endif
 #ifndef VD_DEMO_MODELS_DIR
 #define VD_DEMO_MODELS_DIR "models"
 #endif
-#define MODEL_MAX_BYTES (64u * 1024u * 1024u)
 #define MAX_DEVICE_RETRIES 5
 
 static const char *const k_stage_names[VD_DET_STAGE_COUNT] = {
@@ -44,14 +40,7 @@ typedef struct run {
     demo_opts_t o;
     bool device;
     vd_capture_t cap;
-    uint8_t *model_blob;
-    vd_model_t model;
-    bool have_model;
-    char model_path[4096];
-    uint8_t *cnn_blob;
-    vd_cnn_model_t cnn;
-    bool have_cnn;
-    char cnn_path[4096];
+    demo_models_t m;
     vd_detector_t det;
     void *ws;
     bool det_ready;
@@ -77,6 +66,12 @@ typedef struct run {
     uint32_t width, height;
     vd_pixfmt_t format;
     uint32_t grey_lo_raw, grey_hi_raw;
+    demo_report_t report;    // --report
+    bool have_report;
+    demo_progress_t prog;    // zeroed (off) until the frame loop starts
+    int8_t *matched;         // --eval: per detection of this frame (dets_cap)
+    bool *gt_used;           // --eval: per box of this frame's annotations
+    size_t cap_gt_used;
     char err[1024];
 } run_t;
 
@@ -98,191 +93,19 @@ static uint32_t clock_us(void *user)
     return (uint32_t)((uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u);
 }
 
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
 // One error line: "vd_fir_demo: error: <detail> (<status text>)".
 static int fail(run_t *r, vd_status_t st, const char *detail)
 {
-    (void)r;
+    demo_progress_end(&r->prog, stderr);   // a progress line on a terminal is ended first
     fprintf(stderr, "vd_fir_demo: error: %s (%s)\n", detail, vd_status_str(st));
     return 1;
-}
-
-// Format version of a .vdm file (little-endian u16 at offset 4; 0 if unreadable):
-// 1-2 DBN, 3 CNN (VD_CNN_FORMAT_VERSION).
-static uint32_t vdm_version_of_file(const char *path)
-{
-    uint8_t h[6];
-    FILE *fp = fopen(path, "rb");
-    if (fp == NULL) {
-        return 0u;
-    }
-    size_t n = fread(h, 1, sizeof h, fp);
-    fclose(fp);
-    return n == sizeof h ? (uint32_t)h[4] | ((uint32_t)h[5] << 8) : 0u;
-}
-
-static uint32_t vdm_version(const uint8_t *b, size_t len)
-{
-    return len >= 6u ? (uint32_t)b[4] | ((uint32_t)b[5] << 8) : 0u;
-}
-
-static bool file_exists(const char *path)
-{
-    struct stat sb;
-    return stat(path, &sb) == 0 && S_ISREG(sb.st_mode);
-}
-
-// DBN with --model omitted: models/vd_dbn_grey.vdm (the best full model,
-// models/README.md), else the first DBN *.vdm (by name) of the source tree's models/.
-static bool find_default_model(char *out, size_t cap)
-{
-    snprintf(out, cap, "%s/vd_dbn_grey.vdm", VD_DEMO_MODELS_DIR);
-    if (file_exists(out)) {
-        return true;
-    }
-    DIR *dp = opendir(VD_DEMO_MODELS_DIR);
-    if (dp == NULL) {
-        return false;
-    }
-    char best[1024] = "";
-    struct dirent *de;
-    while ((de = readdir(dp)) != NULL) {
-        size_t l = strlen(de->d_name);
-        if (l > 4 && strcmp(de->d_name + l - 4, ".vdm") == 0 && de->d_name[0] != '.' &&
-            (best[0] == '\0' || strcmp(de->d_name, best) < 0) && l < sizeof best) {
-            char p[4096];
-            snprintf(p, sizeof p, "%s/%s", VD_DEMO_MODELS_DIR, de->d_name);
-            const uint32_t v = vdm_version_of_file(p);
-            if (v == 1u || v == 2u) {
-                memcpy(best, de->d_name, l + 1);
-            }
-        }
-    }
-    closedir(dp);
-    if (best[0] == '\0') {
-        return false;
-    }
-    snprintf(out, cap, "%s/%s", VD_DEMO_MODELS_DIR, best);
-    return true;
-}
-
-// Reads a model file whole (malloc'd; NUL-terminated, so 8-byte aligned).
-static vd_status_t read_model(run_t *r, const char *opt, const char *path, uint8_t **blob, size_t *len)
-{
-    char *b = NULL;
-    char e[600];
-    vd_status_t st = demo_read_file(path, MODEL_MAX_BYTES, &b, len, e, sizeof e);
-    if (st != VD_OK) {
-        snprintf(r->err, sizeof r->err, "%s: %s", opt, e);
-        return st == VD_ERR_RANGE ? VD_ERR_MODEL : st;
-    }
-    *blob = (uint8_t *)b;
-    return VD_OK;
-}
-
-// The sources' models. --model is read first (a version-3 file is the CNN);
-// without --sources the sources follow the models at hand (demo.h); the CNN
-// is --cnn-model, else a CNN --model, else models/vd_cnn.vdm; the DBN is
-// loaded when a paper-pipeline source or --cnn-rescore needs it (and an
-// explicit DBN --model is always checked).
-static vd_status_t load_models(run_t *r)
-{
-    demo_opts_t *o = &r->o;
-    const char *mp = o->model;
-    const bool none = mp != NULL && strcmp(mp, "none") == 0;
-    uint8_t *mblob = NULL;
-    size_t mlen = 0;
-    bool model_is_cnn = false;
-    vd_status_t st;
-    if (mp != NULL && !none) {
-        st = read_model(r, "--model", mp, &mblob, &mlen);
-        if (st != VD_OK) {
-            return st;
-        }
-        model_is_cnn = vdm_version(mblob, mlen) == VD_CNN_FORMAT_VERSION;
-    }
-    char def_cnn[4096];
-    snprintf(def_cnn, sizeof def_cnn, "%s/vd_cnn.vdm", VD_DEMO_MODELS_DIR);
-    if (!o->sources_set) {
-        const bool cnn = o->cnn_model != NULL || model_is_cnn || (mp == NULL && file_exists(def_cnn));
-        o->cfg.sources = cnn ? VD_DETECTOR_SRC_CNN : VD_DETECTOR_SRC_HOTSPOT;
-    }
-    const bool want_cnn = (o->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
-    const bool want_dbn = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u || (want_cnn && o->cfg.cnn_rescore != 0u);
-    if (want_cnn) {
-        size_t clen = 0;
-        const char *opt = "--cnn-model";
-        if (o->cnn_model != NULL) {
-            snprintf(r->cnn_path, sizeof r->cnn_path, "%s", o->cnn_model);
-            st = read_model(r, opt, r->cnn_path, &r->cnn_blob, &clen);
-        } else if (model_is_cnn) {
-            opt = "--model";
-            snprintf(r->cnn_path, sizeof r->cnn_path, "%s", mp);
-            r->cnn_blob = mblob;
-            clen = mlen;
-            mblob = NULL;
-            st = VD_OK;
-        } else if (file_exists(def_cnn)) {
-            snprintf(r->cnn_path, sizeof r->cnn_path, "%s", def_cnn);
-            st = read_model(r, opt, r->cnn_path, &r->cnn_blob, &clen);
-        } else {
-            snprintf(r->err, sizeof r->err, "the cnn source needs a CNN model: --cnn-model FILE (%s not found)",
-                     def_cnn);
-            st = VD_ERR_ARG;
-        }
-        if (st == VD_OK) {
-            st = vd_cnn_load(&r->cnn, r->cnn_blob, clen);
-            if (st != VD_OK) {
-                snprintf(r->err, sizeof r->err, "%s %s: not a valid CNN .vdm model (version 3)", opt, r->cnn_path);
-            }
-        }
-        if (st != VD_OK) {
-            free(mblob);
-            return st;
-        }
-        r->have_cnn = true;
-        o->cfg.cnn_model = &r->cnn;
-        // Room for the model's top-K (and the paper sources' 64) unless set.
-        if (!o->max_candidates_set) {
-            uint32_t mc = r->cnn.max_peaks + (((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u) ? 64u : 0u);
-            o->cfg.max_candidates = (uint16_t)(mc > 4096u ? 4096u : mc);
-        }
-        if (!o->max_detections_set) {
-            o->cfg.max_detections = (uint16_t)(r->cnn.max_peaks < o->cfg.max_candidates ? r->cnn.max_peaks
-                                                                                      : o->cfg.max_candidates);
-        }
-    }
-    // An explicit DBN --model is checked even when no source needs it.
-    if (mblob != NULL && !model_is_cnn) {
-        snprintf(r->model_path, sizeof r->model_path, "%s", mp);
-        r->model_blob = mblob;
-        mblob = NULL;
-        st = vd_dbn_load(&r->model, r->model_blob, mlen);
-        if (st != VD_OK) {
-            snprintf(r->err, sizeof r->err, "--model %s: not a valid .vdm model", r->model_path);
-            return st;
-        }
-        r->have_model = want_dbn;
-    } else if (want_dbn && !none && find_default_model(r->model_path, sizeof r->model_path)) {
-        size_t len = 0;
-        st = read_model(r, "--model", r->model_path, &r->model_blob, &len);
-        if (st != VD_OK) {
-            free(mblob);
-            return st;
-        }
-        st = vd_dbn_load(&r->model, r->model_blob, len);
-        if (st != VD_OK) {
-            snprintf(r->err, sizeof r->err, "--model %s: not a valid .vdm model", r->model_path);
-            free(mblob);
-            return st;
-        }
-        r->have_model = true;
-    }
-    free(mblob);   // a CNN --model that no source uses
-    if (want_cnn && o->cfg.cnn_rescore != 0u && !r->have_model) {
-        snprintf(r->err, sizeof r->err, "--cnn-rescore needs a DBN model (--model FILE)");
-        return VD_ERR_ARG;
-    }
-    return VD_OK;
 }
 
 // "hotspot,cnn" etc. for the progress line.
@@ -547,12 +370,8 @@ static void on_candidate(void *user, const vd_detection_t *cand)
 
 static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
 {
-    vd_detector_cfg_t cfg = r->o.cfg;
-    cfg.max_width = f->width;
-    cfg.max_height = f->height;
-    // The region bound may not exceed the frame (frames smaller than the default 176 x 176).
-    cfg.max_region_w = (uint16_t)(cfg.max_region_w > f->width ? f->width : cfg.max_region_w);
-    cfg.max_region_h = (uint16_t)(cfg.max_region_h > f->height ? f->height : cfg.max_region_h);
+    vd_detector_cfg_t cfg;
+    demo_detector_cfg(&r->o, f->width, f->height, &cfg);
     cfg.clock_us = clock_us;
     cfg.clock_user = NULL;
     if (r->have_gt) {
@@ -560,7 +379,7 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
         cfg.candidate_user = r;
     }
     size_t bytes = 0;
-    const vd_model_t *m = r->have_model ? &r->model : NULL;
+    const vd_model_t *m = r->m.have_model ? &r->m.model : NULL;
     vd_status_t st = vd_detector_workspace_size(&cfg, m, &bytes);
     if (st != VD_OK) {
         snprintf(r->err, sizeof r->err, "detector settings rejected for %ux%u frames", (unsigned)f->width,
@@ -580,9 +399,10 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     r->dets_cap = (size_t)r->det.cfg.max_detections + r->det.cfg.max_tracks + 1u;
     r->dets = calloc(r->dets_cap, sizeof *r->dets);
     r->eval_dets = calloc(r->dets_cap, sizeof *r->eval_dets);
+    r->matched = calloc(r->dets_cap, sizeof *r->matched);
     r->cap_cands = r->det.cfg.max_candidates;
     r->cands = calloc(r->cap_cands + 1u, sizeof *r->cands);
-    if (r->dets == NULL || r->eval_dets == NULL || r->cands == NULL) {
+    if (r->dets == NULL || r->eval_dets == NULL || r->matched == NULL || r->cands == NULL) {
         snprintf(r->err, sizeof r->err, "out of memory");
         return VD_ERR_IO;
     }
@@ -665,6 +485,33 @@ static double sum_us(const uint32_t *v, size_t n)
     return s;
 }
 
+// Matching of one frame (--eval) and its gallery entry (--report).
+static vd_status_t evaluate_frame(run_t *r, const char *name, const vd_frame_t *f, size_t n)
+{
+    const demo_gt_image_t *im = demo_gt_image_of(&r->gt, name);
+    const size_t nb = im != NULL ? im->n : 0;
+    if (nb > r->cap_gt_used) {
+        bool *p = realloc(r->gt_used, nb * sizeof *p);
+        if (p == NULL) {
+            snprintf(r->err, sizeof r->err, "out of memory");
+            return VD_ERR_IO;
+        }
+        r->gt_used = p;
+        r->cap_gt_used = nb;
+    }
+    if (nb > 0) {
+        memset(r->gt_used, 0, nb * sizeof *r->gt_used);
+    }
+    const uint64_t evaluated = r->gt.frames;
+    demo_gt_frame_ex(&r->gt, name, f->width, f->height, r->eval_dets, n, r->matched, r->gt_used, nb);
+    if (!r->have_report || r->gt.frames == evaluated) {
+        return VD_OK;   // no report, or a frame the annotations do not list
+    }
+    const bool wide = f->format == VD_PIX_U16;
+    return demo_report_frame(&r->report, r->frames, name, f, wide ? r->grey_lo_raw : 0, wide ? r->grey_hi_raw : 0,
+                             im, r->gt_used, r->eval_dets, r->matched, n, r->err, sizeof r->err);
+}
+
 static void summary(run_t *r)
 {
     double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
@@ -686,17 +533,60 @@ static void summary(run_t *r)
     }
 }
 
+// --report: index.html from the run's figures (the same as summary() prints).
+static vd_status_t write_report(run_t *r)
+{
+    double med[VD_DET_STAGE_COUNT], mean[VD_DET_STAGE_COUNT];
+    const char *names[VD_DET_STAGE_COUNT];
+    for (int k = 0; k < VD_DET_STAGE_COUNT; k++) {
+        names[k] = k_stage_names[k];
+        mean[k] = r->n_times ? sum_us(r->times[k], r->n_times) / (double)r->n_times / 1000.0 : 0.0;
+        med[k] = median_us(r->times[k], r->n_times) / 1000.0;
+    }
+    const double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
+    const double wall_total = sum_us(r->times[VD_DET_STAGE_COUNT], r->n_times);
+    char src[64], models[9000];
+    sources_text(r->o.cfg.sources, src, sizeof src);
+    snprintf(models, sizeof models, "%s%s%s%s%s", r->m.have_cnn ? "CNN " : "", r->m.have_cnn ? r->m.cnn_path : "",
+             r->m.have_cnn && r->m.have_model ? ", " : "", r->m.have_model ? "DBN " : "",
+             r->m.have_model ? r->m.model_path : "");
+    if (!r->m.have_cnn && !r->m.have_model) {
+        snprintf(models, sizeof models, "none");
+    }
+    demo_report_info_t in;
+    memset(&in, 0, sizeof in);
+    in.input = r->o.input;
+    in.sources = src;
+    in.models = models;
+    in.annotations = r->o.eval != NULL ? r->o.eval : "";
+    in.frames = r->frames;
+    in.detections = r->detections;
+    in.width = r->width;
+    in.height = r->height;
+    in.u16 = r->format == VD_PIX_U16;
+    in.fps_detector = det_total > 0 ? (double)r->frames * 1e6 / det_total : 0.0;
+    in.fps_wall = wall_total > 0 ? (double)r->frames * 1e6 / wall_total : 0.0;
+    in.n_stages = VD_DET_STAGE_COUNT;
+    in.stage_names = names;
+    in.stage_median_ms = med;
+    in.stage_mean_ms = mean;
+    in.gt = r->have_gt ? &r->gt : NULL;
+    return demo_report_write(&r->report, &in, r->err, sizeof r->err);
+}
+
 static void cleanup(run_t *r)
 {
     discard_outputs(r);
+    demo_report_abort(&r->report);
+    free(r->matched);
+    free(r->gt_used);
     vd_capture_close(&r->cap);
     vd_rgb_free(&r->canvas);
     free(r->ws);
     free(r->dets);
     free(r->eval_dets);
     free(r->cands);
-    free(r->model_blob);
-    free(r->cnn_blob);
+    demo_models_free(&r->m);
     if (r->have_gt) {
         demo_gt_free(&r->gt);
     }
@@ -719,19 +609,20 @@ static int run(run_t *r)
     if (o->input_default) {
         if (stat(o->input, &sb) != 0) {
             char m[1200];
-            snprintf(m, sizeof m, "the bundled clip is missing at %s: build it with 'cmake --build build --target "
-                                  "vd_clip' or pass --input",
+            snprintf(m, sizeof m, "the bundled clip is missing at %s: the HIT-UAV clip is part of the repository "
+                                  "(tools/demo/hit-uav-clip), the synthetic one is built by 'cmake --build build "
+                                  "--target vd_clip'; or pass --input",
                      o->input);
             return fail(r, VD_ERR_IO, m);
         }
-        if (o->eval == NULL) {
-            snprintf(r->eval_path, sizeof r->eval_path, "%s/annotations.json", VD_DEMO_CLIP_DIR);
+        if (o->eval == NULL && o->clip_eval != NULL) {
+            snprintf(r->eval_path, sizeof r->eval_path, "%s", o->clip_eval);
             if (stat(r->eval_path, &sb) == 0) {
                 o->eval = r->eval_path;
             }
         }
     }
-    st = load_models(r);
+    st = demo_models_load(&r->m, &r->o, VD_DEMO_MODELS_DIR, r->err, sizeof r->err);
     if (st != VD_OK) {
         return fail(r, st, r->err);
     }
@@ -770,16 +661,30 @@ static int run(run_t *r)
         sources_text(o->cfg.sources, src, sizeof src);
         const bool paper = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u;
         fprintf(stderr, "vd_fir_demo: input %s; sources %s%s%s; DBN model %s\n", o->input, src,
-                r->have_cnn ? "; CNN model " : "", r->have_cnn ? r->cnn_path : "",
-                r->have_model ? r->model_path
+                r->m.have_cnn ? "; CNN model " : "", r->m.have_cnn ? r->m.cnn_path : "",
+                r->m.have_model ? r->m.model_path
                               : (paper ? "none (candidates are not verified; score 1.0)" : "none (not needed)"));
     }
     st = open_outputs(r);
     if (st != VD_OK) {
         return fail(r, st, r->err);
     }
+    if (o->report != NULL) {
+        st = demo_report_open(&r->report, o->report, r->err, sizeof r->err);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+        r->have_report = true;
+    }
     int retries = 0;
-    bool tty = isatty(2) != 0;
+    uint64_t total = 0;
+    if (!r->device && vd_file_frame_total(&r->cap, &total) != VD_OK) {
+        total = 0;
+    }
+    if (o->max_frames != 0 && (total == 0 ? r->device : total > o->max_frames)) {
+        total = o->max_frames;
+    }
+    demo_progress_start(&r->prog, !o->quiet, isatty(STDERR_FILENO) != 0, total, now_s());
     // Recorded input ends at VD_ERR_RANGE + at_end; a device runs until --frames or an error.
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -841,7 +746,11 @@ static int run(run_t *r)
                 r->eval_dets[i].box = r->dets[i].box;
                 r->eval_dets[i].score = score_of(&r->dets[i]);
             }
-            demo_gt_frame(&r->gt, name, f.width, f.height, r->eval_dets, n, NULL);
+            st = evaluate_frame(r, name, &f, n);
+            if (st != VD_OK) {
+                vd_capture_release(&r->cap, &f);
+                return fail(r, st, r->err);
+            }
             demo_gt_candidates(&r->gt, name, &f, hot_threshold(r, &f), r->cands, r->n_cands);
         }
         if (r->staging) {
@@ -858,14 +767,9 @@ static int run(run_t *r)
         if (st != VD_OK) {
             return fail(r, st, r->err);
         }
-        if (!o->quiet && (tty || r->frames % 50 == 0)) {
-            fprintf(stderr, "%s[%llu] %s: %zu detections%s", tty ? "\r" : "", (unsigned long long)r->frames, name, n,
-                    tty ? "\033[K" : "\n");
-        }
+        demo_progress_frame(&r->prog, stderr, r->frames, name, n, now_s());
     }
-    if (!o->quiet && tty) {
-        fputc('\n', stderr);
-    }
+    demo_progress_end(&r->prog, stderr);
     if (g_stop && !o->quiet) {
         fprintf(stderr, "vd_fir_demo: interrupted after %llu frames\n", (unsigned long long)r->frames);
     }
@@ -883,11 +787,20 @@ static int run(run_t *r)
             return fail(r, st, r->err);
         }
     }
+    if (r->have_report) {
+        st = write_report(r);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+    }
     st = commit_outputs(r);
     if (st != VD_OK) {
         return fail(r, st, r->err);
     }
     r->created[0][0] = r->created[1][0] = '\0';
+    if (r->have_report && !o->quiet) {
+        fprintf(stderr, "vd_fir_demo: report %s/index.html\n", r->report.dir);
+    }
     summary(r);
     if (r->have_gt) {
         demo_gt_report(&r->gt, stdout);

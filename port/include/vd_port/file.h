@@ -35,6 +35,13 @@ typedef enum vd_file_kind {
 // the error text names the path.
 vd_status_t vd_file_open(vd_capture_t *cap, const char *path, vd_file_kind_t kind, const vd_capture_opts_t *opts);
 
+// Frames a file capture (vd_file_open, or vd_capture_open on a recorded input) will hand out
+// from start to end, for progress displays: one per image path, size / frame size per raw file
+// (".raw", ".y16", ".gray", ".bin" with a raw size given). An estimate when a file later fails to
+// decode (it is skipped) or an image file turns out to hold raw frames.
+// Returns VD_OK; VD_ERR_ARG (NULL, or cap is not an open file capture, e.g. V4L2).
+vd_status_t vd_file_frame_total(const vd_capture_t *cap, uint64_t *frames);
+
 // A decoded image: malloc'd pixels (host byte order), stride = width * bytes per pixel.
 typedef struct vd_decoded {
     void *data;

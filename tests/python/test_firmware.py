@@ -1,0 +1,91 @@
+# SPDX-License-Identifier: MIT
+"""The bare-metal firmware example (tools/firmware/) on emulated Arm MPS2 boards:
+qemu-system-arm runs it from reset (mps2-an500 = Cortex-M7, mps2-an386 = Cortex-M4)
+and its JSON Lines must equal, byte for byte, what vd_fir_demo prints on the host
+for the same frames, model and settings. A build whose model array has one byte
+inverted must print the vd_status_str() text of VD_ERR_MODEL and exit 2, not fault.
+
+Skipped only when qemu-system-arm is absent (tools/setup.sh installs it). The
+firmware builds into <repo>/build-fw-m7 and build-fw-m4 (~30 s each the first time)."""
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+# This checkout (vdtools may be installed from another one).
+REPO = Path(__file__).resolve().parents[2]
+
+BOARDS = {  # toolchain file -> QEMU machine and CPU
+    "cortex-m7": ("mps2-an500", "cortex-m7", "build-fw-m7"),
+    "cortex-m4": ("mps2-an386", "cortex-m4", "build-fw-m4"),
+}
+QEMU_TIMEOUT = 120  # seconds; one run takes about 1 s
+
+
+def build_dir():
+    if os.environ.get("VD_BUILD_DIR"):
+        return Path(os.environ["VD_BUILD_DIR"])
+    if os.environ.get("VD_LIB"):
+        return Path(os.environ["VD_LIB"]).parent
+    return REPO / "build"
+
+
+@pytest.fixture(scope="module")
+def qemu():
+    exe = shutil.which("qemu-system-arm")
+    if exe is None:
+        pytest.skip("qemu-system-arm not found: the firmware test needs it (Debian qemu-system-arm, tools/setup.sh)")
+    return exe
+
+
+def build_firmware(toolchain):
+    bdir = REPO / BOARDS[toolchain][2]
+    subprocess.run(["cmake", "-S", str(REPO / "tools" / "firmware"), "-B", str(bdir), "-G", "Ninja",
+                    f"-DCMAKE_TOOLCHAIN_FILE={REPO / 'tools' / 'toolchains' / (toolchain + '.cmake')}",
+                    "-DCMAKE_BUILD_TYPE=MinSizeRel"], check=True, capture_output=True, text=True)
+    subprocess.run(["cmake", "--build", str(bdir), "-j", "2"], check=True, capture_output=True, text=True)
+    return bdir
+
+
+def run_qemu(qemu_exe, toolchain, elf, icount=False):
+    machine, cpu, _ = BOARDS[toolchain]
+    cmd = [qemu_exe, "-M", machine, "-cpu", cpu, "-nographic", "-semihosting", "-kernel", str(elf)]
+    if icount:
+        cmd[1:1] = ["-icount", "shift=0"]
+    # QEMU writes the semihosting console to its stderr.
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=QEMU_TIMEOUT, stdin=subprocess.DEVNULL)
+
+
+@pytest.mark.parametrize("toolchain", sorted(BOARDS))
+def test_firmware_matches_demo(qemu, toolchain, tmp_path):
+    demo = build_dir() / "tools" / "vd_fir_demo"
+    if not demo.is_file():
+        pytest.skip(f"vd_fir_demo not built at {demo} (cmake --build build); set VD_BUILD_DIR")
+    bdir = build_firmware(toolchain)
+    r = run_qemu(qemu, toolchain, bdir / "vd_fw.elf")
+    assert r.returncode == 0, r.stderr[-2000:]
+    fw_lines = [ln for ln in r.stderr.splitlines(keepends=True) if not ln.startswith("#")]
+    meas = dict(re.findall(r"(\w+) (\d+)", "".join(ln for ln in r.stderr.splitlines() if ln.startswith("# vd_fw workspace"))))
+
+    out = tmp_path / "demo.jsonl"
+    subprocess.run([str(demo), "--input", str(bdir / "frames"), "--cnn-model", str(REPO / "models" / "vd_cnn_compact.vdm"),
+                    "--json", str(out), "--quiet"], check=True, capture_output=True, text=True)
+    host = out.read_text()
+    assert "".join(fw_lines) == host
+    # One line per frame (three by default), with vehicles: not two empty outputs compared.
+    assert len(fw_lines) == len(list((bdir / "frames").glob("*.pgm"))) >= 1
+    assert sum(ln.count('"box"') for ln in fw_lines) > 0
+    # The workspace fits its static buffer, the stack its 16 KiB with room to spare.
+    assert int(meas["workspace_bytes"]) <= int(meas["workspace_reserved"])
+    assert 0 < int(meas["stack_used"]) < int(meas["stack_size"]) // 2
+
+
+def test_firmware_corrupted_model(qemu):
+    bdir = build_firmware("cortex-m7")
+    r = run_qemu(qemu, "cortex-m7", bdir / "vd_fw_badmodel.elf")
+    # vd_status_str(VD_ERR_MODEL) is "invalid model" (lib/src/status.c); exit 2 = reported error, 3 = fault.
+    assert r.returncode == 2, r.stderr[-2000:]
+    assert r.stderr == "vd_fw: vd_cnn_load: invalid model\n"

@@ -1,0 +1,211 @@
+// SPDX-License-Identifier: MIT
+// Model resolution and loading shared by vd_fir_demo and the GStreamer element vdfir
+// (one set of rules, docs/demo.md "Which sources by default"), and the detector
+// settings both derive for a frame size.
+#include "demo.h"
+
+#include <dirent.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define MODEL_MAX_BYTES (64u * 1024u * 1024u)
+
+// Format version of a .vdm file (little-endian u16 at offset 4; 0 if unreadable):
+// 1-2 DBN, 3 CNN (VD_CNN_FORMAT_VERSION).
+static uint32_t vdm_version_of_file(const char *path)
+{
+    uint8_t h[6];
+    FILE *fp = fopen(path, "rb");
+    if (fp == NULL) {
+        return 0u;
+    }
+    size_t n = fread(h, 1, sizeof h, fp);
+    fclose(fp);
+    return n == sizeof h ? (uint32_t)h[4] | ((uint32_t)h[5] << 8) : 0u;
+}
+
+static uint32_t vdm_version(const uint8_t *b, size_t len)
+{
+    return len >= 6u ? (uint32_t)b[4] | ((uint32_t)b[5] << 8) : 0u;
+}
+
+static bool file_exists(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 && S_ISREG(sb.st_mode);
+}
+
+// DBN with --model omitted: models/vd_dbn_grey.vdm (the best full model,
+// models/README.md), else the first DBN *.vdm (by name) of models_dir.
+static bool find_default_model(const char *models_dir, char *out, size_t cap)
+{
+    snprintf(out, cap, "%s/vd_dbn_grey.vdm", models_dir);
+    if (file_exists(out)) {
+        return true;
+    }
+    DIR *dp = opendir(models_dir);
+    if (dp == NULL) {
+        return false;
+    }
+    char best[1024] = "";
+    struct dirent *de;
+    while ((de = readdir(dp)) != NULL) {
+        size_t l = strlen(de->d_name);
+        if (l > 4 && strcmp(de->d_name + l - 4, ".vdm") == 0 && de->d_name[0] != '.' &&
+            (best[0] == '\0' || strcmp(de->d_name, best) < 0) && l < sizeof best) {
+            char p[4096];
+            snprintf(p, sizeof p, "%s/%s", models_dir, de->d_name);
+            const uint32_t v = vdm_version_of_file(p);
+            if (v == 1u || v == 2u) {
+                memcpy(best, de->d_name, l + 1);
+            }
+        }
+    }
+    closedir(dp);
+    if (best[0] == '\0') {
+        return false;
+    }
+    snprintf(out, cap, "%s/%s", models_dir, best);
+    return true;
+}
+
+// Reads a model file whole (malloc'd; NUL-terminated, so 8-byte aligned).
+static vd_status_t read_model(const char *opt, const char *path, uint8_t **blob, size_t *len, char *err,
+                              size_t err_len)
+{
+    char *b = NULL;
+    char e[600];
+    vd_status_t st = demo_read_file(path, MODEL_MAX_BYTES, &b, len, e, sizeof e);
+    if (st != VD_OK) {
+        snprintf(err, err_len, "%s: %s", opt, e);
+        return st == VD_ERR_RANGE ? VD_ERR_MODEL : st;
+    }
+    *blob = (uint8_t *)b;
+    return VD_OK;
+}
+
+// The sources' models. --model is read first (a version-3 file is the CNN);
+// without --sources the sources follow the models at hand (demo.h); the CNN
+// is --cnn-model, else a CNN --model, else models/vd_cnn.vdm; the DBN is
+// loaded when a paper-pipeline source or --cnn-rescore needs it (and an
+// explicit DBN --model is always checked).
+vd_status_t demo_models_load(demo_models_t *m, demo_opts_t *o, const char *models_dir, char *err, size_t err_len)
+{
+    const char *mp = o->model;
+    const bool none = mp != NULL && strcmp(mp, "none") == 0;
+    uint8_t *mblob = NULL;
+    size_t mlen = 0;
+    bool model_is_cnn = false;
+    vd_status_t st;
+    if (mp != NULL && !none) {
+        st = read_model("--model", mp, &mblob, &mlen, err, err_len);
+        if (st != VD_OK) {
+            return st;
+        }
+        model_is_cnn = vdm_version(mblob, mlen) == VD_CNN_FORMAT_VERSION;
+    }
+    char def_cnn[4096];
+    snprintf(def_cnn, sizeof def_cnn, "%s/vd_cnn.vdm", models_dir);
+    if (!o->sources_set) {
+        const bool cnn = o->cnn_model != NULL || model_is_cnn || (mp == NULL && file_exists(def_cnn));
+        o->cfg.sources = cnn ? VD_DETECTOR_SRC_CNN : VD_DETECTOR_SRC_HOTSPOT;
+    }
+    const bool want_cnn = (o->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
+    const bool want_dbn = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u || (want_cnn && o->cfg.cnn_rescore != 0u);
+    if (want_cnn) {
+        size_t clen = 0;
+        const char *opt = "--cnn-model";
+        if (o->cnn_model != NULL) {
+            snprintf(m->cnn_path, sizeof m->cnn_path, "%s", o->cnn_model);
+            st = read_model(opt, m->cnn_path, &m->cnn_blob, &clen, err, err_len);
+        } else if (model_is_cnn) {
+            opt = "--model";
+            snprintf(m->cnn_path, sizeof m->cnn_path, "%s", mp);
+            m->cnn_blob = mblob;
+            clen = mlen;
+            mblob = NULL;
+            st = VD_OK;
+        } else if (file_exists(def_cnn)) {
+            snprintf(m->cnn_path, sizeof m->cnn_path, "%s", def_cnn);
+            st = read_model(opt, m->cnn_path, &m->cnn_blob, &clen, err, err_len);
+        } else {
+            snprintf(err, err_len, "the cnn source needs a CNN model: --cnn-model FILE (%s not found)",
+                     def_cnn);
+            st = VD_ERR_ARG;
+        }
+        if (st == VD_OK) {
+            st = vd_cnn_load(&m->cnn, m->cnn_blob, clen);
+            if (st != VD_OK) {
+                snprintf(err, err_len, "%s %s: not a valid CNN .vdm model (version 3)", opt, m->cnn_path);
+            }
+        }
+        if (st != VD_OK) {
+            free(mblob);
+            return st;
+        }
+        m->have_cnn = true;
+        o->cfg.cnn_model = &m->cnn;
+        // Room for the model's top-K (and the paper sources' 64) unless set.
+        if (!o->max_candidates_set) {
+            uint32_t mc = m->cnn.max_peaks + (((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u) ? 64u : 0u);
+            o->cfg.max_candidates = (uint16_t)(mc > 4096u ? 4096u : mc);
+        }
+        if (!o->max_detections_set) {
+            o->cfg.max_detections = (uint16_t)(m->cnn.max_peaks < o->cfg.max_candidates ? m->cnn.max_peaks
+                                                                                      : o->cfg.max_candidates);
+        }
+    }
+    // An explicit DBN --model is checked even when no source needs it.
+    if (mblob != NULL && !model_is_cnn) {
+        snprintf(m->model_path, sizeof m->model_path, "%s", mp);
+        m->model_blob = mblob;
+        mblob = NULL;
+        st = vd_dbn_load(&m->model, m->model_blob, mlen);
+        if (st != VD_OK) {
+            snprintf(err, err_len, "--model %s: not a valid .vdm model", m->model_path);
+            return st;
+        }
+        m->have_model = want_dbn;
+    } else if (want_dbn && !none && find_default_model(models_dir, m->model_path, sizeof m->model_path)) {
+        size_t len = 0;
+        st = read_model("--model", m->model_path, &m->model_blob, &len, err, err_len);
+        if (st != VD_OK) {
+            free(mblob);
+            return st;
+        }
+        st = vd_dbn_load(&m->model, m->model_blob, len);
+        if (st != VD_OK) {
+            snprintf(err, err_len, "--model %s: not a valid .vdm model", m->model_path);
+            free(mblob);
+            return st;
+        }
+        m->have_model = true;
+    }
+    free(mblob);   // a CNN --model that no source uses
+    if (want_cnn && o->cfg.cnn_rescore != 0u && !m->have_model) {
+        snprintf(err, err_len, "--cnn-rescore needs a DBN model (--model FILE)");
+        return VD_ERR_ARG;
+    }
+    return VD_OK;
+}
+
+void demo_models_free(demo_models_t *m)
+{
+    free(m->model_blob);
+    free(m->cnn_blob);
+    m->model_blob = NULL;
+    m->cnn_blob = NULL;
+    m->have_model = false;
+    m->have_cnn = false;
+}
+
+void demo_detector_cfg(const demo_opts_t *o, uint32_t width, uint32_t height, vd_detector_cfg_t *cfg)
+{
+    *cfg = o->cfg;
+    cfg->max_width = width;
+    cfg->max_height = height;
+    // The region bound may not exceed the frame (frames smaller than the default 176 x 176).
+    cfg->max_region_w = (uint16_t)(cfg->max_region_w > width ? width : cfg->max_region_w);
+    cfg->max_region_h = (uint16_t)(cfg->max_region_h > height ? height : cfg->max_region_h);
+}
