@@ -188,8 +188,9 @@ def _switch(v):
 
 
 def resolve(settings, models_dir=None):
-    """vd_fir_demo's detector set-up (tools/demo/main.c load_models, args.c) for the settings it shares
-    with the fleet: ({cfg field: value}, cnn model bytes or None, DBN model bytes or None, description).
+    """vd_fir_demo's detector set-up (tools/demo/models.c demo_models_load and demo_detector_cfg, args.c)
+    for the settings it shares with the fleet: ({cfg field: value}, CNN model bytes or None, DBN model
+    bytes or None, description).
     settings: {name: value} with the demo's names (dashes or underscores)."""
     s = {k.replace("_", "-"): v for k, v in (settings or {}).items()}
     bad = sorted(set(s) - set(SETTINGS))
@@ -269,7 +270,8 @@ def shard_paths(out_dir, rec, index):
 
 
 class _Runner:
-    """The C detector set up as vd_fir_demo's init_detector does for the first frame's size."""
+    """The C detector set up as vd_fir_demo does (tools/demo/models.c demo_detector_cfg) for the first
+    frame's size."""
 
     def __init__(self, fields, cnn, dbn, width, height):
         import ctypes as C
