@@ -8,10 +8,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-import cloudpickle
 import pytest
 
 from vdtools import clib, clip, dataset, fleet, port
+
+pytest.importorskip("distributed", reason="dask[distributed] not installed: pip install -e 'tools[fleet]'")
+import cloudpickle  # noqa: E402  (comes with distributed)
 
 BUILD = Path(os.environ.get("VD_BUILD_DIR", clib.REPO / "build"))
 DEMO = BUILD / "tools" / "vd_fir_demo"
