@@ -431,7 +431,7 @@ def run_shard(spec, models, on_frame=None):
                     flags, matched = match_flags(pairs, boxes)
                     order = sorted(range(len(pairs)), key=lambda i2: (-pairs[i2][1], i2))
                     veh = [k for k, g in enumerate(boxes) if g[4]]
-                    hot = _hot_flags(img, [boxes[k][:4] for k in veh])
+                    hot = _hot_flags(img, [boxes[k][:4] for k in veh]) if veh else []
                     acc["frames_annotated"] += 1
                     acc["vehicles"] += len(veh)
                     acc["tp"] += sum(1 for _, t in flags if t == 1)
@@ -445,7 +445,8 @@ def run_shard(spec, models, on_frame=None):
                                  for j, (_, t) in enumerate(flags) if t == 0]
                         kinds += [("miss", list(boxes[k][:4]), None) for k in veh if k not in matched]
                         if kinds:
-                            stem = f"{spec['rec']}_{Path(name).stem.replace('#', '_')}"
+                            # unique per recording even when a list names two files alike
+                            stem = f"{spec['rec']}_{spec['index']:05d}_{i:05d}_{Path(name).stem.replace('#', '_')}"
                             for im, anns in _mine_frame(img, boxes, kinds, stem, mine_tmp):
                                 im.update(recording=spec["rec"], frame=name, seq=int(f.seq),
                                           frame_path=by_name.get(name.split("#")[0]))
