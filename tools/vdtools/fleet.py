@@ -741,19 +741,28 @@ def format_summary(r):
     return "\n".join(lines)
 
 
-def shared_data_manifest(data_dir, out_dir):
+def shared_data_manifest(data_dir, out_dir, split="test"):
     """Writes out_dir/manifest.jsonl over ../shared/data (read in place, never copied): one recording per
     MSRS block (day/night, frame number // 40: continuous drive samples), per HIT-UAV flight (T_H_A) and
     the HIT-UAV sequence; each a list file of frame paths, with its ground truth and camera / daynight.
+    Only the frames of `split` (vdtools.dataset.assign_splits: "test" by default, so that the accuracy a
+    fleet report prints is never measured on frames the shipped models trained on; "all" = every frame).
     Returns the manifest path."""
     data_dir, out_dir = Path(data_dir).resolve(), Path(out_dir).resolve()
+    keep = None
+    if split != "all":
+        from . import dataset as D
+        frames = D.all_frames(data_dir, synth=False)
+        split_of = D.assign_splits(frames)
+        keep = {Path(f.path).resolve() for f in frames if split_of[f.group] == split}
     lists = out_dir / "lists"
     lists.mkdir(parents=True, exist_ok=True)
     rows = []
     groups = {}
     for p in sorted((data_dir / "msrs" / "images").glob("*.png")):
         dn = "day" if p.stem.endswith("D") else "night"
-        groups.setdefault((dn, int(p.stem[:-1]) // 40), []).append(p)
+        if keep is None or p.resolve() in keep:
+            groups.setdefault((dn, int(p.stem[:-1]) // 40), []).append(p)
     for (dn, blk), ps in sorted(groups.items()):
         rid = f"msrs-{dn}-{blk:02d}"
         (lists / f"{rid}.lst").write_text("".join(f"{p}\n" for p in ps))
@@ -762,7 +771,8 @@ def shared_data_manifest(data_dir, out_dir):
     for sub, cam in (("frames", "hit-uav"), ("sequence-0_100", "hit-uav-seq")):
         flights = {}
         for p in sorted((data_dir / "hit-uav" / sub / "images").glob("*.jpg")):
-            flights.setdefault("_".join(p.stem.split("_")[:3]), []).append(p)
+            if keep is None or p.resolve() in keep:
+                flights.setdefault("_".join(p.stem.split("_")[:3]), []).append(p)
         for f, ps in sorted(flights.items()):
             rid = f"{cam}-{f}"
             (lists / f"{rid}.lst").write_text("".join(f"{p}\n" for p in ps))
@@ -779,6 +789,8 @@ def main(argv=None):
     ap.add_argument("--out", help="output directory (shards/, recordings/, report.json, report.md)")
     ap.add_argument("--shared-manifest", metavar="DIR", help="only write DIR/manifest.jsonl over ../shared/data "
                     "(or $VD_DATA_DIR): MSRS blocks, HIT-UAV flights and sequence, each a recording")
+    ap.add_argument("--split", default="test", choices=("test", "val", "train", "all"),
+                    help="--shared-manifest: frames of this split only (default test: held out from training)")
     ap.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a LocalCluster here)")
     ap.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
     ap.add_argument("--shard-frames", type=int, default=256, help="frames per shard (0: whole recordings)")
@@ -789,7 +801,7 @@ def main(argv=None):
         ap.add_argument(f"--{k}", dest="set_" + k.replace("-", "_"), help=f"as vd_fir_demo --{k}")
     a = ap.parse_args(argv)
     if a.shared_manifest:
-        print(shared_data_manifest(clib.DATA_DIR, a.shared_manifest))
+        print(shared_data_manifest(clib.DATA_DIR, a.shared_manifest, a.split))
         return 0
     if not a.manifest or not a.out:
         ap.error("MANIFEST and --out are required")
