@@ -143,10 +143,10 @@ CG static vd_status_t cg_otsu_roi(const vd_view_u8_t *s, const vd_rect_t *r, uin
 { g_cg_calls[S_OTSU_ROI]++; return vd_otsu_u8(s, r, t); }
 CG static vd_status_t cg_contours(const vd_view_u8_t *m, void *ws, size_t b, vd_point_t *p, size_t pc, vd_contour_t *c,
                                   size_t cc, size_t *nc, size_t *np)
-{ g_cg_calls[S_CONTOURS_FRAME]++; return vd_contours_find_external(m, ws, b, p, NULL, pc, c, cc, nc, np); }
+{ g_cg_calls[S_CONTOURS_FRAME]++; return vd_contour_find_external(m, ws, b, p, NULL, pc, c, cc, nc, np); }
 CG static vd_status_t cg_contours_roi(const vd_view_u8_t *m, void *ws, size_t b, vd_point_t *p, size_t pc,
                                       vd_contour_t *c, size_t cc, size_t *nc, size_t *np)
-{ g_cg_calls[S_CONTOURS_ROI]++; return vd_contours_find_external(m, ws, b, p, NULL, pc, c, cc, nc, np); }
+{ g_cg_calls[S_CONTOURS_ROI]++; return vd_contour_find_external(m, ws, b, p, NULL, pc, c, cc, nc, np); }
 CG static vd_status_t cg_refine(const vd_view_u8_t *s, const vd_rect_t *r, const vd_refine_cfg_t *cfg, void *ws, size_t b,
                                 vd_image_u8_t *m)
 { g_cg_calls[S_REFINE]++; return vd_refine_region(s, r, cfg, ws, b, m, NULL); }
@@ -395,7 +395,7 @@ static void bench_frame(opts_t *o, const img_t *im)
     TIME_STAGE(S_OTSU, cg_otsu(&src, NULL, &t8));
 
     size_t ctb;
-    vd_contours_workspace_size(w, h, &ctb);
+    vd_contour_workspace_size(w, h, &ctb);
     void *ctws = xmalloc(ctb);
     size_t pcap = 4u * (size_t)w * h;
     vd_point_t *pts = xmalloc(pcap * sizeof(vd_point_t));
@@ -410,8 +410,8 @@ static void bench_frame(opts_t *o, const img_t *im)
     free(cmws);
 
     // Candidates as the detector makes them: rules, then expansion.
-    vd_cc_rules_t rules;
-    vd_cc_rules_default(&rules);
+    vd_components_rules_t rules;
+    vd_components_rules_default(&rules);
     size_t kept = 0;
     vd_components_filter(comps, ncomp, &rules, &kept);
     size_t rfb;
@@ -428,7 +428,7 @@ static void bench_frame(opts_t *o, const img_t *im)
     }
     for (size_t i = 0; i < kept && (int)i < o->max_cands; i++) {
         vd_rect_t r;
-        if (vd_rect_expand(&comps[i].box, VD_EXPAND_W_Q8, VD_EXPAND_H_Q8, w, h, &r) != VD_OK) {
+        if (vd_rect_expand(&comps[i].box, VD_RECT_EXPAND_W_Q8, VD_RECT_EXPAND_H_Q8, w, h, &r) != VD_OK) {
             continue;
         }
         vd_image_u8_t rimg = {dst, (uint32_t)r.w, (uint32_t)r.h, (size_t)r.w};

@@ -49,7 +49,7 @@ enum {
     VD_DET_STAGE_THRESHOLD = 0,  // histogram/percentile + hot mask
     VD_DET_STAGE_COMPONENTS,     // labelling + rules + expansion
     VD_DET_STAGE_REFINE,         // region plane (crop/map/decimate) + vd_refine_region
-    VD_DET_STAGE_CONTOUR,        // vd_contours_find_external
+    VD_DET_STAGE_CONTOUR,        // vd_contour_find_external
     VD_DET_STAGE_SAMPLE,         // 32x32 sample (and the shape-mode refine)
     VD_DET_STAGE_DBN,            // vd_dbn_classify
     VD_DET_STAGE_NMS,            // sort + overlap suppression
@@ -82,7 +82,7 @@ typedef struct vd_detector_cfg {
     int32_t grey_lo_ck;          // 16-bit frames: temperature mapped to grey 0; 0 = hot_thr_ck - 3000
     int32_t grey_hi_ck;          // temperature mapped to grey 255; 0 = hot_thr_ck + 2100, so the
                                  // threshold maps to grey 150 as in the paper; lo < hi required
-    vd_cc_rules_t rules;         // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
+    vd_components_rules_t rules;         // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
     uint16_t expand_w_q8;        // candidate expansion, Q8, 256..2048; 0 = 384 (1.5x, paper)
     uint16_t expand_h_q8;        // 0 = 512 (2x, paper)
     uint8_t median_ksize;        // refine median: 0 = 3 (paper), 1 = none, 3 or 5
@@ -227,7 +227,7 @@ void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
 
 // Resolves cfg in place, as vd_detector_workspace_size and vd_detector_init
 // do with their copy: zero fields take the defaults documented above (rules,
-// contrast and temporal_cfg through vd_cc_rules_resolve,
+// contrast and temporal_cfg through vd_components_rules_resolve,
 // vd_contrast_cfg_resolve and vd_temporal_cfg_resolve), then every range is
 // checked. `windows` is checked for max_width x max_height but kept as given
 // (each frame resolves its own copy). vd_detector_cfg_default() is a zeroed
