@@ -85,7 +85,7 @@ vd_status_t vd_refine_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, v
 vd_status_t vd_refine_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
 
 // Segments one candidate area (paper 001 §3, steps 2-5; step 1, the expansion,
-// is vd_rect_expand in components.h):
+// is vd_rect_expand in rect.h):
 //   F = median(src)[roi]  (cfg->median_ksize; cv2.medianBlur on the full
 //       image, so pixels just outside the ROI take part),
 //   t = Otsu(F); M = F > t; fill the holes of M; E = edges of M;

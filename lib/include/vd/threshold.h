@@ -47,7 +47,7 @@ vd_status_t vd_threshold_u16_ck(const vd_view_u16_t *src, const vd_rect_t *roi, 
 // least ceil(N * permille / 1000) of the N counted pixels are <= t (N = the
 // sum of hist), raised to floor_u8: *thr = max(floor_u8, t). The
 // detector's adaptive hot-spot threshold (permille 990, floor 96, on the
-// frame's vd_histogram_u8) and contrast.h's percentile mode.
+// frame's vd_histogram_u8, histogram.h) and contrast.h's percentile mode.
 //   hist      256 counts (any total, uint64 arithmetic).
 //   permille  0..1000 (0 gives t = 0, so *thr = floor_u8).
 // Returns VD_OK; VD_ERR_ARG for NULL pointers or permille > 1000.
