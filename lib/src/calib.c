@@ -8,7 +8,7 @@
 // (one multiply per pixel instead of a division), clamped to 0..255; the
 // shift is a floor shift (internal/shift_internal.h) because T - lo may be
 // negative. Convention: TLinear radiometric cameras (0.01 K per count, calib.h).
-// Bounds: O(1) per call; stack < 64 bytes.
+// Bounds: O(1) per call; stack <= 32 bytes on Cortex-M (docs/embedded.md).
 // Arithmetic: raw * gain_q16 < 2^16 * 2^31 = 2^47 and ck - offset_ck is in
 // +-2^32, so (ck - offset_ck) * 65536 < 2^49: all in int64_t; in the grey
 // map |T - lo| < 2^32 and mul_q16 <= 255 * 2^16 < 2^24, product < 2^56.
