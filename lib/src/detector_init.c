@@ -187,7 +187,7 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     return VD_OK;
 }
 
-static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, layout_t *l)
+static vd_status_t plan(const vd_detector_cfg_t *c, const vd_dbn_model_t *model, layout_t *l)
 {
     memset(l, 0, sizeof(*l));
     size_t rw = c->max_region_w;
@@ -280,7 +280,7 @@ static vd_status_t total_size(const layout_t *l, size_t *bytes)
     return VD_OK;
 }
 
-vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_model_t *model, size_t *bytes)
+vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model, size_t *bytes)
 {
     VD_VERIFY(bytes != NULL, VD_ERR_ARG);
     vd_detector_cfg_t c;
@@ -303,7 +303,7 @@ static void *take(vd_arena_t *a, size_t bytes, bool *ok)
     return p;
 }
 
-vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_model_t *model,
+vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model,
                              void *ws, size_t bytes)
 {
     VD_VERIFY(det != NULL, VD_ERR_ARG);

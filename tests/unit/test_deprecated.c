@@ -42,6 +42,10 @@ static void test_old_code_still_compiles(void)
     TEST_ASSERT_EQUAL_UINT32(384u, VD_EXPAND_W_Q8);
     TEST_ASSERT_EQUAL_UINT32(512u, VD_EXPAND_H_Q8);
     TEST_ASSERT_EQUAL_INT32(27315, VD_CK_PER_0C);
+    vd_model_t m;
+    memset(&m, 0, sizeof m);
+    size_t ws = 0;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_dbn_workspace_size(&m, &ws));   // not loaded
 }
 
 int main(void)

@@ -399,7 +399,7 @@ static void test_bad_configs(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
     c = small_cfg(); c.max_tracks = 2000u;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
-    vd_model_t unloaded;
+    vd_dbn_model_t unloaded;
     memset(&unloaded, 0, sizeof(unloaded));
     c = small_cfg();
     TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_detector_workspace_size(&c, &unloaded, &bytes));

@@ -388,9 +388,9 @@ static void test_model_header_flips_behind_valid_crc(void)
             if (byte >= 16u) {
                 fix_crc(b, g_blob_len);  // past the checksum: the structural checks must hold
             }
-            vd_model_t m;
+            vd_dbn_model_t m;
             memset(&m, 0xA5, sizeof(m));
-            vd_model_t before = m;
+            vd_dbn_model_t before = m;
             vd_status_t st = vd_dbn_load(&m, b, g_blob_len);
             if (byte < 16u) {
                 TEST_ASSERT_EQUAL_INT_MESSAGE(VD_ERR_MODEL, st, "flip in magic/version/size/CRC");
@@ -418,7 +418,7 @@ static void test_model_trailing_bytes_and_detector(void)
     if (!load_tiny()) {
         TEST_IGNORE_MESSAGE("tests/data/golden_tiny.vdm missing");
     }
-    vd_model_t m, m2;
+    vd_dbn_model_t m, m2;
     static uint32_t padded[4096 + 64];
     memcpy(padded, g_blob, g_blob_len);
     memset((uint8_t *)padded + g_blob_len, 0xFF, 100);
@@ -428,7 +428,7 @@ static void test_model_trailing_bytes_and_detector(void)
     TEST_ASSERT_EQUAL_UINT32(m.size, m2.size);
     // A detector refuses a model that was never loaded, and a blob that failed to load leaves the
     // caller's model untouched, so the detector keeps the good one.
-    vd_model_t zero;
+    vd_dbn_model_t zero;
     memset(&zero, 0, sizeof(zero));
     size_t wsb = 0u;
     vd_detector_cfg_t cfg;

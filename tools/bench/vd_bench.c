@@ -152,7 +152,7 @@ CG static vd_status_t cg_refine(const vd_view_u8_t *s, const vd_rect_t *r, const
 { g_cg_calls[S_REFINE]++; return vd_refine_region(s, r, cfg, ws, b, m, NULL); }
 CG static vd_status_t cg_resample(const vd_view_u8_t *s, const vd_rect_t *r, uint8_t *d)
 { g_cg_calls[S_RESAMPLE]++; return vd_resample_u8(s, r, d, 32u, 32u); }
-CG static vd_status_t cg_dbn(const vd_model_t *m, const uint8_t *in, void *ws, size_t b, uint8_t *score)
+CG static vd_status_t cg_dbn(const vd_dbn_model_t *m, const uint8_t *in, void *ws, size_t b, uint8_t *score)
 { g_cg_calls[S_DBN]++; return vd_dbn_classify(m, in, ws, b, score); }
 
 typedef struct {
@@ -273,7 +273,7 @@ static void make_worst(int kind, img_t *im, uint32_t w, uint32_t h)
 }
 
 typedef struct {
-    vd_model_t model;
+    vd_dbn_model_t model;
     int have_model;
     uint8_t thr_mode;
     int max_cands;
@@ -308,7 +308,7 @@ static double run_detector_only(opts_t *o, const img_t *im, const char *label)
     cfg.max_height = im->h;
     cfg.thr_mode = o->thr_mode;
     size_t bytes;
-    const vd_model_t *m = o->have_model ? &o->model : NULL;
+    const vd_dbn_model_t *m = o->have_model ? &o->model : NULL;
     if (vd_detector_workspace_size(&cfg, m, &bytes) != VD_OK) {
         die("detector workspace size", label);
     }
@@ -349,7 +349,7 @@ static void bench_frame(opts_t *o, const img_t *im)
     cfg.max_height = h;
     cfg.thr_mode = o->thr_mode;
     size_t bytes;
-    const vd_model_t *m = o->have_model ? &o->model : NULL;
+    const vd_dbn_model_t *m = o->have_model ? &o->model : NULL;
     if (vd_detector_workspace_size(&cfg, m, &bytes) != VD_OK) {
         die("detector workspace size", NULL);
     }

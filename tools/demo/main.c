@@ -42,7 +42,7 @@ typedef struct run {
     bool device;
     vd_capture_t cap;
     uint8_t *model_blob;
-    vd_model_t model;
+    vd_dbn_model_t model;
     bool have_model;
     char model_path[4096];
     uint8_t *cnn_blob;
@@ -557,7 +557,7 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
         cfg.candidate_user = r;
     }
     size_t bytes = 0;
-    const vd_model_t *m = r->have_model ? &r->model : NULL;
+    const vd_dbn_model_t *m = r->have_model ? &r->model : NULL;
     vd_status_t st = vd_detector_workspace_size(&cfg, m, &bytes);
     if (st != VD_OK) {
         snprintf(r->err, sizeof r->err, "detector settings rejected for %ux%u frames", (unsigned)f->width,

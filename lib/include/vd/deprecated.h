@@ -11,6 +11,7 @@
 #include "vd/rect.h"
 #include "vd/refine.h"
 #include "vd/calib.h"
+#include "vd/dbn.h"
 
 // contour.h: the header's prefix is vd_contour_.
 #define vd_contours_workspace_size vd_contour_workspace_size
@@ -40,6 +41,9 @@
 
 // calib.h: the calibration left threshold.h (its functions keep their names).
 #define VD_CK_PER_0C VD_CALIB_CK_PER_0C
+
+// dbn.h: the DBN model type carries its module's prefix, like vd_cnn_model_t.
+#define vd_model_t vd_dbn_model_t
 
 #endif
 #endif

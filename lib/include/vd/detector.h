@@ -186,7 +186,7 @@ typedef struct vd_detector_stats {
 // Detector object. Complete so the caller can own it; fields are private.
 typedef struct vd_detector {
     vd_detector_cfg_t cfg;       // resolved (no zero defaults left)
-    const vd_model_t *model;
+    const vd_dbn_model_t *model;
     uint16_t raw_thr;            // resolved 16-bit threshold
     bool raw_never_hot;          // threshold above the calibrated range
     vd_calib_grey_t grey;        // 16-bit frames: temperature -> grey map (grey_lo_ck, grey_hi_ck)
@@ -260,7 +260,7 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 // input above VD_CNN_MAX_SIDE (or twice it above VD_MAX_DIM); VD_ERR_MODEL
 // for a model not filled by vd_dbn_load or a cnn_model not filled by
 // vd_cnn_load; VD_ERR_OVERFLOW if the size does not fit size_t.
-vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_model_t *model, size_t *bytes);
+vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model, size_t *bytes);
 
 // Initialises `det`: validates and copies cfg (NULL = defaults), resolves the
 // 16-bit threshold with the calibration, and carves `ws` once.
@@ -271,7 +271,7 @@ vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_mo
 // Returns VD_OK; VD_ERR_ARG for NULL det or a cfg out of range;
 // VD_ERR_MODEL as vd_detector_workspace_size; VD_ERR_WORKSPACE for a NULL,
 // misaligned or short workspace.
-vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_model_t *model,
+vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model,
                              void *ws, size_t bytes);
 
 // Runs the pipeline on one frame (VD_PIX_U8 or VD_PIX_U16, at most
