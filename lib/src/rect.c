@@ -2,6 +2,7 @@
 // Rectangle helpers: ROI resolution, clipping, IoU (O(1) each) and the paper's candidate-box
 // expansion (paper 001 section 3, step 1). int64 intermediates: no overflow on hostile boxes.
 #include "vd/rect.h"
+#include "internal/shift_internal.h"
 #include "internal/vd_internal.h"
 
 vd_status_t vd_rect_roi_resolve(const vd_rect_t *roi, uint32_t width, uint32_t height, vd_rect_t *out)
@@ -69,7 +70,7 @@ static bool expand_axis(int32_t pos, int32_t len, uint16_t s_q8, uint32_t limit,
         nl = 1;
     }
     const int64_t g = nl - (int64_t)len;
-    const int64_t left = (g >= 0) ? g / 2 : -((-g + 1) / 2); // floor(g / 2)
+    const int64_t left = vd_shr_floor_i64(g, 1u); // floor(g / 2), g may be negative
     int64_t lo = (int64_t)pos - left;
     int64_t hi = lo + nl; // exclusive
     if (lo < 0) {
