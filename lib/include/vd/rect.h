@@ -22,6 +22,7 @@ typedef struct vd_rect {
     int32_t h;
 } vd_rect_t;
 
+// A pixel position (contour points), image coordinates.
 typedef struct vd_point {
     int16_t x;
     int16_t y;
