@@ -200,10 +200,10 @@ def detector_workspace():
         sz = C.c_size_t()
         rw, rh = cfg["max_region_w"], cfg["max_region_h"]
         lib.vd_refine_workspace_size.argtypes = [C.c_uint32, C.c_uint32, C.POINTER(C.c_size_t)]
-        lib.vd_contours_workspace_size.argtypes = [C.c_uint32, C.c_uint32, C.POINTER(C.c_size_t)]
+        lib.vd_contour_workspace_size.argtypes = [C.c_uint32, C.c_uint32, C.POINTER(C.c_size_t)]
         clib.check(lib.vd_refine_workspace_size(rw, rh, C.byref(sz)))
         refine = sz.value
-        clib.check(lib.vd_contours_workspace_size(rw, rh, C.byref(sz)))
+        clib.check(lib.vd_contour_workspace_size(rw, rh, C.byref(sz)))
         tracer = _aligned(sz.value) + _aligned(8 * (rw + rh) * 4) + _aligned(64 * 24)
         labelling = cc.workspace_size_runs(640, 512, cfg["max_runs"])
         region = 2 * _aligned(rw * rh) + max(_aligned(refine), tracer)
@@ -484,7 +484,7 @@ def main():
             lines.append(f"| `{name}` | {params} | {macs / 1e6:.1f} M | {frame} | {b} ({b / 1024:.0f} KiB) |")
     if runs:
         lines += ["", "## Labelling run counts on real frames", "",
-                  "Horizontal runs of pixels ≥ threshold per frame (`vd_cc_stats_t.runs`), measured with the",
+                  "Horizontal runs of pixels ≥ threshold per frame (`vd_components_stats_t.runs`), measured with the",
                   "C labeller on every frame of `../shared/data` at the detector's two thresholds.",
                   "The detector's default budget `max_runs` = 24 576 runs; p99 = nearest-rank 99th percentile.", "",
                   "| frames | threshold | n | max | p99 | median |", "|---|---|---:|---:|---:|---:|"]

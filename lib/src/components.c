@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// 8-connected component labelling over runs, shape rules, box expansion.
+// 8-connected component labelling over runs, shape rules (box expansion: rect.c).
 //
 // Algorithm: rows are taken in pairs (ROI rows 2k, 2k+1). Each row is
 // run-length encoded straight from its source (a 0/nonzero mask, or an 8- or
@@ -362,7 +362,7 @@ static uint32_t cc_merge_pair(cc_slot_t *s, uint32_t n, cc_span_t *a, size_t na,
 // the fixed part of `lay` plus at least one slot; the run budget is what is
 // left, up to the worst case.
 static vd_status_t cc_label(const cc_src_t *src, const cc_layout_t *lay, void *ws, size_t bytes,
-                            vd_component_t *out, size_t cap, size_t *count, vd_cc_stats_t *stats)
+                            vd_component_t *out, size_t cap, size_t *count, vd_components_stats_t *stats)
 {
     vd_arena_t arena;
     VD_TRY(vd_arena_init(&arena, ws, bytes));
@@ -505,7 +505,7 @@ static vd_status_t cc_prepare(uint32_t img_w, uint32_t img_h, const vd_rect_t *r
 {
     VD_VERIFY(out != NULL || cap == 0u, VD_ERR_ARG);
     vd_rect_t r;
-    VD_TRY(vd_roi_resolve(roi, img_w, img_h, &r));
+    VD_TRY(vd_rect_roi_resolve(roi, img_w, img_h, &r));
     src->w = (uint32_t)r.w;
     src->h = (uint32_t)r.h;
     src->x = r.x;
@@ -536,7 +536,7 @@ vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, 
 
 vd_status_t vd_components_label_thr_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t thr, void *ws,
                                        size_t bytes, vd_component_t *out, size_t cap, size_t *count,
-                                       vd_cc_stats_t *stats)
+                                       vd_components_stats_t *stats)
 {
     VD_VERIFY(count != NULL, VD_ERR_ARG);
     *count = 0u;
@@ -553,7 +553,7 @@ vd_status_t vd_components_label_thr_u8(const vd_view_u8_t *src, const vd_rect_t 
 
 vd_status_t vd_components_label_thr_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint16_t thr, void *ws,
                                         size_t bytes, vd_component_t *out, size_t cap, size_t *count,
-                                        vd_cc_stats_t *stats)
+                                        vd_components_stats_t *stats)
 {
     VD_VERIFY(count != NULL, VD_ERR_ARG);
     *count = 0u;
@@ -568,7 +568,7 @@ vd_status_t vd_components_label_thr_u16(const vd_view_u16_t *src, const vd_rect_
     return cc_label(&s, &lay, ws, bytes, out, cap, count, stats);
 }
 
-void vd_cc_rules_default(vd_cc_rules_t *rules)
+void vd_components_rules_default(vd_components_rules_t *rules)
 {
     if (rules == NULL) {
         return;
@@ -579,19 +579,19 @@ void vd_cc_rules_default(vd_cc_rules_t *rules)
     rules->max_area = 0u;
 }
 
-// The consistency that vd_cc_rules_resolve and vd_components_filter demand.
-static vd_status_t rules_check(const vd_cc_rules_t *rules)
+// The consistency that vd_components_rules_resolve and vd_components_filter demand.
+static vd_status_t rules_check(const vd_components_rules_t *rules)
 {
     VD_VERIFY(rules->aspect_min_q8 <= rules->aspect_max_q8, VD_ERR_ARG);
     VD_VERIFY(rules->max_area == 0u || rules->min_area <= rules->max_area, VD_ERR_ARG);
     return VD_OK;
 }
 
-vd_status_t vd_cc_rules_resolve(vd_cc_rules_t *rules)
+vd_status_t vd_components_rules_resolve(vd_components_rules_t *rules)
 {
     VD_VERIFY(rules != NULL, VD_ERR_ARG);
     if (rules->aspect_min_q8 == 0u && rules->aspect_max_q8 == 0u && rules->min_area == 0u && rules->max_area == 0u) {
-        vd_cc_rules_default(rules);
+        vd_components_rules_default(rules);
     }
     return rules_check(rules);
 }
@@ -603,7 +603,7 @@ static uint64_t cc_aspect_q8(const vd_rect_t *b)
     return (512u * (uint64_t)b->h + w) / (2u * w);
 }
 
-vd_status_t vd_components_filter(vd_component_t *comps, size_t n, const vd_cc_rules_t *rules, size_t *kept)
+vd_status_t vd_components_filter(vd_component_t *comps, size_t n, const vd_components_rules_t *rules, size_t *kept)
 {
     VD_VERIFY(kept != NULL, VD_ERR_ARG);
     *kept = 0u;
@@ -626,45 +626,5 @@ vd_status_t vd_components_filter(vd_component_t *comps, size_t n, const vd_cc_ru
         }
     }
     *kept = k;
-    return VD_OK;
-}
-
-// One axis of vd_rect_expand: [*pos, *pos + *len) scaled by s_q8 about its
-// centre and clipped to [0, limit). false if nothing is left. int64 holds
-// every intermediate: |pos| < 2^31, len * s_q8 < 2^47.
-static bool cc_expand_axis(int32_t pos, int32_t len, uint16_t s_q8, uint32_t limit, int32_t *opos, int32_t *olen)
-{
-    int64_t nl = ((int64_t)len * (int64_t)s_q8 * 2 + 256) / 512; // round-half-up(len * s / 256)
-    if (nl < 1) {
-        nl = 1;
-    }
-    const int64_t g = nl - (int64_t)len;
-    const int64_t left = (g >= 0) ? g / 2 : -((-g + 1) / 2); // floor(g / 2)
-    int64_t lo = (int64_t)pos - left;
-    int64_t hi = lo + nl; // exclusive
-    if (lo < 0) {
-        lo = 0;
-    }
-    if (hi > (int64_t)limit) {
-        hi = (int64_t)limit;
-    }
-    if (hi <= lo) {
-        return false;
-    }
-    *opos = (int32_t)lo;
-    *olen = (int32_t)(hi - lo);
-    return true;
-}
-
-vd_status_t vd_rect_expand(const vd_rect_t *in, uint16_t wscale_q8, uint16_t hscale_q8, uint32_t frame_w,
-                           uint32_t frame_h, vd_rect_t *out)
-{
-    VD_VERIFY(in != NULL && out != NULL, VD_ERR_ARG);
-    VD_VERIFY(in->w > 0 && in->h > 0 && wscale_q8 > 0u && hscale_q8 > 0u, VD_ERR_ARG);
-    VD_VERIFY(frame_w >= 1u && frame_h >= 1u && frame_w <= VD_MAX_DIM && frame_h <= VD_MAX_DIM, VD_ERR_ARG);
-    vd_rect_t res;
-    VD_VERIFY(cc_expand_axis(in->x, in->w, wscale_q8, frame_w, &res.x, &res.w), VD_ERR_ARG);
-    VD_VERIFY(cc_expand_axis(in->y, in->h, hscale_q8, frame_h, &res.y, &res.h), VD_ERR_ARG);
-    *out = res;
     return VD_OK;
 }

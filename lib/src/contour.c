@@ -48,11 +48,11 @@ static bool plane_size(uint32_t w, uint32_t h, size_t *bytes)
     return vd_mul_size((size_t)w + 2u, (size_t)h + 2u, bytes);
 }
 
-vd_status_t vd_contours_workspace_size(uint32_t max_w, uint32_t max_h, size_t *bytes)
+vd_status_t vd_contour_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes)
 {
     VD_VERIFY(bytes != NULL, VD_ERR_ARG);
-    VD_VERIFY(max_w >= 1u && max_h >= 1u && max_w <= VD_MAX_DIM && max_h <= VD_MAX_DIM, VD_ERR_ARG);
-    VD_VERIFY(plane_size(max_w, max_h, bytes), VD_ERR_OVERFLOW);
+    VD_VERIFY(max_width >= 1u && max_height >= 1u && max_width <= VD_MAX_DIM && max_height <= VD_MAX_DIM, VD_ERR_ARG);
+    VD_VERIFY(plane_size(max_width, max_height, bytes), VD_ERR_OVERFLOW);
     return VD_OK;
 }
 
@@ -105,7 +105,7 @@ static vd_status_t trace_outer(tracer_t *t, size_t start, int32_t x, int32_t y, 
         t->points[t->used].x = (int16_t)x;
         t->points[t->used].y = (int16_t)y;
         if (t->chain != NULL) {
-            t->chain[t->used] = (uint8_t)VD_CHAIN_NONE;
+            t->chain[t->used] = (uint8_t)VD_CONTOUR_CHAIN_NONE;
         }
         t->used++;
     } else {
@@ -199,7 +199,7 @@ static void to_cv_order(vd_point_t *pts, uint8_t *chain, size_t n_pts, vd_contou
     }
 }
 
-vd_status_t vd_contours_find_external(const vd_view_u8_t *mask, void *ws, size_t bytes,
+vd_status_t vd_contour_find_external(const vd_view_u8_t *mask, void *ws, size_t bytes,
                                       vd_point_t *points, uint8_t *chain, size_t points_cap,
                                       vd_contour_t *contours, size_t contours_cap,
                                       size_t *n_contours, size_t *n_points)

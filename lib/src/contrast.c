@@ -610,7 +610,7 @@ vd_status_t vd_contrast_cfg_resolve(vd_contrast_cfg_t *c)
     VD_VERIFY(c->radius <= VD_CONTRAST_MAX_RADIUS, VD_ERR_ARG);
     VD_VERIFY(c->polarity <= VD_CONTRAST_COLD && c->thr_mode <= VD_CONTRAST_THR_PERCENTILE, VD_ERR_ARG);
     VD_VERIFY(c->permille <= 1000u, VD_ERR_ARG);
-    return vd_cc_rules_resolve(&c->rules);
+    return vd_components_rules_resolve(&c->rules);
 }
 
 vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cfg_t *cfg, void *ws, size_t bytes,

@@ -144,7 +144,7 @@ static bool layer_values_ok(const vd_dbn_layer_t *l)
     return true;
 }
 
-vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
+vd_status_t vd_dbn_load(vd_dbn_model_t *m, const void *blob, size_t bytes)
 {
     VD_VERIFY(m != NULL && blob != NULL && bytes != 0u, VD_ERR_ARG);
     VD_VERIFY(((uintptr_t)blob % 4u) == 0u, VD_ERR_ARG);
@@ -190,7 +190,7 @@ vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
     const uint32_t table_end = table + n_layers * VD_DBN_LAYER_ENTRY_SIZE;
 
     // Layer table: sizes chain, arrays in range, aligned, disjoint.
-    vd_model_t tmp;
+    vd_dbn_model_t tmp;
     memset(&tmp, 0, sizeof tmp);
     segment_t seg[N_SEGMENTS];
     uint32_t n_seg = 0u;
@@ -257,7 +257,7 @@ vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes)
 
 // ---------------------------------------------------------------- inference
 
-static bool model_loaded(const vd_model_t *m)
+static bool model_loaded(const vd_dbn_model_t *m)
 {
     return m->blob != NULL && m->n_layers >= 1u && m->n_layers <= VD_DBN_MAX_LAYERS && m->max_units >= 1u &&
            m->max_units <= VD_DBN_MAX_UNITS && m->input_w >= 1u && m->input_w <= VD_DBN_MAX_INPUT_DIM &&
@@ -282,7 +282,7 @@ vd_status_t vd_dbn_stretch_u8(const uint8_t *in, uint32_t n, uint32_t min_range,
     return VD_OK;
 }
 
-vd_status_t vd_dbn_workspace_size(const vd_model_t *m, size_t *bytes)
+vd_status_t vd_dbn_workspace_size(const vd_dbn_model_t *m, size_t *bytes)
 {
     VD_VERIFY(m != NULL && bytes != NULL, VD_ERR_ARG);
     VD_VERIFY(model_loaded(m), VD_ERR_STATE);
@@ -310,7 +310,7 @@ static void layer_forward(const vd_dbn_layer_t *l, const uint8_t *in, uint8_t *o
     }
 }
 
-vd_status_t vd_dbn_classify(const vd_model_t *m, const uint8_t *input, void *ws, size_t bytes,
+vd_status_t vd_dbn_classify(const vd_dbn_model_t *m, const uint8_t *input, void *ws, size_t bytes,
                             uint8_t *score_q8)
 {
     VD_VERIFY(m != NULL && input != NULL && score_q8 != NULL, VD_ERR_ARG);

@@ -38,16 +38,16 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *c)
     if (c->adaptive_floor_u8 == 0u) { c->adaptive_floor_u8 = 96u; }
     if (c->adaptive_permille == 0u) { c->adaptive_permille = 990u; }
     VD_VERIFY(c->adaptive_permille <= 1000u, VD_ERR_ARG);
-    if (c->hot_thr_ck == 0) { c->hot_thr_ck = VD_CK_PER_0C + 3000; }
+    if (c->hot_thr_ck == 0) { c->hot_thr_ck = VD_CALIB_CK_PER_0C + 3000; }
     VD_VERIFY(c->hot_thr_ck > 0 && c->hot_thr_ck <= 1000000, VD_ERR_ARG);   // <= 10 000 K
     if (c->calib.gain_q16 == 0) { c->calib.gain_q16 = 65536; }
     VD_VERIFY(c->calib.gain_q16 > 0, VD_ERR_ARG);
     if (c->grey_lo_ck == 0) { c->grey_lo_ck = c->hot_thr_ck - 3000; }
     if (c->grey_hi_ck == 0) { c->grey_hi_ck = c->hot_thr_ck + 2100; }
     VD_VERIFY(c->grey_lo_ck < c->grey_hi_ck, VD_ERR_ARG);
-    VD_TRY(vd_cc_rules_resolve(&c->rules));
-    if (c->expand_w_q8 == 0u) { c->expand_w_q8 = VD_EXPAND_W_Q8; }
-    if (c->expand_h_q8 == 0u) { c->expand_h_q8 = VD_EXPAND_H_Q8; }
+    VD_TRY(vd_components_rules_resolve(&c->rules));
+    if (c->expand_w_q8 == 0u) { c->expand_w_q8 = VD_RECT_EXPAND_W_Q8; }
+    if (c->expand_h_q8 == 0u) { c->expand_h_q8 = VD_RECT_EXPAND_H_Q8; }
     VD_VERIFY(c->expand_w_q8 >= 256u && c->expand_w_q8 <= 2048u, VD_ERR_ARG);
     VD_VERIFY(c->expand_h_q8 >= 256u && c->expand_h_q8 <= 2048u, VD_ERR_ARG);
     if (c->median_ksize == 0u) { c->median_ksize = 3u; }
@@ -187,7 +187,7 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     return VD_OK;
 }
 
-static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, layout_t *l)
+static vd_status_t plan(const vd_detector_cfg_t *c, const vd_dbn_model_t *model, layout_t *l)
 {
     memset(l, 0, sizeof(*l));
     size_t rw = c->max_region_w;
@@ -211,7 +211,7 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_model_t *model, lay
     l->crop = rw * rh;
     l->rmask = rw * rh;
     VD_TRY(vd_refine_workspace_size((uint32_t)rw, (uint32_t)rh, &l->refine));
-    VD_TRY(vd_contours_workspace_size((uint32_t)rw, (uint32_t)rh, &l->contour));
+    VD_TRY(vd_contour_workspace_size((uint32_t)rw, (uint32_t)rh, &l->contour));
     // Room for a few outlines around the region; more only sets CONTOUR_TRUNC.
     l->points_cap = 8u * (rw + rh);
     l->contours_cap = 64u;
@@ -280,7 +280,7 @@ static vd_status_t total_size(const layout_t *l, size_t *bytes)
     return VD_OK;
 }
 
-vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_model_t *model, size_t *bytes)
+vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model, size_t *bytes)
 {
     VD_VERIFY(bytes != NULL, VD_ERR_ARG);
     vd_detector_cfg_t c;
@@ -303,7 +303,7 @@ static void *take(vd_arena_t *a, size_t bytes, bool *ok)
     return p;
 }
 
-vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_model_t *model,
+vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model,
                              void *ws, size_t bytes)
 {
     VD_VERIFY(det != NULL, VD_ERR_ARG);

@@ -131,7 +131,7 @@ vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_
     x->mv = vd_image_u8_view(&x->m);
     size_t nc = 0u;
     size_t np = 0u;
-    vd_status_t st = vd_contours_find_external(&x->mv, x->b.contour_ws, det->contour_ws_bytes, x->b.points, NULL,
+    vd_status_t st = vd_contour_find_external(&x->mv, x->b.contour_ws, det->contour_ws_bytes, x->b.points, NULL,
                                                det->points_cap, x->b.contours, det->contours_cap, &nc, &np);
     if (st == VD_ERR_CAPACITY) {
         d->flags |= VD_DET_FLAG_CONTOUR_TRUNC;

@@ -44,7 +44,7 @@ static uint32_t threshold_u8(vd_detector_t *det, const vd_view_u8_t *v)
 vd_status_t vd_det_hot_components(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint32_t *t0)
 {
     vd_detector_stats_t *s = &det->stats;
-    vd_cc_stats_t *cs = &((cand_ctx_t *)det->scratch)->cs;
+    vd_components_stats_t *cs = &((cand_ctx_t *)det->scratch)->cs;
     memset(cs, 0, sizeof(*cs));
     vd_status_t st;
     *n = 0u;

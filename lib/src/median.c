@@ -57,7 +57,7 @@
 static vd_status_t median_args(const vd_view_u8_t *src, const vd_rect_t *roi, const vd_image_u8_t *dst, vd_rect_t *r)
 {
     VD_TRY(vd_view_u8_check(src));
-    VD_TRY(vd_roi_resolve(roi, src->width, src->height, r));
+    VD_TRY(vd_rect_roi_resolve(roi, src->width, src->height, r));
     VD_TRY(vd_image_u8_check(dst));
     VD_VERIFY(dst->width == (uint32_t)r->w && dst->height == (uint32_t)r->h, VD_ERR_ARG);
     return VD_OK;

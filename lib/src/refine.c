@@ -9,10 +9,10 @@
 //
 // Algorithm of vd_refine_region on a w x h ROI:
 //   F = median (median.h) or a copy of the ROI; t = Otsu (otsu.h);
-//   M = F > t into the output mask; holes of M filled (vd_fill_holes_u8:
+//   M = F > t into the output mask; holes of M filled (vd_refine_fill_holes_u8:
 //   depth-first flood of the background from the ROI border over
 //   4-neighbours, explicit stack, each pixel pushed at most once);
-//   E = edges of M (vd_edges_u8: foreground with a background 4-neighbour,
+//   E = edges of M (vd_refine_edges_u8: foreground with a background 4-neighbour,
 //   outside the ROI counts as background); then every edge_step-th pixel of E
 //   in raster order gets its window x window neighbourhood (clipped to the
 //   ROI) re-binarised: mask = F > T, T = eq. (1) on the window's histogram.
@@ -64,7 +64,7 @@ static uint32_t bit_index(uint32_t low)
     return k_debruijn[(uint32_t)(low * 0x077CB531u) >> 27];
 }
 
-// vd_maxdist_from_hist for a histogram whose occupied levels are the set
+// vd_refine_maxdist_from_hist for a histogram whose occupied levels are the set
 // bits of present[] (level v: bit v & 31 of word v >> 5), with total n and
 // level sum `sum`: the same criterion, evaluated only at occupied levels. An
 // empty level t leaves (c, s) and so the criterion of the level before it
@@ -91,7 +91,7 @@ static bool maxdist_levels(const uint32_t hist[256], const uint32_t present[8], 
             if (c == n_s) {
                 break;   // the last occupied level: class 2 empty
             }
-            // n <= VD_MAXDIST_MAX_COUNT (255): |d| < 255 * 255 * 255, so d^2 < 2^48 and
+            // n <= VD_REFINE_MAXDIST_MAX_COUNT (255): |d| < 255 * 255 * 255, so d^2 < 2^48 and
             // num * best_den < 2^48 * 2^14 fits uint64.
             const int64_t d = s * n_s - sum_s * c;
             const uint64_t ad = (uint64_t)(d < 0 ? -d : d);
@@ -108,7 +108,7 @@ static bool maxdist_levels(const uint32_t hist[256], const uint32_t present[8], 
     return best_t >= 0;
 }
 
-vd_status_t vd_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr)
+vd_status_t vd_refine_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr)
 {
     VD_VERIFY(hist != NULL && thr != NULL, VD_ERR_ARG);
     uint64_t n = 0u;
@@ -119,7 +119,7 @@ vd_status_t vd_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr)
         sum += (uint64_t)i * hist[i];
         present[i >> 5] |= (hist[i] != 0u ? 1u : 0u) << (i & 31u);
     }
-    VD_VERIFY(n >= 1u && n <= VD_MAXDIST_MAX_COUNT, VD_ERR_RANGE);
+    VD_VERIFY(n >= 1u && n <= VD_REFINE_MAXDIST_MAX_COUNT, VD_ERR_RANGE);
     // n <= 255, so sum <= 255 * 255 fits the helper's uint32.
     uint8_t t = 0u;   // *thr is left alone on failure
     VD_VERIFY(maxdist_levels(hist, present, (uint32_t)n, (uint32_t)sum, &t), VD_ERR_RANGE);  // one grey level only
@@ -133,18 +133,18 @@ static bool fill_ws_size(uint32_t w, uint32_t h, size_t *bytes)
     return vd_mul_size((size_t)w, (size_t)h, &px) && vd_mul_size(px, sizeof(uint32_t), bytes);
 }
 
-vd_status_t vd_fill_holes_workspace_size(uint32_t max_w, uint32_t max_h, size_t *bytes)
+vd_status_t vd_refine_fill_holes_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes)
 {
     VD_VERIFY(bytes != NULL, VD_ERR_ARG);
-    VD_VERIFY(max_w >= 1u && max_h >= 1u && max_w <= VD_MAX_DIM && max_h <= VD_MAX_DIM, VD_ERR_ARG);
-    VD_VERIFY(fill_ws_size(max_w, max_h, bytes), VD_ERR_OVERFLOW);
+    VD_VERIFY(max_width >= 1u && max_height >= 1u && max_width <= VD_MAX_DIM && max_height <= VD_MAX_DIM, VD_ERR_ARG);
+    VD_VERIFY(fill_ws_size(max_width, max_height, bytes), VD_ERR_OVERFLOW);
     return VD_OK;
 }
 
 // Marks a background pixel as reached from the border (value 1) and pushes it.
 #define FILL_REACHED 1u
 
-vd_status_t vd_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes)
+vd_status_t vd_refine_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes)
 {
     VD_TRY(vd_image_u8_check(mask));
     size_t need;
@@ -211,12 +211,12 @@ vd_status_t vd_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes)
     return VD_OK;
 }
 
-vd_status_t vd_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, vd_image_u8_t *dst)
+vd_status_t vd_refine_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, vd_image_u8_t *dst)
 {
     vd_rect_t r;
     VD_TRY(vd_view_u8_check(mask));
     VD_TRY(vd_image_u8_check(dst));
-    VD_TRY(vd_roi_resolve(roi, mask->width, mask->height, &r));
+    VD_TRY(vd_rect_roi_resolve(roi, mask->width, mask->height, &r));
     VD_VERIFY(dst->width == (uint32_t)r.w && dst->height == (uint32_t)r.h, VD_ERR_ARG);
     const uint32_t w = (uint32_t)r.w;
     const uint32_t h = (uint32_t)r.h;
@@ -270,11 +270,11 @@ static bool refine_ws_size(uint32_t w, uint32_t h, size_t *bytes)
     return refine_ws_parts(w, h, &plane, &region) && vd_add_size(plane, region, bytes);
 }
 
-vd_status_t vd_refine_workspace_size(uint32_t max_w, uint32_t max_h, size_t *bytes)
+vd_status_t vd_refine_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes)
 {
     VD_VERIFY(bytes != NULL, VD_ERR_ARG);
-    VD_VERIFY(max_w >= 1u && max_h >= 1u && max_w <= VD_MAX_DIM && max_h <= VD_MAX_DIM, VD_ERR_ARG);
-    VD_VERIFY(refine_ws_size(max_w, max_h, bytes), VD_ERR_OVERFLOW);
+    VD_VERIFY(max_width >= 1u && max_height >= 1u && max_width <= VD_MAX_DIM && max_height <= VD_MAX_DIM, VD_ERR_ARG);
+    VD_VERIFY(refine_ws_size(max_width, max_height, bytes), VD_ERR_OVERFLOW);
     return VD_OK;
 }
 
@@ -291,7 +291,7 @@ vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, cons
     vd_rect_t r;
     VD_TRY(vd_view_u8_check(src));
     VD_TRY(vd_image_u8_check(mask));
-    VD_TRY(vd_roi_resolve(roi, src->width, src->height, &r));
+    VD_TRY(vd_rect_roi_resolve(roi, src->width, src->height, &r));
     VD_VERIFY(mask->width == (uint32_t)r.w && mask->height == (uint32_t)r.h, VD_ERR_ARG);
     if (cfg == NULL) {
         vd_refine_cfg_default(&def);
@@ -337,10 +337,10 @@ vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, cons
             m[x] = f[x] > t ? 255u : 0u;
         }
     }
-    VD_TRY(vd_fill_holes_u8(mask, stack, fill));
+    VD_TRY(vd_refine_fill_holes_u8(mask, stack, fill));
     vd_image_u8_t eimg = {(uint8_t *)stack, w, h, w};
     const vd_view_u8_t mview = vd_image_u8_view(mask);
-    VD_TRY(vd_edges_u8(&mview, NULL, &eimg));
+    VD_TRY(vd_refine_edges_u8(&mview, NULL, &eimg));
 
     // Steps 4-5: every edge_step-th edge pixel, local eq. (1) threshold.
     memset(hist, 0, REFINE_HIST_BYTES);

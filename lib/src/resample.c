@@ -141,7 +141,7 @@ vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_
     VD_VERIFY(dst_w >= 1u && dst_w <= VD_RESAMPLE_MAX_DST, VD_ERR_ARG);
     VD_VERIFY(dst_h >= 1u && dst_h <= VD_RESAMPLE_MAX_DST, VD_ERR_ARG);
     VD_TRY(vd_view_u8_check(src));
-    VD_TRY(vd_roi_resolve(roi, src->width, src->height, &r));
+    VD_TRY(vd_rect_roi_resolve(roi, src->width, src->height, &r));
 
     const uint32_t sw = (uint32_t)r.w;
     const uint32_t sh = (uint32_t)r.h;
@@ -266,7 +266,7 @@ vd_status_t vd_resample_box_u8(const vd_view_u8_t *src, const vd_rect_t *roi, ui
 {
     vd_rect_t r;
     VD_TRY(vd_view_u8_check(src));
-    VD_TRY(vd_roi_resolve(roi, src->width, src->height, &r));
+    VD_TRY(vd_rect_roi_resolve(roi, src->width, src->height, &r));
     VD_TRY(box_check(&r, kx, ky, dst));
     box_average(src->data, src->stride, false, &r, kx, ky, NULL, dst);
     return VD_OK;
@@ -278,7 +278,7 @@ vd_status_t vd_resample_box_u16(const vd_view_u16_t *src, const vd_rect_t *roi, 
     vd_rect_t r;
     VD_VERIFY(grey != NULL, VD_ERR_ARG);
     VD_TRY(vd_view_u16_check(src));
-    VD_TRY(vd_roi_resolve(roi, src->width, src->height, &r));
+    VD_TRY(vd_rect_roi_resolve(roi, src->width, src->height, &r));
     VD_TRY(box_check(&r, kx, ky, dst));
     box_average((const uint8_t *)(const void *)src->data, src->stride, true, &r, kx, ky, grey, dst);
     return VD_OK;

@@ -49,7 +49,7 @@ static void check_thr_labellers(const uint8_t *pix, uint32_t w, uint32_t h, size
     vd_component_t *b = fz_alloc((cap + 1u) * sizeof(vd_component_t));
     vd_component_t *c = fz_alloc((cap + 1u) * sizeof(vd_component_t));
     size_t na = 9u, nb = 9u, nc = 9u;
-    vd_cc_stats_t sa, sb;
+    vd_components_stats_t sa, sb;
     const vd_view_u8_t v8 = {pix, w, h, stride};
     const vd_view_u16_t v16 = {p16, w, h, (size_t)w * 2u};
     const vd_view_u8_t vm = {mask, w, h, w};
@@ -114,7 +114,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         roi.w = (int8_t)fz_u8(&r);
         roi.h = (int8_t)fz_u8(&r);
     }
-    vd_cc_rules_t rules;
+    vd_components_rules_t rules;
     rules.aspect_min_q8 = fz_u16(&r);
     rules.aspect_max_q8 = fz_u16(&r);
     rules.min_area = fz_u16(&r);

@@ -32,7 +32,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     vd_view_u8_t v = {mask, w, h, stride};
 
     size_t wsb = 0u;
-    FZ_CHECK(vd_contours_workspace_size(w, h, &wsb) == VD_OK);
+    FZ_CHECK(vd_contour_workspace_size(w, h, &wsb) == VD_OK);
     const int short_ws = (flags & 4u) != 0u;
     const size_t give = short_ws ? wsb - 1u : wsb;
     void *ws = fz_alloc(give);
@@ -45,7 +45,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     // non-NULL pointers, so hand a dummy for capacity 0.
     vd_point_t dummy_pt;
     vd_contour_t dummy_c;
-    vd_status_t st = vd_contours_find_external(&v, ws, give, pts ? pts : &dummy_pt, chain, pcap,
+    vd_status_t st = vd_contour_find_external(&v, ws, give, pts ? pts : &dummy_pt, chain, pcap,
                                                cs ? cs : &dummy_c, ccap, &nc, &np);
     if (short_ws) {
         FZ_CHECK(st == VD_ERR_WORKSPACE);
@@ -71,7 +71,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 const int dx = q.x - p.x, dy = q.y - p.y;
                 if (c->length == 1u) {
                     if (chain) {
-                        FZ_CHECK(chain[c->first] == VD_CHAIN_NONE);
+                        FZ_CHECK(chain[c->first] == VD_CONTOUR_CHAIN_NONE);
                     }
                     continue;
                 }

@@ -31,7 +31,7 @@ static uint32_t rd32(const uint8_t *p)
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     if (size < 1u) {
-        vd_model_t m;
+        vd_dbn_model_t m;
         FZ_CHECK(vd_dbn_load(&m, "", 0u) == VD_ERR_ARG);
         return 0;
     }
@@ -56,7 +56,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
     }
     const size_t bytes = n + pad;
-    vd_model_t m;
+    vd_dbn_model_t m;
     memset(&m, 0x5A, sizeof(m));
     vd_status_t st = bytes ? vd_dbn_load(&m, blob, bytes) : VD_ERR_MODEL;
     FZ_CHECK(st == VD_OK || st == VD_ERR_MODEL);

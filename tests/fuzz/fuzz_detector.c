@@ -21,7 +21,7 @@
 #endif
 
 // Loads a model file once into `blob` (cap bytes); NULL if absent or rejected.
-static const vd_model_t *load_once(const char *path, int *tried, uint32_t *blob, size_t cap, vd_model_t *m)
+static const vd_dbn_model_t *load_once(const char *path, int *tried, uint32_t *blob, size_t cap, vd_dbn_model_t *m)
 {
     if (*tried) {
         return m->blob ? m : NULL;
@@ -43,15 +43,15 @@ static const vd_model_t *load_once(const char *path, int *tried, uint32_t *blob,
 
 // The committed tiny model (8x8 grey input) or, with `compact`, the shipped 32x32 model
 // models/vd_dbn_compact.vdm (1024-48-16-1) when present (else the tiny one).
-static const vd_model_t *test_model(int compact)
+static const vd_dbn_model_t *test_model(int compact)
 {
     static int tried_tiny, tried_compact;
     static uint32_t tiny_blob[1024], compact_blob[65536 / 4];
-    static vd_model_t tiny, comp;
-    const vd_model_t *t = load_once(VD_SOURCE_DIR "/tests/data/golden_tiny.vdm", &tried_tiny, tiny_blob,
+    static vd_dbn_model_t tiny, comp;
+    const vd_dbn_model_t *t = load_once(VD_SOURCE_DIR "/tests/data/golden_tiny.vdm", &tried_tiny, tiny_blob,
                                     sizeof(tiny_blob), &tiny);
     if (compact) {
-        const vd_model_t *c = load_once(VD_SOURCE_DIR "/models/vd_dbn_compact.vdm", &tried_compact, compact_blob,
+        const vd_dbn_model_t *c = load_once(VD_SOURCE_DIR "/models/vd_dbn_compact.vdm", &tried_compact, compact_blob,
                                         sizeof(compact_blob), &comp);
         return c ? c : t;
     }
@@ -200,7 +200,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         cfg.cnn_model = test_cnn();
     }
 
-    const vd_model_t *model = (flags & 1u) ? test_model((flags & 32u) != 0u) : NULL;
+    const vd_dbn_model_t *model = (flags & 1u) ? test_model((flags & 32u) != 0u) : NULL;
     size_t wsb = 0u;
     vd_status_t sq = vd_detector_workspace_size(&cfg, model, &wsb);
     FZ_CHECK(sq == VD_OK || sq == VD_ERR_ARG || sq == VD_ERR_OVERFLOW);

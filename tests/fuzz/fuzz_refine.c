@@ -4,8 +4,8 @@
 // Input layout: w, h (1..48), row padding, flags (ROI given, short workspace,
 // cfg NULL), ROI bytes, cfg bytes, 16 histogram bytes, then pixels. Expected
 // statuses follow refine.h: a valid ROI and cfg give VD_OK and a 0/255 mask,
-// anything else VD_ERR_ARG / VD_ERR_WORKSPACE. vd_fill_holes_u8, vd_edges_u8
-// and vd_maxdist_from_hist are run on the same data.
+// anything else VD_ERR_ARG / VD_ERR_WORKSPACE. vd_refine_fill_holes_u8, vd_refine_edges_u8
+// and vd_refine_maxdist_from_hist are run on the same data.
 #include "fuzz_common.h"
 #include "vd/refine.h"
 
@@ -87,11 +87,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         vd_view_u8_t mv = vd_image_u8_view(&m);
         uint8_t *ebuf = fz_alloc((size_t)rw * rh);
         vd_image_u8_t e = {ebuf, rw, rh, rw};
-        FZ_CHECK(vd_edges_u8(&mv, NULL, &e) == VD_OK);
+        FZ_CHECK(vd_refine_edges_u8(&mv, NULL, &e) == VD_OK);
         size_t fb = 0u;
-        FZ_CHECK(vd_fill_holes_workspace_size(rw, rh, &fb) == VD_OK);
+        FZ_CHECK(vd_refine_fill_holes_workspace_size(rw, rh, &fb) == VD_OK);
         void *fws = fz_alloc(fb);
-        FZ_CHECK(vd_fill_holes_u8(&m, fws, fb) == VD_OK);
+        FZ_CHECK(vd_refine_fill_holes_u8(&m, fws, fb) == VD_OK);
         for (uint32_t y = 0u; y < rh; y++) {
             for (uint32_t x = 0u; x < rw; x++) {
                 const uint8_t p = mbuf[(size_t)y * mstride + x];
@@ -115,8 +115,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
     }
     uint8_t t = 0u;
-    vd_status_t hs = vd_maxdist_from_hist(hist, &t);
-    if (n == 0u || n > VD_MAXDIST_MAX_COUNT || levels < 2) {
+    vd_status_t hs = vd_refine_maxdist_from_hist(hist, &t);
+    if (n == 0u || n > VD_REFINE_MAXDIST_MAX_COUNT || levels < 2) {
         FZ_CHECK(hs == VD_ERR_RANGE);
     } else {
         FZ_CHECK(hs == VD_OK && (int)t >= lo && (int)t < hi);

@@ -127,7 +127,7 @@ def test_capacity_returns_prefix(vdlib):
 
 
 def _runs(mask):
-    """Horizontal runs of nonzero pixels (numpy oracle of vd_cc_stats_t.runs)."""
+    """Horizontal runs of nonzero pixels (numpy oracle of vd_components_stats_t.runs)."""
     m = (mask != 0).astype(np.int8)
     return int((np.diff(np.pad(m, ((0, 0), (1, 0))), axis=1) == 1).sum())
 

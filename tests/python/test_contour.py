@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""Oracle tests of contour.h: vd_contours_find_external must give the same
+"""Oracle tests of contour.h: vd_contour_find_external must give the same
 contours (points, start, direction and contour order) as
 cv2.findContours(mask, RETR_EXTERNAL, CHAIN_APPROX_NONE), on real-frame masks
 and on generated ones, and chain codes that lead from each point to the next."""

@@ -180,7 +180,7 @@ def test_export_c_source_compiles_and_loads(dbn, tmp_path):
     (tmp_path / "main.c").write_text(
         '#include <stdio.h>\n#include "vd/vd.h"\n#include "unit_test_vdm.h"\n'
         "static const unsigned char x[1024] = {" + ",".join(map(str, x)) + "};\n"
-        "int main(void) { size_t n; const void *b = vd_model_unit_test(&n); vd_model_t m;\n"
+        "int main(void) { size_t n; const void *b = vd_model_unit_test(&n); vd_dbn_model_t m;\n"
         "  static unsigned long long ws[16]; unsigned char s = 0;\n"
         "  if (vd_dbn_load(&m, b, n) != VD_OK || ((unsigned long)b % 8u) != 0u) return 2;\n"
         "  if (vd_dbn_classify(&m, x, ws, sizeof ws, &s) != VD_OK) return 3;\n"

@@ -1623,7 +1623,7 @@ static void test_structural_corruptions_rejected(void)
     TEST_ASSERT_EQUAL_UINT32(4u, m.align);
     TEST_ASSERT_EQUAL_UINT32(8u, m.n_layers);
     // A DBN reader refuses the CNN kind.
-    vd_model_t dbn;
+    vd_dbn_model_t dbn;
     TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_dbn_load(&dbn, b, total));
 }
 

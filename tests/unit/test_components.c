@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Unit tests of components.h: hand-worked masks, a naive flood-fill reference
 // on random masks, the thresholding labellers against the mask labeller, run
-// budgets, capacity, workspace contracts, rules and box expansion.
+// budgets, capacity, workspace contracts and rules (box expansion: test_rect.c).
 #include "unity.h"
 #include "testutil.h"
 
@@ -569,7 +569,7 @@ static void check_thr_case(int u16, uint32_t w, uint32_t h, size_t stride_px, co
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size((uint32_t)r.w, (uint32_t)r.h, &bytes));
     void *ws = tu_guarded_alloc(0, bytes);
     size_t n = 0;
-    vd_cc_stats_t st;
+    vd_components_stats_t st;
     memset(&st, 0xAB, sizeof st);
     vd_status_t s;
     if (u16) {
@@ -683,7 +683,7 @@ static void test_thr_run_budget(void)
         TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(w, h, budget, &bytes));
         void *ws = tu_guarded_alloc(0, bytes);
         size_t n = 0;
-        vd_cc_stats_t st;
+        vd_components_stats_t st;
         vd_status_t s = vd_components_label_thr_u8(&v, NULL, 150, ws, bytes, g_out, MAXC, &n, &st);
         tu_guard_check(0);
         tu_guarded_free(0);
@@ -710,7 +710,7 @@ static void test_thr_run_budget(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size_runs(w, h, 12, &bytes));
     void *ws = tu_guarded_alloc(0, bytes);
     size_t n = 0;
-    vd_cc_stats_t st;
+    vd_components_stats_t st;
     TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_components_label_thr_u8(&v, NULL, 150, ws, bytes, g_out, 2, &n, &st));
     TEST_ASSERT_EQUAL_size_t(2u, n);
     TEST_ASSERT_EQUAL_UINT32(4u, st.rows);
@@ -776,7 +776,7 @@ static void test_thr_bad_arguments(void)
     vd_view_u8_t v = {g_plane8, 8, 8, 8};
     vd_view_u16_t v16 = {g_plane16, 8, 8, 16};
     size_t n = 77;
-    vd_cc_stats_t st;
+    vd_components_stats_t st;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label_thr_u8(NULL, NULL, 1, ws, sizeof ws, g_out, MAXC, &n, &st));
     TEST_ASSERT_EQUAL_size_t(0u, n);
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_label_thr_u8(&v, NULL, 1, ws, sizeof ws, g_out, MAXC, NULL, &st));
@@ -807,7 +807,7 @@ static vd_component_t comp_box(int32_t w, int32_t h, uint32_t area)
     return c;
 }
 
-static size_t filter_one(vd_component_t c, const vd_cc_rules_t *r)
+static size_t filter_one(vd_component_t c, const vd_components_rules_t *r)
 {
     size_t kept = 99;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_filter(&c, 1, r, &kept));
@@ -816,14 +816,14 @@ static size_t filter_one(vd_component_t c, const vd_cc_rules_t *r)
 
 static void test_rules_default_and_boundaries(void)
 {
-    vd_cc_rules_t r;
+    vd_components_rules_t r;
     memset(&r, 0xFF, sizeof r);
-    vd_cc_rules_default(&r);
+    vd_components_rules_default(&r);
     TEST_ASSERT_EQUAL_UINT16(77, r.aspect_min_q8);
     TEST_ASSERT_EQUAL_UINT16(384, r.aspect_max_q8);
     TEST_ASSERT_EQUAL_UINT32(120, r.min_area);
     TEST_ASSERT_EQUAL_UINT32(0, r.max_area);
-    vd_cc_rules_default(NULL); // no crash
+    vd_components_rules_default(NULL); // no crash
     // aspect h/w = 0.3 exactly (76.8 -> 77) and 1.5 exactly (384) pass
     TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(10, 3, 500), &r));
     TEST_ASSERT_EQUAL_size_t(1u, filter_one(comp_box(20, 30, 500), &r));
@@ -854,8 +854,8 @@ static void test_rules_default_and_boundaries(void)
 
 static void test_filter_stable_and_errors(void)
 {
-    vd_cc_rules_t r;
-    vd_cc_rules_default(&r);
+    vd_components_rules_t r;
+    vd_components_rules_default(&r);
     vd_component_t c[6] = {comp_box(10, 10, 50), comp_box(10, 10, 150), comp_box(100, 10, 900),
                            comp_box(12, 12, 140), comp_box(5, 50, 200), comp_box(16, 16, 256)};
     for (int i = 0; i < 6; i++) { c[i].box.x = i; }
@@ -874,7 +874,7 @@ static void test_filter_stable_and_errors(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(bad, 2, &r, &kept));
     TEST_ASSERT_EQUAL_size_t(0u, kept);
     TEST_ASSERT_EQUAL_INT32(10, bad[0].box.w); // untouched
-    vd_cc_rules_t inv = r;
+    vd_components_rules_t inv = r;
     inv.aspect_min_q8 = 400;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(c, 2, &inv, &kept));
     inv = r;
@@ -882,96 +882,13 @@ static void test_filter_stable_and_errors(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(c, 2, &inv, &kept));
 }
 
-// ---------------------------------------------------------------- expansion
-
-static void assert_rect(int32_t x, int32_t y, int32_t w, int32_t h, const vd_rect_t *r)
-{
-    TEST_ASSERT_EQUAL_INT32(x, r->x);
-    TEST_ASSERT_EQUAL_INT32(y, r->y);
-    TEST_ASSERT_EQUAL_INT32(w, r->w);
-    TEST_ASSERT_EQUAL_INT32(h, r->h);
-}
-
-static void test_expand_centre_and_rounding(void)
-{
-    vd_rect_t in = {10, 10, 10, 10}, out;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, VD_EXPAND_W_Q8, VD_EXPAND_H_Q8, 640, 480, &out));
-    assert_rect(8, 5, 15, 20, &out); // w 15: 2 px left, 3 right; h 20: 5 up, 5 down
-    in = (vd_rect_t){100, 100, 7, 3};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 384, 512, 640, 480, &out));
-    assert_rect(98, 99, 11, 6, &out); // 7 * 1.5 = 10.5 -> 11 (g 4: 2 left); 3 * 2 = 6 (g 3: 1 up)
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 256, 256, 640, 480, &out));
-    assert_rect(100, 100, 7, 3, &out); // identity
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 128, 64, 640, 480, &out));
-    assert_rect(102, 101, 4, 1, &out); // shrink: 3.5 -> 4 (g -3: floor(-1.5) = -2), 0.75 -> 1 (g -2)
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 1, 1, 640, 480, &out));
-    assert_rect(103, 101, 1, 1, &out); // never below 1 px
-    // in place
-    in = (vd_rect_t){10, 10, 10, 10};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&in, 384, 512, 640, 480, &in));
-    assert_rect(8, 5, 15, 20, &in);
-}
-
-static void test_expand_clips_every_edge(void)
-{
-    vd_rect_t out;
-    vd_rect_t left = {0, 100, 10, 10};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&left, 384, 512, 640, 480, &out));
-    assert_rect(0, 95, 13, 20, &out); // x -2 clipped to 0
-    vd_rect_t right = {630, 100, 10, 10};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&right, 384, 512, 640, 480, &out));
-    assert_rect(628, 95, 12, 20, &out); // 628 + 15 = 643 clipped to 640
-    vd_rect_t top = {100, 2, 10, 10};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&top, 384, 512, 640, 480, &out));
-    assert_rect(98, 0, 15, 17, &out); // y -3 clipped to 0, bottom at 17
-    vd_rect_t bottom = {100, 475, 10, 5};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&bottom, 384, 512, 640, 480, &out));
-    assert_rect(98, 473, 15, 7, &out); // 473 + 10 = 483 clipped to 480
-    vd_rect_t all = {0, 0, 640, 480};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&all, 384, 512, 640, 480, &out));
-    assert_rect(0, 0, 640, 480, &out);
-    vd_rect_t corner = {635, 476, 5, 4};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&corner, 65535, 65535, 640, 480, &out));
-    TEST_ASSERT_EQUAL_INT32(0, out.x);
-    TEST_ASSERT_EQUAL_INT32(0, out.y);
-    TEST_ASSERT_EQUAL_INT32(640, out.w);
-    TEST_ASSERT_EQUAL_INT32(480, out.h);
-    // partly outside input is allowed; entirely outside after expansion is not
-    vd_rect_t part = {-4, -4, 6, 6};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&part, 256, 256, 640, 480, &out));
-    assert_rect(0, 0, 2, 2, &out);
-    vd_rect_t away = {1000, 10, 10, 10};
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&away, 384, 512, 640, 480, &out));
-    vd_rect_t hostile = {INT32_MAX, INT32_MIN, INT32_MAX, INT32_MAX}; // no overflow: covers the frame
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_rect_expand(&hostile, 65535, 65535, 640, 480, &out));
-    assert_rect(0, 0, 640, 480, &out);
-    vd_rect_t far_left = {INT32_MIN, 0, 1, 1};
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&far_left, 65535, 256, 640, 480, &out));
-}
-
-static void test_expand_errors(void)
-{
-    vd_rect_t in = {10, 10, 10, 10}, out;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(NULL, 384, 512, 640, 480, &out));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 640, 480, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 0, 512, 640, 480, &out));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 0, 640, 480, &out));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 0, 480, &out));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 640, VD_MAX_DIM + 1u, &out));
-    in.w = 0;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 640, 480, &out));
-    in.w = 10;
-    in.h = -1;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_rect_expand(&in, 384, 512, 640, 480, &out));
-}
-
 static void test_rules_resolve(void)
 {
-    vd_cc_rules_t r;
-    vd_cc_rules_t d;
-    vd_cc_rules_default(&d);
+    vd_components_rules_t r;
+    vd_components_rules_t d;
+    vd_components_rules_default(&d);
     memset(&r, 0, sizeof(r));
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_rules_resolve(&r));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_rules_resolve(&r));
     TEST_ASSERT_EQUAL_MEMORY(&d, &r, sizeof(r));
     TEST_ASSERT_EQUAL_UINT16(77u, r.aspect_min_q8);
     TEST_ASSERT_EQUAL_UINT16(384u, r.aspect_max_q8);
@@ -980,19 +897,19 @@ static void test_rules_resolve(void)
     // Any non-zero field: kept as given (no partial defaults).
     memset(&r, 0, sizeof(r));
     r.min_area = 50u;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_rules_resolve(&r));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_rules_resolve(&r));
     TEST_ASSERT_EQUAL_UINT16(0u, r.aspect_min_q8);
     TEST_ASSERT_EQUAL_UINT16(0u, r.aspect_max_q8);
     TEST_ASSERT_EQUAL_UINT32(50u, r.min_area);
     r.aspect_min_q8 = 300u;
     r.aspect_max_q8 = 299u;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cc_rules_resolve(&r));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_rules_resolve(&r));
     r.aspect_max_q8 = 300u;
     r.max_area = 49u;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cc_rules_resolve(&r));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_rules_resolve(&r));
     r.max_area = 50u;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_rules_resolve(&r));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cc_rules_resolve(NULL));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_rules_resolve(&r));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_rules_resolve(NULL));
 }
 
 int main(void)
@@ -1020,9 +937,6 @@ int main(void)
     RUN_TEST(test_thr_bad_arguments);
     RUN_TEST(test_rules_default_and_boundaries);
     RUN_TEST(test_filter_stable_and_errors);
-    RUN_TEST(test_expand_centre_and_rounding);
-    RUN_TEST(test_expand_clips_every_edge);
-    RUN_TEST(test_expand_errors);
     RUN_TEST(test_rules_resolve);
     return UNITY_END();
 }

@@ -26,7 +26,7 @@ static vd_status_t find(uint32_t w, uint32_t h, size_t pcap, size_t ccap)
     vd_view_u8_t v = {g_mask, w, h, w};
     memset(g_pts, 0x55, sizeof g_pts);
     memset(g_chain, 0x55, sizeof g_chain);
-    return vd_contours_find_external(&v, g_ws, sizeof g_ws, g_pts, g_chain, pcap, g_cs, ccap, &g_nc, &g_np);
+    return vd_contour_find_external(&v, g_ws, sizeof g_ws, g_pts, g_chain, pcap, g_cs, ccap, &g_nc, &g_np);
 }
 
 static void set(uint32_t w, int x, int y)
@@ -111,7 +111,7 @@ static void test_single_pixel_and_order(void)
     static const uint8_t line_codes[2] = {0, 4};
     expect_contour(0, line, line_codes, 2);
     static const int dot[1][2] = {{5, 1}};
-    static const uint8_t dot_codes[1] = {VD_CHAIN_NONE};
+    static const uint8_t dot_codes[1] = {VD_CONTOUR_CHAIN_NONE};
     expect_contour(1, dot, dot_codes, 1);
     TEST_ASSERT_EQUAL_UINT32(0, g_cs[0].first);
     TEST_ASSERT_EQUAL_UINT32(2, g_cs[1].first);
@@ -172,7 +172,7 @@ typedef struct ws_ctx {
 static vd_status_t run_ws(void *ws, size_t bytes, void *ctx)
 {
     const ws_ctx_t *c = (const ws_ctx_t *)ctx;
-    return vd_contours_find_external(c->v, ws, bytes, g_pts, NULL, PCAP, g_cs, CCAP, &g_nc, &g_np);
+    return vd_contour_find_external(c->v, ws, bytes, g_pts, NULL, PCAP, g_cs, CCAP, &g_nc, &g_np);
 }
 
 static void test_workspace_contract(void)
@@ -183,7 +183,7 @@ static void test_workspace_contract(void)
     }
     vd_view_u8_t v = {g_mask, 13, 9, 13};
     size_t bytes = 0;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contours_workspace_size(13, 9, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contour_workspace_size(13, 9, &bytes));
     TEST_ASSERT_EQUAL_size_t(15u * 11u, bytes);
     ws_ctx_t c = {&v};
     tu_check_workspace_contract(bytes, run_ws, &c);
@@ -193,27 +193,27 @@ static void test_bad_args(void)
 {
     size_t bytes;
     vd_view_u8_t v = {g_mask, 5, 5, 5};
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_workspace_size(0, 5, &bytes));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_workspace_size(5, VD_MAX_DIM + 1u, &bytes));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_workspace_size(5, 5, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_find_external(NULL, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs,
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_workspace_size(0, 5, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_workspace_size(5, VD_MAX_DIM + 1u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_workspace_size(5, 5, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_find_external(NULL, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs,
                                                                 CCAP, &g_nc, &g_np));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_find_external(&v, g_ws, sizeof g_ws, NULL, NULL, PCAP, g_cs,
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_find_external(&v, g_ws, sizeof g_ws, NULL, NULL, PCAP, g_cs,
                                                                 CCAP, &g_nc, &g_np));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, NULL,
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, NULL,
                                                                 CCAP, &g_nc, &g_np));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs,
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs,
                                                                 CCAP, NULL, &g_np));
     g_np = 99;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs,
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs,
                                                                 CCAP, &g_nc, NULL));
     v.stride = 4;   // stride < width
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs,
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs,
                                                                 CCAP, &g_nc, &g_np));
     TEST_ASSERT_EQUAL_size_t(0, g_nc);
     TEST_ASSERT_EQUAL_size_t(0, g_np);
     v.stride = 7;   // odd stride is fine
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contours_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs, CCAP,
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contour_find_external(&v, g_ws, sizeof g_ws, g_pts, NULL, PCAP, g_cs, CCAP,
                                                            &g_nc, &g_np));
 }
 
@@ -245,7 +245,7 @@ static void test_random_invariants(void)
                 TEST_ASSERT_TRUE(p.y >= k->box.y && p.y < k->box.y + k->box.h);
                 const uint8_t code = g_chain[k->first + i];
                 if (k->length == 1u) {
-                    TEST_ASSERT_EQUAL_UINT8(VD_CHAIN_NONE, code);
+                    TEST_ASSERT_EQUAL_UINT8(VD_CONTOUR_CHAIN_NONE, code);
                     continue;
                 }
                 static const int dx[8] = {1, 1, 0, -1, -1, -1, 0, 1};

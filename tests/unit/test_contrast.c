@@ -496,8 +496,8 @@ static void test_cfg_resolve(void)
     TEST_ASSERT_EQUAL_UINT16(950u, c.permille);
     TEST_ASSERT_EQUAL_UINT8(VD_CONTRAST_BOTH, c.polarity);
     TEST_ASSERT_EQUAL_UINT8(VD_CONTRAST_THR_FIXED, c.thr_mode);
-    vd_cc_rules_t d;
-    vd_cc_rules_default(&d);
+    vd_components_rules_t d;
+    vd_components_rules_default(&d);
     TEST_ASSERT_EQUAL_MEMORY(&d, &c.rules, sizeof(d));
     // Resolving again changes nothing; given values are kept.
     vd_contrast_cfg_t again = c;

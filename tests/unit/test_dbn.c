@@ -95,7 +95,7 @@ static void build_hand(uint8_t *b)
     fix_crc(b);
 }
 
-static vd_status_t load_hand(vd_model_t *m)
+static vd_status_t load_hand(vd_dbn_model_t *m)
 {
     return vd_dbn_load(m, g_blob.b, HAND_TOTAL);
 }
@@ -167,7 +167,7 @@ static void test_requantize_golden(void)
 static void test_hand_worked_model(void)
 {
     build_hand(g_blob.b);
-    vd_model_t m;
+    vd_dbn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_OK, load_hand(&m));
     TEST_ASSERT_EQUAL_UINT32(2u, m.n_layers);
     TEST_ASSERT_EQUAL_UINT32(2u, m.input_w);
@@ -195,7 +195,7 @@ static void test_hand_worked_model(void)
 
 static void test_golden_vectors(void)
 {
-    vd_model_t m;
+    vd_dbn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_load(&m, golden_model.bytes, sizeof golden_model.bytes));
     TEST_ASSERT_EQUAL_UINT32(3u, m.n_layers);
     TEST_ASSERT_EQUAL_STRING("golden_tiny", m.name);
@@ -212,7 +212,7 @@ static void test_golden_vectors(void)
 }
 
 typedef struct ws_ctx {
-    const vd_model_t *m;
+    const vd_dbn_model_t *m;
     const uint8_t *x;
 } ws_ctx_t;
 
@@ -225,7 +225,7 @@ static vd_status_t run_classify(void *ws, size_t bytes, void *ctx)
 
 static void test_workspace_contract(void)
 {
-    vd_model_t m;
+    vd_dbn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_load(&m, golden_model.bytes, sizeof golden_model.bytes));
     size_t bytes = 0;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_workspace_size(&m, &bytes));
@@ -237,7 +237,7 @@ static void test_workspace_contract(void)
 
 static void test_args_and_state(void)
 {
-    vd_model_t m;
+    vd_dbn_model_t m;
     build_hand(g_blob.b);
     static uint64_t ws[4];
     uint8_t s;
@@ -268,11 +268,11 @@ static void test_misaligned_blob_pointer(void)
     build_hand(g_blob.b);
     for (size_t off = 1; off < 4; off++) {
         memcpy(shifted.b + off, g_blob.b, HAND_TOTAL);
-        vd_model_t m;
+        vd_dbn_model_t m;
         TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_dbn_load(&m, shifted.b + off, HAND_TOTAL));
     }
     memcpy(shifted.b + 4, g_blob.b, HAND_TOTAL);
-    vd_model_t m;
+    vd_dbn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_load(&m, shifted.b + 4, HAND_TOTAL));
 }
 
@@ -284,7 +284,7 @@ static void test_every_bit_flip_is_rejected(void)
         for (uint32_t bit = 0u; bit < 8u; bit++) {
             build_hand(g_blob.b);
             g_blob.b[i] = (uint8_t)(g_blob.b[i] ^ (1u << bit));
-            vd_model_t m;
+            vd_dbn_model_t m;
             memset(&m, 0xA5, sizeof m);
             const vd_status_t st = load_hand(&m);
             if (st != VD_ERR_MODEL) {
@@ -299,7 +299,7 @@ static void test_every_bit_flip_is_rejected(void)
 static void test_every_truncation_is_rejected(void)
 {
     build_hand(g_blob.b);
-    vd_model_t m;
+    vd_dbn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_dbn_load(&m, g_blob.b, 0));
     for (size_t n = 1; n < HAND_TOTAL; n++) {
         TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_dbn_load(&m, g_blob.b, n));
@@ -319,7 +319,7 @@ static void test_every_truncation_is_rejected(void)
 static void test_wrong_crc(void)
 {
     build_hand(g_blob.b);
-    vd_model_t m;
+    vd_dbn_model_t m;
     g_blob.b[12] = (uint8_t)(g_blob.b[12] + 1u);
     TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, load_hand(&m));
     build_hand(g_blob.b);
@@ -395,7 +395,7 @@ static void test_structural_corruptions(void)
         build_hand(g_blob.b);
         fns[i](g_blob.b);
         fix_crc(g_blob.b);
-        vd_model_t m;
+        vd_dbn_model_t m;
         const vd_status_t st = vd_dbn_load(&m, g_blob.b, HAND_TOTAL);
         if (st != VD_ERR_MODEL) {
             char msg[64];
@@ -410,7 +410,7 @@ static void test_structural_corruptions(void)
     g_blob.b[152] = 7u;
     g_blob.b[153] = (uint8_t)0xE1u; // -31
     fix_crc(g_blob.b);
-    vd_model_t m;
+    vd_dbn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_OK, load_hand(&m));
     static uint64_t ws[4];
     const uint8_t x[4] = {255, 0, 0, 255};
@@ -509,7 +509,7 @@ static void test_hand_worked_model_minmax(void)
     g_blob.b[36] = 1u;
     g_blob.b[37] = 16u;
     fix_crc(g_blob.b);
-    vd_model_t m;
+    vd_dbn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_OK, load_hand(&m));
     TEST_ASSERT_EQUAL_UINT32(2u, m.format_version);
     TEST_ASSERT_EQUAL_INT(VD_DBN_NORM_MINMAX, m.input_norm);
@@ -553,7 +553,7 @@ static void test_hand_worked_model_minmax(void)
 
 static void test_golden_vectors_minmax(void)
 {
-    vd_model_t m;
+    vd_dbn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_load(&m, golden_norm_model.bytes, sizeof golden_norm_model.bytes));
     TEST_ASSERT_EQUAL_INT(VD_DBN_NORM_MINMAX, m.input_norm);
     TEST_ASSERT_EQUAL_UINT32(GOLDEN_NORM_MIN_RANGE, m.norm_min_range);

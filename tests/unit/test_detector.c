@@ -195,15 +195,15 @@ static void test_u16_radiometric(void)
     // 20 C background, 40 C car, TLinear (raw = centi-kelvin).
     for (uint32_t y = 0; y < FH; y++) {
         for (uint32_t x = 0; x < FW; x++) {
-            g_px16[y][x] = (uint16_t)(VD_CK_PER_0C + 2000);
+            g_px16[y][x] = (uint16_t)(VD_CALIB_CK_PER_0C + 2000);
         }
     }
     for (uint32_t y = 50; y < 70; y++) {
         for (uint32_t x = 60; x < 90; x++) {
-            g_px16[y][x] = (uint16_t)(VD_CK_PER_0C + 4000);
+            g_px16[y][x] = (uint16_t)(VD_CALIB_CK_PER_0C + 4000);
         }
     }
-    g_px16[5][5] = (uint16_t)(VD_CK_PER_0C + 9000);   // a lamp pixel
+    g_px16[5][5] = (uint16_t)(VD_CALIB_CK_PER_0C + 9000);   // a lamp pixel
     vd_detector_cfg_t c = small_cfg();
     init_or_fail(&c);
     vd_frame_t f = {g_px16, FW, FH, FW * 2u, VD_PIX_U16, 0, 0};
@@ -399,7 +399,7 @@ static void test_bad_configs(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
     c = small_cfg(); c.max_tracks = 2000u;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
-    vd_model_t unloaded;
+    vd_dbn_model_t unloaded;
     memset(&unloaded, 0, sizeof(unloaded));
     c = small_cfg();
     TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_detector_workspace_size(&c, &unloaded, &bytes));

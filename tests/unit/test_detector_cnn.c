@@ -176,7 +176,7 @@ static vd_detector_cfg_t cnn_cfg(void)
     return c;
 }
 
-static void init_or_fail(const vd_detector_cfg_t *c, const vd_model_t *dbn)
+static void init_or_fail(const vd_detector_cfg_t *c, const vd_dbn_model_t *dbn)
 {
     size_t bytes = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(c, dbn, &bytes));
@@ -574,7 +574,7 @@ static void test_rescore_with_dbn(void)
 {
     net_t n = net_default();
     net_load(&n);
-    vd_model_t dbn;
+    vd_dbn_model_t dbn;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_dbn_load(&dbn, golden_model.bytes, sizeof golden_model.bytes));
     fill(20u);
     rect8(26u, 18u, 2u, 2u, 201u);

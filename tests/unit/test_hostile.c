@@ -77,7 +77,7 @@ static void test_pixel_functions_reject_lying_views(void)
         assert_bad(&bv[i], vd_median3_u8(&bv[i].v, NULL, &dst), "vd_median3_u8");
         assert_bad(&bv[i], vd_median5_u8(&bv[i].v, NULL, &dst), "vd_median5_u8");
         assert_bad(&bv[i], vd_resample_u8(&bv[i].v, NULL, g_dst, 8u, 8u), "vd_resample_u8");
-        assert_bad(&bv[i], vd_edges_u8(&bv[i].v, NULL, &dst), "vd_edges_u8");
+        assert_bad(&bv[i], vd_refine_edges_u8(&bv[i].v, NULL, &dst), "vd_refine_edges_u8");
         size_t cnt = 9u, nc = 9u, np = 9u;
         vd_component_t comps[4];
         vd_point_t pts[16];
@@ -85,15 +85,15 @@ static void test_pixel_functions_reject_lying_views(void)
         assert_bad(&bv[i], vd_components_label(&bv[i].v, NULL, g_ws, sizeof(g_ws), comps, 4u, &cnt),
                    "vd_components_label");
         TEST_ASSERT_EQUAL_size_t(0u, cnt);
-        assert_bad(&bv[i], vd_contours_find_external(&bv[i].v, g_ws, sizeof(g_ws), pts, NULL, 16u, cs, 4u, &nc, &np),
-                   "vd_contours_find_external");
+        assert_bad(&bv[i], vd_contour_find_external(&bv[i].v, g_ws, sizeof(g_ws), pts, NULL, 16u, cs, 4u, &nc, &np),
+                   "vd_contour_find_external");
         vd_image_u8_t mask = dst;
         assert_bad(&bv[i], vd_refine_region(&bv[i].v, NULL, NULL, g_ws, sizeof(g_ws), &mask, NULL),
                    "vd_refine_region");
         // Same claim through a writable image.
         vd_image_u8_t img = {(uint8_t *)(uintptr_t)bv[i].v.data, bv[i].v.width, bv[i].v.height, bv[i].v.stride};
         assert_bad(&bv[i], vd_image_u8_check(&img), "vd_image_u8_check");
-        assert_bad(&bv[i], vd_fill_holes_u8(&img, g_ws, sizeof(g_ws)), "vd_fill_holes_u8");
+        assert_bad(&bv[i], vd_refine_fill_holes_u8(&img, g_ws, sizeof(g_ws)), "vd_refine_fill_holes_u8");
     }
 }
 
@@ -111,16 +111,16 @@ static void test_sizes_queries_at_and_past_max_dim(void)
     if (st == VD_OK) {
         TEST_ASSERT_TRUE(b >= 5u * (size_t)MAXD * MAXD);
     }
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contours_workspace_size(MAXD, MAXD, &b));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contour_workspace_size(MAXD, MAXD, &b));
     TEST_ASSERT_EQUAL_size_t(((size_t)MAXD + 2u) * ((size_t)MAXD + 2u), b);
-    st = vd_fill_holes_workspace_size(MAXD, MAXD, &b);
+    st = vd_refine_fill_holes_workspace_size(MAXD, MAXD, &b);
     TEST_ASSERT_TRUE(st == VD_OK || st == VD_ERR_OVERFLOW);
     const uint32_t bad[3][2] = {{0u, 1u}, {1u, 0u}, {MAXD + 1u, 1u}};
     for (int i = 0; i < 3; i++) {
         TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size(bad[i][0], bad[i][1], &b));
-        TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contours_workspace_size(bad[i][0], bad[i][1], &b));
+        TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_contour_workspace_size(bad[i][0], bad[i][1], &b));
         TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_workspace_size(bad[i][0], bad[i][1], &b));
-        TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_fill_holes_workspace_size(bad[i][0], bad[i][1], &b));
+        TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_fill_holes_workspace_size(bad[i][0], bad[i][1], &b));
         TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_workspace_size(bad[i][1], bad[i][0], &b));
     }
 }
@@ -153,11 +153,11 @@ static void test_max_dim_line_frames(void)
         TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_label(&mv, NULL, g_ws, wsb, c, 2u, &n));
         TEST_ASSERT_EQUAL_size_t(1u, n);  // every pixel is nonzero: one component
         TEST_ASSERT_EQUAL_UINT32(MAXD, c[0].area);
-        TEST_ASSERT_EQUAL_INT(VD_OK, vd_contours_workspace_size(v->width, v->height, &wsb));
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_contour_workspace_size(v->width, v->height, &wsb));
         static vd_point_t pts[2u * MAXD];
         vd_contour_t cs[2];
         size_t nc = 0u, np = 0u;
-        TEST_ASSERT_EQUAL_INT(VD_OK, vd_contours_find_external(&mv, g_ws, wsb, pts, NULL, 2u * MAXD, cs, 2u, &nc, &np));
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_contour_find_external(&mv, g_ws, wsb, pts, NULL, 2u * MAXD, cs, 2u, &nc, &np));
         TEST_ASSERT_EQUAL_size_t(1u, nc);
         TEST_ASSERT_EQUAL_INT32((int32_t)v->width, cs[0].box.w);
         TEST_ASSERT_EQUAL_INT32((int32_t)v->height, cs[0].box.h);
@@ -237,12 +237,12 @@ static void test_configs_out_of_range(void)
     // Components rules: min > max, aspect min > max.
     vd_component_t c = {{0, 0, 10, 10}, 50u, 0u, 0u};
     size_t kept = 5u;
-    vd_cc_rules_t r = {77u, 384u, 200u, 100u};
+    vd_components_rules_t r = {77u, 384u, 200u, 100u};
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(&c, 1u, &r, &kept));
     TEST_ASSERT_EQUAL_size_t(0u, kept);
-    r = (vd_cc_rules_t){384u, 77u, 0u, 0u};
+    r = (vd_components_rules_t){384u, 77u, 0u, 0u};
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(&c, 1u, &r, &kept));
-    vd_cc_rules_default(&r);
+    vd_components_rules_default(&r);
     vd_component_t neg = {{0, 0, -4, 10}, 50u, 0u, 0u};
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_components_filter(&neg, 1u, &r, &kept));
     // Expansion: negative size, zero scale, a box far off the frame, frame too large.
@@ -285,11 +285,11 @@ static void test_configs_out_of_range(void)
     uint8_t t = 0u;
     memset(hist, 0, sizeof(hist));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_otsu_from_hist(hist, &t));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_maxdist_from_hist(hist, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_refine_maxdist_from_hist(hist, &t));
     hist[7] = 5u;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_maxdist_from_hist(hist, &t));
-    hist[9] = VD_MAXDIST_MAX_COUNT;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_maxdist_from_hist(hist, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_refine_maxdist_from_hist(hist, &t));
+    hist[9] = VD_REFINE_MAXDIST_MAX_COUNT;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_refine_maxdist_from_hist(hist, &t));
 }
 
 static void test_capacities_zero_and_one(void)
@@ -311,16 +311,16 @@ static void test_capacities_zero_and_one(void)
     uint8_t chain[8];
     vd_contour_t cs[4];
     size_t nc = 9u, np = 9u;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_contours_find_external(&v, g_ws, sizeof(g_ws), pts, chain, 8u, cs, 0u, &nc, &np));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_contour_find_external(&v, g_ws, sizeof(g_ws), pts, chain, 8u, cs, 0u, &nc, &np));
     TEST_ASSERT_EQUAL_size_t(0u, nc);
-    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_contours_find_external(&v, g_ws, sizeof(g_ws), pts, chain, 0u, cs, 4u, &nc, &np));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_contour_find_external(&v, g_ws, sizeof(g_ws), pts, chain, 0u, cs, 4u, &nc, &np));
     TEST_ASSERT_EQUAL_size_t(0u, np);
-    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_contours_find_external(&v, g_ws, sizeof(g_ws), pts, chain, 1u, cs, 1u, &nc, &np));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_contour_find_external(&v, g_ws, sizeof(g_ws), pts, chain, 1u, cs, 1u, &nc, &np));
     TEST_ASSERT_EQUAL_size_t(1u, nc);
     TEST_ASSERT_EQUAL_size_t(1u, np);
-    TEST_ASSERT_EQUAL_UINT8(VD_CHAIN_NONE, chain[0]);
+    TEST_ASSERT_EQUAL_UINT8(VD_CONTOUR_CHAIN_NONE, chain[0]);
     // All fit again with the same workspace.
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contours_find_external(&v, g_ws, sizeof(g_ws), pts, chain, 8u, cs, 4u, &nc, &np));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_contour_find_external(&v, g_ws, sizeof(g_ws), pts, chain, 8u, cs, 4u, &nc, &np));
     TEST_ASSERT_EQUAL_size_t(3u, nc);
     // Temporal track table: capacity 0 is rejected, 1 works.
     vd_temporal_t t;
@@ -388,9 +388,9 @@ static void test_model_header_flips_behind_valid_crc(void)
             if (byte >= 16u) {
                 fix_crc(b, g_blob_len);  // past the checksum: the structural checks must hold
             }
-            vd_model_t m;
+            vd_dbn_model_t m;
             memset(&m, 0xA5, sizeof(m));
-            vd_model_t before = m;
+            vd_dbn_model_t before = m;
             vd_status_t st = vd_dbn_load(&m, b, g_blob_len);
             if (byte < 16u) {
                 TEST_ASSERT_EQUAL_INT_MESSAGE(VD_ERR_MODEL, st, "flip in magic/version/size/CRC");
@@ -418,7 +418,7 @@ static void test_model_trailing_bytes_and_detector(void)
     if (!load_tiny()) {
         TEST_IGNORE_MESSAGE("tests/data/golden_tiny.vdm missing");
     }
-    vd_model_t m, m2;
+    vd_dbn_model_t m, m2;
     static uint32_t padded[4096 + 64];
     memcpy(padded, g_blob, g_blob_len);
     memset((uint8_t *)padded + g_blob_len, 0xFF, 100);
@@ -428,7 +428,7 @@ static void test_model_trailing_bytes_and_detector(void)
     TEST_ASSERT_EQUAL_UINT32(m.size, m2.size);
     // A detector refuses a model that was never loaded, and a blob that failed to load leaves the
     // caller's model untouched, so the detector keeps the good one.
-    vd_model_t zero;
+    vd_dbn_model_t zero;
     memset(&zero, 0, sizeof(zero));
     size_t wsb = 0u;
     vd_detector_cfg_t cfg;

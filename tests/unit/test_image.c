@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Unit tests of image views, ROI resolution, rectangles and status texts.
+// Unit tests of image views, frames and status texts (rectangles: test_rect.c).
 #include "unity.h"
 #include "testutil.h"
 
@@ -66,39 +66,6 @@ static void test_frame_views(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_frame_view_u16(&f, &v16));
 }
 
-static void test_roi_resolve(void)
-{
-    vd_rect_t out;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_roi_resolve(NULL, 640, 480, &out));
-    TEST_ASSERT_EQUAL_INT32(640, out.w);
-    TEST_ASSERT_EQUAL_INT32(480, out.h);
-    vd_rect_t r = {630, 470, 10, 10};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_roi_resolve(&r, 640, 480, &out));
-    r.w = 11;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_roi_resolve(&r, 640, 480, &out));
-    vd_rect_t hostile = {INT32_MAX, 0, INT32_MAX, 1};
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_roi_resolve(&hostile, 640, 480, &out));
-    vd_rect_t neg = {-1, 0, 5, 5};
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_roi_resolve(&neg, 640, 480, &out));
-}
-
-static void test_rect_iou_hand_worked(void)
-{
-    vd_rect_t a = {0, 0, 10, 10};
-    vd_rect_t b = {5, 0, 10, 10};   // inter 50, union 150 -> 1/3
-    vd_rect_t c = {20, 20, 5, 5};
-    TEST_ASSERT_EQUAL_UINT32(10922u, vd_rect_iou_q15(&a, &b));
-    TEST_ASSERT_EQUAL_UINT32(32768u, vd_rect_iou_q15(&a, &a));
-    TEST_ASSERT_EQUAL_UINT32(0u, vd_rect_iou_q15(&a, &c));
-    vd_rect_t clip = {-5, 470, 20, 20};
-    TEST_ASSERT_TRUE(vd_rect_clip(&clip, 640, 480));
-    TEST_ASSERT_EQUAL_INT32(0, clip.x);
-    TEST_ASSERT_EQUAL_INT32(15, clip.w);
-    TEST_ASSERT_EQUAL_INT32(10, clip.h);
-    vd_rect_t out = {700, 0, 5, 5};
-    TEST_ASSERT_FALSE(vd_rect_clip(&out, 640, 480));
-}
-
 int main(void)
 {
     UNITY_BEGIN();
@@ -106,7 +73,5 @@ int main(void)
     RUN_TEST(test_view_checks);
     RUN_TEST(test_view_u16_rejects_odd_stride);
     RUN_TEST(test_frame_views);
-    RUN_TEST(test_roi_resolve);
-    RUN_TEST(test_rect_iou_hand_worked);
     return UNITY_END();
 }

@@ -31,17 +31,17 @@ static void test_maxdist_hand_worked(void)
     hist[50] = 10;
     hist[100] = 10;
     hist[200] = 5;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_maxdist_from_hist(hist, &t));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_maxdist_from_hist(hist, &t));
     TEST_ASSERT_EQUAL_UINT8(100, t);
     // Two levels: every T in [50, 99] splits the same way; the smallest wins.
     hist[200] = 0;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_maxdist_from_hist(hist, &t));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_maxdist_from_hist(hist, &t));
     TEST_ASSERT_EQUAL_UINT8(50, t);
     // 0 and 255 are valid levels.
     memset(hist, 0, sizeof hist);
     hist[0] = 12;
     hist[255] = 13;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_maxdist_from_hist(hist, &t));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_maxdist_from_hist(hist, &t));
     TEST_ASSERT_EQUAL_UINT8(0, t);
 }
 
@@ -49,14 +49,14 @@ static void test_maxdist_errors(void)
 {
     uint32_t hist[256] = {0};
     uint8_t t = 77;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_maxdist_from_hist(hist, &t));    // empty
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_refine_maxdist_from_hist(hist, &t));    // empty
     hist[30] = 25;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_maxdist_from_hist(hist, &t));    // one level
-    hist[31] = VD_MAXDIST_MAX_COUNT;                                        // too many pixels
-    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_maxdist_from_hist(hist, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_refine_maxdist_from_hist(hist, &t));    // one level
+    hist[31] = VD_REFINE_MAXDIST_MAX_COUNT;                                        // too many pixels
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_refine_maxdist_from_hist(hist, &t));
     TEST_ASSERT_EQUAL_UINT8(77, t);
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_maxdist_from_hist(NULL, &t));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_maxdist_from_hist(hist, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_maxdist_from_hist(NULL, &t));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_maxdist_from_hist(hist, NULL));
 }
 
 // eq. (1) is Otsu's criterion: otsu.h's independent exact implementation must
@@ -66,7 +66,7 @@ static void test_maxdist_equals_otsu_on_random_histograms(void)
     uint32_t st = 99u;
     for (int it = 0; it < 3000; it++) {
         uint32_t hist[256] = {0};
-        const uint32_t n = 2u + tu_rand(&st) % (VD_MAXDIST_MAX_COUNT - 1u);
+        const uint32_t n = 2u + tu_rand(&st) % (VD_REFINE_MAXDIST_MAX_COUNT - 1u);
         const uint32_t levels = 2u + tu_rand(&st) % 6u;
         uint8_t lv[8];
         for (uint32_t k = 0; k < levels; k++) {
@@ -81,10 +81,10 @@ static void test_maxdist_equals_otsu_on_random_histograms(void)
         }
         uint8_t a = 0, b = 0;
         if (used < 2u) {
-            TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_maxdist_from_hist(hist, &a));
+            TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_refine_maxdist_from_hist(hist, &a));
             continue;
         }
-        TEST_ASSERT_EQUAL_INT(VD_OK, vd_maxdist_from_hist(hist, &a));
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_maxdist_from_hist(hist, &a));
         TEST_ASSERT_EQUAL_INT(VD_OK, vd_otsu_from_hist(hist, &b));
         TEST_ASSERT_EQUAL_UINT8(b, a);
     }
@@ -94,8 +94,8 @@ static vd_status_t fill(uint8_t *m, uint32_t w, uint32_t h, size_t stride)
 {
     vd_image_u8_t img = {m, w, h, stride};
     size_t bytes = 0;
-    vd_status_t st = vd_fill_holes_workspace_size(w, h, &bytes);
-    return st != VD_OK ? st : vd_fill_holes_u8(&img, g_ws, bytes);
+    vd_status_t st = vd_refine_fill_holes_workspace_size(w, h, &bytes);
+    return st != VD_OK ? st : vd_refine_fill_holes_u8(&img, g_ws, bytes);
 }
 
 static void test_fill_holes_ring_and_diamond(void)
@@ -207,7 +207,7 @@ static void test_edges_hand_worked(void)
     }
     vd_view_u8_t v = {g_mask, 5, 5, 5};
     vd_image_u8_t e = {g_ref, 5, 5, 5};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_edges_u8(&v, NULL, &e));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_edges_u8(&v, NULL, &e));
     int n = 0;
     for (int i = 0; i < 25; i++) {
         n += g_ref[i] == 255u ? 1 : 0;
@@ -218,12 +218,12 @@ static void test_edges_hand_worked(void)
     // ROI = the square itself: outside the ROI is background, same 8 edges.
     vd_rect_t roi = {1, 1, 3, 3};
     vd_image_u8_t e3 = {g_ref, 3, 3, 3};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_edges_u8(&v, &roi, &e3));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_edges_u8(&v, &roi, &e3));
     static const uint8_t want[9] = {255, 255, 255, 255, 0, 255, 255, 255, 255};
     TEST_ASSERT_EQUAL_MEMORY(want, g_ref, 9);
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_edges_u8(&v, &roi, &e));   // dst not roi-sized
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_edges_u8(&v, &roi, &e));   // dst not roi-sized
     roi.x = 3;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_edges_u8(&v, &roi, &e3));  // roi outside
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_edges_u8(&v, &roi, &e3));  // roi outside
 }
 
 // 16x12 image, background 10, an 8x6 block at (4,3) of value 200, no median.
@@ -300,7 +300,7 @@ static void test_refine_local_window_overrides_global(void)
 
 // Naive steps 3-5 (no median) from the public pieces: Otsu, binarise, fill,
 // edges, then every step-th edge pixel's window re-thresholded with
-// vd_maxdist_from_hist on a full 256-bin histogram. vd_refine_region visits
+// vd_refine_maxdist_from_hist on a full 256-bin histogram. vd_refine_region visits
 // only a window's occupied levels; the result must be the same, also with
 // few grey levels (ties between splits).
 static void refine_naive(const uint8_t *img, uint32_t w, uint32_t h, uint32_t step, uint32_t win, uint8_t *out)
@@ -315,10 +315,10 @@ static void refine_naive(const uint8_t *img, uint32_t w, uint32_t h, uint32_t st
         out[i] = img[i] > t ? 255u : 0u;
     }
     vd_image_u8_t m = {out, w, h, w};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_fill_holes_u8(&m, fws, sizeof fws));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_fill_holes_u8(&m, fws, sizeof fws));
     vd_image_u8_t e = {edges, w, h, w};
     const vd_view_u8_t mv = {out, w, h, w};
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_edges_u8(&mv, NULL, &e));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_edges_u8(&mv, NULL, &e));
     const int32_t half = (int32_t)win / 2;
     uint32_t k = 0u;
     for (int32_t y = 0; y < (int32_t)h; y++) {
@@ -335,7 +335,7 @@ static void refine_naive(const uint8_t *img, uint32_t w, uint32_t h, uint32_t st
                 }
             }
             uint8_t tl = 0;
-            if (vd_maxdist_from_hist(hist, &tl) != VD_OK) {
+            if (vd_refine_maxdist_from_hist(hist, &tl) != VD_OK) {
                 continue;
             }
             for (int32_t yy = y - half; yy <= y + half; yy++) {
@@ -393,7 +393,7 @@ static vd_status_t run_refine(void *ws, size_t bytes, void *ctx)
 static vd_status_t run_fill(void *ws, size_t bytes, void *ctx)
 {
     rctx_t *c = (rctx_t *)ctx;
-    return vd_fill_holes_u8(&c->mask, ws, bytes);
+    return vd_refine_fill_holes_u8(&c->mask, ws, bytes);
 }
 
 static void test_workspace_contracts(void)
@@ -416,7 +416,7 @@ static void test_workspace_contracts(void)
     tu_check_workspace_contract(bytes, run_refine, &big);
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_workspace_size(13, 11, &bytes));
     tu_check_workspace_contract(bytes, run_refine, &c);
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_fill_holes_workspace_size(13, 11, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_refine_fill_holes_workspace_size(13, 11, &bytes));
     TEST_ASSERT_EQUAL_size_t(4u * 143u, bytes);
     tu_check_workspace_contract(bytes, run_fill, &c);
 }
@@ -431,7 +431,7 @@ static void test_bad_args(void)
     vd_refine_cfg_default(&cfg);
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_workspace_size(0, 3, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_workspace_size(3, 3, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_fill_holes_workspace_size(3, VD_MAX_DIM + 1u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_fill_holes_workspace_size(3, VD_MAX_DIM + 1u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_region(NULL, NULL, &cfg, g_ws, sizeof g_ws, &mask, NULL));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_region(&src, NULL, &cfg, g_ws, sizeof g_ws, NULL, NULL));
     vd_rect_t roi = {10, 0, 8, 12};   // beyond the right edge
@@ -445,10 +445,10 @@ static void test_bad_args(void)
     }
     src.stride = 15;   // stride < width
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_region(&src, NULL, &cfg, g_ws, sizeof g_ws, &mask, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_fill_holes_u8(NULL, g_ws, sizeof g_ws));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_fill_holes_u8(NULL, g_ws, sizeof g_ws));
     vd_image_u8_t zero = {g_mask, 0, 4, 4};
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_fill_holes_u8(&zero, g_ws, sizeof g_ws));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_edges_u8(NULL, NULL, &mask));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_fill_holes_u8(&zero, g_ws, sizeof g_ws));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_refine_edges_u8(NULL, NULL, &mask));
     // cfg NULL = defaults; odd strides everywhere.
     src.stride = 17;
     static uint8_t big[17 * 12];

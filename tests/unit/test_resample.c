@@ -296,7 +296,7 @@ static void test_box_u16_grey(void)
     const vd_view_u16_t v = {&px[0][0], 4, 2, 8};
     vd_calib_t cal = {65536, 0};
     vd_calib_grey_t g;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &cal, VD_CK_PER_0C, VD_CK_PER_0C + 5100));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &cal, VD_CALIB_CK_PER_0C, VD_CALIB_CK_PER_0C + 5100));
     uint8_t out[2];
     vd_image_u8_t d = {out, 2, 1, 2};
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u16(&v, NULL, 2, 2, &g, &d));

@@ -178,6 +178,41 @@ static void test_moving_box_confirmed_at_t2(void)
 // 40) = 60: S = 0.3 + 0.7 exp(-1/9) = 0.92639 (the paper's sigma 16 would
 // give 0.3 + 0.7 exp(-1.5625) = 0.447 < 0.5: a new track). Frame 2: the
 // velocity (20 px = 320 in Q4) predicts the box exactly: S = 1, confirmed.
+// vd_temporal_reset forgets the tracks but not the id counter: a target
+// confirmed as track 1 over three frames (paper mode: NEW, NEW, CONFIRMED)
+// comes back after the reset as a NEW track with id 2, and the stats of the
+// last update are cleared.
+static void test_reset_forgets_tracks_keeps_ids(void)
+{
+    static vd_track_t tracks[4];
+    vd_temporal_t t;
+    paper_init(&t, tracks, 4);
+    vd_temporal_obs_t o[2];
+    size_t count = 0u;
+    for (int f = 0; f < 3; f++) {
+        o[0] = mk_obs(100, 80, 40, 30, 3000u);
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 2, &count, NULL, NULL));
+    }
+    TEST_ASSERT_EQUAL_UINT32(1u, o[0].track_id);
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, o[0].state);
+    TEST_ASSERT_EQUAL_UINT32(1u, t.stats.matched);
+
+    vd_temporal_reset(&t);
+    TEST_ASSERT_EQUAL_UINT32(0u, t.stats.matched);
+    TEST_ASSERT_EQUAL_UINT32(0u, t.stats.created);
+    for (size_t i = 0; i < 4u; i++) {
+        TEST_ASSERT_EQUAL_UINT32(0u, tracks[i].id);
+    }
+    o[0] = mk_obs(100, 80, 40, 30, 3000u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1, 2, &count, NULL, NULL));
+    TEST_ASSERT_EQUAL_size_t(1u, count);
+    TEST_ASSERT_EQUAL_UINT32(2u, o[0].track_id);
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NEW, o[0].state);
+    TEST_ASSERT_EQUAL_UINT32(1u, t.stats.created);
+    TEST_ASSERT_EQUAL_UINT32(0u, t.stats.matched);
+    vd_temporal_reset(NULL);   // documented no-op
+}
+
 static void test_constant_velocity_confirmed_at_frame3(void)
 {
     static vd_track_t tracks[4];
@@ -658,6 +693,7 @@ int main(void)
     RUN_TEST(test_similarity_vs_reference_random);
     RUN_TEST(test_moving_box_confirmed_at_t2);
     RUN_TEST(test_constant_velocity_confirmed_at_frame3);
+    RUN_TEST(test_reset_forgets_tracks_keeps_ids);
     RUN_TEST(test_relative_sigma);
     RUN_TEST(test_global_motion_keeps_ids);
     RUN_TEST(test_velocity_prediction_and_bounds);

@@ -53,6 +53,12 @@ void tu_check_workspace_contract(size_t bytes, tu_ws_fn run, void *ctx)
     tu_guarded_free(3);
 }
 
+int64_t tu_calib_temp_ck(const vd_calib_t *c, uint32_t raw)
+{
+    int64_t p = (int64_t)raw * c->gain_q16;
+    return (int64_t)c->offset_ck + p / 65536 + ((p % 65536) >= 32768 ? 1 : 0);
+}
+
 uint32_t tu_rand(uint32_t *state)
 {
     uint32_t x = *state ? *state : 0x9E3779B9u;

@@ -24,6 +24,11 @@ void tu_check_workspace_contract(size_t bytes, tu_ws_fn run, void *ctx);
 // Deterministic pseudo-random numbers (xorshift32) for naive-vs-fast tests.
 uint32_t tu_rand(uint32_t *state);
 
+// Reference temperature of a raw value under a calibration, in centi-kelvin:
+// offset_ck + round-half-up(raw * gain_q16 / 65536) by C division (independent
+// of the library's shifts); int64, so it never saturates.
+int64_t tu_calib_temp_ck(const vd_calib_t *c, uint32_t raw);
+
 // Path of the shared data directory (../shared/data beside the project) or NULL
 // if it is absent; tests that need it call TEST_IGNORE_MESSAGE with a reason.
 const char *tu_data_dir(void);

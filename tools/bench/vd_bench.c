@@ -143,16 +143,16 @@ CG static vd_status_t cg_otsu_roi(const vd_view_u8_t *s, const vd_rect_t *r, uin
 { g_cg_calls[S_OTSU_ROI]++; return vd_otsu_u8(s, r, t); }
 CG static vd_status_t cg_contours(const vd_view_u8_t *m, void *ws, size_t b, vd_point_t *p, size_t pc, vd_contour_t *c,
                                   size_t cc, size_t *nc, size_t *np)
-{ g_cg_calls[S_CONTOURS_FRAME]++; return vd_contours_find_external(m, ws, b, p, NULL, pc, c, cc, nc, np); }
+{ g_cg_calls[S_CONTOURS_FRAME]++; return vd_contour_find_external(m, ws, b, p, NULL, pc, c, cc, nc, np); }
 CG static vd_status_t cg_contours_roi(const vd_view_u8_t *m, void *ws, size_t b, vd_point_t *p, size_t pc,
                                       vd_contour_t *c, size_t cc, size_t *nc, size_t *np)
-{ g_cg_calls[S_CONTOURS_ROI]++; return vd_contours_find_external(m, ws, b, p, NULL, pc, c, cc, nc, np); }
+{ g_cg_calls[S_CONTOURS_ROI]++; return vd_contour_find_external(m, ws, b, p, NULL, pc, c, cc, nc, np); }
 CG static vd_status_t cg_refine(const vd_view_u8_t *s, const vd_rect_t *r, const vd_refine_cfg_t *cfg, void *ws, size_t b,
                                 vd_image_u8_t *m)
 { g_cg_calls[S_REFINE]++; return vd_refine_region(s, r, cfg, ws, b, m, NULL); }
 CG static vd_status_t cg_resample(const vd_view_u8_t *s, const vd_rect_t *r, uint8_t *d)
 { g_cg_calls[S_RESAMPLE]++; return vd_resample_u8(s, r, d, 32u, 32u); }
-CG static vd_status_t cg_dbn(const vd_model_t *m, const uint8_t *in, void *ws, size_t b, uint8_t *score)
+CG static vd_status_t cg_dbn(const vd_dbn_model_t *m, const uint8_t *in, void *ws, size_t b, uint8_t *score)
 { g_cg_calls[S_DBN]++; return vd_dbn_classify(m, in, ws, b, score); }
 
 typedef struct {
@@ -273,7 +273,7 @@ static void make_worst(int kind, img_t *im, uint32_t w, uint32_t h)
 }
 
 typedef struct {
-    vd_model_t model;
+    vd_dbn_model_t model;
     int have_model;
     uint8_t thr_mode;
     int max_cands;
@@ -308,7 +308,7 @@ static double run_detector_only(opts_t *o, const img_t *im, const char *label)
     cfg.max_height = im->h;
     cfg.thr_mode = o->thr_mode;
     size_t bytes;
-    const vd_model_t *m = o->have_model ? &o->model : NULL;
+    const vd_dbn_model_t *m = o->have_model ? &o->model : NULL;
     if (vd_detector_workspace_size(&cfg, m, &bytes) != VD_OK) {
         die("detector workspace size", label);
     }
@@ -349,7 +349,7 @@ static void bench_frame(opts_t *o, const img_t *im)
     cfg.max_height = h;
     cfg.thr_mode = o->thr_mode;
     size_t bytes;
-    const vd_model_t *m = o->have_model ? &o->model : NULL;
+    const vd_dbn_model_t *m = o->have_model ? &o->model : NULL;
     if (vd_detector_workspace_size(&cfg, m, &bytes) != VD_OK) {
         die("detector workspace size", NULL);
     }
@@ -395,7 +395,7 @@ static void bench_frame(opts_t *o, const img_t *im)
     TIME_STAGE(S_OTSU, cg_otsu(&src, NULL, &t8));
 
     size_t ctb;
-    vd_contours_workspace_size(w, h, &ctb);
+    vd_contour_workspace_size(w, h, &ctb);
     void *ctws = xmalloc(ctb);
     size_t pcap = 4u * (size_t)w * h;
     vd_point_t *pts = xmalloc(pcap * sizeof(vd_point_t));
@@ -410,8 +410,8 @@ static void bench_frame(opts_t *o, const img_t *im)
     free(cmws);
 
     // Candidates as the detector makes them: rules, then expansion.
-    vd_cc_rules_t rules;
-    vd_cc_rules_default(&rules);
+    vd_components_rules_t rules;
+    vd_components_rules_default(&rules);
     size_t kept = 0;
     vd_components_filter(comps, ncomp, &rules, &kept);
     size_t rfb;
@@ -428,7 +428,7 @@ static void bench_frame(opts_t *o, const img_t *im)
     }
     for (size_t i = 0; i < kept && (int)i < o->max_cands; i++) {
         vd_rect_t r;
-        if (vd_rect_expand(&comps[i].box, VD_EXPAND_W_Q8, VD_EXPAND_H_Q8, w, h, &r) != VD_OK) {
+        if (vd_rect_expand(&comps[i].box, VD_RECT_EXPAND_W_Q8, VD_RECT_EXPAND_H_Q8, w, h, &r) != VD_OK) {
             continue;
         }
         vd_image_u8_t rimg = {dst, (uint32_t)r.w, (uint32_t)r.h, (size_t)r.w};

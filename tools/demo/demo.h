@@ -245,7 +245,7 @@ void demo_args_usage(FILE *f);
 
 typedef struct demo_models {
     uint8_t *model_blob;        // DBN file (malloc'd); model points into it
-    vd_model_t model;
+    vd_dbn_model_t model;
     bool have_model;            // a source (or --cnn-rescore) uses the DBN
     char model_path[4096];
     uint8_t *cnn_blob;          // CNN file (malloc'd); cnn points into it

@@ -379,7 +379,7 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
         cfg.candidate_user = r;
     }
     size_t bytes = 0;
-    const vd_model_t *m = r->m.have_model ? &r->m.model : NULL;
+    const vd_dbn_model_t *m = r->m.have_model ? &r->m.model : NULL;
     vd_status_t st = vd_detector_workspace_size(&cfg, m, &bytes);
     if (st != VD_OK) {
         snprintf(r->err, sizeof r->err, "detector settings rejected for %ux%u frames", (unsigned)f->width,

@@ -181,7 +181,7 @@ static gboolean init_detector(GstVdFir *self, guint32 width, guint32 height)
     cfg.clock_us = clock_us;
     cfg.clock_user = NULL;
     size_t bytes = 0;
-    const vd_model_t *m = self->models.have_model ? &self->models.model : NULL;
+    const vd_dbn_model_t *m = self->models.have_model ? &self->models.model : NULL;
     vd_status_t st = vd_detector_workspace_size(&cfg, m, &bytes);
     if (st != VD_OK) {
         GST_ELEMENT_ERROR(self, CORE, NEGOTIATION,

@@ -56,12 +56,12 @@ class _Lib:
             "vd_components_workspace_size": [u32, u32, vp],
             "vd_components_label": [vp, vp, vp, sz, vp, sz, vp],
             "vd_components_filter": [vp, sz, vp, vp],
-            "vd_cc_rules_default": [vp],
+            "vd_components_rules_default": [vp],
             "vd_rect_expand": [vp, C.c_uint16, C.c_uint16, u32, u32, vp],
             "vd_refine_workspace_size": [u32, u32, vp],
             "vd_refine_region": [vp, vp, vp, vp, sz, vp, vp],
-            "vd_contours_workspace_size": [u32, u32, vp],
-            "vd_contours_find_external": [vp, vp, sz, vp, vp, sz, vp, sz, vp, vp],
+            "vd_contour_workspace_size": [u32, u32, vp],
+            "vd_contour_find_external": [vp, vp, sz, vp, vp, sz, vp, sz, vp, vp],
             "vd_resample_u8": [vp, vp, vp, u32, u32],
             "vd_contrast_map_workspace_size": [u32, vp],
             "vd_contrast_map_u8": [vp, u32, C.c_uint8, vp, sz, vp],
@@ -76,7 +76,7 @@ class _Lib:
             f.argtypes = args
             f.restype = C.c_int
         lib.vd_status_str.restype = C.c_void_p
-        lib.vd_cc_rules_default.restype = None
+        lib.vd_components_rules_default.restype = None
         self.lib = lib
 
     def __getattr__(self, name):
@@ -290,7 +290,7 @@ class Bench:
         L = self.L
         comps, n = labeller(mask)
         rules = (C.c_uint8 * 12)()
-        L.vd_cc_rules_default(addr(rules))
+        L.vd_components_rules_default(addr(rules))
         kept = C.c_size_t()
         L.vd_components_filter(comps.ctypes.data, n, addr(rules), addr(kept))
         out = []
@@ -373,7 +373,7 @@ class Bench:
         cap = ((W + 1) // 2) * ((H + 1) // 2)
         from vdtools.components import COMPONENT_DTYPE
         comps = np.zeros(cap, COMPONENT_DTYPE)
-        L.vd_contours_workspace_size(W, H, addr(n))
+        L.vd_contour_workspace_size(W, H, addr(n))
         ct_ws, ct_wsp = clib.workspace(n.value)
         ct_wsn = n.value
         pts_cap = 4 * W * H
@@ -400,7 +400,7 @@ class Bench:
             return comps, cnt.value
 
         def contours_call(mv):
-            return lambda: L.vd_contours_find_external(mv.p, ct_wsp, ct_wsn, pts.ctypes.data, None, pts_cap,
+            return lambda: L.vd_contour_find_external(mv.p, ct_wsp, ct_wsn, pts.ctypes.data, None, pts_cap,
                                                        conts.ctypes.data, ncont_cap, addr(nc), addr(npt))
 
         n_cand = 0

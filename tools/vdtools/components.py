@@ -45,8 +45,8 @@ def _lib():
         lib.vd_components_workspace_size.argtypes = [C.c_uint32, C.c_uint32, sz]
         lib.vd_components_label.argtypes = [C.POINTER(clib.ViewU8), C.POINTER(clib.Rect), C.c_void_p,
                                             C.c_size_t, C.c_void_p, C.c_size_t, sz]
-        lib.vd_cc_rules_default.argtypes = [C.POINTER(Rules)]
-        lib.vd_cc_rules_default.restype = None
+        lib.vd_components_rules_default.argtypes = [C.POINTER(Rules)]
+        lib.vd_components_rules_default.restype = None
         lib.vd_components_filter.argtypes = [C.c_void_p, C.c_size_t, C.POINTER(Rules), sz]
         lib.vd_rect_expand.argtypes = [C.POINTER(clib.Rect), C.c_uint16, C.c_uint16, C.c_uint32,
                                        C.c_uint32, C.POINTER(clib.Rect)]
@@ -161,7 +161,7 @@ def label(mask, roi=None, cap=None, return_status=False):
 
 def rules_default():
     r = Rules()
-    _lib().vd_cc_rules_default(C.byref(r))
+    _lib().vd_components_rules_default(C.byref(r))
     return r
 
 

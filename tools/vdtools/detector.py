@@ -90,7 +90,7 @@ class Stats(C.Structure):
     _fields_ = [(n, C.c_uint32) for n in STAT_FIELDS] + [("time_us", C.c_uint32 * len(STAGES))]
 
 
-# vd_detector_t / vd_model_t are opaque here: generous aligned buffers (both are < 2 KiB in C).
+# vd_detector_t / vd_dbn_model_t are opaque here: generous aligned buffers (both are < 2 KiB in C).
 _DET_BYTES = 8192
 _MODEL_BYTES = 4096
 

@@ -42,20 +42,20 @@ def _lib():
                                          C.c_void_p, C.c_size_t, C.POINTER(clib.ImageU8),
                                          C.POINTER(RefineStats)]
         lib.vd_refine_region.restype = st
-        lib.vd_maxdist_from_hist.argtypes = [C.POINTER(C.c_uint32), C.POINTER(C.c_uint8)]
-        lib.vd_maxdist_from_hist.restype = st
-        lib.vd_fill_holes_workspace_size.argtypes = [C.c_uint32, C.c_uint32, sz]
-        lib.vd_fill_holes_workspace_size.restype = st
-        lib.vd_fill_holes_u8.argtypes = [C.POINTER(clib.ImageU8), C.c_void_p, C.c_size_t]
-        lib.vd_fill_holes_u8.restype = st
-        lib.vd_edges_u8.argtypes = [C.POINTER(clib.ViewU8), C.POINTER(clib.Rect), C.POINTER(clib.ImageU8)]
-        lib.vd_edges_u8.restype = st
-        lib.vd_contours_workspace_size.argtypes = [C.c_uint32, C.c_uint32, sz]
-        lib.vd_contours_workspace_size.restype = st
-        lib.vd_contours_find_external.argtypes = [C.POINTER(clib.ViewU8), C.c_void_p, C.c_size_t,
+        lib.vd_refine_maxdist_from_hist.argtypes = [C.POINTER(C.c_uint32), C.POINTER(C.c_uint8)]
+        lib.vd_refine_maxdist_from_hist.restype = st
+        lib.vd_refine_fill_holes_workspace_size.argtypes = [C.c_uint32, C.c_uint32, sz]
+        lib.vd_refine_fill_holes_workspace_size.restype = st
+        lib.vd_refine_fill_holes_u8.argtypes = [C.POINTER(clib.ImageU8), C.c_void_p, C.c_size_t]
+        lib.vd_refine_fill_holes_u8.restype = st
+        lib.vd_refine_edges_u8.argtypes = [C.POINTER(clib.ViewU8), C.POINTER(clib.Rect), C.POINTER(clib.ImageU8)]
+        lib.vd_refine_edges_u8.restype = st
+        lib.vd_contour_workspace_size.argtypes = [C.c_uint32, C.c_uint32, sz]
+        lib.vd_contour_workspace_size.restype = st
+        lib.vd_contour_find_external.argtypes = [C.POINTER(clib.ViewU8), C.c_void_p, C.c_size_t,
                                                   C.POINTER(clib.Point), C.POINTER(C.c_uint8), C.c_size_t,
                                                   C.POINTER(Contour), C.c_size_t, sz, sz]
-        lib.vd_contours_find_external.restype = st
+        lib.vd_contour_find_external.restype = st
         _bound = lib
     return _bound
 
@@ -98,38 +98,38 @@ def maxdist_from_hist(hist):
     h = np.ascontiguousarray(hist, dtype=np.uint32)
     assert h.shape == (256,)
     t = C.c_uint8()
-    st = _lib().vd_maxdist_from_hist(h.ctypes.data_as(C.POINTER(C.c_uint32)), C.byref(t))
+    st = _lib().vd_refine_maxdist_from_hist(h.ctypes.data_as(C.POINTER(C.c_uint32)), C.byref(t))
     if st == VD_ERR_RANGE:
         return None
-    clib.check(st, "vd_maxdist_from_hist")
+    clib.check(st, "vd_refine_maxdist_from_hist")
     return t.value
 
 
 def fill_holes(mask):
-    """vd_fill_holes_u8 on a copy of mask; returns the 0/255 result."""
+    """vd_refine_fill_holes_u8 on a copy of mask; returns the 0/255 result."""
     lib = _lib()
     out = np.ascontiguousarray(mask, dtype=np.uint8).copy()
-    nbytes = _size(lib.vd_fill_holes_workspace_size, out.shape[1], out.shape[0])
+    nbytes = _size(lib.vd_refine_fill_holes_workspace_size, out.shape[1], out.shape[0])
     buf, ws = clib.workspace(nbytes)
     img = clib.view_u8(out)
-    clib.check(lib.vd_fill_holes_u8(C.byref(img), ws, nbytes), "vd_fill_holes_u8")
+    clib.check(lib.vd_refine_fill_holes_u8(C.byref(img), ws, nbytes), "vd_refine_fill_holes_u8")
     del buf
     return out
 
 
 def edges(mask, roi=None):
-    """vd_edges_u8: foreground pixels with a background 4-neighbour (outside the ROI = background)."""
+    """vd_refine_edges_u8: foreground pixels with a background 4-neighbour (outside the ROI = background)."""
     lib = _lib()
     mask = np.ascontiguousarray(mask, dtype=np.uint8)
     x, y, w, h = roi if roi is not None else (0, 0, mask.shape[1], mask.shape[0])
     out = np.zeros((h, w), np.uint8)
     src, dst, rect = clib.view_u8(mask), clib.view_u8(out), clib.Rect(x, y, w, h)
-    clib.check(lib.vd_edges_u8(C.byref(src), C.byref(rect), C.byref(dst)), "vd_edges_u8")
+    clib.check(lib.vd_refine_edges_u8(C.byref(src), C.byref(rect), C.byref(dst)), "vd_refine_edges_u8")
     return out
 
 
 def find_contours(mask, points_cap=None, contours_cap=None, raw=False):
-    """vd_contours_find_external on a 2-D uint8 mask.
+    """vd_contour_find_external on a 2-D uint8 mask.
     Returns (contours, chains, boxes): contours like cv2 (list of int32 arrays
     of shape (n, 1, 2)), chain codes (list of uint8 arrays), boxes (x, y, w, h).
     With raw=True returns (status, points, chain, contour records) without
@@ -142,11 +142,11 @@ def find_contours(mask, points_cap=None, contours_cap=None, raw=False):
     pts = np.zeros((max(pcap, 1), 2), np.int16)        # vd_point_t is {int16 x, y}
     chain = np.zeros(max(pcap, 1), np.uint8)
     recs = (Contour * max(ccap, 1))()
-    nbytes = _size(lib.vd_contours_workspace_size, w, h)
+    nbytes = _size(lib.vd_contour_workspace_size, w, h)
     buf, ws = clib.workspace(nbytes)
     nc, npts = C.c_size_t(), C.c_size_t()
     view = clib.view_u8(mask)
-    st = lib.vd_contours_find_external(C.byref(view), ws, nbytes, pts.ctypes.data_as(C.POINTER(clib.Point)),
+    st = lib.vd_contour_find_external(C.byref(view), ws, nbytes, pts.ctypes.data_as(C.POINTER(clib.Point)),
                                        chain.ctypes.data_as(C.POINTER(C.c_uint8)), pcap, recs, ccap,
                                        C.byref(nc), C.byref(npts))
     del buf
@@ -154,7 +154,7 @@ def find_contours(mask, points_cap=None, contours_cap=None, raw=False):
     records = [(r.first, r.length, (r.box.x, r.box.y, r.box.w, r.box.h)) for r in recs[:nc.value]]
     if raw:
         return st, xy, chain[:npts.value].copy(), records
-    clib.check(st, "vd_contours_find_external")
+    clib.check(st, "vd_contour_find_external")
     contours = [xy[f:f + n].reshape(-1, 1, 2) for f, n, _ in records]
     chains = [chain[f:f + n].copy() for f, n, _ in records]
     boxes = [b for _, _, b in records]

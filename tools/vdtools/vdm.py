@@ -116,7 +116,7 @@ class _Layer(C.Structure):
 
 
 class Model(C.Structure):
-    """Mirror of vd_model_t (lib/include/vd/dbn.h)."""
+    """Mirror of vd_dbn_model_t (lib/include/vd/dbn.h)."""
     _fields_ = [("blob", C.c_void_p), ("size", C.c_uint32), ("crc32", C.c_uint32),
                 ("format_version", C.c_uint16), ("input_w", C.c_uint16), ("input_h", C.c_uint16),
                 ("norm_divisor", C.c_uint16), ("norm_offset", C.c_int16), ("input_mode", C.c_int),

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Connected components (8-connectivity) of a binary mask or of a thresholded
-// frame, with box, area and centroid; the paper's aspect/area rules;
-// candidate-box expansion.
+// frame, with box, area and centroid; the paper's aspect/area rules (the
+// candidate-box expansion, vd_rect_expand, is in rect.h).
 #ifndef VD_COMPONENTS_H
 #define VD_COMPONENTS_H
 
@@ -79,12 +79,12 @@ vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, 
 //           exactly as if the ROI ended there, and a component touching row
 //           rows - 1 may continue below.
 //   labels  components found in those rows (may exceed cap).
-typedef struct vd_cc_stats {
+typedef struct vd_components_stats {
     uint32_t runs;
     uint32_t pixels;
     uint32_t rows;
     uint32_t labels;
-} vd_cc_stats_t;
+} vd_components_stats_t;
 
 // Workspace for the thresholding labellers with a run budget: the fixed part
 // of vd_components_workspace_size (span buffers and row-pair offsets, which
@@ -130,7 +130,7 @@ vd_status_t vd_components_workspace_size_runs(uint32_t max_width, uint32_t max_h
 // near-linear union-find over the runs; stack O(1).
 vd_status_t vd_components_label_thr_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t thr, void *ws,
                                        size_t bytes, vd_component_t *out, size_t cap, size_t *count,
-                                       vd_cc_stats_t *stats);
+                                       vd_components_stats_t *stats);
 
 // As vd_components_label_thr_u8 on a 16-bit plane (radiometric frames):
 // foreground is pixel >= thr (raw units; vd_calib_raw_from_ck gives the raw
@@ -138,7 +138,7 @@ vd_status_t vd_components_label_thr_u8(const vd_view_u8_t *src, const vd_rect_t 
 // aligned data), else VD_ERR_ARG. 4 pixels per 64-bit word.
 vd_status_t vd_components_label_thr_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint16_t thr, void *ws,
                                         size_t bytes, vd_component_t *out, size_t cap, size_t *count,
-                                        vd_cc_stats_t *stats);
+                                        vd_components_stats_t *stats);
 
 // Shape rules of paper 001 for hot-spot candidates.
 //   aspect_min_q8, aspect_max_q8  bounds on box.h / box.w (height over width)
@@ -148,22 +148,22 @@ vd_status_t vd_components_label_thr_u16(const vd_view_u16_t *src, const vd_rect_
 //          h/w = 0.3 exactly, aspect_q8 = round(76.8) = 77, passes).
 //   min_area  smallest pixel count kept (paper 120), inclusive.
 //   max_area  largest pixel count kept, inclusive; 0 = no limit.
-typedef struct vd_cc_rules {
+typedef struct vd_components_rules {
     uint16_t aspect_min_q8;
     uint16_t aspect_max_q8;
     uint32_t min_area;
     uint32_t max_area;
-} vd_cc_rules_t;
+} vd_components_rules_t;
 
 // Fills *rules with the paper's values: aspect 77..384 (0.3..1.5), min_area 120,
 // max_area 0 (no limit). Does nothing if rules is NULL.
-void vd_cc_rules_default(vd_cc_rules_t *rules);
+void vd_components_rules_default(vd_components_rules_t *rules);
 
-// Resolves rules in place: all four fields 0 take vd_cc_rules_default's
+// Resolves rules in place: all four fields 0 take vd_components_rules_default's
 // values (any other combination is kept as given), then the rules are checked.
 // Returns VD_OK; VD_ERR_ARG for NULL rules, aspect_min_q8 > aspect_max_q8, or
 // max_area != 0 with min_area > max_area.
-vd_status_t vd_cc_rules_resolve(vd_cc_rules_t *rules);
+vd_status_t vd_components_rules_resolve(vd_components_rules_t *rules);
 
 // Keeps the components that pass `rules`, compacting comps[0..n) in place and
 // preserving their order (stable).
@@ -174,27 +174,7 @@ vd_status_t vd_cc_rules_resolve(vd_cc_rules_t *rules);
 // Returns VD_OK; VD_ERR_ARG for NULL rules/kept, NULL comps with n > 0,
 // inconsistent rules or a component with w or h <= 0 (nothing is modified
 // then and *kept = 0).
-vd_status_t vd_components_filter(vd_component_t *comps, size_t n, const vd_cc_rules_t *rules, size_t *kept);
-
-// Paper scales for vd_rect_expand: 1.5x horizontally, 2x vertically.
-#define VD_EXPAND_W_Q8 384u
-#define VD_EXPAND_H_Q8 512u
-
-// Scales a box about its centre and clips it to the frame.
-//   in     box with w, h >= 1 (any position; it may lie partly outside).
-//   wscale_q8, hscale_q8  scale factors in Q8, >= 1 (256 = unchanged;
-//          paper: VD_EXPAND_W_Q8, VD_EXPAND_H_Q8).
-//   frame_w, frame_h  frame size, 1..VD_MAX_DIM.
-//   out    result (may alias in).
-// Rounding, per axis (shown for x): new_w = max(1, round-half-up(w * s / 256));
-// the growth g = new_w - w is split floor(g/2) to the left and the rest to the
-// right (an odd extra pixel goes right), i.e. new_x = x - floor(g/2); the box is
-// then clipped to [0, frame_w) x [0, frame_h). Example: {10, 10, 10, 10} with
-// 384/512 gives {8, 5, 15, 20}.
-// Returns VD_OK; VD_ERR_ARG for NULL pointers, w or h <= 0, a zero scale, a
-// frame size out of range, or an expanded box that misses the frame entirely.
-vd_status_t vd_rect_expand(const vd_rect_t *in, uint16_t wscale_q8, uint16_t hscale_q8, uint32_t frame_w,
-                           uint32_t frame_h, vd_rect_t *out);
+vd_status_t vd_components_filter(vd_component_t *comps, size_t n, const vd_components_rules_t *rules, size_t *kept);
 
 #ifdef __cplusplus
 }

@@ -37,11 +37,11 @@ typedef struct vd_contrast_cfg {
     uint8_t thr_u8;            // fixed threshold, or the floor in percentile mode, 1..255; 0 = 24
     uint8_t reserved;
     uint16_t permille;         // percentile mode: p in 1/1000, 1..1000; 0 = 950
-    vd_cc_rules_t rules;       // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
+    vd_components_rules_t rules;       // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
 } vd_contrast_cfg_t;
 
 // Resolves cfg in place: zero fields take the defaults above (rules through
-// vd_cc_rules_resolve), then every range is checked, so a bad setting fails
+// vd_components_rules_resolve), then every range is checked, so a bad setting fails
 // where a configuration is accepted (the detector's init), not per frame.
 // Returns VD_OK; VD_ERR_ARG for NULL cfg, radius > VD_CONTRAST_MAX_RADIUS,
 // polarity or thr_mode unknown, permille > 1000, or rules rejected.

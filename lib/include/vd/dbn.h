@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Quantised deep-belief-network verifier: loads a .vdm model in place and scores 32x32 samples.
 //
-// Lifetime: vd_model_t only points into the blob given to vd_dbn_load(); the
+// Lifetime: vd_dbn_model_t only points into the blob given to vd_dbn_load(); the
 // blob (e.g. a const array in flash, see models/<name>_vdm.c) must outlive
 // the model and stay unchanged. The model is read-only after loading, so one
 // model can serve any number of callers at once, each with its own workspace.
@@ -31,7 +31,7 @@ extern "C" {
 // Magic: the bytes 'V' 'D' 'M' 'F' at offset 0.
 #define VD_DBN_MAGIC_U32 0x464D4456u
 
-// Largest number of layers (weight matrices) in a model; sets sizeof(vd_model_t).
+// Largest number of layers (weight matrices) in a model; sets sizeof(vd_dbn_model_t).
 #ifndef VD_DBN_MAX_LAYERS
 #define VD_DBN_MAX_LAYERS 8u
 #endif
@@ -72,7 +72,7 @@ typedef struct vd_dbn_layer {
 
 // A loaded model. Complete so the caller can own it (static, stack, struct
 // member); fill it only with vd_dbn_load(). All pointers point into the blob.
-typedef struct vd_model {
+typedef struct vd_dbn_model {
     const uint8_t *blob;      // start of the blob (NULL: not loaded)
     uint32_t size;            // total_size from the header (<= bytes given)
     uint32_t crc32;           // CRC-32 stored in (and verified against) the blob
@@ -88,7 +88,7 @@ typedef struct vd_model {
     uint32_t max_units;       // widest layer output (sizes the workspace)
     char name[17];            // model name from the header, NUL-terminated
     vd_dbn_layer_t layers[VD_DBN_MAX_LAYERS];
-} vd_model_t;
+} vd_dbn_model_t;
 
 // Validates a .vdm blob in place and fills *m with pointers into it (no copy).
 // m:     caller-owned model; written only on VD_OK (left untouched otherwise).
@@ -105,7 +105,7 @@ typedef struct vd_model {
 // or overlapping, size overflow, multipliers/shifts out of range, a bias that
 // could overflow the int32 accumulator, nonzero reserved fields.
 // Time O(total_size) (CRC + one pass over per-unit arrays); stack < 1 KiB.
-vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes);
+vd_status_t vd_dbn_load(vd_dbn_model_t *m, const void *blob, size_t bytes);
 
 // Workspace bytes vd_dbn_classify() needs for model m (two activation
 // buffers of max_units bytes, plus input_w * input_h bytes for the stretched
@@ -113,7 +113,7 @@ vd_status_t vd_dbn_load(vd_model_t *m, const void *blob, size_t bytes);
 // VD_WORKSPACE_ALIGN).
 // Returns VD_OK; VD_ERR_ARG for NULL m or bytes; VD_ERR_STATE if m was not
 // filled by vd_dbn_load().
-vd_status_t vd_dbn_workspace_size(const vd_model_t *m, size_t *bytes);
+vd_status_t vd_dbn_workspace_size(const vd_dbn_model_t *m, size_t *bytes);
 
 // Scores one sample.
 // m:        a loaded model (read only).
@@ -129,7 +129,7 @@ vd_status_t vd_dbn_workspace_size(const vd_model_t *m, size_t *bytes);
 // Time: sum over layers of in*out multiply-adds (1024-576-256-64-1: 753k)
 // plus, for MINMAX, 2 passes and input_w*input_h divisions;
 // stack < 128 bytes.
-vd_status_t vd_dbn_classify(const vd_model_t *m, const uint8_t *input, void *ws, size_t bytes,
+vd_status_t vd_dbn_classify(const vd_dbn_model_t *m, const uint8_t *input, void *ws, size_t bytes,
                             uint8_t *score_q8);
 
 // Min-max contrast stretch of one sample (the VD_DBN_NORM_MINMAX step):

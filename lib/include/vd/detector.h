@@ -49,7 +49,7 @@ enum {
     VD_DET_STAGE_THRESHOLD = 0,  // histogram/percentile + hot mask
     VD_DET_STAGE_COMPONENTS,     // labelling + rules + expansion
     VD_DET_STAGE_REFINE,         // region plane (crop/map/decimate) + vd_refine_region
-    VD_DET_STAGE_CONTOUR,        // vd_contours_find_external
+    VD_DET_STAGE_CONTOUR,        // vd_contour_find_external
     VD_DET_STAGE_SAMPLE,         // 32x32 sample (and the shape-mode refine)
     VD_DET_STAGE_DBN,            // vd_dbn_classify
     VD_DET_STAGE_NMS,            // sort + overlap suppression
@@ -82,7 +82,7 @@ typedef struct vd_detector_cfg {
     int32_t grey_lo_ck;          // 16-bit frames: temperature mapped to grey 0; 0 = hot_thr_ck - 3000
     int32_t grey_hi_ck;          // temperature mapped to grey 255; 0 = hot_thr_ck + 2100, so the
                                  // threshold maps to grey 150 as in the paper; lo < hi required
-    vd_cc_rules_t rules;         // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
+    vd_components_rules_t rules;         // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
     uint16_t expand_w_q8;        // candidate expansion, Q8, 256..2048; 0 = 384 (1.5x, paper)
     uint16_t expand_h_q8;        // 0 = 512 (2x, paper)
     uint8_t median_ksize;        // refine median: 0 = 3 (paper), 1 = none, 3 or 5
@@ -186,7 +186,7 @@ typedef struct vd_detector_stats {
 // Detector object. Complete so the caller can own it; fields are private.
 typedef struct vd_detector {
     vd_detector_cfg_t cfg;       // resolved (no zero defaults left)
-    const vd_model_t *model;
+    const vd_dbn_model_t *model;
     uint16_t raw_thr;            // resolved 16-bit threshold
     bool raw_never_hot;          // threshold above the calibrated range
     vd_calib_grey_t grey;        // 16-bit frames: temperature -> grey map (grey_lo_ck, grey_hi_ck)
@@ -227,7 +227,7 @@ void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
 
 // Resolves cfg in place, as vd_detector_workspace_size and vd_detector_init
 // do with their copy: zero fields take the defaults documented above (rules,
-// contrast and temporal_cfg through vd_cc_rules_resolve,
+// contrast and temporal_cfg through vd_components_rules_resolve,
 // vd_contrast_cfg_resolve and vd_temporal_cfg_resolve), then every range is
 // checked. `windows` is checked for max_width x max_height but kept as given
 // (each frame resolves its own copy). vd_detector_cfg_default() is a zeroed
@@ -260,7 +260,7 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 // input above VD_CNN_MAX_SIDE (or twice it above VD_MAX_DIM); VD_ERR_MODEL
 // for a model not filled by vd_dbn_load or a cnn_model not filled by
 // vd_cnn_load; VD_ERR_OVERFLOW if the size does not fit size_t.
-vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_model_t *model, size_t *bytes);
+vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model, size_t *bytes);
 
 // Initialises `det`: validates and copies cfg (NULL = defaults), resolves the
 // 16-bit threshold with the calibration, and carves `ws` once.
@@ -271,7 +271,7 @@ vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_mo
 // Returns VD_OK; VD_ERR_ARG for NULL det or a cfg out of range;
 // VD_ERR_MODEL as vd_detector_workspace_size; VD_ERR_WORKSPACE for a NULL,
 // misaligned or short workspace.
-vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_model_t *model,
+vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model,
                              void *ws, size_t bytes);
 
 // Runs the pipeline on one frame (VD_PIX_U8 or VD_PIX_U16, at most

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Image views (8- and 16-bit, with stride), rectangles, and their checks.
+// Image types (frames, 8- and 16-bit views with stride, writable images) and their checks; each
+// function is named after the type it takes (vd_frame_*, vd_view_*, vd_image_*). Rectangles: rect.h.
 #ifndef VD_IMAGE_H
 #define VD_IMAGE_H
 
@@ -9,13 +10,14 @@
 
 #include "vd/config.h"
 #include "vd/status.h"
+#include "vd/rect.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
 // Pixel formats of a frame. VD_PIX_U16 is radiometric (e.g. Y16 / TLinear)
-// in host byte order; its meaning in kelvin comes from vd_calib_t (threshold.h).
+// in host byte order; its meaning in kelvin comes from vd_calib_t (calib.h).
 typedef enum vd_pixfmt {
     VD_PIX_U8 = 1,
     VD_PIX_U16 = 2
@@ -58,19 +60,6 @@ typedef struct vd_image_u8 {
     size_t stride;
 } vd_image_u8_t;
 
-// Axis-aligned box in pixels, top-left origin; w, h > 0 for a valid box.
-typedef struct vd_rect {
-    int32_t x;
-    int32_t y;
-    int32_t w;
-    int32_t h;
-} vd_rect_t;
-
-typedef struct vd_point {
-    int16_t x;
-    int16_t y;
-} vd_point_t;
-
 // Checks a view: data non-null, 1 <= width, height <= VD_MAX_DIM,
 // stride >= width (bytes per pixel accounted). Returns VD_OK or VD_ERR_ARG.
 vd_status_t vd_view_u8_check(const vd_view_u8_t *v);
@@ -95,21 +84,6 @@ static inline vd_view_u8_t vd_image_u8_view(const vd_image_u8_t *img)
     v.stride = img->stride;
     return v;
 }
-
-// Resolves an optional region of interest: roi == NULL means the whole
-// width x height plane. VD_ERR_ARG if roi has w or h <= 0 or does not lie
-// entirely inside [0, width) x [0, height). On success *out is the region.
-vd_status_t vd_roi_resolve(const vd_rect_t *roi, uint32_t width, uint32_t height, vd_rect_t *out);
-
-// Intersection of a and b (w = h = 0 when they do not overlap).
-vd_rect_t vd_rect_intersect(const vd_rect_t *a, const vd_rect_t *b);
-
-// Clips r to [0,width) x [0,height); false if nothing is left.
-bool vd_rect_clip(vd_rect_t *r, uint32_t width, uint32_t height);
-
-// Intersection over union as a Q15 fraction (0..32768), rounded down.
-// Boxes with no area give 0.
-uint32_t vd_rect_iou_q15(const vd_rect_t *a, const vd_rect_t *b);
 
 #ifdef __cplusplus
 }

@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: MIT
-// 256-bin histogram of an 8-bit region and its Otsu threshold, equal to OpenCV's THRESH_OTSU.
+// Otsu's threshold of a 256-bin histogram (histogram.h) or of an 8-bit region, equal to OpenCV's THRESH_OTSU.
 #ifndef VD_OTSU_H
 #define VD_OTSU_H
 
 #include <stdint.h>
 
+#include "vd/histogram.h"
 #include "vd/image.h"
 #include "vd/status.h"
 
@@ -16,14 +17,6 @@ extern "C" {
 // the area of an 8192 x 8192 image. It bounds the exact integer arithmetic
 // (see docs/fixed-point.md).
 #define VD_OTSU_MAX_COUNT (1u << 26)
-
-// hist[v] = number of pixels of value v inside the region (the 256 entries
-// are overwritten, not accumulated).
-// src: 8-bit view; roi: NULL = whole image, else must lie inside src;
-// hist: caller-owned array of 256 counters.
-// Returns VD_OK; VD_ERR_ARG for NULL pointers, an invalid view or a ROI
-// outside src (hist unchanged); VD_ERR_OVERFLOW if the view's extent overflows.
-vd_status_t vd_histogram_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint32_t hist[256]);
 
 // Otsu's threshold t of a histogram: the t maximising the between-class
 // variance of the classes {v <= t} and {v > t}; binarise with `pixel > t`.

@@ -14,10 +14,10 @@
 extern "C" {
 #endif
 
-// Largest total count vd_maxdist_from_hist accepts: with n <= 255 every
+// Largest total count vd_refine_maxdist_from_hist accepts: with n <= 255 every
 // intermediate of the exact comparison fits in 64 bits (see refine.c).
-#define VD_MAXDIST_MAX_COUNT 255u
-// Largest local window side (15 * 15 = 225 <= VD_MAXDIST_MAX_COUNT).
+#define VD_REFINE_MAXDIST_MAX_COUNT 255u
+// Largest local window side (15 * 15 = 225 <= VD_REFINE_MAXDIST_MAX_COUNT).
 #define VD_REFINE_MAX_WINDOW 15u
 
 // Settings of vd_refine_region. vd_refine_cfg_default() gives the paper's:
@@ -44,27 +44,27 @@ typedef struct vd_refine_stats {
 // P(T) = sum_{i<=T} P_i, mu the mean level (Otsu's between-class criterion).
 // Exact integer arithmetic; the smallest maximising T is returned and pixels
 // > T are foreground.
-//   hist  256 counts, total n with 1 <= n <= VD_MAXDIST_MAX_COUNT.
+//   hist  256 counts, total n with 1 <= n <= VD_REFINE_MAXDIST_MAX_COUNT.
 //   thr   receives T (unchanged on error).
 // Returns VD_OK; VD_ERR_ARG for NULL pointers; VD_ERR_RANGE if n is 0 or
-// above VD_MAXDIST_MAX_COUNT, or fewer than two grey levels occur (no split
+// above VD_REFINE_MAXDIST_MAX_COUNT, or fewer than two grey levels occur (no split
 // exists; vd_refine_region then keeps its previous decision).
-vd_status_t vd_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr);
+vd_status_t vd_refine_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr);
 
-// Workspace of vd_fill_holes_u8 for masks up to max_w x max_h:
-// 4 * max_w * max_h bytes (a stack of pixel indices; each pixel is pushed at
+// Workspace of vd_refine_fill_holes_u8 for masks up to max_width x max_height:
+// 4 * max_width * max_height bytes (a stack of pixel indices; each pixel is pushed at
 // most once). Returns VD_OK; VD_ERR_ARG for a NULL pointer or a dimension 0
 // or above VD_MAX_DIM.
-vd_status_t vd_fill_holes_workspace_size(uint32_t max_w, uint32_t max_h, size_t *bytes);
+vd_status_t vd_refine_fill_holes_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
 
 // Fills the holes of a mask in place: background pixels not 4-connected to
 // the mask's outer border become foreground (so foreground is 8-connected,
 // background 4-connected, as scipy.ndimage.binary_fill_holes does).
 //   mask   writable, nonzero = foreground on input; 0/255 on output.
-//   ws     workspace of vd_fill_holes_workspace_size(mask->width, mask->height) bytes.
+//   ws     workspace of vd_refine_fill_holes_workspace_size(mask->width, mask->height) bytes.
 // Returns VD_OK; VD_ERR_ARG for a bad image; VD_ERR_WORKSPACE for a NULL,
 // misaligned or short workspace (mask untouched then).
-vd_status_t vd_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes);
+vd_status_t vd_refine_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes);
 
 // Edge image: dst = 255 where the mask pixel is foreground (nonzero) and at
 // least one of its 4 neighbours is background, else 0. The ROI is treated as
@@ -73,25 +73,25 @@ vd_status_t vd_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes);
 //   mask  read-only; roi NULL = whole mask, else inside it.
 //   dst   roi-sized (width == roi.w, height == roi.h); must not alias mask.
 // Returns VD_OK; VD_ERR_ARG for bad views, a bad ROI or a wrong dst size.
-vd_status_t vd_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, vd_image_u8_t *dst);
+vd_status_t vd_refine_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, vd_image_u8_t *dst);
 
-// Workspace of vd_refine_region for ROIs up to max_w x max_h: the filtered
+// Workspace of vd_refine_region for ROIs up to max_width x max_height: the filtered
 // region (w*h bytes, rounded up to the alignment: P) and a region of
 // max(4*w*h, P + 1024) bytes: the hole-filling stack, later the edge image
 // (w*h) with the 256-bin uint32 histogram at offset P. 5*w*h bytes plus
 // alignment from w*h >= 342 on; smaller ROIs need up to 1 KiB more.
 // Returns VD_OK; VD_ERR_ARG for a NULL pointer or a dimension 0 or above
 // VD_MAX_DIM; VD_ERR_OVERFLOW if the size does not fit size_t.
-vd_status_t vd_refine_workspace_size(uint32_t max_w, uint32_t max_h, size_t *bytes);
+vd_status_t vd_refine_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
 
 // Segments one candidate area (paper 001 §3, steps 2-5; step 1, the expansion,
-// is vd_rect_expand in components.h):
+// is vd_rect_expand in rect.h):
 //   F = median(src)[roi]  (cfg->median_ksize; cv2.medianBlur on the full
 //       image, so pixels just outside the ROI take part),
 //   t = Otsu(F); M = F > t; fill the holes of M; E = edges of M;
 //   for every cfg->edge_step-th pixel of E in raster order (the 1st, the
 //   (1+step)-th, ...), in the window x window neighbourhood clipped to the ROI:
-//   T = vd_maxdist_from_hist(histogram of F there); mask = F > T there
+//   T = vd_refine_maxdist_from_hist(histogram of F there); mask = F > T there
 //   (later windows overwrite earlier ones where they overlap; windows with one
 //   grey level leave the mask as it is).
 //   src    read-only 8-bit image; roi NULL = whole image, else inside it.

@@ -63,7 +63,7 @@ vd_status_t vd_resample_box_u8(const vd_view_u8_t *src, const vd_rect_t *roi, ui
                                vd_image_u8_t *dst);
 
 // The same for a 16-bit plane: each rounded block mean (0..65535) is mapped
-// to grey through `grey` (vd_calib_grey_u8, threshold.h), which must come
+// to grey through `grey` (vd_calib_grey_u8, calib.h), which must come
 // from vd_calib_grey_init. Other arguments, statuses and bounds as
 // vd_resample_box_u8 (VD_ERR_ARG also for a NULL grey).
 vd_status_t vd_resample_box_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint32_t kx, uint32_t ky,

@@ -146,7 +146,7 @@ vd_status_t vd_temporal_cfg_resolve(vd_temporal_cfg_t *cfg);
 // NULL t/tracks, cap 0 or > 65535, or a cfg field out of its documented range.
 vd_status_t vd_temporal_init(vd_temporal_t *t, const vd_temporal_cfg_t *cfg, vd_track_t *tracks, size_t cap);
 
-// Forgets every track (ids keep increasing).
+// Forgets every track and the last stats (ids keep increasing). t NULL: no-op.
 void vd_temporal_reset(vd_temporal_t *t);
 
 // Processes one frame's detections.

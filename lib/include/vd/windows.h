@@ -74,7 +74,7 @@ typedef struct vd_windows_cfg {
                                 //   (x) and height (y), Q8, 16..512; 0 = 64 (a quarter window);
                                 //   the step is at least 1 px
     uint16_t aspect_q8[VD_WINDOWS_MAX_ASPECTS];  // window height / width, Q8, 64..1024
-                                //   (as vd_cc_rules_t); width = max(1, round(h * 256 / aspect))
+                                //   (as vd_components_rules_t); width = max(1, round(h * 256 / aspect))
     vd_window_band_t bands[VD_WINDOWS_MAX_BANDS];
     int32_t horizon_y;          // ground model: horizon row y_h (may lie outside the frame,
                                 //   |y_h| <= VD_MAX_DIM); used only when ground_k_q8 > 0

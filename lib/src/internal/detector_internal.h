@@ -54,7 +54,7 @@ typedef struct cand_ctx {
     vd_refine_stats_t rs;
     vd_contour_t best;
     vd_rect_t vb;                // contour box in plane coordinates
-    vd_cc_stats_t cs;
+    vd_components_stats_t cs;
     vd_windows_cfg_t wc;         // window source: settings for the current frame
     vd_refine_cfg_t rc;          // fixed in init
 } cand_ctx_t;

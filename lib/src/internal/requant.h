@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // TFLite/CMSIS-NN int8 requantisation shared by the DBN and the CNN: reference steps, one-shift form.
 //
-// Reference semantics (docs/fixed-point.md "dbn", /work spec "Requantisation"):
+// Reference semantics (docs/fixed-point.md "dbn", "Requantisation to the sigmoid's input"):
 //   x    = shift > 0 ? saturate_int32(acc * 2^shift) : acc
 //   high = SaturatingRoundingDoublingHighMul(x, mult)     (gemmlowp)
 //   z    = RoundingDivideByPOT(high, max(-shift, 0))       (gemmlowp)
@@ -14,18 +14,11 @@
 #include <stdint.h>
 
 #include "vd/config.h"
+#include "internal/shift_internal.h"
 
 #define VD_RQ_SHIFT_MIN (-31)
 #define VD_RQ_SHIFT_MAX 7
 #define VD_RQ_MULT_MIN 0x40000000L
-
-// Floor shift right of a signed value (C99 leaves >> of negatives
-// implementation-defined): ~x is non-negative when x is negative. gcc and
-// clang compile both forms to one arithmetic shift.
-static inline int32_t vd_rq_asr32(int32_t x, int32_t n)
-{
-    return (x >= 0) ? (x >> n) : ~((~x) >> n);
-}
 
 // gemmlowp SaturatingRoundingDoublingHighMul: round(a*b / 2^31) with ties
 // away from zero via the nudge, truncating division as in C.
@@ -48,7 +41,7 @@ static inline int32_t vd_rq_rounding_divide_by_pot(int32_t x, int32_t e)
     if (x < 0) {
         threshold += 1u;
     }
-    int32_t r = vd_rq_asr32(x, e);
+    int32_t r = vd_shr_floor_i32(x, (uint32_t)e);
     if (remainder > threshold) {
         r += 1;
     }

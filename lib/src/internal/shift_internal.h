@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Private: portable floor and rounding right shifts of signed values (C99 leaves >> of negatives implementation-defined).
+// The one place lib/ shifts a value that may be negative: every such shift goes through these helpers.
 #ifndef VD_SHIFT_INTERNAL_H
 #define VD_SHIFT_INTERNAL_H
 
@@ -11,6 +12,13 @@
 // shift that gcc and clang emit for x >> n (so results are bit-exact with the
 // code that used >> on those compilers), and to numpy's `x >> n` on int64.
 static inline int64_t vd_shr_floor_i64(int64_t x, uint32_t n)
+{
+    return (x >= 0) ? (x >> n) : ~((~x) >> n);
+}
+
+// floor(x / 2^n) for any int32 x and 0 <= n <= 31: as vd_shr_floor_i64 (the
+// gemmlowp RoundingDivideByPOT of internal/requant.h rounds on top of it).
+static inline int32_t vd_shr_floor_i32(int32_t x, uint32_t n)
 {
     return (x >= 0) ? (x >> n) : ~((~x) >> n);
 }
