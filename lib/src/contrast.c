@@ -81,8 +81,14 @@ static void contrast_chunk(const uint32_t *restrict box, const uint8_t *restrict
                            uint32_t m, uint32_t k, uint8_t polarity)
 {
     uint8_t mean[CHUNK];
-    for (uint32_t j = 0; j < nc; j++) {
-        mean[j] = (uint8_t)vd_recip256_div32(m, k, box[j]);
+    if (k == 32u) {   // the high word of the product: no shift of the 64-bit lanes
+        for (uint32_t j = 0; j < nc; j++) {
+            mean[j] = (uint8_t)(((uint64_t)box[j] * m) >> 32);
+        }
+    } else {
+        for (uint32_t j = 0; j < nc; j++) {
+            mean[j] = (uint8_t)vd_recip256_div32(m, k, box[j]);
+        }
     }
     if (polarity == VD_CONTRAST_BOTH) {
         for (uint32_t j = 0; j < nc; j++) {
@@ -111,7 +117,15 @@ typedef struct area_recips {
 static void area_recips_init(area_recips_t *t, uint32_t r, uint32_t ny)
 {
     // Areas <= 255^2 < 2^23: init never fails.
-    (void)vd_recip256_init((2u * r + 1u) * ny, &t->in);
+    const uint32_t n_in = (2u * r + 1u) * ny;
+    (void)vd_recip256_init(n_in, &t->in);
+    if (n_in <= 4096u) {
+        // k = 32 is exact too: m = ceil(2^32 / n), e = m*n - 2^32 < n and
+        // x*e < 256n * n <= 2^32 for every x < 256n (recip_internal.h's
+        // argument with 2^k = 2^32); n >= 9 keeps m below 2^32.
+        t->in.k = 32u;
+        t->in.m = (uint32_t)((0x100000000ull + n_in - 1u) / n_in);
+    }
     t->nb = r < BORDER_TAB ? r : BORDER_TAB;
     for (uint32_t i = 0; i < t->nb; i++) {
         vd_recip256_t q;
@@ -206,6 +220,17 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
         sum += col[x];
     }
     uint32_t x = 0u;
+    // Border columns with every box width tabled (frames wider than 2r+1,
+    // r <= BORDER_TAB): column x < r has width r+1+x, column w-1-i width
+    // r+1+i; straight loops without border_mean's clipping and branches.
+    const bool fast_border = xb > xa && r <= BORDER_TAB;
+    if (fast_border) {
+        for (; x < xa; x++) {   // x < r: column x + r + 1 < w enters, none leaves
+            const uint32_t num = sum + (((r + 1u + x) * ny) >> 1);
+            drow[x] = contrast_of(srow[x], vd_recip256_div32(rt->bm[x], rt->bk[x], num), polarity);
+            sum += col[x + r + 1u];
+        }
+    }
     for (; x < xa; x++) {
         drow[x] = contrast_of(srow[x], border_mean(rt, sum, x, r, w, ny), polarity);
         if (x + r + 1u < w) {   // slide: column x + r + 1 enters (x < r: none leaves)
@@ -218,32 +243,41 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
         // (the one sequential chain, one add per pixel), then the means
         // and contrasts (vectorised).
         const uint32_t nc = xb - x < CHUNK ? xb - x : CHUNK;
+        uint32_t dif[CHUNK];
         uint32_t box[CHUNK];
         const uint16_t *in = col + x + r + 1u;
         const uint16_t *out = col + (x - r);
         for (uint32_t j = 0; j < nc; j++) {
-            box[j] = (uint32_t)in[j] - out[j];   // wraps when negative; the sum is exact mod 2^32
+            dif[j] = (uint32_t)in[j] - out[j];   // wraps when negative; the sums are exact mod 2^32
         }
-        // Four at a time: the partial sums do not wait for `acc`, so
-        // the chain is one add per four pixels.
+        // box[j] = sum + half + dif[0] + .. + dif[j-1]: the first four
+        // sequentially, then four lanes at a time from the box four to the
+        // left (dependence distance 4: the compiler vectorises it, where the
+        // one-by-one running sum is a sequential chain).
         uint32_t acc = sum + half;
-        uint32_t j = 0;
-        for (; j + 4u <= nc; j += 4u) {
-            const uint32_t p1 = box[j], p2 = p1 + box[j + 1u], p3 = p2 + box[j + 2u], p4 = p3 + box[j + 3u];
+        const uint32_t n4 = nc < 4u ? nc : 4u;
+        for (uint32_t j = 0; j < n4; j++) {
             box[j] = acc;
-            box[j + 1u] = acc + p1;
-            box[j + 2u] = acc + p2;
-            box[j + 3u] = acc + p3;
-            acc += p4;
+            acc += dif[j];
         }
-        for (; j < nc; j++) {
-            const uint32_t dj = box[j];
-            box[j] = acc;
-            acc += dj;
+        for (uint32_t j = 4u; j < nc; j++) {
+            box[j] = box[j - 4u] + ((dif[j - 4u] + dif[j - 3u]) + (dif[j - 2u] + dif[j - 1u]));
         }
-        sum = acc - half;
+        sum = box[nc - 1u] + dif[nc - 1u] - half;
         contrast_chunk(box, srow + x, drow + x, nc, rt->in.m, rt->in.k, polarity);
         x += nc;
+    }
+    if (fast_border) {
+        // x = xb = w - r - 1 still has the full width (nothing enters after it).
+        drow[x] = contrast_of(srow[x], vd_recip256_div32(rt->in.m, rt->in.k, sum + half), polarity);
+        sum -= col[x - r];
+        x++;
+        for (; x < w; x++) {   // x > xb > r: none enters, column x - r leaves
+            const uint32_t i = w - 1u - x;
+            const uint32_t num = sum + (((r + 1u + i) * ny) >> 1);
+            drow[x] = contrast_of(srow[x], vd_recip256_div32(rt->bm[i], rt->bk[i], num), polarity);
+            sum -= col[x - r];
+        }
     }
     for (; x < w; x++) {
         drow[x] = contrast_of(srow[x], border_mean(rt, sum, x, r, w, ny), polarity);
