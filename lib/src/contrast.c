@@ -250,11 +250,29 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
         for (uint32_t j = 0; j < nc; j++) {
             dif[j] = (uint32_t)in[j] - out[j];   // wraps when negative; the sums are exact mod 2^32
         }
-        // box[j] = sum + half + dif[0] + .. + dif[j-1]: the first four
-        // sequentially, then four lanes at a time from the box four to the
-        // left (dependence distance 4: the compiler vectorises it, where the
-        // one-by-one running sum is a sequential chain).
+        // box[j] = sum + half + dif[0] + .. + dif[j-1]. Two forms of the
+        // same sums, chosen by what each compiler makes fast (both exact):
+        // gcc vectorises the recurrence of distance 4 (the box four to the
+        // left plus a window of four differences: 194 against 219 us per
+        // 640x480 frame for the form below, gcc 12 -O3); clang 14 does not
+        // vectorise it and then runs it as a store-to-load chain (366 us),
+        // while its scalar four-at-a-time running sum takes 209 us.
         uint32_t acc = sum + half;
+#if defined(__clang__)
+        uint32_t j = 0;
+        for (; j + 4u <= nc; j += 4u) {
+            const uint32_t p1 = dif[j], p2 = p1 + dif[j + 1u], p3 = p2 + dif[j + 2u], p4 = p3 + dif[j + 3u];
+            box[j] = acc;
+            box[j + 1u] = acc + p1;
+            box[j + 2u] = acc + p2;
+            box[j + 3u] = acc + p3;
+            acc += p4;
+        }
+        for (; j < nc; j++) {
+            box[j] = acc;
+            acc += dif[j];
+        }
+#else
         const uint32_t n4 = nc < 4u ? nc : 4u;
         for (uint32_t j = 0; j < n4; j++) {
             box[j] = acc;
@@ -263,6 +281,7 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
         for (uint32_t j = 4u; j < nc; j++) {
             box[j] = box[j - 4u] + ((dif[j - 4u] + dif[j - 3u]) + (dif[j - 2u] + dif[j - 1u]));
         }
+#endif
         sum = box[nc - 1u] + dif[nc - 1u] - half;
         contrast_chunk(box, srow + x, drow + x, nc, rt->in.m, rt->in.k, polarity);
         x += nc;
