@@ -20,12 +20,14 @@
 // is a reciprocal multiply (exact: internal/recip_internal.h), the
 // reciprocals made once per box height (which changes only in the first and
 // last r rows): the interior's and those of the border widths r+1 .. r+32;
-// wider borders (r > 32) and frames narrower than 2r+2 divide. The interior
-// works in chunks of 64 pixels (box sums, means, contrasts in straight
-// loops that vectorise). Labelling: O(runs) union-find work per row pair
+// wider borders (r > 32) and frames narrower than 2r+2 divide; interior
+// boxes of <= 4096 pixels use the reciprocal's high word (k = 32). The
+// interior works in chunks of 64 pixels (box differences, box sums by a
+// recurrence of distance 4, means, contrasts in straight loops that
+// vectorise). Labelling: O(runs) union-find work per row pair
 // plus, per complete component, an insertion into out[] sorted by key
-// (O(1) when components complete in order, O(cap) at worst). Stack < 1 KiB
-// (chunk buffers 320, map state with its reciprocal table ~200;
+// (O(1) when components complete in order, O(cap) at worst). Stack < 1.2 KiB
+// (chunk buffers 576, map state with its reciprocal table ~200;
 // docs/embedded.md).
 // Workspace as vd_contrast_workspace_size (width only); capacity `cap`
 // components.

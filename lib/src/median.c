@@ -8,9 +8,10 @@
 // scalar targets run the same code one pixel at a time.
 //  3x3 ("sorted rows", Paeth/Smith): median of 9 = med3(max of the 3 row
 //       minima, med3 of the 3 row medians, min of the 3 row maxima), each
-//       input row triple sorted horizontally (6 min/max). Four output rows
-//       are done together from 6 input rows, the pairs of rows that two
-//       outputs share combined once: 19 min/max per pixel, in registers.
+//       input row triple sorted horizontally (6 min/max). Eight output rows
+//       are done together from 10 input rows, the pairs of rows that two
+//       outputs share combined once: 17.5 min/max per pixel, in registers
+//       (spills of carried values go to the load/store ports).
 //  5x5: output rows in pairs: per input column the four rows both outputs
 //       share are sorted once (5 exchanges) and the top / bottom row is
 //       inserted for each (4+4 min/max: 13 per pixel against 18 for a
@@ -38,7 +39,7 @@
 // replicates the sorted edge column (a replicated column sorts the same).
 // Images narrower than a block (+ border) take the scalar paths.
 // Reference: cv2.medianBlur (OpenCV imgproc median_blur), bit-exact.
-// Bounds: time O(roi.w * roi.h) (about 19 / 54 min-max per pixel); no
+// Bounds: time O(roi.w * roi.h) (about 17.5 / 54 min-max per pixel); no
 // workspace; stack (stack budget of vd_detector_run, docs/embedded.md): 3x3
 // a 2 x 64-byte buffer for ROIs narrower than a block; 5x5 two rows' sorted
 // columns, their even/odd split, a pair table and an output strip (S5

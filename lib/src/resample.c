@@ -2,7 +2,8 @@
 // Exact fixed-point resampler: area average when shrinking, bilinear when growing, per axis.
 //
 // Algorithm: separable weights per axis; the taps of up to 16 output columns
-// are tabled once per call (stack), those of an output row once per row.
+// (32 on the narrow path) are tabled once per call (stack), those of an
+// output row once per row.
 //  - Shrinking axis (S >= D): in units of 1/D source pixel, output i covers
 //    [i*S, (i+1)*S) and source pixel k covers [k*D, (k+1)*D); the weight of k
 //    is the length of the overlap (an integer), the weights sum to S. This is
@@ -20,7 +21,9 @@
 // < 8192*255 < 2^21 (uint32) and the total < 2^34 (uint64: the one place 64
 // bits are needed). Time: each source pixel of the ROI is read at most
 // ceil(D/S)+1 <= 2 times per shrinking axis; growing axes read 2 taps.
-// Stack: the 16-entry x-tap table (128 bytes) + a few words. The rounded
+// Stack: the x-tap table (16 entries, 128 bytes; narrow path: 32 entries
+// + 32-entry row sums, accumulators and column sums, 512 bytes; the
+// narrow path below) + a few words. The rounded
 // quotient by the constant total T is a reciprocal multiply, exact for
 // T <= 2^23 (internal/recip_internal.h); larger totals divide.
 //
