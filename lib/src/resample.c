@@ -22,8 +22,8 @@
 // bits are needed). Time: each source pixel of the ROI is read at most
 // ceil(D/S)+1 <= 2 times per shrinking axis; growing axes read 2 taps.
 // Stack: the x-tap table (16 entries, 128 bytes; narrow path: 32 entries
-// + 32-entry row sums, accumulators and column sums, 512 bytes; the
-// narrow path below) + a few words. The rounded
+// + row sums of two row pairs, accumulators and column sums, 640 bytes;
+// the narrow path below) + a few words. The rounded
 // quotient by the constant total T is a reciprocal multiply, exact for
 // T <= 2^23 (internal/recip_internal.h); larger totals divide.
 //
@@ -304,8 +304,13 @@ static void resample_narrow(const uint8_t *base, size_t stride, uint32_t sw, uin
         }
         return;
     }
-    uint16_t hs[2][NCHUNK];   // row sums of the last two source rows (see vd_resample_u8)
-    uint32_t hs_row[2];
+    // Row sums cached by source row pairs (2q, 2q+1) in two slots (q & 1):
+    // an output row reads at most two consecutive pairs when its taps span
+    // <= 3 rows, and rows are visited in increasing order, so every pair is
+    // computed once per chunk. A pair shares the x taps' loads and loop
+    // between its two rows (the gather is the costliest part here).
+    uint16_t hs[2][2][NCHUNK];
+    uint32_t hs_pair[2];
     for (uint32_t cx = 0u; cx < dst_w; cx += NCHUNK) {
         const uint32_t nx = dst_w - cx < NCHUNK ? dst_w - cx : NCHUNK;
         tap_iter_t it;
@@ -313,8 +318,7 @@ static void resample_narrow(const uint8_t *base, size_t stride, uint32_t sw, uin
         for (uint32_t i = 0u; i < nx; i++) {
             tap_next(&it, &tx[i]);
         }
-        hs_row[0] = hs_row[1] = UINT32_MAX;
-        uint32_t victim = 0u;
+        hs_pair[0] = hs_pair[1] = UINT32_MAX;
         tap_iter_init(&it, 0u, sh, dst_h);
         for (uint32_t oy = 0u; oy < dst_h; oy++) {
             tap_t ty;
@@ -322,21 +326,32 @@ static void resample_narrow(const uint8_t *base, size_t stride, uint32_t sw, uin
             for (uint32_t ky = ty.first; ky <= ty.last; ky++) {
                 // wy <= tot_y <= 8192: uint16.
                 const uint16_t wy = ky == ty.first ? ty.wf : (ky == ty.last ? ty.wl : (uint16_t)dst_h);
-                const uint16_t *h;
-                if (hs_row[0] == ky) {
-                    h = hs[0];
-                } else if (hs_row[1] == ky) {
-                    h = hs[1];
-                } else {
-                    const uint8_t *row = base + (size_t)ky * stride;
-                    uint16_t *o = hs[victim];
-                    for (uint32_t i = 0u; i < nx; i++) {
-                        o[i] = (uint16_t)tap_sum(row, &tx[i], dst_w);   // <= tot_x * 255 < 2^16
+                const uint32_t q = ky >> 1, slot = q & 1u;
+                if (hs_pair[slot] != q) {
+                    const uint8_t *r0 = base + (size_t)(2u * q) * stride;
+                    uint16_t *o0 = hs[slot][0], *o1 = hs[slot][1];
+                    if (2u * q + 1u < sh) {
+                        const uint8_t *r1 = r0 + stride;
+                        for (uint32_t i = 0u; i < nx; i++) {
+                            const uint32_t f = tx[i].first, l = tx[i].last;
+                            const uint32_t wf = tx[i].wf, wl = tx[i].wl;
+                            uint32_t mid0 = 0u, mid1 = 0u;
+                            for (uint32_t k = f + 1u; k < l; k++) {
+                                mid0 += r0[k];
+                                mid1 += r1[k];
+                            }
+                            // <= tot_x * 255 < 2^16
+                            o0[i] = (uint16_t)(wf * r0[f] + dst_w * mid0 + wl * r0[l]);
+                            o1[i] = (uint16_t)(wf * r1[f] + dst_w * mid1 + wl * r1[l]);
+                        }
+                    } else {
+                        for (uint32_t i = 0u; i < nx; i++) {
+                            o0[i] = (uint16_t)tap_sum(r0, &tx[i], dst_w);
+                        }
                     }
-                    hs_row[victim] = ky;
-                    h = o;
-                    victim ^= 1u;
+                    hs_pair[slot] = q;
                 }
+                const uint16_t *h = hs[slot][ky & 1u];
                 // acc <= total * 255 < 2^31.
                 if (ky == ty.first) {
                     for (uint32_t i = 0u; i < nx; i++) {
