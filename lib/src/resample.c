@@ -275,32 +275,56 @@ static void resample_narrow(const uint8_t *base, size_t stride, uint32_t sw, uin
         // column (vectorised), then takes its x taps of those column sums:
         // dst_w x-tap sums per output row instead of per source row.
         // Column sums <= tot_y * 255, x-tap sums <= total * 255 < 2^31.
-        uint32_t vs[NCHUNK];
+        // Output rows in pairs: the x taps' loads and loop are shared by the
+        // pair's two gathers (the costliest part here).
+        uint32_t vs[2][NCHUNK];
+        uint32_t acc1[NCHUNK];
         tap_iter_t it;
         tap_iter_init(&it, 0u, sw, dst_w);
         for (uint32_t i = 0u; i < dst_w; i++) {
             tap_next(&it, &tx[i]);
         }
         tap_iter_init(&it, 0u, sh, dst_h);
-        for (uint32_t oy = 0u; oy < dst_h; oy++) {
-            tap_t ty;
-            tap_next(&it, &ty);
-            const uint8_t *row = base + (size_t)ty.first * stride;
-            const uint32_t wf = ty.wf;
-            for (uint32_t x = 0u; x < sw; x++) {
-                vs[x] = wf * row[x];
-            }
-            for (uint32_t ky = ty.first + 1u; ky <= ty.last; ky++) {
-                const uint32_t wy = ky == ty.last ? ty.wl : dst_h;
-                row = base + (size_t)ky * stride;
+        for (uint32_t oy = 0u; oy < dst_h; oy += 2u) {
+            const uint32_t nr = dst_h - oy >= 2u ? 2u : 1u;
+            for (uint32_t k = 0u; k < nr; k++) {
+                tap_t ty;
+                tap_next(&it, &ty);
+                uint32_t *v = vs[k];
+                const uint8_t *row = base + (size_t)ty.first * stride;
+                const uint32_t wf = ty.wf;
                 for (uint32_t x = 0u; x < sw; x++) {
-                    vs[x] += wy * row[x];
+                    v[x] = wf * row[x];
+                }
+                for (uint32_t ky = ty.first + 1u; ky <= ty.last; ky++) {
+                    const uint32_t wy = ky == ty.last ? ty.wl : dst_h;
+                    row = base + (size_t)ky * stride;
+                    for (uint32_t x = 0u; x < sw; x++) {
+                        v[x] += wy * row[x];
+                    }
                 }
             }
-            for (uint32_t i = 0u; i < dst_w; i++) {
-                acc[i] = tap_sum32(vs, &tx[i], dst_w);
+            if (nr == 2u) {
+                const uint32_t *v0 = vs[0], *v1 = vs[1];
+                for (uint32_t i = 0u; i < dst_w; i++) {
+                    const uint32_t f = tx[i].first, l = tx[i].last;
+                    const uint32_t wf = tx[i].wf, wl = tx[i].wl;
+                    uint32_t mid0 = 0u, mid1 = 0u;
+                    for (uint32_t k = f + 1u; k < l; k++) {
+                        mid0 += v0[k];
+                        mid1 += v1[k];
+                    }
+                    acc[i] = wf * v0[f] + dst_w * mid0 + wl * v0[l];
+                    acc1[i] = wf * v1[f] + dst_w * mid1 + wl * v1[l];
+                }
+                narrow_quot(acc, dst + (size_t)oy * dst_w, dst_w, half, &rc, pow2, sh_pow2);
+                narrow_quot(acc1, dst + (size_t)(oy + 1u) * dst_w, dst_w, half, &rc, pow2, sh_pow2);
+            } else {
+                for (uint32_t i = 0u; i < dst_w; i++) {
+                    acc[i] = tap_sum32(vs[0], &tx[i], dst_w);
+                }
+                narrow_quot(acc, dst + (size_t)oy * dst_w, dst_w, half, &rc, pow2, sh_pow2);
             }
-            narrow_quot(acc, dst + (size_t)oy * dst_w, dst_w, half, &rc, pow2, sh_pow2);
         }
         return;
     }
