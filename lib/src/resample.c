@@ -175,11 +175,12 @@ static void tap_next(tap_iter_t *it, tap_t *t)
     if (s >= d) {
         const uint32_t lo = it->lo, hi = lo + s;
         uint32_t k = (uint32_t)it->k;
-        while ((k + 1u) * d <= lo) {   // < S/D + 1 steps
+        // Both indices stay below S (lo < hi <= S*D): explicit bounds.
+        while (k + 1u < s && (k + 1u) * d <= lo) {   // < S/D + 1 steps
             k++;
         }
         uint32_t l = k;
-        while ((l + 1u) * d < hi) {    // last = floor((hi - 1) / D)
+        while (l + 1u < s && (l + 1u) * d < hi) {    // last = floor((hi - 1) / D)
             l++;
         }
         const uint32_t b = (k + 1u) * d;
