@@ -27,8 +27,8 @@
 // vectorise). Labelling: O(runs) union-find work per row pair
 // plus, per complete component, an insertion into out[] sorted by key
 // (O(1) when components complete in order, O(cap) at worst). Stack < 1.2 KiB
-// (chunk buffers 576, map state with its reciprocal table ~200;
-// docs/embedded.md).
+// on scalar targets (chunk buffers 576, map state with its reciprocal table
+// ~200; docs/embedded.md), ~1.8 KiB on SIMD hosts (128-pixel chunks).
 // Workspace as vd_contrast_workspace_size (width only); capacity `cap`
 // components.
 #include "vd/contrast.h"
@@ -56,8 +56,16 @@ vd_status_t vd_contrast_map_workspace_size(uint32_t max_width, size_t *bytes)
     return VD_OK;
 }
 
-// Interior pixels per chunk (stack: CHUNK box sums + CHUNK means).
+// Interior pixels per chunk (stack: CHUNK differences + CHUNK box sums +
+// CHUNK means: 9 bytes each). SIMD hosts take 128 (the vector loops then
+// run long enough: 170 against 190 us per 640x480 frame for 64, gcc 12
+// -O3; 256 and 512 are no faster), scalar targets 64 (Cortex-M stack
+// budget).
+#if defined(__SSE2__) || defined(__ARM_NEON) || defined(__ARM_NEON__) || defined(__ALTIVEC__)
+#define CHUNK 128u
+#else
 #define CHUNK 64u
+#endif
 // Border box widths nx = r+1 .. r+BORDER_TAB whose reciprocals are tabled per
 // box height (5 bytes each on the stack); wider borders divide.
 #define BORDER_TAB 32u
@@ -256,7 +264,8 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
         // same sums, chosen by what each compiler makes fast (both exact):
         // gcc vectorises the recurrence of distance 4 (the box four to the
         // left plus a window of four differences: 194 against 219 us per
-        // 640x480 frame for the form below, gcc 12 -O3); clang 14 does not
+        // 640x480 frame for the form below, gcc 12 -O3, 64-pixel chunks);
+        // clang 14 does not
         // vectorise it and then runs it as a store-to-load chain (366 us),
         // while its scalar four-at-a-time running sum takes 209 us.
         uint32_t acc = sum + half;
