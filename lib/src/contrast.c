@@ -22,9 +22,9 @@
 // last r rows): the interior's and those of the border widths r+1 .. r+32;
 // wider borders (r > 32) and frames narrower than 2r+2 divide; interior
 // boxes of <= 4096 pixels use the reciprocal's high word (k = 32). The
-// interior works in chunks of 64 pixels (box differences, box sums by a
-// recurrence of distance 4, means, contrasts in straight loops that
-// vectorise). Labelling: O(runs) union-find work per row pair
+// interior works in chunks of 128 (SIMD hosts) or 64 pixels (box
+// differences, box sums by a recurrence of distance 4, means, contrasts in
+// straight loops that vectorise). Labelling: O(runs) union-find work per row pair
 // plus, per complete component, an insertion into out[] sorted by key
 // (O(1) when components complete in order, O(cap) at worst). Stack < 1.2 KiB
 // on scalar targets (chunk buffers 576, map state with its reciprocal table
@@ -132,7 +132,7 @@ static void area_recips_init(area_recips_t *t, uint32_t r, uint32_t ny)
     if (n_in <= 4096u) {
         // k = 32 is exact too: m = ceil(2^32 / n), e = m*n - 2^32 < n and
         // x*e < 256n * n <= 2^32 for every x < 256n (recip_internal.h's
-        // argument with 2^k = 2^32); n >= 9 keeps m below 2^32.
+        // argument with 2^k = 2^32); n >= 3 keeps m below 2^32.
         t->in.k = 32u;
         t->in.m = (uint32_t)((0x100000000ull + n_in - 1u) / n_in);
     }
@@ -249,9 +249,8 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
     }
     const uint32_t half = (2u * r + 1u) * ny / 2u;
     while (x < xb) {
-        // Chunk: the column differences (vectorised), their running sum
-        // (the one sequential chain, one add per pixel), then the means
-        // and contrasts (vectorised).
+        // Chunk: the column differences (vectorised), their running sums
+        // (below), then the means and contrasts (vectorised).
         const uint32_t nc = xb - x < CHUNK ? xb - x : CHUNK;
         uint32_t dif[CHUNK];
         uint32_t box[CHUNK];
@@ -265,9 +264,9 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
         // gcc vectorises the recurrence of distance 4 (the box four to the
         // left plus a window of four differences: 194 against 219 us per
         // 640x480 frame for the form below, gcc 12 -O3, 64-pixel chunks);
-        // clang 14 does not
-        // vectorise it and then runs it as a store-to-load chain (366 us),
-        // while its scalar four-at-a-time running sum takes 209 us.
+        // clang 14 does not vectorise it and then runs it as a
+        // store-to-load chain (366 us), while its scalar four-at-a-time
+        // running sum takes 209 us.
         uint32_t acc = sum + half;
 #if defined(__clang__)
         uint32_t j = 0;
