@@ -20,13 +20,15 @@
 // is a reciprocal multiply (exact: internal/recip_internal.h), the
 // reciprocals made once per box height (which changes only in the first and
 // last r rows): the interior's and those of the border widths r+1 .. r+32;
-// wider borders (r > 32) and frames narrower than 2r+2 divide. The interior
-// works in chunks of 64 pixels (box sums, means, contrasts in straight
-// loops that vectorise). Labelling: O(runs) union-find work per row pair
+// wider borders (r > 32) and frames narrower than 2r+2 divide; interior
+// boxes of <= 4096 pixels use the reciprocal's high word (k = 32). The
+// interior works in chunks of 128 (SIMD hosts) or 64 pixels (box
+// differences, box sums by a recurrence of distance 4, means, contrasts in
+// straight loops that vectorise). Labelling: O(runs) union-find work per row pair
 // plus, per complete component, an insertion into out[] sorted by key
-// (O(1) when components complete in order, O(cap) at worst). Stack < 1 KiB
-// (chunk buffers 320, map state with its reciprocal table ~200;
-// docs/embedded.md).
+// (O(1) when components complete in order, O(cap) at worst). Stack < 1.2 KiB
+// on scalar targets (chunk buffers 576, map state with its reciprocal table
+// ~200; docs/embedded.md), ~1.8 KiB on SIMD hosts (128-pixel chunks).
 // Workspace as vd_contrast_workspace_size (width only); capacity `cap`
 // components.
 #include "vd/contrast.h"
@@ -54,8 +56,16 @@ vd_status_t vd_contrast_map_workspace_size(uint32_t max_width, size_t *bytes)
     return VD_OK;
 }
 
-// Interior pixels per chunk (stack: CHUNK box sums + CHUNK means).
+// Interior pixels per chunk (stack: CHUNK differences + CHUNK box sums +
+// CHUNK means: 9 bytes each). SIMD hosts take 128 (the vector loops then
+// run long enough: 170 against 190 us per 640x480 frame for 64, gcc 12
+// -O3; 256 and 512 are no faster), scalar targets 64 (Cortex-M stack
+// budget).
+#if defined(__SSE2__) || defined(__ARM_NEON) || defined(__ARM_NEON__) || defined(__ALTIVEC__)
+#define CHUNK 128u
+#else
 #define CHUNK 64u
+#endif
 // Border box widths nx = r+1 .. r+BORDER_TAB whose reciprocals are tabled per
 // box height (5 bytes each on the stack); wider borders divide.
 #define BORDER_TAB 32u
@@ -81,8 +91,14 @@ static void contrast_chunk(const uint32_t *restrict box, const uint8_t *restrict
                            uint32_t m, uint32_t k, uint8_t polarity)
 {
     uint8_t mean[CHUNK];
-    for (uint32_t j = 0; j < nc; j++) {
-        mean[j] = (uint8_t)vd_recip256_div32(m, k, box[j]);
+    if (k == 32u) {   // the high word of the product: no shift of the 64-bit lanes
+        for (uint32_t j = 0; j < nc; j++) {
+            mean[j] = (uint8_t)(((uint64_t)box[j] * m) >> 32);
+        }
+    } else {
+        for (uint32_t j = 0; j < nc; j++) {
+            mean[j] = (uint8_t)vd_recip256_div32(m, k, box[j]);
+        }
     }
     if (polarity == VD_CONTRAST_BOTH) {
         for (uint32_t j = 0; j < nc; j++) {
@@ -111,7 +127,15 @@ typedef struct area_recips {
 static void area_recips_init(area_recips_t *t, uint32_t r, uint32_t ny)
 {
     // Areas <= 255^2 < 2^23: init never fails.
-    (void)vd_recip256_init((2u * r + 1u) * ny, &t->in);
+    const uint32_t n_in = (2u * r + 1u) * ny;
+    (void)vd_recip256_init(n_in, &t->in);
+    if (n_in <= 4096u) {
+        // k = 32 is exact too: m = ceil(2^32 / n), e = m*n - 2^32 < n and
+        // x*e < 256n * n <= 2^32 for every x < 256n (recip_internal.h's
+        // argument with 2^k = 2^32); n >= 3 keeps m below 2^32.
+        t->in.k = 32u;
+        t->in.m = (uint32_t)((0x100000000ull + n_in - 1u) / n_in);
+    }
     t->nb = r < BORDER_TAB ? r : BORDER_TAB;
     for (uint32_t i = 0; i < t->nb; i++) {
         vd_recip256_t q;
@@ -206,6 +230,17 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
         sum += col[x];
     }
     uint32_t x = 0u;
+    // Border columns with every box width tabled (frames wider than 2r+1,
+    // r <= BORDER_TAB): column x < r has width r+1+x, column w-1-i width
+    // r+1+i; straight loops without border_mean's clipping and branches.
+    const bool fast_border = xb > xa && r <= BORDER_TAB;
+    if (fast_border) {
+        for (; x < xa; x++) {   // x < r: column x + r + 1 < w enters, none leaves
+            const uint32_t num = sum + (((r + 1u + x) * ny) >> 1);
+            drow[x] = contrast_of(srow[x], vd_recip256_div32(rt->bm[x], rt->bk[x], num), polarity);
+            sum += col[x + r + 1u];
+        }
+    }
     for (; x < xa; x++) {
         drow[x] = contrast_of(srow[x], border_mean(rt, sum, x, r, w, ny), polarity);
         if (x + r + 1u < w) {   // slide: column x + r + 1 enters (x < r: none leaves)
@@ -214,22 +249,29 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
     }
     const uint32_t half = (2u * r + 1u) * ny / 2u;
     while (x < xb) {
-        // Chunk: the column differences (vectorised), their running sum
-        // (the one sequential chain, one add per pixel), then the means
-        // and contrasts (vectorised).
+        // Chunk: the column differences (vectorised), their running sums
+        // (below), then the means and contrasts (vectorised).
         const uint32_t nc = xb - x < CHUNK ? xb - x : CHUNK;
+        uint32_t dif[CHUNK];
         uint32_t box[CHUNK];
         const uint16_t *in = col + x + r + 1u;
         const uint16_t *out = col + (x - r);
         for (uint32_t j = 0; j < nc; j++) {
-            box[j] = (uint32_t)in[j] - out[j];   // wraps when negative; the sum is exact mod 2^32
+            dif[j] = (uint32_t)in[j] - out[j];   // wraps when negative; the sums are exact mod 2^32
         }
-        // Four at a time: the partial sums do not wait for `acc`, so
-        // the chain is one add per four pixels.
+        // box[j] = sum + half + dif[0] + .. + dif[j-1]. Two forms of the
+        // same sums, chosen by what each compiler makes fast (both exact):
+        // gcc vectorises the recurrence of distance 4 (the box four to the
+        // left plus a window of four differences: 194 against 219 us per
+        // 640x480 frame for the form below, gcc 12 -O3, 64-pixel chunks);
+        // clang 14 does not vectorise it and then runs it as a
+        // store-to-load chain (366 us), while its scalar four-at-a-time
+        // running sum takes 209 us.
         uint32_t acc = sum + half;
+#if defined(__clang__)
         uint32_t j = 0;
         for (; j + 4u <= nc; j += 4u) {
-            const uint32_t p1 = box[j], p2 = p1 + box[j + 1u], p3 = p2 + box[j + 2u], p4 = p3 + box[j + 3u];
+            const uint32_t p1 = dif[j], p2 = p1 + dif[j + 1u], p3 = p2 + dif[j + 2u], p4 = p3 + dif[j + 3u];
             box[j] = acc;
             box[j + 1u] = acc + p1;
             box[j + 2u] = acc + p2;
@@ -237,13 +279,34 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
             acc += p4;
         }
         for (; j < nc; j++) {
-            const uint32_t dj = box[j];
             box[j] = acc;
-            acc += dj;
+            acc += dif[j];
         }
-        sum = acc - half;
+#else
+        const uint32_t n4 = nc < 4u ? nc : 4u;
+        for (uint32_t j = 0; j < n4; j++) {
+            box[j] = acc;
+            acc += dif[j];
+        }
+        for (uint32_t j = 4u; j < nc; j++) {
+            box[j] = box[j - 4u] + ((dif[j - 4u] + dif[j - 3u]) + (dif[j - 2u] + dif[j - 1u]));
+        }
+#endif
+        sum = box[nc - 1u] + dif[nc - 1u] - half;
         contrast_chunk(box, srow + x, drow + x, nc, rt->in.m, rt->in.k, polarity);
         x += nc;
+    }
+    if (fast_border) {
+        // x = xb = w - r - 1 still has the full width (nothing enters after it).
+        drow[x] = contrast_of(srow[x], vd_recip256_div32(rt->in.m, rt->in.k, sum + half), polarity);
+        sum -= col[x - r];
+        x++;
+        for (; x < w; x++) {   // x > xb > r: none enters, column x - r leaves
+            const uint32_t i = w - 1u - x;
+            const uint32_t num = sum + (((r + 1u + i) * ny) >> 1);
+            drow[x] = contrast_of(srow[x], vd_recip256_div32(rt->bm[i], rt->bk[i], num), polarity);
+            sum -= col[x - r];
+        }
     }
     for (; x < w; x++) {
         drow[x] = contrast_of(srow[x], border_mean(rt, sum, x, r, w, ny), polarity);

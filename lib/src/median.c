@@ -8,9 +8,10 @@
 // scalar targets run the same code one pixel at a time.
 //  3x3 ("sorted rows", Paeth/Smith): median of 9 = med3(max of the 3 row
 //       minima, med3 of the 3 row medians, min of the 3 row maxima), each
-//       input row triple sorted horizontally (6 min/max). Four output rows
-//       are done together from 6 input rows, the pairs of rows that two
-//       outputs share combined once: 19 min/max per pixel, in registers.
+//       input row triple sorted horizontally (6 min/max). Eight output rows
+//       are done together from 10 input rows, the pairs of rows that two
+//       outputs share combined once: 17.5 min/max per pixel, in registers
+//       (spills of carried values go to the load/store ports).
 //  5x5: output rows in pairs: per input column the four rows both outputs
 //       share are sorted once (5 exchanges) and the top / bottom row is
 //       inserted for each (4+4 min/max: 13 per pixel against 18 for a
@@ -38,7 +39,7 @@
 // replicates the sorted edge column (a replicated column sorts the same).
 // Images narrower than a block (+ border) take the scalar paths.
 // Reference: cv2.medianBlur (OpenCV imgproc median_blur), bit-exact.
-// Bounds: time O(roi.w * roi.h) (about 19 / 54 min-max per pixel); no
+// Bounds: time O(roi.w * roi.h) (about 17.5 / 54 min-max per pixel); no
 // workspace; stack (stack budget of vd_detector_run, docs/embedded.md): 3x3
 // a 2 x 64-byte buffer for ROIs narrower than a block; 5x5 two rows' sorted
 // columns, their even/odd split, a pair table and an output strip (S5
@@ -151,6 +152,59 @@ static void med3_rows4(const uint8_t *restrict r0, const uint8_t *restrict r1, c
     }
 }
 
+// Eight output rows (o_k: rows r_k .. r_k+2) for BLK3 columns: med3_rows4's
+// sequence continued for two more row pairs, 10 row sorts for 8 outputs
+// (17.5 min/max per pixel against 19). The min/max units are the limit of
+// this kernel (SSE2: 16 lanes; ~9.5 cycles per 16 pixels at 19), so fewer
+// operations is directly fewer cycles; the sorted rows carried from one pair
+// to the next may spill, but loads and stores use other ports.
+static void med3_rows8(const uint8_t *restrict r0, const uint8_t *restrict r1, const uint8_t *restrict r2,
+                       const uint8_t *restrict r3, const uint8_t *restrict r4, const uint8_t *restrict r5,
+                       const uint8_t *restrict r6, const uint8_t *restrict r7, const uint8_t *restrict r8,
+                       const uint8_t *restrict r9, uint8_t *restrict o0, uint8_t *restrict o1,
+                       uint8_t *restrict o2, uint8_t *restrict o3, uint8_t *restrict o4, uint8_t *restrict o5,
+                       uint8_t *restrict o6, uint8_t *restrict o7)
+{
+    for (size_t i = 0; i < BLK3; i++) {
+        uint8_t l0, m0, h0, l1, m1, h1, l2, m2, h2, l3, m3, h3, l4, m4, h4, l5, m5, h5;
+        uint8_t l6, m6, h6, l7, m7, h7, l8, m8, h8, l9, m9, h9;
+        HSORT3(r1, i, l1, m1, h1);
+        HSORT3(r2, i, l2, m2, h2);
+        const uint8_t l12 = VD_MAX8(l1, l2), h12 = VD_MIN8(h1, h2);
+        const uint8_t mn12 = VD_MIN8(m1, m2), mx12 = VD_MAX8(m1, m2);
+        HSORT3(r0, i, l0, m0, h0);
+        const uint8_t la = VD_MAX8(l12, l0), ha = VD_MIN8(h12, h0), ma = VD_MAX8(mn12, VD_MIN8(mx12, m0));
+        o0[i] = MED3(la, ma, ha);
+        HSORT3(r3, i, l3, m3, h3);
+        const uint8_t lb = VD_MAX8(l12, l3), hb = VD_MIN8(h12, h3), mb = VD_MAX8(mn12, VD_MIN8(mx12, m3));
+        o1[i] = MED3(lb, mb, hb);
+        HSORT3(r4, i, l4, m4, h4);
+        const uint8_t l34 = VD_MAX8(l3, l4), h34 = VD_MIN8(h3, h4);
+        const uint8_t mn34 = VD_MIN8(m3, m4), mx34 = VD_MAX8(m3, m4);
+        const uint8_t lc = VD_MAX8(l34, l2), hc = VD_MIN8(h34, h2), mc = VD_MAX8(mn34, VD_MIN8(mx34, m2));
+        o2[i] = MED3(lc, mc, hc);
+        HSORT3(r5, i, l5, m5, h5);
+        const uint8_t ld = VD_MAX8(l34, l5), hd = VD_MIN8(h34, h5), md = VD_MAX8(mn34, VD_MIN8(mx34, m5));
+        o3[i] = MED3(ld, md, hd);
+        HSORT3(r6, i, l6, m6, h6);
+        const uint8_t l56 = VD_MAX8(l5, l6), h56 = VD_MIN8(h5, h6);
+        const uint8_t mn56 = VD_MIN8(m5, m6), mx56 = VD_MAX8(m5, m6);
+        const uint8_t le = VD_MAX8(l56, l4), he = VD_MIN8(h56, h4), me = VD_MAX8(mn56, VD_MIN8(mx56, m4));
+        o4[i] = MED3(le, me, he);
+        HSORT3(r7, i, l7, m7, h7);
+        const uint8_t lf = VD_MAX8(l56, l7), hf = VD_MIN8(h56, h7), mf = VD_MAX8(mn56, VD_MIN8(mx56, m7));
+        o5[i] = MED3(lf, mf, hf);
+        HSORT3(r8, i, l8, m8, h8);
+        const uint8_t l78 = VD_MAX8(l7, l8), h78 = VD_MIN8(h7, h8);
+        const uint8_t mn78 = VD_MIN8(m7, m8), mx78 = VD_MAX8(m7, m8);
+        const uint8_t lg = VD_MAX8(l78, l6), hg = VD_MIN8(h78, h6), mg = VD_MAX8(mn78, VD_MIN8(mx78, m6));
+        o6[i] = MED3(lg, mg, hg);
+        HSORT3(r9, i, l9, m9, h9);
+        const uint8_t lh = VD_MAX8(l78, l9), hh = VD_MIN8(h78, h9), mh = VD_MAX8(mn78, VD_MIN8(mx78, m9));
+        o7[i] = MED3(lh, mh, hh);
+    }
+}
+
 // One output row (rows r0 r1 r2) for BLK3 columns (an odd last row).
 static void med3_rows1(const uint8_t *restrict r0, const uint8_t *restrict r1, const uint8_t *restrict r2,
                        uint8_t *restrict o0)
@@ -192,7 +246,12 @@ static uint8_t med3_px(const uint8_t *r0, const uint8_t *r1, const uint8_t *r2, 
 // pointers and spilled them (15% slower).
 #define MED3_BLOCK(n, p, x, o, off)                                                                             \
     do {                                                                                                      \
-        if ((n) == 4) {                                                                                       \
+        if ((n) == 8) {                                                                                       \
+            med3_rows8((p)[0] + (x) - 1, (p)[1] + (x) - 1, (p)[2] + (x) - 1, (p)[3] + (x) - 1, (p)[4] + (x) - 1, \
+                       (p)[5] + (x) - 1, (p)[6] + (x) - 1, (p)[7] + (x) - 1, (p)[8] + (x) - 1, (p)[9] + (x) - 1, \
+                       (o)[0] + (off), (o)[1] + (off), (o)[2] + (off), (o)[3] + (off), (o)[4] + (off),        \
+                       (o)[5] + (off), (o)[6] + (off), (o)[7] + (off));                                       \
+        } else if ((n) == 4) {                                                                                \
             med3_rows4((p)[0] + (x) - 1, (p)[1] + (x) - 1, (p)[2] + (x) - 1, (p)[3] + (x) - 1, (p)[4] + (x) - 1, \
                        (p)[5] + (x) - 1, (o)[0] + (off), (o)[1] + (off), (o)[2] + (off), (o)[3] + (off));     \
         } else if ((n) == 2) {                                                                                \
@@ -203,17 +262,17 @@ static uint8_t med3_px(const uint8_t *r0, const uint8_t *r1, const uint8_t *r2, 
         }                                                                                                     \
     } while (0)
 
-// Output rows y .. y + n - 1 (n = 1, 2 or 4) of the ROI r into d[0 .. n-1].
+// Output rows y .. y + n - 1 (n = 1, 2, 4 or 8) of the ROI r into d[0 .. n-1].
 // Interior outputs (image columns 1 .. width - 2) go through the block
 // kernels; the last block of a span overlaps the previous one (identical
 // values, so no scalar tail); a span shorter than a block is computed by a
 // block placed inside the image into tmp and copied; columns 0 and width - 1
 // (replicated border) and images narrower than a block + 2 are scalar.
-static void med3_span(const vd_view_u8_t *src, const vd_rect_t *r, int32_t y, int32_t n, uint8_t *const d[4])
+static void med3_span(const vd_view_u8_t *src, const vd_rect_t *r, int32_t y, int32_t n, uint8_t *const d[8])
 {
     const int32_t width = (int32_t)src->width;
-    const uint8_t *p[6];
-    for (int32_t k = 0; k < 6; k++) {
+    const uint8_t *p[10];
+    for (int32_t k = 0; k < 10; k++) {
         p[k] = row_at(src, r->y + y - 1 + (k <= n + 1 ? k : n + 1));
     }
     const int32_t x_end = r->x + r->w;
@@ -234,7 +293,7 @@ static void med3_span(const vd_view_u8_t *src, const vd_rect_t *r, int32_t y, in
         // vd_median3_u8 (stack budget: its worst case stays under 512 bytes
         // on Cortex-M7; four rows at once would need 256).
         uint8_t tmp[2][BLK3];
-        uint8_t *const t[4] = {tmp[0], tmp[1], tmp[0], tmp[1]};   // [2], [3]: never used (m <= 2)
+        uint8_t *const t[8] = {tmp[0], tmp[1], tmp[0], tmp[1], tmp[0], tmp[1], tmp[0], tmp[1]};   // [2..]: never used (m <= 2)
         const int32_t xs = xa + BLK3 <= width - 1 ? xa : width - 1 - BLK3;
         for (int32_t k0 = 0; k0 < n; k0 += 2) {
             const int32_t m = n - k0 >= 2 ? 2 : 1;
@@ -261,17 +320,17 @@ vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
 {
     vd_rect_t r;
     VD_TRY(median_args(src, roi, dst, &r));
-    // Output rows in groups of 4 (rows shared inside a group, see
-    // med3_rows4); the last group overlaps the previous one (identical
-    // values); ROIs under 4 rows high take groups of 2 and 1.
+    // Output rows in groups of 8 (rows shared inside a group, see
+    // med3_rows8); the last group overlaps the previous one (identical
+    // values); ROIs under 8 rows high take groups of 4, 2 and 1.
     int32_t y = 0;
     while (y < r.h) {
-        int32_t n = r.h >= 4 ? 4 : (r.h - y >= 2 ? 2 : 1);
-        if (n == 4 && y > r.h - 4) {
-            y = r.h - 4;
+        int32_t n = r.h >= 8 ? 8 : (r.h >= 4 ? 4 : (r.h - y >= 2 ? 2 : 1));
+        if (n >= 4 && y > r.h - n) {
+            y = r.h - n;
         }
-        uint8_t *d[4];
-        for (int32_t k = 0; k < 4; k++) {
+        uint8_t *d[8];
+        for (int32_t k = 0; k < 8; k++) {
             d[k] = dst->data + (size_t)(y + (k < n ? k : 0)) * dst->stride;
         }
         med3_span(src, &r, y, n, d);

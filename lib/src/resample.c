@@ -2,7 +2,8 @@
 // Exact fixed-point resampler: area average when shrinking, bilinear when growing, per axis.
 //
 // Algorithm: separable weights per axis; the taps of up to 16 output columns
-// are tabled once per call (stack), those of an output row once per row.
+// (32 on the narrow path) are tabled once per call (stack), those of an
+// output row once per row.
 //  - Shrinking axis (S >= D): in units of 1/D source pixel, output i covers
 //    [i*S, (i+1)*S) and source pixel k covers [k*D, (k+1)*D); the weight of k
 //    is the length of the overlap (an integer), the weights sum to S. This is
@@ -20,7 +21,9 @@
 // < 8192*255 < 2^21 (uint32) and the total < 2^34 (uint64: the one place 64
 // bits are needed). Time: each source pixel of the ROI is read at most
 // ceil(D/S)+1 <= 2 times per shrinking axis; growing axes read 2 taps.
-// Stack: the 16-entry x-tap table (128 bytes) + a few words. The rounded
+// Stack: the x-tap table (16 entries, 128 bytes; narrow path: 32 entries
+// + row sums of two row pairs, accumulators and column sums, 640 bytes;
+// the narrow path below) + a few words. The rounded
 // quotient by the constant total T is a reciprocal multiply, exact for
 // T <= 2^23 (internal/recip_internal.h); larger totals divide.
 //
@@ -133,6 +136,263 @@ static inline uint32_t tap_sum(const uint8_t *row, const tap_t *t, uint32_t wm)
     return (uint32_t)t->wf * row[f] + wm * mid + (uint32_t)t->wl * row[l];
 }
 
+// The taps of consecutive outputs i, i+1, ... along one axis without a
+// division per output (tap_at divides two or three times): the same values
+// as tap_at, stepped. Shrinking: lo = i*S, k = floor(lo / D) found by
+// stepping (k only grows: O(S/D + 1) steps per output). Growing: p = (2i+1)*S
+// - D = 2D*k + frac with floor semantics (k = -1 while p < 0); p grows by
+// 2S < 2D per output, so frac wraps at most once.
+typedef struct tap_iter {
+    uint32_t s, d;
+    uint32_t lo;    // shrinking: i*S
+    int32_t k;      // shrinking: floor(lo / D); growing: floor(p / 2D)
+    uint32_t frac;  // growing: p - 2D*k, in [0, 2D)
+} tap_iter_t;
+
+static void tap_iter_init(tap_iter_t *it, uint32_t i0, uint32_t s, uint32_t d)
+{
+    it->s = s;
+    it->d = d;
+    it->lo = i0 * s;   // < 2^13 * 2^12
+    if (s >= d) {
+        it->k = (int32_t)(it->lo / d);
+        it->frac = 0u;
+        return;
+    }
+    const uint32_t pp = (2u * i0 + 1u) * s;   // p + D >= S > 0
+    if (pp >= d) {
+        it->k = (int32_t)((pp - d) / (2u * d));
+        it->frac = (pp - d) % (2u * d);
+    } else {
+        it->k = -1;   // -D < p < 0
+        it->frac = pp + d;
+    }
+}
+
+static void tap_next(tap_iter_t *it, tap_t *t)
+{
+    const uint32_t s = it->s, d = it->d;
+    if (s >= d) {
+        const uint32_t lo = it->lo, hi = lo + s;
+        uint32_t k = (uint32_t)it->k;
+        // Both indices stay below S (lo < hi <= S*D): explicit bounds.
+        while (k + 1u < s && (k + 1u) * d <= lo) {   // < S/D + 1 steps
+            k++;
+        }
+        uint32_t l = k;
+        while (l + 1u < s && (l + 1u) * d < hi) {    // last = floor((hi - 1) / D)
+            l++;
+        }
+        const uint32_t b = (k + 1u) * d;
+        t->first = (uint16_t)k;
+        t->last = (uint16_t)l;
+        t->wf = (uint16_t)((b < hi ? b : hi) - lo);
+        t->wl = (uint16_t)(l > k ? hi - l * d : 0u);
+        it->lo = hi;
+        it->k = (int32_t)l;
+        return;
+    }
+    const uint32_t two_d = 2u * d;
+    const int32_t k = it->k;
+    const uint32_t frac = it->frac;
+    if (k < 0 || (k == 0 && frac == 0u)) {             // p <= 0: pixel 0
+        t->first = t->last = 0u;
+        t->wf = (uint16_t)two_d;
+        t->wl = 0u;
+    } else if ((uint32_t)k >= s - 1u) {                // past the last pixel
+        t->first = t->last = (uint16_t)(s - 1u);
+        t->wf = (uint16_t)two_d;
+        t->wl = 0u;
+    } else {
+        t->first = (uint16_t)k;
+        t->last = (uint16_t)(frac == 0u ? (uint32_t)k : (uint32_t)k + 1u);
+        t->wf = (uint16_t)(two_d - frac);
+        t->wl = (uint16_t)(frac == 0u ? 0u : frac);
+    }
+    it->frac = frac + 2u * s;
+    if (it->frac >= two_d) {
+        it->frac -= two_d;
+        it->k = k + 1;
+    }
+}
+
+// tap_sum over a row of column sums (the vertical-first order below).
+static inline uint32_t tap_sum32(const uint32_t *v, const tap_t *t, uint32_t wm)
+{
+    const uint32_t f = t->first, l = t->last;
+    uint32_t mid = 0u;
+    for (uint32_t k = f + 1u; k < l; k++) {
+        mid += v[k];
+    }
+    return (uint32_t)t->wf * v[f] + wm * mid + (uint32_t)t->wl * v[l];
+}
+
+// out[i] = rounded acc[i] / total for i < n (acc[i] + half < 2^32).
+static void narrow_quot(const uint32_t *restrict acc, uint8_t *restrict out, uint32_t n, uint32_t half,
+                        const vd_recip256_t *rc, bool pow2, uint32_t sh_pow2)
+{
+    if (pow2) {
+        for (uint32_t i = 0u; i < n; i++) {
+            out[i] = (uint8_t)((acc[i] + half) >> sh_pow2);
+        }
+    } else {
+        const uint32_t m = rc->m, k = rc->k;
+        for (uint32_t i = 0u; i < n; i++) {
+            out[i] = (uint8_t)vd_recip256_div32(m, k, acc[i] + half);
+        }
+    }
+}
+
+// Output columns of the narrow path (below) whose taps are tabled at once:
+// the detector's 32-wide samples are one chunk (stack: 8 + 4 + 4 bytes each).
+#define NCHUNK 32u
+// Largest horizontal weight total of the narrow path: a row sum
+// sum_k wx(k) * row[k] <= tot_x * 255 then fits 16 bits.
+#define NARROW_TOT_X 257u
+
+// The narrow path: tot_x <= NARROW_TOT_X (row sums fit uint16) and
+// total <= 2^23 (sums fit uint32, reciprocal exact), i.e. the candidate
+// regions the detector samples. The same sums and quotients as the wide
+// path below, in 16/32-bit lanes: the row sums' multiply-add by the y weight
+// is a 16x16->32 multiply and the quotient one 32x32->64 multiply (a shift
+// when the total is a power of two, as for two growing axes of power-of-two
+// sizes: tot = 2D each), so the compiler vectorises both loops.
+static void resample_narrow(const uint8_t *base, size_t stride, uint32_t sw, uint32_t sh, uint8_t *dst,
+                            uint32_t dst_w, uint32_t dst_h, uint32_t total)
+{
+    const uint32_t half = total / 2u;
+    vd_recip256_t rc;
+    (void)vd_recip256_init(total, &rc);   // total <= 2^23: never fails
+    uint32_t sh_pow2 = 0u;                // log2(total) when total is a power of two
+    while (sh_pow2 < 23u && (1u << sh_pow2) < total) {
+        sh_pow2++;
+    }
+    const bool pow2 = (1u << sh_pow2) == total;
+    tap_t tx[NCHUNK];
+    uint32_t acc[NCHUNK];
+    if (sh > dst_h && sw <= NCHUNK && dst_w <= NCHUNK) {
+        // Vertical first: more source rows than output rows (shrinking y)
+        // and a narrow ROI. Each output row sums its y taps per source
+        // column (vectorised), then takes its x taps of those column sums:
+        // dst_w x-tap sums per output row instead of per source row.
+        // Column sums <= tot_y * 255, x-tap sums <= total * 255 < 2^31.
+        // Output rows in pairs: the x taps' loads and loop are shared by the
+        // pair's two gathers (the costliest part here).
+        uint32_t vs[2][NCHUNK];
+        uint32_t acc1[NCHUNK];
+        tap_iter_t it;
+        tap_iter_init(&it, 0u, sw, dst_w);
+        for (uint32_t i = 0u; i < dst_w; i++) {
+            tap_next(&it, &tx[i]);
+        }
+        tap_iter_init(&it, 0u, sh, dst_h);
+        for (uint32_t oy = 0u; oy < dst_h; oy += 2u) {
+            const uint32_t nr = dst_h - oy >= 2u ? 2u : 1u;
+            for (uint32_t k = 0u; k < nr; k++) {
+                tap_t ty;
+                tap_next(&it, &ty);
+                uint32_t *v = vs[k];
+                const uint8_t *row = base + (size_t)ty.first * stride;
+                const uint32_t wf = ty.wf;
+                for (uint32_t x = 0u; x < sw; x++) {
+                    v[x] = wf * row[x];
+                }
+                for (uint32_t ky = ty.first + 1u; ky <= ty.last; ky++) {
+                    const uint32_t wy = ky == ty.last ? ty.wl : dst_h;
+                    row = base + (size_t)ky * stride;
+                    for (uint32_t x = 0u; x < sw; x++) {
+                        v[x] += wy * row[x];
+                    }
+                }
+            }
+            if (nr == 2u) {
+                const uint32_t *v0 = vs[0], *v1 = vs[1];
+                for (uint32_t i = 0u; i < dst_w; i++) {
+                    const uint32_t f = tx[i].first, l = tx[i].last;
+                    const uint32_t wf = tx[i].wf, wl = tx[i].wl;
+                    uint32_t mid0 = 0u, mid1 = 0u;
+                    for (uint32_t k = f + 1u; k < l; k++) {
+                        mid0 += v0[k];
+                        mid1 += v1[k];
+                    }
+                    acc[i] = wf * v0[f] + dst_w * mid0 + wl * v0[l];
+                    acc1[i] = wf * v1[f] + dst_w * mid1 + wl * v1[l];
+                }
+                narrow_quot(acc, dst + (size_t)oy * dst_w, dst_w, half, &rc, pow2, sh_pow2);
+                narrow_quot(acc1, dst + (size_t)(oy + 1u) * dst_w, dst_w, half, &rc, pow2, sh_pow2);
+            } else {
+                for (uint32_t i = 0u; i < dst_w; i++) {
+                    acc[i] = tap_sum32(vs[0], &tx[i], dst_w);
+                }
+                narrow_quot(acc, dst + (size_t)oy * dst_w, dst_w, half, &rc, pow2, sh_pow2);
+            }
+        }
+        return;
+    }
+    // Row sums cached by source row pairs (2q, 2q+1) in two slots (q & 1):
+    // an output row reads at most two consecutive pairs when its taps span
+    // <= 3 rows, and rows are visited in increasing order, so every pair is
+    // computed once per chunk. A pair shares the x taps' loads and loop
+    // between its two rows (the gather is the costliest part here).
+    uint16_t hs[2][2][NCHUNK];
+    uint32_t hs_pair[2];
+    for (uint32_t cx = 0u; cx < dst_w; cx += NCHUNK) {
+        const uint32_t nx = dst_w - cx < NCHUNK ? dst_w - cx : NCHUNK;
+        tap_iter_t it;
+        tap_iter_init(&it, cx, sw, dst_w);
+        for (uint32_t i = 0u; i < nx; i++) {
+            tap_next(&it, &tx[i]);
+        }
+        hs_pair[0] = hs_pair[1] = UINT32_MAX;
+        tap_iter_init(&it, 0u, sh, dst_h);
+        for (uint32_t oy = 0u; oy < dst_h; oy++) {
+            tap_t ty;
+            tap_next(&it, &ty);
+            for (uint32_t ky = ty.first; ky <= ty.last; ky++) {
+                // wy <= tot_y <= 8192: uint16.
+                const uint16_t wy = ky == ty.first ? ty.wf : (ky == ty.last ? ty.wl : (uint16_t)dst_h);
+                const uint32_t q = ky >> 1, slot = q & 1u;
+                if (hs_pair[slot] != q) {
+                    const uint8_t *r0 = base + (size_t)(2u * q) * stride;
+                    uint16_t *o0 = hs[slot][0], *o1 = hs[slot][1];
+                    if (2u * q + 1u < sh) {
+                        const uint8_t *r1 = r0 + stride;
+                        for (uint32_t i = 0u; i < nx; i++) {
+                            const uint32_t f = tx[i].first, l = tx[i].last;
+                            const uint32_t wf = tx[i].wf, wl = tx[i].wl;
+                            uint32_t mid0 = 0u, mid1 = 0u;
+                            for (uint32_t k = f + 1u; k < l; k++) {
+                                mid0 += r0[k];
+                                mid1 += r1[k];
+                            }
+                            // <= tot_x * 255 < 2^16
+                            o0[i] = (uint16_t)(wf * r0[f] + dst_w * mid0 + wl * r0[l]);
+                            o1[i] = (uint16_t)(wf * r1[f] + dst_w * mid1 + wl * r1[l]);
+                        }
+                    } else {
+                        for (uint32_t i = 0u; i < nx; i++) {
+                            o0[i] = (uint16_t)tap_sum(r0, &tx[i], dst_w);
+                        }
+                    }
+                    hs_pair[slot] = q;
+                }
+                const uint16_t *h = hs[slot][ky & 1u];
+                // acc <= total * 255 < 2^31.
+                if (ky == ty.first) {
+                    for (uint32_t i = 0u; i < nx; i++) {
+                        acc[i] = (uint32_t)wy * h[i];
+                    }
+                } else {
+                    for (uint32_t i = 0u; i < nx; i++) {
+                        acc[i] += (uint32_t)wy * h[i];
+                    }
+                }
+            }
+            narrow_quot(acc, dst + (size_t)oy * dst_w + cx, nx, half, &rc, pow2, sh_pow2);
+        }
+    }
+}
+
 vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t *dst,
                            uint32_t dst_w, uint32_t dst_h)
 {
@@ -152,6 +412,10 @@ vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_
     const uint32_t wm_x = dst_w;   // inner taps exist only on a shrinking axis
     const uint32_t wm_y = dst_h;
     const uint64_t total = (uint64_t)tot_x * tot_y;   // <= 2^26
+    if (tot_x <= NARROW_TOT_X && total <= VD_RECIP256_MAX_DIV) {
+        resample_narrow(base, src->stride, sw, sh, dst, dst_w, dst_h, (uint32_t)total);
+        return VD_OK;
+    }
     const uint64_t half = total / 2u;
     // Rounded quotient < 256: reciprocal multiply when the total allows it
     // (regions up to 2^23 pixels), else one division per output.
