@@ -71,7 +71,7 @@ for el in multifilesrc pngdec pngenc jpegdec; do
 done
 
 # Python tools (tools/pyproject.toml lists them): numpy, scikit-learn, scikit-image,
-# opencv-python-headless (oracle + benchmark peer), matplotlib (figures), tqdm, pytest;
+# opencv-python-headless (oracle + benchmark peer), matplotlib (figures), tqdm, pillow; extras fleet (Dask) and test (pytest);
 # the "fleet" extra: dask[distributed] for vdtools.fleet and its fault tests (tests/python/test_fleet.py).
 # Debian's own python3 is "externally managed" (PEP 668): pip refuses to install into it
 # unless told --break-system-packages. That installs into /usr/local as root, ~/.local
@@ -85,4 +85,4 @@ if python3 -c 'import os, sys, sysconfig; sys.exit(not os.path.exists(os.path.jo
 else
   "${PIP_INSTALL[@]}" --upgrade pip >/dev/null 2>&1 || true
 fi
-"${PIP_INSTALL[@]}" -e "$(dirname "$0")[fleet]"
+"${PIP_INSTALL[@]}" -e "$(dirname "$0")[fleet,test]"

@@ -46,6 +46,11 @@ class Frame(C.Structure):
                 ("timestamp_us", C.c_uint64)]
 
 
+class Calib(C.Structure):
+    """Mirror of vd_calib_t (calib.h): used by the detector configuration and the pixel tools."""
+    _fields_ = [("gain_q16", C.c_int32), ("offset_ck", C.c_int32)]
+
+
 class Point(C.Structure):
     _fields_ = [("x", C.c_int16), ("y", C.c_int16)]
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vdtools import clib
+from vdtools import clib, components
 from vdtools.sources import ContrastCfg, WindowsCfg, windows_cfg as _windows_cfg
 
 THR_CONSTANT, THR_ADAPTIVE = 0, 1
@@ -33,13 +33,9 @@ SOURCE_NAMES = {1: "hotspot", 2: "window", 3: "contrast", 4: "cnn"}
 CLOCK_FN = C.CFUNCTYPE(C.c_uint32, C.c_void_p)
 
 
-class Calib(C.Structure):
-    _fields_ = [("gain_q16", C.c_int32), ("offset_ck", C.c_int32)]
-
-
-class CcRules(C.Structure):
-    _fields_ = [("aspect_min_q8", C.c_uint16), ("aspect_max_q8", C.c_uint16),
-                ("min_area", C.c_uint32), ("max_area", C.c_uint32)]
+# One mirror per C struct (tests/python/test_bindings_layout.py checks them against the headers).
+Calib = clib.Calib
+CcRules = components.Rules
 
 
 class TemporalCfg(C.Structure):

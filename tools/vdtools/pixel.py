@@ -14,8 +14,7 @@ _P = C.POINTER
 _configured = set()
 
 
-class Calib(C.Structure):
-    _fields_ = [("gain_q16", C.c_int32), ("offset_ck", C.c_int32)]
+Calib = clib.Calib   # the one mirror of vd_calib_t
 
 
 def _lib():
