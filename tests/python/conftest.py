@@ -5,6 +5,8 @@ import pytest
 
 from vdtools import clib
 
+from buildpaths import build_dir
+
 
 @pytest.fixture(scope="session")
 def vdlib():
@@ -19,3 +21,12 @@ def data_dir():
     if not clib.DATA_DIR.is_dir():
         pytest.skip(f"real thermal data not found at {clib.DATA_DIR} (../shared/data beside the project)")
     return clib.DATA_DIR
+
+
+@pytest.fixture(scope="session")
+def demo():
+    """The vd_fir_demo of the build under test."""
+    exe = build_dir() / "tools" / "vd_fir_demo"
+    if not exe.is_file():
+        pytest.skip(f"vd_fir_demo not built at {exe} (cmake --build build); set VD_BUILD_DIR")
+    return exe

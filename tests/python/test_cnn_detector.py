@@ -11,7 +11,6 @@ Frames are handed to the demo as PGM files written from the very arrays Python u
 (stb_image in the demo, libjpeg in OpenCV) cannot make the two sides differ."""
 import ctypes as C
 import json
-import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -27,31 +26,9 @@ from vdtools import detector as vdet
 from vdtools.clib import REPO
 
 from realdata import frames_in_test_split
+from buildpaths import build_dir, run_demo as run
 
 MODEL = REPO / "models" / "vd_cnn.vdm"
-
-
-def build_dir():
-    if os.environ.get("VD_BUILD_DIR"):
-        return Path(os.environ["VD_BUILD_DIR"])
-    if os.environ.get("VD_LIB"):
-        return Path(os.environ["VD_LIB"]).parent
-    return REPO / "build"
-
-
-@pytest.fixture(scope="module")
-def demo():
-    exe = build_dir() / "tools" / "vd_fir_demo"
-    if not exe.is_file():
-        pytest.skip(f"vd_fir_demo not built at {exe} (cmake --build build); set VD_BUILD_DIR")
-    return exe
-
-
-def run(demo, *args, check=True):
-    p = subprocess.run([str(demo), *map(str, args)], capture_output=True, text=True, timeout=300)
-    if check and p.returncode != 0:
-        raise AssertionError(f"vd_fir_demo failed ({p.returncode}): {p.stderr}")
-    return p
 
 
 def demo_dets(jsonl):

@@ -8,7 +8,6 @@ else <repo>/build). Model: the first models/*.vdm if present, else none (the det
 then keeps every refined candidate with score 1.0)."""
 import json
 import os
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +15,7 @@ import pytest
 
 from vdtools import clip, evaluate
 from vdtools.clib import REPO
+from buildpaths import build_dir, run_demo as run
 
 # Floors measured on the 120-frame clip (seed 1), docs/demo.md. Without a model:
 # 16-bit 83.8 % TP / 21.1 % FP, 8-bit 82.1 % TP / 22.4 % FP.
@@ -28,22 +28,6 @@ TP_FLOOR_MODEL = 0.19
 
 STATES = {"new", "confirmed", "recovered"}
 SOURCES = {"hotspot", "window", "contrast", "cnn"}
-
-
-def build_dir():
-    if os.environ.get("VD_BUILD_DIR"):
-        return Path(os.environ["VD_BUILD_DIR"])
-    if os.environ.get("VD_LIB"):
-        return Path(os.environ["VD_LIB"]).parent
-    return REPO / "build"
-
-
-@pytest.fixture(scope="session")
-def demo():
-    exe = build_dir() / "tools" / "vd_fir_demo"
-    if not exe.is_file():
-        pytest.skip(f"vd_fir_demo not built at {exe} (cmake --build build); set VD_BUILD_DIR")
-    return exe
 
 
 @pytest.fixture(scope="session")
@@ -61,13 +45,6 @@ def clip_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("clip")
     clip.generate(out, frames=120, seed=1)
     return out
-
-
-def run(demo, *args, check=True):
-    p = subprocess.run([str(demo), *map(str, args)], capture_output=True, text=True, timeout=120)
-    if check and p.returncode != 0:
-        raise AssertionError(f"vd_fir_demo failed ({p.returncode}): {p.stderr}")
-    return p
 
 
 def check_jsonl(path, frame_names, width=640, height=512):

@@ -21,19 +21,11 @@ import numpy as np
 import pytest
 
 from vdtools import clip, evaluate
+from buildpaths import build_dir, run_demo as run
 
-from test_demo import build_dir
 
 FRAMES = 60
 MAX_THUMBS = 48   # DEMO_REPORT_MAX_THUMBS (tools/demo/report.h)
-
-
-@pytest.fixture(scope="module")
-def demo():
-    exe = build_dir() / "tools" / "vd_fir_demo"
-    if not exe.is_file():
-        pytest.skip(f"vd_fir_demo not built at {exe} (cmake --build build); set VD_BUILD_DIR")
-    return exe
 
 
 @pytest.fixture(scope="module")
@@ -41,13 +33,6 @@ def clip_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("clip")
     clip.generate(out, frames=FRAMES, seed=1)
     return out
-
-
-def run(demo, *args, check=True):
-    p = subprocess.run([str(demo), *map(str, args)], capture_output=True, text=True, timeout=300)
-    if check and p.returncode != 0:
-        raise AssertionError(f"vd_fir_demo failed ({p.returncode}): {p.stderr}")
-    return p
 
 
 @pytest.fixture(scope="module", params=["bundled", "synthetic"])

@@ -7,13 +7,13 @@ inverted must print the vd_status_str() text of VD_ERR_MODEL and exit 2, not fau
 
 Skipped only when qemu-system-arm is absent (tools/setup.sh installs it). The
 firmware builds into <repo>/build-fw-m7 and build-fw-m4 (~30 s each the first time)."""
-import os
 import re
 import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
+from buildpaths import build_dir
 
 # This checkout (vdtools may be installed from another one).
 REPO = Path(__file__).resolve().parents[2]
@@ -23,14 +23,6 @@ BOARDS = {  # toolchain file -> QEMU machine and CPU
     "cortex-m4": ("mps2-an386", "cortex-m4", "build-fw-m4"),
 }
 QEMU_TIMEOUT = 120  # seconds; one run takes about 1 s
-
-
-def build_dir():
-    if os.environ.get("VD_BUILD_DIR"):
-        return Path(os.environ["VD_BUILD_DIR"])
-    if os.environ.get("VD_LIB"):
-        return Path(os.environ["VD_LIB"]).parent
-    return REPO / "build"
 
 
 @pytest.fixture(scope="module")

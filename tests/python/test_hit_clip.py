@@ -59,7 +59,7 @@ def test_clip_frames_are_test_only(data_dir):
 
 @pytest.fixture(scope="module")
 def demo():
-    from test_demo import build_dir
+    from buildpaths import build_dir
     exe = build_dir() / "tools" / "vd_fir_demo"
     if not exe.is_file():
         pytest.skip(f"vd_fir_demo not built at {exe} (cmake --build build); set VD_BUILD_DIR")
