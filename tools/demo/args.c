@@ -69,6 +69,8 @@ typedef enum setting_id {
     SET_CNN_MODEL,
     SET_CNN_THR,
     SET_CNN_RESCORE,
+    SET_VERIFIER,
+    SET_BOOST_MODEL,
     SET_COUNT
 } setting_id_t;
 
@@ -162,6 +164,11 @@ static const setting_t k_settings[SET_COUNT] = {
     [SET_CNN_RESCORE] = {"cnn-rescore", "[on|off]",
                          "cnn source: the DBN also scores each network box (whole box, as windows) and keeps it "
                          "at >= --score-thr; the score is then the DBN's (needs a DBN model; default off)"},
+    [SET_VERIFIER] = {"verifier", "dbn|boost",
+                      "verifier of hot-spot/contrast/window (and re-scored cnn) candidates: dbn (default, --model) "
+                      "or boost (paper 003's boosted CNN-feature stumps, --boost-model)"},
+    [SET_BOOST_MODEL] = {"boost-model", "FILE",
+                         "--verifier boost: version-4 .vdm (default models/vd_boost.vdm)"},
 };
 
 void demo_args_usage(FILE *f)
@@ -670,6 +677,18 @@ static bool apply_setting(demo_opts_t *o, setting_id_t id, const char *v, char *
     case SET_CNN_RESCORE:
         ok = parse_switch(v, &on);
         cfg->cnn_rescore = ok ? (uint8_t)on : cfg->cnn_rescore;
+        break;
+    case SET_VERIFIER:
+        ok = strcmp(v, "dbn") == 0 || strcmp(v, "boost") == 0;
+        cfg->verifier = (ok && v[0] == 'b') ? (uint8_t)VD_DETECTOR_VERIFIER_BOOST : cfg->verifier;
+        cfg->verifier = (ok && v[0] == 'd') ? (uint8_t)VD_DETECTOR_VERIFIER_DBN : cfg->verifier;
+        break;
+    case SET_BOOST_MODEL:
+        ok = v[0] != '\0' && strlen(v) < sizeof o->boost_model_buf;
+        if (ok) {
+            snprintf(o->boost_model_buf, sizeof o->boost_model_buf, "%s", v);
+            o->boost_model = o->boost_model_buf;
+        }
         break;
     default:
         ok = false;

@@ -49,6 +49,8 @@ typedef struct run {
     vd_cnn_model_t cnn;
     bool have_cnn;
     char cnn_path[4096];
+    uint8_t *boost_blob;     // --verifier boost
+    vd_boost_model_t boost;
     vd_detector_t det;
     void *ws;
     bool det_ready;
@@ -204,7 +206,30 @@ static vd_status_t load_models(run_t *r)
         o->cfg.sources = cnn ? VD_DETECTOR_SRC_CNN : VD_DETECTOR_SRC_HOTSPOT;
     }
     const bool want_cnn = (o->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
-    const bool want_dbn = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u || (want_cnn && o->cfg.cnn_rescore != 0u);
+    const bool boost = o->cfg.verifier == VD_DETECTOR_VERIFIER_BOOST;
+    const bool want_dbn =
+        !boost && ((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u || (want_cnn && o->cfg.cnn_rescore != 0u));
+    if (boost) {
+        char path[4096];
+        size_t blen = 0;
+        if (o->boost_model != NULL) {
+            snprintf(path, sizeof path, "%s", o->boost_model);
+        } else {
+            snprintf(path, sizeof path, "%s/vd_boost.vdm", VD_DEMO_MODELS_DIR);
+        }
+        st = read_model(r, "--boost-model", path, &r->boost_blob, &blen);
+        if (st == VD_OK) {
+            st = vd_boost_load(&r->boost, r->boost_blob, blen);
+            if (st != VD_OK) {
+                snprintf(r->err, sizeof r->err, "--boost-model %s: not a valid boosted .vdm model (version 4)", path);
+            }
+        }
+        if (st != VD_OK) {
+            free(mblob);
+            return st;
+        }
+        o->cfg.boost_model = &r->boost;
+    }
     if (want_cnn) {
         size_t clen = 0;
         const char *opt = "--cnn-model";
@@ -275,7 +300,7 @@ static vd_status_t load_models(run_t *r)
         r->have_model = true;
     }
     free(mblob);   // a CNN --model that no source uses
-    if (want_cnn && o->cfg.cnn_rescore != 0u && !r->have_model) {
+    if (want_cnn && o->cfg.cnn_rescore != 0u && !r->have_model && !boost) {
         snprintf(r->err, sizeof r->err, "--cnn-rescore needs a DBN model (--model FILE)");
         return VD_ERR_ARG;
     }
@@ -694,6 +719,7 @@ static void cleanup(run_t *r)
     free(r->cands);
     free(r->model_blob);
     free(r->cnn_blob);
+    free(r->boost_blob);
     if (r->have_gt) {
         demo_gt_free(&r->gt);
     }

@@ -209,7 +209,7 @@ def quantise(ck, ds, name="vd_boost", n_calib=2000, seed=0):
             b = np.zeros(3)
             b[0] = float(net.head.bias.detach()[0])
         cout = w.shape[0]
-        sw = np.maximum(np.abs(w.reshape(cout, -1)).max(1), 1e-8) / 127.0
+        sw = np.maximum(np.abs(w.reshape(cout, -1)).max(1), 1e-4) / 127.0   # dead channels: m stays >= 2^-31
         wq = np.clip(np.round(w / sw[:, None, None, None]), -127, 127).astype(np.int8)
         if kind == "c":
             wq = wq.transpose(0, 2, 3, 1)
@@ -323,12 +323,13 @@ def main(argv=None):
     ap.add_argument("--stumps", type=int, default=300)
     ap.add_argument("--per-layer", type=int, default=1, help="maps per layer (paper: 1, i.e. 1440 features)")
     ap.add_argument("--name", default="vd_boost")
+    ap.add_argument("--tag", default="", help="suffix of the cached checkpoint / tensors (parallel runs)")
     ap.add_argument("--out", default=str(clib.REPO / "models"))
     a = ap.parse_args(argv)
     CACHE.mkdir(parents=True, exist_ok=True)
     ds = load_crops()
     log("crops", {s: int((ds["split"] == s).sum()) for s in ("train", "val", "test")})
-    ckp = CACHE / f"cnn_f{a.filters}.pt"
+    ckp = CACHE / f"cnn_f{a.filters}{a.tag}.pt"
     if a.step in ("train", "all"):
         train(ds, a.filters, a.epochs, out=ckp, max_train=a.max_train)
     if a.step == "train":
@@ -337,7 +338,7 @@ def main(argv=None):
     ck = torch.load(ckp, weights_only=False)
     cnn, qi = quantise(ck, ds, a.name)
     np.savez_compressed(CACHE / "cnn_desc.npz", blob=np.frombuffer(V.pack(cnn), np.uint8))
-    tp = CACHE / f"tensors_f{a.filters}.npz"
+    tp = CACHE / f"tensors_f{a.filters}{a.tag}.npz"
     if tp.exists() and tp.stat().st_mtime > ckp.stat().st_mtime:
         with np.load(tp) as z:
             T = {int(k[1:]): z[k] for k in z.files}
