@@ -129,6 +129,7 @@ vd_status_t vd_boost_load(vd_boost_model_t *m, const void *blob, size_t bytes)
         len[i] = (cw / f) * (ch / f);   // input size is a multiple of every factor (vd_cnn_load)
         n_feat += len[i];
     }
+    int32_t span = 0;   // <= 4096 * 32767 < 2^27
     for (uint32_t k = 0u; k < n_stumps; k++) {
         const uint8_t *s = b + st_off + VD_BOOST_STUMP_SIZE * k;
         const uint32_t pos = rd_u16(s);
@@ -136,6 +137,8 @@ vd_status_t vd_boost_load(vd_boost_model_t *m, const void *blob, size_t bytes)
         const int32_t lv = rd_i16(s + 4), rv = rd_i16(s + 6);
         VD_VERIFY(mi < n_maps && pos < len[mi], VD_ERR_MODEL);
         VD_VERIFY(lv >= -VALUE_MAX && rv >= -VALUE_MAX, VD_ERR_MODEL);
+        const int32_t al = (lv < 0) ? -lv : lv, ar = (rv < 0) ? -rv : rv;
+        span += (al > ar) ? al : ar;
     }
 
     memset(m, 0, sizeof *m);
@@ -154,6 +157,7 @@ vd_status_t vd_boost_load(vd_boost_model_t *m, const void *blob, size_t bytes)
     m->n_stumps = n_stumps;
     m->stumps = b + st_off;
     m->threshold = (int32_t)rd_u32(b + H_THRESHOLD);
+    m->score_span = (span < 1) ? 1 : span;
     m->crop_w = (uint16_t)cw;
     m->crop_h = (uint16_t)ch;
     memcpy(m->name, b + H_NAME, H_NAME_LEN);

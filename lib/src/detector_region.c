@@ -170,12 +170,13 @@ static vd_status_t verify_boost(vd_detector_t *det, const vd_view_u8_t *view, co
     int32_t s = 0;
     VD_TRY(vd_boost_score(bm, det->sample, bm->crop_w, det->dbn_ws, det->dbn_ws_bytes, &s));
     vd_det_clock_add(det, VD_DET_STAGE_DBN, t0);
-    const int64_t diff = (int64_t)s - ((int64_t)bm->threshold + det->cfg.boost_thr_offset);
-    // Floor division by 64, so score_q8 >= 128 exactly when kept.
-    int64_t q = 128 + ((diff >= 0) ? diff / 64 : -((-diff + 63) / 64));
+    // Floor division, so score_q8 >= 128 exactly when score >= the model's threshold.
+    const int64_t num = ((int64_t)s - bm->threshold) * 128;
+    const int64_t span = bm->score_span;
+    int64_t q = 128 + ((num >= 0) ? num / span : -((-num + span - 1) / span));
     q = (q < 0) ? 0 : ((q > 255) ? 255 : q);
     d->score_q8 = (uint8_t)q;
-    if (diff < 0) {
+    if ((int64_t)s < (int64_t)bm->threshold + det->cfg.boost_thr_offset) {
         return VD_OK;
     }
     det->stats.verified++;

@@ -71,6 +71,7 @@ typedef enum setting_id {
     SET_CNN_RESCORE,
     SET_VERIFIER,
     SET_BOOST_MODEL,
+    SET_BOOST_OFFSET,
     SET_COUNT
 } setting_id_t;
 
@@ -169,6 +170,9 @@ static const setting_t k_settings[SET_COUNT] = {
                       "or boost (paper 003's boosted CNN-feature stumps, --boost-model)"},
     [SET_BOOST_MODEL] = {"boost-model", "FILE",
                          "--verifier boost: version-4 .vdm (default models/vd_boost.vdm)"},
+    [SET_BOOST_OFFSET] = {"boost-offset", "N",
+                          "--verifier boost: keep candidates with score >= the model's threshold + N "
+                          "(integer, -16777216..16777216; default 0; negative values for PR curves)"},
 };
 
 void demo_args_usage(FILE *f)
@@ -268,6 +272,18 @@ static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
         return false;
     }
     *out = (uint32_t)v;
+    return true;
+}
+
+static bool parse_i32(const char *s, int32_t lo, int32_t hi, int32_t *out)
+{
+    char *end = NULL;
+    errno = 0;
+    long long v = strtoll(s, &end, 10);
+    if (end == s || *end != '\0' || errno != 0 || v < lo || v > hi) {
+        return false;
+    }
+    *out = (int32_t)v;
     return true;
 }
 
@@ -683,6 +699,12 @@ static bool apply_setting(demo_opts_t *o, setting_id_t id, const char *v, char *
         cfg->verifier = (ok && v[0] == 'b') ? (uint8_t)VD_DETECTOR_VERIFIER_BOOST : cfg->verifier;
         cfg->verifier = (ok && v[0] == 'd') ? (uint8_t)VD_DETECTOR_VERIFIER_DBN : cfg->verifier;
         break;
+    case SET_BOOST_OFFSET: {
+        int32_t off = 0;
+        ok = parse_i32(v, -16777216, 16777216, &off);
+        cfg->boost_thr_offset = ok ? off : cfg->boost_thr_offset;
+        break;
+    }
     case SET_BOOST_MODEL:
         ok = v[0] != '\0' && strlen(v) < sizeof o->boost_model_buf;
         if (ok) {

@@ -106,11 +106,30 @@ def main(argv=None):
     plot(curves, RESULTS / "det_boost.png", title="DET: 64x64 test crops (paper 003 protocol)")
     out["table"] = table
 
+    out["speed"] = speed(blob, ds["X"][te])
+    BT.log("speed", out["speed"])
     if a.experiments:
         out["experiments"] = experiments(ds, T, y, split, a.exp_stumps, a.exp_train, ckpt=BT.CACHE / f"cnn_f{a.filters}{a.tag}.pt")
     out["seconds"] = round(time.time() - t0)
     (RESULTS / "boost.json").write_text(json.dumps(out, indent=1))
     BT.log("wrote", RESULTS / "boost.json")
+
+
+def speed(blob, X, n=300, reps=3):
+    """Median over reps of the mean wall time of vd_boost_score per 64x64 crop (one thread, ctypes call
+    included), the CNN's multiply-adds and the model bytes."""
+    from . import cnn_ref as R
+    m = B.CBoost(blob)
+    d = B.unpack(blob)
+    X = X[:n]
+    ts = []
+    for _ in range(reps):
+        t = time.perf_counter()
+        for x in X:
+            m.score(x)
+        ts.append((time.perf_counter() - t) / len(X))
+    return {"us_per_crop": round(1e6 * float(np.median(ts)), 1), "macs": int(R.macs(d["cnn"], BT.SIDE, BT.SIDE)),
+            "stumps": int(len(d["stumps"])), "model_bytes": len(blob), "workspace_bytes": int(m.ws_bytes)}
 
 
 def experiments(ds, T, y, split, n_stumps, n_train, seed=0, ckpt=None):

@@ -345,7 +345,7 @@ def main(argv=None):
     else:
         log("int8 tensors of every crop (C)")
         T = tensors_c(cnn, ds["X"])
-        np.savez_compressed(tp, **{f"t{k}": v for k, v in T.items()})
+        np.savez(tp, **{f"t{k}": v for k, v in T.items()})   # ~1.3 GB: compression costs minutes
     sel, act = select_maps(T, ds, qi["zp"])
     log("selected maps (val vehicles, mean activation order):", sel)
     maps = [(LAYER_T[n], c) for n in LAYER_T for c in sel[n][:a.per_layer]]

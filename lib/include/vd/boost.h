@@ -51,6 +51,7 @@ typedef struct vd_boost_model {
     uint32_t n_stumps;                        // 1..VD_BOOST_MAX_STUMPS
     const uint8_t *stumps;                    // n_stumps entries of 8 bytes (docs/model-format.md)
     int32_t threshold;                        // accept when score >= threshold
+    int32_t score_span;                       // sum over stumps of max(|left|, |right|) >= |score|, >= 1
     uint16_t crop_w;                          // crop size = the CNN's nominal input size
     uint16_t crop_h;
     char name[17];

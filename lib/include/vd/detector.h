@@ -155,9 +155,11 @@ typedef struct vd_detector_cfg {
     // boosted CNN-feature stumps of paper 003 (boost.h) score every candidate
     // the DBN would (hot spots, contrast, windows, re-scored CNN boxes) on a
     // crop_w x crop_h sample of the same box; kept when score >= the model's
-    // threshold + boost_thr_offset; score_q8 = clamp(128 + (score - thr) / 64,
-    // 0, 255), so kept candidates have score_q8 >= 128 (the NMS order follows
-    // the boosted score). The DBN `model` may then be NULL.
+    // threshold + boost_thr_offset; score_q8 = clamp(128 + floor(128 (score -
+    // threshold) / score_span), 0, 255) (boost.h: score_span bounds |score|),
+    // so score_q8 >= 128 exactly when score >= the model's threshold and the
+    // NMS order follows the boosted score; a negative offset keeps lower
+    // scores too (for precision-recall curves). The DBN `model` may then be NULL.
     uint8_t verifier;            // VD_DETECTOR_VERIFIER_*, 0..1; 0 = DBN
     uint8_t reserved3[3];        // 0
     const vd_boost_model_t *boost_model;  // loaded by vd_boost_load; required with VERIFIER_BOOST
