@@ -312,6 +312,32 @@ def pick_threshold(scores, y, target_fppw):
     return int(neg[k] + 1) if k < len(neg) else int(neg[-1])
 
 
+def model_card(name, meta):
+    sel = meta["selected"]
+    return f"""# {name} — paper 003's boosted CNN-feature verifier (issue 12)
+
+- **File**: `{name}.vdm` (format version 4, the boosted kind, docs/model-format.md; {meta['bytes']} bytes, CRC-32 of
+  bytes [16, end) {meta['crc32']}). No C array is committed (`python3 -m vdtools.export --c-from-vdm` writes one
+  for any blob).
+- **Network** (embedded version-3 CNN, input 64×64, per-crop percentile stretch 10‰–990‰, min range 16):
+  Conv_1, Conv_2 (5×5, op 7) → Maxpool_1 → Conv_3, Conv_4, Conv_5 (5×5) → Maxpool_2 → 1×1 head;
+  **{meta['filters']} filters per layer** (the paper has 60), padding 2, ReLU; {meta['macs'] / 1e6:.1f} M multiply-adds per crop.
+- **Features**: maps {meta['maps']} as (tensor, channel): tensor 3 = Maxpool_1, 5 = Conv_4, 6 = Conv_5, each 32×32;
+  {meta['n_features']} int8 features. Ranking by mean val-vehicle activation (paper Table 2 on our network):
+  Maxpool_1 {sel['Maxpool_1']}, Conv_4 {sel['Conv_4']}, Conv_5 {sel['Conv_5']} (the paper's 45 / 38 / 55 are its
+  network's indices).
+- **Classifier**: scikit-learn AdaBoost, **SAMME**, decision stumps (depth-1 trees), trained on the train rows;
+  {meta['n_stumps']} stumps (prefix chosen on val), int8 thresholds, int16 votes Q{meta['q']}; accept threshold
+  {meta['threshold']} (val FPPW ≤ 5 %).
+- **Training**: `python3 -m vdtools.boost_train all --filters {meta['filters']} --epochs 3 --max-train 12000`
+  (docs/training.md); CNN epoch {meta['epoch']}, val loss {meta['val_loss']:.3f}, val accuracy
+  {100 * meta['val_acc']:.1f} % (the CNN's own classifier head).
+- **Data**: the 64×64 crop set of `vdtools.dataset` (train split only; val for every choice). Results on the
+  test split: docs/results/boost.md. C `vd_boost_score` equals the integer reference on every test crop
+  (`tests/python/test_boost_parity.py`).
+"""
+
+
 # ------------------------------------------------------------------ main
 
 def main(argv=None):
@@ -381,6 +407,7 @@ def main(argv=None):
                 bytes=len(blob), crc32=f"0x{int.from_bytes(blob[12:16], 'little'):08X}",
                 macs=R.macs(cnn, SIDE, SIDE), n_features=int(Fm.shape[1]))
     (CACHE / f"{a.name}.json").write_text(json.dumps(meta, indent=1))
+    (out / f"{a.name}.md").write_text(model_card(a.name, meta))
     log("wrote", out / f"{a.name}.vdm", meta["bytes"], "bytes", meta["crc32"])
 
 
