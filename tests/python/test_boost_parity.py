@@ -51,6 +51,7 @@ def test_random_models_bit_exact(lib):
             f = B.features_from_tensors(d, ts)
             np.testing.assert_array_equal(m.features(img), f)
             assert m.score(img) == int(B.score_features(d, f[None])[0]) == B.score(d, img)
+            assert B.score_batch(d, img[None])[0] == m.score(img)
 
 
 def test_loader_rejects_corruption(lib):
@@ -81,8 +82,10 @@ def test_committed_model_every_test_crop(lib):
     m = B.CBoost(blob)
     if os.environ.get("VD_BOOST_PARITY_LIMIT"):
         X = X[:int(os.environ["VD_BOOST_PARITY_LIMIT"])]
-    bad = 0
-    for x in X:
-        bad += int(m.score(x) != B.score(d, x))
+    for x in X[:3]:   # the batched reference is cnn_ref.forward crop by crop
+        assert B.score_batch(d, x[None])[0] == B.score(d, x)
+    ref = B.score_batch(d, X)
+    c = np.array([m.score(x) for x in X])
+    bad = int((c != ref).sum())
     assert bad == 0, f"{bad} of {len(X)} test crops differ"
     assert len(X) > 1000
