@@ -317,8 +317,7 @@ def model_card(name, meta):
     return f"""# {name} — paper 003's boosted CNN-feature verifier (issue 12)
 
 - **File**: `{name}.vdm` (format version 4, the boosted kind, docs/model-format.md; {meta['bytes']} bytes, CRC-32 of
-  bytes [16, end) {meta['crc32']}). No C array is committed (`python3 -m vdtools.export --c-from-vdm` writes one
-  for any blob).
+  bytes [16, end) {meta['crc32']}). No C array is committed.
 - **Network** (embedded version-3 CNN, input 64×64, per-crop percentile stretch 10‰–990‰, min range 16):
   Conv_1, Conv_2 (5×5, op 7) → Maxpool_1 → Conv_3, Conv_4, Conv_5 (5×5) → Maxpool_2 → 1×1 head;
   **{meta['filters']} filters per layer** (the paper has 60), padding 2, ReLU; {meta['macs'] / 1e6:.1f} M multiply-adds per crop.
@@ -329,8 +328,8 @@ def model_card(name, meta):
 - **Classifier**: scikit-learn AdaBoost, **SAMME**, decision stumps (depth-1 trees), trained on the train rows;
   {meta['n_stumps']} stumps (prefix chosen on val), int8 thresholds, int16 votes Q{meta['q']}; accept threshold
   {meta['threshold']} (val FPPW ≤ 5 %).
-- **Training**: `python3 -m vdtools.boost_train all --filters {meta['filters']} --epochs 3 --max-train 12000`
-  (docs/training.md); CNN epoch {meta['epoch']}, val loss {meta['val_loss']:.3f}, val accuracy
+- **Training**: `python3 -m vdtools.boost_train train --filters {meta['filters']} --epochs 3 --max-train 12000`, then
+  `python3 -m vdtools.boost_train export --filters {meta['filters']} --stumps 300` (docs/training.md); CNN epoch {meta['epoch']}, val loss {meta['val_loss']:.3f}, val accuracy
   {100 * meta['val_acc']:.1f} % (the CNN's own classifier head).
 - **Data**: the 64×64 crop set of `vdtools.dataset` (train split only; val for every choice). Results on the
   test split: docs/results/boost.md. C `vd_boost_score` equals the integer reference on every test crop
