@@ -77,6 +77,10 @@ static uint32_t factor_of(const vd_cnn_model_t *c, uint32_t t)
     return f[t];
 }
 
+static vd_status_t finish_load(vd_boost_model_t *m, const uint8_t *b, uint32_t total, uint32_t crc,
+                               uint32_t maps_off, uint32_t st_off, uint32_t n_maps, uint32_t n_stumps,
+                               uint32_t cnn_len);
+
 size_t vd_boost_model_bytes(void)
 {
     return sizeof(vd_boost_model_t);
@@ -114,18 +118,31 @@ vd_status_t vd_boost_load(vd_boost_model_t *m, const void *blob, size_t bytes)
     VD_VERIFY(vd_blob_segment_ok(cnn_off, cnn_len, st_off + st_len, total), VD_ERR_MODEL);
     VD_VERIFY(cnn_len >= VD_CNN_HEADER_SIZE, VD_ERR_MODEL);
 
-    vd_cnn_model_t cnn;
-    VD_VERIFY(vd_cnn_load(&cnn, b + cnn_off, cnn_len) == VD_OK, VD_ERR_MODEL);
-    VD_VERIFY(cnn.size == cnn_len, VD_ERR_MODEL);
-    const uint32_t cw = cnn.input_w, ch = cnn.input_h;
+    // The CNN goes straight into *m (a vd_cnn_model_t is ~1.6 KB: not on the stack).
+    VD_VERIFY(vd_cnn_load(&m->cnn, b + cnn_off, cnn_len) == VD_OK, VD_ERR_MODEL);
+    const vd_status_t st = finish_load(m, b, total, crc, maps_off, st_off, n_maps, n_stumps, cnn_len);
+    if (st != VD_OK) {
+        memset(m, 0, sizeof *m);   // not loaded
+    }
+    return st;
+}
+
+// The checks after the embedded CNN loaded into m->cnn; fills the rest of *m.
+static vd_status_t finish_load(vd_boost_model_t *m, const uint8_t *b, uint32_t total, uint32_t crc,
+                               uint32_t maps_off, uint32_t st_off, uint32_t n_maps, uint32_t n_stumps,
+                               uint32_t cnn_len)
+{
+    const vd_cnn_model_t *cnn = &m->cnn;
+    VD_VERIFY(cnn->size == cnn_len, VD_ERR_MODEL);
+    const uint32_t cw = cnn->input_w, ch = cnn->input_h;
     uint32_t len[VD_BOOST_MAX_MAPS];
     uint32_t n_feat = 0u;
     for (uint32_t i = 0u; i < n_maps; i++) {
         const uint8_t *e = b + maps_off + 4u * i;
         const uint32_t t = e[0];
         const uint32_t c = rd_u16(e + 2);
-        VD_VERIFY(e[1] == 0u && t >= 1u && t <= cnn.n_layers && c < cnn.layers[t - 1u].cout, VD_ERR_MODEL);
-        const uint32_t f = factor_of(&cnn, t);
+        VD_VERIFY(e[1] == 0u && t >= 1u && t <= cnn->n_layers && c < cnn->layers[t - 1u].cout, VD_ERR_MODEL);
+        const uint32_t f = factor_of(cnn, t);
         len[i] = (cw / f) * (ch / f);   // input size is a multiple of every factor (vd_cnn_load)
         n_feat += len[i];
     }
@@ -140,9 +157,6 @@ vd_status_t vd_boost_load(vd_boost_model_t *m, const void *blob, size_t bytes)
         const int32_t al = (lv < 0) ? -lv : lv, ar = (rv < 0) ? -rv : rv;
         span += (al > ar) ? al : ar;
     }
-
-    memset(m, 0, sizeof *m);
-    m->cnn = cnn;
     m->blob = b;
     m->size = total;
     m->crc32 = crc;
