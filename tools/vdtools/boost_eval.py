@@ -147,7 +147,8 @@ def render_md(res, meta):
          f"as 64×64 crops, the others as the same rects cut at 32×32 (their input). Curves: "
          f"[det_boost.png](det_boost.png); numbers: [boost.json](boost.json). Reproduce: after docs/training.md's "
          f"`boost_train` steps, `cd tools && VD_LIB=../build/libvd.so python3 -m vdtools.boost_eval --filters 8 "
-         f"--experiments` (~13 min here; the baselines' scores are cached in tools/.cache/p003/baselines.json).", "",
+         f"--experiments` (9 min here with the baselines' scores cached in tools/.cache/p003/baselines.json; "
+         f"computing them took 11 min).", "",
          "| verifier | miss @ 10⁻⁴ FPPW | miss @ 10⁻³ | miss @ 10⁻² | miss @ 10⁻¹ |", "|---|---:|---:|---:|---:|"]
     for k, v in res["table"].items():
         L.append(f"| {k} | {_pct(v['miss@0.0001'])} | {_pct(v['miss@0.001'])} | {_pct(v['miss@0.01'])} | "
