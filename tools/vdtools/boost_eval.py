@@ -199,7 +199,11 @@ def render_md(res, meta):
               (f" Cortex-M7 `-Os` code added: `lib/src/boost.c` {sp['m7_text']['lib/src/boost.c']} bytes of .text "
                f"(arm-none-eabi-gcc; the CONV5X5 op adds 100 bytes to `cnn.c` and the verifier switch 372 bytes to "
                f"the detector, measured against the previous commit's objects). "
-               if sp.get("m7_text") else ""), ""]
+               if sp.get("m7_text") else "") +
+              f" No early-exit soft cascade (optional in the issue, not built): the {sp['stumps']} stump compares are "
+              f"{100 * sp['stumps'] / sp['macs']:.4f} % of the {sp['macs'] / 1e6:.1f} M multiply-adds that compute the "
+              "maps, so stopping early among the stumps cannot save measurable time; a cascade would have to reject "
+              "before the later CNN layers.", ""]
     dp = RESULTS / "boost_detector.json"
     if dp.exists():
         det = json.loads(dp.read_text())
