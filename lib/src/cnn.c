@@ -5,7 +5,8 @@
 // innermost). Tensor 0 is the grey frame as int8 (pixel - 128, or a per-frame
 // percentile stretch), layer i writes tensor i+1 with one of six ops:
 // 3x3 convolution and depthwise 3x3 (padding 1, stride 1/2), pointwise 1x1,
-// 2x2 max-pool, x2 nearest upsample, channel concat. Weighted ops compute
+// 2x2 max-pool, x2 nearest upsample, channel concat, 5x5 convolution
+// (padding 2, stride 1/2; op 7, paper 003's feature network). Weighted ops compute
 //   out = clamp(zp_out + requantize(bias + sum w * (x - zp_in)), act_min, act_max)
 // with TFLite's double-rounding requantisation (internal/requant.h, folded
 // into one 64-bit floor shift per value). Decoding (CenterNet-like): 3x3
@@ -14,8 +15,8 @@
 // threshold maps to a logit threshold by binary search of the score table.
 // Kernels (plain C99 written for gcc/clang auto-vectorisation; HWC, so the
 // innermost loops run over contiguous channels):
-//  * CONV3X3 / PW1X1: blocks of 16 output pixels as int16 rows (x - zp_in),
-//    zero-padded to a multiple of 8 (for CONV3X3 the 3x3 taps gathered,
+//  * CONV3X3 / CONV5X5 / PW1X1: blocks of 16 output pixels as int16 rows (x - zp_in),
+//    zero-padded to a multiple of 8 (for CONV3X3/5X5 the 3x3/5x5 taps gathered,
 //    padding taps 0), dotted with an int16 copy of the weights [cout][Kp]:
 //    four int32 reductions at a time over fixed 8-wide chunks (pmaddwd),
 //    then one requantisation loop per output channel over the 16 values with
@@ -35,7 +36,7 @@
 // (O(items^2), items <= 2 + 2 L) lives in the workspace's run record. Stack
 // (Cortex-M7 -Os, worst call chain): load ~420 B, run ~730 B, workspace
 // query and vd_cnn_tensor ~950 B (the plan), decode ~300 B. Accumulators: |sum w (x - zp)|
-// <= K * 128 * 255 < 2^31 for K <= 9 * 1024, and the loader's bias bound
+// <= K * 128 * 255 < 2^31 for K <= 25 * 1024, and the loader's bias bound
 // |bias| <= INT32_MAX - K * 128 * 255 makes the whole sum fit int32 for every
 // int8 weight including -128 (the addition is still done modulo 2^32, so a
 // wrong bound could never be undefined behaviour).
@@ -151,7 +152,19 @@ typedef struct chain {
 
 static bool weighted(uint32_t op)
 {
-    return op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_DW3X3 || op == VD_CNN_OP_PW1X1;
+    return op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_DW3X3 || op == VD_CNN_OP_PW1X1 || op == VD_CNN_OP_CONV5X5;
+}
+
+// Full convolutions with a spatial kernel (taps gathered into int16 rows).
+static bool spatial_conv(uint32_t op)
+{
+    return op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_CONV5X5;
+}
+
+// Pure copies (no weights, no requantisation).
+static bool copy_op(uint32_t op)
+{
+    return op == VD_CNN_OP_MAXPOOL2 || op == VD_CNN_OP_UPSAMPLE2 || op == VD_CNN_OP_CONCAT;
 }
 
 // K of the accumulator bound (multiply-adds per output value).
@@ -164,6 +177,8 @@ static uint32_t k_of(const vd_cnn_layer_t *L)
         return 9u;
     case VD_CNN_OP_PW1X1:
         return L->cin;
+    case VD_CNN_OP_CONV5X5:
+        return 25u * L->cin;
     default:
         return 0u;
     }
@@ -186,10 +201,10 @@ static void array_lens(const vd_cnn_layer_t *L, uint32_t len[4])
 static bool chain_step(const vd_cnn_layer_t *L, uint32_t l, chain_t *c)
 {
     const uint32_t op = L->op;
-    if (op < VD_CNN_OP_CONV3X3 || op > VD_CNN_OP_CONCAT) {
+    if (op < VD_CNN_OP_CONV3X3 || op > VD_CNN_OP_CONV5X5) {
         return false;
     }
-    const uint32_t max_stride = (op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_DW3X3) ? 2u : 1u;
+    const uint32_t max_stride = (spatial_conv(op) || op == VD_CNN_OP_DW3X3) ? 2u : 1u;
     if (L->stride < 1u || L->stride > max_stride || L->in > l) {
         return false;
     }
@@ -203,7 +218,7 @@ static bool chain_step(const vd_cnn_layer_t *L, uint32_t l, chain_t *c)
         return false;
     }
     uint32_t f = c->f[L->in];
-    if (op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_DW3X3) {
+    if (spatial_conv(op) || op == VD_CNN_OP_DW3X3) {
         f *= L->stride;
     } else if (op == VD_CNN_OP_MAXPOOL2) {
         f *= 2u;
@@ -219,7 +234,7 @@ static bool chain_step(const vd_cnn_layer_t *L, uint32_t l, chain_t *c)
     if ((op == VD_CNN_OP_DW3X3 || op == VD_CNN_OP_MAXPOOL2 || op == VD_CNN_OP_UPSAMPLE2) && L->cout != L->cin) {
         return false;
     }
-    if (op >= VD_CNN_OP_MAXPOOL2) {
+    if (copy_op(op)) {
         // Copies without requantising: same scale and zero point, no clamp.
         if (L->act_min != -128 || L->act_max != 127 || L->out_zp != c->zp[L->in]) {
             return false;
@@ -412,7 +427,7 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes)
         const uint8_t *e = b + table + l * VD_CNN_LAYER_ENTRY_SIZE;
         VD_VERIFY(e[E_RES0] == 0u && rd_u32(e + E_RES1) == 0u, VD_ERR_MODEL);
         // Chain first: it bounds cin and cout, so the array lengths below
-        // cannot wrap (9 * 1024 * 1024 < 2^32).
+        // cannot wrap (25 * 1024 * 1024 < 2^32).
         VD_VERIFY(chain_step(&L, l, &c), VD_ERR_MODEL);
         array_lens(&L, lens);
         for (uint32_t s = 0u; s < 4u; s++) {
@@ -521,7 +536,7 @@ static uint64_t scratch_layout(const vd_cnn_layer_t *L, scratch_layout_t *s)
         const uint32_t cp = round_up(L->cout, VD_CNN_DWB);
         w_bytes = 2u * 9u * cp;
         r_bytes = cp;
-    } else if (L->op == VD_CNN_OP_CONV3X3 || L->op == VD_CNN_OP_PW1X1) {
+    } else if (spatial_conv(L->op) || L->op == VD_CNN_OP_PW1X1) {
         const uint32_t kp = round_up(k_of(L), VD_CNN_KCHUNK);
         w_bytes = 2u * L->cout * kp;
         r_bytes = 2u * VD_CNN_NPIX * kp;
@@ -825,6 +840,8 @@ CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, c
     const uint32_t n_px = g->wo * g->ho;
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
+    const int32_t ks = (L->op == VD_CNN_OP_CONV5X5) ? 5 : 3;   // kernel side
+    const int32_t pad = ks / 2;
     for (uint32_t p0 = 0u; p0 < n_px; p0 += VD_CNN_NPIX) {
         const uint32_t npix = (n_px - p0 < VD_CNN_NPIX) ? n_px - p0 : VD_CNN_NPIX;
         for (uint32_t i = 0u; i < npix; i++) {
@@ -837,14 +854,14 @@ CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, c
                 }
                 continue;
             }
-            // 3x3 taps in the weight order [ky][kx][c]; padding taps are 0.
+            // ks x ks taps in the weight order [ky][kx][c]; padding taps are 0.
             const int32_t oy = (int32_t)(p / g->wo);
             const int32_t ox = (int32_t)(p % g->wo);
-            for (int32_t ky = 0; ky < 3; ky++) {
-                const int32_t iy = oy * step - 1 + ky;
-                for (int32_t kx = 0; kx < 3; kx++) {
-                    const int32_t ix = ox * step - 1 + kx;
-                    int16_t *d = r + (size_t)(ky * 3 + kx) * ci;
+            for (int32_t ky = 0; ky < ks; ky++) {
+                const int32_t iy = oy * step - pad + ky;
+                for (int32_t kx = 0; kx < ks; kx++) {
+                    const int32_t ix = ox * step - pad + kx;
+                    int16_t *d = r + (size_t)(ky * ks + kx) * ci;
                     if (iy < 0 || iy >= (int32_t)g->hi || ix < 0 || ix >= (int32_t)g->wi) {
                         for (size_t c = 0u; c < ci; c++) {
                             d[c] = 0;
@@ -1136,6 +1153,7 @@ vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t 
         uint8_t *scr = base + p->off[3u + 2u * l];
         switch (L->op) {
         case VD_CNN_OP_CONV3X3:
+        case VD_CNN_OP_CONV5X5:
         case VD_CNN_OP_PW1X1:
             run_conv_pw(L, &g, in, o, scr);
             break;

@@ -76,6 +76,9 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *c)
     // CNN: the model is checked by the size query and init (they see it loaded or not).
     VD_VERIFY(c->cnn_score_thr_q15 <= (uint32_t)VD_CNN_SCORE_ONE_Q15 && c->cnn_rescore <= 1u, VD_ERR_ARG);
     VD_VERIFY((c->sources & VD_DETECTOR_SRC_CNN) == 0u || c->cnn_model != NULL, VD_ERR_ARG);
+    VD_VERIFY(c->verifier <= VD_DETECTOR_VERIFIER_BOOST, VD_ERR_ARG);
+    VD_VERIFY(c->verifier != VD_DETECTOR_VERIFIER_BOOST || c->boost_model != NULL, VD_ERR_ARG);
+    VD_VERIFY(c->boost_thr_offset >= -(1L << 24) && c->boost_thr_offset <= (1L << 24), VD_ERR_ARG);
     if (c->win_min_std_u8 == 0u) { c->win_min_std_u8 = DEF_WIN_MIN_STD; }
     if (c->dedup_iou_q15 == 0u) { c->dedup_iou_q15 = DEF_DEDUP_Q15; }
     VD_VERIFY(c->dedup_iou_q15 <= 32768u, VD_ERR_ARG);
@@ -207,6 +210,15 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_dbn_model_t *model,
         vd_status_t st = vd_dbn_workspace_size(model, &l->dbn);
         VD_VERIFY(st == VD_OK, VD_ERR_MODEL);
     }
+    if (c->verifier == VD_DETECTOR_VERIFIER_BOOST) {
+        // The boosted verifier's crop and workspace take the DBN's slices (one verifier runs).
+        const vd_boost_model_t *bm = c->boost_model;
+        size_t w = 0u;
+        VD_VERIFY(vd_boost_workspace_size(bm, &w) == VD_OK, VD_ERR_MODEL);
+        const size_t s = (size_t)bm->crop_w * bm->crop_h;
+        l->sample = (s > l->sample) ? s : l->sample;
+        l->dbn = (w > l->dbn) ? w : l->dbn;
+    }
     VD_TRY(vd_components_workspace_size_runs(c->max_width, c->max_height, c->max_runs, &l->cc));
     l->crop = rw * rh;
     l->rmask = rw * rh;
@@ -226,7 +238,8 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_dbn_model_t *model,
         VD_TRY(vd_windows_prefilter_workspace_size(c->max_width, c->max_height, &l->integral));
     }
     if ((c->sources & VD_DETECTOR_SRC_CNN) != 0u) {
-        VD_VERIFY(c->cnn_rescore == 0u || model != NULL, VD_ERR_ARG);   // re-scoring needs the DBN
+        // re-scoring needs a verifier
+        VD_VERIFY(c->cnn_rescore == 0u || model != NULL || c->verifier == VD_DETECTOR_VERIFIER_BOOST, VD_ERR_ARG);
         VD_TRY(plan_cnn(c, l));
     }
     return VD_OK;
@@ -364,6 +377,10 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     if (model != NULL) {
         det->in_w = model->input_w;
         det->in_h = model->input_h;
+    }
+    if (c.verifier == VD_DETECTOR_VERIFIER_BOOST) {
+        det->in_w = c.boost_model->crop_w;
+        det->in_h = c.boost_model->crop_h;
     }
     // 16-bit threshold in raw units; above the calibrated range nothing is hot.
     uint16_t raw = 0u;

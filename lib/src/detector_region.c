@@ -159,6 +159,31 @@ vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_
     return VD_OK;
 }
 
+// Paper 003's verifier on the box vb of the region plane: crop_w x crop_h
+// grey sample, boosted stumps over the selected CNN maps (boost.h).
+static vd_status_t verify_boost(vd_detector_t *det, const vd_view_u8_t *view, const vd_rect_t *vb, vd_detection_t *d,
+                                bool *keep, uint32_t *t0)
+{
+    const vd_boost_model_t *bm = det->cfg.boost_model;
+    VD_TRY(vd_resample_u8(view, vb, det->sample, bm->crop_w, bm->crop_h));
+    vd_det_clock_add(det, VD_DET_STAGE_SAMPLE, t0);
+    int32_t s = 0;
+    VD_TRY(vd_boost_score(bm, det->sample, bm->crop_w, det->dbn_ws, det->dbn_ws_bytes, &s));
+    vd_det_clock_add(det, VD_DET_STAGE_DBN, t0);
+    // Floor division, so score_q8 >= 128 exactly when score >= the model's threshold.
+    const int64_t num = ((int64_t)s - bm->threshold) * 128;
+    const int64_t span = bm->score_span;
+    int64_t q = 128 + ((num >= 0) ? num / span : -((-num + span - 1) / span));
+    q = (q < 0) ? 0 : ((q > 255) ? 255 : q);
+    d->score_q8 = (uint8_t)q;
+    if ((int64_t)s < (int64_t)bm->threshold + det->cfg.boost_thr_offset) {
+        return VD_OK;
+    }
+    det->stats.verified++;
+    *keep = true;
+    return VD_OK;
+}
+
 // The plane is rebuilt from d->candidate: hot spots are sampled under their
 // contour box inside the refined region, windows, contrast and re-scored CNN
 // candidates (candidate == box) as the whole box; other CNN boxes keep the
@@ -172,7 +197,8 @@ vd_status_t vd_det_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_
         *keep = true;
         return VD_OK;
     }
-    if (det->model == NULL) {
+    const bool boost = det->cfg.verifier == VD_DETECTOR_VERIFIER_BOOST;
+    if (!boost && det->model == NULL) {
         d->score_q8 = 255u;
         d->flags |= VD_DET_FLAG_UNVERIFIED;
         det->stats.verified++;
@@ -191,6 +217,9 @@ vd_status_t vd_det_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_
     x->vb.h = d->box.h / (int32_t)p->ky;
     x->vb.w = (x->vb.w < 1) ? 1 : x->vb.w;
     x->vb.h = (x->vb.h < 1) ? 1 : x->vb.h;
+    if (boost) {
+        return verify_boost(det, &p->view, &x->vb, d, keep, t0);
+    }
     if (det->model->input_mode == VD_DBN_INPUT_GREY) {
         VD_TRY(vd_resample_u8(&p->view, &x->vb, det->sample, det->in_w, det->in_h));
     } else {

@@ -51,14 +51,17 @@ static void check_model(const vd_cnn_model_t *m, const uint8_t *blob, size_t byt
     FZ_CHECK(inside(m->decode_table, 1024u * m->out_channels, blob, end));
     for (uint32_t l = 0u; l < m->n_layers; l++) {
         const vd_cnn_layer_t *L = &m->layers[l];
-        FZ_CHECK(L->op >= VD_CNN_OP_CONV3X3 && L->op <= VD_CNN_OP_CONCAT && L->in <= l);
+        FZ_CHECK(L->op >= VD_CNN_OP_CONV3X3 && L->op <= VD_CNN_OP_CONV5X5 && L->in <= l);
         FZ_CHECK(L->cin >= 1u && L->cin <= VD_CNN_MAX_CHANNELS && L->cout >= 1u && L->cout <= VD_CNN_MAX_CHANNELS);
         FZ_CHECK(L->act_min <= L->act_max);
-        if (L->op > VD_CNN_OP_PW1X1) {
+        if (L->op > VD_CNN_OP_PW1X1 && L->op != VD_CNN_OP_CONV5X5) {
             FZ_CHECK(L->w == NULL && L->bias == NULL && L->mult == NULL && L->shift == NULL);
             continue;
         }
-        const size_t k = L->op == VD_CNN_OP_CONV3X3 ? 9u * L->cin : L->op == VD_CNN_OP_DW3X3 ? 9u : L->cin;
+        const size_t k = L->op == VD_CNN_OP_CONV3X3   ? 9u * L->cin
+                         : L->op == VD_CNN_OP_CONV5X5 ? 25u * L->cin
+                         : L->op == VD_CNN_OP_DW3X3   ? 9u
+                                                      : L->cin;
         const size_t wl = L->op == VD_CNN_OP_DW3X3 ? 9u * (size_t)L->cout : k * L->cout;
         FZ_CHECK(inside(L->w, wl, blob, end) && inside(L->bias, 4u * (size_t)L->cout, blob, end));
         FZ_CHECK(inside(L->mult, 4u * (size_t)L->cout, blob, end) && inside(L->shift, L->cout, blob, end));

@@ -12,7 +12,7 @@ import struct
 import zlib
 from pathlib import Path
 
-CONV, DW, PW, POOL, UP, CAT = 1, 2, 3, 4, 5, 6
+CONV, DW, PW, POOL, UP, CAT, CONV5 = 1, 2, 3, 4, 5, 6, 7
 
 
 def al4(n):
@@ -56,7 +56,7 @@ def pack(layers, in_w, in_h, n_ch, out_stride, norm=(0, 0, 0, 0), thr=0, max_pea
 
 
 def arrays(rng, op, cin, cout, shift=(-9, -7), wmin=-127):
-    k = {CONV: 9 * cin * cout, DW: 9 * cout, PW: cin * cout}[op]
+    k = {CONV: 9 * cin * cout, DW: 9 * cout, PW: cin * cout, CONV5: 25 * cin * cout}[op]
     w = [rng.randint(wmin, 127) for _ in range(k)]
     bias = [rng.randint(-500, 500) for _ in range(cout)]
     mult = [rng.randint(1 << 30, (1 << 31) - 1) for _ in range(cout)]
@@ -98,6 +98,11 @@ def main():
     seeds["shifts_tails"] = b"\x05" + pack(
         [weighted(rng, CONV, 2, 0, 1, 17, shift=(-2, 7), wmin=-128), weighted(rng, DW, 2, 1, 17, 17, wmin=-128),
          (PW, 1, 2, 0, 17, 3, 3, -20, 40, arrays(rng, PW, 17, 3, shift=(-31, 7), wmin=-128))], 4, 4, 3, 4)
+    # 5x5 convolutions (op 7, padding 2; paper 003's network) at stride 2 and 1 (drawn last: the
+    # seeds above keep their bytes).
+    seeds["conv5x5_n3"] = pack([weighted(rng, CONV5, 2, 0, 1, 3), weighted(rng, CONV5, 1, 1, 3, 4),
+                                copy(POOL, 2, 4, 4, -128), weighted(rng, PW, 1, 3, 4, 3, zp=0, amin=-128)],
+                               8, 8, 3, 4)
     seeds["header_only"] = seeds["chain_n3"][:128]
     for name, blob in seeds.items():
         assert len(blob) < 4096, (name, len(blob))

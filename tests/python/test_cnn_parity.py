@@ -82,6 +82,26 @@ def test_random_models_bit_exact(cnn, seed, norm, cout, ostride):
     assert n_boxes > 50
 
 
+@pytest.mark.parametrize("seed,norm,ostride", [(11, 0, 4), (12, 1, 8), (13, 1, 4)])
+def test_conv5x5_models_bit_exact(cnn, seed, norm, ostride):
+    """CONV5X5 (op 7, padding 2) at stride 2 and 1, in a net with every other op: C == reference on
+    every tensor, at sizes where the 5x5 window overhangs two border pixels on every side."""
+    rng = np.random.default_rng(2000 + seed)
+    d = R.random_model(rng, out_channels=5, input_norm=norm, out_stride=ostride, conv5=True,
+                       width=tuple(int(c) for c in rng.integers(3, 20, 4)))
+    assert sum(L["op"] == V.CONV5X5 for L in d["layers"]) == 2
+    m = V.CModel(V.pack(d))
+    a = int(m.m.align)
+    for h, w in [(a, a), (2 * a, 3 * a), (8 * a, 5 * a)]:
+        for kind in ("blobs", "noise", "flat"):
+            img = R.random_image(rng, h, w, kind)
+            ref = R.forward(d, R.preprocess(img, d))
+            msg = _first_diff(m.run_all(img), ref, d)
+            assert msg is None, f"{w}x{h} {kind}: {msg}"
+            np.testing.assert_array_equal(m.run(img), ref[-1])
+    assert m.macs(8 * a, 8 * a) == R.macs(d, 8 * a, 8 * a)
+
+
 def test_decode_hand_made_heads_bit_exact(cnn):
     """C decoding of arbitrary heads (few distinct values: plateaus and ties everywhere) == reference."""
     rng = np.random.default_rng(77)

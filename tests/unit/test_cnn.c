@@ -85,6 +85,8 @@ static uint32_t w_len(const tl_t *L)
     switch (L->op) {
     case VD_CNN_OP_CONV3X3:
         return 9u * L->cin * L->cout;
+    case VD_CNN_OP_CONV5X5:
+        return 25u * L->cin * L->cout;
     case VD_CNN_OP_DW3X3:
         return 9u * L->cout;
     case VD_CNN_OP_PW1X1:
@@ -304,7 +306,7 @@ static void ref_shapes(const tm_t *d, ref_shape_t *s)
     for (uint32_t l = 0u; l < d->n; l++) {
         const tl_t *L = &d->L[l];
         uint32_t f = s->f[L->in];
-        if (L->op == VD_CNN_OP_CONV3X3 || L->op == VD_CNN_OP_DW3X3) {
+        if (L->op == VD_CNN_OP_CONV3X3 || L->op == VD_CNN_OP_DW3X3 || L->op == VD_CNN_OP_CONV5X5) {
             f *= L->stride;
         } else if (L->op == VD_CNN_OP_MAXPOOL2) {
             f *= 2u;
@@ -624,6 +626,63 @@ static void test_conv3x3_stride2_hand_worked(void)
     static const int8_t t2[8] = {10, 0, 24, -4, 51, -16, 90, -15};
     expect_tensor(4u, 4u, 2u, t2, 2u, 2u, 2u);
     static const int8_t hd[3] = {90, 0, 90};
+    TEST_ASSERT_EQUAL_INT8_ARRAY(hd, head.data, 3);
+    run_free();
+}
+
+// CONV5X5 (op 7, padding 2) on the (p, -p) planes of the 4x4 ramp p = 4y + x:
+// o0 = sum of p over the in-range 5x5 window; o1 = p(y, x) (weight -1 on -p
+// at the centre) + p(y-2, x-2) (weight 1 at the corner tap, 0 outside).
+static void conv5_weights(int8_t w[100])
+{
+    memset(w, 0, 100);
+    for (uint32_t k = 0u; k < 25u; k++) {
+        w[k * 2u] = 1;                      // [o0][ky][kx][c0]
+    }
+    w[50 + (2 * 5 + 2) * 2 + 1] = -1;       // [o1][2][2][c1]
+    w[50 + 0] = 1;                          // [o1][0][0][c0]
+}
+
+static void conv5_model(tm_t *d, uint8_t stride, const int8_t *w)
+{
+    tm_init(d, 4u, 4u, 3u, 4u);
+    d->L[0] = layer_weighted(VD_CNN_OP_PW1X1, 1u, 0u, 1u, 2u, 0, k_w_pm, k_zero, k_mult1, k_shift1);
+    d->L[1] = layer_weighted(VD_CNN_OP_CONV5X5, stride, 1u, 2u, 2u, 0, w, k_zero, k_mult1, k_shift1);
+    uint32_t n = 2u;
+    d->L[n++] = layer_copy(VD_CNN_OP_MAXPOOL2, 2u, 0u, 2u, 2u, 0);
+    if (stride == 1u) {
+        d->L[n] = layer_copy(VD_CNN_OP_MAXPOOL2, (uint8_t)n, 0u, 2u, 2u, 0);
+        n++;
+    }
+    d->L[n] = layer_weighted(VD_CNN_OP_PW1X1, 1u, (uint8_t)n, 2u, 3u, 0, k_head_w, k_zero, k_mult1, k_shift1);
+    d->n = n + 1u;
+}
+
+static void test_conv5x5_padding2_hand_worked(void)
+{
+    img16();
+    int8_t w[100];
+    conv5_weights(w);
+    tm_t d;
+    conv5_model(&d, 1u, w);
+    vd_cnn_output_t head;
+    run_keep(&d, g_img16, 4u, 4u, &head);
+    // o0: 45 66 66 54 / 84 120 120 96 / 84 120 120 96 / 81 114 114 90 (the whole image is 120);
+    // o1: 0 1 2 3 / 4 5 6 7 / 8 9 10 12 / 12 13 18 20.
+    static const int8_t t2[32] = {45, 0, 66, 1, 66, 2,  54,  3,  84, 4,  120, 5,  120, 6,  96, 7,
+                                  84, 8, 120, 9, 120, 10, 96, 12, 81, 12, 114, 13, 114, 18, 90, 20};
+    expect_tensor(4u, 4u, 2u, t2, 4u, 4u, 2u);
+    static const int8_t hd[3] = {120, 0, 120};
+    TEST_ASSERT_EQUAL_INT8_ARRAY(hd, head.data, 3);
+    uint64_t macs = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_macs(&g_m, 4u, 4u, &macs));
+    TEST_ASSERT_TRUE(macs == (uint64_t)(16u * 2u + 16u * 25u * 2u * 2u + 1u * 2u * 3u));
+    run_free();
+    // Stride 2: the stride-1 map at (0,0), (0,2), (2,0), (2,2).
+    conv5_model(&d, 2u, w);
+    run_keep(&d, g_img16, 4u, 4u, &head);
+    static const int8_t s2[8] = {45, 0, 66, 2, 84, 8, 120, 10};
+    expect_tensor(4u, 4u, 2u, s2, 2u, 2u, 2u);
     TEST_ASSERT_EQUAL_INT8_ARRAY(hd, head.data, 3);
     run_free();
 }
@@ -1736,6 +1795,7 @@ int main(void)
     RUN_TEST(test_requant_one_shift_form_matches_reference);
     RUN_TEST(test_conv3x3_stride1_padding_hand_worked);
     RUN_TEST(test_conv3x3_stride2_hand_worked);
+    RUN_TEST(test_conv5x5_padding2_hand_worked);
     RUN_TEST(test_depthwise_hand_worked);
     RUN_TEST(test_pointwise_hand_worked);
     RUN_TEST(test_upsample_and_concat_hand_worked);

@@ -69,6 +69,9 @@ typedef enum setting_id {
     SET_CNN_MODEL,
     SET_CNN_THR,
     SET_CNN_RESCORE,
+    SET_VERIFIER,
+    SET_BOOST_MODEL,
+    SET_BOOST_OFFSET,
     SET_COUNT
 } setting_id_t;
 
@@ -162,6 +165,14 @@ static const setting_t k_settings[SET_COUNT] = {
     [SET_CNN_RESCORE] = {"cnn-rescore", "[on|off]",
                          "cnn source: the DBN also scores each network box (whole box, as windows) and keeps it "
                          "at >= --score-thr; the score is then the DBN's (needs a DBN model; default off)"},
+    [SET_VERIFIER] = {"verifier", "dbn|boost",
+                      "verifier of hot-spot/contrast/window (and re-scored cnn) candidates: dbn (default, --model) "
+                      "or boost (paper 003's boosted CNN-feature stumps, --boost-model)"},
+    [SET_BOOST_MODEL] = {"boost-model", "FILE",
+                         "--verifier boost: version-4 .vdm (default models/vd_boost.vdm)"},
+    [SET_BOOST_OFFSET] = {"boost-offset", "N",
+                          "--verifier boost: keep candidates with score >= the model's threshold + N "
+                          "(integer, -16777216..16777216; default 0; negative values for PR curves)"},
 };
 
 void demo_args_usage(FILE *f)
@@ -264,6 +275,18 @@ static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
         return false;
     }
     *out = (uint32_t)v;
+    return true;
+}
+
+static bool parse_i32(const char *s, int32_t lo, int32_t hi, int32_t *out)
+{
+    char *end = NULL;
+    errno = 0;
+    long long v = strtoll(s, &end, 10);
+    if (end == s || *end != '\0' || errno != 0 || v < lo || v > hi) {
+        return false;
+    }
+    *out = (int32_t)v;
     return true;
 }
 
@@ -673,6 +696,24 @@ static bool apply_setting(demo_opts_t *o, setting_id_t id, const char *v, char *
     case SET_CNN_RESCORE:
         ok = parse_switch(v, &on);
         cfg->cnn_rescore = ok ? (uint8_t)on : cfg->cnn_rescore;
+        break;
+    case SET_VERIFIER:
+        ok = strcmp(v, "dbn") == 0 || strcmp(v, "boost") == 0;
+        cfg->verifier = (ok && v[0] == 'b') ? (uint8_t)VD_DETECTOR_VERIFIER_BOOST : cfg->verifier;
+        cfg->verifier = (ok && v[0] == 'd') ? (uint8_t)VD_DETECTOR_VERIFIER_DBN : cfg->verifier;
+        break;
+    case SET_BOOST_OFFSET: {
+        int32_t off = 0;
+        ok = parse_i32(v, -16777216, 16777216, &off);
+        cfg->boost_thr_offset = ok ? off : cfg->boost_thr_offset;
+        break;
+    }
+    case SET_BOOST_MODEL:
+        ok = v[0] != '\0' && strlen(v) < sizeof o->boost_model_buf;
+        if (ok) {
+            snprintf(o->boost_model_buf, sizeof o->boost_model_buf, "%s", v);
+            o->boost_model = o->boost_model_buf;
+        }
         break;
     default:
         ok = false;

@@ -112,7 +112,30 @@ vd_status_t demo_models_load(demo_models_t *m, demo_opts_t *o, const char *model
         o->cfg.sources = cnn ? VD_DETECTOR_SRC_CNN : VD_DETECTOR_SRC_HOTSPOT;
     }
     const bool want_cnn = (o->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
-    const bool want_dbn = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u || (want_cnn && o->cfg.cnn_rescore != 0u);
+    const bool boost = o->cfg.verifier == VD_DETECTOR_VERIFIER_BOOST;
+    const bool want_dbn =
+        !boost && ((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u || (want_cnn && o->cfg.cnn_rescore != 0u));
+    if (boost) {   // --verifier boost: the boosted CNN-feature verifier (paper 003) instead of the DBN
+        char path[4096];
+        size_t blen = 0;
+        if (o->boost_model != NULL) {
+            snprintf(path, sizeof path, "%s", o->boost_model);
+        } else {
+            snprintf(path, sizeof path, "%s/vd_boost.vdm", models_dir);
+        }
+        st = read_model("--boost-model", path, &m->boost_blob, &blen, err, err_len);
+        if (st == VD_OK) {
+            st = vd_boost_load(&m->boost, m->boost_blob, blen);
+            if (st != VD_OK) {
+                snprintf(err, err_len, "--boost-model %s: not a valid boosted .vdm model (version 4)", path);
+            }
+        }
+        if (st != VD_OK) {
+            free(mblob);
+            return st;
+        }
+        o->cfg.boost_model = &m->boost;
+    }
     if (want_cnn) {
         size_t clen = 0;
         const char *opt = "--cnn-model";
@@ -183,7 +206,7 @@ vd_status_t demo_models_load(demo_models_t *m, demo_opts_t *o, const char *model
         m->have_model = true;
     }
     free(mblob);   // a CNN --model that no source uses
-    if (want_cnn && o->cfg.cnn_rescore != 0u && !m->have_model) {
+    if (want_cnn && o->cfg.cnn_rescore != 0u && !m->have_model && !boost) {
         snprintf(err, err_len, "--cnn-rescore needs a DBN model (--model FILE)");
         return VD_ERR_ARG;
     }
@@ -194,6 +217,7 @@ void demo_models_free(demo_models_t *m)
 {
     free(m->model_blob);
     free(m->cnn_blob);
+    free(m->boost_blob);
     m->model_blob = NULL;
     m->cnn_blob = NULL;
     m->have_model = false;

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from vdtools import quantise
-from vdtools.cnn_vdm import (CONCAT, CONV3X3, DW3X3, MAXPOOL2, PW1X1, UPSAMPLE2, MAX_SIDE, OFF_MAX_Q8,
+from vdtools.cnn_vdm import (CONCAT, CONV3X3, CONV5X5, DW3X3, MAXPOOL2, PW1X1, UPSAMPLE2, MAX_SIDE, OFF_MAX_Q8,
                              OFF_MIN_Q8, SCORE_MAX, SIZE_MAX_Q8, alignment, bias_bound, op_id, tensor_zps)
 
 INT32_MIN, INT32_MAX = -(1 << 31), (1 << 31) - 1
@@ -65,33 +65,45 @@ def requant(acc, L):
     return np.clip(z + int(L["out_zp"]), int(L["act_min"]), int(L["act_max"])).astype(np.int8)
 
 
-def _padded(x, zp):
-    """float64 [H+2, W+2, C] of x - zp with a zero border (padding with the zero point)."""
+def _padded(x, zp, pad=1):
+    """float64 [H+2pad, W+2pad, C] of x - zp with a zero border (padding with the zero point)."""
     h, w, c = x.shape
-    p = np.zeros((h + 2, w + 2, c), np.float64)
-    p[1:-1, 1:-1] = x.astype(np.float64) - zp
+    p = np.zeros((h + 2 * pad, w + 2 * pad, c), np.float64)
+    p[pad:pad + h, pad:pad + w] = x.astype(np.float64) - zp
     return p
+
+
+def conv_acc(x, zp, w, bias, stride, ks=3):
+    """int64 [Ho, Wo, cout] accumulators of a padded ks x ks convolution (padding ks // 2);
+    w int8 [cout, ks, ks, cin]. Exact: |sum| < 2^31 is far inside float64's 2^53."""
+    h, wd, c = x.shape
+    cout = w.shape[0]
+    ho, wo = h // stride, wd // stride
+    p = _padded(x, zp, ks // 2)
+    kk = ks * ks
+    wm = np.asarray(w, np.float64).reshape(cout, kk * c).T            # [(ky, kx, c), cout]
+    out = np.empty((ho, wo, cout), np.int64)
+    band = max(1, CHUNK // max(1, wo * kk * c))
+    for y0 in range(0, ho, band):
+        y1 = min(ho, y0 + band)
+        cols = np.empty((y1 - y0, wo, kk, c), np.float64)
+        for ky in range(ks):
+            for kx in range(ks):
+                cols[:, :, ky * ks + kx] = p[y0 * stride + ky:(y1 - 1) * stride + ky + 1:stride,
+                                             kx:(wo - 1) * stride + kx + 1:stride]
+        acc = cols.reshape(-1, kk * c) @ wm
+        out[y0:y1] = np.rint(acc).astype(np.int64).reshape(y1 - y0, wo, cout)
+    return out + np.asarray(bias, np.int64)
 
 
 def conv3x3_acc(x, zp, w, bias, stride):
     """int64 [Ho, Wo, cout] accumulators of a padded 3x3 convolution; w int8 [cout, 3, 3, cin]."""
-    h, wd, c = x.shape
-    cout = w.shape[0]
-    ho, wo = h // stride, wd // stride
-    p = _padded(x, zp)
-    wm = np.asarray(w, np.float64).reshape(cout, 9 * c).T            # [(ky, kx, c), cout]
-    out = np.empty((ho, wo, cout), np.int64)
-    band = max(1, CHUNK // max(1, wo * 9 * c))
-    for y0 in range(0, ho, band):
-        y1 = min(ho, y0 + band)
-        cols = np.empty((y1 - y0, wo, 9, c), np.float64)
-        for ky in range(3):
-            for kx in range(3):
-                cols[:, :, ky * 3 + kx] = p[y0 * stride + ky:(y1 - 1) * stride + ky + 1:stride,
-                                            kx:(wo - 1) * stride + kx + 1:stride]
-        acc = cols.reshape(-1, 9 * c) @ wm
-        out[y0:y1] = np.rint(acc).astype(np.int64).reshape(y1 - y0, wo, cout)
-    return out + np.asarray(bias, np.int64)
+    return conv_acc(x, zp, w, bias, stride, 3)
+
+
+def conv5x5_acc(x, zp, w, bias, stride):
+    """int64 [Ho, Wo, cout] accumulators of a 5x5 convolution, padding 2; w int8 [cout, 5, 5, cin]."""
+    return conv_acc(x, zp, w, bias, stride, 5)
 
 
 def dw3x3_acc(x, zp, w, bias, stride):
@@ -120,6 +132,8 @@ def layer_acc(L, ts, zps):
     op, x, zp = op_id(L["op"]), ts[L["in"]], zps[L["in"]]
     if op == CONV3X3:
         return conv3x3_acc(x, zp, np.asarray(L["w"]).reshape(L["cout"], 3, 3, L["cin"]), L["bias"], int(L["stride"]))
+    if op == CONV5X5:
+        return conv5x5_acc(x, zp, np.asarray(L["w"]).reshape(L["cout"], 5, 5, L["cin"]), L["bias"], int(L["stride"]))
     if op == DW3X3:
         return dw3x3_acc(x, zp, np.asarray(L["w"]).reshape(3, 3, L["cout"]), L["bias"], int(L["stride"]))
     if op == PW1X1:
@@ -130,7 +144,7 @@ def layer_acc(L, ts, zps):
 def layer_forward(L, ts, zps):
     """Output tensor (int8 [H, W, cout]) of layer L."""
     op, x = op_id(L["op"]), ts[L["in"]]
-    if op in (CONV3X3, DW3X3, PW1X1):
+    if op in (CONV3X3, DW3X3, PW1X1, CONV5X5):
         return requant(layer_acc(L, ts, zps), L)
     if op == MAXPOOL2:
         h, w, c = x.shape
@@ -176,7 +190,7 @@ def shapes(desc, w, h):
     for L in desc["layers"]:
         op = op_id(L["op"])
         hh, ww, _ = out[L["in"]]
-        if op in (CONV3X3, DW3X3):
+        if op in (CONV3X3, DW3X3, CONV5X5):
             hh, ww = hh // int(L["stride"]), ww // int(L["stride"])
         elif op == MAXPOOL2:
             hh, ww = hh // 2, ww // 2
@@ -187,15 +201,15 @@ def shapes(desc, w, h):
 
 
 def macs(desc, w, h):
-    """Multiply-adds of one run at w x h: H_out * W_out * (9 cin cout | 9 c | cin cout) over the
-    CONV3X3 / DW3X3 / PW1X1 layers (pooling, upsampling and concatenation count 0)."""
+    """Multiply-adds of one run at w x h: H_out * W_out * (9 cin cout | 9 c | cin cout | 25 cin cout) over
+    the CONV3X3 / DW3X3 / PW1X1 / CONV5X5 layers (pooling, upsampling and concatenation count 0)."""
     sh = shapes(desc, w, h)
     total = 0
     for i, L in enumerate(desc["layers"]):
         op = op_id(L["op"])
         ho, wo, _ = sh[i + 1]
         k = {CONV3X3: 9 * int(L["cin"]) * int(L["cout"]), DW3X3: 9 * int(L["cout"]),
-             PW1X1: int(L["cin"]) * int(L["cout"])}.get(op, 0)
+             PW1X1: int(L["cin"]) * int(L["cout"]), CONV5X5: 25 * int(L["cin"]) * int(L["cout"])}.get(op, 0)
         total += ho * wo * k
     return total
 
@@ -330,14 +344,15 @@ def _decode_table(rng, out_channels, zp):
 
 
 def random_model(rng, out_channels=5, input_norm=0, width=(8, 12, 16, 12), out_stride=4, input_w=64, input_h=48,
-                 extreme_bias=True, name="random"):
+                 extreme_bias=True, name="random", conv5=False):
     """A valid random CNN desc exercising all six ops: conv3x3 stride 2, depthwise (stride 1 and 2),
     pointwise, max-pool, upsample and a concat skip; out_stride 4 (or 8), out_channels 5 (or 3).
     Weights are int8 in [-127, 127]; per-channel mult/shift are calibrated on a random image so that
     activations spread over the int8 range (a few channels get arbitrary mult in [2^30, 2^31-1] and
     shift in [-31, 7]); biases lie within the loader's bound (with extreme_bias a few sit at it).
     The decode table is valid and monotonic. input_w, input_h must be multiples of 8 (16 for
-    out_stride 8)."""
+    out_stride 8). conv5: the first conv (stride 2) and the stride-1 conv at f8 are CONV5X5 instead
+    (paper 003's op; the default plan and its random draws are unchanged)."""
     c1, c2, c3, c4 = (int(c) for c in width)
     relu = lambda zp: (zp, 127)
     zp_skip = int(rng.integers(-128, -100))     # tensors joined by the concat share a zero point
@@ -354,6 +369,9 @@ def random_model(rng, out_channels=5, input_norm=0, width=(8, 12, 16, 12), out_s
         dict(op=CONV3X3, stride=1, **{"in": 9}, cin=c3 + c2, cout=c4, act="relu6"),  # t10 f4
         dict(op=PW1X1, stride=1, **{"in": 10}, cin=c4, cout=out_channels, act="none"),  # t11 head f4
     ]
+    if conv5:
+        plan[0]["op"] = CONV5X5
+        plan[6]["op"] = CONV5X5
     if out_stride == 8:   # one more stride-2 conv before the head: head at f8
         plan[-1:] = [dict(op=CONV3X3, stride=2, **{"in": 10}, cin=c4, cout=c4),
                      dict(op=PW1X1, stride=1, **{"in": 11}, cin=c4, cout=out_channels, act="none")]
@@ -385,7 +403,8 @@ def random_model(rng, out_channels=5, input_norm=0, width=(8, 12, 16, 12), out_s
             else:
                 lo, hi = relu(zp)
             cin, cout = p["cin"], p["cout"]
-            shape = {CONV3X3: (cout, 3, 3, cin), DW3X3: (3, 3, cout), PW1X1: (cout, cin)}[op]
+            shape = {CONV3X3: (cout, 3, 3, cin), DW3X3: (3, 3, cout), PW1X1: (cout, cin),
+                     CONV5X5: (cout, 5, 5, cin)}[op]
             w = np.clip(np.rint(rng.normal(0, rng.uniform(20, 70), shape)), -127, 127).astype(np.int8)
             if rng.random() < 0.5:     # full-scale weights somewhere
                 w.reshape(-1)[rng.integers(0, w.size, 3)] = rng.choice([-127, 127], 3)

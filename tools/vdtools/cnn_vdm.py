@@ -15,7 +15,8 @@ A description ("desc") is a plain dict:
     name                        <= 16 printable ASCII characters
     layers                      list of dicts, layer i produces tensor i+1 (tensor 0 is the input):
         op (CONV3X3..CONCAT or its name), stride, in, in2, cin, cout, out_zp, act_min, act_max,
-        w      int8   CONV3X3 [cout][3][3][cin], DW3X3 [3][3][cout], PW1X1 [cout][cin], else None
+        w      int8   CONV3X3 [cout][3][3][cin], DW3X3 [3][3][cout], PW1X1 [cout][cin],
+                      CONV5X5 [cout][5][5][cin] (op 7, padding 2: paper 003's network), else None
         bias   int32 [cout], mult int32 [cout] in [2^30, 2^31-1], shift int8 [cout] in [-31, 7]
                (None for MAXPOOL2 / UPSAMPLE2 / CONCAT)
     table                       int32 [out_channels][256] decode table, indexed by int8 value + 128
@@ -54,11 +55,12 @@ SCORE_MAX = 32768        # Q15 1.0
 SIZE_MAX_Q8 = 4096 * 256
 OFF_MIN_Q8, OFF_MAX_Q8 = -256, 512
 
-CONV3X3, DW3X3, PW1X1, MAXPOOL2, UPSAMPLE2, CONCAT = 1, 2, 3, 4, 5, 6
+CONV3X3, DW3X3, PW1X1, MAXPOOL2, UPSAMPLE2, CONCAT, CONV5X5 = 1, 2, 3, 4, 5, 6, 7
 OP_NAMES = {CONV3X3: "conv3x3", DW3X3: "dw3x3", PW1X1: "pw1x1", MAXPOOL2: "maxpool2",
-            UPSAMPLE2: "upsample2", CONCAT: "concat"}
+            UPSAMPLE2: "upsample2", CONCAT: "concat", CONV5X5: "conv5x5"}
 OP_IDS = {v: k for k, v in OP_NAMES.items()}
-WEIGHTED = (CONV3X3, DW3X3, PW1X1)
+WEIGHTED = (CONV3X3, DW3X3, PW1X1, CONV5X5)
+STRIDED = (CONV3X3, DW3X3, CONV5X5)   # ops with stride 1 or 2
 
 # magic, version, header_size, total_size, crc, kind, input_norm, n_layers, out_channels, input_w,
 # input_h, norm_lo_permille, norm_hi_permille, norm_min_range, input_zp, out_stride, layer_table,
@@ -73,7 +75,7 @@ HEADER_KEYS = ("input_w", "input_h", "input_norm", "norm_lo_permille", "norm_hi_
 
 
 def op_id(op):
-    """The op number (1..6) of an op given by number or name ("conv3x3", ...)."""
+    """The op number (1..7) of an op given by number or name ("conv3x3", ...)."""
     if isinstance(op, str):
         if op.lower() not in OP_IDS:
             raise ValueError(f"unknown op {op!r} (one of {sorted(OP_IDS)})")
@@ -83,7 +85,7 @@ def op_id(op):
 
 def k_of(op, cin):
     """Number of multiply-adds per output value (the K of the accumulator bound); 0 for ops 4-6."""
-    return {CONV3X3: 9 * cin, DW3X3: 9, PW1X1: cin}.get(op, 0)
+    return {CONV3X3: 9 * cin, DW3X3: 9, PW1X1: cin, CONV5X5: 25 * cin}.get(op, 0)
 
 
 def bias_bound(op, cin):
@@ -92,7 +94,8 @@ def bias_bound(op, cin):
 
 
 def weight_shape(op, cin, cout):
-    return {CONV3X3: (cout, 3, 3, cin), DW3X3: (3, 3, cout), PW1X1: (cout, cin)}.get(op)
+    return {CONV3X3: (cout, 3, 3, cin), DW3X3: (3, 3, cout), PW1X1: (cout, cin),
+            CONV5X5: (cout, 5, 5, cin)}.get(op)
 
 
 def _int_array(v, dtype, lo, hi, what, shape=None):
@@ -166,7 +169,7 @@ def validate(desc):
         if op not in OP_NAMES:
             raise ValueError(f"{where}unknown op {op}")
         n = {"op": op}
-        n["stride"] = _int(L, "stride", 1, 2 if op in (CONV3X3, DW3X3) else 1, where)
+        n["stride"] = _int(L, "stride", 1, 2 if op in STRIDED else 1, where)
         n["in"] = _int(L, "in", 0, i, where)
         n["in2"] = _int(dict(L, in2=L.get("in2", 0)), "in2", 0, i if op == CONCAT else 0, where)
         n["cin"] = _int(L, "cin", 1, MAX_CHANNELS, where)
@@ -178,7 +181,7 @@ def validate(desc):
         if cin != chans[a]:
             raise ValueError(f"{where}cin {cin} != {chans[a]} channels of tensor {a}")
         f = fs[a]
-        if op in (CONV3X3, DW3X3):
+        if op in STRIDED:
             f *= n["stride"]
         elif op == MAXPOOL2:
             f *= 2
@@ -249,7 +252,7 @@ def tensor_factors(desc):
     fs = [1]
     for L in desc["layers"]:
         op, f = op_id(L["op"]), fs[L["in"]]
-        if op in (CONV3X3, DW3X3):
+        if op in STRIDED:
             f *= int(L["stride"])
         elif op == MAXPOOL2:
             f *= 2

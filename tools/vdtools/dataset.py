@@ -323,13 +323,17 @@ def sample_impl(mode="grey"):
         s = samples.sample32(probe, (3, 5, 40, 30), mode)
         if np.asarray(s).shape != (32, 32):
             raise RuntimeError(f"vdtools.samples.sample32 returned shape {np.asarray(s).shape} on the probe")
-        _SAMPLE_IMPL[mode] = ("C", lambda img, rect, m: np.asarray(
-            samples.sample32(img, tuple(int(v) for v in rect), m), dtype=np.uint8).reshape(32, 32))
+        _SAMPLE_IMPL[mode] = ("C", lambda img, rect, m, n=32: np.asarray(
+            samples.sample32(img, tuple(int(v) for v in rect), m, n), dtype=np.uint8).reshape(n, n))
     return _SAMPLE_IMPL[mode]
 
 
+# Side of the samples build() cuts: 32 (the DBN's input), or 64 for paper 003's verifier (build(size=64)).
+_SIDE = [32]
+
+
 def sample32(img, rect, mode):
-    return sample_impl(mode)[1](img, rect, mode)
+    return sample_impl(mode)[1](img, rect, mode, _SIDE[0])
 
 
 def _jitter(box, fw, fh, rng):
@@ -467,7 +471,7 @@ def mined_samples(img, fr, split, mode, rng):
     if len(neg):
         lv = _window_levels(img, neg)
         neg, lv = neg[lv >= WIN_MIN_LEVEL], lv[lv >= WIN_MIN_LEVEL]
-    k = NEG_WINDOW_PER_FRAME[split]
+    k = _NEG_WINDOW_OVERRIDE.get(split, NEG_WINDOW_PER_FRAME[split])
     if len(neg):
         top = np.argsort(-lv, kind="stable")[:max(8 * k, 64)]
         pick = list(rng.choice(top, min(k // 2, len(top)), replace=False))
@@ -483,6 +487,11 @@ def mined_samples(img, fr, split, mode, rng):
             yield sample32(img, r, mode), 0, "contrast", r, hot(r)
 
 
+# build(test_windows=N) sets the window hard negatives per test frame for one build (paper 003's DET
+# protocol reads the miss rate at 1e-4 FPPW, which needs >= 10^4 negative windows).
+_NEG_WINDOW_OVERRIDE = {}
+
+
 def all_frames(data_dir, synth=True):
     """Real frames first, then the synthetic ones: per-frame generators are seeded by the frame
     index, so appending keeps every real row identical."""
@@ -491,8 +500,11 @@ def all_frames(data_dir, synth=True):
     return msrs + hit + seq + (load_synth() if synth else [])
 
 
-def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=True, only_split=None):
-    """Returns a dict of arrays: X (N,32,32) u8, y (N,) u8 (1 = vehicle), split (N,) str, source,
+def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=True, only_split=None, size=32,
+          test_windows=None):
+    """size: sample side (32, or 64 for paper 003's verifier); test_windows: window hard negatives per
+    test frame (None = NEG_WINDOW_PER_FRAME); both default to the issue-3/7 rows.
+    Returns a dict of arrays: X (N,size,size) u8, y (N,) u8 (1 = vehicle), split (N,) str, source,
     dataset, frame, group, rect (N,4) int32, hot (N,) bool; plus meta (dict).
     only_split: keep only that split's frames. Splits and per-frame generators do not depend on
     the other frames, so its rows are byte-identical to the same split of a full build (this is
@@ -504,6 +516,18 @@ def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=T
     sizes = {}
     for f in frames:
         sizes.setdefault(f.dataset if f.dataset != "seq" else "hit", []).extend((b[2], b[3]) for b in f.vehicles if _ok(b))
+    _SIDE[0] = int(size)
+    _NEG_WINDOW_OVERRIDE.clear()
+    if test_windows is not None:
+        _NEG_WINDOW_OVERRIDE["test"] = int(test_windows)
+    try:
+        return _build(frames, split_of, sizes, data_dir, mode, seed, progress, mine, only_split, size)
+    finally:
+        _SIDE[0] = 32
+        _NEG_WINDOW_OVERRIDE.clear()
+
+
+def _build(frames, split_of, sizes, data_dir, mode, seed, progress, mine, only_split, size):
     rows = {k: [] for k in ("X", "y", "split", "source", "dataset", "frame", "group", "rect", "hot")}
     it = frames
     if progress:
@@ -529,7 +553,7 @@ def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=T
             rows["rect"].append(rect)
             rows["hot"].append(hot)
     out = {
-        "X": np.asarray(rows["X"], np.uint8).reshape(-1, 32, 32),
+        "X": np.asarray(rows["X"], np.uint8).reshape(-1, size, size),
         "y": np.asarray(rows["y"], np.uint8),
         "rect": np.asarray(rows["rect"], np.int32).reshape(-1, 4),
         "hot": np.asarray(rows["hot"], bool),
@@ -537,7 +561,8 @@ def build(data_dir=None, mode="grey", seed=0, progress=True, frames=None, mine=T
     for k in ("split", "source", "dataset", "frame", "group"):
         out[k] = np.asarray(rows[k], dtype=str)
     out["meta"] = {"mode": mode, "seed": seed, "version": BUILD_VERSION, "sampler": sample_impl(mode)[0],
-                   "candidates": _candidate_impl()[0], "n_frames": len(frames), "mined": bool(mine),
+                   "candidates": _candidate_impl()[0], "n_frames": len(frames), "mined": bool(mine), "size": int(size),
+                   "test_windows": _NEG_WINDOW_OVERRIDE.get("test"),
                    "groups": {s: sorted(g for g, v in split_of.items() if v == s) for s in SPLITS}}
     return out
 

@@ -72,7 +72,8 @@ class DetectorCfg(C.Structure):
                 ("clock_us", CLOCK_FN), ("clock_user", C.c_void_p),
                 ("on_candidate", CANDIDATE_FN), ("candidate_user", C.c_void_p),
                 ("cnn_model", C.c_void_p), ("cnn_score_thr_q15", C.c_uint16), ("cnn_rescore", C.c_uint8),
-                ("reserved2", C.c_uint8)]
+                ("reserved2", C.c_uint8), ("verifier", C.c_uint8), ("reserved3", C.c_uint8 * 3),
+                ("boost_model", C.c_void_p), ("boost_thr_offset", C.c_int32)]
 
 
 STAT_FIELDS = ("hot_thr_u8", "hot_thr_raw", "hot_pixels", "components", "kept", "refined", "verified",
@@ -127,7 +128,8 @@ def _struct_dict(s):
         v = getattr(s, name)
         if isinstance(v, C.Structure):
             v = _struct_dict(v)
-        elif name in ("clock_us", "clock_user", "on_candidate", "candidate_user", "cnn_model"):
+        elif name in ("clock_us", "clock_user", "on_candidate", "candidate_user", "cnn_model", "boost_model",
+                      "reserved3"):
             continue
         out[name] = v
     return out

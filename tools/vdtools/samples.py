@@ -110,9 +110,9 @@ def _refine_mask(img, rect):
     return mask
 
 
-def sample32(img_u8, rect, mode="grey"):
-    """The (32, 32) uint8 network input for the candidate `rect` = (x, y, w, h)
-    (clipped to the image) of a 2-D uint8 frame.
+def sample32(img_u8, rect, mode="grey", size=INPUT_SIZE):
+    """The (size, size) uint8 network input (32x32 unless told: paper 003's verifier uses 64)
+    for the candidate `rect` = (x, y, w, h) (clipped to the image) of a 2-D uint8 frame.
     mode 'grey': the grey crop resampled; 'shape': the refine stage's binary
     mask of the crop (vd_refine_region, default config) resampled."""
     img = np.asarray(img_u8)
@@ -121,8 +121,8 @@ def sample32(img_u8, rect, mode="grey"):
     img = np.ascontiguousarray(img)
     r = clip_rect(rect, img.shape[1], img.shape[0])
     if mode == "grey":
-        return resample(img, r)
+        return resample(img, r, size, size)
     if mode == "shape":
         mask = np.ascontiguousarray(_refine_mask(img, r), dtype=np.uint8)
-        return resample(mask, None)
+        return resample(mask, None, size, size)
     raise ValueError(f"mode must be one of {MODES}, not {mode!r}")

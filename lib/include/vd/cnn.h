@@ -70,7 +70,8 @@ typedef enum vd_cnn_op {
     VD_CNN_OP_PW1X1 = 3,     // pointwise 1x1
     VD_CNN_OP_MAXPOOL2 = 4,  // 2x2 max-pool, stride 2
     VD_CNN_OP_UPSAMPLE2 = 5, // nearest x2 upsample
-    VD_CNN_OP_CONCAT = 6     // channel concatenation of tensors `in` and `in2`
+    VD_CNN_OP_CONCAT = 6,    // channel concatenation of tensors `in` and `in2`
+    VD_CNN_OP_CONV5X5 = 7    // full 5x5 convolution, padding 2, stride 1 or 2 (paper 003's network)
 } vd_cnn_op_t;
 
 // Input normalisation (header input_norm).
@@ -85,7 +86,7 @@ typedef enum vd_cnn_norm {
 // (any host endianness, no alignment needed beyond the loader's checks).
 typedef struct vd_cnn_layer {
     uint8_t op;               // vd_cnn_op_t
-    uint8_t stride;           // 1, or 2 for CONV3X3/DW3X3
+    uint8_t stride;           // 1, or 2 for CONV3X3/DW3X3/CONV5X5
     uint8_t in;               // input tensor index, <= layer index
     uint8_t in2;              // CONCAT: second input tensor; else 0
     uint16_t cin;             // channels of tensor `in`
@@ -93,7 +94,8 @@ typedef struct vd_cnn_layer {
     int8_t out_zp;            // output zero point
     int8_t act_min;           // output clamp (ReLU: act_min = out_zp)
     int8_t act_max;
-    const int8_t *w;          // CONV3X3 [cout][3][3][cin], DW3X3 [3][3][cout], PW1X1 [cout][cin]
+    const int8_t *w;          // CONV3X3 [cout][3][3][cin], DW3X3 [3][3][cout], PW1X1 [cout][cin],
+                              // CONV5X5 [cout][5][5][cin]
     const uint8_t *bias;      // int32 LE [cout], accumulator units
     const uint8_t *mult;      // int32 LE [cout], Q31 2^30 .. 2^31-1
     const int8_t *shift;      // [cout], -31 .. 7
@@ -244,7 +246,7 @@ vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, i
 vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, int32_t *thr_q);
 
 // Multiply-adds of one run at width x height (CONV3X3 9*cin*cout, DW3X3 9*c,
-// PW1X1 cin*cout per output pixel).
+// PW1X1 cin*cout, CONV5X5 25*cin*cout per output pixel).
 // Returns VD_OK; VD_ERR_ARG / VD_ERR_STATE as vd_cnn_workspace_size.
 vd_status_t vd_cnn_macs(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint64_t *macs);
 

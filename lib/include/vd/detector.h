@@ -20,6 +20,7 @@
 #include "vd/threshold.h"
 #include "vd/components.h"
 #include "vd/refine.h"
+#include "vd/boost.h"
 #include "vd/dbn.h"
 #include "vd/cnn.h"
 #include "vd/temporal.h"
@@ -148,7 +149,26 @@ typedef struct vd_detector_cfg {
                                  //   scores windows (whole box) and keeps them when score >= score_thr; their
                                  //   score is then the DBN's. 1 needs a DBN model (else VD_ERR_ARG)
     uint8_t reserved2;           // 0
+    // Verifier (issue 12). Appended so the fields above keep their offsets.
+    // VD_DETECTOR_VERIFIER_DBN (0): the DBN `model` of vd_detector_init scores
+    // candidates (32x32 sample, score_thr_q8). VD_DETECTOR_VERIFIER_BOOST: the
+    // boosted CNN-feature stumps of paper 003 (boost.h) score every candidate
+    // the DBN would (hot spots, contrast, windows, re-scored CNN boxes) on a
+    // crop_w x crop_h sample of the same box; kept when score >= the model's
+    // threshold + boost_thr_offset; score_q8 = clamp(128 + floor(128 (score -
+    // threshold) / score_span), 0, 255) (boost.h: score_span bounds |score|),
+    // so score_q8 >= 128 exactly when score >= the model's threshold and the
+    // NMS order follows the boosted score; a negative offset keeps lower
+    // scores too (for precision-recall curves). The DBN `model` may then be NULL.
+    uint8_t verifier;            // VD_DETECTOR_VERIFIER_*, 0..1; 0 = DBN
+    uint8_t reserved3[3];        // 0
+    const vd_boost_model_t *boost_model;  // loaded by vd_boost_load; required with VERIFIER_BOOST
+    int32_t boost_thr_offset;    // added to the model's threshold, -2^24..2^24; 0 = the model's
 } vd_detector_cfg_t;
+
+// Values of vd_detector_cfg_t.verifier.
+#define VD_DETECTOR_VERIFIER_DBN 0u
+#define VD_DETECTOR_VERIFIER_BOOST 1u
 
 
 // Per-frame counts and times of the last vd_detector_run.
@@ -198,7 +218,7 @@ typedef struct vd_detector {
     vd_track_t *tracks;
     uint32_t *hist;              // 256 bins
     uint8_t *sample;             // in_w * in_h
-    void *dbn_ws;
+    void *dbn_ws;                // DBN workspace, or the boosted verifier's (cfg.verifier)
     size_t dbn_ws_bytes;
     uint8_t *overlay;            // labelling scratch (run budget), reused per candidate for region buffers
     size_t overlay_bytes;

@@ -24,6 +24,7 @@
 #include "vd/resample.h"
 #include "vd/dbn.h"
 #include "vd/cnn.h"
+#include "vd/boost.h"
 #include "vd/temporal.h"
 #include "vd/detection.h"
 #include "vd/suppress.h"
