@@ -12,11 +12,11 @@
 #      works wherever our machines can install packages at all;
 #   2. mounts /proc, /sys, /dev (recursive bind) and ../shared (read-only bind) into it,
 #      removed again by an EXIT trap;
-#   3. puts a clean clone of the repository's HEAD at work/main inside the chroot (committed state only:
+#   3. puts a clean clone of the repository's HEAD at src/vd inside the chroot (committed state only:
 #      uncommitted edits of this tree are NOT tested, unless --worktree) and ../shared
-#      at work/shared beside it, the layout the README assumes;
+#      at src/shared beside it, the layout the README assumes;
 #   4. runs the README's two commands (read from its first ```sh block) one after the
-#      other, as root, in work/main, timing each, and prints one PASS/FAIL line.
+#      other, as root, in src/vd, timing each, and prints one PASS/FAIL line.
 #
 # Usage: sudo tools/fresh_check.sh [options]
 #   --dir DIR          chroot directory (default: tools/.cache/fresh, ignored by git)
@@ -144,29 +144,29 @@ mount --rbind /sys "$dir/sys"; mount --make-rslave "$dir/sys"
 mount --rbind /dev "$dir/dev"; mount --make-rslave "$dir/dev"   # includes /dev/pts, /dev/shm
 
 # The repository: a clean clone of HEAD (committed state), or the working tree.
-mkdir -p "$dir/work"
+mkdir -p "$dir/src"
 if [ "$worktree" = 1 ]; then
-  mkdir -p "$dir/work/main"
+  mkdir -p "$dir/src/vd"
   # no build trees or caches (ignored files); tracked files deleted in the tree are skipped
   (cd "$repo" && git ls-files -z --cached --others --exclude-standard \
-    | tar --null -T - --ignore-failed-read -cf - 2>/dev/null) | tar -xf - -C "$dir/work/main"
+    | tar --null -T - --ignore-failed-read -cf - 2>/dev/null) | tar -xf - -C "$dir/src/vd"
   say "copied the working tree of $repo (tracked + untracked, not ignored)"
 else
-  git clone -q --no-hardlinks "$repo" "$dir/work/main"
+  git clone -q --no-hardlinks "$repo" "$dir/src/vd"
   say "cloned HEAD $(git -C "$repo" rev-parse --short HEAD) of $repo (committed state only)"
 fi
 for p in ${overlays[@]+"${overlays[@]}"}; do
-  (cd "$repo" && cp -a --parents "$p" "$dir/work/main/")
+  (cd "$repo" && cp -a --parents "$p" "$dir/src/vd/")
   say "overlaid $p from the working tree"
 done
 # ../shared: read-only bind mount by default -- instant (it is ~170 MB and grows), and it
 # proves that the commands never write into the shared data; --copy-shared copies it.
-mkdir -p "$dir/work/shared"
+mkdir -p "$dir/src/shared"
 if [ "$copy_shared" = 1 ]; then
-  cp -a "$shared/." "$dir/work/shared/"
+  cp -a "$shared/." "$dir/src/shared/"
 else
-  mount --bind "$shared" "$dir/work/shared"
-  mount -o remount,bind,ro "$dir/work/shared"
+  mount --bind "$shared" "$dir/src/shared"
+  mount -o remount,bind,ro "$dir/src/shared"
 fi
 
 if [ -n "$not_before" ]; then
@@ -178,14 +178,14 @@ if [ -n "$not_before" ]; then
 fi
 
 # Each command runs in a clean environment (nothing of this shell's PATH, pyenv or
-# virtualenv leaks in), as root, in the chroot's work/main, like a user pasting it into a shell.
+# virtualenv leaks in), as root, in the chroot's src/vd, like a user pasting it into a shell.
 results=() status=0
 for i in 0 1; do
   say "command $((i + 1)): ${cmds[$i]}"
   t0=$(now)
   if chroot "$dir" /usr/bin/env -i HOME=/root LANG=C.UTF-8 TERM=dumb \
       PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
-      nice -n "$niceness" /bin/bash -c "cd /work/main && ${cmds[$i]}" >>"$log" 2>&1; then
+      nice -n "$niceness" /bin/bash -c "cd /src/vd && ${cmds[$i]}" >>"$log" 2>&1; then
     r=PASS
   else
     r=FAIL; status=1
