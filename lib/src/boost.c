@@ -17,10 +17,7 @@
 
 #include <string.h>
 
-#define H_MAGIC 0u
-#define H_VERSION 4u
-#define H_HEADER_SIZE 6u
-#define H_TOTAL 8u
+// Bytes 0..15: the container (magic, version, sizes; internal/blob_internal.h checks it).
 #define H_CRC 12u
 #define H_KIND 16u
 #define H_N_MAPS 17u
@@ -33,22 +30,11 @@
 #define H_NAME 40u
 #define H_NAME_LEN 16u
 #define H_RES 56u
-#define MAGIC_U32 0x464D4456u   // "VDMF"
 #define VALUE_MAX 32767
-
-static uint16_t rd_u16(const uint8_t *p)
-{
-    return (uint16_t)(p[0] | (p[1] << 8));
-}
-
-static uint32_t rd_u32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
 
 static int32_t rd_i16(const uint8_t *p)
 {
-    const uint32_t u = rd_u16(p);
+    const uint32_t u = vd_blob_u16(p);
     return (u >= 0x8000u) ? (int32_t)u - 65536 : (int32_t)u;
 }
 
@@ -91,21 +77,18 @@ vd_status_t vd_boost_load(vd_boost_model_t *m, const void *blob, size_t bytes)
     VD_VERIFY(m != NULL && blob != NULL && bytes != 0u, VD_ERR_ARG);
     VD_VERIFY(((uintptr_t)blob % 4u) == 0u, VD_ERR_ARG);
     const uint8_t *b = (const uint8_t *)blob;
-    VD_VERIFY(bytes >= VD_BOOST_HEADER_SIZE, VD_ERR_MODEL);
-    VD_VERIFY(rd_u32(b + H_MAGIC) == MAGIC_U32, VD_ERR_MODEL);
-    VD_VERIFY(rd_u16(b + H_VERSION) == VD_BOOST_FORMAT_VERSION, VD_ERR_MODEL);
-    VD_VERIFY(rd_u16(b + H_HEADER_SIZE) == VD_BOOST_HEADER_SIZE, VD_ERR_MODEL);
-    const uint32_t total = rd_u32(b + H_TOTAL);
-    VD_VERIFY(total >= VD_BOOST_HEADER_SIZE && (size_t)total <= bytes && (total % 4u) == 0u, VD_ERR_MODEL);
-    const uint32_t crc = rd_u32(b + H_CRC);
-    VD_VERIFY(vd_crc32(0u, b + H_KIND, (size_t)total - H_KIND) == crc, VD_ERR_MODEL);
+    uint16_t version;
+    uint32_t total;
+    VD_TRY(vd_blob_container(b, bytes, VD_BOOST_FORMAT_VERSION, VD_BOOST_FORMAT_VERSION, VD_BOOST_HEADER_SIZE,
+                             &version, &total));
+    const uint32_t crc = vd_blob_u32(b + H_CRC);   // checked by vd_blob_container
     VD_VERIFY(b[H_KIND] == VD_BOOST_KIND, VD_ERR_MODEL);
     const uint32_t n_maps = b[H_N_MAPS];
-    const uint32_t n_stumps = rd_u16(b + H_N_STUMPS);
-    const uint32_t cnn_off = rd_u32(b + H_CNN_OFF);
-    const uint32_t cnn_len = rd_u32(b + H_CNN_LEN);
-    const uint32_t maps_off = rd_u32(b + H_MAPS_OFF);
-    const uint32_t st_off = rd_u32(b + H_STUMPS_OFF);
+    const uint32_t n_stumps = vd_blob_u16(b + H_N_STUMPS);
+    const uint32_t cnn_off = vd_blob_u32(b + H_CNN_OFF);
+    const uint32_t cnn_len = vd_blob_u32(b + H_CNN_LEN);
+    const uint32_t maps_off = vd_blob_u32(b + H_MAPS_OFF);
+    const uint32_t st_off = vd_blob_u32(b + H_STUMPS_OFF);
     VD_VERIFY(n_maps >= 1u && n_maps <= VD_BOOST_MAX_MAPS, VD_ERR_MODEL);
     VD_VERIFY(n_stumps >= 1u && n_stumps <= VD_BOOST_MAX_STUMPS, VD_ERR_MODEL);
     VD_VERIFY(vd_blob_name_ok(b + H_NAME, H_NAME_LEN), VD_ERR_MODEL);
@@ -140,7 +123,7 @@ static vd_status_t finish_load(vd_boost_model_t *m, const uint8_t *b, uint32_t t
     for (uint32_t i = 0u; i < n_maps; i++) {
         const uint8_t *e = b + maps_off + 4u * i;
         const uint32_t t = e[0];
-        const uint32_t c = rd_u16(e + 2);
+        const uint32_t c = vd_blob_u16(e + 2);
         VD_VERIFY(e[1] == 0u && t >= 1u && t <= cnn->n_layers && c < cnn->layers[t - 1u].cout, VD_ERR_MODEL);
         const uint32_t f = factor_of(cnn, t);
         len[i] = (cw / f) * (ch / f);   // input size is a multiple of every factor (vd_cnn_load)
@@ -149,7 +132,7 @@ static vd_status_t finish_load(vd_boost_model_t *m, const uint8_t *b, uint32_t t
     int32_t span = 0;   // <= 4096 * 32767 < 2^27
     for (uint32_t k = 0u; k < n_stumps; k++) {
         const uint8_t *s = b + st_off + VD_BOOST_STUMP_SIZE * k;
-        const uint32_t pos = rd_u16(s);
+        const uint32_t pos = vd_blob_u16(s);
         const uint32_t mi = s[2];
         const int32_t lv = rd_i16(s + 4), rv = rd_i16(s + 6);
         VD_VERIFY(mi < n_maps && pos < len[mi], VD_ERR_MODEL);
@@ -164,13 +147,13 @@ static vd_status_t finish_load(vd_boost_model_t *m, const uint8_t *b, uint32_t t
     for (uint32_t i = 0u; i < n_maps; i++) {
         const uint8_t *e = b + maps_off + 4u * i;
         m->map_tensor[i] = e[0];
-        m->map_channel[i] = rd_u16(e + 2);
+        m->map_channel[i] = vd_blob_u16(e + 2);
         m->map_len[i] = len[i];
     }
     m->n_features = n_feat;
     m->n_stumps = n_stumps;
     m->stumps = b + st_off;
-    m->threshold = (int32_t)rd_u32(b + H_THRESHOLD);
+    m->threshold = (int32_t)vd_blob_u32(b + H_THRESHOLD);
     m->score_span = (span < 1) ? 1 : span;
     m->crop_w = (uint16_t)cw;
     m->crop_h = (uint16_t)ch;
@@ -225,7 +208,7 @@ vd_status_t vd_boost_score(const vd_boost_model_t *m, const uint8_t *crop, uint3
     int32_t sum = 0;
     for (uint32_t k = 0u; k < m->n_stumps; k++) {
         const uint8_t *s = m->stumps + VD_BOOST_STUMP_SIZE * k;
-        const uint32_t pos = rd_u16(s);
+        const uint32_t pos = vd_blob_u16(s);
         const uint32_t mi = s[2];
         const int32_t x = mp.p[mi][(size_t)pos * mp.step[mi]];
         sum += (x <= i8_of(s[3])) ? rd_i16(s + 4) : rd_i16(s + 6);

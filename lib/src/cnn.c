@@ -66,10 +66,7 @@
 #endif
 
 // Header fields.
-#define H_MAGIC 0u
-#define H_VERSION 4u
-#define H_HEADER_SIZE 6u
-#define H_TOTAL 8u
+// Bytes 0..15: the container (magic, version, sizes; internal/blob_internal.h checks it).
 #define H_CRC 12u
 #define H_KIND 16u
 #define H_NORM 17u
@@ -109,26 +106,15 @@
 #define E_SHIFT 24u
 #define E_RES1 28u
 
-#define MAGIC_U32 0x464D4456u   // "VDMF"
 #define MAX_ABS_PRODUCT (128L * 255L)   // weights may be -128: |w (x - zp)| <= 128 * 255
 #define INPUT_ZP (-128)
 
 
 // ------------------------------------------------------------ byte reading
 
-static uint16_t rd_u16(const uint8_t *p)
-{
-    return (uint16_t)((uint16_t)p[0] | (uint16_t)((uint16_t)p[1] << 8));
-}
-
-static uint32_t rd_u32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-
 static int32_t rd_i32(const uint8_t *p)
 {
-    return vd_rq_u32_to_i32(rd_u32(p));
+    return vd_rq_u32_to_i32(vd_blob_u32(p));
 }
 
 static int8_t u8_to_i8(uint8_t u)
@@ -287,15 +273,15 @@ static void entry_read(const uint8_t *b, uint32_t table, uint32_t l, vd_cnn_laye
     L->stride = e[E_STRIDE];
     L->in = e[E_IN];
     L->in2 = e[E_IN2];
-    L->cin = rd_u16(e + E_CIN);
-    L->cout = rd_u16(e + E_COUT);
+    L->cin = vd_blob_u16(e + E_CIN);
+    L->cout = vd_blob_u16(e + E_COUT);
     L->out_zp = u8_to_i8(e[E_ZP]);
     L->act_min = u8_to_i8(e[E_AMIN]);
     L->act_max = u8_to_i8(e[E_AMAX]);
-    offs[0] = rd_u32(e + E_W);
-    offs[1] = rd_u32(e + E_BIAS);
-    offs[2] = rd_u32(e + E_MULT);
-    offs[3] = rd_u32(e + E_SHIFT);
+    offs[0] = vd_blob_u32(e + E_W);
+    offs[1] = vd_blob_u32(e + E_BIAS);
+    offs[2] = vd_blob_u32(e + E_MULT);
+    offs[3] = vd_blob_u32(e + E_SHIFT);
     L->w = offs[0] ? (const int8_t *)(const void *)(b + offs[0]) : NULL;
     L->bias = offs[1] ? b + offs[1] : NULL;
     L->mult = offs[2] ? b + offs[2] : NULL;
@@ -368,30 +354,26 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes)
     VD_VERIFY(m != NULL && blob != NULL && bytes != 0u, VD_ERR_ARG);
     VD_VERIFY(((uintptr_t)blob % 4u) == 0u, VD_ERR_ARG);
     const uint8_t *b = (const uint8_t *)blob;
-    VD_VERIFY(bytes >= VD_CNN_HEADER_SIZE, VD_ERR_MODEL);
-
     // Container, before trusting any size.
-    VD_VERIFY(rd_u32(b + H_MAGIC) == MAGIC_U32, VD_ERR_MODEL);
-    VD_VERIFY(rd_u16(b + H_VERSION) == VD_CNN_FORMAT_VERSION, VD_ERR_MODEL);
-    VD_VERIFY(rd_u16(b + H_HEADER_SIZE) == VD_CNN_HEADER_SIZE, VD_ERR_MODEL);
-    const uint32_t total = rd_u32(b + H_TOTAL);
-    VD_VERIFY(total >= VD_CNN_HEADER_SIZE && (size_t)total <= bytes && (total % 4u) == 0u, VD_ERR_MODEL);
-    const uint32_t crc = rd_u32(b + H_CRC);
-    VD_VERIFY(vd_crc32(0u, b + H_KIND, (size_t)total - H_KIND) == crc, VD_ERR_MODEL);
+    uint16_t version;
+    uint32_t total;
+    VD_TRY(vd_blob_container(b, bytes, VD_CNN_FORMAT_VERSION, VD_CNN_FORMAT_VERSION, VD_CNN_HEADER_SIZE, &version,
+                             &total));
+    const uint32_t crc = vd_blob_u32(b + H_CRC);   // checked by vd_blob_container
 
     // Header fields.
     const uint32_t norm = b[H_NORM];
     const uint32_t n_layers = b[H_N_LAYERS];
     const uint32_t n_ch = b[H_OUT_CH];
-    const uint32_t in_w = rd_u16(b + H_IN_W);
-    const uint32_t in_h = rd_u16(b + H_IN_H);
-    const uint32_t lo = rd_u16(b + H_NORM_LO);
-    const uint32_t hi = rd_u16(b + H_NORM_HI);
-    const uint32_t min_range = rd_u16(b + H_NORM_MIN);
+    const uint32_t in_w = vd_blob_u16(b + H_IN_W);
+    const uint32_t in_h = vd_blob_u16(b + H_IN_H);
+    const uint32_t lo = vd_blob_u16(b + H_NORM_LO);
+    const uint32_t hi = vd_blob_u16(b + H_NORM_HI);
+    const uint32_t min_range = vd_blob_u16(b + H_NORM_MIN);
     const uint32_t out_stride = b[H_OUT_STRIDE];
-    const uint32_t table = rd_u32(b + H_LAYER_TABLE);
-    const uint32_t dec_off = rd_u32(b + H_DECODE);
-    const uint32_t max_peaks = rd_u16(b + H_MAX_PEAKS);
+    const uint32_t table = vd_blob_u32(b + H_LAYER_TABLE);
+    const uint32_t dec_off = vd_blob_u32(b + H_DECODE);
+    const uint32_t max_peaks = vd_blob_u16(b + H_MAX_PEAKS);
     VD_VERIFY(b[H_KIND] == VD_CNN_KIND, VD_ERR_MODEL);
     if (norm == VD_CNN_NORM_NONE) {
         VD_VERIFY(lo == 0u && hi == 0u && min_range == 0u, VD_ERR_MODEL);
@@ -404,7 +386,7 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes)
     VD_VERIFY(in_w >= 1u && in_w <= VD_CNN_MAX_SIDE && in_h >= 1u && in_h <= VD_CNN_MAX_SIDE, VD_ERR_MODEL);
     VD_VERIFY(u8_to_i8(b[H_IN_ZP]) == INPUT_ZP, VD_ERR_MODEL);
     VD_VERIFY(out_stride == 4u || out_stride == 8u, VD_ERR_MODEL);
-    VD_VERIFY(b[H_RES0] == 0u && rd_u32(b + H_FLAGS) == 0u, VD_ERR_MODEL);
+    VD_VERIFY(b[H_RES0] == 0u && vd_blob_u32(b + H_FLAGS) == 0u, VD_ERR_MODEL);
     VD_VERIFY(max_peaks >= 1u && max_peaks <= VD_CNN_MAX_PEAKS, VD_ERR_MODEL);
     VD_VERIFY(vd_blob_name_ok(b + H_NAME, H_NAME_LEN), VD_ERR_MODEL);
     VD_VERIFY(vd_blob_all_zero(b + H_RES1, VD_CNN_HEADER_SIZE - H_RES1), VD_ERR_MODEL);
@@ -425,7 +407,7 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes)
         uint32_t offs[4], lens[4];
         entry_read(b, table, l, &L, offs);
         const uint8_t *e = b + table + l * VD_CNN_LAYER_ENTRY_SIZE;
-        VD_VERIFY(e[E_RES0] == 0u && rd_u32(e + E_RES1) == 0u, VD_ERR_MODEL);
+        VD_VERIFY(e[E_RES0] == 0u && vd_blob_u32(e + E_RES1) == 0u, VD_ERR_MODEL);
         // Chain first: it bounds cin and cout, so the array lengths below
         // cannot wrap (25 * 1024 * 1024 < 2^32).
         VD_VERIFY(chain_step(&L, l, &c), VD_ERR_MODEL);

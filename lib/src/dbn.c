@@ -34,10 +34,7 @@
 
 #include <string.h>
 
-#define HDR_MAGIC 0u
-#define HDR_VERSION 4u
-#define HDR_HEADER_SIZE 6u
-#define HDR_TOTAL_SIZE 8u
+// Bytes 0..15: the container (magic, version, sizes; internal/blob_internal.h checks it).
 #define HDR_CRC 12u
 #define HDR_INPUT_W 16u
 #define HDR_INPUT_H 18u
@@ -74,16 +71,6 @@
 
 #define N_SEGMENTS (4u * VD_DBN_MAX_LAYERS)
 
-static uint16_t rd_u16(const uint8_t *p)
-{
-    return (uint16_t)((uint16_t)p[0] | (uint16_t)((uint16_t)p[1] << 8));
-}
-
-static uint32_t rd_u32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-
 // Two's-complement reinterpretation without implementation-defined casts.
 static int32_t u32_to_i32(uint32_t u)
 {
@@ -95,12 +82,12 @@ static int32_t u32_to_i32(uint32_t u)
 
 static int32_t rd_i32(const uint8_t *p)
 {
-    return u32_to_i32(rd_u32(p));
+    return u32_to_i32(vd_blob_u32(p));
 }
 
 static int16_t rd_i16(const uint8_t *p)
 {
-    uint16_t u = rd_u16(p);
+    uint16_t u = vd_blob_u16(p);
     return (u <= (uint16_t)INT16_MAX) ? (int16_t)u : (int16_t)(-(int32_t)(uint16_t)~u - 1);
 }
 
@@ -149,32 +136,27 @@ vd_status_t vd_dbn_load(vd_dbn_model_t *m, const void *blob, size_t bytes)
     VD_VERIFY(m != NULL && blob != NULL && bytes != 0u, VD_ERR_ARG);
     VD_VERIFY(((uintptr_t)blob % 4u) == 0u, VD_ERR_ARG);
     const uint8_t *b = (const uint8_t *)blob;
-    VD_VERIFY(bytes >= VD_DBN_HEADER_SIZE, VD_ERR_MODEL);
-
-    // Fixed part, before trusting any size.
-    VD_VERIFY(rd_u32(b + HDR_MAGIC) == VD_DBN_MAGIC_U32, VD_ERR_MODEL);
-    const uint16_t version = rd_u16(b + HDR_VERSION);
-    VD_VERIFY(version >= VD_DBN_FORMAT_VERSION_MIN && version <= VD_DBN_FORMAT_VERSION, VD_ERR_MODEL);
-    VD_VERIFY(rd_u16(b + HDR_HEADER_SIZE) == VD_DBN_HEADER_SIZE, VD_ERR_MODEL);
-    const uint32_t total = rd_u32(b + HDR_TOTAL_SIZE);
-    VD_VERIFY(total >= VD_DBN_HEADER_SIZE && (size_t)total <= bytes && (total % 4u) == 0u, VD_ERR_MODEL);
-    const uint32_t crc = rd_u32(b + HDR_CRC);
-    VD_VERIFY(vd_crc32(0u, b + HDR_INPUT_W, (size_t)total - HDR_INPUT_W) == crc, VD_ERR_MODEL);
+    // Container, before trusting any size.
+    uint16_t version;
+    uint32_t total;
+    VD_TRY(vd_blob_container(b, bytes, VD_DBN_FORMAT_VERSION_MIN, VD_DBN_FORMAT_VERSION, VD_DBN_HEADER_SIZE, &version,
+                             &total));
+    const uint32_t crc = vd_blob_u32(b + HDR_CRC);   // checked by vd_blob_container
 
     // Header fields.
-    const uint16_t in_w = rd_u16(b + HDR_INPUT_W);
-    const uint16_t in_h = rd_u16(b + HDR_INPUT_H);
+    const uint16_t in_w = vd_blob_u16(b + HDR_INPUT_W);
+    const uint16_t in_h = vd_blob_u16(b + HDR_INPUT_H);
     const uint8_t mode = b[HDR_INPUT_MODE];
-    const uint32_t n_layers = rd_u16(b + HDR_N_LAYERS);
-    const uint16_t norm_div = rd_u16(b + HDR_NORM_DIVISOR);
-    const uint32_t table = rd_u32(b + HDR_LAYER_TABLE);
+    const uint32_t n_layers = vd_blob_u16(b + HDR_N_LAYERS);
+    const uint16_t norm_div = vd_blob_u16(b + HDR_NORM_DIVISOR);
+    const uint32_t table = vd_blob_u32(b + HDR_LAYER_TABLE);
     VD_VERIFY(in_w >= 1u && in_w <= VD_DBN_MAX_INPUT_DIM, VD_ERR_MODEL);
     VD_VERIFY(in_h >= 1u && in_h <= VD_DBN_MAX_INPUT_DIM, VD_ERR_MODEL);
     VD_VERIFY(mode == (uint8_t)VD_DBN_INPUT_GREY || mode == (uint8_t)VD_DBN_INPUT_SHAPE, VD_ERR_MODEL);
     VD_VERIFY(b[HDR_ACTIVATION] == ACT_SIGMOID_Q8, VD_ERR_MODEL);
     VD_VERIFY(n_layers >= 1u && n_layers <= VD_DBN_MAX_LAYERS, VD_ERR_MODEL);
     VD_VERIFY(norm_div >= 1u, VD_ERR_MODEL);
-    VD_VERIFY(rd_u32(b + HDR_FLAGS) == 0u && rd_u16(b + HDR_RESERVED0) == 0u, VD_ERR_MODEL);
+    VD_VERIFY(vd_blob_u32(b + HDR_FLAGS) == 0u && vd_blob_u16(b + HDR_RESERVED0) == 0u, VD_ERR_MODEL);
     // Version 1 had these two bytes reserved (zero): no normalisation.
     const uint8_t norm = b[HDR_INPUT_NORM];
     const uint8_t min_range = b[HDR_NORM_MIN_RANGE];
@@ -198,11 +180,11 @@ vd_status_t vd_dbn_load(vd_dbn_model_t *m, const void *blob, size_t bytes)
     uint32_t max_units = 0u;
     for (uint32_t l = 0u; l < n_layers; l++) {
         const uint8_t *e = b + table + l * VD_DBN_LAYER_ENTRY_SIZE;
-        const uint32_t n_in = rd_u32(e + LT_IN);
-        const uint32_t n_out = rd_u32(e + LT_OUT);
-        const uint32_t offs[4] = {rd_u32(e + LT_WEIGHTS), rd_u32(e + LT_BIAS), rd_u32(e + LT_MULT),
-                                  rd_u32(e + LT_SHIFT)};
-        VD_VERIFY(rd_u32(e + LT_FLAGS) == 0u && rd_u32(e + LT_RESERVED) == 0u, VD_ERR_MODEL);
+        const uint32_t n_in = vd_blob_u32(e + LT_IN);
+        const uint32_t n_out = vd_blob_u32(e + LT_OUT);
+        const uint32_t offs[4] = {vd_blob_u32(e + LT_WEIGHTS), vd_blob_u32(e + LT_BIAS), vd_blob_u32(e + LT_MULT),
+                                  vd_blob_u32(e + LT_SHIFT)};
+        VD_VERIFY(vd_blob_u32(e + LT_FLAGS) == 0u && vd_blob_u32(e + LT_RESERVED) == 0u, VD_ERR_MODEL);
         VD_VERIFY(n_in == prev_out && n_in >= 1u && n_in <= VD_DBN_MAX_UNITS, VD_ERR_MODEL);
         VD_VERIFY(n_out >= 1u && n_out <= VD_DBN_MAX_UNITS, VD_ERR_MODEL);
         const uint64_t lens[4] = {(uint64_t)n_in * n_out, 4u * (uint64_t)n_out, 4u * (uint64_t)n_out,
