@@ -210,30 +210,6 @@ static vd_status_t commit_outputs(run_t *r)
     return VD_OK;
 }
 
-static const char *state_name(uint8_t state)
-{
-    switch (state) {
-    case VD_TRACK_CONFIRMED: return "confirmed";
-    case VD_TRACK_RECOVERED: return "recovered";
-    default: return "new";
-    }
-}
-
-// The DESIGN.md names of vd_detection_t.source.
-static const char *source_name(uint8_t source)
-{
-    if (source == VD_SOURCE_CNN) {
-        return "cnn";
-    }
-    if (source == VD_SOURCE_WINDOW) {
-        return "window";
-    }
-    if (source == VD_SOURCE_CONTRAST) {
-        return "contrast";
-    }
-    return "hotspot";
-}
-
 static double score_of(const vd_detection_t *d)
 {
     return d->score_q8 / 255.0;
@@ -265,7 +241,8 @@ static void write_json_line(run_t *r, const char *name, const vd_frame_t *f, siz
         } else {
             fputs("null", jf);
         }
-        fprintf(jf, ", \"source\": \"%s\", \"state\": \"%s\"}", source_name(d->source), state_name(d->state));
+        fprintf(jf, ", \"source\": \"%s\", \"state\": \"%s\"}", vd_detection_source_name(d->source),
+                vd_detection_state_name(d->state));
     }
     fputs("]}\n", jf);
 }

@@ -99,17 +99,6 @@ static void put_score(buf_t *b, uint32_t q8)
     put_u(b, milli % 1000u);
 }
 
-static const char *source_name(uint8_t s)
-{
-    return s == VD_SOURCE_CNN ? "cnn" : s == VD_SOURCE_WINDOW ? "window" : s == VD_SOURCE_CONTRAST ? "contrast"
-                                                                                                     : "hotspot";
-}
-
-static const char *state_name(uint8_t s)
-{
-    return s == VD_TRACK_CONFIRMED ? "confirmed" : s == VD_TRACK_RECOVERED ? "recovered" : "new";
-}
-
 // One JSON line of the DESIGN.md schema, formatted as vd_fir_demo formats it.
 static void print_json(const vd_fw_frame_t *f, uint32_t seq, size_t n)
 {
@@ -142,9 +131,9 @@ static void print_json(const vd_fw_frame_t *f, uint32_t seq, size_t n)
             put_s(&b, "null");
         }
         put_s(&b, ", \"source\": \"");
-        put_s(&b, source_name(d->source));
+        put_s(&b, vd_detection_source_name(d->source));
         put_s(&b, "\", \"state\": \"");
-        put_s(&b, state_name(d->state));
+        put_s(&b, vd_detection_state_name(d->state));
         put_s(&b, "\"}");
     }
     put_s(&b, "]}\n");

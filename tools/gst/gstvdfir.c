@@ -71,25 +71,6 @@ static uint32_t clock_us(void *user)
     return (uint32_t)(g_get_monotonic_time() & 0xffffffffu);
 }
 
-static const char *state_name(uint8_t state)
-{
-    switch (state) {
-    case VD_TRACK_CONFIRMED: return "confirmed";
-    case VD_TRACK_RECOVERED: return "recovered";
-    default: return "new";
-    }
-}
-
-static const char *source_name(uint8_t source)
-{
-    switch (source) {
-    case VD_SOURCE_CNN: return "cnn";
-    case VD_SOURCE_WINDOW: return "window";
-    case VD_SOURCE_CONTRAST: return "contrast";
-    default: return "hotspot";
-    }
-}
-
 static void free_detector(GstVdFir *self)
 {
     free(self->ws);
@@ -267,8 +248,8 @@ static void draw_box(guint8 *p, gsize stride, guint32 pw, guint32 ph, gboolean w
 static GstStructure *detection_structure(const vd_detection_t *d, gboolean with_box)
 {
     GstStructure *s = gst_structure_new("vd-detection", "score", G_TYPE_DOUBLE, d->score_q8 / 255.0, "state",
-                                        G_TYPE_STRING, state_name(d->state), "source", G_TYPE_STRING,
-                                        source_name(d->source), "flags", G_TYPE_UINT, (guint)d->flags, NULL);
+                                        G_TYPE_STRING, vd_detection_state_name(d->state), "source", G_TYPE_STRING,
+                                        vd_detection_source_name(d->source), "flags", G_TYPE_UINT, (guint)d->flags, NULL);
     // No track (temporal off, or not tracked): no "track-id", as the demo's JSON has null.
     if (d->track_id != 0 && d->state != VD_TRACK_NONE) {
         gst_structure_set(s, "track-id", G_TYPE_UINT, (guint)d->track_id, NULL);

@@ -40,6 +40,13 @@ typedef struct vd_detection {
     uint8_t reserved;
 } vd_detection_t;
 
+// The names of DESIGN.md's JSON Lines contract, for writers of detections (demo, GStreamer
+// element, firmware): "hotspot", "window", "contrast", "cnn" for VD_SOURCE_*, "unknown" otherwise.
+const char *vd_detection_source_name(uint8_t source);
+// "confirmed", "recovered", and "new" for VD_TRACK_NEW and VD_TRACK_NONE (temporal analysis off:
+// every detection is new to the caller); "unknown" for other values.
+const char *vd_detection_state_name(uint8_t state);
+
 #ifdef __cplusplus
 }
 #endif
