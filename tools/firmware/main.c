@@ -69,13 +69,7 @@ static void put_s(buf_t *b, const char *s)
 static void put_u(buf_t *b, uint32_t v)
 {
     char t[11];
-    unsigned i = sizeof t - 1u;
-    t[i] = '\0';
-    do {
-        t[--i] = (char)('0' + v % 10u);
-        v /= 10u;
-    } while (v != 0u);
-    put_s(b, &t[i]);
+    put_s(b, sh_utoa(v, t));
 }
 
 static void put_i(buf_t *b, int32_t v)

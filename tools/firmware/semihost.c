@@ -21,16 +21,21 @@ void sh_puts(const char *s)
     (void)sh_call(SYS_WRITE0, s);
 }
 
-void sh_putu(uint32_t v)
+const char *sh_utoa(uint32_t v, char buf[11])
 {
-    char buf[11];
-    unsigned i = sizeof buf - 1u;
+    unsigned i = 10u;
     buf[i] = '\0';
     do {
         buf[--i] = (char)('0' + v % 10u);
         v /= 10u;
     } while (v != 0u);
-    sh_puts(&buf[i]);
+    return &buf[i];
+}
+
+void sh_putu(uint32_t v)
+{
+    char buf[11];
+    sh_puts(sh_utoa(v, buf));
 }
 
 void sh_exit(int status)
