@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: MIT
 # Cross builds of vd (issue: embedded readiness): the library for Cortex-M7/M4/M0+
 # (-Werror, MinSizeRel), and the unit tests for armhf and aarch64 run under
-# qemu-user. Then the embedded budget checks (tools/embedded_report.py --check).
+# qemu-user. Then the embedded budget checks (tools/vdtools/generators/embedded_report.py --check).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
@@ -18,6 +18,6 @@ for t in armhf aarch64; do
   cmake --build "build-$t" -j "$jobs" >/dev/null
   ctest --test-dir "build-$t" --output-on-failure -j "$jobs" -L unit
 done
-if [ -f tools/embedded_report.py ]; then
-  python3 tools/embedded_report.py --check
+if [ -f tools/vdtools/generators/embedded_report.py ]; then
+  PYTHONPATH=tools${PYTHONPATH:+:$PYTHONPATH} python3 -m vdtools.generators.embedded_report --check
 fi

@@ -6,7 +6,7 @@
 // when the int8 feature is <= its threshold, else its right value. The sum
 // is an int32: |value| <= 32767 and n_stumps <= 4096 give |score| < 2^27.
 // Reference: Freund & Schapire's AdaBoost with decision stumps as trained
-// by tools/vdtools/boost_train.py; integer reference tools/vdtools/boost_vdm.py
+// by tools/vdtools/training/boost_train.py; integer reference tools/vdtools/formats/boost_vdm.py
 // (bit-exact). Bounds: load O(total_size); score = one CNN run plus
 // n_stumps compares; no heap, no float.
 #include "vd/boost.h"

@@ -28,7 +28,7 @@
 //    weight of -128 two products still fit int16 and are added before
 //    widening.
 // Reference: TFLite/CMSIS-NN int8 quantisation; the numpy integer reference
-// tools/vdtools/cnn_ref.py (bit-exact); format docs/model-format.md ("CNN
+// tools/vdtools/formats/cnn_ref.py (bit-exact); format docs/model-format.md ("CNN
 // kind"), arithmetic docs/fixed-point.md ("cnn").
 // Bounds: load O(total_size) (CRC, per-channel arrays, decode table) plus
 // O((4 L + 1)^2) overlap checks. Run: vd_cnn_macs() multiply-adds, one

@@ -16,7 +16,7 @@
 // AGC brightness of the frame (docs/fixed-point.md "dbn").
 // Reference: TFLite/CMSIS-NN int8 quantisation (per-channel symmetric
 // weights, Q31 multiplier + shift, gemmlowp rounding); the Python reference is
-// tools/vdtools/quantise.py quant_forward(); format in docs/model-format.md.
+// tools/vdtools/formats/quantise.py quant_forward(); format in docs/model-format.md.
 // Bounds: vd_dbn_load is O(total_size) (CRC-32) plus O(sum of out) for the
 // per-unit checks and O(segments^2) = O((4*VD_DBN_MAX_LAYERS)^2) for the
 // overlap check; vd_dbn_classify is O(sum in*out) multiply-adds plus two

@@ -9,8 +9,8 @@
 // and row (numpy np.pad mode "edge"), the network runs once, its heatmap
 // peaks are decoded at the header's top-K into a 2 nw x 2 nh frame and each
 // box is clipped to the real frame (dropped when nothing is left). This is
-// exactly tools/vdtools/cnn_eval.py Int8.__call__ (net_input, decode,
-// clip) and tools/vdtools/cnn_detector.py, which tests/python compares with.
+// exactly tools/vdtools/evaluation/cnn_eval.py Int8.__call__ (net_input, decode,
+// clip) and tools/vdtools/evaluation/cnn_detector.py, which tests/python compares with.
 // Bounds: O(W*H) for the plane and padding, vd_cnn_macs() multiply-adds for
 // the network, O(Wo*Ho*(1 + max_peaks)) for decoding, O(max_peaks) for the
 // merge. Memory: the overlay (plane, network workspace, boxes; see

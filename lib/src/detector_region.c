@@ -8,7 +8,7 @@
 // outer contour with the largest box gives the detection box. Every merged
 // candidate is then resampled to the model's input (resample.h; grey mode:
 // the plane under the box, shape mode: the box refined again, as
-// tools/vdtools/samples.py makes training samples) and scored (dbn.h).
+// tools/vdtools/data/samples.py makes training samples) and scored (dbn.h).
 // Region plane: 8-bit regions within max_region_w x max_region_h are read
 // from the frame (so the median sees the pixels around the ROI); larger
 // regions are box-averaged by per-axis factors kx, ky (vd_resample_box_*),

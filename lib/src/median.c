@@ -27,8 +27,8 @@
 //       against 134 when each output merged its own two pairs, and 198 for
 //       a 99-exchange full median-of-25 network. The networks are generated
 //       and checked exhaustively by the 0-1 principle in
-//       tools/vdtools/pixel.py (median_network: the pair merge) and
-//       tools/vdtools/median5_net.py (select_pair);
+//       tools/vdtools/generators/median_network.py (the pair merge) and
+//       tools/vdtools/generators/median5_net.py (select_pair);
 //       tests/python/test_median.py keeps this file equal to the
 //       generators' output.
 // Borders: row indices and column indices are clamped to the image
@@ -447,7 +447,7 @@ static inline void merge_pair(const uint8_t o[5][H5 + 2], const uint8_t e[5][H5 
 {
     const uint8_t b0 = e[0][i + 1u], b1 = e[1][i + 1u], b2 = e[2][i + 1u], b3 = e[3][i + 1u], b4 = e[4][i + 1u];
     const uint8_t a0 = o[0][i], a1 = o[1][i], a2 = o[2][i], a3 = o[3][i], a4 = o[4][i];
-    // BEGIN GENERATED pair (tools/vdtools/pixel.py median_network; do not edit)
+    // BEGIN GENERATED pair (tools/vdtools/generators/median_network.py; do not edit)
     const uint8_t t0 = VD_MIN8(a0, b0);
     const uint8_t t1 = VD_MAX8(a0, b0);
     const uint8_t t2 = VD_MIN8(a4, b4);
@@ -512,7 +512,7 @@ static void med5_select(const uint8_t e[5][H5 + 2], const uint8_t o[5][H5 + 2], 
         const uint8_t p5 = pr[5][k], p6 = pr[6][k], p7 = pr[7][k], p8 = pr[8][k], p9 = pr[9][k];
         const uint8_t b0 = o[0][k + 2u], b1 = o[1][k + 2u], b2 = o[2][k + 2u], b3 = o[3][k + 2u], b4 = o[4][k + 2u];
         const uint8_t a0 = e[0][k], a1 = e[1][k], a2 = e[2][k], a3 = e[3][k], a4 = e[4][k];
-        // BEGIN GENERATED select_pair (tools/vdtools/median5_net.py; do not edit)
+        // BEGIN GENERATED select_pair (tools/vdtools/generators/median5_net.py; do not edit)
         const uint8_t t0 = VD_MAX8(p0, q0);
         const uint8_t t1 = VD_MIN8(p8, q8);
         const uint8_t t2 = VD_MIN8(t0, t1);

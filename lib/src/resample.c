@@ -15,7 +15,7 @@
 //    geometry as cv2.INTER_LINEAR, but exact instead of 11-bit weights.
 //  - Output = (sum_k,l wx(k)*wy(l)*src(l,k) + T/2) / T with T = Tx*Ty, i.e.
 //    rounded half up, exact.
-// Reference: paper 001 section 4 (32x32 samples); tools/vdtools/samples.py
+// Reference: paper 001 section 4 (32x32 samples); tools/vdtools/data/samples.py
 // holds the numpy reference used by tests/python.
 // Bounds: Tx, Ty <= 8192 (VD_MAX_DIM, 2*VD_RESAMPLE_MAX_DST), so a row sum is
 // < 8192*255 < 2^21 (uint32) and the total < 2^34 (uint64: the one place 64

@@ -54,7 +54,7 @@
 #define VD_TEMPORAL_MAX_SIDE (1 << 20)   // mean box side clamp: rel * side stays < 2^31 in Q8
 
 // round(2^30 * exp(-k / 128)), k = 0..128. Values computed by
-// tools/vdtools/detector.py:exp_tables() (math.exp, round half even);
+// tools/vdtools/bindings/detector.py:exp_tables() (math.exp, round half even);
 // test_temporal.c re-checks every entry against exp().
 static const uint32_t k_exp_frac_q30[129] = {
     1073741824u, 1065385899u, 1057095000u, 1048868621u, 1040706261u, 1032607421u,
@@ -131,7 +131,7 @@ void vd_temporal_cfg_default(vd_temporal_cfg_t *cfg)
     cfg->max_misses = 3u;
     cfg->search_radius = 4u;
     cfg->search_step = 2u;
-    cfg->sigma_rel_q8 = 384u;   // 1.5: fewest id switches on the HIT-UAV flight (vdtools.temporal_eval)
+    cfg->sigma_rel_q8 = 384u;   // 1.5: fewest id switches on the HIT-UAV flight (vdtools.evaluation.temporal_eval)
     cfg->max_motion = 128u;
     cfg->flags = 0u;
     cfg->reserved = 0u;

@@ -3,7 +3,7 @@
 Tests that need ../shared/data or the shared build skip with a clear message."""
 import pytest
 
-from vdtools import clib
+from vdtools.bindings import clib
 
 from buildpaths import build_dir
 

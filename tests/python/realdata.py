@@ -13,9 +13,9 @@ def frame_paths(data_dir):
 
 
 def frames_in_test_split(data_dir):
-    """The annotated real frames of the test split (vdtools.dataset: stable, group-wise split), in the
+    """The annotated real frames of the test split (vdtools.data.dataset: stable, group-wise split), in the
     data set's order; skips the test when there are none."""
-    from vdtools import dataset as D
+    from vdtools.data import dataset as D
     frames = D.all_frames(data_dir, synth=False)
     split = D.assign_splits(frames)
     out = [f for f in frames if split[f.group] == "test"]

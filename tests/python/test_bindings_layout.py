@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from vdtools import clib, cnn_vdm, components, detector, pixel, port, refine, sources, vdm
+from vdtools.bindings import clib, components, detector, pixel, port, refine, sources
+from vdtools.bindings import cnn as vd_cnn, dbn as vd_dbn
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -24,10 +25,10 @@ MIRRORS = [
     (clib.ViewU8, "vd_view_u8_t", "vd/image.h", {}),
     (clib.ViewU16, "vd_view_u16_t", "vd/image.h", {}),
     (clib.Frame, "vd_frame_t", "vd/image.h", {}),
-    (cnn_vdm.CnnLayer, "vd_cnn_layer_t", "vd/cnn.h", {"in_": "in"}),
-    (cnn_vdm.CnnModel, "vd_cnn_model_t", "vd/cnn.h", {}),
-    (cnn_vdm.CnnOutput, "vd_cnn_output_t", "vd/cnn.h", {}),
-    (cnn_vdm.CnnBox, "vd_cnn_box_t", "vd/cnn.h", {}),
+    (vd_cnn.CnnLayer, "vd_cnn_layer_t", "vd/cnn.h", {"in_": "in"}),
+    (vd_cnn.CnnModel, "vd_cnn_model_t", "vd/cnn.h", {}),
+    (vd_cnn.CnnOutput, "vd_cnn_output_t", "vd/cnn.h", {}),
+    (vd_cnn.CnnBox, "vd_cnn_box_t", "vd/cnn.h", {}),
     (components.CcStats, "vd_components_stats_t", "vd/components.h", {}),
     (components.Rules, "vd_components_rules_t", "vd/components.h", {}),
     (clib.Calib, "vd_calib_t", "vd/calib.h", {}),
@@ -41,8 +42,8 @@ MIRRORS = [
     (sources.WindowBand, "vd_window_band_t", "vd/windows.h", {}),
     (sources.WindowsCfg, "vd_windows_cfg_t", "vd/windows.h", {}),
     (sources.ContrastCfg, "vd_contrast_cfg_t", "vd/contrast.h", {}),
-    (vdm._Layer, "vd_dbn_layer_t", "vd/dbn.h", {"in_": "in"}),
-    (vdm.Model, "vd_dbn_model_t", "vd/dbn.h", {}),
+    (vd_dbn._Layer, "vd_dbn_layer_t", "vd/dbn.h", {"in_": "in"}),
+    (vd_dbn.Model, "vd_dbn_model_t", "vd/dbn.h", {}),
     (port.CaptureOpts, "vd_capture_opts_t", "vd_port/capture.h", {}),
 ]
 

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
 """Boosted-stump verifier (paper 003, lib/src/boost.c): C == the integer reference
-(tools/vdtools/boost_vdm.py) on random models and, for the committed models/vd_boost.vdm, on every
+(tools/vdtools/formats/boost_vdm.py) on random models and, for the committed models/vd_boost.vdm, on every
 64x64 crop of the test split (the data set builder's test rows cut at 64x64)."""
 import os
 from pathlib import Path
@@ -8,10 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vdtools import boost_vdm as B
-from vdtools import clib
-from vdtools import cnn_ref as R
-from vdtools import cnn_vdm as V
+from vdtools.formats import boost_vdm as B
+from vdtools.bindings import boost as vd_boost
+from vdtools.bindings import clib
+from vdtools.formats import cnn_ref as R
+from vdtools.formats import cnn_vdm as V
 
 MODEL = clib.REPO / "models" / "vd_boost.vdm"
 
@@ -19,7 +20,7 @@ MODEL = clib.REPO / "models" / "vd_boost.vdm"
 @pytest.fixture(scope="module")
 def lib():
     try:
-        return B.lib()
+        return vd_boost.lib()
     except OSError as e:
         pytest.skip(f"libvd not built: {e}")
 
@@ -42,7 +43,7 @@ def test_random_models_bit_exact(lib):
         d = B.validate(random_boost(rng))
         blob = B.pack(d)
         assert B.unpack(blob)["stumps"].tolist() == d["stumps"].tolist()
-        m = B.CBoost(blob)
+        m = vd_boost.CBoost(blob)
         lens = [h * w for h, w in B.map_shapes(d["cnn"], d["maps"])]
         assert m.threshold == d["threshold"] and m.n_features == sum(lens)
         for kind in ("blobs", "noise", "flat", "dark"):
@@ -57,7 +58,7 @@ def test_random_models_bit_exact(lib):
 def test_loader_rejects_corruption(lib):
     rng = np.random.default_rng(4)
     blob = bytearray(B.pack(random_boost(rng, 20)))
-    B.CBoost(bytes(blob))
+    vd_boost.CBoost(bytes(blob))
     for off, val in ((16, 2), (17, 0), (17, 17), (18, 0), (64, 99)):   # kind, n_maps, n_stumps, map tensor
         b = bytearray(blob)
         b[off] = val
@@ -65,21 +66,21 @@ def test_loader_rejects_corruption(lib):
             b[19] = 0
         b = bytes(B.struct.pack_into("<I", b, 12, B.zlib.crc32(bytes(b[16:])) & 0xFFFFFFFF) or b)
         with pytest.raises(RuntimeError):
-            B.CBoost(b)
+            vd_boost.CBoost(b)
     b = bytearray(blob)
     b[-5] ^= 1                                                            # CRC
     with pytest.raises(RuntimeError):
-        B.CBoost(bytes(b))
+        vd_boost.CBoost(bytes(b))
 
 
 def test_committed_model_every_test_crop(lib):
     if not MODEL.exists():
         pytest.skip("models/vd_boost.vdm not committed")
-    from vdtools import boost_train as BT
+    from vdtools.training import boost_train as BT
     X = BT.test_crops()
     blob = MODEL.read_bytes()
     d = B.unpack(blob)
-    m = B.CBoost(blob)
+    m = vd_boost.CBoost(blob)
     limit = os.environ.get("VD_BOOST_PARITY_LIMIT")
     if limit:
         X = X[:int(limit)]

@@ -1,12 +1,12 @@
 # SPDX-License-Identifier: MIT
-"""The bundled synthetic clip (tools/vdtools/clip.py): deterministic, documented formats,
+"""The bundled synthetic clip (tools/vdtools/data/clip.py): deterministic, documented formats,
 ground truth in the HIT-UAV layout, and a scene the paper's rules can work on."""
 import json
 
 import numpy as np
 import pytest
 
-from vdtools import clip
+from vdtools.data import clip
 
 
 @pytest.fixture(scope="module")

@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: MIT
 """The detector's CNN source end to end: `vd_fir_demo --sources cnn` against the Python mirror of the
-detector (vdtools.cnn_detector: cnn_eval's network input, the numpy integer reference, cnn_eval.Int8's
+detector (vdtools.evaluation.cnn_detector: cnn_eval's network input, the numpy integer reference, cnn_eval.Int8's
 clipping, the C suppression rule), box for box and Q8 score for Q8 score -- on random networks over the
 bundled clip's frames and odd crops of them (no data needed), and on real test-split frames with
 models/vd_cnn.vdm (skipped without ../shared/data or that model). Also: the demo's CNN options and
 defaults, and the ctypes mirror of vd_detector_cfg_t / vd_detector_stats_t / vd_detection_t
-(vdtools.detector) against the C layout.
+(vdtools.bindings.detector) against the C layout.
 
 Frames are handed to the demo as PGM files written from the very arrays Python uses, so JPEG decoders
 (stb_image in the demo, libjpeg in OpenCV) cannot make the two sides differ."""
@@ -18,12 +18,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vdtools import clip
-from vdtools import cnn_detector as CDet
-from vdtools import cnn_ref as R
-from vdtools import cnn_vdm as V
-from vdtools import detector as vdet
-from vdtools.clib import REPO
+from vdtools.data import clip
+from vdtools.evaluation import cnn_detector as CDet
+from vdtools.formats import cnn_ref as R
+from vdtools.formats import cnn_vdm as V
+from vdtools.bindings import detector as vdet
+from vdtools.bindings.clib import REPO
 
 from realdata import frames_in_test_split
 from buildpaths import build_dir, run_demo as run
@@ -54,7 +54,7 @@ def write_frames(directory, frames):
 
 
 def compare(dets, frames, desc, first_diff_msg="", **kw):
-    """Asserts demo detections == vdtools.cnn_detector.detect for every frame; returns the count."""
+    """Asserts demo detections == vdtools.evaluation.cnn_detector.detect for every frame; returns the count."""
     n = 0
     for name, img in frames.items():
         want = CDet.detect(desc, img, **kw)
@@ -115,7 +115,7 @@ def test_random_network_on_clip_frames(demo, clip_frames, random_net, tmp_path):
 
 def test_budgets_and_suppression_rule(demo, clip_frames, random_net, tmp_path):
     """Explicit budgets and overlap threshold: the detector keeps the best max_candidates boxes and
-    suppresses with the Q15 rule (vdtools.cnn_detector.nms_q15)."""
+    suppresses with the Q15 rule (vdtools.evaluation.cnn_detector.nms_q15)."""
     d, net = random_net
     frames = clip_frames["640x512"]
     src = write_frames(tmp_path / "f", frames)
@@ -161,7 +161,7 @@ def _real_frames(data_dir, per_family=6):
 def test_real_frames_equal_python(demo, data_dir, tmp_path):
     if not MODEL.is_file():
         pytest.skip(f"no CNN model at {MODEL} (the trained network is committed there)")
-    from vdtools import cnn_eval
+    from vdtools.evaluation import cnn_eval
     desc = V.unpack(MODEL.read_bytes())
     mp = int(desc["max_peaks"])
     ref = cnn_eval.Int8(MODEL, backend="ref")
@@ -230,7 +230,7 @@ def test_demo_cnn_options(demo, clip_frames, random_net, tmp_path):
 
 # ------------------------------------------------------------------ ctypes mirror
 def test_ctypes_mirror_matches_c_layout(tmp_path):
-    """Every field offset and struct size of vdtools.detector's ctypes structs equals the C compiler's."""
+    """Every field offset and struct size of vdtools.bindings.detector's ctypes structs equals the C compiler's."""
     cc = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
     if cc is None:
         pytest.skip("no C compiler on PATH")

@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: MIT
 """Bit-exact parity of the C int8 CNN (vd_cnn_run / vd_cnn_decode via ctypes) with the numpy integer
-reference (vdtools.cnn_ref): every tensor, the head and the decoded boxes on random models x random
+reference (vdtools.formats.cnn_ref): every tensor, the head and the decoded boxes on random models x random
 images of several sizes (input_norm 0 and 1, 3 and 5 output channels, out_stride 4 and 8), decoding of
 hand-made heads full of ties, the multiply-add count, the workspace contract, the loader against
-vdtools.cnn_vdm.unpack on corrupted blobs, and -- when models/vd_cnn*.vdm exist and ../shared/data
+vdtools.formats.cnn_vdm.unpack on corrupted blobs, and -- when models/vd_cnn*.vdm exist and ../shared/data
 is present -- the committed models on every test-split frame."""
 import ctypes as C
 import os
@@ -13,9 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vdtools import clib
-from vdtools import cnn_ref as R
-from vdtools import cnn_vdm as V
+from vdtools.bindings import clib
+from vdtools.formats import cnn_ref as R
+from vdtools.formats import cnn_vdm as V
+from vdtools.bindings import cnn as vd_cnn
 
 REPO = clib.REPO
 VD_ERR_ARG, VD_ERR_WORKSPACE, VD_ERR_MODEL = -1, -2, -4
@@ -24,7 +25,7 @@ VD_ERR_ARG, VD_ERR_WORKSPACE, VD_ERR_MODEL = -1, -2, -4
 @pytest.fixture(scope="module")
 def cnn(vdlib):
     try:
-        return V.lib()
+        return vd_cnn.lib()
     except AttributeError as e:
         pytest.skip(f"{clib.lib_path()} has no CNN module ({e}): build lib/src/cnn.c first")
 
@@ -52,7 +53,7 @@ def test_random_models_bit_exact(cnn, seed, norm, cout, ostride):
     rng = np.random.default_rng(1000 + seed)
     d = R.random_model(rng, out_channels=cout, input_norm=norm, out_stride=ostride,
                        width=tuple(int(c) for c in rng.integers(3, 20, 4)))
-    m = V.CModel(V.pack(d))
+    m = vd_cnn.CModel(V.pack(d))
     a = int(m.m.align)
     assert a == V.alignment(d) and m.m.n_layers == len(d["layers"])
     sizes = [(a, a), (2 * a, 3 * a), (6 * a, 8 * a), (8 * a, 5 * a), (12 * a, 16 * a)]
@@ -90,7 +91,7 @@ def test_conv5x5_models_bit_exact(cnn, seed, norm, ostride):
     d = R.random_model(rng, out_channels=5, input_norm=norm, out_stride=ostride, conv5=True,
                        width=tuple(int(c) for c in rng.integers(3, 20, 4)))
     assert sum(L["op"] == V.CONV5X5 for L in d["layers"]) == 2
-    m = V.CModel(V.pack(d))
+    m = vd_cnn.CModel(V.pack(d))
     a = int(m.m.align)
     for h, w in [(a, a), (2 * a, 3 * a), (8 * a, 5 * a)]:
         for kind in ("blobs", "noise", "flat"):
@@ -107,7 +108,7 @@ def test_decode_hand_made_heads_bit_exact(cnn):
     rng = np.random.default_rng(77)
     for ch, ostride in ((5, 4), (3, 4), (5, 8)):
         d = R.random_model(rng, out_channels=ch, out_stride=ostride, width=(4, 4, 4, 4))
-        m = V.CModel(V.pack(d))
+        m = vd_cnn.CModel(V.pack(d))
         for trial in range(60):
             ho, wo = (int(v) for v in rng.integers(1, 24, 2))
             span = int(rng.choice([2, 3, 8, 256]))
@@ -136,7 +137,7 @@ def test_macs_equal(cnn):
     rng = np.random.default_rng(5)
     for seed in range(4):
         d = R.random_model(rng, out_stride=8 if seed % 2 else 4)
-        m = V.CModel(V.pack(d))
+        m = vd_cnn.CModel(V.pack(d))
         a = V.alignment(d)
         for w, h in ((a, a), (320, 256), (640, 512), (4096, 4096)):
             assert m.macs(w, h) == R.macs(d, w, h)
@@ -144,23 +145,23 @@ def test_macs_equal(cnn):
 
 def test_run_rejects_sizes_like_the_reference(cnn):
     d = R.random_model(np.random.default_rng(6))
-    m = V.CModel(V.pack(d))
+    m = vd_cnn.CModel(V.pack(d))
     a = int(m.m.align)
     for w, h in ((a + 4, a), (a, 2 * a - 1), (a, 4096 + a)):
         with pytest.raises(ValueError):
             R.check_size(d, w, h)
         n = C.c_size_t()
-        assert V.lib().vd_cnn_workspace_size(C.byref(m.m), w, h, C.byref(n)) == VD_ERR_ARG
-        out = V.CnnOutput()
+        assert vd_cnn.lib().vd_cnn_workspace_size(C.byref(m.m), w, h, C.byref(n)) == VD_ERR_ARG
+        out = vd_cnn.CnnOutput()
         img = np.zeros((h, w), np.uint8)
-        st = V.lib().vd_cnn_run(C.byref(m.m), img.ctypes.data, w, h, w, None, 0, C.byref(out))
+        st = vd_cnn.lib().vd_cnn_run(C.byref(m.m), img.ctypes.data, w, h, w, None, 0, C.byref(out))
         assert st == VD_ERR_ARG
     img = np.zeros((a, 3 * a), np.uint8)
     ws = m.workspace(2 * a, a)
     st, _ = m.run_status(img[:, :2 * a], ws=ws)
     assert st == 0
-    out = V.CnnOutput()          # stride_bytes < width
-    st = V.lib().vd_cnn_run(C.byref(m.m), img.ctypes.data, 2 * a, a, 2 * a - 1, ws[1], ws[2], C.byref(out))
+    out = vd_cnn.CnnOutput()          # stride_bytes < width
+    st = vd_cnn.lib().vd_cnn_run(C.byref(m.m), img.ctypes.data, 2 * a, a, 2 * a - 1, ws[1], ws[2], C.byref(out))
     assert st == VD_ERR_ARG
 
 
@@ -169,8 +170,8 @@ def test_workspace_contract(cnn):
     in the same workspace gives the same head."""
     rng = np.random.default_rng(8)
     d = R.random_model(rng, input_norm=1)
-    m = V.CModel(V.pack(d))
-    for flags in (0, V.KEEP_TENSORS):
+    m = vd_cnn.CModel(V.pack(d))
+    for flags in (0, vd_cnn.KEEP_TENSORS):
         w, h = 64, 48
         img = R.random_image(rng, h, w, "blobs")
         n = m.workspace_size(w, h, flags)
@@ -186,15 +187,15 @@ def test_workspace_contract(cnn):
         assert st == VD_ERR_WORKSPACE
         st, out = m.run_status(img, flags, ws=ws)
         assert st == 0
-        head = V.tensor_array(out)
+        head = vd_cnn.tensor_array(out)
         np.testing.assert_array_equal(head, R.run(d, img))
         assert (buf[:start] == 0xA5).all() and (buf[start + n:] == 0xA5).all()
         st, out = m.run_status(img, flags, ws=ws)
-        np.testing.assert_array_equal(V.tensor_array(out), head)
-        t = V.CnnOutput()
-        st = V.lib().vd_cnn_tensor(C.byref(m.m), ws[1], n, w, h, len(d["layers"]), C.byref(t))
+        np.testing.assert_array_equal(vd_cnn.tensor_array(out), head)
+        t = vd_cnn.CnnOutput()
+        st = vd_cnn.lib().vd_cnn_tensor(C.byref(m.m), ws[1], n, w, h, len(d["layers"]), C.byref(t))
         assert st == 0
-        np.testing.assert_array_equal(V.tensor_array(t), head)
+        np.testing.assert_array_equal(vd_cnn.tensor_array(t), head)
 
 
 # ------------------------------------------------------------------ loader == unpack
@@ -229,7 +230,7 @@ def test_loader_agrees_with_unpack_on_corrupted_blobs(cnn):
     for seed in range(6):
         d = R.random_model(rng, input_norm=seed % 2, out_channels=3 if seed == 3 else 5)
         blob = V.pack(d)
-        assert V.c_load(blob) == 0
+        assert vd_cnn.c_load(blob) == 0
         fields = _field_offsets(blob)
         for trial in range(400):
             b = bytearray(blob)
@@ -275,7 +276,7 @@ def test_loader_agrees_with_unpack_on_corrupted_blobs(cnn):
             if len(b) < total < len(b) + 4096:                # a larger total_size: give it the bytes
                 b += bytes(total - len(b))
             bb = V.fix_crc(bytes(b))
-            py, c_ok = _accepts_py(bb), V.c_load(bb) == 0
+            py, c_ok = _accepts_py(bb), vd_cnn.c_load(bb) == 0
             tried += 1
             accepted += py
             if py != c_ok:
@@ -293,16 +294,16 @@ def test_loader_agrees_with_unpack_on_corrupted_blobs(cnn):
 def test_loader_container_checks(cnn):
     d = R.random_model(np.random.default_rng(10))
     blob = V.pack(d)
-    assert V.c_load(blob) == 0
-    assert V.c_load(blob, offset=2) == VD_ERR_ARG                       # not 4-byte aligned
-    assert V.c_load(blob, nbytes=len(blob) - 4) == VD_ERR_MODEL         # shorter than total_size
-    assert V.c_load(blob + bytes(8), nbytes=len(blob) + 8) == 0          # excess ignored
-    assert V.c_load(blob[:300] + bytes([blob[300] ^ 1]) + blob[301:]) == VD_ERR_MODEL   # CRC
+    assert vd_cnn.c_load(blob) == 0
+    assert vd_cnn.c_load(blob, offset=2) == VD_ERR_ARG                       # not 4-byte aligned
+    assert vd_cnn.c_load(blob, nbytes=len(blob) - 4) == VD_ERR_MODEL         # shorter than total_size
+    assert vd_cnn.c_load(blob + bytes(8), nbytes=len(blob) + 8) == 0          # excess ignored
+    assert vd_cnn.c_load(blob[:300] + bytes([blob[300] ^ 1]) + blob[301:]) == VD_ERR_MODEL   # CRC
     for ver in (1, 2, 4):
-        assert V.c_load(V.fix_crc(blob[:4] + struct.pack("<H", ver) + blob[6:])) == VD_ERR_MODEL
+        assert vd_cnn.c_load(V.fix_crc(blob[:4] + struct.pack("<H", ver) + blob[6:])) == VD_ERR_MODEL
     dbn = (REPO / "models" / "vd_dbn_grey.vdm")
     if dbn.exists():
-        assert V.c_load(dbn.read_bytes()) == VD_ERR_MODEL                # a DBN blob is not a CNN
+        assert vd_cnn.c_load(dbn.read_bytes()) == VD_ERR_MODEL                # a DBN blob is not a CNN
 
 
 # ------------------------------------------------------------------ committed models, real frames
@@ -319,7 +320,7 @@ def _pad(img, a):
 
 
 def _test_frames(data_dir):
-    from vdtools import dataset as D
+    from vdtools.data import dataset as D
     frames = D.all_frames(data_dir, synth=False)
     split = D.assign_splits(frames)
     return [f for f in frames if split[f.group] == "test"]
@@ -338,7 +339,7 @@ def test_committed_models_on_test_split(cnn, data_dir, path):
     import cv2
     blob = path.read_bytes()
     d = V.unpack(blob)
-    m = V.CModel(blob)
+    m = vd_cnn.CModel(blob)
     a = V.alignment(d)
     frames = _test_frames(data_dir)
     if not frames:

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
-"""The numpy integer reference of the int8 CNN (vdtools.cnn_ref) and the version-3 .vdm packer
-(vdtools.cnn_vdm), against the format and arithmetic of docs/model-format.md and docs/fixed-point.md: hand-worked
+"""The numpy integer reference of the int8 CNN (vdtools.formats.cnn_ref) and the version-3 .vdm packer
+(vdtools.formats.cnn_vdm), against the format and arithmetic of docs/model-format.md and docs/fixed-point.md: hand-worked
 cases for every op, the percentile stretch, requantisation and decoding; the vectorised kernels
 against naive loops written straight from the spec formulas; pack/unpack round trips and rejections."""
 import shutil
@@ -11,9 +11,9 @@ import zlib
 import numpy as np
 import pytest
 
-from vdtools import cnn_ref as R
-from vdtools import cnn_vdm as V
-from vdtools import quantise
+from vdtools.formats import cnn_ref as R
+from vdtools.formats import cnn_vdm as V
+from vdtools.formats import quantise
 
 INT32_MIN, INT32_MAX = -(1 << 31), (1 << 31) - 1
 IDENT = dict(mult=1 << 30, shift=1)      # exact identity requantisation for |acc| < 2^30

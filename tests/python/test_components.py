@@ -8,8 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
-from vdtools import clib
-from vdtools import components as cc
+from vdtools.bindings import clib
+from vdtools.bindings import components as cc
 
 N_FRAMES = 15  # per data set; frames spread evenly over the sorted file list
 

@@ -6,7 +6,7 @@ and on generated ones, and chain codes that lead from each point to the next."""
 import cv2
 import numpy as np
 
-from vdtools import refine
+from vdtools.bindings import refine
 from realdata import frame_paths
 
 DX = np.array([1, 1, 0, -1, -1, -1, 0, 1])

@@ -4,7 +4,7 @@ stage vs cv2, geometry, and samples of real frames."""
 import numpy as np
 import pytest
 
-from vdtools import dataset
+from vdtools.data import dataset
 
 
 def test_iou_and_expand():
@@ -120,7 +120,7 @@ def test_mined_samples_on_real_frame(data_dir):
 def test_cached_set_splits_are_disjoint_by_group():
     p = dataset.cache_path("grey", 0)
     if not p.exists():
-        pytest.skip(f"no cached data set at {p} (python3 -m vdtools.dataset --mode grey)")
+        pytest.skip(f"no cached data set at {p} (python3 -m vdtools.data.dataset --mode grey)")
     ds = dataset.load(p)
     g = {s: set(ds["group"][ds["split"] == s]) for s in dataset.SPLITS}
     assert not (g["train"] & g["val"]) and not (g["train"] & g["test"]) and not (g["val"] & g["test"])

@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: MIT
 """Bit-exact parity of the C quantised DBN (vd_dbn_classify via ctypes) with the
-integer numpy reference (vdtools.quantise.quant_forward): random models and
+integer numpy reference (vdtools.formats.quantise.quant_forward): random models and
 inputs always; every sample of the test split for every models/*.vdm when the
-data set cache built by vdtools.dataset exists. Also the .vdm packer/loader,
+data set cache built by vdtools.data.dataset exists. Also the .vdm packer/loader,
 the generated sigmoid table and the exported C source."""
 import shutil
 import subprocess
@@ -11,14 +11,16 @@ import zlib
 import numpy as np
 import pytest
 
-from vdtools import clib, export, quantise, vdm
+from vdtools.bindings import clib
+from vdtools.formats import export, quantise, vdm
+from vdtools.bindings import dbn as vd_dbn
 
 REPO = clib.REPO
 
 
 @pytest.fixture(scope="module")
 def dbn(vdlib):
-    return vdm.lib()
+    return vd_dbn.lib()
 
 
 def _image_like(rng, n, side=32):
@@ -39,7 +41,7 @@ def test_random_models_bit_exact(dbn, sizes, scale):
     rng = np.random.default_rng(sizes[1] + int(scale * 10))
     fm = quantise.load_float(quantise.random_float_model(sizes, seed=len(sizes), scale=scale))
     qm = quantise.quantise(fm, name="rand")
-    m = vdm.CModel(vdm.pack(qm))
+    m = vd_dbn.CModel(vdm.pack(qm))
     side = int(np.sqrt(sizes[0]))
     x = np.concatenate([rng.integers(0, 256, (150, sizes[0]), dtype=np.uint8), _image_like(rng, 150, side),
                         np.zeros((1, sizes[0]), np.uint8), np.full((1, sizes[0]), 255, np.uint8)])
@@ -61,7 +63,7 @@ def test_minmax_models_bit_exact(dbn, sizes, scale, min_range):
     qm = quantise.quantise(fm, name="randn")
     blob = vdm.pack(qm)
     assert vdm.unpack(blob)["input_norm"] == "minmax" and vdm.unpack(blob)["norm_min_range"] == min_range
-    m = vdm.CModel(blob)
+    m = vd_dbn.CModel(blob)
     assert m.m.input_norm == 1 and m.m.norm_min_range == min_range and m.m.format_version == 2
     side = int(np.sqrt(sizes[0]))
     x = np.concatenate([rng.integers(0, 256, (100, sizes[0]), dtype=np.uint8), _image_like(rng, 100, side),
@@ -82,14 +84,14 @@ def test_stretch_matches_reference(dbn):
         lo = int(rng.integers(0, 256))
         x = np.clip(lo + rng.integers(0, int(rng.integers(1, 257)), n), 0, 255).astype(np.uint8)
         mr = int(rng.integers(1, 256))
-        st, got = vdm.c_stretch(x, mr)
+        st, got = vd_dbn.c_stretch(x, mr)
         assert st == clib.VD_OK
         np.testing.assert_array_equal(got, quantise.stretch_u8(x[None], mr)[0])
     # hand-worked: flat -> 0; r = 32; ties round up
     assert quantise.stretch_u8(np.array([[9, 9, 9]], np.uint8), 16).tolist() == [[0, 0, 0]]
     assert quantise.stretch_u8(np.array([[10, 20, 30, 42]], np.uint8), 16).tolist() == [[0, 80, 159, 255]]
     assert quantise.stretch_u8(np.array([[0, 1]], np.uint8), 2).tolist() == [[0, 128]]
-    assert vdm.c_stretch(np.array([1, 2], np.uint8), 0)[0] == -1          # VD_ERR_ARG
+    assert vd_dbn.c_stretch(np.array([1, 2], np.uint8), 0)[0] == -1          # VD_ERR_ARG
     with pytest.raises(ValueError):
         quantise.stretch_u8(np.zeros((1, 4), np.uint8), 0)
 
@@ -98,20 +100,20 @@ def test_format_versions_and_norm_field(dbn):
     """Version 1 blobs (no normalisation) still load; unknown versions/normalisations are VD_ERR_MODEL."""
     fm = quantise.load_float(quantise.random_float_model([64, 8, 1], seed=2))
     blob = bytearray(vdm.pack(quantise.quantise(fm, name="v")))
-    assert blob[4] == 2 and vdm.c_load(bytes(blob)) == clib.VD_OK
+    assert blob[4] == 2 and vd_dbn.c_load(bytes(blob)) == clib.VD_OK
     v1 = bytearray(blob)
     v1[4] = 1
     v1 = vdm.fix_crc(bytes(v1))
-    assert vdm.c_load(v1) == clib.VD_OK
+    assert vd_dbn.c_load(v1) == clib.VD_OK
     x = np.random.default_rng(0).integers(0, 256, (16, 64), dtype=np.uint8)
-    np.testing.assert_array_equal(vdm.CModel(v1).classify(x), vdm.CModel(bytes(blob)).classify(x))
+    np.testing.assert_array_equal(vd_dbn.CModel(v1).classify(x), vd_dbn.CModel(bytes(blob)).classify(x))
     for version, norm, rng_ in ((3, 0, 0), (0, 0, 0), (1, 1, 16), (2, 2, 16), (2, 1, 0), (2, 0, 4)):
         bad = bytearray(blob)
         bad[4], bad[36], bad[37] = version, norm, rng_
-        assert vdm.c_load(vdm.fix_crc(bytes(bad))) == -4, (version, norm, rng_)
+        assert vd_dbn.c_load(vdm.fix_crc(bytes(bad))) == -4, (version, norm, rng_)
     ok = bytearray(blob)
     ok[36], ok[37] = 1, 16
-    assert vdm.c_load(vdm.fix_crc(bytes(ok))) == clib.VD_OK
+    assert vd_dbn.c_load(vdm.fix_crc(bytes(ok))) == clib.VD_OK
 
 
 def test_requantize_matches_reference(dbn):
@@ -128,7 +130,7 @@ def test_requantize_matches_reference(dbn):
 def test_sigmoid_table_in_sync(dbn):
     path = REPO / "lib" / "src" / "dbn_sigmoid_table.h"
     assert path.read_text() == quantise.sigmoid_table_c(), \
-        "regenerate: python3 -m vdtools.quantise --write-sigmoid-table lib/src/dbn_sigmoid_table.h"
+        "regenerate: python3 -m vdtools.formats.quantise --write-sigmoid-table lib/src/dbn_sigmoid_table.h"
     got = np.array([dbn.vd_dbn_sigmoid_q8(z) for z in range(-2100, 2101)])
     np.testing.assert_array_equal(got, quantise.SIGMOID_Q8[np.clip(np.arange(-2100, 2101), -2048, 2048) + 2048])
 
@@ -148,23 +150,23 @@ def test_golden_blob_matches_generator(dbn):
     qm = vdm.unpack(blob)
     assert vdm.pack(qm) == blob and qm["version"] == vdm.VERSION
     x = np.random.default_rng(0).integers(0, 256, (64, 64), dtype=np.uint8)
-    np.testing.assert_array_equal(vdm.CModel(blob).classify(x), quantise.quant_forward(qm, x))
+    np.testing.assert_array_equal(vd_dbn.CModel(blob).classify(x), quantise.quant_forward(qm, x))
 
 
 def test_loader_from_python(dbn):
     fm = quantise.load_float(quantise.random_float_model([64, 8, 1], seed=1))
     blob = vdm.pack(quantise.quantise(fm, name="t"))
-    assert vdm.c_load(blob) == clib.VD_OK
-    assert vdm.c_load(blob, offset=2) == -1            # misaligned pointer: VD_ERR_ARG
-    assert vdm.c_load(blob, nbytes=len(blob) - 4) == -4
+    assert vd_dbn.c_load(blob) == clib.VD_OK
+    assert vd_dbn.c_load(blob, offset=2) == -1            # misaligned pointer: VD_ERR_ARG
+    assert vd_dbn.c_load(blob, nbytes=len(blob) - 4) == -4
     rng = np.random.default_rng(9)
     for i in rng.choice(len(blob), 64, replace=False):   # a random byte anywhere, CRC left stale
         bad = bytearray(blob)
         bad[i] ^= 0x5A
-        assert vdm.c_load(bytes(bad)) == -4
+        assert vd_dbn.c_load(bytes(bad)) == -4
     bad = bytearray(blob)
     bad[64] += 1                                          # layer 0 'in' + fixed CRC: structure check
-    assert vdm.c_load(vdm.fix_crc(bytes(bad))) == -4
+    assert vd_dbn.c_load(vdm.fix_crc(bytes(bad))) == -4
     assert zlib.crc32(blob[16:]) & 0xFFFFFFFF == int.from_bytes(blob[12:16], "little")
 
 
@@ -201,14 +203,14 @@ def _models():
 
 def test_models_on_test_split(dbn, data_dir):
     """Every models/*.vdm against the reference on every test-split sample of
-    its input mode (the cached set built by vdtools.dataset)."""
+    its input mode (the cached set built by vdtools.data.dataset)."""
     models = _models()
     if not models:
         pytest.skip("no models/*.vdm exported yet")
     try:
-        from vdtools import dataset  # noqa: F401
+        from vdtools.data import dataset  # noqa: F401
     except ImportError:
-        pytest.skip("vdtools.dataset (the data set builder) is not present")
+        pytest.skip("vdtools.data.dataset (the data set builder) is not present")
     checked = 0
     for path in models:
         blob = path.read_bytes()
@@ -217,8 +219,8 @@ def test_models_on_test_split(dbn, data_dir):
         if split is None:
             continue
         x, _y = split
-        np.testing.assert_array_equal(vdm.CModel(blob).classify(x), quantise.quant_forward(qm, x),
+        np.testing.assert_array_equal(vd_dbn.CModel(blob).classify(x), quantise.quant_forward(qm, x),
                                       err_msg=f"{path.name}: C and Python differ")
         checked += len(x)
     if checked == 0:
-        pytest.skip("no cached data set for the models' modes (python3 -m vdtools.dataset --mode MODE)")
+        pytest.skip("no cached data set for the models' modes (python3 -m vdtools.data.dataset --mode MODE)")

@@ -13,8 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vdtools import clip, evaluate
-from vdtools.clib import REPO
+from vdtools.data import clip
+from vdtools.metrics import evaluate
+from vdtools.bindings.clib import REPO
 from buildpaths import build_dir, run_demo as run
 
 # Floors measured on the 120-frame clip (seed 1), docs/demo.md. Without a model:

@@ -4,8 +4,8 @@
 The page is rendered in headless Chromium (Debian package `chromium`; the test skips with a
 message when it is absent): the screenshot must not be blank and the figures in the rendered
 DOM must equal the ones the demo prints for --eval, the AP must equal
-vdtools.evaluate.average_precision of the demo's JSON Lines, and the gallery must hold the
-frames with misses or false positives found by vdtools.evaluate.match_flags. The progress
+vdtools.metrics.evaluate.average_precision of the demo's JSON Lines, and the gallery must hold the
+frames with misses or false positives found by vdtools.metrics.evaluate.match_flags. The progress
 tests run the demo once with stderr on a pipe and once on a pseudo-terminal (pty)."""
 import json
 import os
@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vdtools import clip, evaluate
+from vdtools.data import clip
+from vdtools.metrics import evaluate
 from buildpaths import build_dir, run_demo as run
 
 

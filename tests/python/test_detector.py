@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""The C detector through vdtools.detector: candidate-stage counts against an OpenCV/numpy
+"""The C detector through vdtools.bindings.detector: candidate-stage counts against an OpenCV/numpy
 oracle on real MSRS / HIT-UAV frames, synthetic scenes, and the temporal exp tables."""
 import glob
 
@@ -8,7 +8,7 @@ import pytest
 
 cv2 = pytest.importorskip("cv2")
 
-from vdtools import detector as vdet  # noqa: E402
+from vdtools.bindings import detector as vdet  # noqa: E402
 
 
 def oracle_counts(img, thr):
@@ -141,7 +141,7 @@ def cell_levels(img, boxes, cell=4):
 
 
 def test_window_source_matches_generator_and_prefilter_oracle(vdlib, data_dir):
-    from vdtools import sources as S
+    from vdtools.bindings import sources as S
     files = sorted(glob.glob(str(data_dir / "msrs" / "images" / "*N.png")))[:2]
     files += sorted(glob.glob(str(data_dir / "hit-uav" / "frames" / "images" / "*.jpg")))[:1]
     if not files:
@@ -166,7 +166,7 @@ def test_window_source_matches_generator_and_prefilter_oracle(vdlib, data_dir):
 
 
 def test_contrast_source_matches_contrast_candidates(vdlib, data_dir):
-    from vdtools import sources as S
+    from vdtools.bindings import sources as S
     files = sorted(glob.glob(str(data_dir / "hit-uav" / "frames" / "images" / "*.jpg")))[:3]
     if not files:
         pytest.skip(f"no frames found under {data_dir}")
@@ -190,7 +190,7 @@ def test_sources_merge_dedup(vdlib):
     dets, st = det.run(img)
     assert st["cand_hotspot"] == 1 and st["cand_contrast"] >= 1 and st["cand_window"] >= 1
     assert len(dets) == st["cand_hotspot"] + st["cand_contrast"] + st["cand_window"]
-    from vdtools.recall import iou_matrix
+    from vdtools.evaluation.recall import iou_matrix
     m = iou_matrix([d["box"] for d in dets], [d["box"] for d in dets])
     np.fill_diagonal(m, 0)
     assert m.max() <= 0.5 + 1e-6
@@ -198,7 +198,7 @@ def test_sources_merge_dedup(vdlib):
 
 
 def test_exp_tables_match_c_source():
-    from vdtools.clib import REPO
+    from vdtools.bindings.clib import REPO
     src = (REPO / "lib" / "src" / "temporal.c").read_text()
     frac, ints = vdet.exp_tables()
     for v in frac + ints:

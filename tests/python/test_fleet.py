@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
-"""vdtools.fleet on a 2-worker Dask LocalCluster: a worker process killed mid-shard and a task that raises,
+"""vdtools.evaluation.fleet on a 2-worker Dask LocalCluster: a worker process killed mid-shard and a task that raises,
 then every recording compared byte for byte with vd_fir_demo run on the same shards in one process;
-resume, the exactly-once check, and the mined hard examples read back by vdtools.dataset."""
+resume, the exactly-once check, and the mined hard examples read back by vdtools.data.dataset."""
 import json
 import os
 import subprocess
@@ -10,7 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from vdtools import clib, clip, dataset, fleet, port
+from vdtools.bindings import clib, port
+from vdtools.data import clip, dataset
+from vdtools.evaluation import fleet
 
 pytest.importorskip("distributed", reason="dask[distributed] not installed: pip install -e 'tools[fleet]'")
 import cloudpickle  # noqa: E402  (comes with distributed)
@@ -103,8 +105,8 @@ def test_faults_resume_exactly_once_and_mining(setup, tmp_path):
         got = (out / "recordings" / f"{rid}.jsonl").read_text()
         assert got.splitlines() == text.splitlines()
         assert len(got.splitlines()) == 9
-    # accuracy: the report's counts agree with vdtools.evaluate on the merged files
-    from vdtools.evaluate import evaluate_jsonl
+    # accuracy: the report's counts agree with vdtools.metrics.evaluate on the merged files
+    from vdtools.metrics.evaluate import evaluate_jsonl
     tp = fp = veh = 0
     for rid, seed in (("rec0", 21), ("rec1", 22)):
         e = evaluate_jsonl(out / "recordings" / f"{rid}.jsonl", d / f"c{seed}" / "annotations.json")

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from vdtools import dataset, hit_clip
+from vdtools.data import dataset, hit_clip
 
 REPO = Path(__file__).resolve().parents[2]
 CLIP = REPO / "tools" / "demo" / "hit-uav-clip"

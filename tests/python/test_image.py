@@ -2,7 +2,7 @@
 """The ctypes layer agrees with the C structs (smoke test of the shared build)."""
 import ctypes as C
 
-from vdtools import clib
+from vdtools.bindings import clib
 
 
 def test_status_text_through_ctypes(vdlib):

@@ -7,7 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from vdtools import clib, median5_net, pixel
+from vdtools.bindings import clib, pixel
+from vdtools.generators import median5_net, median_network
 
 
 def _frames(data_dir, n):
@@ -60,13 +61,13 @@ def test_bad_arguments(vdlib):
 
 def test_generated_network_matches_median_c(vdlib):
     """median.c's generated blocks are exactly what the (0-1-principle checked) generators emit."""
-    pair, _ = pixel.median_network(check=True)
+    pair, _ = median_network.median_network(check=True)
     src = (clib.REPO / "lib" / "src" / "median.c").read_text()
     blocks = dict(re.findall(r"// BEGIN GENERATED (\w+)[^\n]*\n(.*?)\n\s*// END GENERATED \1", src, re.S))
     # Compared without indentation: median.c places the blocks at its own nesting depth.
     def strip(lines):
         return [ln.strip() for ln in lines]
     assert strip(blocks["pair"].split("\n")) == strip(pair)
-    # The 5x5 select works on output pairs (vdtools.median5_net,
-    # also checked on every 0/1 input); pixel.py's own select is not used.
+    # The 5x5 select works on output pairs (vdtools.generators.median5_net,
+    # also checked on every 0/1 input); median_network's own select is not used.
     assert strip(blocks["select_pair"].split("\n")) == strip(median5_net.select_pair(check=True))

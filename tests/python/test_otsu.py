@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from vdtools import pixel
+from vdtools.bindings import pixel
 from realdata import frame_paths
 
 OTSU = cv2.THRESH_BINARY | cv2.THRESH_OTSU

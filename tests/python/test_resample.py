@@ -1,12 +1,13 @@
 # SPDX-License-Identifier: MIT
-"""vd_resample_u8 (via vdtools.samples) against its integer numpy reference
+"""vd_resample_u8 (via vdtools.data.samples) against its integer numpy reference
 (bit-exact) and against OpenCV (INTER_AREA when shrinking, INTER_LINEAR when
 growing: within 1 grey level), on generated and real thermal frames."""
 import cv2
 import numpy as np
 import pytest
 
-from vdtools import samples
+from vdtools.data import samples
+from vdtools.bindings import resample as vd_resample
 
 
 def _real_frames(data_dir, n=4):
@@ -25,20 +26,20 @@ def test_random_regions_match_reference(vdlib):
         x, y = int(rng.integers(0, w)), int(rng.integers(0, h))
         rw, rh = int(rng.integers(1, w - x + 1)), int(rng.integers(1, h - y + 1))
         dw, dh = (int(v) for v in rng.integers(1, 70, 2))
-        np.testing.assert_array_equal(samples.resample(img, (x, y, rw, rh), dw, dh),
+        np.testing.assert_array_equal(vd_resample.resample(img, (x, y, rw, rh), dw, dh),
                                       samples.resample_ref(img, (x, y, rw, rh), dw, dh))
 
 
 def test_non_contiguous_view(vdlib):
     img = np.random.default_rng(1).integers(0, 256, (60, 80), dtype=np.uint8)
     sub = img[5:50, 7:70]                       # row stride 80 > width 63
-    np.testing.assert_array_equal(samples.resample(sub), samples.resample_ref(np.ascontiguousarray(sub)))
+    np.testing.assert_array_equal(vd_resample.resample(sub), samples.resample_ref(np.ascontiguousarray(sub)))
 
 
 def _vs_opencv(img, rect):
     x, y, w, h = rect
     crop = img[y:y + h, x:x + w]
-    got = samples.resample(img, rect).astype(int)
+    got = vd_resample.resample(img, rect).astype(int)
     if w >= 32 and h >= 32:
         ref = cv2.resize(crop, (32, 32), interpolation=cv2.INTER_AREA)
     elif w < 32 and h < 32:
@@ -66,7 +67,7 @@ def test_close_to_opencv_real_frames(vdlib, data_dir):
             w, h = int(rng.integers(8, min(160, ww))), int(rng.integers(8, min(120, hh)))
             x, y = int(rng.integers(0, ww - w)), int(rng.integers(0, hh - h))
             assert _vs_opencv(img, (x, y, w, h)) <= 1
-            np.testing.assert_array_equal(samples.resample(img, (x, y, w, h)),
+            np.testing.assert_array_equal(vd_resample.resample(img, (x, y, w, h)),
                                           samples.resample_ref(img, (x, y, w, h)))
 
 
@@ -76,7 +77,7 @@ def test_sample32_modes(vdlib):
     assert s.shape == (32, 32) and s.dtype == np.uint8
     # rects are clipped to the frame
     np.testing.assert_array_equal(samples.sample32(img, (-10, -10, 30, 30), "grey"),
-                                  samples.resample(img, (0, 0, 20, 20)))
+                                  vd_resample.resample(img, (0, 0, 20, 20)))
     with pytest.raises(ValueError):
         samples.sample32(img, (100, 100, 5, 5), "grey")
     with pytest.raises(ValueError):

@@ -1,11 +1,13 @@
 # SPDX-License-Identifier: MIT
-"""Oracle tests of contrast.h and windows.h (vdtools.sources) against OpenCV/numpy on real and
-generated frames, and of the candidate-recall helpers (vdtools.recall)."""
+"""Oracle tests of contrast.h and windows.h (vdtools.bindings.sources) against OpenCV/numpy on real and
+generated frames, and of the candidate-recall helpers (vdtools.evaluation.recall)."""
 import cv2
 import numpy as np
 import pytest
 
-from vdtools import dataset as D, recall as R, sources as S
+from vdtools.data import dataset as D
+from vdtools.evaluation import recall as R
+from vdtools.bindings import sources as S
 
 
 def oracle_map(img, r, polarity=S.BOTH):

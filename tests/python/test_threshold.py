@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from vdtools import clib, pixel
+from vdtools.bindings import clib, pixel
 from realdata import frame_paths
 
 

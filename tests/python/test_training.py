@@ -4,7 +4,8 @@ on small synthetic sets (fast, no data needed)."""
 import numpy as np
 import pytest
 
-from vdtools import baselines, det, rbm
+from vdtools.training import baselines, rbm
+from vdtools.metrics import det
 
 
 def _bars(n, rng):
@@ -107,7 +108,8 @@ def test_baseline_features_shapes():
 def test_normalised_model_round_trip(tmp_path):
     """A DBN trained on stretched input records the normalisation; the float and integer references
     apply it to raw bytes, so a brightness offset does not change the score."""
-    from vdtools import dbn_train, quantise
+    from vdtools.training import dbn_train
+    from vdtools.formats import quantise
     rng = np.random.default_rng(6)
     net = rbm.DBN.from_rbms([rbm.RBM(1024, 8, rng)], 1024, rng, "grey", **dbn_train.norm_spec("minmax"))
     path = net.save_npz(tmp_path / "n.npz")

@@ -10,7 +10,7 @@
 //   valgrind --tool=callgrind --callgrind-out-file=cg.out vd_bench --iters 1 ...
 // `callgrind_annotate --inclusive=yes cg.out` gives the instructions of each stage as the inclusive count of
 // its wrapper cg_<stage> (divide by the call counts this program prints).
-// Docs: docs/performance.md; the Python driver with OpenCV in the same run: python3 -m vdtools.bench.
+// Docs: docs/performance.md; the Python driver with OpenCV in the same run: python3 -m vdtools.evaluation.bench.
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
 #include <stdint.h>

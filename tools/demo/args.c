@@ -368,7 +368,7 @@ static bool parse_bands(const char *v, vd_windows_cfg_t *w)
     return true;
 }
 
-// The mounting presets of tools/vdtools/sources.py (MSRS: for 480-row frames).
+// The mounting presets of tools/vdtools/bindings/sources.py (MSRS: for 480-row frames).
 static bool apply_window_preset(vd_windows_cfg_t *w, const char *name)
 {
     vd_windows_cfg_t t;

@@ -92,7 +92,7 @@ typedef struct demo_gt_image {
 // kept for the precision-recall curve and AP.
 typedef struct demo_gt_scored {
     double score;
-    uint64_t order;   // evaluation order: ties in score keep it (as vdtools.evaluate.average_precision)
+    uint64_t order;   // evaluation order: ties in score keep it (as vdtools.metrics.evaluate.average_precision)
     bool tp;
 } demo_gt_scored_t;
 
@@ -138,7 +138,7 @@ void demo_gt_frame_ex(demo_gt_t *gt, const char *frame_name, uint32_t width, uin
 const demo_gt_image_t *demo_gt_image_of(const demo_gt_t *gt, const char *frame_name);
 // Precision-recall curve over all counted detections so far, pooled and sorted by
 // score (descending; ties in evaluation order), and its AP at IoU 0.5 with all-point
-// interpolation (PASCAL VOC 2010+; the same figure as vdtools.evaluate.average_precision).
+// interpolation (PASCAL VOC 2010+; the same figure as vdtools.metrics.evaluate.average_precision).
 // *recall and *precision are malloc'd arrays of *n points (free them; NULL when *n is 0).
 // *ap is 0 when there are no vehicles. The curve ends at the detector's operating point
 // (its score threshold), so the AP is that of the detections it outputs.

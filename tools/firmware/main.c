@@ -11,7 +11,7 @@
 // After the JSON lines, one "# vd_fw ..." line per frame and one summary
 // line report SysTick cycles (whole vd_detector_run), the CNN stage's time
 // from the detector's clock callback, the instruction-count calibration and
-// the stack high-water mark (tools/embedded_report.py reads them).
+// the stack high-water mark (tools/vdtools/generators/embedded_report.py reads them).
 #include <stdint.h>
 #include <string.h>
 

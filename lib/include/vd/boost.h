@@ -9,7 +9,7 @@
 // with x the int8 value of the map element, thr int8, left/right int16
 // (AdaBoost weights in a Q-format chosen by the exporter); the crop is a
 // vehicle when score >= the model's threshold. Integer only, no heap; bit-
-// exact with tools/vdtools/boost_vdm.py. Lifetime as vd/cnn.h: the model
+// exact with tools/vdtools/formats/boost_vdm.py. Lifetime as vd/cnn.h: the model
 // points into the blob, which must outlive it.
 //
 // Typical use:

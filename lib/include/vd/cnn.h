@@ -189,7 +189,7 @@ vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, ui
 // Returns VD_OK; VD_ERR_ARG for NULL img/out or bad sizes/stride; VD_ERR_STATE
 // if m is not loaded; VD_ERR_WORKSPACE for a NULL, misaligned or short ws;
 // VD_ERR_OVERFLOW as vd_cnn_workspace_size.
-// Bit-exact with the numpy integer reference (tools/vdtools/cnn_ref.py).
+// Bit-exact with the numpy integer reference (tools/vdtools/formats/cnn_ref.py).
 // Time: vd_cnn_macs() multiply-adds plus one requantisation per output value;
 // stack ~730 bytes on Cortex-M7 -Os (the plan lives in the workspace's run
 // record, not on the stack).

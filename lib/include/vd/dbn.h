@@ -118,14 +118,14 @@ vd_status_t vd_dbn_workspace_size(const vd_dbn_model_t *m, size_t *bytes);
 // Scores one sample.
 // m:        a loaded model (read only).
 // input:    input_w * input_h bytes, row-major, contiguous, 0..255 (grey crop
-//           or 0/255 mask as m->input_mode says; see tools/vdtools/samples.py);
+//           or 0/255 mask as m->input_mode says; see tools/vdtools/data/samples.py);
 //           not modified: a MINMAX model stretches a copy in the workspace.
 // ws/bytes: caller workspace, VD_WORKSPACE_ALIGN-aligned, >= vd_dbn_workspace_size().
 // score_q8: out, Q8 probability of "vehicle": 0..255 (p = score / 256;
 //           128 is p = 0.5).
 // Returns VD_OK; VD_ERR_ARG for NULL m, input or score_q8; VD_ERR_STATE if m
 // is not loaded; VD_ERR_WORKSPACE for a NULL, misaligned or short workspace.
-// Bit-exact with tools/vdtools/quantise.py quant_forward().
+// Bit-exact with tools/vdtools/formats/quantise.py quant_forward().
 // Time: sum over layers of in*out multiply-adds (1024-576-256-64-1: 753k)
 // plus, for MINMAX, 2 passes and input_w*input_h divisions;
 // stack < 128 bytes.

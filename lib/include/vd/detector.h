@@ -306,7 +306,7 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 //      exceeds max_region_*) -> vd_refine_region -> largest external contour
 //      (by box area, then length) gives box and length -> 32x32 sample in the
 //      model's input mode (grey: the region plane under the contour box; shape:
-//      vd_refine_region re-run on the contour box, as tools/vdtools/samples.py
+//      vd_refine_region re-run on the contour box, as tools/vdtools/data/samples.py
 //      makes training samples) -> DBN score >= score_thr
 //   [sources beyond hot spots, cfg.sources: the refined hot-spot boxes start
 //    one merged list; contrast components (8-bit frames only; 16-bit frames
@@ -335,7 +335,7 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 // Stack: own frame 112 bytes (Cortex-M7 -Os); worst case including the stages
 // 1 092 bytes, through the CNN source (vd_cnn_run's kernels); without it
 // vd_refine_region -> vd_median5_u8, also via the temporal recovery probe
-// (tools/embedded_report.py, docs/embedded.md).
+// (tools/vdtools/generators/embedded_report.py, docs/embedded.md).
 vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
                             size_t *count);
 

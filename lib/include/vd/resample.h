@@ -30,7 +30,7 @@ extern "C" {
 //   to [0, S-1], with exact weights in units of 1/(2D) pixel (total 2D).
 // The output is round-half-up(sum(wx*wy*pixel) / (Tx*Ty)) computed exactly in
 // integers, so the result depends on nothing but the inputs (bit-exact with
-// tools/vdtools/samples.py's reference). Equal sizes copy the region.
+// tools/vdtools/data/samples.py's reference). Equal sizes copy the region.
 //
 // src:   8-bit view (data non-null, 1..VD_MAX_DIM per side, stride >= width).
 // roi:   region inside src, or NULL for the whole view.

@@ -2,7 +2,7 @@
 """ctypes bindings of components.h: 8-connected labelling, the paper's rules,
 candidate expansion.
 
-    from vdtools import components as cc
+    from vdtools.bindings import components as cc
     comps = cc.label(mask)                   # structured array, one row per component
     comps["x"], comps["area"], comps["cx_q8"] ...
     kept = cc.filter(comps)                  # paper rules (aspect 77..384 Q8, area >= 120)
@@ -16,7 +16,7 @@ import ctypes as C
 
 import numpy as np
 
-from vdtools import clib
+from vdtools.bindings import clib
 
 # Same layout as vd_component_t (7 x 4 bytes, no padding).
 COMPONENT_DTYPE = np.dtype([("x", "<i4"), ("y", "<i4"), ("w", "<i4"), ("h", "<i4"),

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
 """ctypes bindings of the C detector (lib/include/vd/detector.h) for evaluation tools.
 
-    from vdtools.detector import Detector
+    from vdtools.bindings.detector import Detector
     det = Detector(max_width=640, max_height=512, thr_mode="adaptive", model="models/x.vdm")
     dets, stats = det.run(frame)          # frame: 2-D uint8 or uint16 numpy array
     # dets: list of dicts {box, candidate, score, score_q8, contour_length, track, state, flags, ...}
@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from vdtools import clib, components
-from vdtools.sources import ContrastCfg, WindowsCfg, windows_cfg as _windows_cfg
+from vdtools.bindings import clib, components
+from vdtools.bindings.sources import ContrastCfg, WindowsCfg, windows_cfg as _windows_cfg
 
 THR_CONSTANT, THR_ADAPTIVE = 0, 1
 FLAG_UNVERIFIED, FLAG_DECIMATED, FLAG_CONTOUR_TRUNC, FLAG_RECOVERED = 0x01, 0x02, 0x04, 0x08
@@ -139,7 +139,7 @@ def make_cfg(**kw):
     """A zeroed DetectorCfg (= paper defaults) with the given fields set.
     Nested structs take dicts: rules={...}, calib={...}, temporal_cfg={...}, contrast={...}.
     sources: a bit set or names ("hotspot,window" / ("hotspot", "contrast") / "all");
-    windows: a WindowsCfg, or a dict of vdtools.sources.windows_cfg keywords (preset_name="msrs", ...);
+    windows: a WindowsCfg, or a dict of vdtools.bindings.sources.windows_cfg keywords (preset_name="msrs", ...);
     the detector uses each frame's size."""
     c = DetectorCfg()
     for k, v in kw.items():
@@ -190,11 +190,11 @@ def _load_cnn(cnn_model):
     """(vd_cnn_model_t, keep-alive blob) of a version-3 .vdm given as a path or bytes (None: (None, None))."""
     if cnn_model is None:
         return None, None
-    from vdtools import cnn_vdm
+    from vdtools.bindings import cnn as vd_cnn
     data = Path(cnn_model).read_bytes() if isinstance(cnn_model, (str, Path)) else bytes(cnn_model)
-    keep, addr = cnn_vdm.aligned_copy(data)
-    m = cnn_vdm.CnnModel()
-    clib.check(cnn_vdm.lib().vd_cnn_load(C.byref(m), addr, len(data)), "vd_cnn_load")
+    keep, addr = vd_cnn.aligned_copy(data)
+    m = vd_cnn.CnnModel()
+    clib.check(vd_cnn.lib().vd_cnn_load(C.byref(m), addr, len(data)), "vd_cnn_load")
     return m, keep
 
 
@@ -205,6 +205,19 @@ def _cfg_with_cnn(**kw):
     if cm is not None:
         c.cnn_model = C.addressof(cm)
     return c, (cm, keep)
+
+
+def cfg_from_default(fields, cnn_model=None):
+    """vd_detector_cfg_default() with the given fields set and cnn_model (a .vdm path or bytes, or None)
+    loaded: (DetectorCfg, (vd_cnn_model_t, keep-alive blob)) -- the caller keeps the second alive."""
+    cfg = DetectorCfg()
+    _lib().vd_detector_cfg_default(C.byref(cfg))
+    for k, v in fields.items():
+        setattr(cfg, k, v)
+    cnn = _load_cnn(cnn_model) if cnn_model is not None else (None, None)
+    if cnn[0] is not None:
+        cfg.cnn_model = C.addressof(cnn[0])
+    return cfg, cnn
 
 
 def workspace_size(width=640, height=512, model=None, **cfg):

@@ -5,7 +5,7 @@ build/libvd_port.so ($VD_PORT_LIB, else beside $VD_LIB / build/libvd.so).
 Python tools that must see exactly the frames vd_fir_demo sees (same file list, same PGM/PNG/JPEG/raw
 decoding, same frame names) read recordings through it:
 
-    from vdtools import port
+    from vdtools.bindings import port
     with port.Capture("frames.lst", raw_size=(640, 512)) as cap:
         for frame, name in cap:          # frame: clib.Frame, valid until the next iteration
             ...                          # port.pixels(frame) -> a numpy view of its samples
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vdtools import clib
+from vdtools.bindings import clib
 
 VD_ERR_RANGE = -8
 RAW_FORMATS = {"u16": (clib.VD_PIX_U16, False), "u16be": (clib.VD_PIX_U16, True), "u8": (clib.VD_PIX_U8, False)}

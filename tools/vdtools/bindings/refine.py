@@ -6,7 +6,7 @@ import ctypes as C
 
 import numpy as np
 
-from vdtools import clib
+from vdtools.bindings import clib
 
 CHAIN_NONE = 8
 VD_ERR_RANGE = -8
@@ -64,6 +64,16 @@ def _size(fn, w, h):
     n = C.c_size_t()
     clib.check(fn(w, h, C.byref(n)), fn.__name__)
     return n.value
+
+
+def workspace_size(w, h):
+    """vd_refine_workspace_size for a w x h region."""
+    return _size(_lib().vd_refine_workspace_size, w, h)
+
+
+def contour_workspace_size(w, h):
+    """vd_contour_workspace_size for a w x h mask."""
+    return _size(_lib().vd_contour_workspace_size, w, h)
 
 
 def default_cfg():

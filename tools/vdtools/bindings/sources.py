@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
 """ctypes bindings of windows.h and contrast.h, and candidate boxes per source for a frame.
 
-    from vdtools import sources as S
+    from vdtools.bindings import sources as S
     S.windows(640, 480, preset="msrs")                 # (N, 4) int32 boxes x, y, w, h
     S.contrast_map(img, radius=16)                     # uint8 |I - box mean|
     S.contrast_candidates(img)                         # COMPONENT_DTYPE rows (components.py)
@@ -24,8 +24,8 @@ import ctypes as C
 
 import numpy as np
 
-from vdtools import clib
-from vdtools.components import COMPONENT_DTYPE, Rules
+from vdtools.bindings import clib
+from vdtools.bindings.components import COMPONENT_DTYPE, Rules
 
 MAX_BANDS, MAX_ASPECTS = 4, 4
 BOTH, WARM, COLD = 0, 1, 2

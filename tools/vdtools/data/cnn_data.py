@@ -3,9 +3,9 @@
 
 The network sees the frame at HALF resolution, exactly as the C detector produces it: an exact 2x2 box
 average with round-half-up, (a + b + c + d + 2) >> 2 (the same bytes as cv2.INTER_AREA at scale 1/2), then
-the per-frame percentile stretch of the model header (vdtools.cnn_ref.preprocess; integer, equal to C).
+the per-frame percentile stretch of the model header (vdtools.formats.cnn_ref.preprocess; integer, equal to C).
 
-Splits are vdtools.dataset.assign_splits (groups: MSRS number // 40, HIT-UAV T_H_A flight; stable as data
+Splits are vdtools.data.dataset.assign_splits (groups: MSRS number // 40, HIT-UAV T_H_A flight; stable as data
 grows); the HIT-UAV sequence-0_100 flight is test only. Ground truth: MSRS class 2 (car), HIT-UAV Car and
 OtherVehicle; HIT-UAV DontCare boxes are ignore regions (no loss, no false positive).
 """
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from . import dataset as D
+from vdtools.data import dataset as D
 
 
 def half(img):
@@ -58,7 +58,7 @@ def _hot_flags(img, boxes):
 
 def load_frames(data_dir, splits=("train", "val", "test"), synth=False):
     """All annotated real frames of the wanted splits, images in memory (~1 400 frames, ~450 MB); with
-    synth, also the synthetic training clips of vdtools.dataset.load_synth (seeds 101/102, never the
+    synth, also the synthetic training clips of vdtools.data.dataset.load_synth (seeds 101/102, never the
     bundled clip's seed 1; train split only)."""
     frames = D.all_frames(data_dir, synth=synth)
     split_of = D.assign_splits(frames)

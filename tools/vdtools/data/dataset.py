@@ -17,14 +17,14 @@ Samples:
              per-frame 99th-percentile threshold, because both sets are AGC-scaled 8-bit video (150
              finds almost nothing in dark MSRS frames and a third of a bright HIT-UAV frame);
              (b) random background windows with sizes drawn from the vehicle boxes of the same set;
-             (c) hard negatives of the issue-7 generators (vdtools.sources.frame_candidates, the C
+             (c) hard negatives of the issue-7 generators (vdtools.bindings.sources.frame_candidates, the C
              windows.h / contrast.h code): sliding windows (mounting preset of the set) that pass the
              detector's structure pre-filter, half from the most structured ones, and contrast
              components, IoU < 0.2 with every vehicle; a capped, seeded number per frame in every split
              (sources "window" / "contrast": the test split reports them as a separate FPPW figure).
   window positives  per vehicle the generated window of highest IoU if >= 0.5 (source "window_pos"):
              what the detector feeds the DBN when a window finds the vehicle.
-Synthetic frames (BUILD_VERSION 3): clips of SYNTH_FRAMES frames of vdtools.clip with seeds SYNTH_SEEDS
+Synthetic frames (BUILD_VERSION 3): clips of SYNTH_FRAMES frames of vdtools.data.clip with seeds SYNTH_SEEDS
 (never the bundled clip's seed 1), generated into tools/.cache/synth/, each frame used twice: its 8-bit
 frame (u8/) and its 16-bit frame mapped to grey exactly as the detector maps 16-bit regions
 (grey = (ck - grey_lo_ck) * 255 / (grey_hi_ck - grey_lo_ck), lo = 0 degC, hi = 51 degC, Q16 rounding; grey16/).
@@ -35,7 +35,7 @@ Splits are by frame group (MSRS number // 40, HIT-UAV T_H_A flight), about 70/15
 grows: groups listed in split_groups.json keep their committed split, any other group is placed by a hash
 of its key alone (assign_splits); the sequence flight is test only. Built sets are cached in tools/.cache/.
 
-CLI: python3 -m vdtools.dataset --mode grey [--rebuild]   (prints counts per split and class)
+CLI: python3 -m vdtools.data.dataset --mode grey [--rebuild]   (prints counts per split and class)
 """
 import argparse
 import hashlib
@@ -48,7 +48,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from . import clib
+from vdtools.bindings import clib
 
 CACHE = clib.REPO / "tools" / ".cache"
 SPLITS = ("train", "val", "test")
@@ -69,7 +69,7 @@ CLASSIC_SOURCES = ("box", "box_flip", "box_jitter", "candidate", "random")
 MINED_SOURCES = ("window", "contrast", "window_pos")
 BUILD_VERSION = 3         # bump when the recipe changes (invalidates the cache); 2: mined window/contrast rows;
                           # 3: synthetic clip frames (train only)
-SYNTH_SEEDS = (101, 102)  # vdtools.clip seeds of the synthetic training clips; the bundled demo clip uses seed 1
+SYNTH_SEEDS = (101, 102)  # vdtools.data.clip seeds of the synthetic training clips; the bundled demo clip uses seed 1
 SYNTH_FRAMES = 60
 SYNTH_VARIANTS = ("u8", "grey16")   # 8-bit frame; 16-bit frame through the detector's u16 -> grey map
 GREY_LO_CK, GREY_HI_CK = 27315, 32415   # detector defaults: hot_thr_ck - 3000, hot_thr_ck + 2100
@@ -148,9 +148,9 @@ def grey_of_ck(a):
 
 
 def load_synth(seeds=SYNTH_SEEDS, frames=SYNTH_FRAMES, root=None):
-    """Synthetic clips (vdtools.clip) generated once into tools/.cache/synth/seed-<s>-n<frames>/ (u8/,
+    """Synthetic clips (vdtools.data.clip) generated once into tools/.cache/synth/seed-<s>-n<frames>/ (u8/,
     u16/ and grey16/ = u16 through grey_of_ck, as 8-bit PGM); one FrameRec per frame and variant."""
-    from . import clip
+    from vdtools.data import clip
     root = Path(root or CACHE / "synth")
     out = []
     for seed in seeds:
@@ -191,7 +191,7 @@ def hash_split(group, seed=0):
 
 
 def committed_splits():
-    """{group: split} of tools/vdtools/split_groups.json (the groups the committed models were built on)."""
+    """{group: split} of tools/vdtools/data/split_groups.json (the groups the committed models were built on)."""
     return dict(json.loads(SPLIT_FILE.read_text())["groups"])
 
 
@@ -261,7 +261,7 @@ def _candidate_impl():
     probe image, building a data set fails here, so a training set is never made by different code."""
     global _CAND_IMPL
     if _CAND_IMPL is None:
-        from . import pixel, components
+        from vdtools.bindings import pixel, components
         fn = _make_c_candidates(pixel, components)
         if fn is None:
             raise RuntimeError("the C candidate stage disagrees with the cv2 oracle on the probe image")
@@ -299,7 +299,7 @@ def candidates(img):
     fh, fw = img.shape
     expand = expand_rect
     if kind == "C":
-        from . import components
+        from vdtools.bindings import components
         expand = components.rect_expand   # vd_rect_expand: the device's rounding
     out = []
     for thr in frame_thresholds(img):
@@ -315,14 +315,14 @@ _SAMPLE_IMPL = {}
 
 
 def sample_impl(mode="grey"):
-    """('C', fn) through vdtools.samples.sample32 (the device's resampler, and for 'shape' the C refine).
+    """('C', fn) through vdtools.data.samples.sample32 (the device's resampler, and for 'shape' the C refine).
     No stand-in: a library that fails to load or a probe of the wrong shape raises."""
     if mode not in _SAMPLE_IMPL:
-        from . import samples
+        from vdtools.data import samples
         probe = (np.arange(64 * 48, dtype=np.uint32).reshape(48, 64) * 7 % 251).astype(np.uint8)
         s = samples.sample32(probe, (3, 5, 40, 30), mode)
         if np.asarray(s).shape != (32, 32):
-            raise RuntimeError(f"vdtools.samples.sample32 returned shape {np.asarray(s).shape} on the probe")
+            raise RuntimeError(f"vdtools.data.samples.sample32 returned shape {np.asarray(s).shape} on the probe")
         _SAMPLE_IMPL[mode] = ("C", lambda img, rect, m, n=32: np.asarray(
             samples.sample32(img, tuple(int(v) for v in rect), m, n), dtype=np.uint8).reshape(n, n))
     return _SAMPLE_IMPL[mode]
@@ -439,7 +439,7 @@ def _window_levels(img, boxes):
 def mined_samples(img, fr, split, mode, rng):
     """Yields (sample32, label, source, rect, hot) of the issue-7 generators for one frame: window
     positives, window and contrast hard negatives (see the module doc)."""
-    from . import sources
+    from vdtools.bindings import sources
     fh, fw = img.shape
     thr_lo = min(frame_thresholds(img))
     hot = lambda r: bool((img[r[1]:r[1] + r[3], r[0]:r[0] + r[2]] >= thr_lo).any())

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
 """The bundled real clip: a contiguous run of the HIT-UAV ``sequence-0_100`` flight (CC BY 4.0).
 
-``python3 -m vdtools.hit_clip [--src ../shared/data/hit-uav] [--out tools/demo/hit-uav-clip]
+``python3 -m vdtools.data.hit_clip [--src ../shared/data/hit-uav] [--out tools/demo/hit-uav-clip]
 [--budget 2850000]`` copies the longest run of consecutive frames whose JPEG bytes fit the budget
 (the repository may hold at most 3 MB of it, ``../shared/data/README.md``), byte for byte, with the
 matching subset of ``annotations.json`` (same COCO-like format: the box list under ``annotation``,
@@ -9,7 +9,7 @@ images under ``filename``), the licence text and a README with the citation. ``-
 committed clip against the source instead of writing (used by the tests).
 
 Why this flight: it is the one HIT-UAV recording kept in time order, and vd's split rule makes it
-test only (``vdtools.dataset``: the ``seq`` family never enters a training or validation set, and
+test only (``vdtools.data.dataset``: the ``seq`` family never enters a training or validation set, and
 its flight groups ``0_100_*`` do not occur among ``hit-uav/frames``), so no committed model has
 trained on, or had a threshold chosen on, any bundled frame.
 """
@@ -22,7 +22,7 @@ import shutil
 import sys
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 DEFAULT_SRC = REPO.parent / "shared" / "data" / "hit-uav"
 DEFAULT_OUT = REPO / "tools" / "demo" / "hit-uav-clip"
 BUDGET = 2_850_000   # JPEG bytes; annotations, licence and README stay under the 3 MB total
@@ -64,7 +64,7 @@ def plan(src: Path, budget: int) -> tuple[list[str], dict]:
     out["annotation"] = [a for a in doc["annotation"] if a["image_id"] in ids]
     out["info"] = dict(doc.get("info", {}), vd_note=(
         f"frames {keep[0]} .. {keep[-1]} ({count} consecutive frames) of HIT-UAV sequence-0_100, "
-        "copied unchanged by tools/vdtools/hit_clip.py; CC BY 4.0"))
+        "copied unchanged by tools/vdtools/data/hit_clip.py; CC BY 4.0"))
     return keep, out
 
 
@@ -80,7 +80,7 @@ the default input of `vd_fir_demo`.
 **Source and licence.** HIT-UAV (Suo et al., 2023), repository
 suojiashun/HIT-UAV-Infrared-Thermal-Dataset, licensed under Creative Commons Attribution 4.0
 International (CC BY 4.0); the licence text is in `LICENSE` beside this file. The frames and boxes
-are unmodified excerpts; the selection was made by `tools/vdtools/hit_clip.py` (the longest run of
+are unmodified excerpts; the selection was made by `tools/vdtools/data/hit_clip.py` (the longest run of
 consecutive frames within a 2.85 MB budget). Cite:
 
 > {CITATION}

@@ -2,35 +2,19 @@
 """32x32 network samples made by the C library itself (ctypes), so training sees
 exactly the pixels the device sees.
 
-    from vdtools.samples import sample32
+    from vdtools.data.samples import sample32
     s = sample32(frame_u8, (x, y, w, h), "grey")    # (32, 32) uint8
     s = sample32(frame_u8, (x, y, w, h), "shape")   # refine mask (0/255) resampled
 
-`resample(img, rect, w, h)` is the C resampler (vd_resample_u8), and
+`vdtools.bindings.resample.resample(img, rect, w, h)` is the C resampler (vd_resample_u8), and
 `resample_ref` the pure-numpy integer reference it is tested against.
 """
-import ctypes as C
-
 import numpy as np
 
-from vdtools import clib
+from vdtools.bindings.resample import resample
 
 INPUT_SIZE = 32
 MODES = ("grey", "shape")
-
-_bound = False
-
-
-def _lib():
-    global _bound
-    lib = clib.load()
-    if not _bound:
-        lib.vd_resample_u8.argtypes = [C.POINTER(clib.ViewU8), C.POINTER(clib.Rect),
-                                       C.POINTER(C.c_uint8), C.c_uint32, C.c_uint32]
-        lib.vd_resample_u8.restype = C.c_int
-        _bound = True
-    return lib
-
 
 def clip_rect(rect, width, height):
     """(x, y, w, h) clipped to the image; ValueError if nothing is left."""
@@ -40,23 +24,6 @@ def clip_rect(rect, width, height):
     if x1 <= x0 or y1 <= y0:
         raise ValueError(f"rect {rect} does not overlap the {width}x{height} image")
     return x0, y0, x1 - x0, y1 - y0
-
-
-def resample(img, rect=None, w=INPUT_SIZE, h=INPUT_SIZE):
-    """vd_resample_u8 on a 2-D uint8 image: the region rect=(x, y, w, h) (None =
-    whole image; must lie inside) to an (h, w) uint8 array."""
-    img = np.asarray(img)
-    if img.dtype != np.uint8 or img.ndim != 2:
-        raise ValueError("resample needs a 2-D uint8 image")
-    if img.strides[1] != 1 or img.strides[0] < img.shape[1]:
-        img = np.ascontiguousarray(img)
-    lib = _lib()
-    out = np.empty((h, w), dtype=np.uint8)
-    v = clib.view_u8(img)
-    r = None if rect is None else C.byref(clib.Rect(*(int(t) for t in rect)))
-    st = lib.vd_resample_u8(C.byref(v), r, out.ctypes.data_as(C.POINTER(C.c_uint8)), w, h)
-    clib.check(st, "vd_resample_u8")
-    return out
 
 
 def _axis_weights(s, d):
@@ -100,10 +67,10 @@ def _refine_mask(img, rect):
     """The refine stage's roi-sized 0/255 mask (vd_refine_region with the
     device's default config, vd_refine_cfg_default)."""
     try:
-        from vdtools import refine  # bindings of refine.h (helper "contour")
+        from vdtools.bindings import refine  # bindings of refine.h (helper "contour")
     except ImportError as e:
         raise NotImplementedError(
-            "shape mode needs tools/vdtools/refine.py (ctypes binding of vd_refine_region)") from e
+            "shape mode needs tools/vdtools/bindings/refine.py (ctypes binding of vd_refine_region)") from e
     cfg = refine.default_cfg()
     mask, _stats = refine.refine_region(img, rect, median=cfg.median_ksize, edge_step=cfg.edge_step,
                                         window=cfg.window)

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
 """Benchmark of every vd stage against its OpenCV counterpart, same process, same pixels.
 
-    VD_LIB=build-bench/libvd.so python3 -m vdtools.bench [--frames 40] [--repeats 15] [--json docs/results/bench.json]
+    VD_LIB=build-bench/libvd.so python3 -m vdtools.evaluation.bench [--frames 40] [--repeats 15] [--json docs/results/bench.json]
 
 Release build of libvd.so required (cmake -DCMAKE_BUILD_TYPE=Release). cv2.setNumThreads(1).
 Per stage and frame: median of `repeats` single-call timings (time.perf_counter_ns) after
@@ -30,57 +30,13 @@ import numpy as np  # noqa: E402
 
 import cv2  # noqa: E402
 
-from vdtools import clib
-from vdtools import detector as vdet
+from vdtools.bindings import clib
+from vdtools.bindings import detector as vdet
+from vdtools.bindings.raw import RawLib
 
 P = C.POINTER
 VD_ERR_CAPACITY = -3
 DBN_SIZES = [1024, 576, 256, 64, 1]  # paper 001's network; 753 k multiply-adds
-
-
-# ---------------------------------------------------------------- ctypes (own instance)
-class _Lib:
-    """A private CDLL instance (so our argtypes never clash with vdtools bindings)
-    with every pointer argument as c_void_p: arguments are pre-built addresses."""
-
-    def __init__(self):
-        self.path = str(clib.lib_path())
-        lib = C.CDLL(self.path)
-        vp, sz, u32 = C.c_void_p, C.c_size_t, C.c_uint32
-        sigs = {
-            "vd_status_str": [C.c_int],
-            "vd_threshold_u8": [vp, vp, C.c_uint8, vp],
-            "vd_median3_u8": [vp, vp, vp],
-            "vd_median5_u8": [vp, vp, vp],
-            "vd_otsu_u8": [vp, vp, vp],
-            "vd_components_workspace_size": [u32, u32, vp],
-            "vd_components_label": [vp, vp, vp, sz, vp, sz, vp],
-            "vd_components_filter": [vp, sz, vp, vp],
-            "vd_components_rules_default": [vp],
-            "vd_rect_expand": [vp, C.c_uint16, C.c_uint16, u32, u32, vp],
-            "vd_refine_workspace_size": [u32, u32, vp],
-            "vd_refine_region": [vp, vp, vp, vp, sz, vp, vp],
-            "vd_contour_workspace_size": [u32, u32, vp],
-            "vd_contour_find_external": [vp, vp, sz, vp, vp, sz, vp, sz, vp, vp],
-            "vd_resample_u8": [vp, vp, vp, u32, u32],
-            "vd_contrast_map_workspace_size": [u32, vp],
-            "vd_contrast_map_u8": [vp, u32, C.c_uint8, vp, sz, vp],
-            "vd_dbn_load": [vp, vp, sz],
-            "vd_dbn_workspace_size": [vp, vp],
-            "vd_dbn_classify": [vp, vp, vp, sz, vp],
-        }
-        for name, args in sigs.items():
-            f = getattr(lib, name, None)
-            if f is None:   # a module not built yet
-                continue
-            f.argtypes = args
-            f.restype = C.c_int
-        lib.vd_status_str.restype = C.c_void_p
-        lib.vd_components_rules_default.restype = None
-        self.lib = lib
-
-    def __getattr__(self, name):
-        return getattr(self.lib, name)
 
 
 def addr(obj):
@@ -131,7 +87,7 @@ def pick(paths, n):
 
 def read_grey(path):
     if str(path).endswith(".pgm"):
-        from vdtools.clip import read_pgm
+        from vdtools.data.clip import read_pgm
         return read_pgm(path)
     a = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if a is None:
@@ -151,7 +107,7 @@ def find_clip(arg):
         return None
     out = Path("/tmp") / f"vd_bench_clip_{os.getuid()}"
     if not (out / "u8").is_dir():
-        from vdtools import clip
+        from vdtools.data import clip
         clip.generate(out)
     return out
 
@@ -240,7 +196,7 @@ def paper_model(repo):
         b = p.read_bytes()
         if len(b) > 500_000 and int.from_bytes(b[4:6], "little") in (1, 2):   # a DBN (3 is the CNN)
             return b, p.name
-    from vdtools import quantise, vdm
+    from vdtools.formats import quantise, vdm
     fm = quantise.load_float(quantise.random_float_model(DBN_SIZES, seed=1))
     return vdm.pack(quantise.quantise(fm, name="bench-random")), "random 1024-576-256-64-1 (grey)"
 
@@ -249,11 +205,11 @@ def paper_model(repo):
 class Bench:
     def __init__(self, args):
         self.args = args
-        self.L = _Lib()
+        self.L = RawLib()
         self.R = args.repeats
         self.results = {}
         self.model_blob, self.model_name = paper_model(clib.REPO)
-        from vdtools import vdm
+        from vdtools.formats import vdm
         self.model_macs = sum(int(L["w"].shape[0]) * int(L["w"].shape[1]) for L in vdm.unpack(self.model_blob)["layers"])
         self.mpath = Path("/tmp") / f"vd_bench_model_{os.getuid()}.vdm"
         self.mpath.write_bytes(self.model_blob)
@@ -371,7 +327,7 @@ class Bench:
         cc_ws, cc_wsp = clib.workspace(n.value)
         cc_wsn = n.value
         cap = ((W + 1) // 2) * ((H + 1) // 2)
-        from vdtools.components import COMPONENT_DTYPE
+        from vdtools.bindings.components import COMPONENT_DTYPE
         comps = np.zeros(cap, COMPONENT_DTYPE)
         L.vd_contour_workspace_size(W, H, addr(n))
         ct_ws, ct_wsp = clib.workspace(n.value)
@@ -512,7 +468,7 @@ class Bench:
                                                              addr(score)), R), None, unit="sample",
                     note=f"no cv2 peer; {self.model_macs / 1e3:.0f} k MAC")
             # float32 numpy forward as a context figure (not a peer)
-            from vdtools import quantise
+            from vdtools.formats import quantise
             fm = quantise.load_float(quantise.random_float_model(DBN_SIZES, seed=1))
             Ws = [(w.astype(np.float32), b.astype(np.float32)) for w, b in fm["layers"]]
             x = samples[0].reshape(-1).astype(np.float32) / 255.0

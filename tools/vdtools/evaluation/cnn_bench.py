@@ -9,7 +9,7 @@ through the shared library (vd_cnn_run, the head tensor only; decoding is timed 
 up to onnxruntime's float requantisation, and the layout its x86 kernels are fastest with). Median over
 ROUNDS passes of all frames; the ratio vd / onnxruntime is taken within the same run.
 
-    VD_LIB=build/libvd.so python3 -m vdtools.cnn_bench --model models/vd_cnn.vdm [--frames 20] [--rounds 5]
+    VD_LIB=build/libvd.so python3 -m vdtools.evaluation.cnn_bench --model models/vd_cnn.vdm [--frames 20] [--rounds 5]
 """
 import argparse
 import json
@@ -19,12 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import clib
-from . import cnn_data as CD
-from . import cnn_eval as E
-from . import cnn_onnx as O
-from . import cnn_ref as R
-from . import cnn_vdm as V
+from vdtools.bindings import clib
+from vdtools.data import cnn_data as CD
+from vdtools.evaluation import cnn_eval as E
+from vdtools.formats import cnn_onnx as O
+from vdtools.formats import cnn_ref as R
+from vdtools.formats import cnn_vdm as V
+from vdtools.bindings import cnn as vd_cnn
 
 
 def timed(fn, xs, rounds):
@@ -58,7 +59,7 @@ def main(argv=None):
     imgs = [E.net_input(frames[i].img, align) for i in idx]
     h, w = imgs[0].shape
     q = [R.preprocess(im, desc) for im in imgs]           # int8 [h, w, 1]
-    cm = V.CModel(blob)
+    cm = vd_cnn.CModel(blob)
     res = {"model": Path(a.model).name, "input": [w, h], "frames": len(imgs), "rounds": a.rounds,
            "macs": R.macs(desc, w, h), "ort_version": ort.__version__}
     res["vd_run_ms"], _ = timed(lambda im: cm.run(im), imgs, a.rounds)

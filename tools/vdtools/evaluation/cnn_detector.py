@@ -2,8 +2,8 @@
 """The C detector's CNN source (lib/src/detector_cnn.c, vd_detector_cfg_t.cnn_*) in Python, integer for
 integer: what `vd_fir_demo --sources cnn --temporal off` reports for an 8-bit frame.
 
-Pipeline: vdtools.cnn_eval.net_input (half resolution, edge padding to the model's alignment) ->
-numpy integer reference (vdtools.cnn_ref, equal to vd_cnn_run) -> decode at the header's top-K into a
+Pipeline: vdtools.evaluation.cnn_eval.net_input (half resolution, edge padding to the model's alignment) ->
+numpy integer reference (vdtools.formats.cnn_ref, equal to vd_cnn_run) -> decode at the header's top-K into a
 2 nw x 2 nh frame -> boxes clipped to the real frame (as cnn_eval.Int8) -> score_q8 -> the detector's
 budget (max_candidates) and overlap suppression (vd_suppress_nms) -> max_detections.
 
@@ -16,12 +16,12 @@ Differences from cnn_eval.run (kept here so cnn_eval is not changed):
   max_peaks 100);
 - a score threshold is applied as the int8 logit threshold vd_cnn_thr_from_score gives.
 
-    from vdtools import cnn_detector as CDet
+    from vdtools.evaluation import cnn_detector as CDet
     dets = CDet.detect(desc, img)   # [((x, y, w, h), score_q8)], best first
 """
-from . import cnn_eval
-from . import cnn_ref as R
-from . import cnn_vdm as V
+from vdtools.evaluation import cnn_eval
+from vdtools.formats import cnn_ref as R
+from vdtools.formats import cnn_vdm as V
 
 SCORE_ONE_Q15 = 32768
 

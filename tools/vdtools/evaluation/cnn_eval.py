@@ -2,7 +2,7 @@
 """Accuracy of the CNN detector on a split of ../shared/data (docs/results/detector.md, CNN section).
 
 Per family (msrs = road level; hit = drone incl. the sequence-0_100 flight) and per split: AP@0.5 (the
-matching rules of vdtools.evaluate / vd_fir_demo --eval, ignore regions honoured, all-point interpolated
+matching rules of vdtools.metrics.evaluate / vd_fir_demo --eval, ignore regions honoured, all-point interpolated
 precision), and TP rate / FP rate / hot and cold TP at score thresholds. Backends: the int8 network
 through the C library (`--backend c`, default; vd_cnn_run + vd_cnn_decode, equal bit for bit to the
 numpy reference), the numpy integer reference (`--backend ref`), or the float checkpoint (`--ckpt`).
@@ -11,8 +11,8 @@ Boxes then go through overlap suppression at IoU 0.5 as in the detector.
 The operating point is chosen on the VAL split (largest threshold whose TP rate and FP rate meet the
 issue's bar on both families, else the best mean F1) and then only reported on the test split.
 
-    python3 -m vdtools.cnn_eval --model models/vd_cnn.vdm --split val --out out/val.json
-    python3 -m vdtools.cnn_eval --model models/vd_cnn.vdm --split test --thr 0.35 --out out/test.json [--pr out.png]
+    python3 -m vdtools.evaluation.cnn_eval --model models/vd_cnn.vdm --split val --out out/val.json
+    python3 -m vdtools.evaluation.cnn_eval --model models/vd_cnn.vdm --split test --thr 0.35 --out out/test.json [--pr out.png]
 """
 import argparse
 import json
@@ -21,11 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import clib
-from . import cnn_data as CD
-from . import cnn_ref as R
-from . import cnn_vdm as V
-from .evaluate import average_precision, iou, match_flags
+from vdtools.bindings import clib
+from vdtools.data import cnn_data as CD
+from vdtools.formats import cnn_ref as R
+from vdtools.formats import cnn_vdm as V
+from vdtools.bindings import cnn as vd_cnn
+from vdtools.metrics.evaluate import average_precision, iou, match_flags
 
 THRESHOLDS = [round(0.05 * i, 2) for i in range(1, 20)]
 
@@ -73,7 +74,7 @@ class Int8:
         self.blob = Path(model_path).read_bytes()
         self.desc = V.unpack(self.blob)
         self.backend = backend
-        self.c = V.CModel(self.blob) if backend == "c" else None
+        self.c = vd_cnn.CModel(self.blob) if backend == "c" else None
         self.align = V.alignment(self.desc)
 
     def __call__(self, img, frame_w, frame_h, thr_q=-128):
@@ -94,8 +95,8 @@ class Int8:
 class Float:
     def __init__(self, ckpt):
         import torch
-        from . import cnn_export as E
-        from . import cnn_train as T
+        from vdtools.training import cnn_export as E
+        from vdtools.training import cnn_train as T
         self.torch, self.T = torch, T
         self.net, _ = E.load_net(ckpt)
 

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
 """Fleet-scale evaluation: the C detector over many recordings on a Dask cluster (docs/fleet.md).
 
-    python3 -m vdtools.fleet MANIFEST --out DIR [--scheduler ADDRESS | --workers N] [--shard-frames 256]
+    python3 -m vdtools.evaluation.fleet MANIFEST --out DIR [--scheduler ADDRESS | --workers N] [--shard-frames 256]
                              [--config FILE] [--sources ...] [--cnn-model F] [--model F] [--temporal on|off]
                              [--mine DIR]
 
@@ -33,7 +33,7 @@ import sys
 import time
 from pathlib import Path
 
-from vdtools import clib
+from vdtools.bindings import clib
 
 FRAME_EXTS = (".pgm", ".png", ".jpg", ".jpeg", ".raw", ".y16", ".gray")   # file_capture.c, k_frame_exts
 RAW_EXTS = (".raw", ".y16", ".gray")
@@ -195,7 +195,7 @@ def resolve(settings, models_dir=None):
     s = {k.replace("_", "-"): v for k, v in (settings or {}).items()}
     bad = sorted(set(s) - set(SETTINGS))
     if bad:
-        raise FleetError(f"settings not supported by vdtools.fleet: {', '.join(bad)} "
+        raise FleetError(f"settings not supported by vdtools.evaluation.fleet: {', '.join(bad)} "
                          f"(supported: {', '.join(SETTINGS)})")
     models_dir = Path(models_dir or clib.REPO / "models")
     fields = {"temporal": _switch(s.get("temporal", True))}
@@ -231,7 +231,7 @@ def resolve(settings, models_dir=None):
             cnn, desc["cnn_model"] = def_cnn.read_bytes(), def_cnn.name
         else:
             raise FleetError(f"the cnn source needs a CNN model: cnn-model FILE ({def_cnn} not found)")
-        from vdtools import detector as vdet
+        from vdtools.bindings import detector as vdet
         m, _keep = vdet._load_cnn(cnn)
         if "max-candidates" not in s:
             mc = int(m.max_peaks) + (64 if sources & SRC_ALL else 0)
@@ -274,16 +274,8 @@ class _Runner:
     frame's size."""
 
     def __init__(self, fields, cnn, dbn, width, height):
-        import ctypes as C
-        from vdtools import detector as vdet
-        lib = vdet._lib()
-        cfg = vdet.DetectorCfg()
-        lib.vd_detector_cfg_default(C.byref(cfg))
-        for k, v in fields.items():
-            setattr(cfg, k, v)
-        self._cnn = vdet._load_cnn(cnn) if cnn is not None else (None, None)
-        if self._cnn[0] is not None:
-            cfg.cnn_model = C.addressof(self._cnn[0])
+        from vdtools.bindings import detector as vdet
+        cfg, self._cnn = vdet.cfg_from_default(fields, cnn)
         cfg.max_width, cfg.max_height = width, height
         cfg.max_region_w = min(cfg.max_region_w, width)
         cfg.max_region_h = min(cfg.max_region_h, height)
@@ -307,7 +299,7 @@ _GT_CACHE = {}
 
 
 def _ground_truth(path, classes):
-    from vdtools.evaluate import GroundTruth
+    from vdtools.metrics.evaluate import GroundTruth
     key = (path, str(classes), os.path.getmtime(path))
     if key not in _GT_CACHE:
         _GT_CACHE.clear()
@@ -316,7 +308,7 @@ def _ground_truth(path, classes):
 
 
 def _hot_flags(img, boxes):
-    """vdtools.cnn_data's rule: a vehicle is hot when its box holds a pixel >= the frame's 99th percentile."""
+    """vdtools.data.cnn_data's rule: a vehicle is hot when its box holds a pixel >= the frame's 99th percentile."""
     import numpy as np
     thr = np.percentile(img, 99.0)
     out = []
@@ -345,7 +337,7 @@ def _mine_frame(img, gts, kinds, stem, tmp_dir):
     where the detector fired (a hard negative), a miss's crop has the missed vehicle (a hard positive)."""
     import cv2
     import numpy as np
-    from vdtools.dataset import grey_of_ck
+    from vdtools.data.dataset import grey_of_ck
     fh, fw = img.shape
     grey = img if img.dtype == np.uint8 else grey_of_ck(img)
     out = []
@@ -374,8 +366,8 @@ def run_shard(spec, models, on_frame=None):
     settings (resolve()'s fields), recording (gt, classes, raw_size, raw_format, meta), mine (dir or None).
     models: (cnn bytes, DBN bytes). on_frame(i): called after frame i is written (progress, fault tests).
     A shard whose metrics file exists with the same key is not run again."""
-    from vdtools import port
-    from vdtools.evaluate import match_flags
+    from vdtools.bindings import port
+    from vdtools.metrics.evaluate import match_flags
     t_start, cpu_start = time.perf_counter(), time.process_time()
     jpath, mpath = shard_paths(spec["out"], spec["rec"], spec["index"])
     if mpath.exists():
@@ -554,7 +546,7 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
             results[(s["rec"], s["index"])] = old
         else:
             todo.append(s)
-    log(f"vdtools.fleet: {len(recs)} recordings, {len(shards)} shards ({len(shards) - len(todo)} complete, "
+    log(f"vdtools.evaluation.fleet: {len(recs)} recordings, {len(shards)} shards ({len(shards) - len(todo)} complete, "
         f"{len(todo)} to run); " + ", ".join(f"{k} {v}" for k, v in desc.items()))
     cluster = None
     n_workers = 0
@@ -632,7 +624,7 @@ def _merge_recordings(recs, shards, out_dir):
 
 
 def _ap(flags, n_pos):
-    from vdtools.evaluate import ap_from_flags
+    from vdtools.metrics.evaluate import ap_from_flags
     return ap_from_flags([tuple(f) for f in flags], n_pos)
 
 
@@ -692,9 +684,9 @@ def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=Non
 
 
 def _merge_mined(recs, shards, mine_dir):
-    """mine_dir/annotations.json (the HIT-UAV COCO-like layout vdtools.dataset reads: images with
+    """mine_dir/annotations.json (the HIT-UAV COCO-like layout vdtools.data.dataset reads: images with
     "filename", boxes under "annotation" and "annotations", 1 Car / 4 DontCare) from the shard fragments."""
-    from vdtools.clip import CATEGORIES
+    from vdtools.data.clip import CATEGORIES
     gt_recs = {r["id"] for r in recs if r["gt"]}
     images, anns = [], []
     for s in shards:
@@ -707,7 +699,7 @@ def _merge_mined(recs, shards, mine_dir):
             for x in a:
                 anns.append(dict(x, id=len(anns), image_id=im["id"], iscrowd=0,
                                  area=round(x["bbox"][2] * x["bbox"][3], 2)))
-    doc = dict(info={"description": "hard examples mined by vdtools.fleet: false positives (kind fp) and "
+    doc = dict(info={"description": "hard examples mined by vdtools.evaluation.fleet: false positives (kind fp) and "
                                     "missed vehicles (kind miss), crops with their frame references"},
                categories=CATEGORIES, images=images, annotation=anns, annotations=anns)
     _atomic_write(Path(mine_dir) / "annotations.json", json.dumps(doc))
@@ -717,7 +709,7 @@ def _merge_mined(recs, shards, mine_dir):
 
 def format_summary(r):
     pct = lambda v: "n/a" if v is None else f"{100 * v:.2f}%"
-    lines = [f"vdtools.fleet: {r['recordings']} recordings, {r['shards']} shards, {r['frames']} frames "
+    lines = [f"vdtools.evaluation.fleet: {r['recordings']} recordings, {r['shards']} shards, {r['frames']} frames "
              f"(each exactly once), {r['detections']} detections"]
     if r["fps_total"]:
         lines.append(f"  {r['fps_total']:.1f} frames/s total ({r['frames_run']} frames run now) over "
@@ -745,13 +737,13 @@ def shared_data_manifest(data_dir, out_dir, split="test"):
     """Writes out_dir/manifest.jsonl over ../shared/data (read in place, never copied): one recording per
     MSRS block (day/night, frame number // 40: continuous drive samples), per HIT-UAV flight (T_H_A) and
     the HIT-UAV sequence; each a list file of frame paths, with its ground truth and camera / daynight.
-    Only the frames of `split` (vdtools.dataset.assign_splits: "test" by default, so that the accuracy a
+    Only the frames of `split` (vdtools.data.dataset.assign_splits: "test" by default, so that the accuracy a
     fleet report prints is never measured on frames the shipped models trained on; "all" = every frame).
     Returns the manifest path."""
     data_dir, out_dir = Path(data_dir).resolve(), Path(out_dir).resolve()
     keep = None
     if split != "all":
-        from . import dataset as D
+        from vdtools.data import dataset as D
         frames = D.all_frames(data_dir, synth=False)
         split_of = D.assign_splits(frames)
         keep = {Path(f.path).resolve() for f in frames if split_of[f.group] == split}
@@ -784,7 +776,7 @@ def shared_data_manifest(data_dir, out_dir, split="test"):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python3 -m vdtools.fleet", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python3 -m vdtools.evaluation.fleet", description=__doc__.split("\n\n")[0])
     ap.add_argument("manifest", nargs="?", help="JSON Lines or CSV, one recording per row")
     ap.add_argument("--out", help="output directory (shards/, recordings/, report.json, report.md)")
     ap.add_argument("--shared-manifest", metavar="DIR", help="only write DIR/manifest.jsonl over ../shared/data "
@@ -814,7 +806,7 @@ def main(argv=None):
         run(a.manifest, a.out, settings, scheduler=a.scheduler, workers=a.workers, shard_frames=a.shard_frames,
             mine=a.mine, retries=a.retries)
     except FleetError as e:
-        print(f"vdtools.fleet: error: {e}", file=sys.stderr)
+        print(f"vdtools.evaluation.fleet: error: {e}", file=sys.stderr)
         return 1
     return 0
 

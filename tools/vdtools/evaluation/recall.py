@@ -7,13 +7,13 @@ T flag of T_H_A_W_ID.jpg, 0 = day, 1 = night; the HIT-UAV sequence flight is nig
 into "hot" vehicles (the box holds a pixel >= the hot-spot threshold the detector used on that
 frame) and "cold" ones, for each source configuration:
 
-  hotspot      the C detector without a model (vdtools.detector, every refined candidate kept:
+  hotspot      the C detector without a model (vdtools.bindings.detector, every refined candidate kept:
                max_detections = max_candidates, no suppression); candidate box = the refined
                contour box the DBN would verify. Threshold: adaptive p99 (floor 96), the
                detector's mode for AGC-scaled 8-bit video; "hotspot150" = the paper's constant 150.
   contrast     vd_contrast_candidates (contrast.h): component boxes of |I - box mean| >= thr.
   window       vd_windows_generate (windows.h) with the mounting preset of the data set
-               (vdtools.sources.preset: "msrs" ground model, "hit" drone band).
+               (vdtools.bindings.sources.preset: "msrs" ground model, "hit" drone band).
   combinations are unions; "candidates/frame" counts the union after dropping a box whose IoU
   with an earlier source's box is > 0.7 (hotspot first, then contrast, then window), as the
   detector's merge does.
@@ -22,10 +22,10 @@ Times are per frame on one core: the detector's own clock for the hot-spot stage
 components, refine, contour) and perf_counter around the C calls for contrast and windows.
 
 Candidate recall involves no model, so it is reported on all frames AND on the test split of
-vdtools.dataset.assign_splits (groups: MSRS number // 40, HIT-UAV flight), where the verifier's
+vdtools.data.dataset.assign_splits (groups: MSRS number // 40, HIT-UAV flight), where the verifier's
 TP rate is measured.
 
-    python3 -m vdtools.recall [--limit N] [--out docs/results/candidates]
+    python3 -m vdtools.evaluation.recall [--limit N] [--out docs/results/candidates]
 """
 import argparse
 import json
@@ -34,8 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from vdtools import clib, dataset as D, sources as S
-from vdtools.detector import Detector
+from vdtools.bindings import clib, sources as S
+from vdtools.data import dataset as D
+from vdtools.bindings.detector import Detector
 
 IOU_MATCH = 0.5
 IOU_DEDUP = 0.7
@@ -194,7 +195,7 @@ def markdown(summary, meta):
              "CC BY 4.0), read from ../shared/data.", "",
              "Sources: `hotspot150` paper 001 constant 150; `hotspot` adaptive threshold (detector THR_ADAPTIVE); "
              f"`contrast` contrast.h {meta['contrast']}; `window` windows.h presets {meta['windows']} "
-             "(tools/vdtools/sources.py).", ""]
+             "(tools/vdtools/bindings/sources.py).", ""]
     for (scope, ds, tod), s in summary:
         first = next(iter(s.values()))
         lines += [f"## {ds.upper() if ds == 'msrs' else 'HIT-UAV'} {tod} — {'all frames' if scope == 'all' else 'test split'}"
@@ -223,7 +224,7 @@ def main(argv=None):
     gen = Generators(json.loads(a.contrast), json.loads(a.windows))
     recs = [frame_record(fr, gen, split_of[fr.group]) for fr in frames]
     summary = [((scope, ds, tod), summarise(sel)) for scope, ds, tod, sel in groups(recs)]
-    meta = dict(command="python3 -m vdtools.recall " + " ".join(argv if argv is not None else __import__("sys").argv[1:]),
+    meta = dict(command="python3 -m vdtools.evaluation.recall " + " ".join(argv if argv is not None else __import__("sys").argv[1:]),
                 lib=str(clib.lib_path().name), frames=len(recs), seconds=time.time() - t0,
                 contrast=json.loads(a.contrast) or "defaults (radius 16, |I - mean| >= 24, paper rules)",
                 windows=json.loads(a.windows) or "msrs / hit")

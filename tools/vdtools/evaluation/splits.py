@@ -2,19 +2,19 @@
 """Test-split frame lists for vd_fir_demo --input, and the source-configuration evaluation of
 docs/results/detector.md.
 
-The split is vdtools.dataset.assign_splits (seed 0: groups MSRS number // 40, HIT-UAV T_H_A
+The split is vdtools.data.dataset.assign_splits (seed 0: groups MSRS number // 40, HIT-UAV T_H_A
 flight; the sequence-0_100 flight is test only), i.e. the frames the verifier never trained on.
 
-    python3 -m vdtools.splits --lists out/splits
+    python3 -m vdtools.evaluation.splits --lists out/splits
         writes msrs_night.txt, msrs_day.txt, hit.txt, hit_night.txt, hit_day.txt, seq.txt
         (absolute frame paths, one per line) and prints the annotation path of each.
-    python3 -m vdtools.splits --lists out/splits --run --demo build/tools/vd_fir_demo \\
+    python3 -m vdtools.evaluation.splits --lists out/splits --run --demo build/tools/vd_fir_demo \\
         --model models/vd_dbn_grey.vdm --out docs/results/detector.json [--sets msrs_night,seq] [--configs ...]
         runs the demo with --eval for every set x source configuration (CONFIGS) and collects the
         Table 2 figures, frames/s and the median stage times into one JSON file.
-    python3 -m vdtools.splits --lists out/splits --figures docs/results/figures --demo ... --model ...
+    python3 -m vdtools.evaluation.splits --lists out/splits --figures docs/results/figures --demo ... --model ...
         the annotated frames of docs/results/detector.md (ground truth drawn in cyan, 320 px wide).
-    python3 -m vdtools.splits --lists out/splits --ceiling --out docs/results/detector.json
+    python3 -m vdtools.evaluation.splits --lists out/splits --ceiling --out docs/results/detector.json
         candidate recall (the TP-rate ceiling) of the same configurations, through the C detector
         without a model (VD_LIB).
 """
@@ -27,7 +27,8 @@ import sys
 import time
 from pathlib import Path
 
-from vdtools import clib, dataset as D
+from vdtools.bindings import clib
+from vdtools.data import dataset as D
 
 SETS = ("msrs_night", "msrs_day", "hit", "hit_night", "hit_day", "seq")
 # Per set: annotations (relative to the data dir) and the window preset (docs/demo.md --window-preset).
@@ -112,7 +113,7 @@ def parse_summary(text):
 
 
 def detector_kwargs(name, config):
-    """vdtools.detector keywords equal to the demo flags of CONFIGS[config] on set `name`."""
+    """vdtools.bindings.detector keywords equal to the demo flags of CONFIGS[config] on set `name`."""
     flags = CONFIGS[config]
     kw = dict(max_width=640, max_height=512, sources=flags[flags.index("--sources") + 1],
               thr_mode=flags[flags.index("--thr-mode") + 1])
@@ -128,8 +129,8 @@ def candidate_recall(data_dir, name, config):
     candidate of the merged list the detector verifies (its budget, pre-filter and merge included:
     the C detector without a model, no suppression)."""
     import cv2
-    from vdtools.detector import Detector
-    from vdtools.recall import iou_matrix
+    from vdtools.bindings.detector import Detector
+    from vdtools.evaluation.recall import iou_matrix
     kw = detector_kwargs(name, config)
     kw["max_candidates"] = kw.get("max_candidates", 64)
     det = Detector(max_detections=kw["max_candidates"], nms_iou_q15=32768, **kw)

@@ -8,7 +8,7 @@ truth tracks are built by linking each frame's vehicle boxes to the previous fra
 (the flight moves slowly between samples); a switch is a ground-truth track whose matched detection
 changes track id between two consecutive frames in which it is matched.
 
-    python3 -m vdtools.temporal_eval --demo build/tools/vd_fir_demo --model models/vd_cnn.vdm [--extra "..."]
+    python3 -m vdtools.evaluation.temporal_eval --demo build/tools/vd_fir_demo --model models/vd_cnn.vdm [--extra "..."]
 """
 import argparse
 import json
@@ -16,9 +16,9 @@ import shlex
 import subprocess
 from pathlib import Path
 
-from . import clib
-from . import dataset as D
-from .evaluate import iou, match_flags
+from vdtools.bindings import clib
+from vdtools.data import dataset as D
+from vdtools.metrics.evaluate import iou, match_flags
 
 
 def gt_tracks(frames):

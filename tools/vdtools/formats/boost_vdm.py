@@ -2,11 +2,11 @@
 """The boosted-stump kind of the .vdm model file (format version 4, docs/model-format.md "Boosted kind"):
 paper 003's verifier = an int8 CNN (a complete version-3 CNN blob, embedded) whose selected feature maps
 feed AdaBoost decision stumps in fixed point. Pack / unpack / validate like vd_boost_load, the integer
-reference score, and the C library through ctypes (vd_boost_*).
+reference score; the C library (vd_boost_*) is vdtools.bindings.boost.
 
 A description ("desc") is a plain dict:
     name          <= 16 printable ASCII characters
-    cnn           CNN desc (vdtools.cnn_vdm), input_w = input_h = the crop side (64)
+    cnn           CNN desc (vdtools.formats.cnn_vdm), input_w = input_h = the crop side (64)
     maps          list of (tensor, channel): the selected feature maps, in feature order (1..16)
     stumps        int array [n, 5]: map index, position y * w + x in that map, threshold (int8),
                   left value, right value (int16); stump output = left if feature <= threshold else right
@@ -14,15 +14,13 @@ A description ("desc") is a plain dict:
 
     score = sum over stumps of (x[map][pos] <= thr ? left : right)   (int32; |score| <= n * 32767 < 2^31)
 """
-import ctypes as C
 import struct
 import zlib
 
 import numpy as np
 
-from . import clib
-from . import cnn_ref as R
-from . import cnn_vdm as V
+from vdtools.formats import cnn_ref as R
+from vdtools.formats import cnn_vdm as V
 
 FORMAT_VERSION = 4
 KIND = 3
@@ -202,71 +200,3 @@ def score(d, crop_u8):
     """What vd_boost_score returns for one crop (side x side uint8)."""
     ts = R.forward(d["cnn"], R.preprocess(np.asarray(crop_u8, np.uint8), d["cnn"]))
     return int(score_features(d, features_from_tensors(d, ts)[None])[0])
-
-
-# ------------------------------------------------------------------ C library (ctypes)
-
-_bound = False
-
-
-class BoostModel(C.Structure):
-    pass
-
-
-def lib():
-    global _bound
-    L = clib.load()
-    if not _bound:
-        L.vd_boost_model_bytes.argtypes = []
-        L.vd_boost_model_bytes.restype = C.c_size_t
-        L.vd_boost_load.argtypes = [C.c_void_p, C.c_void_p, C.c_size_t]
-        L.vd_boost_load.restype = C.c_int
-        L.vd_boost_workspace_size.argtypes = [C.c_void_p, C.POINTER(C.c_size_t)]
-        L.vd_boost_workspace_size.restype = C.c_int
-        L.vd_boost_score.argtypes = [C.c_void_p, C.POINTER(C.c_uint8), C.c_uint32, C.c_void_p, C.c_size_t,
-                                     C.POINTER(C.c_int32)]
-        L.vd_boost_score.restype = C.c_int
-        L.vd_boost_features.argtypes = [C.c_void_p, C.POINTER(C.c_uint8), C.c_uint32, C.c_void_p, C.c_size_t,
-                                        C.POINTER(C.c_int8), C.c_size_t]
-        L.vd_boost_features.restype = C.c_int
-        L.vd_boost_threshold.argtypes = [C.c_void_p, C.POINTER(C.c_int32), C.POINTER(C.c_uint32)]
-        L.vd_boost_threshold.restype = C.c_int
-        _bound = True
-    return L
-
-
-class CBoost:
-    """A blob loaded by vd_boost_load with its own workspace."""
-
-    def __init__(self, blob):
-        L = lib()
-        self.buf = (C.c_uint32 * ((len(blob) + 3) // 4))()
-        C.memmove(self.buf, blob, len(blob))
-        self.m = (C.c_uint8 * L.vd_boost_model_bytes())()
-        clib.check(L.vd_boost_load(C.addressof(self.m), C.addressof(self.buf), len(blob)), "vd_boost_load")
-        n = C.c_size_t()
-        clib.check(L.vd_boost_workspace_size(C.addressof(self.m), C.byref(n)), "vd_boost_workspace_size")
-        self.ws_bytes = n.value
-        self.ws = (C.c_uint64 * ((n.value + 7) // 8 + 8))()
-        thr, nf = C.c_int32(), C.c_uint32()
-        clib.check(L.vd_boost_threshold(C.addressof(self.m), C.byref(thr), C.byref(nf)), "vd_boost_threshold")
-        self.threshold, self.n_features = thr.value, nf.value
-
-    def _ws(self):
-        a = C.addressof(self.ws)
-        return a + (-a) % 64
-
-    def score(self, crop_u8):
-        x = np.ascontiguousarray(crop_u8, np.uint8)
-        s = C.c_int32()
-        clib.check(lib().vd_boost_score(C.addressof(self.m), x.ctypes.data_as(C.POINTER(C.c_uint8)), x.shape[1],
-                                        self._ws(), self.ws_bytes, C.byref(s)), "vd_boost_score")
-        return s.value
-
-    def features(self, crop_u8):
-        x = np.ascontiguousarray(crop_u8, np.uint8)
-        out = np.empty(self.n_features, np.int8)
-        clib.check(lib().vd_boost_features(C.addressof(self.m), x.ctypes.data_as(C.POINTER(C.c_uint8)), x.shape[1],
-                                           self._ws(), self.ws_bytes, out.ctypes.data_as(C.POINTER(C.c_int8)),
-                                           out.size), "vd_boost_features")
-        return out

@@ -4,7 +4,7 @@ of vd's C inference (docs/performance.md). Weights, biases and zero points are t
 onnxruntime needs are rebuilt from the per-tensor scales of the export (ONNX requantises in float, so its
 int8 outputs may differ from vd's by one step; the benchmark compares time, parity is vd's own test).
 
-    python3 -m vdtools.cnn_onnx models/vd_cnn.vdm --scales models/vd_cnn.scales.json --out out/vd_cnn.onnx
+    python3 -m vdtools.formats.cnn_onnx models/vd_cnn.vdm --scales models/vd_cnn.scales.json --out out/vd_cnn.onnx
 """
 import argparse
 import json
@@ -13,7 +13,7 @@ import numpy as np
 import onnx
 from onnx import TensorProto, helper, numpy_helper
 
-from . import cnn_vdm as V
+from vdtools.formats import cnn_vdm as V
 
 
 def build(desc, scales, width, height, u8=False):
@@ -85,7 +85,7 @@ def build(desc, scales, width, height, u8=False):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("vdm")
-    ap.add_argument("--scales", required=True, help="JSON list of per-tensor scales written by vdtools.cnn_export")
+    ap.add_argument("--scales", required=True, help="JSON list of per-tensor scales written by vdtools.training.cnn_export")
     ap.add_argument("--width", type=int, default=320)
     ap.add_argument("--height", type=int, default=256)
     ap.add_argument("--out", required=True)

@@ -8,18 +8,18 @@ layer ops with TFLite requantisation, and the fixed-point decoding. vd_cnn_run /
     boxes = decode(desc, ts[-1], fw, fh)    # [(x, y, w, h, score_q15, logit)], best first
     macs(desc, w, h)                        # multiply-adds of one run at w x h
 
-desc is the model description of vdtools.cnn_vdm (a dict; unpack() of a blob gives one).
+desc is the model description of vdtools.formats.cnn_vdm (a dict; unpack() of a blob gives one).
 Accumulation: float64 BLAS for the convolutions is exact (every product and partial sum is an
 integer of magnitude <= 9 * 1024 * 128 * 255 < 2^53); everything else is int64.
-Requantisation is vdtools.quantise.requantise (vectorised; the DBN's semantics).
+Requantisation is vdtools.formats.quantise.requantise (vectorised; the DBN's semantics).
 random_model() makes valid random models for the tests.
 """
 import math
 
 import numpy as np
 
-from vdtools import quantise
-from vdtools.cnn_vdm import (CONCAT, CONV3X3, CONV5X5, DW3X3, MAXPOOL2, PW1X1, UPSAMPLE2, MAX_SIDE, OFF_MAX_Q8,
+from vdtools.formats import quantise
+from vdtools.formats.cnn_vdm import (CONCAT, CONV3X3, CONV5X5, DW3X3, MAXPOOL2, PW1X1, UPSAMPLE2, MAX_SIDE, OFF_MAX_Q8,
                              OFF_MIN_Q8, SCORE_MAX, SIZE_MAX_Q8, alignment, bias_bound, op_id, tensor_zps)
 
 INT32_MIN, INT32_MAX = -(1 << 31), (1 << 31) - 1
@@ -433,7 +433,7 @@ def random_model(rng, out_channels=5, input_norm=0, width=(8, 12, 16, 12), out_s
 
 def speed(w=320, h=256):
     """(seconds, MACs) of one forward of a random ~54 M multiply-add network at w x h (a benchmark, not a
-    test: python3 -m vdtools.cnn_ref)."""
+    test: python3 -m vdtools.formats.cnn_ref)."""
     import time
     rng = np.random.default_rng(0)
     d = random_model(rng, width=(8, 16, 32, 16), input_w=w, input_h=h)

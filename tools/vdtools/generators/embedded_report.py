@@ -5,9 +5,9 @@ Cortex-M0+ build, the detector workspace for 640x512 (total and per part) and,
 with --runs or --write, the distribution of labelling run counts on the real
 frames of ../shared/data (what the detector's run budget max_runs must hold).
 
-    python3 tools/embedded_report.py            # print the report
-    python3 tools/embedded_report.py --write    # also measure runs, write docs/embedded.md
-    python3 tools/embedded_report.py --check    # exit 1 if a budget is broken
+    python3 -m vdtools.generators.embedded_report            # print the report
+    python3 -m vdtools.generators.embedded_report --write    # also measure runs, write docs/embedded.md
+    python3 -m vdtools.generators.embedded_report --check    # exit 1 if a budget is broken
 
 The workspace figures come from a host build of the shared library in
 build-report-host (or $VD_LIB when set), through tools/vdtools.
@@ -21,7 +21,6 @@ detector's clock_us, a probe passed to vd_temporal_update directly), listed in
 the report and counted as 0 bytes.
 """
 import argparse
-import ctypes as C
 import re
 import shutil
 import subprocess
@@ -29,7 +28,7 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 STACK_BUDGET = {"vd_detector_run": 2048}
 # Indirect call sites resolved to the lib/ functions they reach (suffix of the .ci node title).
 # A key names a global function, or "file.c:function" for a static one.
@@ -166,8 +165,8 @@ def host_library():
 
 def _vdtools():
     sys.path.insert(0, str(REPO / "tools"))
-    from vdtools import clib, components, detector  # noqa: E402  (bindings of the C modules)
-    return clib, components, detector
+    from vdtools.bindings import clib, components, detector, refine  # noqa: E402  (bindings of the C modules)
+    return clib, components, detector, refine
 
 
 def _aligned(n, a=8):
@@ -178,7 +177,8 @@ def cnn_workspace():
     """[(model, parameters, MACs at 320x256, frame, detector workspace bytes)] for the committed CNN models."""
     rows = []
     try:
-        from vdtools import detector as det, cnn_vdm as V, cnn_ref as R
+        from vdtools.bindings import detector as det
+        from vdtools.formats import cnn_vdm as V, cnn_ref as R
         for path in sorted((REPO / "models").glob("vd_cnn*.vdm")):
             desc = V.unpack(path.read_bytes())
             for w, h in ((640, 512), (640, 480)):
@@ -193,18 +193,12 @@ def detector_workspace():
     """(total bytes, [(part, bytes, note)]) of the default detector at 640x512, or (None, [])."""
     try:
         host_library()
-        clib, cc, det = _vdtools()
+        _clib, cc, det, rf = _vdtools()
         total = det.workspace_size(640, 512)
         cfg = det.default_cfg()
-        lib = clib.load()
-        sz = C.c_size_t()
         rw, rh = cfg["max_region_w"], cfg["max_region_h"]
-        lib.vd_refine_workspace_size.argtypes = [C.c_uint32, C.c_uint32, C.POINTER(C.c_size_t)]
-        lib.vd_contour_workspace_size.argtypes = [C.c_uint32, C.c_uint32, C.POINTER(C.c_size_t)]
-        clib.check(lib.vd_refine_workspace_size(rw, rh, C.byref(sz)))
-        refine = sz.value
-        clib.check(lib.vd_contour_workspace_size(rw, rh, C.byref(sz)))
-        tracer = _aligned(sz.value) + _aligned(8 * (rw + rh) * 4) + _aligned(64 * 24)
+        refine = rf.workspace_size(rw, rh)
+        tracer = _aligned(rf.contour_workspace_size(rw, rh)) + _aligned(8 * (rw + rh) * 4) + _aligned(64 * 24)
         labelling = cc.workspace_size_runs(640, 512, cfg["max_runs"])
         region = 2 * _aligned(rw * rh) + max(_aligned(refine), tracer)
         fixed = [("components table", _aligned(28 * cfg["max_components"]), f"28 B x {cfg['max_components']}"),
@@ -285,7 +279,7 @@ def firmware_section(fw, cnn_rows):
              f"{nframes} frames of the bundled HIT-UAV clip (640×512, 8-bit) in flash, `vd_detector_run` with",
              "vd_fir_demo's settings, detections over semihosting (`tests/python/test_firmware.py` checks them",
              "byte for byte against vd_fir_demo). Measured by",
-             "`python3 tools/embedded_report.py --firmware` (arm-none-eabi-gcc " + m7["gcc"] + ", newlib-nano for",
+             "`python3 -m vdtools.generators.embedded_report --firmware` (arm-none-eabi-gcc " + m7["gcc"] + ", newlib-nano for",
              "`memcpy`/`memset`/`memmove` only).", "",
              "| board | build | flash (B) | RAM (B) | stack high-water (B) | instructions per frame | of which CNN stage |",
              "|---|---|---:|---:|---:|---:|---:|"]
@@ -340,7 +334,7 @@ def run_counts():
     detector's thresholds: constant 150 and adaptive max(96, p99)."""
     import cv2
     import numpy as np
-    _clib, cc, _det = _vdtools()
+    _clib, cc, _det, _rf = _vdtools()
     sets = {"MSRS night (…N.png)": sorted((DATA / "msrs" / "images").glob("*N.png")),
             "MSRS day (…D.png)": sorted((DATA / "msrs" / "images").glob("*D.png")),
             "HIT-UAV T=1 (night)": sorted((DATA / "hit-uav" / "frames" / "images").glob("1_*.jpg")),
@@ -423,7 +417,7 @@ def main():
         runs = run_counts()
 
     lines = ["# Embedded budgets", "",
-             "Generated by `python3 tools/embedded_report.py --write` (do not edit by hand);",
+             "Generated by `python3 -m vdtools.generators.embedded_report --write` (do not edit by hand);",
              "`--check` (run by `tools/test.sh`) fails when a budget below is broken.", "",
              "## Code and data per module (Cortex-M7, `-Os`, arm-none-eabi-gcc "
              + run(["arm-none-eabi-gcc", "-dumpversion"]).strip() + ")", "",

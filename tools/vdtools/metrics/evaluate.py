@@ -20,7 +20,7 @@ checked against each other and Python experiments report comparable numbers:
   COCO-like: frames absent from "images" are not evaluated; YOLO: a frame
   without a label file has no objects.
 
-    python3 -m vdtools.evaluate DETECTIONS.jsonl ANNOTATIONS [--classes 1,3]
+    python3 -m vdtools.metrics.evaluate DETECTIONS.jsonl ANNOTATIONS [--classes 1,3]
 """
 import argparse
 import json

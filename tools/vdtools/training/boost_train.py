@@ -2,10 +2,10 @@
 """Paper 003's verifier on our data: a five-layer 5x5 CNN trained on 64x64 vehicle / non-vehicle crops,
 the feature maps with the largest activation selected in Maxpool_1, Conv_4 and Conv_5 (paper §2.5, §3.2),
 AdaBoost (SAMME) of decision stumps on the concatenated int8 maps, exported as one boosted-kind .vdm
-(tools/vdtools/boost_vdm.py, docs/model-format.md "Boosted kind").
+(tools/vdtools/formats/boost_vdm.py, docs/model-format.md "Boosted kind").
 
 Steps (each cached in tools/.cache/p003/, see docs/training.md "Paper 003"):
-  crops    vdtools.dataset.build(size=64, test_windows=60): the DBN data set's rows (vehicles, jittered
+  crops    vdtools.data.dataset.build(size=64, test_windows=60): the DBN data set's rows (vehicles, jittered
            and mirrored train copies, candidate / random / window / contrast hard negatives) cut at 64x64,
            with 60 window negatives per test frame (the DET protocol reads 1e-4 FPPW)
   train    the CNN (float, PyTorch CPU): conv5x5 F -> conv5x5 F -> maxpool -> conv5x5 F x3 -> maxpool ->
@@ -21,7 +21,7 @@ Steps (each cached in tools/.cache/p003/, see docs/training.md "Paper 003"):
            the number of stumps and the accept threshold chosen on val; stumps -> int8 thresholds,
            int16 weights (Q-format of the largest AdaBoost weight)
 
-    cd tools && python3 -m vdtools.boost_train all --filters 8 --epochs 4
+    cd tools && python3 -m vdtools.training.boost_train all --filters 8 --epochs 4
 """
 import argparse
 import json
@@ -31,11 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import boost_vdm as B
-from . import clib
-from . import cnn_ref as R
-from . import cnn_vdm as V
-from .quantise import quantize_multiplier
+from vdtools.formats import boost_vdm as B
+from vdtools.bindings import clib
+from vdtools.formats import cnn_ref as R
+from vdtools.formats import cnn_vdm as V
+from vdtools.bindings import cnn as vd_cnn
+from vdtools.formats.quantise import quantize_multiplier
 
 CACHE = clib.REPO / "tools" / ".cache" / "p003"
 CROPS = CACHE / "crops64_grey_s0_v3_tw60.npz"
@@ -49,7 +50,7 @@ def log(*a):
 
 
 def load_crops(path=CROPS):
-    from . import dataset
+    from vdtools.data import dataset
     if not Path(path).exists():
         ds = dataset.build(mode="grey", seed=0, progress=True, size=SIDE, test_windows=60)
         dataset.save(ds, Path(path))
@@ -66,10 +67,10 @@ def preprocess_all(X):
 
 
 def test_crops(limit=None):
-    """uint8 [N, 64, 64]: every row of the standard test split (vdtools.dataset, the DBN's 32x32 rows:
+    """uint8 [N, 64, 64]: every row of the standard test split (vdtools.data.dataset, the DBN's 32x32 rows:
     vehicles, candidate / random / window / contrast negatives) re-cut at 64x64 from its frame with the
     C resampler. What CI's parity test runs (tests/python/test_boost_parity.py)."""
-    from . import dataset, samples
+    from vdtools.data import dataset, samples
     ds = dataset.load_or_build_split("test")
     paths = {f.name: f.path for f in dataset.all_frames(clib.DATA_DIR, synth=False)}
     out = np.empty((len(ds["y"]), SIDE, SIDE), np.uint8)
@@ -235,7 +236,7 @@ def quantise(ck, ds, name="vd_boost", n_calib=2000, seed=0):
 
 def tensors_c(cnn_desc, X, tensors=(3, 5, 6)):
     """{t: int8 [N, h, w, c]} of the C library's run on every crop."""
-    m = V.CModel(V.pack(cnn_desc))
+    m = vd_cnn.CModel(V.pack(cnn_desc))
     out = None
     for i, x in enumerate(X):
         ts = m.run_all(x)
@@ -328,10 +329,10 @@ def model_card(name, meta):
 - **Classifier**: scikit-learn AdaBoost, **SAMME**, decision stumps (depth-1 trees), trained on the train rows;
   {meta['n_stumps']} stumps (prefix chosen on val), int8 thresholds, int16 votes Q{meta['q']}; accept threshold
   {meta['threshold']} (val FPPW ≤ 5 %).
-- **Training**: `python3 -m vdtools.boost_train train --filters {meta['filters']} --epochs 3 --max-train 12000`, then
-  `python3 -m vdtools.boost_train export --filters {meta['filters']} --stumps 300` (docs/training.md); CNN epoch {meta['epoch']}, val loss {meta['val_loss']:.3f}, val accuracy
+- **Training**: `python3 -m vdtools.training.boost_train train --filters {meta['filters']} --epochs 3 --max-train 12000`, then
+  `python3 -m vdtools.training.boost_train export --filters {meta['filters']} --stumps 300` (docs/training.md); CNN epoch {meta['epoch']}, val loss {meta['val_loss']:.3f}, val accuracy
   {100 * meta['val_acc']:.1f} % (the CNN's own classifier head).
-- **Data**: the 64×64 crop set of `vdtools.dataset` (train split only; val for every choice). Results on the
+- **Data**: the 64×64 crop set of `vdtools.data.dataset` (train split only; val for every choice). Results on the
   test split: docs/results/boost.md. C `vd_boost_score` equals the integer reference on every test crop
   (`tests/python/test_boost_parity.py`).
 """
@@ -385,7 +386,7 @@ def main(argv=None):
     st, q = int_stumps(clf, maps, map_len)
     offs = np.r_[0, np.cumsum(map_len)][:-1]
     sv = staged_int_scores(st, offs, Fm[va])
-    from .det import det_curve, miss_at
+    from vdtools.metrics.det import det_curve, miss_at
     best = None
     for n in range(10, len(st) + 1, 10):
         f, m = det_curve(sv[n - 1], y[va])

@@ -11,7 +11,7 @@ Steps (docs/fixed-point.md "CNN", docs/model-format.md "CNN kind"):
    multipliers s_in s_w / s_out as Q31 + shift (TFLite QuantizeMultiplier), ReLU as act_min = out_zp;
 5. decode table: heatmap logit -> Q15 sigmoid, log sizes -> Q8 pixels, offsets -> Q8 cells.
 
-    python3 -m vdtools.cnn_export tools/.cache/cnn/main/best.pt --name vd_cnn --thr 0.3
+    python3 -m vdtools.training.cnn_export tools/.cache/cnn/main/best.pt --name vd_cnn --thr 0.3
 """
 import argparse
 import json
@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from . import clib
-from . import cnn_data as CD
-from . import cnn_train as T
-from . import cnn_vdm as V
-from .quantise import quantize_multiplier
+from vdtools.bindings import clib
+from vdtools.data import cnn_data as CD
+from vdtools.training import cnn_train as T
+from vdtools.formats import cnn_vdm as V
+from vdtools.formats.quantise import quantize_multiplier
 
 CALIB_FRAMES = 96
 OPS = {"conv": V.CONV3X3, "dw": V.DW3X3, "pw": V.PW1X1, "head": V.PW1X1, "up": V.UPSAMPLE2, "cat": V.CONCAT}
@@ -173,7 +173,7 @@ def main(argv=None):
     desc, q = quantise(net, ranges, a.thr, name=a.name)
     blob = V.pack(desc)
     V.write_c_array(blob, a.name, a.out_dir)
-    # per-tensor real scales: the ONNX peer (vdtools.cnn_onnx) needs them; the .vdm holds only multipliers
+    # per-tensor real scales: the ONNX peer (vdtools.formats.cnn_onnx) needs them; the .vdm holds only multipliers
     meta = dict(scale=q["scale"], zp=q["zp"], ranges=ranges, arch=ck["arch"], step=ck.get("step"),
                 val_ap_float=ck.get("val_ap"), thr=a.thr)
     Path(a.out_dir, f"{a.name}.scales.json").write_text(json.dumps(meta, indent=1) + "\n")

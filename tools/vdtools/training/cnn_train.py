@@ -14,10 +14,10 @@ drawn 50/50, augmented: horizontal flip, scale 0.75-1.5, gain/offset and gamma (
 Gaussian blur and noise; AdamW with a cosine schedule; checkpoints every 500 steps to --out. Frames of
 the val split choose the checkpoint/thresholds; the test split is never read here.
 
-    python3 -m vdtools.cnn_train --arch main --minutes 40 --out tools/.cache/cnn/main
-    python3 -m vdtools.cnn_train --arch compact --minutes 30 --out tools/.cache/cnn/compact
+    python3 -m vdtools.training.cnn_train --arch main --minutes 40 --out tools/.cache/cnn/main
+    python3 -m vdtools.training.cnn_train --arch compact --minutes 30 --out tools/.cache/cnn/compact
 
-Then vdtools.cnn_export quantises and writes models/vd_cnn_<arch>.vdm (docs/training.md).
+Then vdtools.training.cnn_export quantises and writes models/vd_cnn_<arch>.vdm (docs/training.md).
 """
 import argparse
 import json
@@ -31,9 +31,9 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
-from . import clib
-from . import cnn_data as CD
-from .evaluate import average_precision
+from vdtools.bindings import clib
+from vdtools.data import cnn_data as CD
+from vdtools.metrics.evaluate import average_precision
 
 STRIDE = 4
 CROP = 192
@@ -345,7 +345,7 @@ def decode_float(out, thr=0.05, k=100, stride=STRIDE):
 
 
 def nms(dets, thr=0.5):
-    from .evaluate import iou
+    from vdtools.metrics.evaluate import iou
     keep = []
     for d in sorted(dets, key=lambda d: -d[4]):
         if all(iou(d[:4], k[:4]) < thr for k in keep):

@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: MIT
-"""Trains DBN verifiers on the cached 32x32 data set and writes float models (.npz, as vdtools/quantise.py defines)
+"""Trains DBN verifiers on the cached 32x32 data set and writes float models (.npz, as vdtools/formats/quantise.py defines)
 to tools/.cache/models/.
 
-    python3 -m vdtools.dbn_train --mode grey --layers 576,256,64        # one model
-    python3 -m vdtools.dbn_train --mode grey --layers 60,16 --name vd_dbn_compact
+    python3 -m vdtools.training.dbn_train --mode grey --layers 576,256,64        # one model
+    python3 -m vdtools.training.dbn_train --mode grey --layers 60,16 --name vd_dbn_compact
 
 Recipe (paper 001 section 4, paper 000 section 3; what differs and why is in docs/training.md):
 greedy CD-1 pre-training of each layer (momentum 0.5 for the first epochs then THETA, learning rate
@@ -17,7 +17,10 @@ import time
 
 import numpy as np
 
-from . import clib, dataset, quantise, rbm
+from vdtools.bindings import clib
+from vdtools.data import dataset
+from vdtools.formats import quantise
+from vdtools.training import rbm
 
 MODELS = dataset.CACHE / "models"
 ALPHA = 0.1          # paper: 0.4; at 0.4 98 % of the 576 first-layer units saturate (1024 real-valued inputs)
@@ -108,7 +111,7 @@ def main(argv=None):
                                                       "fingerprint": dataset.fingerprint(ds), "recipe": recipe(),
                                                       "history": hist, "test": m, "seconds": time.time() - t0})
     print(f"{name}: test acc {m['test_acc']:.4f} TP {m['tp_rate']:.4f} FP {m['fp_rate']:.4f} -> {path}")
-    print(f"export: python3 -m vdtools.export {path.relative_to(clib.REPO / 'tools')} --name {name}")
+    print(f"export: python3 -m vdtools.formats.export {path.relative_to(clib.REPO / 'tools')} --name {name}")
 
 
 if __name__ == "__main__":

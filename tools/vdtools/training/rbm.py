@@ -9,7 +9,7 @@ small Gaussian; CD-1 updates with momentum theta and learning rate alpha, eq. (8
 layer by layer from the input upwards; then the whole stack plus a 2-unit softmax label layer is
 fine-tuned by back-propagation of the cross-entropy -sum y log y_hat. `fold()` turns the 2-unit
 softmax into one sigmoid unit (w = w1 - w0, b = b1 - b0; unit 1 = vehicle), the float interchange
-format (.npz with mode, input_size, n_layers, W<i> [out,in], b<i> [out]; contract in vdtools/quantise.py).
+format (.npz with mode, input_size, n_layers, W<i> [out,in], b<i> [out]; contract in vdtools/formats/quantise.py).
 """
 import json
 from pathlib import Path
@@ -210,7 +210,7 @@ class DBN:
         return Ws, bs
 
     def save_npz(self, path, meta=None):
-        """Float interchange model (the .npz contract of vdtools/quantise.py) + a sidecar <path>.json with `meta`."""
+        """Float interchange model (the .npz contract of vdtools/formats/quantise.py) + a sidecar <path>.json with `meta`."""
         Ws, bs = self.fold()
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
