@@ -24,7 +24,7 @@ A description ("desc") is a plain dict:
     blob = pack(desc)            # bytes; ValueError when vd_cnn_load would reject the description
     desc = unpack(blob)          # ValueError when the blob is malformed
     write_c_array(blob, "vd_cnn_x", "models")   # models/vd_cnn_x.vdm, vd_cnn_x_vdm.c, vd_cnn_x_vdm.h
-    m = cnn.CModel(blob); head = m.run(img_u8); boxes = m.decode(head, fw, fh)   # the C library (ctypes)
+    m = vdtools.bindings.cnn.CModel(blob); head = m.run(img_u8); boxes = m.decode(head, fw, fh)   # the C library (ctypes)
 """
 import struct
 import zlib

@@ -5,7 +5,7 @@ vdtools.bindings.dbn (vd_dbn_load / vd_dbn_classify).
 
     blob = vdm.pack(qm)                 # bytes
     qm2 = vdm.unpack(blob)              # dict as quantise.quantise() returns
-    with dbn.CModel(blob) as m: m.classify(x_u8)  -> uint8 score(s)
+    with vdtools.bindings.dbn.CModel(blob) as m: m.classify(x_u8)  -> uint8 score(s)
 """
 import struct
 import zlib
