@@ -234,7 +234,11 @@ def main(argv=None):
                     help="c: vd_cnn_run/decode + suppression here; ref: numpy reference; demo: the whole C "
                          "detector through vd_fir_demo (--demo), the figures docs/results/detector.md reports")
     ap.add_argument("--demo", default=str(clib.REPO / "build" / "tools" / "vd_fir_demo"))
-    ap.add_argument("--split", default="val", choices=("val", "test"))
+    ap.add_argument("--split", default="val", choices=("val", "test", "all"),
+                    help="all: every frame (only with --subset, for a model trained without that subset)")
+    ap.add_argument("--subset", choices=("msrs-night",),
+                    help="only these frames: the another-camera estimate of docs/results/detector.md (a model "
+                         "trained with cnn_train --exclude msrs-night, run on the night MSRS frames it never saw)")
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
     ap.add_argument("--paper", help="evaluate the paper pipeline instead: demo flags, e.g. \"--sources hotspot\" "
                     "(--model is then a DBN model; --backend demo)")
@@ -243,7 +247,11 @@ def main(argv=None):
     ap.add_argument("--out", help="JSON report")
     ap.add_argument("--pr", help="precision-recall PNG")
     a = ap.parse_args(argv)
-    frames = CD.load_frames(a.data, splits=(a.split,))
+    if a.split == "all" and not a.subset:
+        raise SystemExit("--split all is only for --subset (frames the model never trained on)")
+    frames = CD.load_frames(a.data, splits=("train", "val", "test") if a.split == "all" else (a.split,))
+    if a.subset == "msrs-night":     # the rule of cnn_train --exclude msrs-night
+        frames = [f for f in frames if f.dataset == "msrs" and f.name.endswith("N.png")]
     if a.perturb:
         frames = perturb(frames, a.perturb)
     t0 = time.time()
@@ -255,7 +263,7 @@ def main(argv=None):
     rep = figures(res)
     thr = a.thr
     if thr is None:
-        if a.split == "test":
+        if a.split != "val":
             raise SystemExit("choose the operating point on the val split, then pass --thr")
         thr = choose_threshold(rep)
     for fam, v in rep.items():
