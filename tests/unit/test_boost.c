@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "vd/boost.h"
+#include "vd/detector.h"
 #include "internal/crc32.h"
 
 void setUp(void) {}
@@ -622,6 +623,74 @@ static void test_not_loaded_and_call_errors(void)
     tu_guarded_free(0);
 }
 
+// ------------------------------------------------------------ as the detector's verifier
+
+// cfg.verifier = BOOST on a hot-spot candidate, with one stump voting +500 on
+// both sides (score 500 whatever the crop, score_span 500), so the decision
+// depends only on the threshold: kept when 500 >= threshold + offset, and
+// score_q8 = clamp(128 + floor(128 (500 - threshold) / 500), 0, 255).
+#define DFW 160u
+#define DFH 120u
+static uint8_t g_frame[DFH][DFW];
+static uint64_t g_det_ws[4u * 1024u * 1024u / 8u];
+
+static size_t detect(int32_t thr, int32_t offset, vd_detection_t *out, const vd_detector_stats_t **stats)
+{
+    static const stump_t k_const[1] = {{0u, 0u, 0, 500, 500}};
+    load_ok(write_boost(k_maps, 3u, k_const, 1u, thr));
+    vd_detector_cfg_t c;
+    memset(&c, 0, sizeof c);
+    c.max_width = DFW;
+    c.max_height = DFH;
+    c.verifier = VD_DETECTOR_VERIFIER_BOOST;
+    c.boost_model = &g_m;
+    c.boost_thr_offset = offset;
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &bytes));
+    TEST_ASSERT_TRUE(bytes <= sizeof g_det_ws);
+    static vd_detector_t det;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_init(&det, &c, NULL, g_det_ws, bytes));
+    const vd_frame_t f = {&g_frame[0][0], DFW, DFH, DFW, VD_PIX_U8, 0, 0};
+    size_t n = 99u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&det, &f, out, 4u, &n));
+    *stats = vd_detector_last_stats(&det);
+    return n;
+}
+
+static void test_detector_uses_boost_threshold_and_offset(void)
+{
+    // One car-like hot object (as tests/unit/test_detector.c): one hot-spot candidate.
+    memset(g_frame, 40, sizeof g_frame);
+    for (uint32_t y = 30u; y < 50u; y++) {
+        memset(&g_frame[y][20], 180, 30u);
+    }
+    vd_detection_t out[4];
+    const vd_detector_stats_t *s = NULL;
+    // Threshold 500: 500 >= 500, kept; score_q8 = 128 + 0.
+    TEST_ASSERT_EQUAL_size_t(1u, detect(500, 0, out, &s));
+    TEST_ASSERT_EQUAL_UINT32(1u, s->verified);
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_HOTSPOT, out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(128u, out[0].score_q8);
+    TEST_ASSERT_TRUE((out[0].flags & VD_DET_FLAG_UNVERIFIED) == 0u);
+    // Threshold 501: 500 < 501, rejected.
+    TEST_ASSERT_EQUAL_size_t(0u, detect(501, 0, out, &s));
+    TEST_ASSERT_EQUAL_UINT32(0u, s->verified);
+    // Offset -1 keeps it: 500 >= 501 - 1; score_q8 = 128 + floor(128 * -1 / 500) = 128 - 1 = 127.
+    TEST_ASSERT_EQUAL_size_t(1u, detect(501, -1, out, &s));
+    TEST_ASSERT_EQUAL_UINT8(127u, out[0].score_q8);
+    // Threshold -1000: 128 + floor(128 * 1500 / 500) = 512, clamped to 255.
+    TEST_ASSERT_EQUAL_size_t(1u, detect(-1000, 0, out, &s));
+    TEST_ASSERT_EQUAL_UINT8(255u, out[0].score_q8);
+    // VERIFIER_BOOST without a boosted model: an argument error (vd_detector_cfg_resolve).
+    vd_detector_cfg_t c;
+    memset(&c, 0, sizeof c);
+    c.max_width = DFW;
+    c.max_height = DFH;
+    c.verifier = VD_DETECTOR_VERIFIER_BOOST;
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -633,5 +702,6 @@ int main(void)
     RUN_TEST(test_load_container_errors);
     RUN_TEST(test_load_structure_errors);
     RUN_TEST(test_not_loaded_and_call_errors);
+    RUN_TEST(test_detector_uses_boost_threshold_and_offset);
     return UNITY_END();
 }
