@@ -76,8 +76,7 @@ def main(argv=None):
     ap.add_argument("--render", action="store_true", help="only rewrite boost.md from boost.json")
     a = ap.parse_args(argv)
     if a.render:
-        meta = json.loads((BT.CACHE / f"{Path(a.model).stem}.json").read_text())
-        meta["name"] = Path(a.model).stem
+        meta = load_meta(a.model)
         (RESULTS / "boost.md").write_text(render_md(json.loads((RESULTS / "boost.json").read_text()), meta))
         return
     t0 = time.time()
@@ -125,10 +124,19 @@ def main(argv=None):
         out["experiments"] = experiments(ds, T, y, split, a.exp_stumps, a.exp_train, ckpt=BT.CACHE / f"cnn_f{a.filters}{a.tag}.pt")
     out["seconds"] = round(time.time() - t0)
     (RESULTS / "boost.json").write_text(json.dumps(out, indent=1))
-    meta = json.loads((BT.CACHE / f"{Path(a.model).stem}.json").read_text())
-    meta["name"] = Path(a.model).stem
+    meta = load_meta(a.model)
+    if (BT.CACHE / f"{Path(a.model).stem}.json").exists():   # keep --render working from a clean checkout
+        (RESULTS / "boost_model.json").write_text(json.dumps(meta, indent=1) + "\n")
     (RESULTS / "boost.md").write_text(render_md(out, meta))
     BT.log("wrote", RESULTS / "boost.json")
+
+
+def load_meta(model):
+    """The model's export meta: boost_train's cache, else the committed docs/results/boost_model.json."""
+    p = BT.CACHE / f"{Path(model).stem}.json"
+    meta = json.loads((p if p.exists() else RESULTS / "boost_model.json").read_text())
+    meta["name"] = Path(model).stem
+    return meta
 
 
 def _pct(v):
