@@ -22,6 +22,8 @@ Steps (each cached in tools/.cache/p003/, see docs/training.md "Paper 003"):
            int16 weights (Q-format of the largest AdaBoost weight)
 
     cd tools && python3 -m vdtools.training.boost_train all --filters 8 --epochs 4
+    cd tools && python3 -m vdtools.training.boost_train time --time-steps 5   # training cost at 8 vs 60 filters,
+                                                          # docs/results/boost_train_time.json (no data needed)
 """
 import argparse
 import json
@@ -160,6 +162,43 @@ def train(ds, F=8, epochs=4, seed=0, out=CACHE / "cnn.pt", max_train=None):
             torch.save({"F": F, "net": net.state_dict(), "epoch": ep + 1, "val_loss": lv, "val_acc": acc}, out)
     log(f"best epoch {best[1]} (val loss {best[0]:.4f}) -> {out}")
     return out
+
+
+def net_macs(F, side=SIDE):
+    """Multiply-adds of make_net(F)'s forward pass on one side x side crop (convolutions and head)."""
+    full, half, quarter = side * side, (side // 2) ** 2, (side // 4) ** 2
+    return full * 25 * F + full * 25 * F * F + 3 * half * 25 * F * F + quarter * F
+
+
+def time_train(filters=(8, 60), steps=3, batch=128, seed=0, n_train=12000, epochs=3):
+    """Seconds per training batch of make_net(F) (one thread, Adam + BCE as train(), random inputs: the
+    cost of a convolution does not depend on the pixel values), the first batch not counted; extrapolated
+    to one epoch of n_train crops and to the shipped schedule (epochs x n_train, docs/training.md)."""
+    import torch
+    torch.set_num_threads(1)
+    torch.manual_seed(seed)
+    x = torch.rand(batch, 1, SIDE, SIDE)
+    y = (torch.rand(batch) < 0.5).float()
+    lossf = torch.nn.BCEWithLogitsLoss()
+    rows = []
+    for F in filters:
+        net = make_net(F)
+        net.train()
+        opt = torch.optim.Adam(net.parameters(), lr=1e-3)
+        ts = []
+        for k in range(steps + 1):
+            t0 = time.perf_counter()
+            opt.zero_grad()
+            lossf(net(x), y).backward()
+            opt.step()
+            if k:
+                ts.append(time.perf_counter() - t0)
+            log(f"filters {F}: batch {k} {time.perf_counter() - t0:.2f} s" + ("" if k else " (warm-up, not counted)"))
+        per = float(np.median(ts))
+        nb = math.ceil(n_train / batch)
+        rows.append(dict(filters=F, macs=net_macs(F), s_per_batch=round(per, 3), steps=steps,
+                         s_per_epoch=round(per * nb, 1), s_schedule=round(per * nb * epochs, 1)))
+    return dict(batch=batch, n_train=n_train, epochs=epochs, threads=1, torch=torch.__version__, rows=rows)
 
 
 # ------------------------------------------------------------------ int8 quantisation
@@ -342,7 +381,7 @@ def model_card(name, meta):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("step", choices=("train", "export", "all"))
+    ap.add_argument("step", choices=("train", "export", "all", "time"))
     ap.add_argument("--filters", type=int, default=8)
     ap.add_argument("--epochs", type=int, default=4)
     ap.add_argument("--max-train", type=int, default=None)
@@ -351,7 +390,15 @@ def main(argv=None):
     ap.add_argument("--name", default="vd_boost")
     ap.add_argument("--tag", default="", help="suffix of the cached checkpoint / tensors (parallel runs)")
     ap.add_argument("--out", default=str(clib.REPO / "models"))
+    ap.add_argument("--time-filters", type=int, nargs="+", default=[8, 60], help="time: filter counts")
+    ap.add_argument("--time-steps", type=int, default=3, help="time: batches timed per filter count")
     a = ap.parse_args(argv)
+    if a.step == "time":   # no data set needed; writes docs/results/boost_train_time.json (boost_eval renders it)
+        res = time_train(a.time_filters, a.time_steps)
+        out = clib.REPO / "docs" / "results" / "boost_train_time.json"
+        out.write_text(json.dumps(res, indent=1) + "\n")
+        log("wrote", out, res["rows"])
+        return
     CACHE.mkdir(parents=True, exist_ok=True)
     ds = load_crops()
     log("crops", {s: int((ds["split"] == s).sum()) for s in ("train", "val", "test")})
