@@ -62,6 +62,15 @@ extern "C" {
 // memory so that vd_cnn_tensor() can read any of them after the run (parity
 // tests, debugging). Without it tensors share memory by liveness.
 #define VD_CNN_KEEP_TENSORS 1u
+// vd_cnn_workspace_size_ex / vd_cnn_run_ex flag: run the network in bands of
+// head rows, every tensor but the head kept as a ring of the rows its
+// consumers still read (MCUNetV2-style band inference). The head is
+// bit-identical to the whole-plane run; the workspace is a fraction of it
+// (models/vd_cnn.vdm at 320x256: docs/embedded.md). The detector uses it.
+// With VD_CNN_KEEP_TENSORS too, every tensor the head depends on is kept
+// whole (for vd_cnn_tensor); tensors the head does not depend on are not
+// computed.
+#define VD_CNN_STREAM 2u
 
 // Layer ops (field `op` of a layer entry).
 typedef enum vd_cnn_op {
