@@ -512,7 +512,15 @@ typedef struct scratch_layout {
     uint32_t w16, rows, ch;
 } scratch_layout_t;
 
-static uint64_t scratch_layout(const vd_cnn_layer_t *L, scratch_layout_t *s)
+// Output channels whose int16 weights a CONV / PW scratch holds at once:
+// all of them, or at most VD_CNN_STREAM_COUT when streamed (one scratch
+// serves every layer, so the largest layer's weight copy would set it).
+static uint32_t chunk_of(const vd_cnn_layer_t *L, bool stream)
+{
+    return (stream && L->cout > VD_CNN_STREAM_COUT) ? VD_CNN_STREAM_COUT : L->cout;
+}
+
+static uint64_t scratch_layout(const vd_cnn_layer_t *L, bool stream, scratch_layout_t *s)
 {
     uint32_t w_bytes, r_bytes;
     if (L->op == VD_CNN_OP_DW3X3) {
@@ -521,7 +529,7 @@ static uint64_t scratch_layout(const vd_cnn_layer_t *L, scratch_layout_t *s)
         r_bytes = cp;
     } else if (spatial_conv(L->op) || L->op == VD_CNN_OP_PW1X1) {
         const uint32_t kp = round_up(k_of(L), VD_CNN_KCHUNK);
-        w_bytes = 2u * L->cout * kp;
+        w_bytes = 2u * chunk_of(L, stream) * kp;
         r_bytes = 2u * VD_CNN_NPIX * kp;
     } else {
         memset(s, 0, sizeof *s);
@@ -757,7 +765,7 @@ static vd_status_t plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t
     uint64_t scratch_max = 0u;
     for (uint32_t l = 0u; l < n && stream; l++) {
         scratch_layout_t s;
-        const uint64_t len = scratch_layout(&m->layers[l], &s);
+        const uint64_t len = scratch_layout(&m->layers[l], true, &s);
         scratch_max = (len > scratch_max) ? len : scratch_max;
     }
     uint8_t last_read[VD_CNN_MAX_TENSORS];
@@ -781,6 +789,7 @@ static vd_status_t plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t
             last = keep ? n : last_read[0];
         } else if (i == 1u) {
             len = (m->input_norm == VD_CNN_NORM_PERCENTILE) ? VD_CNN_HIST_BYTES : 0u;
+            len += stream ? round_up(width, VD_CNN_ITEM_ALIGN) : 0u;   // row buffer of vd_cnn_run_rows
             first = 0u;
             last = 0u;
         } else if (i % 2u == 0u) {
@@ -794,7 +803,7 @@ static vd_status_t plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t
             last = 0u;
         } else {
             scratch_layout_t s;
-            len = scratch_layout(&m->layers[i / 2u - 1u], &s);
+            len = scratch_layout(&m->layers[i / 2u - 1u], false, &s);
             first = i / 2u;
             last = first;
         }
@@ -987,14 +996,14 @@ static inline int8_t *ring_row(const ring_t *r, uint32_t y)
 // of VD_CNN_KCHUNK) against the int16 weights [cout][kp]. Per output
 // channel, passes of four int32 dot products over fixed 8-wide chunks
 // (pmaddwd), then one requantisation loop over the block (rq_row); writes
-// npix (1..VD_CNN_NPIX) output pixels of cout channels at out. Only the
+// npix (1..VD_CNN_NPIX) output pixels of cout channels (constants ch) at
+// out, pstride bytes apart. Only the
 // groups of four that hold a stored pixel are computed (a short block at the
 // end of a row costs its own pixels, not 16). Indices are size_t and
 // accumulators local: an int8 store may alias anything.
-CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_t *w16, const rq_t *q, size_t cout,
-                                    int8_t *out, uint32_t npix)
+CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_t *w16, const vd_rq_ch_t *ch,
+                                    const rq_t *q, size_t cout, size_t pstride, int8_t *out, uint32_t npix)
 {
-    const vd_rq_ch_t *ch = q->ch;
     const size_t np4 = ((size_t)npix + 3u) / 4u * 4u;
     for (size_t o = 0u; o < cout; o++) {
         const int16_t *wo = w16 + o * kp;
@@ -1026,34 +1035,26 @@ CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_
         rq_row(acc, &ch[o], q, z8);
         int8_t *d = out + o;
         for (size_t p = 0u; p < npix; p++) {
-            d[p * cout] = z8[p];
+            d[p * pstride] = z8[p];
         }
     }
 }
 
 // Output rows [y0, y1) of a CONV3X3 / CONV5X5 / PW1X1 layer; the input rows
 // they read (y * stride - pad .. + pad, clamped) must be in the input ring.
+// Output channels in chunks of chunk_of(L, stream) (one chunk unless
+// streamed): per chunk the int16 weights, then every pixel block.
 CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                                     uint32_t y0, uint32_t y1, uint8_t *scr)
+                                     uint32_t y0, uint32_t y1, bool stream, uint8_t *scr)
 {
     scratch_layout_t s;
-    (void)scratch_layout(L, &s);
+    (void)scratch_layout(L, stream, &s);
     rq_t q;
     rq_setup(L, scr, &s, &q);
     const size_t k = k_of(L);
     const size_t kp = round_up((uint32_t)k, VD_CNN_KCHUNK);
     int16_t *w16 = (int16_t *)(void *)(scr + s.w16);
     int16_t *rows = (int16_t *)(void *)(scr + s.rows);
-    for (size_t o = 0u; o < g->co; o++) {
-        const int8_t *src = L->w + o * k;
-        int16_t *dst = w16 + o * kp;
-        for (size_t i = 0u; i < k; i++) {
-            dst[i] = src[i];
-        }
-        for (size_t i = k; i < kp; i++) {
-            dst[i] = 0;
-        }
-    }
     // Zero once: the K..kp tails stay zero, and rows of a short last block
     // hold finite values whose results are not stored.
     memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
@@ -1063,45 +1064,59 @@ CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, c
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);   // kernel side
     const int32_t pad = ks / 2;
-    for (uint32_t oy = y0; oy < y1; oy++) {
-        // The ks input rows of this output row (NULL: padding row).
-        const int8_t *rowp[5];
-        for (int32_t ky = 0; ky < ks; ky++) {
-            const int32_t iy = (int32_t)oy * step - pad + ky;
-            rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
+    const size_t chunk = chunk_of(L, stream);
+    for (size_t o0 = 0u; o0 < g->co; o0 += chunk) {
+        const size_t n_o = (g->co - o0 < chunk) ? g->co - o0 : chunk;
+        for (size_t o = 0u; o < n_o; o++) {
+            const int8_t *src = L->w + (o0 + o) * k;
+            int16_t *dst = w16 + o * kp;
+            for (size_t i = 0u; i < k; i++) {
+                dst[i] = src[i];
+            }
+            for (size_t i = k; i < kp; i++) {
+                dst[i] = 0;
+            }
         }
-        int8_t *orow = ring_row(out, oy);
-        for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
-            const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
-            for (uint32_t i = 0u; i < npix; i++) {
-                int16_t *r = rows + (size_t)i * kp;
-                const int32_t ox = (int32_t)(x0 + i);
-                if (pw) {
-                    const int8_t *x = rowp[0] + (size_t)ox * ci;
-                    for (size_t c = 0u; c < ci; c++) {
-                        r[c] = (int16_t)(x[c] - zp);
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            // The ks input rows of this output row (NULL: padding row).
+            const int8_t *rowp[5];
+            for (int32_t ky = 0; ky < ks; ky++) {
+                const int32_t iy = (int32_t)oy * step - pad + ky;
+                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
+            }
+            int8_t *orow = ring_row(out, oy) + o0;
+            for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
+                const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
+                for (uint32_t i = 0u; i < npix; i++) {
+                    int16_t *r = rows + (size_t)i * kp;
+                    const int32_t ox = (int32_t)(x0 + i);
+                    if (pw) {
+                        const int8_t *x = rowp[0] + (size_t)ox * ci;
+                        for (size_t c = 0u; c < ci; c++) {
+                            r[c] = (int16_t)(x[c] - zp);
+                        }
+                        continue;
                     }
-                    continue;
-                }
-                // ks x ks taps in the weight order [ky][kx][c]; padding taps are 0.
-                for (int32_t ky = 0; ky < ks; ky++) {
-                    for (int32_t kx = 0; kx < ks; kx++) {
-                        const int32_t ix = ox * step - pad + kx;
-                        int16_t *d = r + (size_t)(ky * ks + kx) * ci;
-                        if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
-                            for (size_t c = 0u; c < ci; c++) {
-                                d[c] = 0;
-                            }
-                        } else {
-                            const int8_t *x = rowp[ky] + (size_t)ix * ci;
-                            for (size_t c = 0u; c < ci; c++) {
-                                d[c] = (int16_t)(x[c] - zp);
+                    // ks x ks taps in the weight order [ky][kx][c]; padding taps are 0.
+                    for (int32_t ky = 0; ky < ks; ky++) {
+                        for (int32_t kx = 0; kx < ks; kx++) {
+                            const int32_t ix = ox * step - pad + kx;
+                            int16_t *d = r + (size_t)(ky * ks + kx) * ci;
+                            if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
+                                for (size_t c = 0u; c < ci; c++) {
+                                    d[c] = 0;
+                                }
+                            } else {
+                                const int8_t *x = rowp[ky] + (size_t)ix * ci;
+                                for (size_t c = 0u; c < ci; c++) {
+                                    d[c] = (int16_t)(x[c] - zp);
+                                }
                             }
                         }
                     }
                 }
+                gemm_block(rows, kp, w16, q.ch + o0, &q, n_o, g->co, orow + (size_t)x0 * g->co, npix);
             }
-            gemm_block(rows, kp, w16, &q, g->co, orow + (size_t)x0 * g->co, npix);
         }
     }
 }
@@ -1168,7 +1183,7 @@ CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const 
                                 uint32_t y0, uint32_t y1, uint8_t *scr)
 {
     scratch_layout_t s;
-    (void)scratch_layout(L, &s);
+    (void)scratch_layout(L, false, &s);   // no chunks: the same layout either way
     rq_t q;
     rq_setup(L, scr, &s, &q);
     const size_t c_n = g->co;
@@ -1288,12 +1303,31 @@ static void run_concat(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a
     }
 }
 
+// Where the grey input rows come from: a plane (img, stride) or a caller's
+// row function writing into buf (vd_cnn_run_rows).
+typedef struct in_src {
+    const uint8_t *img;
+    uint32_t stride;
+    const vd_cnn_rows_t *rows;
+    uint8_t *buf;        // width bytes (row function only)
+} in_src_t;
+
+static const uint8_t *src_row(const in_src_t *s, uint32_t y)
+{
+    if (s->img != NULL) {
+        return s->img + (size_t)y * s->stride;
+    }
+    s->rows->row(s->rows->ctx, y, s->buf);
+    return s->buf;
+}
+
 // Tensor 0 from the grey plane: q = pixel - 128, or the percentile stretch
 // through a 256-entry table (256 divisions per frame, none per pixel).
-// norm_table makes the table from a histogram of the whole plane (NULL
-// without a stretch); input_rows writes rows [y0, y1) of tensor 0.
-CNN_NOINLINE static const int8_t *norm_table(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h,
-                                             uint32_t stride, uint8_t *hist_area)
+// norm_table makes the table from a histogram of the whole plane (one pass
+// over every row; NULL without a stretch); input_rows writes rows [y0, y1)
+// of tensor 0.
+CNN_NOINLINE static const int8_t *norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
+                                             uint8_t *hist_area)
 {
     if (m->input_norm != VD_CNN_NORM_PERCENTILE) {
         return NULL;
@@ -1302,7 +1336,7 @@ CNN_NOINLINE static const int8_t *norm_table(const vd_cnn_model_t *m, const uint
     int8_t *lut = (int8_t *)(void *)(hist_area + 256u * 4u);
     memset(hist, 0, 256u * sizeof(uint32_t));
     for (uint32_t y = 0u; y < h; y++) {
-        const uint8_t *row = img + (size_t)y * stride;
+        const uint8_t *row = src_row(src, y);
         for (uint32_t x = 0u; x < w; x++) {
             hist[row[x]]++;
         }
@@ -1337,11 +1371,10 @@ CNN_NOINLINE static const int8_t *norm_table(const vd_cnn_model_t *m, const uint
     return lut;
 }
 
-static void input_rows(const uint8_t *img, uint32_t w, uint32_t stride, const int8_t *lut, const ring_t *t0,
-                       uint32_t y0, uint32_t y1)
+static void input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, const ring_t *t0, uint32_t y0, uint32_t y1)
 {
     for (uint32_t y = y0; y < y1; y++) {
-        const uint8_t *row = img + (size_t)y * stride;
+        const uint8_t *row = src_row(src, y);
         int8_t *d = ring_row(t0, y);
         if (lut == NULL) {
             for (uint32_t x = 0u; x < w; x++) {
@@ -1367,8 +1400,7 @@ static ring_t ring_of(uint8_t *ws, const vd_cnn_plan_t *p, const chain_t *c, uin
 }
 
 struct run_io {
-    const uint8_t *img;
-    uint32_t stride;
+    const in_src_t *src;
     const int8_t *lut;
     uint8_t *base;
     const chain_t *c;
@@ -1395,7 +1427,7 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     case VD_CNN_OP_CONV3X3:
     case VD_CNN_OP_CONV5X5:
     case VD_CNN_OP_PW1X1:
-        run_conv_pw(L, &g, &in, &o, y0, y1, scr);
+        run_conv_pw(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr);
         break;
     case VD_CNN_OP_DW3X3:
         run_dw(L, &g, &in, &o, y0, y1, scr);
@@ -1420,19 +1452,21 @@ static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_i
 {
     if (t == 0u) {
         const ring_t t0 = ring_of(io->base, p, io->c, 0u);
-        input_rows(io->img, p->width, io->stride, io->lut, &t0, p->done[0], p->req[0]);
+        input_rows(io->src, p->width, io->lut, &t0, p->done[0], p->req[0]);
     } else {
         layer_rows(m, io->c, p, io->base, t - 1u, p->done[t], p->req[t]);
     }
 }
 
-vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
-                          uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
+// vd_cnn_run_ex and vd_cnn_run_rows: exactly one of img, rows is set.
+static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd_cnn_rows_t *rows, uint32_t width,
+                           uint32_t height, uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes,
+                           vd_cnn_output_t *out)
 {
-    VD_VERIFY(m != NULL && img != NULL && out != NULL && (flags & ~CNN_FLAGS) == 0u, VD_ERR_ARG);
+    VD_VERIFY(m != NULL && out != NULL && (flags & ~CNN_FLAGS) == 0u, VD_ERR_ARG);
     chain_t c;
     VD_VERIFY(model_ok(m, &c), VD_ERR_STATE);
-    VD_VERIFY(size_ok(m, width, height) && stride_bytes >= width, VD_ERR_ARG);
+    VD_VERIFY(size_ok(m, width, height) && (rows != NULL || stride_bytes >= width), VD_ERR_ARG);
     VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
     uint8_t *base = (uint8_t *)ws;
@@ -1441,16 +1475,19 @@ vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t 
     VD_TRY(plan_make(m, &c, width, height, flags, p));
     VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
 
-    const int8_t *lut = norm_table(m, img, width, height, stride_bytes, base + p->off[1]);
+    // Streamed, item 1 ends with a row buffer for a row function.
+    uint8_t *buf = (rows != NULL) ? base + p->off[1] + p->len[1] - round_up(width, VD_CNN_ITEM_ALIGN) : NULL;
+    const in_src_t src = {img, stride_bytes, rows, buf};
+    const int8_t *lut = norm_table(m, &src, width, height, base + p->off[1]);
     const ring_t t0 = ring_of(base, p, &c, 0u);
     const uint32_t n = m->n_layers;
     if ((flags & VD_CNN_STREAM) == 0u) {
-        input_rows(img, width, stride_bytes, lut, &t0, 0u, height);
+        input_rows(&src, width, lut, &t0, 0u, height);
         for (uint32_t l = 0u; l < n; l++) {
             layer_rows(m, &c, p, base, l, 0u, height / c.f[l + 1u]);
         }
     } else {
-        const run_io_t io = {img, stride_bytes, lut, base, &c};
+        const run_io_t io = {&src, lut, base, &c};
         sched_walk(m, p, &io);
     }
     out->data = ring_of(base, p, &c, n).base;
@@ -1461,6 +1498,20 @@ vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t 
     out->zp = c.zp[n];
     p->magic = VD_CNN_REC_MAGIC;
     return VD_OK;
+}
+
+vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
+                          uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
+{
+    VD_VERIFY(img != NULL, VD_ERR_ARG);
+    return run_any(m, img, NULL, width, height, stride_bytes, flags, ws, bytes, out);
+}
+
+vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, uint32_t width, uint32_t height,
+                            uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
+{
+    VD_VERIFY(rows != NULL && rows->row != NULL && (flags & VD_CNN_STREAM) != 0u, VD_ERR_ARG);
+    return run_any(m, NULL, rows, width, height, 0u, flags, ws, bytes, out);
 }
 
 vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,

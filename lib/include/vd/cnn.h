@@ -210,6 +210,25 @@ vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t wid
 vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
                           uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out);
 
+// A source of network input rows for vd_cnn_run_rows: row(ctx, y, dst)
+// writes row y (0..height-1) of the width x height grey plane to dst (width
+// bytes, inside the workspace). It is called for every row in order for the
+// percentile histogram (models with that normalisation), then again for
+// each row, in order, as the network needs it; it must return the same
+// bytes each time and cannot fail (a caller records its own errors in ctx).
+typedef struct vd_cnn_rows {
+    void (*row)(void *ctx, uint32_t y, uint8_t *dst);
+    void *ctx;
+} vd_cnn_rows_t;
+
+// As vd_cnn_run_ex, with the input plane made row by row by `rows` instead
+// of read from memory (the detector makes its half-resolution rows this way
+// and holds no input plane). flags must include VD_CNN_STREAM.
+// Returns as vd_cnn_run_ex; VD_ERR_ARG also for NULL rows / rows->row or
+// flags without VD_CNN_STREAM.
+vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, uint32_t width, uint32_t height,
+                            uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out);
+
 // Tensor `index` (0 = preprocessed input, i+1 = output of layer i) of the
 // last run made with ws at width x height. With VD_CNN_KEEP_TENSORS every
 // tensor is available; without it only tensors that no later layer

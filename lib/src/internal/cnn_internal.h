@@ -25,6 +25,11 @@
 #ifndef VD_CNN_BAND_ROWS
 #define VD_CNN_BAND_ROWS 1u
 #endif
+// Streamed: output channels per int16 weight copy of a CONV / PW layer
+// (the one shared scratch holds 2 * this * K bytes of weights).
+#ifndef VD_CNN_STREAM_COUT
+#define VD_CNN_STREAM_COUT 64u
+#endif
 // Stretch histogram (uint32[256]) and its int8 lookup table.
 #define VD_CNN_HIST_BYTES (256u * 4u + 256u)
 
