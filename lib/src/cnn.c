@@ -562,9 +562,9 @@ static uint64_t tensor_bytes(const chain_t *c, uint32_t t, uint32_t width, uint3
 // encoder tensor would hold tens of rows); push alone would finish every
 // decoder tensor in one batch when the last input row arrives. Together a
 // tensor holds its consumers' kernel rows plus what a skip must bridge.
-// The plan runs the same walk without computing (sched_walk, io NULL) and
-// keeps per tensor the largest span from the oldest row a live consumer
-// will still read to the newest row written: that is the ring height.
+// The plan runs the same walk without computing (sched_next) and keeps per
+// tensor the largest span from the oldest row a live consumer will still
+// read to the newest row written: that is the ring height.
 // Tensors the head does not depend on are never computed.
 // Bounds: Hn / B pulls of O(n_layers); at most H0 + Hn / B sub-steps of
 // O(n_layers) plus O(rows made); sizing adds O(n_layers) per batch.
@@ -696,39 +696,33 @@ static uint32_t sched_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, ui
     return oldest;
 }
 
-// What a run computes from (run section); NULL: the plan's sizing walk.
-typedef struct run_io run_io_t;
-static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_io_t *io, uint32_t t);
-
-// The streamed schedule: sizes the rings (io NULL; p->rows is raised to
-// every span) or runs the network (io set; p->rows as planned).
-static void sched_walk(const vd_cnn_model_t *m, vd_cnn_plan_t *p, const run_io_t *io)
+// Next sub-step of the streamed schedule into p->req (rows to make: req[t]
+// > done[t]; the caller makes them and sets done = req); false once the
+// head is complete. *target: head rows of the current band, 0 to start
+// (with p->done all 0). Each call adds an input row or completes the band's
+// need (sched_push), so a walk takes at most H0 + Hn + 1 calls. The plan
+// (ring sizing) and the run iterate the same way, so they make the same
+// rows in the same order.
+static bool sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *target)
 {
     const uint32_t n = m->n_layers;
+    if (p->done[n] >= *target) {
+        if (*target >= p->h[n]) {
+            return false;
+        }
+        *target = (*target + VD_CNN_BAND_ROWS < p->h[n]) ? *target + VD_CNN_BAND_ROWS : p->h[n];
+        sched_pull(m, p, *target);
+    }
+    sched_push(m, p);
+    return true;
+}
+
+static void sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps)
+{
     memset(p->done, 0, sizeof p->done);
     memset(p->req, 0, sizeof p->req);
-    for (uint32_t target = 0u; target < p->h[n];) {
-        target = (target + VD_CNN_BAND_ROWS < p->h[n]) ? target + VD_CNN_BAND_ROWS : p->h[n];
-        sched_pull(m, p, target);
-        // Each sub-step adds an input row or completes the need (see
-        // sched_push), so H0 + 1 passes always reach the target.
-        for (uint32_t guard = 0u; guard <= p->h[0] && p->done[n] < target; guard++) {
-            sched_push(m, p);
-            for (uint32_t t = 0u; t <= n; t++) {
-                if (p->req[t] <= p->done[t]) {
-                    continue;
-                }
-                if (io == NULL) {
-                    const uint32_t span = p->req[t] - sched_oldest(m, p, t);
-                    p->rows[t] = (uint16_t)((span > p->rows[t]) ? span : p->rows[t]);
-                } else {
-                    produce(m, p, io, t);
-                }
-                p->done[t] = p->req[t];
-            }
-        }
-        VD_ASSERT(p->done[n] == target);
-    }
+    *target = 0u;
+    *max_steps = (uint32_t)p->h[0] + p->h[0] + 2u;   // H0 + Hn + 1 < 2 H0 + 2
 }
 
 // p->rows: ring heights. Whole plane: every tensor's height. Streamed: the
@@ -743,9 +737,23 @@ static void sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t heigh
     for (uint32_t t = 0u; t <= n; t++) {
         p->rows[t] = (!stream || ((keep || t == n) && p->live[t] != 0u)) ? p->h[t] : 0u;
     }
-    if (stream) {
-        sched_walk(m, p, NULL);
+    if (!stream) {
+        return;
     }
+    // Ring heights: per tensor the largest span from the oldest row a live
+    // consumer still reads to the newest row made.
+    uint32_t target, max_steps;
+    sched_start(p, &target, &max_steps);
+    for (uint32_t k = 0u; k < max_steps && sched_next(m, p, &target); k++) {
+        for (uint32_t t = 0u; t <= n; t++) {
+            if (p->req[t] > p->done[t]) {
+                const uint32_t span = p->req[t] - sched_oldest(m, p, t);
+                p->rows[t] = (uint16_t)((span > p->rows[t]) ? span : p->rows[t]);
+                p->done[t] = p->req[t];
+            }
+        }
+    }
+    VD_ASSERT(p->done[n] == p->h[n]);
 }
 
 // Deterministic first-fit liveness planner. Items are placed in index order
@@ -1399,12 +1407,12 @@ static ring_t ring_of(uint8_t *ws, const vd_cnn_plan_t *p, const chain_t *c, uin
     return r;
 }
 
-struct run_io {
+typedef struct run_io {
     const in_src_t *src;
     const int8_t *lut;
     uint8_t *base;
     const chain_t *c;
-};
+} run_io_t;
 
 // Output rows [y0, y1) of layer l; its input rows must be in their rings.
 static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_plan_t *p, uint8_t *base, uint32_t l,
@@ -1447,7 +1455,7 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     }
 }
 
-// Rows [p->done[t], p->req[t]) of tensor t (sched_walk).
+// Rows [p->done[t], p->req[t]) of tensor t (a sub-step of the schedule).
 static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_io_t *io, uint32_t t)
 {
     if (t == 0u) {
@@ -1488,7 +1496,17 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
         }
     } else {
         const run_io_t io = {&src, lut, base, &c};
-        sched_walk(m, p, &io);
+        uint32_t target, max_steps;
+        sched_start(p, &target, &max_steps);
+        for (uint32_t k = 0u; k < max_steps && sched_next(m, p, &target); k++) {
+            for (uint32_t t = 0u; t <= n; t++) {
+                if (p->req[t] > p->done[t]) {
+                    produce(m, p, &io, t);
+                    p->done[t] = p->req[t];
+                }
+            }
+        }
+        VD_ASSERT(p->done[n] == p->h[n]);
     }
     out->data = ring_of(base, p, &c, n).base;
     out->w = width / c.f[n];
@@ -1529,23 +1547,27 @@ vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes,
     VD_VERIFY(size_ok(m, width, height) && index <= m->n_layers, VD_ERR_ARG);
     VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
-    const vd_cnn_plan_t *rec = (const vd_cnn_plan_t *)ws;
-    VD_VERIFY(rec->magic == VD_CNN_REC_MAGIC && rec->width == width && rec->height == height && rec->crc == m->crc32 &&
-                  rec->size == m->size && (rec->flags & ~CNN_FLAGS) == 0u,
+    const vd_cnn_plan_t *p = (const vd_cnn_plan_t *)ws;
+    VD_VERIFY(p->magic == VD_CNN_REC_MAGIC && p->width == width && p->height == height && p->crc == m->crc32 &&
+                  p->size == m->size && (p->flags & ~CNN_FLAGS) == 0u && p->n_items == 2u + 2u * m->n_layers,
               VD_ERR_STATE);
-    // The layout is recomputed, not read back: the record only says which.
-    vd_cnn_plan_t p;
-    VD_TRY(plan_make(m, &c, width, height, rec->flags, &p));
-    VD_VERIFY(bytes >= p.total, VD_ERR_WORKSPACE);
+    VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
+    // The plan is read back from the record the run wrote (no plan on the
+    // stack: this call is on the detector's path through the boosted
+    // verifier). The record is caller memory, so what is used is checked:
+    // the tensor lies inside the workspace, after the record, whole.
     const uint32_t it = item_of_tensor(index);
-    VD_VERIFY(p.rows[index] == p.h[index] && p.h[index] != 0u, VD_ERR_STATE);   // streamed: only whole tensors
-    for (uint32_t j = 0u; j < p.n_items; j++) {
-        const bool later = p.first[j] > p.last[it];
-        const bool overlap = p.len[j] != 0u && (uint64_t)p.off[j] < (uint64_t)p.off[it] + p.len[it] &&
-                             (uint64_t)p.off[it] < (uint64_t)p.off[j] + p.len[j];
+    const uint64_t tb = tensor_bytes(&c, index, width, height / c.f[index]);
+    VD_VERIFY(p->rows[index] == height / c.f[index] && p->len[it] >= tb && p->off[it] >= VD_CNN_REC_BYTES &&
+                  (uint64_t)p->off[it] + p->len[it] <= p->total,
+              VD_ERR_STATE);   // streamed: only whole tensors (the head, or every one with KEEP_TENSORS)
+    for (uint32_t j = 0u; j < p->n_items; j++) {
+        const bool later = p->first[j] > p->last[it];
+        const bool overlap = p->len[j] != 0u && (uint64_t)p->off[j] < (uint64_t)p->off[it] + p->len[it] &&
+                             (uint64_t)p->off[it] < (uint64_t)p->off[j] + p->len[j];
         VD_VERIFY(!(later && overlap), VD_ERR_STATE);
     }
-    t->data = (const int8_t *)((const uint8_t *)ws + p.off[it]);
+    t->data = (const int8_t *)((const uint8_t *)ws + p->off[it]);
     t->w = width / c.f[index];
     t->h = height / c.f[index];
     t->c = c.chan[index];
