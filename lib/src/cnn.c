@@ -658,7 +658,8 @@ static void sched_pull(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t targe
 static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
-    p->req[0] = (uint16_t)((p->done[0] < p->need[0]) ? p->done[0] + 1u : p->done[0]);
+    const uint32_t in_next = p->done[0] + VD_CNN_BAND_IN_ROWS;
+    p->req[0] = (uint16_t)((in_next < p->need[0]) ? in_next : ((p->done[0] < p->need[0]) ? p->need[0] : p->done[0]));
     for (uint32_t t = 1u; t <= n; t++) {
         const vd_cnn_layer_t *L = &m->layers[t - 1u];
         uint32_t y = p->done[t];

@@ -25,6 +25,11 @@
 #ifndef VD_CNN_BAND_ROWS
 #define VD_CNN_BAND_ROWS 1u
 #endif
+// Input rows per push sub-step of the streamed schedule (>= 1): more rows
+// per kernel call (set-up amortised), taller rings.
+#ifndef VD_CNN_BAND_IN_ROWS
+#define VD_CNN_BAND_IN_ROWS 1u
+#endif
 // Streamed: output channels per int16 weight copy of a CONV / PW layer
 // (the one shared scratch holds 2 * this * K bytes of weights).
 #ifndef VD_CNN_STREAM_COUT
