@@ -33,9 +33,13 @@
 // Bounds: load O(total_size) (CRC, per-channel arrays, decode table) plus
 // O((4 L + 1)^2) overlap checks. Run: vd_cnn_macs() multiply-adds, one
 // requantisation per output value, O(width*height) for the input; the plan
-// (O(items^2), items <= 2 + 2 L) lives in the workspace's run record. Stack
-// (Cortex-M7 -Os, worst call chain): load ~420 B, run ~730 B, workspace
-// query and vd_cnn_tensor ~950 B (the plan), decode ~300 B. Accumulators: |sum w (x - zp)|
+// (O(items^2), items <= 2 + 2 L) lives in the workspace's run record.
+// Streamed (VD_CNN_STREAM, the "row schedule" section below): the same
+// kernels on ring-buffer rows, so the head is bit-identical; the schedule
+// adds O((H0 + Hn) L) counter updates per run, the plan's ring sizing
+// O((H0 + Hn) L^2). Stack (Cortex-M7 -Os, worst call chain): load ~420 B,
+// run ~1.1 KiB, workspace query ~1.5 KiB (the plan), vd_cnn_tensor ~320 B
+// (reads the run record), decode ~380 B. Accumulators: |sum w (x - zp)|
 // <= K * 128 * 255 < 2^31 for K <= 25 * 1024, and the loader's bias bound
 // |bias| <= INT32_MAX - K * 128 * 255 makes the whole sum fit int32 for every
 // int8 weight including -128 (the addition is still done modulo 2^32, so a

@@ -15,8 +15,8 @@
 // Bounds: O(W*H) for the plane and padding, vd_cnn_macs() multiply-adds for
 // the network, O(Wo*Ho*(1 + max_peaks)) for decoding, O(max_peaks) for the
 // merge. Memory: the overlay (plane, network workspace, boxes; see
-// detector_init.c). Stack: this file's frames plus vd_cnn_run (~730 bytes on
-// Cortex-M7 -Os); no recursion.
+// detector_init.c). Stack: this file's frames plus vd_cnn_run_rows (~1.1 KiB
+// on Cortex-M7 -Os, docs/embedded.md); no recursion.
 #include <string.h>
 
 #include "vd/resample.h"
