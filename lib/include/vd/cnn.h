@@ -181,10 +181,12 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes);
 // Returns VD_OK; VD_ERR_ARG for NULL m/bytes or a size that is 0, > 4096 or
 // not a multiple of m->align; VD_ERR_STATE if m is not loaded;
 // VD_ERR_OVERFLOW if the total does not fit 32 bits.
-// Time O(n_layers^2); stack ~950 bytes (the plan; an init-time call).
+// Time O(n_layers^2), streamed plus O((height + head height) n_layers^2) for
+// the ring sizing; stack ~1.5 KiB (the plan; an init-time call).
 vd_status_t vd_cnn_workspace_size(const vd_cnn_model_t *m, uint32_t width, uint32_t height, size_t *bytes);
 
-// As vd_cnn_workspace_size, with flags (0 or VD_CNN_KEEP_TENSORS).
+// As vd_cnn_workspace_size, with flags (0, VD_CNN_KEEP_TENSORS, VD_CNN_STREAM
+// or both). VD_ERR_ARG also for any other flag bit.
 vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
                                      size_t *bytes);
 
@@ -200,13 +202,13 @@ vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, ui
 // VD_ERR_OVERFLOW as vd_cnn_workspace_size.
 // Bit-exact with the numpy integer reference (tools/vdtools/cnn_ref.py).
 // Time: vd_cnn_macs() multiply-adds plus one requantisation per output value;
-// stack ~730 bytes on Cortex-M7 -Os (the plan lives in the workspace's run
+// stack ~1.1 KiB on Cortex-M7 -Os (the plan lives in the workspace's run
 // record, not on the stack).
 vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
                        uint32_t stride_bytes, void *ws, size_t bytes, vd_cnn_output_t *out);
 
-// As vd_cnn_run, with flags (0 or VD_CNN_KEEP_TENSORS; the workspace must be
-// sized by vd_cnn_workspace_size_ex with the same flags).
+// As vd_cnn_run, with flags (0, VD_CNN_KEEP_TENSORS, VD_CNN_STREAM or both;
+// the workspace must be sized by vd_cnn_workspace_size_ex with the same flags).
 vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
                           uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out);
 
@@ -231,12 +233,14 @@ vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, 
 
 // Tensor `index` (0 = preprocessed input, i+1 = output of layer i) of the
 // last run made with ws at width x height. With VD_CNN_KEEP_TENSORS every
-// tensor is available; without it only tensors that no later layer
-// overwrote (always the head).
+// tensor is available (streamed: every tensor the head depends on); without
+// it only tensors that no later layer overwrote (always the head; streamed,
+// only the head).
 // Returns VD_OK; VD_ERR_ARG for NULL arguments, bad sizes or index >
 // n_layers; VD_ERR_STATE if m is not loaded, ws holds no run of this model
 // at this size, or the tensor was overwritten; VD_ERR_WORKSPACE for a short ws.
-// Stack ~950 bytes (recomputes the plan; a debugging call).
+// The plan is read back from the run record in ws (bounds-checked against
+// bytes). Stack ~320 bytes.
 vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes, uint32_t width, uint32_t height,
                           uint32_t index, vd_cnn_output_t *t);
 
