@@ -560,8 +560,8 @@ static uint64_t tensor_bytes(const chain_t *c, uint32_t t, uint32_t width, uint3
 // VD_CNN_BAND_ROWS) it first pulls: walking the layers backwards, the rows
 // each tensor must have so that the head has T rows (p->need; rows_read of
 // the consumers' last needed row, clamped). Then it pushes in sub-steps:
-// tensor 0 gains one input row, and in layer order every tensor makes the
-// rows whose input rows exist, up to its need. Pull alone would make the
+// tensor 0 gains VD_CNN_BAND_IN_ROWS (1) input rows, and in layer order
+// every tensor makes the rows whose input rows exist, up to its need. Pull alone would make the
 // whole receptive field of the first head row in one batch per tensor (an
 // encoder tensor would hold tens of rows); push alone would finish every
 // decoder tensor in one batch when the last input row arrives. Together a
@@ -570,7 +570,7 @@ static uint64_t tensor_bytes(const chain_t *c, uint32_t t, uint32_t width, uint3
 // tensor the largest span from the oldest row a live consumer will still
 // read to the newest row written: that is the ring height.
 // Tensors the head does not depend on are never computed.
-// Bounds: Hn / B pulls of O(n_layers); at most H0 + Hn / B sub-steps of
+// Bounds: Hn / B pulls of O(n_layers); at most H0 + Hn + 1 sub-steps of
 // O(n_layers) plus O(rows made); sizing adds O(n_layers) per batch.
 
 // Rows [*lo, *hi] of the input tensor(s) that output row y of L reads,
@@ -656,9 +656,9 @@ static void sched_pull(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t targe
     }
 }
 
-// Push: p->req, the rows every tensor has after one sub-step: tensor 0 one
-// more input row (up to its need), then in layer order each computed
-// tensor every row whose input rows exist, up to its need.
+// Push: p->req, the rows every tensor has after one sub-step: tensor 0
+// VD_CNN_BAND_IN_ROWS more input rows (up to its need), then in layer order
+// each computed tensor every row whose input rows exist, up to its need.
 static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
@@ -759,6 +759,11 @@ static void sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t heigh
         }
     }
     VD_ASSERT(p->done[n] == p->h[n]);
+    for (uint32_t t = 0u; t <= n; t++) {
+        // A computed tensor is read, so some batch had a span >= 1; the
+        // floor only keeps ring_row's modulo defined whatever happens.
+        p->rows[t] = (uint16_t)((p->live[t] != 0u && p->rows[t] == 0u) ? 1u : p->rows[t]);
+    }
 }
 
 // Deterministic first-fit liveness planner. Items are placed in index order
