@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Unit tests of the int8 CNN (vd/cnn.h): hand-worked ops, requantisation, stretch, planner, decoding,
-// random models against a naive reference, hostile blobs.
+// random models against a naive reference, the streamed executor against the whole-plane one, hostile blobs.
 //
 // Test models are written by a small C writer (tm_write) in the layout of
 // docs/model-format.md, so the test needs no Python. The naive reference
