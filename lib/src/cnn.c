@@ -33,9 +33,13 @@
 // Bounds: load O(total_size) (CRC, per-channel arrays, decode table) plus
 // O((4 L + 1)^2) overlap checks. Run: vd_cnn_macs() multiply-adds, one
 // requantisation per output value, O(width*height) for the input; the plan
-// (O(items^2), items <= 2 + 2 L) lives in the workspace's run record. Stack
-// (Cortex-M7 -Os, worst call chain): load ~420 B, run ~730 B, workspace
-// query and vd_cnn_tensor ~950 B (the plan), decode ~300 B. Accumulators: |sum w (x - zp)|
+// (O(items^2), items <= 2 + 2 L) lives in the workspace's run record.
+// Streamed (VD_CNN_STREAM, the "row schedule" section below): the same
+// kernels on ring-buffer rows, so the head is bit-identical; the schedule
+// adds O((H0 + Hn) L) counter updates per run, the plan's ring sizing
+// O((H0 + Hn) L^2). Stack (Cortex-M7 -Os, worst call chain): load ~420 B,
+// run ~1.1 KiB, workspace query ~1.5 KiB (the plan), vd_cnn_tensor ~320 B
+// (reads the run record), decode ~380 B. Accumulators: |sum w (x - zp)|
 // <= K * 128 * 255 < 2^31 for K <= 25 * 1024, and the loader's bias bound
 // |bias| <= INT32_MAX - K * 128 * 255 makes the whole sum fit int32 for every
 // int8 weight including -128 (the addition is still done modulo 2^32, so a
@@ -106,6 +110,7 @@
 #define E_SHIFT 24u
 #define E_RES1 28u
 
+#define CNN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM)   // every flag of the _ex calls
 #define MAX_ABS_PRODUCT (128L * 255L)   // weights may be -128: |w (x - zp)| <= 128 * 255
 #define INPUT_ZP (-128)
 
@@ -511,7 +516,15 @@ typedef struct scratch_layout {
     uint32_t w16, rows, ch;
 } scratch_layout_t;
 
-static uint64_t scratch_layout(const vd_cnn_layer_t *L, scratch_layout_t *s)
+// Output channels whose int16 weights a CONV / PW scratch holds at once:
+// all of them, or at most VD_CNN_STREAM_COUT when streamed (one scratch
+// serves every layer, so the largest layer's weight copy would set it).
+static uint32_t chunk_of(const vd_cnn_layer_t *L, bool stream)
+{
+    return (stream && L->cout > VD_CNN_STREAM_COUT) ? VD_CNN_STREAM_COUT : L->cout;
+}
+
+static uint64_t scratch_layout(const vd_cnn_layer_t *L, bool stream, scratch_layout_t *s)
 {
     uint32_t w_bytes, r_bytes;
     if (L->op == VD_CNN_OP_DW3X3) {
@@ -520,7 +533,7 @@ static uint64_t scratch_layout(const vd_cnn_layer_t *L, scratch_layout_t *s)
         r_bytes = cp;
     } else if (spatial_conv(L->op) || L->op == VD_CNN_OP_PW1X1) {
         const uint32_t kp = round_up(k_of(L), VD_CNN_KCHUNK);
-        w_bytes = 2u * L->cout * kp;
+        w_bytes = 2u * chunk_of(L, stream) * kp;
         r_bytes = 2u * VD_CNN_NPIX * kp;
     } else {
         memset(s, 0, sizeof *s);
@@ -534,9 +547,223 @@ static uint64_t scratch_layout(const vd_cnn_layer_t *L, scratch_layout_t *s)
     return (uint64_t)s->ch + round_up((uint32_t)(L->cout * sizeof(vd_rq_ch_t)), VD_CNN_ITEM_ALIGN);
 }
 
-static uint64_t tensor_bytes(const chain_t *c, uint32_t t, uint32_t width, uint32_t height)
+// Bytes of `rows` rows of tensor t at input width `width`.
+static uint64_t tensor_bytes(const chain_t *c, uint32_t t, uint32_t width, uint32_t rows)
 {
-    return (uint64_t)(width / c->f[t]) * (uint64_t)(height / c->f[t]) * (uint64_t)c->chan[t];
+    return (uint64_t)(width / c->f[t]) * (uint64_t)rows * (uint64_t)c->chan[t];
+}
+
+// ------------------------------------------------------------------ row schedule
+//
+// The streamed executor (VD_CNN_STREAM) keeps every tensor but the head as
+// a ring of full-width rows. For head rows T = B, 2B, .. (B =
+// VD_CNN_BAND_ROWS) it first pulls: walking the layers backwards, the rows
+// each tensor must have so that the head has T rows (p->need; rows_read of
+// the consumers' last needed row, clamped). Then it pushes in sub-steps:
+// tensor 0 gains VD_CNN_BAND_IN_ROWS (1) input rows, and in layer order
+// every tensor makes the rows whose input rows exist, up to its need. Pull alone would make the
+// whole receptive field of the first head row in one batch per tensor (an
+// encoder tensor would hold tens of rows); push alone would finish every
+// decoder tensor in one batch when the last input row arrives. Together a
+// tensor holds its consumers' kernel rows plus what a skip must bridge.
+// The plan runs the same walk without computing (sched_next) and keeps per
+// tensor the largest span from the oldest row a live consumer will still
+// read to the newest row written: that is the ring height.
+// Tensors the head does not depend on are never computed.
+// Bounds: Hn / B pulls of O(n_layers); at most H0 + Hn + 1 sub-steps of
+// O(n_layers) plus O(rows made); sizing adds O(n_layers) per batch.
+
+// Rows [*lo, *hi] of the input tensor(s) that output row y of L reads,
+// before clamping (rows outside the input are padding).
+static void rows_read(const vd_cnn_layer_t *L, uint32_t y, int32_t *lo, int32_t *hi)
+{
+    const int32_t s = L->stride;
+    const int32_t yy = (int32_t)y;
+    switch (L->op) {
+    case VD_CNN_OP_CONV3X3:
+    case VD_CNN_OP_DW3X3:
+        *lo = s * yy - 1;
+        *hi = s * yy + 1;
+        break;
+    case VD_CNN_OP_CONV5X5:
+        *lo = s * yy - 2;
+        *hi = s * yy + 2;
+        break;
+    case VD_CNN_OP_MAXPOOL2:
+        *lo = 2 * yy;
+        *hi = 2 * yy + 1;
+        break;
+    case VD_CNN_OP_UPSAMPLE2:
+        *lo = yy / 2;
+        *hi = yy / 2;
+        break;
+    default:   // PW1X1, CONCAT
+        *lo = yy;
+        *hi = yy;
+        break;
+    }
+}
+
+// Last input row (clamped to the input's last row hlast) that output row y reads.
+static uint32_t row_hi(const vd_cnn_layer_t *L, uint32_t y, uint32_t hlast)
+{
+    int32_t lo, hi;
+    rows_read(L, y, &lo, &hi);
+    (void)lo;
+    return ((uint32_t)hi < hlast) ? (uint32_t)hi : hlast;
+}
+
+static bool reads(const vd_cnn_layer_t *L, uint32_t t)
+{
+    return L->in == t || (L->op == VD_CNN_OP_CONCAT && L->in2 == t);
+}
+
+// Tensor heights and liveness (p->h, p->live) of a plan.
+static void sched_init(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, vd_cnn_plan_t *p)
+{
+    const uint32_t n = m->n_layers;
+    for (uint32_t t = 0u; t <= n; t++) {
+        p->h[t] = (uint16_t)(height / c->f[t]);
+        p->live[t] = (t == n) ? 1u : 0u;
+    }
+    for (uint32_t l = n; l-- > 0u;) {
+        const vd_cnn_layer_t *L = &m->layers[l];
+        if (p->live[l + 1u] != 0u) {
+            p->live[L->in] = 1u;
+            p->live[L->in2] = (L->op == VD_CNN_OP_CONCAT) ? 1u : p->live[L->in2];
+        }
+    }
+}
+
+// Pull: p->need, the rows every tensor must have for `target` head rows.
+static void sched_pull(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t target)
+{
+    const uint32_t n = m->n_layers;
+    for (uint32_t t = 0u; t < n; t++) {
+        p->need[t] = p->done[t];
+    }
+    p->need[n] = (uint16_t)target;
+    for (uint32_t l = n; l-- > 0u;) {
+        const vd_cnn_layer_t *L = &m->layers[l];
+        if (p->live[l + 1u] == 0u || p->need[l + 1u] == 0u) {
+            continue;
+        }
+        const uint32_t r = row_hi(L, p->need[l + 1u] - 1u, p->h[L->in] - 1u) + 1u;
+        p->need[L->in] = (uint16_t)((r > p->need[L->in]) ? r : p->need[L->in]);
+        if (L->op == VD_CNN_OP_CONCAT) {
+            p->need[L->in2] = (uint16_t)((r > p->need[L->in2]) ? r : p->need[L->in2]);
+        }
+    }
+}
+
+// Push: p->req, the rows every tensor has after one sub-step: tensor 0
+// VD_CNN_BAND_IN_ROWS more input rows (up to its need), then in layer order
+// each computed tensor every row whose input rows exist, up to its need.
+static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
+{
+    const uint32_t n = m->n_layers;
+    const uint32_t in_next = p->done[0] + VD_CNN_BAND_IN_ROWS;
+    p->req[0] = (uint16_t)((in_next < p->need[0]) ? in_next : ((p->done[0] < p->need[0]) ? p->need[0] : p->done[0]));
+    for (uint32_t t = 1u; t <= n; t++) {
+        const vd_cnn_layer_t *L = &m->layers[t - 1u];
+        uint32_t y = p->done[t];
+        if (p->live[t] != 0u) {
+            uint32_t avail = p->req[L->in];
+            if (L->op == VD_CNN_OP_CONCAT && p->req[L->in2] < avail) {
+                avail = p->req[L->in2];
+            }
+            const uint32_t hlast = (uint32_t)p->h[L->in] - 1u;
+            // Bounded by the need (<= the tensor height): one row per pass.
+            while (y < p->need[t] && row_hi(L, y, hlast) < avail) {
+                y++;
+            }
+        }
+        p->req[t] = (uint16_t)y;
+    }
+}
+
+// Oldest row of tensor t that a live, unfinished consumer still reads
+// (p->req[t] when none).
+static uint32_t sched_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t t)
+{
+    uint32_t oldest = p->req[t];
+    for (uint32_t l = t; l < m->n_layers; l++) {
+        const vd_cnn_layer_t *L = &m->layers[l];
+        if (p->live[l + 1u] == 0u || p->done[l + 1u] >= p->h[l + 1u] || !reads(L, t)) {
+            continue;
+        }
+        int32_t lo, hi;
+        rows_read(L, p->done[l + 1u], &lo, &hi);
+        (void)hi;
+        const uint32_t r = (lo > 0) ? (uint32_t)lo : 0u;
+        oldest = (r < oldest) ? r : oldest;
+    }
+    return oldest;
+}
+
+// Next sub-step of the streamed schedule into p->req (rows to make: req[t]
+// > done[t]; the caller makes them and sets done = req); false once the
+// head is complete. *target: head rows of the current band, 0 to start
+// (with p->done all 0). Each call adds an input row or completes the band's
+// need (sched_push), so a walk takes at most H0 + Hn + 1 calls. The plan
+// (ring sizing) and the run iterate the same way, so they make the same
+// rows in the same order.
+static bool sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *target)
+{
+    const uint32_t n = m->n_layers;
+    if (p->done[n] >= *target) {
+        if (*target >= p->h[n]) {
+            return false;
+        }
+        *target = (*target + VD_CNN_BAND_ROWS < p->h[n]) ? *target + VD_CNN_BAND_ROWS : p->h[n];
+        sched_pull(m, p, *target);
+    }
+    sched_push(m, p);
+    return true;
+}
+
+static void sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps)
+{
+    memset(p->done, 0, sizeof p->done);
+    memset(p->req, 0, sizeof p->req);
+    *target = 0u;
+    *max_steps = (uint32_t)p->h[0] + p->h[0] + 2u;   // H0 + Hn + 1 < 2 H0 + 2
+}
+
+// p->rows: ring heights. Whole plane: every tensor's height. Streamed: the
+// walk above; the head (read by vd_cnn_decode) stays whole, and with
+// VD_CNN_KEEP_TENSORS every computed tensor does.
+static void sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p)
+{
+    const uint32_t n = m->n_layers;
+    sched_init(m, c, height, p);
+    const bool stream = (flags & VD_CNN_STREAM) != 0u;
+    const bool keep = (flags & VD_CNN_KEEP_TENSORS) != 0u;
+    for (uint32_t t = 0u; t <= n; t++) {
+        p->rows[t] = (!stream || ((keep || t == n) && p->live[t] != 0u)) ? p->h[t] : 0u;
+    }
+    if (!stream) {
+        return;
+    }
+    // Ring heights: per tensor the largest span from the oldest row a live
+    // consumer still reads to the newest row made.
+    uint32_t target, max_steps;
+    sched_start(p, &target, &max_steps);
+    for (uint32_t k = 0u; k < max_steps && sched_next(m, p, &target); k++) {
+        for (uint32_t t = 0u; t <= n; t++) {
+            if (p->req[t] > p->done[t]) {
+                const uint32_t span = p->req[t] - sched_oldest(m, p, t);
+                p->rows[t] = (uint16_t)((span > p->rows[t]) ? span : p->rows[t]);
+                p->done[t] = p->req[t];
+            }
+        }
+    }
+    VD_ASSERT(p->done[n] == p->h[n]);
+    for (uint32_t t = 0u; t <= n; t++) {
+        // A computed tensor is read, so some batch had a span >= 1; the
+        // floor only keeps ring_row's modulo defined whatever happens.
+        p->rows[t] = (uint16_t)((p->live[t] != 0u && p->rows[t] == 0u) ? 1u : p->rows[t]);
+    }
 }
 
 // Deterministic first-fit liveness planner. Items are placed in index order
@@ -549,6 +776,16 @@ static vd_status_t plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t
 {
     const uint32_t n = m->n_layers;
     const bool keep = (flags & VD_CNN_KEEP_TENSORS) != 0u;
+    const bool stream = (flags & VD_CNN_STREAM) != 0u;
+    sched_rows(m, c, height, flags, p);
+    // Streamed, every item lives for the whole run (the layers interleave)
+    // and one scratch, sized for the largest layer, serves all of them.
+    uint64_t scratch_max = 0u;
+    for (uint32_t l = 0u; l < n && stream; l++) {
+        scratch_layout_t s;
+        const uint64_t len = scratch_layout(&m->layers[l], true, &s);
+        scratch_max = (len > scratch_max) ? len : scratch_max;
+    }
     uint8_t last_read[VD_CNN_MAX_TENSORS];
     for (uint32_t t = 0u; t <= n; t++) {
         last_read[t] = (uint8_t)t;
@@ -565,23 +802,32 @@ static vd_status_t plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t
         uint64_t len;
         uint32_t first, last;
         if (i == 0u) {
-            len = (uint64_t)width * height;
+            len = (uint64_t)width * p->rows[0];
             first = 0u;
             last = keep ? n : last_read[0];
         } else if (i == 1u) {
             len = (m->input_norm == VD_CNN_NORM_PERCENTILE) ? VD_CNN_HIST_BYTES : 0u;
+            len += stream ? round_up(width, VD_CNN_ITEM_ALIGN) : 0u;   // row buffer of vd_cnn_run_rows
             first = 0u;
             last = 0u;
         } else if (i % 2u == 0u) {
             const uint32_t t = i / 2u;   // tensor t = layer t-1's output
-            len = tensor_bytes(c, t, width, height);
+            len = tensor_bytes(c, t, width, p->rows[t]);
             first = t;
             last = (keep || t == n) ? n : last_read[t];
+        } else if (stream) {
+            len = (i == 3u) ? scratch_max : 0u;
+            first = 0u;
+            last = 0u;
         } else {
             scratch_layout_t s;
-            len = scratch_layout(&m->layers[i / 2u - 1u], &s);
+            len = scratch_layout(&m->layers[i / 2u - 1u], false, &s);
             first = i / 2u;
             last = first;
+        }
+        if (stream) {
+            first = 0u;
+            last = n;
         }
         VD_VERIFY(len <= (uint64_t)UINT32_MAX - 2u * VD_CNN_ITEM_ALIGN, VD_ERR_OVERFLOW);
         p->len[i] = round_up((uint32_t)len, VD_CNN_ITEM_ALIGN);
@@ -639,7 +885,7 @@ static vd_status_t plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t
 vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
                                      size_t *bytes)
 {
-    VD_VERIFY(m != NULL && bytes != NULL && (flags & ~VD_CNN_KEEP_TENSORS) == 0u, VD_ERR_ARG);
+    VD_VERIFY(m != NULL && bytes != NULL && (flags & ~CNN_FLAGS) == 0u, VD_ERR_ARG);
     chain_t c;
     VD_VERIFY(model_ok(m, &c), VD_ERR_STATE);
     VD_VERIFY(size_ok(m, width, height), VD_ERR_ARG);
@@ -751,20 +997,36 @@ typedef struct geom {
     int32_t zp_in;
 } geom_t;
 
+// A tensor in the workspace as a ring of `rows` full-width rows: row y at
+// slot y % rows. A whole plane is the ring with rows = height (slot = y).
+typedef struct ring {
+    int8_t *base;
+    size_t row;        // bytes per row (w * c)
+    uint32_t rows;     // slots, >= 1 for every tensor that is read or written
+} ring_t;
+
+static inline int8_t *ring_row(const ring_t *r, uint32_t y)
+{
+    return r->base + (size_t)(y % r->rows) * r->row;
+}
+
 // CONV3X3 / PW1X1 core: VD_CNN_NPIX int16 rows of kp values (kp a multiple
 // of VD_CNN_KCHUNK) against the int16 weights [cout][kp]. Per output
 // channel, passes of four int32 dot products over fixed 8-wide chunks
 // (pmaddwd), then one requantisation loop over the block (rq_row); writes
-// npix (1..VD_CNN_NPIX) output pixels of cout channels at out. Indices are
-// size_t and accumulators local: an int8 store may alias anything.
-CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_t *w16, const rq_t *q, size_t cout,
-                                    int8_t *out, uint32_t npix)
+// npix (1..VD_CNN_NPIX) output pixels of cout channels (constants ch) at
+// out, pstride bytes apart. Only the
+// groups of four that hold a stored pixel are computed (a short block at the
+// end of a row costs its own pixels, not 16). Indices are size_t and
+// accumulators local: an int8 store may alias anything.
+CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_t *w16, const vd_rq_ch_t *ch,
+                                    const rq_t *q, size_t cout, size_t pstride, int8_t *out, uint32_t npix)
 {
-    const vd_rq_ch_t *ch = q->ch;
+    const size_t np4 = ((size_t)npix + 3u) / 4u * 4u;
     for (size_t o = 0u; o < cout; o++) {
         const int16_t *wo = w16 + o * kp;
         int32_t acc[VD_CNN_NPIX];
-        for (size_t p = 0u; p < VD_CNN_NPIX; p += 4u) {
+        for (size_t p = 0u; p < np4; p += 4u) {
             const int16_t *r0 = rows + p * kp;
             const int16_t *r1 = r0 + kp;
             const int16_t *r2 = r1 + kp;
@@ -784,80 +1046,96 @@ CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_
             acc[p + 2u] = a2;
             acc[p + 3u] = a3;
         }
+        for (size_t p = np4; p < VD_CNN_NPIX; p++) {
+            acc[p] = 0;   // not stored; defined for rq_row's fixed-length loop
+        }
         int8_t z8[VD_CNN_NPIX];
         rq_row(acc, &ch[o], q, z8);
         int8_t *d = out + o;
         for (size_t p = 0u; p < npix; p++) {
-            d[p * cout] = z8[p];
+            d[p * pstride] = z8[p];
         }
     }
 }
 
-CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, const int8_t *in, int8_t *out,
-                                     uint8_t *scr)
+// Output rows [y0, y1) of a CONV3X3 / CONV5X5 / PW1X1 layer; the input rows
+// they read (y * stride - pad .. + pad, clamped) must be in the input ring.
+// Output channels in chunks of chunk_of(L, stream) (one chunk unless
+// streamed): per chunk the int16 weights, then every pixel block.
+CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                                     uint32_t y0, uint32_t y1, bool stream, uint8_t *scr)
 {
     scratch_layout_t s;
-    (void)scratch_layout(L, &s);
+    (void)scratch_layout(L, stream, &s);
     rq_t q;
     rq_setup(L, scr, &s, &q);
     const size_t k = k_of(L);
     const size_t kp = round_up((uint32_t)k, VD_CNN_KCHUNK);
     int16_t *w16 = (int16_t *)(void *)(scr + s.w16);
     int16_t *rows = (int16_t *)(void *)(scr + s.rows);
-    for (size_t o = 0u; o < g->co; o++) {
-        const int8_t *src = L->w + o * k;
-        int16_t *dst = w16 + o * kp;
-        for (size_t i = 0u; i < k; i++) {
-            dst[i] = src[i];
-        }
-        for (size_t i = k; i < kp; i++) {
-            dst[i] = 0;
-        }
-    }
     // Zero once: the K..kp tails stay zero, and rows of a short last block
     // hold finite values whose results are not stored.
     memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
     const size_t ci = g->ci;
     const int16_t zp = (int16_t)g->zp_in;
-    const uint32_t n_px = g->wo * g->ho;
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
-    const int32_t ks = (L->op == VD_CNN_OP_CONV5X5) ? 5 : 3;   // kernel side
+    const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);   // kernel side
     const int32_t pad = ks / 2;
-    for (uint32_t p0 = 0u; p0 < n_px; p0 += VD_CNN_NPIX) {
-        const uint32_t npix = (n_px - p0 < VD_CNN_NPIX) ? n_px - p0 : VD_CNN_NPIX;
-        for (uint32_t i = 0u; i < npix; i++) {
-            int16_t *r = rows + (size_t)i * kp;
-            const uint32_t p = p0 + i;
-            if (pw) {
-                const int8_t *x = in + (size_t)p * ci;
-                for (size_t c = 0u; c < ci; c++) {
-                    r[c] = (int16_t)(x[c] - zp);
-                }
-                continue;
+    const size_t chunk = chunk_of(L, stream);
+    for (size_t o0 = 0u; o0 < g->co; o0 += chunk) {
+        const size_t n_o = (g->co - o0 < chunk) ? g->co - o0 : chunk;
+        for (size_t o = 0u; o < n_o; o++) {
+            const int8_t *src = L->w + (o0 + o) * k;
+            int16_t *dst = w16 + o * kp;
+            for (size_t i = 0u; i < k; i++) {
+                dst[i] = src[i];
             }
-            // ks x ks taps in the weight order [ky][kx][c]; padding taps are 0.
-            const int32_t oy = (int32_t)(p / g->wo);
-            const int32_t ox = (int32_t)(p % g->wo);
+            for (size_t i = k; i < kp; i++) {
+                dst[i] = 0;
+            }
+        }
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            // The ks input rows of this output row (NULL: padding row).
+            const int8_t *rowp[5];
             for (int32_t ky = 0; ky < ks; ky++) {
-                const int32_t iy = oy * step - pad + ky;
-                for (int32_t kx = 0; kx < ks; kx++) {
-                    const int32_t ix = ox * step - pad + kx;
-                    int16_t *d = r + (size_t)(ky * ks + kx) * ci;
-                    if (iy < 0 || iy >= (int32_t)g->hi || ix < 0 || ix >= (int32_t)g->wi) {
+                const int32_t iy = (int32_t)oy * step - pad + ky;
+                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
+            }
+            int8_t *orow = ring_row(out, oy) + o0;
+            for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
+                const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
+                for (uint32_t i = 0u; i < npix; i++) {
+                    int16_t *r = rows + (size_t)i * kp;
+                    const int32_t ox = (int32_t)(x0 + i);
+                    if (pw) {
+                        const int8_t *x = rowp[0] + (size_t)ox * ci;
                         for (size_t c = 0u; c < ci; c++) {
-                            d[c] = 0;
+                            r[c] = (int16_t)(x[c] - zp);
                         }
-                    } else {
-                        const int8_t *x = in + ((size_t)iy * g->wi + (size_t)ix) * ci;
-                        for (size_t c = 0u; c < ci; c++) {
-                            d[c] = (int16_t)(x[c] - zp);
+                        continue;
+                    }
+                    // ks x ks taps in the weight order [ky][kx][c]; padding taps are 0.
+                    for (int32_t ky = 0; ky < ks; ky++) {
+                        for (int32_t kx = 0; kx < ks; kx++) {
+                            const int32_t ix = ox * step - pad + kx;
+                            int16_t *d = r + (size_t)(ky * ks + kx) * ci;
+                            if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
+                                for (size_t c = 0u; c < ci; c++) {
+                                    d[c] = 0;
+                                }
+                            } else {
+                                const int8_t *x = rowp[ky] + (size_t)ix * ci;
+                                for (size_t c = 0u; c < ci; c++) {
+                                    d[c] = (int16_t)(x[c] - zp);
+                                }
+                            }
                         }
                     }
                 }
+                gemm_block(rows, kp, w16, q.ch + o0, &q, n_o, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }
-        gemm_block(rows, kp, w16, &q, g->co, out + (size_t)p0 * g->co, npix);
     }
 }
 
@@ -918,10 +1196,12 @@ static inline void dw_store(const int32_t *acc, size_t n, size_t c0, const rq_t 
     }
 }
 
-CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const int8_t *in, int8_t *out, uint8_t *scr)
+// Output rows [y0, y1) of a DW3X3 layer (input rows y * stride - 1 .. + 1 in the ring).
+CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                                uint32_t y0, uint32_t y1, uint8_t *scr)
 {
     scratch_layout_t s;
-    (void)scratch_layout(L, &s);
+    (void)scratch_layout(L, false, &s);   // no chunks: the same layout either way
     rq_t q;
     rq_setup(L, scr, &s, &q);
     const size_t c_n = g->co;
@@ -944,14 +1224,15 @@ CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const 
     }
     const int32_t step = L->stride;
     const size_t pstep = (size_t)step * c_n;   // input bytes per output pixel along a row
-    for (uint32_t oy = 0u; oy < g->ho; oy++) {
+    for (uint32_t oy = y0; oy < y1; oy++) {
         // Row pointers of the three input rows (NULL above/below the tensor);
         // per pixel only the column tests remain.
         const int8_t *rowp[3];
         for (int32_t ky = 0; ky < 3; ky++) {
             const int32_t iy = (int32_t)oy * step - 1 + ky;
-            rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? in + (size_t)iy * g->wi * c_n : NULL;
+            rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
         }
+        int8_t *orow = ring_row(out, oy);
         for (uint32_t ox = 0u; ox < g->wo; ox++) {
             const int8_t *t[9];
             const int32_t ix0 = (int32_t)ox * step - 1;
@@ -969,7 +1250,7 @@ CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const 
                 t[ky * 3 + 1] = c1;
                 t[ky * 3 + 2] = right ? c1 + c_n : zrow;
             }
-            int8_t *o = out + ((size_t)oy * g->wo + ox) * c_n;
+            int8_t *o = orow + (size_t)ox * c_n;
             int32_t acc[VD_CNN_DWB];
             size_t c0 = 0u;
             for (; c0 + VD_CNN_DWB <= c_n; c0 += VD_CNN_DWB) {
@@ -989,17 +1270,20 @@ CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const 
     }
 }
 
-static void run_maxpool(const geom_t *g, const int8_t *in, int8_t *out)
+// Output rows [y0, y1) of the copy ops (input rows 2y..2y+1, y / 2, y).
+static void run_maxpool(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1)
 {
     const uint32_t c_n = g->co;
-    const size_t row = (size_t)g->wi * c_n;
-    for (uint32_t y = 0u; y < g->ho; y++) {
+    for (uint32_t y = y0; y < y1; y++) {
+        const int8_t *r0 = ring_row(in, 2u * y);
+        const int8_t *r1 = ring_row(in, 2u * y + 1u);
+        int8_t *orow = ring_row(out, y);
         for (uint32_t x = 0u; x < g->wo; x++) {
-            const int8_t *a = in + ((size_t)(2u * y) * g->wi + 2u * x) * c_n;
+            const int8_t *a = r0 + (size_t)(2u * x) * c_n;
             const int8_t *b = a + c_n;
-            const int8_t *c = a + row;
+            const int8_t *c = r1 + (size_t)(2u * x) * c_n;
             const int8_t *d = c + c_n;
-            int8_t *o = out + ((size_t)y * g->wo + x) * c_n;
+            int8_t *o = orow + (size_t)x * c_n;
             for (uint32_t k = 0u; k < c_n; k++) {
                 const int8_t m1 = (a[k] > b[k]) ? a[k] : b[k];
                 const int8_t m2 = (c[k] > d[k]) ? c[k] : d[k];
@@ -1009,54 +1293,68 @@ static void run_maxpool(const geom_t *g, const int8_t *in, int8_t *out)
     }
 }
 
-static void run_upsample(const geom_t *g, const int8_t *in, int8_t *out)
+static void run_upsample(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1)
 {
     const uint32_t c_n = g->co;
-    const size_t row = (size_t)g->wo * c_n;
-    for (uint32_t y = 0u; y < g->ho; y++) {
-        int8_t *o = out + (size_t)y * row;
-        if (y & 1u) {
-            memcpy(o, o - row, row);   // odd rows repeat the row above
-            continue;
-        }
-        const int8_t *src = in + (size_t)(y / 2u) * g->wi * c_n;
+    for (uint32_t y = y0; y < y1; y++) {
+        const int8_t *src = ring_row(in, y / 2u);
+        int8_t *o = ring_row(out, y);
         for (uint32_t x = 0u; x < g->wo; x++) {
             memcpy(o + (size_t)x * c_n, src + (size_t)(x / 2u) * c_n, c_n);
         }
     }
 }
 
-static void run_concat(const vd_cnn_layer_t *L, const geom_t *g, const int8_t *a, const int8_t *b, int8_t *out)
+static void run_concat(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, const ring_t *b, const ring_t *out,
+                       uint32_t y0, uint32_t y1)
 {
     const uint32_t ca = L->cin;
     const uint32_t cb = (uint32_t)L->cout - L->cin;
-    const uint32_t n_px = g->wo * g->ho;
-    for (uint32_t p = 0u; p < n_px; p++) {
-        memcpy(out + (size_t)p * L->cout, a + (size_t)p * ca, ca);
-        memcpy(out + (size_t)p * L->cout + ca, b + (size_t)p * cb, cb);
+    for (uint32_t y = y0; y < y1; y++) {
+        const int8_t *ra = ring_row(a, y);
+        const int8_t *rb = ring_row(b, y);
+        int8_t *o = ring_row(out, y);
+        for (uint32_t x = 0u; x < g->wo; x++) {
+            memcpy(o + (size_t)x * L->cout, ra + (size_t)x * ca, ca);
+            memcpy(o + (size_t)x * L->cout + ca, rb + (size_t)x * cb, cb);
+        }
     }
+}
+
+// Where the grey input rows come from: a plane (img, stride) or a caller's
+// row function writing into buf (vd_cnn_run_rows).
+typedef struct in_src {
+    const uint8_t *img;
+    uint32_t stride;
+    const vd_cnn_rows_t *rows;
+    uint8_t *buf;        // width bytes (row function only)
+} in_src_t;
+
+static const uint8_t *src_row(const in_src_t *s, uint32_t y)
+{
+    if (s->img != NULL) {
+        return s->img + (size_t)y * s->stride;
+    }
+    s->rows->row(s->rows->ctx, y, s->buf);
+    return s->buf;
 }
 
 // Tensor 0 from the grey plane: q = pixel - 128, or the percentile stretch
 // through a 256-entry table (256 divisions per frame, none per pixel).
-CNN_NOINLINE static void preprocess(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h,
-                                    uint32_t stride, int8_t *t0, uint8_t *hist_area)
+// norm_table makes the table from a histogram of the whole plane (one pass
+// over every row; NULL without a stretch); input_rows writes rows [y0, y1)
+// of tensor 0.
+CNN_NOINLINE static const int8_t *norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
+                                             uint8_t *hist_area)
 {
     if (m->input_norm != VD_CNN_NORM_PERCENTILE) {
-        for (uint32_t y = 0u; y < h; y++) {
-            const uint8_t *row = img + (size_t)y * stride;
-            int8_t *d = t0 + (size_t)y * w;
-            for (uint32_t x = 0u; x < w; x++) {
-                d[x] = (int8_t)((int32_t)row[x] - 128);
-            }
-        }
-        return;
+        return NULL;
     }
     uint32_t *hist = (uint32_t *)(void *)hist_area;
     int8_t *lut = (int8_t *)(void *)(hist_area + 256u * 4u);
     memset(hist, 0, 256u * sizeof(uint32_t));
     for (uint32_t y = 0u; y < h; y++) {
-        const uint8_t *row = img + (size_t)y * stride;
+        const uint8_t *row = src_row(src, y);
         for (uint32_t x = 0u; x < w; x++) {
             hist[row[x]]++;
         }
@@ -1088,29 +1386,105 @@ CNN_NOINLINE static void preprocess(const vd_cnn_model_t *m, const uint8_t *img,
         }
         lut[v] = (int8_t)((int32_t)p - 128);
     }
-    for (uint32_t y = 0u; y < h; y++) {
-        const uint8_t *row = img + (size_t)y * stride;
-        int8_t *d = t0 + (size_t)y * w;
-        for (uint32_t x = 0u; x < w; x++) {
-            d[x] = lut[row[x]];
+    return lut;
+}
+
+static void input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, const ring_t *t0, uint32_t y0, uint32_t y1)
+{
+    for (uint32_t y = y0; y < y1; y++) {
+        const uint8_t *row = src_row(src, y);
+        int8_t *d = ring_row(t0, y);
+        if (lut == NULL) {
+            for (uint32_t x = 0u; x < w; x++) {
+                d[x] = (int8_t)((int32_t)row[x] - 128);
+            }
+        } else {
+            for (uint32_t x = 0u; x < w; x++) {
+                d[x] = lut[row[x]];
+            }
         }
     }
 }
 
 // ------------------------------------------------------------------ run
 
-static int8_t *tensor_at(uint8_t *ws, const vd_cnn_plan_t *p, uint32_t t)
+static ring_t ring_of(uint8_t *ws, const vd_cnn_plan_t *p, const chain_t *c, uint32_t t)
 {
-    return (int8_t *)(void *)(ws + p->off[item_of_tensor(t)]);
+    ring_t r;
+    r.base = (int8_t *)(void *)(ws + p->off[item_of_tensor(t)]);
+    r.row = (size_t)(p->width / c->f[t]) * c->chan[t];
+    r.rows = p->rows[t];
+    return r;
 }
 
-vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
-                          uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
+typedef struct run_io {
+    const in_src_t *src;
+    const int8_t *lut;
+    uint8_t *base;
+    const chain_t *c;
+} run_io_t;
+
+// Output rows [y0, y1) of layer l; its input rows must be in their rings.
+static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_plan_t *p, uint8_t *base, uint32_t l,
+                       uint32_t y0, uint32_t y1)
 {
-    VD_VERIFY(m != NULL && img != NULL && out != NULL && (flags & ~VD_CNN_KEEP_TENSORS) == 0u, VD_ERR_ARG);
+    const vd_cnn_layer_t *L = &m->layers[l];
+    geom_t g;
+    g.wi = p->width / c->f[L->in];
+    g.hi = p->height / c->f[L->in];
+    g.ci = c->chan[L->in];
+    g.wo = p->width / c->f[l + 1u];
+    g.ho = p->height / c->f[l + 1u];
+    g.co = c->chan[l + 1u];
+    g.zp_in = c->zp[L->in];
+    const ring_t in = ring_of(base, p, c, L->in);
+    const ring_t o = ring_of(base, p, c, l + 1u);
+    // The streamed plan has one scratch for all layers (item 3), refilled per call.
+    uint8_t *scr = base + p->off[((p->flags & VD_CNN_STREAM) != 0u) ? 3u : 3u + 2u * l];
+    switch (L->op) {
+    case VD_CNN_OP_CONV3X3:
+    case VD_CNN_OP_CONV5X5:
+    case VD_CNN_OP_PW1X1:
+        run_conv_pw(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr);
+        break;
+    case VD_CNN_OP_DW3X3:
+        run_dw(L, &g, &in, &o, y0, y1, scr);
+        break;
+    case VD_CNN_OP_MAXPOOL2:
+        run_maxpool(&g, &in, &o, y0, y1);
+        break;
+    case VD_CNN_OP_UPSAMPLE2: {
+        run_upsample(&g, &in, &o, y0, y1);
+        break;
+    }
+    default: {
+        const ring_t b = ring_of(base, p, c, L->in2);
+        run_concat(L, &g, &in, &b, &o, y0, y1);
+        break;
+    }
+    }
+}
+
+// Rows [p->done[t], p->req[t]) of tensor t (a sub-step of the schedule).
+static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_io_t *io, uint32_t t)
+{
+    if (t == 0u) {
+        const ring_t t0 = ring_of(io->base, p, io->c, 0u);
+        input_rows(io->src, p->width, io->lut, &t0, p->done[0], p->req[0]);
+    } else {
+        layer_rows(m, io->c, p, io->base, t - 1u, p->done[t], p->req[t]);
+    }
+}
+
+// vd_cnn_run_ex and vd_cnn_run_rows: exactly one of img, rows is set.
+static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd_cnn_rows_t *rows, uint32_t width,
+                           uint32_t height, uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes,
+                           vd_cnn_output_t *out)
+{
+    VD_VERIFY(m != NULL && out != NULL && (flags & ~CNN_FLAGS) == 0u, VD_ERR_ARG);
     chain_t c;
     VD_VERIFY(model_ok(m, &c), VD_ERR_STATE);
-    VD_VERIFY(size_ok(m, width, height) && stride_bytes >= width, VD_ERR_ARG);
+    VD_VERIFY(size_ok(m, width, height) && (rows != NULL || stride_bytes >= width), VD_ERR_ARG);
     VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
     uint8_t *base = (uint8_t *)ws;
@@ -1119,42 +1493,32 @@ vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t 
     VD_TRY(plan_make(m, &c, width, height, flags, p));
     VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
 
-    preprocess(m, img, width, height, stride_bytes, tensor_at(base, p, 0u), base + p->off[1]);
-    for (uint32_t l = 0u; l < m->n_layers; l++) {
-        const vd_cnn_layer_t *L = &m->layers[l];
-        geom_t g;
-        g.wi = width / c.f[L->in];
-        g.hi = height / c.f[L->in];
-        g.ci = c.chan[L->in];
-        g.wo = width / c.f[l + 1u];
-        g.ho = height / c.f[l + 1u];
-        g.co = c.chan[l + 1u];
-        g.zp_in = c.zp[L->in];
-        const int8_t *in = tensor_at(base, p, L->in);
-        int8_t *o = tensor_at(base, p, l + 1u);
-        uint8_t *scr = base + p->off[3u + 2u * l];
-        switch (L->op) {
-        case VD_CNN_OP_CONV3X3:
-        case VD_CNN_OP_CONV5X5:
-        case VD_CNN_OP_PW1X1:
-            run_conv_pw(L, &g, in, o, scr);
-            break;
-        case VD_CNN_OP_DW3X3:
-            run_dw(L, &g, in, o, scr);
-            break;
-        case VD_CNN_OP_MAXPOOL2:
-            run_maxpool(&g, in, o);
-            break;
-        case VD_CNN_OP_UPSAMPLE2:
-            run_upsample(&g, in, o);
-            break;
-        default:
-            run_concat(L, &g, in, tensor_at(base, p, L->in2), o);
-            break;
-        }
-    }
+    // Streamed, item 1 ends with a row buffer for a row function.
+    uint8_t *buf = (rows != NULL) ? base + p->off[1] + p->len[1] - round_up(width, VD_CNN_ITEM_ALIGN) : NULL;
+    const in_src_t src = {img, stride_bytes, rows, buf};
+    const int8_t *lut = norm_table(m, &src, width, height, base + p->off[1]);
+    const ring_t t0 = ring_of(base, p, &c, 0u);
     const uint32_t n = m->n_layers;
-    out->data = tensor_at(base, p, n);
+    if ((flags & VD_CNN_STREAM) == 0u) {
+        input_rows(&src, width, lut, &t0, 0u, height);
+        for (uint32_t l = 0u; l < n; l++) {
+            layer_rows(m, &c, p, base, l, 0u, height / c.f[l + 1u]);
+        }
+    } else {
+        const run_io_t io = {&src, lut, base, &c};
+        uint32_t target, max_steps;
+        sched_start(p, &target, &max_steps);
+        for (uint32_t k = 0u; k < max_steps && sched_next(m, p, &target); k++) {
+            for (uint32_t t = 0u; t <= n; t++) {
+                if (p->req[t] > p->done[t]) {
+                    produce(m, p, &io, t);
+                    p->done[t] = p->req[t];
+                }
+            }
+        }
+        VD_ASSERT(p->done[n] == p->h[n]);
+    }
+    out->data = ring_of(base, p, &c, n).base;
     out->w = width / c.f[n];
     out->h = height / c.f[n];
     out->c = c.chan[n];
@@ -1162,6 +1526,20 @@ vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t 
     out->zp = c.zp[n];
     p->magic = VD_CNN_REC_MAGIC;
     return VD_OK;
+}
+
+vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
+                          uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
+{
+    VD_VERIFY(img != NULL, VD_ERR_ARG);
+    return run_any(m, img, NULL, width, height, stride_bytes, flags, ws, bytes, out);
+}
+
+vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, uint32_t width, uint32_t height,
+                            uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
+{
+    VD_VERIFY(rows != NULL && rows->row != NULL && (flags & VD_CNN_STREAM) != 0u, VD_ERR_ARG);
+    return run_any(m, NULL, rows, width, height, 0u, flags, ws, bytes, out);
 }
 
 vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
@@ -1179,22 +1557,27 @@ vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes,
     VD_VERIFY(size_ok(m, width, height) && index <= m->n_layers, VD_ERR_ARG);
     VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
-    const vd_cnn_plan_t *rec = (const vd_cnn_plan_t *)ws;
-    VD_VERIFY(rec->magic == VD_CNN_REC_MAGIC && rec->width == width && rec->height == height && rec->crc == m->crc32 &&
-                  rec->size == m->size && (rec->flags & ~VD_CNN_KEEP_TENSORS) == 0u,
+    const vd_cnn_plan_t *p = (const vd_cnn_plan_t *)ws;
+    VD_VERIFY(p->magic == VD_CNN_REC_MAGIC && p->width == width && p->height == height && p->crc == m->crc32 &&
+                  p->size == m->size && (p->flags & ~CNN_FLAGS) == 0u && p->n_items == 2u + 2u * m->n_layers,
               VD_ERR_STATE);
-    // The layout is recomputed, not read back: the record only says which.
-    vd_cnn_plan_t p;
-    VD_TRY(plan_make(m, &c, width, height, rec->flags, &p));
-    VD_VERIFY(bytes >= p.total, VD_ERR_WORKSPACE);
+    VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
+    // The plan is read back from the record the run wrote (no plan on the
+    // stack: this call is on the detector's path through the boosted
+    // verifier). The record is caller memory, so what is used is checked:
+    // the tensor lies inside the workspace, after the record, whole.
     const uint32_t it = item_of_tensor(index);
-    for (uint32_t j = 0u; j < p.n_items; j++) {
-        const bool later = p.first[j] > p.last[it];
-        const bool overlap = p.len[j] != 0u && (uint64_t)p.off[j] < (uint64_t)p.off[it] + p.len[it] &&
-                             (uint64_t)p.off[it] < (uint64_t)p.off[j] + p.len[j];
+    const uint64_t tb = tensor_bytes(&c, index, width, height / c.f[index]);
+    VD_VERIFY(p->rows[index] == height / c.f[index] && p->len[it] >= tb && p->off[it] >= VD_CNN_REC_BYTES &&
+                  (uint64_t)p->off[it] + p->len[it] <= p->total,
+              VD_ERR_STATE);   // streamed: only whole tensors (the head, or every one with KEEP_TENSORS)
+    for (uint32_t j = 0u; j < p->n_items; j++) {
+        const bool later = p->first[j] > p->last[it];
+        const bool overlap = p->len[j] != 0u && (uint64_t)p->off[j] < (uint64_t)p->off[it] + p->len[it] &&
+                             (uint64_t)p->off[it] < (uint64_t)p->off[j] + p->len[j];
         VD_VERIFY(!(later && overlap), VD_ERR_STATE);
     }
-    t->data = (const int8_t *)((const uint8_t *)ws + p.off[it]);
+    t->data = (const int8_t *)((const uint8_t *)ws + p->off[it]);
     t->w = width / c.f[index];
     t->h = height / c.f[index];
     t->c = c.chan[index];

@@ -30,8 +30,9 @@
 // per missed confirmed track.
 // Stack: vd_detector_run's own frame about 112 bytes (Cortex-M7 -Os;
 // per-candidate state is in the workspace), plus the deepest stage below it
-// (the CNN source -> vd_cnn_run's kernels, 1 092 bytes in all; else refine ->
-// median; docs/embedded.md); no recursion.
+// (the boosted verifier -> vd_cnn_run_ex's kernels, 1 556 bytes in all;
+// the CNN source -> vd_cnn_run_rows; refine -> median; docs/embedded.md);
+// no recursion.
 #include "vd/detector.h"
 
 #include <string.h>

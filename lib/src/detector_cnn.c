@@ -3,7 +3,8 @@
 // into the merged candidate list.
 //
 // Algorithm (issue 10, CenterNet-style detection with cnn.h): the frame is
-// box-averaged 2x2 (8-bit: (a + b + c + d + 2) >> 2; 16-bit: the rounded raw
+// box-averaged 2x2, row by row as the streamed network asks for them
+// (vd_cnn_run_rows, VD_CNN_STREAM) (8-bit: (a + b + c + d + 2) >> 2; 16-bit: the rounded raw
 // mean through the detector's grey map), the floor(W/2) x floor(H/2) plane is
 // padded to multiples of the model's alignment by repeating its last column
 // and row (numpy np.pad mode "edge"), the network runs once, its heatmap
@@ -14,8 +15,8 @@
 // Bounds: O(W*H) for the plane and padding, vd_cnn_macs() multiply-adds for
 // the network, O(Wo*Ho*(1 + max_peaks)) for decoding, O(max_peaks) for the
 // merge. Memory: the overlay (plane, network workspace, boxes; see
-// detector_init.c). Stack: this file's frames plus vd_cnn_run (~730 bytes on
-// Cortex-M7 -Os); no recursion.
+// detector_init.c). Stack: this file's frames plus vd_cnn_run_rows (~1.1 KiB
+// on Cortex-M7 -Os, docs/embedded.md); no recursion.
 #include <string.h>
 
 #include "vd/resample.h"
@@ -36,36 +37,35 @@ void vd_det_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint
     *nh = (hh + a - 1u) / a * a;
 }
 
-// Half-resolution plane of f (hw x hh, row stride nw) padded to nw x nh by
-// repeating the last real column, then the last real row.
-VD_DET_NOINLINE static vd_status_t make_input(const vd_detector_t *det, const vd_frame_t *f, uint32_t nw,
-                                              uint32_t nh)
+// Rows of the half-resolution plane of f (hw x hh) padded to nw x nh by
+// repeating the last real column, then the last real row, made on demand
+// for vd_cnn_run_rows (the plane itself is never stored: 80 KiB at 640 x 512).
+typedef struct cnn_rows_ctx {
+    const vd_detector_t *det;
+    vd_view_u8_t v8;
+    vd_view_u16_t v16;
+    bool wide;          // 16-bit frame
+    uint32_t hw, hh, nw;
+    vd_status_t st;     // first failure of a row (none expected: the views are checked up front)
+} cnn_rows_ctx_t;
+
+static void cnn_row(void *ctx, uint32_t y, uint8_t *dst)
 {
-    const uint32_t hw = f->width / 2u;
-    const uint32_t hh = f->height / 2u;
-    uint8_t *p = det->cnn_plane;
-    vd_image_u8_t dst = {p, hw, hh, nw};
+    cnn_rows_ctx_t *r = (cnn_rows_ctx_t *)ctx;
+    const uint32_t sy = (y < r->hh) ? y : r->hh - 1u;
+    vd_image_u8_t d = {dst, r->hw, 1u, r->nw};
     // The ROI is the even part of the frame: an odd last column/row is not read.
-    const vd_rect_t roi = {0, 0, (int32_t)(2u * hw), (int32_t)(2u * hh)};
-    if (f->format == VD_PIX_U8) {
-        vd_view_u8_t v;
-        VD_TRY(vd_frame_view_u8(f, &v));
-        VD_TRY(vd_resample_box_u8(&v, &roi, 2u, 2u, &dst));
-    } else {
-        vd_view_u16_t v;
-        VD_TRY(vd_frame_view_u16(f, &v));
-        VD_TRY(vd_resample_box_u16(&v, &roi, 2u, 2u, &det->grey, &dst));
+    const vd_rect_t roi = {0, (int32_t)(2u * sy), (int32_t)(2u * r->hw), 2};
+    const vd_status_t st = r->wide ? vd_resample_box_u16(&r->v16, &roi, 2u, 2u, &r->det->grey, &d)
+                                   : vd_resample_box_u8(&r->v8, &roi, 2u, 2u, &d);
+    if (st != VD_OK) {
+        r->st = (r->st == VD_OK) ? st : r->st;
+        memset(dst, 0, r->nw);
+        return;
     }
-    if (nw > hw) {
-        for (uint32_t y = 0u; y < hh; y++) {
-            uint8_t *row = p + (size_t)y * nw;
-            memset(row + hw, row[hw - 1u], nw - hw);
-        }
+    if (r->nw > r->hw) {
+        memset(dst + r->hw, dst[r->hw - 1u], r->nw - r->hw);
     }
-    for (uint32_t y = hh; y < nh; y++) {
-        memcpy(p + (size_t)y * nw, p + (size_t)(hh - 1u) * nw, nw);
-    }
-    return VD_OK;
 }
 
 // Q15 score -> Q8, rounded half up; 1.0 (32768) saturates at 255.
@@ -87,9 +87,23 @@ vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n
     if (nw == 0u || nh == 0u) {
         return VD_OK;   // a frame under 2 x 2 pixels has no half-resolution plane
     }
-    VD_TRY(make_input(det, f, nw, nh));
+    cnn_rows_ctx_t r;
+    memset(&r, 0, sizeof r);
+    r.det = det;
+    r.wide = f->format != VD_PIX_U8;
+    r.hw = f->width / 2u;
+    r.hh = f->height / 2u;
+    r.nw = nw;
+    r.st = VD_OK;
+    if (r.wide) {
+        VD_TRY(vd_frame_view_u16(f, &r.v16));
+    } else {
+        VD_TRY(vd_frame_view_u8(f, &r.v8));
+    }
+    const vd_cnn_rows_t rows = {cnn_row, &r};
     vd_cnn_output_t head;
-    VD_TRY(vd_cnn_run(m, det->cnn_plane, nw, nh, nw, det->cnn_ws, det->cnn_ws_bytes, &head));
+    VD_TRY(vd_cnn_run_rows(m, &rows, nw, nh, VD_CNN_STREAM, det->cnn_ws, det->cnn_ws_bytes, &head));
+    VD_TRY(r.st);
     size_t nb = 0u;
     VD_TRY(vd_cnn_decode(m, &head, det->cnn_thr_q, 0u, 2u * nw, 2u * nh, det->cnn_boxes, det->cnn_boxes_cap, &nb));
     det->stats.cnn_boxes = (uint32_t)nb;

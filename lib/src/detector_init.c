@@ -8,8 +8,8 @@
 // per-candidate region buffers (crop, mask, refine workspace, which the
 // contour tracer reuses), then the contrast source's strip workspace and the
 // window pre-filter's integrals; with the CNN source, first of all the
-// network's input plane, workspace and decoded boxes. No hot mask and no buffer per frame pixel
-// except the labeller's row buffers (and the CNN's half-resolution plane).
+// network's streamed workspace (row rings; its input rows are made on demand) and decoded
+// boxes. No hot mask and no buffer per frame pixel except the labeller's row buffers.
 // Bounds: O(1) time and stack, plus the CNN planner (O(layers^2), ~950 bytes
 // of stack, cnn.h) when the source is on; no allocation.
 #include <string.h>
@@ -146,7 +146,7 @@ typedef struct layout {
     size_t comps, cand, obs, tracks, hist, sample, dbn, scratch;
     size_t cc, crop, rmask, refine, contour, points, contours;
     size_t contrast, integral;
-    size_t cnn_plane, cnn_ws, cnn_boxes;
+    size_t cnn_ws, cnn_boxes;
     size_t points_cap, contours_cap, cnn_boxes_cap;
     int32_t cnn_thr_q;
     bool cnn_never;
@@ -181,10 +181,11 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     // Decoding scales to 2 nw x 2 nh, which must be a valid frame size.
     VD_VERIFY(nw <= VD_CNN_MAX_SIDE && nh <= VD_CNN_MAX_SIDE && nw <= VD_MAX_DIM / 2u && nh <= VD_MAX_DIM / 2u,
               VD_ERR_ARG);
-    st = vd_cnn_workspace_size(m, nw, nh, &l->cnn_ws);
+    // Streamed: the network keeps row rings, and its input rows are made on
+    // demand from the frame (no input plane).
+    st = vd_cnn_workspace_size_ex(m, nw, nh, VD_CNN_STREAM, &l->cnn_ws);
     VD_VERIFY(st != VD_ERR_STATE, VD_ERR_MODEL);
     VD_TRY(st);
-    l->cnn_plane = (size_t)nw * nh;
     l->cnn_boxes_cap = m->max_peaks;
     l->cnn_boxes = l->cnn_boxes_cap * sizeof(vd_cnn_box_t);
     return VD_OK;
@@ -250,7 +251,7 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_dbn_model_t *model,
 // workspace, reused by the contour tracer (its plane, points and contours)
 // once vd_refine_region has returned; C = the window pre-filter's integrals
 // between the hot-spot refinement and the verification of all candidates;
-// D = the CNN's plane, workspace and boxes, before labelling (the boxes are
+// D = the CNN's streamed workspace and boxes, before labelling (the boxes are
 // copied into the candidate table before A is touched); E = the contrast
 // source's workspace, after the hot-spot refinement and before C (its
 // components go to the comps table, its boxes to the candidate table).
@@ -268,8 +269,7 @@ static vd_status_t overlay_size(const layout_t *l, size_t *work_out, size_t *tot
     const size_t work = rf > tr ? rf : tr;
     VD_VERIFY(vd_size_add_slice(&b, l->crop) && vd_size_add_slice(&b, l->rmask) && vd_size_add_slice(&b, work),
               VD_ERR_OVERFLOW);
-    VD_VERIFY(vd_size_add_slice(&d, l->cnn_plane) && vd_size_add_slice(&d, l->cnn_ws) &&
-              vd_size_add_slice(&d, l->cnn_boxes), VD_ERR_OVERFLOW);
+    VD_VERIFY(vd_size_add_slice(&d, l->cnn_ws) && vd_size_add_slice(&d, l->cnn_boxes), VD_ERR_OVERFLOW);
     *work_out = work;
     *total = a > b ? a : b;
     *total = (l->integral > *total) ? l->integral : *total;
@@ -359,9 +359,8 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->contour_ws_bytes = l.contour;
     det->points_cap = l.points_cap;
     det->contours_cap = l.contours_cap;
-    if (l.cnn_plane != 0u) {
+    if (l.cnn_ws != 0u) {
         vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // D of overlay_size
-        det->cnn_plane = (uint8_t *)vd_arena_take(&a, l.cnn_plane);
         det->cnn_ws = vd_arena_take(&a, l.cnn_ws);
         det->cnn_ws_bytes = l.cnn_ws;
         det->cnn_boxes = (vd_cnn_box_t *)vd_arena_take(&a, l.cnn_boxes);

@@ -1,12 +1,15 @@
 // SPDX-License-Identifier: MIT
-// Fuzz harness: the CNN loader (vd_cnn_load) and, on whatever it accepts, vd_cnn_run and vd_cnn_decode on a tiny input.
+// Fuzz harness: the CNN loader (vd_cnn_load) and, on whatever it accepts, vd_cnn_run (whole plane and
+// streamed) and vd_cnn_decode on a tiny input.
 //
 // Input: one control byte, then the blob (or a plain blob starting with "VDMF"). Control bit 0: rewrite
 // the blob's CRC-32 field (when the claimed total size lies inside the input) so mutations reach the
 // structural checks; bit 1: offer the blob with 1..3 extra trailing bytes (flash padding, ignored by the
 // loader); bit 2: run at twice the model's alignment in width; bits 3-7: frame size for decoding.
 // A loaded model must be self-consistent; the workspace query must agree with the run (one byte less
-// gives VD_ERR_WORKSPACE); the run must be deterministic whatever the workspace held; decoded boxes lie
+// gives VD_ERR_WORKSPACE), also for the streamed run (VD_CNN_STREAM, from the plane and from a row
+// source), whose head must equal the whole-plane head; the run must be deterministic whatever the
+// workspace held; decoded boxes lie
 // inside the frame, at most the capacity, in logit order. Networks above 4 M multiply-adds or 32 MB of
 // workspace are only loaded and sized (keeps an execution fast).
 #include "fuzz_common.h"
@@ -69,6 +72,17 @@ static void check_model(const vd_cnn_model_t *m, const uint8_t *blob, size_t byt
     FZ_CHECK(m->layers[m->n_layers - 1u].cout == m->out_channels);
 }
 
+typedef struct plane {
+    const uint8_t *img;
+    uint32_t w;
+} plane_t;
+
+static void plane_row(void *ctx, uint32_t y, uint8_t *dst)
+{
+    const plane_t *p = (const plane_t *)ctx;
+    memcpy(dst, p->img + (size_t)y * p->w, p->w);
+}
+
 static void run_checks(const vd_cnn_model_t *m, const uint8_t *blob, size_t bytes, uint8_t ctl)
 {
     const uint32_t w = m->align * ((ctl & 4u) ? 2u : 1u);
@@ -109,6 +123,22 @@ static void run_checks(const vd_cnn_model_t *m, const uint8_t *blob, size_t byte
     FZ_CHECK(out2.data == out.data && memcmp(copy, out2.data, head) == 0);   // no state, no stale reads
     vd_cnn_output_t t;
     FZ_CHECK(vd_cnn_tensor(m, ws, wsb, w, h, m->n_layers, &t) == VD_OK && t.data == out.data);
+
+    // The streamed executor: its own exact workspace, the same head bytes,
+    // from the plane and from a row source.
+    size_t sb = 0u;
+    FZ_CHECK(vd_cnn_workspace_size_ex(m, w, h, VD_CNN_STREAM, &sb) == VD_OK && sb > 0u);
+    uint8_t *ws2 = fz_alloc(sb);
+    memset(ws2, 0x5A, sb);
+    FZ_CHECK(vd_cnn_run_ex(m, img, w, h, w, VD_CNN_STREAM, ws2, sb - 1u, &out2) == VD_ERR_WORKSPACE);
+    FZ_CHECK(vd_cnn_run_ex(m, img, w, h, w, VD_CNN_STREAM, ws2, sb, &out2) == VD_OK);
+    FZ_CHECK(inside(out2.data, head, ws2, ws2 + sb) && memcmp(copy, out2.data, head) == 0);
+    memset(ws2, 0xA5, sb);
+    plane_t pl = {img, w};
+    const vd_cnn_rows_t rows = {plane_row, &pl};
+    FZ_CHECK(vd_cnn_run_rows(m, &rows, w, h, VD_CNN_STREAM, ws2, sb, &out2) == VD_OK);
+    FZ_CHECK(memcmp(copy, out2.data, head) == 0);
+    free(ws2);
 
     // Decoding: default and extreme thresholds, small capacities, a frame of 1..32 pixels.
     const uint32_t fw = 1u + (ctl >> 3), fh = 1u + ((ctl >> 3) ^ 7u);

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Unit tests of the int8 CNN (vd/cnn.h): hand-worked ops, requantisation, stretch, planner, decoding,
-// random models against a naive reference, hostile blobs.
+// random models against a naive reference, the streamed executor against the whole-plane one, hostile blobs.
 //
 // Test models are written by a small C writer (tm_write) in the layout of
 // docs/model-format.md, so the test needs no Python. The naive reference
@@ -385,10 +385,12 @@ static void ref_forward(const tm_t *d, const uint8_t *img, uint32_t w, uint32_t 
                     switch (L->op) {
                     case VD_CNN_OP_CONV3X3:
                     case VD_CNN_OP_DW3X3:
-                        for (int32_t ky = 0; ky < 3; ky++) {
-                            for (int32_t kx = 0; kx < 3; kx++) {
-                                const int32_t iy = (int32_t)(oy * L->stride) - 1 + ky;
-                                const int32_t ix = (int32_t)(ox * L->stride) - 1 + kx;
+                    case VD_CNN_OP_CONV5X5: {
+                        const int32_t ks = (L->op == VD_CNN_OP_CONV5X5) ? 5 : 3;
+                        for (int32_t ky = 0; ky < ks; ky++) {
+                            for (int32_t kx = 0; kx < ks; kx++) {
+                                const int32_t iy = (int32_t)(oy * L->stride) - ks / 2 + ky;
+                                const int32_t ix = (int32_t)(ox * L->stride) - ks / 2 + kx;
                                 if (iy < 0 || ix < 0 || iy >= (int32_t)hi || ix >= (int32_t)wi) {
                                     continue;
                                 }
@@ -397,7 +399,8 @@ static void ref_forward(const tm_t *d, const uint8_t *img, uint32_t w, uint32_t 
                                     sum += (int64_t)L->w[(ky * 3 + kx) * (int32_t)co + (int32_t)o] * (xp[o] - zin);
                                 } else {
                                     for (uint32_t c = 0u; c < ci; c++) {
-                                        sum += (int64_t)L->w[((o * 3u + (uint32_t)ky) * 3u + (uint32_t)kx) * ci + c] *
+                                        const uint32_t k = (uint32_t)ks;
+                                        sum += (int64_t)L->w[((o * k + (uint32_t)ky) * k + (uint32_t)kx) * ci + c] *
                                                (xp[c] - zin);
                                     }
                                 }
@@ -405,6 +408,7 @@ static void ref_forward(const tm_t *d, const uint8_t *img, uint32_t w, uint32_t 
                         }
                         yo[o] = ref_out(L, o, sum);
                         break;
+                    }
                     case VD_CNN_OP_PW1X1:
                         for (uint32_t c = 0u; c < ci; c++) {
                             sum += (int64_t)L->w[o * ci + c] * (x[((size_t)oy * wi + ox) * ci + c] - zin);
@@ -1055,7 +1059,7 @@ static void test_run_arguments(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 4100u, 8u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 0u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 8u, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 8u, 8u, 2u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 8u, 8u, 4u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(NULL, img, 8u, 8u, 16u, ws, bytes, &out));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, NULL, 8u, 8u, 16u, ws, bytes, &out));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, img, 8u, 8u, 16u, ws, bytes, NULL));
@@ -1787,6 +1791,230 @@ static void test_thr_from_score(void)
     TEST_ASSERT_EQUAL_INT32(-126, thr);
 }
 
+// ------------------------------------------------------------ streamed executor
+
+#ifndef VD_SOURCE_DIR
+#define VD_SOURCE_DIR "."
+#endif
+
+typedef struct stream_ctx {
+    const vd_cnn_model_t *m;
+    const uint8_t *img;
+    uint32_t w, h;
+} stream_ctx_t;
+
+static vd_status_t stream_fn(void *ws, size_t bytes, void *ctx)
+{
+    const stream_ctx_t *c = (const stream_ctx_t *)ctx;
+    vd_cnn_output_t out;
+    return vd_cnn_run_ex(c->m, c->img, c->w, c->h, c->w, VD_CNN_STREAM, ws, bytes, &out);
+}
+
+typedef struct plane_rows {
+    const uint8_t *img;
+    uint32_t w, h;
+    uint32_t calls;
+    uint32_t next;    // next row expected by the in-order check
+    bool in_order;
+} plane_rows_t;
+
+static void plane_row(void *ctx, uint32_t y, uint8_t *dst)
+{
+    plane_rows_t *r = (plane_rows_t *)ctx;
+    TEST_ASSERT_TRUE(y < r->h);
+    if (y == 0u) {
+        r->next = 0u;   // a new pass (histogram, then the network)
+    }
+    r->in_order = r->in_order && y == r->next;
+    r->next = y + 1u;
+    memcpy(dst, r->img + (size_t)y * r->w, r->w);
+    r->calls++;
+}
+
+// Whole-plane head of m on img (w x h) against the streamed run from the
+// plane and from a row source, in guarded workspaces of exactly the queried
+// sizes (the streamed one prefilled with garbage); then the streamed
+// workspace contract (size - 1 fails, guards intact).
+static void stream_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h, const char *what)
+{
+    size_t whole = 0u, streamed = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(m, w, h, &whole));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(m, w, h, VD_CNN_STREAM, &streamed));
+    void *ws = tu_guarded_alloc(0, whole);
+    vd_cnn_output_t a, b, c;
+    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_run(m, img, w, h, w, ws, whole, &a), what);
+    void *ws2 = tu_guarded_alloc(1, streamed);
+    memset(ws2, 0xA5, streamed);
+    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_run_ex(m, img, w, h, w, VD_CNN_STREAM, ws2, streamed, &b), what);
+    TEST_ASSERT_EQUAL_UINT32(a.w, b.w);
+    TEST_ASSERT_EQUAL_UINT32(a.h, b.h);
+    TEST_ASSERT_EQUAL_UINT32(a.c, b.c);
+    TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(a.data, b.data, a.w * a.h * a.c, what);
+    // The head stays readable through vd_cnn_tensor; ring tensors do not.
+    vd_cnn_output_t t;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(m, ws2, streamed, w, h, m->n_layers, &t));
+    TEST_ASSERT_EQUAL_PTR(b.data, t.data);
+    memset(ws2, 0x5A, streamed);
+    plane_rows_t pr = {img, w, h, 0u, 0u, true};
+    const vd_cnn_rows_t rows = {plane_row, &pr};
+    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_run_rows(m, &rows, w, h, VD_CNN_STREAM, ws2, streamed, &c), what);
+    TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(a.data, c.data, a.w * a.h * a.c, what);
+    // Every row once for the network, once more for a stretch histogram; in order.
+    TEST_ASSERT_EQUAL_UINT32(h * ((m->input_norm == VD_CNN_NORM_PERCENTILE) ? 2u : 1u), pr.calls);
+    TEST_ASSERT_TRUE(pr.in_order);
+    tu_guard_check(0);
+    tu_guard_check(1);
+    tu_guarded_free(1);
+    tu_guarded_free(0);
+    stream_ctx_t ctx = {m, img, w, h};
+    tu_check_workspace_contract(streamed, stream_fn, &ctx);
+}
+
+// Architecture 2 (alignment 4, head stride 4): 5x5 stride-2 stem, a dead
+// branch (tensor 2: no consumer), max-pool, 3x3 and 5x5 stride 1, a concat
+// skip of the max-pool output, pointwise head 3.
+static void rnd_model2(tm_t *d, uint32_t seed)
+{
+    uint32_t st = seed * 2246822519u + 3u;
+    pools_reset();
+    g_wsym = seed % 2u == 1u;
+    tm_init(d, 8u, 8u, 3u, 4u);
+    d->L[0] = rnd_weighted(&st, VD_CNN_OP_CONV5X5, 2u, 0u, 1u, 4u);
+    d->L[1] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 1u, 4u, 4u);
+    d->L[2] = layer_copy(VD_CNN_OP_MAXPOOL2, 1u, 0u, 4u, 4u, d->L[0].zp);
+    d->L[3] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 1u, 3u, 4u, 6u);
+    d->L[4] = rnd_weighted(&st, VD_CNN_OP_CONV5X5, 1u, 4u, 6u, 5u);
+    d->L[4].zp = d->L[0].zp;   // the concat needs equal zero points
+    d->L[5] = layer_copy(VD_CNN_OP_CONCAT, 5u, 3u, 5u, 9u, d->L[0].zp);
+    d->L[6] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 6u, 9u, 3u);
+    d->n = 7u;
+    if (seed % 2u == 0u) {
+        d->norm = 1u;
+        d->lo = (uint16_t)(tu_rand(&st) % 100u);
+        d->hi = (uint16_t)(900u + tu_rand(&st) % 101u);
+        d->min_range = (uint16_t)(1u + tu_rand(&st) % 64u);
+    }
+}
+
+// Random models of every op (architectures 0-2: upsample/concat skips,
+// stride 2 down to odd tensor sizes, max-pools, 5x5, a dead branch): the
+// streamed head equals the whole-plane head; with VD_CNN_KEEP_TENSORS too,
+// every computed tensor equals the naive reference and the dead one is
+// reported as not available.
+static void test_stream_random_models_match_whole_plane(void)
+{
+    static const uint32_t sizes[3][5][2] = {{{8, 8}, {16, 8}, {24, 16}, {40, 24}, {56, 40}},
+                                            {{8, 8}, {16, 8}, {24, 16}, {40, 24}, {56, 40}},
+                                            {{4, 4}, {12, 8}, {20, 12}, {36, 20}, {44, 28}}};
+    static uint8_t img[56 * 40];
+    for (uint32_t arch = 0u; arch < 3u; arch++) {
+        for (uint32_t seed = 0u; seed < 4u; seed++) {
+            tm_t d;
+            if (arch < 2u) {
+                rnd_model(&d, arch, seed);
+            } else {
+                rnd_model2(&d, seed);
+            }
+            for (uint32_t si = 0u; si < 5u; si++) {
+                const uint32_t w = sizes[arch][si][0], h = sizes[arch][si][1];
+                rnd_image(img, w, h, seed * 5u + si + 100u);
+                char msg[64];
+                snprintf(msg, sizeof msg, "arch %u seed %u size %ux%u", (unsigned)arch, (unsigned)seed,
+                         (unsigned)w, (unsigned)h);
+                TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, tm_load(&d, &g_m), msg);
+                stream_check(&g_m, img, w, h, msg);
+                int8_t *ref[VD_CNN_MAX_TENSORS];
+                ref_forward(&d, img, w, h, ref);
+                size_t bytes = 0u;
+                const uint32_t fl = VD_CNN_STREAM | VD_CNN_KEEP_TENSORS;
+                TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&g_m, w, h, fl, &bytes));
+                void *ws = tu_guarded_alloc(2, bytes);
+                vd_cnn_output_t head;
+                TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run_ex(&g_m, img, w, h, w, fl, ws, bytes, &head));
+                for (uint32_t t = 0u; t <= d.n; t++) {
+                    vd_cnn_output_t x;
+                    const vd_status_t st = vd_cnn_tensor(&g_m, ws, bytes, w, h, t, &x);
+                    if (arch == 2u && t == 2u) {
+                        TEST_ASSERT_EQUAL_INT_MESSAGE(VD_ERR_STATE, st, msg);   // dead branch: never computed
+                        continue;
+                    }
+                    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, st, msg);
+                    TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(ref[t], x.data, x.w * x.h * x.c, msg);
+                }
+                tu_guard_check(2);
+                tu_guarded_free(2);
+                // Streamed alone, a ring tensor cannot be read back.
+                if (d.n >= 2u) {
+                    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&g_m, w, h, VD_CNN_STREAM, &bytes));
+                    ws = tu_guarded_alloc(2, bytes);
+                    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run_ex(&g_m, img, w, h, w, VD_CNN_STREAM, ws, bytes, &head));
+                    vd_cnn_output_t x;
+                    if (h / g_m.align > 2u) {
+                        TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_tensor(&g_m, ws, bytes, w, h, 1u, &x));
+                    }
+                    tu_guarded_free(2);
+                }
+                for (uint32_t t = 0u; t <= d.n; t++) {
+                    free(ref[t]);
+                }
+            }
+        }
+    }
+}
+
+// The committed networks (models/vd_cnn*.vdm): streamed == whole plane on
+// thermal-like frames at the detector's input sizes for frames of 640x512,
+// 640x480, 200x120, 66x34 and 16x16 (half resolution, padded to the
+// alignment as the detector pads: 320x256, 320x240, 100x60 -> 112x64, 33x17
+// -> 48x32, 8x8 -> 16x16 for alignment 16).
+static uint32_t g_model_buf[(128u * 1024u) / 4u];
+
+static bool load_file_model(const char *path, vd_cnn_model_t *m)
+{
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        return false;
+    }
+    const size_t n = fread(g_model_buf, 1, sizeof g_model_buf, f);
+    fclose(f);
+    return vd_cnn_load(m, g_model_buf, n) == VD_OK;
+}
+
+static void test_stream_committed_models_match_whole_plane(void)
+{
+    static const char *const paths[2] = {VD_SOURCE_DIR "/models/vd_cnn.vdm", VD_SOURCE_DIR "/models/vd_cnn_compact.vdm"};
+    static const uint32_t sizes[5][2] = {{320, 256}, {320, 240}, {100, 60}, {33, 17}, {8, 8}};
+    static uint8_t img[320 * 256];
+    static vd_cnn_model_t m;
+    uint32_t loaded = 0u;
+    for (uint32_t mi = 0u; mi < 2u; mi++) {
+        if (!load_file_model(paths[mi], &m)) {
+            continue;   // a checkout without the models: the random models above still run
+        }
+        loaded++;
+        const uint32_t a = m.align;
+        for (uint32_t si = 0u; si < 5u; si++) {
+            const uint32_t w = (sizes[si][0] + a - 1u) / a * a;
+            const uint32_t h = (sizes[si][1] + a - 1u) / a * a;
+            // Warm blobs (vehicles) on a sky-to-road gradient with noise.
+            uint32_t st = 99u + si * 7u + mi;
+            for (uint32_t y = 0u; y < h; y++) {
+                for (uint32_t x = 0u; x < w; x++) {
+                    uint32_t v = 40u + (y * 120u) / h + (tu_rand(&st) & 15u);
+                    if (((x / 12u) * 5u + (y / 9u) * 3u + si) % 13u == 0u) {
+                        v += 90u;
+                    }
+                    img[(size_t)y * w + x] = (uint8_t)(v > 255u ? 255u : v);
+                }
+            }
+            char msg[96];
+            snprintf(msg, sizeof msg, "%s %ux%u", m.name, (unsigned)w, (unsigned)h);
+            stream_check(&m, img, w, h, msg);
+        }
+    }
+    TEST_ASSERT_TRUE(loaded == 2u);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -1809,6 +2037,8 @@ int main(void)
     RUN_TEST(test_thr_from_score);
     RUN_TEST(test_random_models_match_naive_reference);
     RUN_TEST(test_depthwise_extremes_match_reference);
+    RUN_TEST(test_stream_random_models_match_whole_plane);
+    RUN_TEST(test_stream_committed_models_match_whole_plane);
     RUN_TEST(test_structural_corruptions_rejected);
     RUN_TEST(test_every_bit_flip_and_truncation_rejected);
     return UNITY_END();

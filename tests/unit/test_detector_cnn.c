@@ -313,9 +313,11 @@ static void test_odd_frame_padding_and_clipping(void)
     vd_frame_t f = frame8(61u, 45u);
     TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
     expect_box(&g_out[0], 52, 36, 9, 9, 230u);   // 16 x 16 at (52, 36), clipped to 61 x 45
-    // The network input itself (white box: the plane stays in the overlay
-    // after a CNN-only run): exact 2x2 means rounded half up, then the last
-    // real column and row repeated, on a pseudo-random frame.
+    // The network input itself: exact 2x2 means rounded half up, then the
+    // last real column and row repeated, on a pseudo-random frame. The
+    // detector makes these rows on demand (no plane is stored), so the head
+    // it leaves in its workspace (white box: the overlay after a CNN-only
+    // run) is compared with a whole-plane run on the expected plane.
     uint32_t seed = 12345u;
     for (uint32_t y = 0u; y < 45u; y++) {
         for (uint32_t x = 0u; x < 61u; x++) {
@@ -323,16 +325,21 @@ static void test_odd_frame_padding_and_clipping(void)
         }
     }
     (void)run_ok(&f);
-    const uint8_t *p = g_det.cnn_plane;
+    static uint8_t plane[24u * 32u];
     for (uint32_t y = 0u; y < 24u; y++) {
         for (uint32_t x = 0u; x < 32u; x++) {
             const uint32_t sx = (x < 30u ? x : 29u) * 2u;
             const uint32_t sy = (y < 22u ? y : 21u) * 2u;
             const uint32_t sum = (uint32_t)g_px[sy][sx] + g_px[sy][sx + 1u] + g_px[sy + 1u][sx] +
                                  g_px[sy + 1u][sx + 1u];
-            TEST_ASSERT_EQUAL_UINT8((uint8_t)((sum + 2u) >> 2), p[y * 32u + x]);
+            plane[y * 32u + x] = (uint8_t)((sum + 2u) >> 2);
         }
     }
+    vd_cnn_output_t got, want;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&g_cnn, g_det.cnn_ws, g_det.cnn_ws_bytes, 32u, 24u, 3u, &got));
+    static uint64_t ws2[4096];
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run(&g_cnn, plane, 32u, 24u, 32u, ws2, sizeof ws2, &want));
+    TEST_ASSERT_EQUAL_INT8_ARRAY(want.data, got.data, want.w * want.h * want.c);
     // A box wholly in the padding is dropped: with offsets of two cells the
     // box of cell (6, 2) (half-resolution columns 24..27: real column 24 and
     // its copies) lies right of a 50-pixel frame.
@@ -423,11 +430,12 @@ static void test_workspace_contract(void)
     size_t bytes = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &bytes));
     tu_check_workspace_contract(bytes, ws_run, NULL);
-    // The network's share: plane 48 x 40 + its workspace + 100 boxes, inside the
-    // overlay (which it extends only when larger than the other stages' needs).
+    // The network's share: its streamed workspace (input rows made on
+    // demand, no plane) + 100 boxes, inside the overlay (which it extends
+    // only when larger than the other stages' needs).
     size_t cnn = 0u;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&g_cnn, 48u, 40u, &cnn));
-    TEST_ASSERT_TRUE(bytes >= cnn + 48u * 40u + 100u * sizeof(vd_cnn_box_t));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&g_cnn, 48u, 40u, VD_CNN_STREAM, &cnn));
+    TEST_ASSERT_TRUE(bytes >= cnn + 100u * sizeof(vd_cnn_box_t));
     size_t base = 0u;
     c.sources = VD_DETECTOR_SRC_HOTSPOT;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &base));
@@ -438,8 +446,8 @@ static void test_workspace_contract(void)
     c.max_height = 512u;
     size_t big = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &big));
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&g_cnn, 320u, 256u, &cnn));
-    TEST_ASSERT_TRUE(big >= cnn + 320u * 256u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&g_cnn, 320u, 256u, VD_CNN_STREAM, &cnn));
+    TEST_ASSERT_TRUE(big >= cnn);
 }
 
 static void test_bad_configs(void)

@@ -233,8 +233,14 @@ int main(int argc, char **argv)
     int iters = 50;
     uint32_t w = 320u, h = 256u;
     const char *model_path = NULL, *write_path = NULL;
+    uint32_t flags = 0u;
+    int compare = 0;
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--iters") && i + 1 < argc) {
+        if (!strcmp(argv[i], "--stream")) {
+            flags = VD_CNN_STREAM;
+        } else if (!strcmp(argv[i], "--compare")) {
+            compare = 1;
+        } else if (!strcmp(argv[i], "--iters") && i + 1 < argc) {
             iters = atoi(argv[++i]);
         } else if (!strcmp(argv[i], "--width") && i + 1 < argc) {
             w = (uint32_t)atoi(argv[++i]);
@@ -248,7 +254,9 @@ int main(int argc, char **argv)
             g_rng = (uint32_t)strtoul(argv[++i], NULL, 10) | 1u;
         } else {
             fprintf(stderr, "usage: vd_cnn_bench [--iters N] [--width W] [--height H] [--model m.vdm] "
-                            "[--write-model out.vdm] [--seed S]\n");
+                            "[--write-model out.vdm] [--seed S] [--stream | --compare]\n"
+                            "  --stream   time the row-banded executor (VD_CNN_STREAM) instead of the whole-plane one\n"
+                            "  --compare  time both, alternating in one process, and check their heads are equal\n");
             return 2;
         }
     }
@@ -292,10 +300,14 @@ int main(int argc, char **argv)
     }
     size_t ws_bytes = 0u;
     uint64_t macs = 0u;
-    if (vd_cnn_workspace_size(&m, w, h, &ws_bytes) != VD_OK || vd_cnn_macs(&m, w, h, &macs) != VD_OK) {
+    size_t ws2_bytes = 0u;
+    if (vd_cnn_workspace_size_ex(&m, w, h, flags, &ws_bytes) != VD_OK || vd_cnn_macs(&m, w, h, &macs) != VD_OK ||
+        vd_cnn_workspace_size_ex(&m, w, h, VD_CNN_STREAM, &ws2_bytes) != VD_OK) {
         die("size not accepted by the model", NULL);
     }
     void *ws = xalloc(ws_bytes);
+    void *ws2 = xalloc(ws2_bytes);
+    double *t2s = xalloc(sizeof(double) * (size_t)iters);
     uint8_t *img = xalloc((size_t)w * h);
     double *t = xalloc(sizeof(double) * (size_t)iters);
     vd_cnn_output_t out;
@@ -314,11 +326,30 @@ int main(int argc, char **argv)
                 img[(size_t)y * w + x] = (uint8_t)(v > 255u ? 255u : v);
             }
         }
+        double ts = 0.0;
+        if (compare && (it & 1)) {
+            ts = -now_ms();   // odd iterations: streamed first (order effects cancel)
+            st = vd_cnn_run_ex(&m, img, w, h, w, VD_CNN_STREAM, ws2, ws2_bytes, &out);
+            ts += now_ms();
+        }
         const double t0 = now_ms();
-        st = vd_cnn_run(&m, img, w, h, w, ws, ws_bytes, &out);
+        st = (st == VD_OK) ? vd_cnn_run_ex(&m, img, w, h, w, flags, ws, ws_bytes, &out) : st;
         const double t1 = now_ms();
         if (st != VD_OK) {
             die("vd_cnn_run", vd_status_str(st));
+        }
+        if (compare) {
+            vd_cnn_output_t o2;
+            if (!(it & 1)) {
+                ts = -now_ms();
+                st = vd_cnn_run_ex(&m, img, w, h, w, VD_CNN_STREAM, ws2, ws2_bytes, &o2);
+                ts += now_ms();
+            } else {
+                st = vd_cnn_run_ex(&m, img, w, h, w, VD_CNN_STREAM, ws2, ws2_bytes, &o2);
+            }
+            if (st != VD_OK || memcmp(o2.data, out.data, (size_t)out.w * out.h * out.c) != 0) {
+                die("streamed head differs from the whole-plane head", NULL);
+            }
         }
         st = vd_cnn_decode(&m, &out, VD_CNN_THR_DEFAULT, 0u, w * 2u, h * 2u, boxes, 100u, &n_boxes);
         const double t2 = now_ms();
@@ -327,6 +358,7 @@ int main(int argc, char **argv)
         }
         if (it >= 0) {
             t[it] = t1 - t0;
+            t2s[it] = ts;
             dec_ms += t2 - t1;
         }
     }
@@ -337,12 +369,20 @@ int main(int argc, char **argv)
            (unsigned)out.h, (unsigned)out.c, (unsigned)out.stride);
     printf("multiply-adds    %.2f M\n", (double)macs / 1e6);
     printf("workspace        %zu bytes\n", ws_bytes);
-    printf("vd_cnn_run       median %.3f ms, min %.3f ms over %d runs\n", med, t[0], iters);
+    printf("vd_cnn_run       median %.3f ms, min %.3f ms over %d runs%s\n", med, t[0], iters,
+           flags ? " (streamed)" : "");
+    if (compare) {
+        qsort(t2s, (size_t)iters, sizeof(double), cmp_double);
+        printf("streamed         median %.3f ms, min %.3f ms over %d runs (alternating), workspace %zu bytes, "
+               "heads equal\n", t2s[iters / 2], t2s[0], iters, ws2_bytes);
+    }
     printf("throughput       %.2f GMAC/s (median)\n", (double)macs / (med * 1e-3) / 1e9);
     printf("vd_cnn_decode    %.3f ms (mean), %zu boxes\n", dec_ms / iters, n_boxes);
     free(t);
+    free(t2s);
     free(img);
     free(ws);
+    free(ws2);
     free(g_blob);
     return 0;
 }

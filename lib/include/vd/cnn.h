@@ -62,6 +62,15 @@ extern "C" {
 // memory so that vd_cnn_tensor() can read any of them after the run (parity
 // tests, debugging). Without it tensors share memory by liveness.
 #define VD_CNN_KEEP_TENSORS 1u
+// vd_cnn_workspace_size_ex / vd_cnn_run_ex flag: run the network in bands of
+// head rows, every tensor but the head kept as a ring of the rows its
+// consumers still read (MCUNetV2-style band inference). The head is
+// bit-identical to the whole-plane run; the workspace is a fraction of it
+// (models/vd_cnn.vdm at 320x256: docs/embedded.md). The detector uses it.
+// With VD_CNN_KEEP_TENSORS too, every tensor the head depends on is kept
+// whole (for vd_cnn_tensor); tensors the head does not depend on are not
+// computed.
+#define VD_CNN_STREAM 2u
 
 // Layer ops (field `op` of a layer entry).
 typedef enum vd_cnn_op {
@@ -172,10 +181,12 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes);
 // Returns VD_OK; VD_ERR_ARG for NULL m/bytes or a size that is 0, > 4096 or
 // not a multiple of m->align; VD_ERR_STATE if m is not loaded;
 // VD_ERR_OVERFLOW if the total does not fit 32 bits.
-// Time O(n_layers^2); stack ~950 bytes (the plan; an init-time call).
+// Time O(n_layers^2), streamed plus O((height + head height) n_layers^2) for
+// the ring sizing; stack ~1.5 KiB (the plan; an init-time call).
 vd_status_t vd_cnn_workspace_size(const vd_cnn_model_t *m, uint32_t width, uint32_t height, size_t *bytes);
 
-// As vd_cnn_workspace_size, with flags (0 or VD_CNN_KEEP_TENSORS).
+// As vd_cnn_workspace_size, with flags (0, VD_CNN_KEEP_TENSORS, VD_CNN_STREAM
+// or both). VD_ERR_ARG also for any other flag bit.
 vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
                                      size_t *bytes);
 
@@ -191,24 +202,45 @@ vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, ui
 // VD_ERR_OVERFLOW as vd_cnn_workspace_size.
 // Bit-exact with the numpy integer reference (tools/vdtools/formats/cnn_ref.py).
 // Time: vd_cnn_macs() multiply-adds plus one requantisation per output value;
-// stack ~730 bytes on Cortex-M7 -Os (the plan lives in the workspace's run
+// stack ~1.1 KiB on Cortex-M7 -Os (the plan lives in the workspace's run
 // record, not on the stack).
 vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
                        uint32_t stride_bytes, void *ws, size_t bytes, vd_cnn_output_t *out);
 
-// As vd_cnn_run, with flags (0 or VD_CNN_KEEP_TENSORS; the workspace must be
-// sized by vd_cnn_workspace_size_ex with the same flags).
+// As vd_cnn_run, with flags (0, VD_CNN_KEEP_TENSORS, VD_CNN_STREAM or both;
+// the workspace must be sized by vd_cnn_workspace_size_ex with the same flags).
 vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
                           uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out);
 
+// A source of network input rows for vd_cnn_run_rows: row(ctx, y, dst)
+// writes row y (0..height-1) of the width x height grey plane to dst (width
+// bytes, inside the workspace). It is called for every row in order for the
+// percentile histogram (models with that normalisation), then again for
+// each row, in order, as the network needs it; it must return the same
+// bytes each time and cannot fail (a caller records its own errors in ctx).
+typedef struct vd_cnn_rows {
+    void (*row)(void *ctx, uint32_t y, uint8_t *dst);
+    void *ctx;
+} vd_cnn_rows_t;
+
+// As vd_cnn_run_ex, with the input plane made row by row by `rows` instead
+// of read from memory (the detector makes its half-resolution rows this way
+// and holds no input plane). flags must include VD_CNN_STREAM.
+// Returns as vd_cnn_run_ex; VD_ERR_ARG also for NULL rows / rows->row or
+// flags without VD_CNN_STREAM.
+vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, uint32_t width, uint32_t height,
+                            uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out);
+
 // Tensor `index` (0 = preprocessed input, i+1 = output of layer i) of the
 // last run made with ws at width x height. With VD_CNN_KEEP_TENSORS every
-// tensor is available; without it only tensors that no later layer
-// overwrote (always the head).
+// tensor is available (streamed: every tensor the head depends on); without
+// it only tensors that no later layer overwrote (always the head; streamed,
+// only the head).
 // Returns VD_OK; VD_ERR_ARG for NULL arguments, bad sizes or index >
 // n_layers; VD_ERR_STATE if m is not loaded, ws holds no run of this model
 // at this size, or the tensor was overwritten; VD_ERR_WORKSPACE for a short ws.
-// Stack ~950 bytes (recomputes the plan; a debugging call).
+// The plan is read back from the run record in ws (bounds-checked against
+// bytes). Stack ~320 bytes.
 vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes, uint32_t width, uint32_t height,
                           uint32_t index, vd_cnn_output_t *t);
 

@@ -225,8 +225,8 @@ typedef struct vd_detector {
     void *scratch;               // per-candidate state (private: internal/detector_internal.h)
     void *contrast_ws;           // contrast source workspace, in the overlay (NULL when the source is off)
     size_t contrast_ws_bytes;
-    uint8_t *cnn_plane;          // CNN source (in the overlay; NULL when off): network input plane,
-    void *cnn_ws;                //   vd_cnn_run workspace for the largest input,
+    void *cnn_ws;                // CNN source (in the overlay; NULL when off): streamed vd_cnn_run_rows
+                                 //   workspace for the largest input (no input plane: rows on demand),
     size_t cnn_ws_bytes;
     vd_cnn_box_t *cnn_boxes;     //   decoded boxes (header max_peaks)
     size_t cnn_boxes_cap;

@@ -20,6 +20,21 @@
 #define VD_CNN_KCHUNK 8u
 // Channels per pass of the depthwise kernel (weight copies padded to it).
 #define VD_CNN_DWB 16u
+// Head rows per step of the streamed executor (VD_CNN_STREAM): rings grow
+// by about this many rows per tensor, per-layer set-up runs once per band.
+#ifndef VD_CNN_BAND_ROWS
+#define VD_CNN_BAND_ROWS 1u
+#endif
+// Input rows per push sub-step of the streamed schedule (>= 1): more rows
+// per kernel call (set-up amortised), taller rings.
+#ifndef VD_CNN_BAND_IN_ROWS
+#define VD_CNN_BAND_IN_ROWS 1u
+#endif
+// Streamed: output channels per int16 weight copy of a CONV / PW layer
+// (the one shared scratch holds 2 * this * K bytes of weights).
+#ifndef VD_CNN_STREAM_COUT
+#define VD_CNN_STREAM_COUT 64u
+#endif
 // Stretch histogram (uint32[256]) and its int8 lookup table.
 #define VD_CNN_HIST_BYTES (256u * 4u + 256u)
 
@@ -39,6 +54,14 @@ typedef struct vd_cnn_plan {
     uint32_t len[VD_CNN_MAX_ITEMS];
     uint8_t first[VD_CNN_MAX_ITEMS];
     uint8_t last[VD_CNN_MAX_ITEMS];
+    // Per tensor: rows kept (ring height; the height for a whole plane, 0 if
+    // never computed), height, and the row schedule's counters.
+    uint16_t rows[VD_CNN_MAX_TENSORS];
+    uint16_t h[VD_CNN_MAX_TENSORS];
+    uint16_t done[VD_CNN_MAX_TENSORS];   // rows produced so far
+    uint16_t need[VD_CNN_MAX_TENSORS];   // rows needed for the current head target
+    uint16_t req[VD_CNN_MAX_TENSORS];    // rows made by the current sub-step
+    uint8_t live[VD_CNN_MAX_TENSORS];    // 1: the head depends on it
 } vd_cnn_plan_t;
 
 // Bytes of the record (items start after it).
