@@ -18,23 +18,6 @@
 #define MAX_MACS 16000000u   // the shipped models/vd_boost.vdm (12.3 M) still runs
 #define MAX_WS (32u << 20)
 
-static uint32_t crc32_ieee(const uint8_t *p, size_t n)
-{
-    uint32_t c = 0xFFFFFFFFu;
-    for (size_t i = 0u; i < n; i++) {
-        c ^= p[i];
-        for (int k = 0; k < 8; k++) {
-            c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
-        }
-    }
-    return ~c;
-}
-
-static uint32_t rd32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-
 static uint32_t rd16(const uint8_t *p)
 {
     return (uint32_t)p[0] | ((uint32_t)p[1] << 8);
@@ -54,9 +37,9 @@ static void fix_crc(uint8_t *b, size_t n)
     if (n < 16u) {
         return;
     }
-    const uint32_t total = rd32(b + 8);
+    const uint32_t total = fz_rd32(b + 8);
     if (total >= 16u && total <= n) {
-        wr32(b + 12, crc32_ieee(b + 16, total - 16u));
+        wr32(b + 12, fz_crc32(b + 16, total - 16u));
     }
 }
 
@@ -189,7 +172,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     memset(blob + n, 0xFF, pad);
     if ((ctl & 2u) && n >= VD_BOOST_HEADER_SIZE) {
-        const uint32_t off = rd32(blob + 20), len = rd32(blob + 24);
+        const uint32_t off = fz_rd32(blob + 20), len = fz_rd32(blob + 24);
         if (off % 4u == 0u && off <= n && len <= n - off) {
             fix_crc(blob + off, len);
         }

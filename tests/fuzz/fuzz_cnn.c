@@ -18,23 +18,6 @@
 #define MAX_MACS 4000000u
 #define MAX_WS (32u << 20)
 
-static uint32_t crc32_ieee(const uint8_t *p, size_t n)
-{
-    uint32_t c = 0xFFFFFFFFu;
-    for (size_t i = 0u; i < n; i++) {
-        c ^= p[i];
-        for (int k = 0; k < 8; k++) {
-            c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
-        }
-    }
-    return ~c;
-}
-
-static uint32_t rd32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-
 static int inside(const void *p, size_t len, const uint8_t *lo, const uint8_t *hi)
 {
     const uint8_t *q = (const uint8_t *)p;
@@ -181,9 +164,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     memset(blob + n, 0xFF, pad);
     if ((ctl & 1u) && n >= VD_CNN_HEADER_SIZE) {
-        const uint32_t total = rd32(blob + 8);
+        const uint32_t total = fz_rd32(blob + 8);
         if (total >= 16u && total <= n) {
-            const uint32_t c = crc32_ieee(blob + 16, total - 16u);
+            const uint32_t c = fz_crc32(blob + 16, total - 16u);
             blob[12] = (uint8_t)c;
             blob[13] = (uint8_t)(c >> 8);
             blob[14] = (uint8_t)(c >> 16);

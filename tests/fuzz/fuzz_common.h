@@ -104,4 +104,23 @@ static inline size_t fz_plane_bytes(size_t stride, uint32_t h, size_t row)
     return stride * (size_t)(h - 1u) + row;
 }
 
+// .vdm helpers: little-endian u32 and the CRC-32 (IEEE, reflected) the container stores,
+// written out here so a harness can repair CRCs without the library's internals.
+static inline uint32_t fz_rd32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+
+static inline uint32_t fz_crc32(const uint8_t *p, size_t n)
+{
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0u; i < n; i++) {
+        c ^= p[i];
+        for (int k = 0; k < 8; k++) {
+            c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+        }
+    }
+    return ~c;
+}
+
 #endif

@@ -48,69 +48,46 @@ typedef struct map {
     uint16_t channel;
 } map_t;
 
-static void wr16(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v & 0xFFu);
-    p[1] = (uint8_t)((v >> 8) & 0xFFu);
-}
-
-static void wr32(uint8_t *p, uint32_t v)
-{
-    wr16(p, v & 0xFFFFu);
-    wr16(p + 2, v >> 16);
-}
-
-static uint32_t rd32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-
-static void fix_crc(uint8_t *b)
-{
-    const uint32_t total = rd32(b + 8);
-    wr32(b + 12, vd_crc32(0u, b + 16, total - 16u));
-}
-
 // The version-3 CNN of the file comment at b; returns its length (CNN_LEN).
 static uint32_t write_cnn(uint8_t *b)
 {
     memset(b, 0, CNN_LEN);
     memcpy(b, "VDMF", 4);
-    wr16(b + 4, 3u);
-    wr16(b + 6, 128u);
-    wr32(b + 8, CNN_LEN);
+    tu_wr16(b + 4, 3u);
+    tu_wr16(b + 6, 128u);
+    tu_wr32(b + 8, CNN_LEN);
     b[16] = 2u;     // kind CNN
     b[17] = 0u;     // input_norm none
     b[18] = 4u;     // n_layers
     b[19] = 3u;     // out_channels
-    wr16(b + 20, 4u);
-    wr16(b + 22, 4u);
+    tu_wr16(b + 20, 4u);
+    tu_wr16(b + 22, 4u);
     b[30] = 0x80u;  // input zp -128
     b[31] = 4u;     // out_stride = f of the head (two max-pools)
-    wr32(b + 32, 128u);
+    tu_wr32(b + 32, 128u);
     b[42] = 16u;    // max_peaks
     memcpy(b + 48, "t", 1);
     // Layer table at 128, arrays from 256.
     uint8_t *e = b + 128;
     e[0] = 7u;   // L0 CONV5X5
     e[1] = 1u;
-    wr16(e + 4, 1u);
-    wr16(e + 6, 2u);
+    tu_wr16(e + 4, 1u);
+    tu_wr16(e + 6, 2u);
     e[8] = 0u;   // out zp 0
     e[9] = 0u;   // act_min 0 (ReLU)
     e[10] = 127u;
-    wr32(e + 12, 256u);   // weights [2][5][5][1] = 50 bytes, padded to 52
-    wr32(e + 16, 308u);   // bias [2]
-    wr32(e + 20, 316u);   // mult [2]
-    wr32(e + 24, 324u);   // shift [2], padded to 4
+    tu_wr32(e + 12, 256u);   // weights [2][5][5][1] = 50 bytes, padded to 52
+    tu_wr32(e + 16, 308u);   // bias [2]
+    tu_wr32(e + 20, 316u);   // mult [2]
+    tu_wr32(e + 24, 324u);   // shift [2], padded to 4
     int8_t *w = (int8_t *)(b + 256);
     w[2 * 5 + 2] = 1;          // c0: centre tap (ky 2, kx 2)
     w[1 * 5 + 1] = 1;          // c0: tap (ky 1, kx 1) = pixel (y-1, x-1)
     w[25 + 2 * 5 + 2] = 3;     // c1: 3 x centre
-    wr32(b + 308, 15u);
-    wr32(b + 312, (uint32_t)-30);
-    wr32(b + 316, 1u << 30);
-    wr32(b + 320, 1u << 30);
+    tu_wr32(b + 308, 15u);
+    tu_wr32(b + 312, (uint32_t)-30);
+    tu_wr32(b + 316, 1u << 30);
+    tu_wr32(b + 320, 1u << 30);
     b[324] = 0u;   // c0: x * 2^30 / 2^31 = x / 2, rounded
     b[325] = 1u;   // c1: x * 2 * 2^30 / 2^31 = x
     for (uint32_t l = 1u; l <= 2u; l++) {   // L1, L2 MAXPOOL2 of the previous tensor
@@ -118,8 +95,8 @@ static uint32_t write_cnn(uint8_t *b)
         e[0] = 4u;
         e[1] = 1u;
         e[2] = (uint8_t)l;
-        wr16(e + 4, 2u);
-        wr16(e + 6, 2u);
+        tu_wr16(e + 4, 2u);
+        tu_wr16(e + 6, 2u);
         e[9] = 0x80u;
         e[10] = 127u;
     }
@@ -127,27 +104,27 @@ static uint32_t write_cnn(uint8_t *b)
     e[0] = 3u;
     e[1] = 1u;
     e[2] = 3u;
-    wr16(e + 4, 2u);
-    wr16(e + 6, 3u);
+    tu_wr16(e + 4, 2u);
+    tu_wr16(e + 6, 3u);
     e[9] = 0x80u;
     e[10] = 127u;
-    wr32(e + 12, 328u);   // weights [3][2] = 6 bytes, padded to 8
-    wr32(e + 16, 336u);   // bias [3]
-    wr32(e + 20, 348u);   // mult [3]
-    wr32(e + 24, 360u);   // shift [3], padded to 4
+    tu_wr32(e + 12, 328u);   // weights [3][2] = 6 bytes, padded to 8
+    tu_wr32(e + 16, 336u);   // bias [3]
+    tu_wr32(e + 20, 348u);   // mult [3]
+    tu_wr32(e + 24, 360u);   // shift [3], padded to 4
     b[328] = 1u;
     b[331] = 1u;
     for (uint32_t o = 0u; o < 3u; o++) {
-        wr32(b + 348u + 4u * o, 1u << 30);
+        tu_wr32(b + 348u + 4u * o, 1u << 30);
         b[360u + o] = 1u;
     }
-    wr32(b + 36, 364u);   // decode table [3][256] at 364: i * 128 (non-decreasing, in range)
+    tu_wr32(b + 36, 364u);   // decode table [3][256] at 364: i * 128 (non-decreasing, in range)
     for (uint32_t c = 0u; c < 3u; c++) {
         for (uint32_t i = 0u; i < 256u; i++) {
-            wr32(b + 364u + 4u * (256u * c + i), i * 128u);
+            tu_wr32(b + 364u + 4u * (256u * c + i), i * 128u);
         }
     }
-    fix_crc(b);
+    tu_vdm_fix_crc(b);
     return CNN_LEN;
 }
 
@@ -163,32 +140,32 @@ static uint32_t write_boost(const map_t *maps, uint32_t n_maps, const stump_t *s
     TEST_ASSERT_TRUE(total <= BLOB_CAP);
     memset(b, 0, total + 8u);
     memcpy(b, "VDMF", 4);
-    wr16(b + 4, 4u);
-    wr16(b + 6, 64u);
-    wr32(b + 8, total);
+    tu_wr16(b + 4, 4u);
+    tu_wr16(b + 6, 64u);
+    tu_wr32(b + 8, total);
     b[16] = 3u;
     b[17] = (uint8_t)n_maps;
-    wr16(b + 18, n_st);
-    wr32(b + 20, cnn_off);
-    wr32(b + 24, CNN_LEN);
-    wr32(b + 28, maps_off);
-    wr32(b + 32, st_off);
-    wr32(b + 36, (uint32_t)thr);
+    tu_wr16(b + 18, n_st);
+    tu_wr32(b + 20, cnn_off);
+    tu_wr32(b + 24, CNN_LEN);
+    tu_wr32(b + 28, maps_off);
+    tu_wr32(b + 32, st_off);
+    tu_wr32(b + 36, (uint32_t)thr);
     memcpy(b + 40, "boost-test", 10);
     for (uint32_t i = 0u; i < n_maps; i++) {
         b[maps_off + 4u * i] = maps[i].tensor;
-        wr16(b + maps_off + 4u * i + 2u, maps[i].channel);
+        tu_wr16(b + maps_off + 4u * i + 2u, maps[i].channel);
     }
     for (uint32_t k = 0u; k < n_st; k++) {
         uint8_t *s = b + st_off + 8u * k;
-        wr16(s, st[k].pos);
+        tu_wr16(s, st[k].pos);
         s[2] = st[k].map;
         s[3] = (uint8_t)st[k].thr;
-        wr16(s + 4, (uint16_t)st[k].left);
-        wr16(s + 6, (uint16_t)st[k].right);
+        tu_wr16(s + 4, (uint16_t)st[k].left);
+        tu_wr16(s + 6, (uint16_t)st[k].right);
     }
     (void)write_cnn(b + cnn_off);
-    fix_crc(b);
+    tu_vdm_fix_crc(b);
     return total;
 }
 
@@ -464,7 +441,7 @@ static void test_load_container_errors(void)
     // Bad CRC: one stump vote changed without the CRC.
     b[64u + 12u + 4u] ^= 0x01u;
     expect_reject_untouched(VD_ERR_MODEL, b, total);
-    fix_crc(b);
+    tu_vdm_fix_crc(b);
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_boost_load(&g_m, b, total));   // the same change with its CRC loads
     // Magic, version (3, 5), header size, kind, total size not a multiple of 4 / past the bytes (CRC fixed).
     static const struct {
@@ -475,22 +452,22 @@ static void test_load_container_errors(void)
         if (k_bad[i].len == 1u) {
             b[k_bad[i].off] = (uint8_t)k_bad[i].value;
         } else {
-            wr16(b + k_bad[i].off, k_bad[i].value);
+            tu_wr16(b + k_bad[i].off, k_bad[i].value);
         }
-        fix_crc(b);
+        tu_vdm_fix_crc(b);
         expect_reject_untouched(VD_ERR_MODEL, b, total);
     }
     total = write_default();
-    wr32(b + 8, total - 2u);
-    fix_crc(b);
+    tu_wr32(b + 8, total - 2u);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     total = write_default();
-    wr32(b + 8, total + 4u);
-    fix_crc(b);
+    tu_wr32(b + 8, total + 4u);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     // The embedded CNN blob on its own (version 3, kind 2) is not a boosted model.
     total = write_default();
-    expect_reject_untouched(VD_ERR_MODEL, b + rd32(b + 20), CNN_LEN);
+    expect_reject_untouched(VD_ERR_MODEL, b + tu_rd32(b + 20), CNN_LEN);
 }
 
 static void test_load_structure_errors(void)
@@ -515,19 +492,19 @@ static void test_load_structure_errors(void)
     TEST_ASSERT_EQUAL_UINT32(33u, g_m.n_features);
     uint32_t total = write_default();
     b[64u + 4u + 1u] = 1u;
-    fix_crc(b);
+    tu_vdm_fix_crc(b);
     expect_model_reject(total);
     // n_maps 0 and 17, n_stumps 0.
     total = write_default();
     b[17] = 0u;
-    fix_crc(b);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     b[17] = 17u;
-    fix_crc(b);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     total = write_default();
-    wr16(b + 18, 0u);
-    fix_crc(b);
+    tu_wr16(b + 18, 0u);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     // Stumps: a feature index past its map (m0 has 16 values, m1 4), a map index past n_maps.
     static const stump_t k_bad_st[3] = {{16u, 0u, 0, 1, 1}, {4u, 1u, 0, 1, 1}, {0u, 3u, 0, 1, 1}};
@@ -544,32 +521,32 @@ static void test_load_structure_errors(void)
     // a misaligned offset, cnn_len not the CNN's total_size, a CNN that
     // vd_cnn_load rejects (its CRC), a bad name, nonzero reserved header bytes.
     total = write_default();
-    wr32(b + 32, 64u);
-    fix_crc(b);
+    tu_wr32(b + 32, 64u);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     total = write_default();
-    wr32(b + 20, 64u + 12u);
-    fix_crc(b);
+    tu_wr32(b + 20, 64u + 12u);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     total = write_default();
-    wr32(b + 32, 64u + 12u + 2u);
-    fix_crc(b);
+    tu_wr32(b + 32, 64u + 12u + 2u);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     total = write_default();
-    wr32(b + 24, CNN_LEN - 4u);   // the CNN says 3436, the header 3432
-    fix_crc(b);
+    tu_wr32(b + 24, CNN_LEN - 4u);   // the CNN says 3436, the header 3432
+    tu_vdm_fix_crc(b);
     expect_model_reject(total);
     total = write_default();
-    b[rd32(b + 20) + 300u] ^= 0x10u;   // inside the CNN's arrays, its own CRC now wrong
-    fix_crc(b);
+    b[tu_rd32(b + 20) + 300u] ^= 0x10u;   // inside the CNN's arrays, its own CRC now wrong
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     total = write_default();
     b[40] = 0x01u;
-    fix_crc(b);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
     total = write_default();
     b[60] = 1u;
-    fix_crc(b);
+    tu_vdm_fix_crc(b);
     expect_reject_untouched(VD_ERR_MODEL, b, total);
 }
 

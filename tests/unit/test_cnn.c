@@ -52,32 +52,9 @@ typedef struct tm {
     const int32_t *table;   // [n_ch][256]
 } tm_t;
 
-static void wr16(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v & 0xFFu);
-    p[1] = (uint8_t)((v >> 8) & 0xFFu);
-}
-
-static void wr32(uint8_t *p, uint32_t v)
-{
-    wr16(p, v & 0xFFFFu);
-    wr16(p + 2, v >> 16);
-}
-
-static uint32_t rd32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
-}
-
 static uint32_t al4(uint32_t x)
 {
     return (x + 3u) & ~3u;
-}
-
-static void fix_crc(uint8_t *b)
-{
-    const uint32_t total = rd32(b + 8);
-    wr32(b + 12, vd_crc32(0u, b + 16, total - 16u));
 }
 
 static uint32_t w_len(const tl_t *L)
@@ -116,24 +93,24 @@ static uint32_t tm_write(const tm_t *d, uint8_t *b)
     TEST_ASSERT_TRUE(total <= BLOB_CAP);
     memset(b, 0, total);
     memcpy(b, "VDMF", 4);
-    wr16(b + 4, 3u);
-    wr16(b + 6, 128u);
-    wr32(b + 8, total);
+    tu_wr16(b + 4, 3u);
+    tu_wr16(b + 6, 128u);
+    tu_wr32(b + 8, total);
     b[16] = 2u;
     b[17] = d->norm;
     b[18] = (uint8_t)d->n;
     b[19] = d->n_ch;
-    wr16(b + 20, d->in_w);
-    wr16(b + 22, d->in_h);
-    wr16(b + 24, d->lo);
-    wr16(b + 26, d->hi);
-    wr16(b + 28, d->min_range);
+    tu_wr16(b + 20, d->in_w);
+    tu_wr16(b + 22, d->in_h);
+    tu_wr16(b + 24, d->lo);
+    tu_wr16(b + 26, d->hi);
+    tu_wr16(b + 28, d->min_range);
     b[30] = 0x80u;   // -128
     b[31] = d->out_stride;
-    wr32(b + 32, 128u);
-    wr32(b + 36, dec);
+    tu_wr32(b + 32, 128u);
+    tu_wr32(b + 36, dec);
     b[40] = (uint8_t)d->thr;
-    wr16(b + 42, d->max_peaks);
+    tu_wr16(b + 42, d->max_peaks);
     if (d->name != NULL) {
         memcpy(b + 48, d->name, strlen(d->name));
     }
@@ -145,8 +122,8 @@ static uint32_t tm_write(const tm_t *d, uint8_t *b)
         e[1] = L->stride;
         e[2] = L->in;
         e[3] = L->in2;
-        wr16(e + 4, L->cin);
-        wr16(e + 6, L->cout);
+        tu_wr16(e + 4, L->cin);
+        tu_wr16(e + 6, L->cout);
         e[8] = (uint8_t)L->zp;
         e[9] = (uint8_t)L->amin;
         e[10] = (uint8_t)L->amax;
@@ -154,27 +131,27 @@ static uint32_t tm_write(const tm_t *d, uint8_t *b)
             continue;
         }
         pos = al4(pos);
-        wr32(e + 12, pos);
+        tu_wr32(e + 12, pos);
         memcpy(b + pos, L->w, w_len(L));
         pos = al4(pos + w_len(L));
-        wr32(e + 16, pos);
+        tu_wr32(e + 16, pos);
         for (uint32_t o = 0u; o < L->cout; o++) {
-            wr32(b + pos + 4u * o, (uint32_t)L->bias[o]);
+            tu_wr32(b + pos + 4u * o, (uint32_t)L->bias[o]);
         }
         pos += 4u * L->cout;
-        wr32(e + 20, pos);
+        tu_wr32(e + 20, pos);
         for (uint32_t o = 0u; o < L->cout; o++) {
-            wr32(b + pos + 4u * o, (uint32_t)L->mult[o]);
+            tu_wr32(b + pos + 4u * o, (uint32_t)L->mult[o]);
         }
         pos += 4u * L->cout;
-        wr32(e + 24, pos);
+        tu_wr32(e + 24, pos);
         memcpy(b + pos, L->shift, L->cout);
         pos += L->cout;
     }
     for (uint32_t i = 0u; i < 256u * d->n_ch; i++) {
-        wr32(b + dec + 4u * i, (uint32_t)d->table[i]);
+        tu_wr32(b + dec + 4u * i, (uint32_t)d->table[i]);
     }
-    fix_crc(b);
+    tu_vdm_fix_crc(b);
     return total;
 }
 
@@ -1533,43 +1510,43 @@ static bool corrupt(int k, uint8_t *b, uint32_t *total, bool *fix)
 {
     *fix = true;
     uint8_t *e2 = entry(b, 2u);
-    const uint32_t dec = rd32(b + 36);
+    const uint32_t dec = tu_rd32(b + 36);
     switch (k) {
-    case 0: wr16(b + 4, 2u); break;                     // version 2 (a DBN version)
-    case 1: wr16(b + 4, 4u); break;
-    case 2: wr16(b + 4, 1u); break;
-    case 3: wr16(b + 6, 64u); break;                    // header size
+    case 0: tu_wr16(b + 4, 2u); break;                     // version 2 (a DBN version)
+    case 1: tu_wr16(b + 4, 4u); break;
+    case 2: tu_wr16(b + 4, 1u); break;
+    case 3: tu_wr16(b + 6, 64u); break;                    // header size
     case 4: b[16] = 1u; break;                          // kind
     case 5: b[16] = 0u; break;
     case 6: b[17] = 2u; break;                          // input_norm
-    case 7: wr16(b + 24, 980u); break;                  // lo == hi
-    case 8: wr16(b + 26, 1001u); break;                 // hi > 1000
-    case 9: wr16(b + 28, 0u); break;                    // min_range 0
-    case 10: wr16(b + 28, 256u); break;
+    case 7: tu_wr16(b + 24, 980u); break;                  // lo == hi
+    case 8: tu_wr16(b + 26, 1001u); break;                 // hi > 1000
+    case 9: tu_wr16(b + 28, 0u); break;                    // min_range 0
+    case 10: tu_wr16(b + 28, 256u); break;
     case 11: b[17] = 0u; break;                         // no stretch but parameters set
     case 12: b[18] = 0u; break;                         // n_layers
     case 13: b[18] = 33u; break;
     case 14: b[18] = 7u; break;                         // head would be 10 channels at stride 4
     case 15: b[19] = 4u; break;                         // out_channels
     case 16: b[19] = 5u; break;                         // != head channels
-    case 17: wr16(b + 20, 0u); break;                   // input_w
-    case 18: wr16(b + 20, 4100u); break;
-    case 19: wr16(b + 20, 10u); break;                  // not a multiple of A = 4
-    case 20: wr16(b + 22, 6u); break;
+    case 17: tu_wr16(b + 20, 0u); break;                   // input_w
+    case 18: tu_wr16(b + 20, 4100u); break;
+    case 19: tu_wr16(b + 20, 10u); break;                  // not a multiple of A = 4
+    case 20: tu_wr16(b + 22, 6u); break;
     case 21: b[30] = 0x81u; break;                      // input_zp -127
     case 22: b[31] = 8u; break;                         // out_stride != head factor 4
     case 23: b[31] = 2u; break;
-    case 24: wr32(b + 32, 124u); break;                 // layer table inside the header
-    case 25: wr32(b + 32, 130u); break;                 // misaligned
-    case 26: wr32(b + 32, *total - 16u); break;         // past the end
-    case 27: wr32(b + 36, dec + 2u); break;             // decode table misaligned
-    case 28: wr32(b + 36, dec + 4u); break;             // past the end
-    case 29: wr32(b + 36, 128u); break;                 // over the layer table
-    case 30: wr32(b + 36, rd32(entry(b, 0u) + 12)); break;   // over layer 0's weights
+    case 24: tu_wr32(b + 32, 124u); break;                 // layer table inside the header
+    case 25: tu_wr32(b + 32, 130u); break;                 // misaligned
+    case 26: tu_wr32(b + 32, *total - 16u); break;         // past the end
+    case 27: tu_wr32(b + 36, dec + 2u); break;             // decode table misaligned
+    case 28: tu_wr32(b + 36, dec + 4u); break;             // past the end
+    case 29: tu_wr32(b + 36, 128u); break;                 // over the layer table
+    case 30: tu_wr32(b + 36, tu_rd32(entry(b, 0u) + 12)); break;   // over layer 0's weights
     case 31: b[41] = 1u; break;                         // reserved
-    case 32: wr16(b + 42, 0u); break;                   // max_peaks
-    case 33: wr16(b + 42, 1025u); break;
-    case 34: wr32(b + 44, 1u); break;                   // flags
+    case 32: tu_wr16(b + 42, 0u); break;                   // max_peaks
+    case 33: tu_wr16(b + 42, 1025u); break;
+    case 34: tu_wr32(b + 44, 1u); break;                   // flags
     case 35: b[49] = 0x7Fu; break;                      // name not printable
     case 36: b[48 + 8] = 'x'; break;                    // text after the NUL
     case 37: b[64] = 1u; break;                         // reserved tail
@@ -1584,43 +1561,43 @@ static bool corrupt(int k, uint8_t *b, uint32_t *total, bool *fix)
     case 46: e2[3] = 1u; break;                         // in2 on a non-concat
     case 47: entry(b, 5u)[3] = 6u; break;               // concat in2 from the future
     case 48: entry(b, 5u)[2] = 6u; break;
-    case 49: wr16(e2 + 4, 5u); break;                   // cin != channels of tensor 2
-    case 50: wr16(e2 + 6, 0u); break;                   // cout
-    case 51: wr16(e2 + 6, 1025u); break;
-    case 52: wr16(entry(b, 1u) + 6, 5u); break;         // depthwise cout != cin
-    case 53: wr16(entry(b, 3u) + 6, 5u); break;         // maxpool cout != cin
+    case 49: tu_wr16(e2 + 4, 5u); break;                   // cin != channels of tensor 2
+    case 50: tu_wr16(e2 + 6, 0u); break;                   // cout
+    case 51: tu_wr16(e2 + 6, 1025u); break;
+    case 52: tu_wr16(entry(b, 1u) + 6, 5u); break;         // depthwise cout != cin
+    case 53: tu_wr16(entry(b, 3u) + 6, 5u); break;         // maxpool cout != cin
     case 54: e2[9] = 10u; e2[10] = 5u; break;           // act_min > act_max
     case 55: entry(b, 3u)[8] = 3u; break;               // maxpool zero point changes
     case 56: entry(b, 3u)[9] = 0x81u; break;            // maxpool act_min -127
     case 57: entry(b, 4u)[10] = 126u; break;            // upsample act_max 126
-    case 58: entry(b, 4u)[2] = 0u; wr16(entry(b, 4u) + 4, 1u); wr16(entry(b, 4u) + 6, 1u); break;  // upsample at f 1
-    case 59: entry(b, 5u)[3] = 4u; wr16(entry(b, 5u) + 6, 12u); break;  // concat of f 2 and f 4
+    case 58: entry(b, 4u)[2] = 0u; tu_wr16(entry(b, 4u) + 4, 1u); tu_wr16(entry(b, 4u) + 6, 1u); break;  // upsample at f 1
+    case 59: entry(b, 5u)[3] = 4u; tu_wr16(entry(b, 5u) + 6, 12u); break;  // concat of f 2 and f 4
     case 60: entry(b, 5u)[3] = 2u; break;               // concat zero points 2 and -1
-    case 61: wr16(entry(b, 5u) + 6, 11u); break;        // concat cout != 6 + 4
+    case 61: tu_wr16(entry(b, 5u) + 6, 11u); break;        // concat cout != 6 + 4
     case 62: entry(b, 5u)[8] = 3u; break;               // concat out_zp
     case 63: e2[11] = 1u; break;                        // layer reserved byte
-    case 64: wr32(e2 + 28, 4u); break;                  // layer reserved word
-    case 65: wr32(e2 + 12, 0u); break;                  // pw without weights
-    case 66: wr32(entry(b, 3u) + 12, rd32(e2 + 12)); break;   // maxpool with an array
-    case 67: wr32(e2 + 16, rd32(e2 + 16) + 1u); break;  // bias misaligned
-    case 68: wr32(e2 + 20, rd32(e2 + 16)); break;       // mult over bias
-    case 69: wr32(e2 + 24, *total - 4u); break;         // shift past the end
-    case 70: wr32(e2 + 12, 128u); break;                // weights over the layer table
-    case 71: wr32(b + rd32(e2 + 20), 0x3FFFFFFFu); break;     // mult < 2^30
-    case 72: wr32(b + rd32(e2 + 20) + 4u, 0x80000000u); break; // mult negative
-    case 73: b[rd32(e2 + 24)] = 0xE0u; break;           // shift -32
-    case 74: b[rd32(e2 + 24) + 5u] = 8u; break;         // shift 8
-    case 75: wr32(b + rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 128 * 255 + 1)); break;  // bias bound
-    case 76: wr32(b + rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 128 * 255) - 1)); break;
-    case 77: wr32(b + dec + 4u * 5u, rd32(b + dec + 4u * 4u) - 1u); break;  // score decreasing
-    case 78: wr32(b + dec + 4u * 255u, 32769u); break;  // score > 1.0
-    case 79: wr32(b + dec, 0xFFFFFFFFu); break;         // score -1
-    case 80: wr32(b + dec + 4u * (256u + 3u), 0xFFFFFFFFu); break;     // width -1
-    case 81: wr32(b + dec + 4u * (512u + 7u), 4096u * 256u + 1u); break;  // height too large
+    case 64: tu_wr32(e2 + 28, 4u); break;                  // layer reserved word
+    case 65: tu_wr32(e2 + 12, 0u); break;                  // pw without weights
+    case 66: tu_wr32(entry(b, 3u) + 12, tu_rd32(e2 + 12)); break;   // maxpool with an array
+    case 67: tu_wr32(e2 + 16, tu_rd32(e2 + 16) + 1u); break;  // bias misaligned
+    case 68: tu_wr32(e2 + 20, tu_rd32(e2 + 16)); break;       // mult over bias
+    case 69: tu_wr32(e2 + 24, *total - 4u); break;         // shift past the end
+    case 70: tu_wr32(e2 + 12, 128u); break;                // weights over the layer table
+    case 71: tu_wr32(b + tu_rd32(e2 + 20), 0x3FFFFFFFu); break;     // mult < 2^30
+    case 72: tu_wr32(b + tu_rd32(e2 + 20) + 4u, 0x80000000u); break; // mult negative
+    case 73: b[tu_rd32(e2 + 24)] = 0xE0u; break;           // shift -32
+    case 74: b[tu_rd32(e2 + 24) + 5u] = 8u; break;         // shift 8
+    case 75: tu_wr32(b + tu_rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 128 * 255 + 1)); break;  // bias bound
+    case 76: tu_wr32(b + tu_rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 128 * 255) - 1)); break;
+    case 77: tu_wr32(b + dec + 4u * 5u, tu_rd32(b + dec + 4u * 4u) - 1u); break;  // score decreasing
+    case 78: tu_wr32(b + dec + 4u * 255u, 32769u); break;  // score > 1.0
+    case 79: tu_wr32(b + dec, 0xFFFFFFFFu); break;         // score -1
+    case 80: tu_wr32(b + dec + 4u * (256u + 3u), 0xFFFFFFFFu); break;     // width -1
+    case 81: tu_wr32(b + dec + 4u * (512u + 7u), 4096u * 256u + 1u); break;  // height too large
     case 82: entry(b, 6u)[1] = 1u; break;               // head at stride 2 (dw s1)
-    case 83: wr32(b + 8, *total + 2u); *total += 2u; break;   // total not a multiple of 4
-    case 84: wr32(b + dec + 4u * (768u + 9u), (uint32_t)-257); break;  // (n_ch 5) x offset
-    case 85: wr32(b + dec + 4u * (1024u + 9u), 513u); break;           // y offset
+    case 83: tu_wr32(b + 8, *total + 2u); *total += 2u; break;   // total not a multiple of 4
+    case 84: tu_wr32(b + dec + 4u * (768u + 9u), (uint32_t)-257); break;  // (n_ch 5) x offset
+    case 85: tu_wr32(b + dec + 4u * (1024u + 9u), 513u); break;           // y offset
     default: return false;
     }
     return true;
@@ -1647,9 +1624,9 @@ static void test_structural_corruptions_rejected(void)
         bool fix = true;
         TEST_ASSERT_TRUE(corrupt(k, b, &total, &fix));
         if (fix) {
-            const uint32_t t = rd32(b + 8);
+            const uint32_t t = tu_rd32(b + 8);
             if (t >= 16u && t <= total + 8u) {
-                fix_crc(b);
+                tu_vdm_fix_crc(b);
             }
         }
         memset(&m, 0x5A, sizeof m);
@@ -1669,15 +1646,15 @@ static void test_structural_corruptions_rejected(void)
     // and 512, score 32768, sizes 0 and 4096 * 256.
     total = hostile_model(5u, g_blob.b);
     uint8_t *b = g_blob.b;
-    const uint32_t dec = rd32(b + 36);
-    wr32(b + rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 128 * 255));
-    wr32(b + rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 128 * 255)));
-    wr32(b + dec + 4u * 255u, 32768u);
-    wr32(b + dec + 4u * 256u, 0u);
-    wr32(b + dec + 4u * 511u, 4096u * 256u);
-    wr32(b + dec + 4u * 768u, (uint32_t)-256);
-    wr32(b + dec + 4u * 1279u, 512u);
-    fix_crc(b);
+    const uint32_t dec = tu_rd32(b + 36);
+    tu_wr32(b + tu_rd32(entry(b, 0u) + 16), (uint32_t)(INT32_MAX - 9 * 128 * 255));
+    tu_wr32(b + tu_rd32(entry(b, 0u) + 16) + 4u, (uint32_t)(-(INT32_MAX - 9 * 128 * 255)));
+    tu_wr32(b + dec + 4u * 255u, 32768u);
+    tu_wr32(b + dec + 4u * 256u, 0u);
+    tu_wr32(b + dec + 4u * 511u, 4096u * 256u);
+    tu_wr32(b + dec + 4u * 768u, (uint32_t)-256);
+    tu_wr32(b + dec + 4u * 1279u, 512u);
+    tu_vdm_fix_crc(b);
     vd_cnn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&m, b, total));
     TEST_ASSERT_EQUAL_STRING("hostile", m.name);

@@ -62,18 +62,6 @@ static union {
 } g_blob;
 static vd_cnn_model_t g_cnn;
 
-static void wr16(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v & 0xFFu);
-    p[1] = (uint8_t)((v >> 8) & 0xFFu);
-}
-
-static void wr32(uint8_t *p, uint32_t v)
-{
-    wr16(p, v & 0xFFFFu);
-    wr16(p + 2, v >> 16);
-}
-
 // One layer-table entry; arrays at w/bias/mult/shift (0 = none).
 static void entry(uint8_t *e, uint8_t op, uint8_t in, uint16_t cout, int8_t zp, uint32_t w, uint32_t bias,
                   uint32_t mult, uint32_t shift)
@@ -81,15 +69,15 @@ static void entry(uint8_t *e, uint8_t op, uint8_t in, uint16_t cout, int8_t zp, 
     e[0] = op;
     e[1] = 1u;
     e[2] = in;
-    wr16(e + 4, 1u);
-    wr16(e + 6, cout);
+    tu_wr16(e + 4, 1u);
+    tu_wr16(e + 6, cout);
     e[8] = (uint8_t)zp;
     e[9] = 0x80u;   // act_min -128
     e[10] = 0x7Fu;  // act_max 127
-    wr32(e + 12, w);
-    wr32(e + 16, bias);
-    wr32(e + 20, mult);
-    wr32(e + 24, shift);
+    tu_wr32(e + 12, w);
+    tu_wr32(e + 16, bias);
+    tu_wr32(e + 20, mult);
+    tu_wr32(e + 24, shift);
 }
 
 // Writes the network into g_blob and loads it into g_cnn.
@@ -100,21 +88,21 @@ static void net_load(const net_t *n)
     const uint32_t total = dec + 5u * 256u * 4u;
     memset(b, 0, total);
     memcpy(b, "VDMF", 4);
-    wr16(b + 4, 3u);
-    wr16(b + 6, 128u);
-    wr32(b + 8, total);
+    tu_wr16(b + 4, 3u);
+    tu_wr16(b + 6, 128u);
+    tu_wr32(b + 8, total);
     b[16] = 2u;        // kind: CNN
     b[17] = 0u;        // input_norm: pixel - 128
     b[18] = 3u;        // layers
     b[19] = 5u;        // head channels
-    wr16(b + 20, 16u); // nominal input 16 x 16
-    wr16(b + 22, 16u);
+    tu_wr16(b + 20, 16u); // nominal input 16 x 16
+    tu_wr16(b + 22, 16u);
     b[30] = 0x80u;     // input zero point -128
     b[31] = 4u;        // out_stride
-    wr32(b + 32, 128u);
-    wr32(b + 36, dec);
+    tu_wr32(b + 32, 128u);
+    tu_wr32(b + 36, dec);
     b[40] = (uint8_t)n->thr;
-    wr16(b + 42, n->max_peaks);
+    tu_wr16(b + 42, n->max_peaks);
     memcpy(b + 48, "det_test", 8);
     entry(b + 128, 4u, 0u, 1u, -128, 0u, 0u, 0u, 0u);   // MAXPOOL2
     entry(b + 160, 4u, 1u, 1u, -128, 0u, 0u, 0u, 0u);   // MAXPOOL2
@@ -122,22 +110,22 @@ static void net_load(const net_t *n)
     b[w] = 1u;   // heatmap weight; the other four are 0
     const int32_t bs[5] = {-128, n->size_w, n->size_h, n->off_x, n->off_y};
     for (uint32_t o = 0u; o < 5u; o++) {
-        wr32(b + bias + 4u * o, (uint32_t)bs[o]);
-        wr32(b + mult + 4u * o, 1u << 30);   // identity requantisation: mult 2^30, shift 1
+        tu_wr32(b + bias + 4u * o, (uint32_t)bs[o]);
+        tu_wr32(b + mult + 4u * o, 1u << 30);   // identity requantisation: mult 2^30, shift 1
         b[shift + o] = 1u;
     }
     for (uint32_t i = 0u; i < 256u; i++) {
         const int32_t off = 4 * (int32_t)i - 256;
-        wr32(b + dec + 4u * i, i * 128u + (n->score_half ? 64u : 0u));
-        wr32(b + dec + 4u * (256u + i), i * 128u);
-        wr32(b + dec + 4u * (512u + i), i * 128u);
-        wr32(b + dec + 4u * (768u + i), (uint32_t)(off > 512 ? 512 : off));
-        wr32(b + dec + 4u * (1024u + i), (uint32_t)(off > 512 ? 512 : off));
+        tu_wr32(b + dec + 4u * i, i * 128u + (n->score_half ? 64u : 0u));
+        tu_wr32(b + dec + 4u * (256u + i), i * 128u);
+        tu_wr32(b + dec + 4u * (512u + i), i * 128u);
+        tu_wr32(b + dec + 4u * (768u + i), (uint32_t)(off > 512 ? 512 : off));
+        tu_wr32(b + dec + 4u * (1024u + i), (uint32_t)(off > 512 ? 512 : off));
     }
     if (n->score_one) {
-        wr32(b + dec + 4u * 255u, 32768u);
+        tu_wr32(b + dec + 4u * 255u, 32768u);
     }
-    wr32(b + 12, vd_crc32(0u, b + 16, total - 16u));
+    tu_wr32(b + 12, vd_crc32(0u, b + 16, total - 16u));
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&g_cnn, b, total));
     TEST_ASSERT_EQUAL_UINT32(4u, g_cnn.align);
 }

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "testutil.h"
 #include "unity.h"
+#include "internal/crc32.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -79,4 +80,27 @@ const char *tu_data_dir(void)
         return NULL;
     }
     return path;
+}
+
+void tu_wr16(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)(v & 0xFFu);
+    p[1] = (uint8_t)((v >> 8) & 0xFFu);
+}
+
+void tu_wr32(uint8_t *p, uint32_t v)
+{
+    tu_wr16(p, v & 0xFFFFu);
+    tu_wr16(p + 2, v >> 16);
+}
+
+uint32_t tu_rd32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+}
+
+void tu_vdm_fix_crc(uint8_t *blob)
+{
+    const uint32_t total = tu_rd32(blob + 8);
+    tu_wr32(blob + 12, vd_crc32(0u, blob + 16, total - 16u));
 }

@@ -33,4 +33,11 @@ int64_t tu_calib_temp_ck(const vd_calib_t *c, uint32_t raw);
 // if it is absent; tests that need it call TEST_IGNORE_MESSAGE with a reason.
 const char *tu_data_dir(void);
 
+// Little-endian field writers/readers and the .vdm CRC (bytes [16, total) into
+// offset 12, total at offset 8) for tests that build model blobs by hand.
+void tu_wr16(uint8_t *p, uint32_t v);
+void tu_wr32(uint8_t *p, uint32_t v);
+uint32_t tu_rd32(const uint8_t *p);
+void tu_vdm_fix_crc(uint8_t *blob);
+
 #endif
