@@ -6,7 +6,7 @@ import ctypes as C
 import numpy as np
 
 from vdtools.bindings import clib
-from vdtools.bindings.dbn import aligned_copy   # one aligned-copy helper for both .vdm kinds
+from vdtools.bindings.dbn import aligned_copy, load_status   # one aligned-copy helper for both .vdm kinds
 
 MAX_LAYERS = 32          # VD_CNN_MAX_LAYERS
 MAX_PEAKS = 1024         # VD_CNN_MAX_PEAKS
@@ -74,11 +74,7 @@ def lib():
 
 def c_load(blob, offset=0, nbytes=None):
     """Status of vd_cnn_load on a copy of blob (for tests); the model struct is not kept."""
-    keep, addr = aligned_copy(blob, offset)
-    m = CnnModel()
-    st = lib().vd_cnn_load(C.byref(m), addr, len(blob) if nbytes is None else nbytes)
-    del keep
-    return st
+    return load_status(lib().vd_cnn_load, CnnModel(), blob, offset, nbytes)
 
 
 def tensor_array(o):

@@ -65,13 +65,18 @@ def aligned_copy(blob, offset=0):
     return keep, addr
 
 
-def c_load(blob, offset=0, nbytes=None):
-    """Status of vd_dbn_load on a copy of blob (for tests)."""
+def load_status(load, model, blob, offset=0, nbytes=None):
+    """Status of a .vdm loader (vd_dbn_load, vd_cnn_load, ...) on an aligned copy of blob placed at
+    `offset`, telling it `nbytes` (default len(blob)); the model struct is not kept (for tests)."""
     keep, addr = aligned_copy(blob, offset)
-    m = Model()
-    st = lib().vd_dbn_load(C.byref(m), addr, len(blob) if nbytes is None else nbytes)
+    st = load(C.byref(model), addr, len(blob) if nbytes is None else nbytes)
     del keep
     return st
+
+
+def c_load(blob, offset=0, nbytes=None):
+    """Status of vd_dbn_load on a copy of blob (for tests)."""
+    return load_status(lib().vd_dbn_load, Model(), blob, offset, nbytes)
 
 
 class CModel:

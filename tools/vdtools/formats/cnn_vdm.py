@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from vdtools.bindings.cnn import MAX_LAYERS, MAX_PEAKS   # VD_CNN_MAX_LAYERS, VD_CNN_MAX_PEAKS
+from vdtools.formats.vdm import fix_crc  # noqa: F401  (one container, one CRC rule; V.fix_crc for the tests)
 
 MAGIC = b"VDMF"
 VERSION = 3
@@ -310,13 +311,6 @@ def pack(desc, check=True):
     struct.pack_into("<I", buf, 12, zlib.crc32(bytes(buf[CRC_FROM:])) & 0xFFFFFFFF)
     return bytes(buf)
 
-
-def fix_crc(blob):
-    """The blob with its CRC field recomputed (for tests that corrupt structure)."""
-    buf = bytearray(blob)
-    total = struct.unpack_from("<I", buf, 8)[0]
-    struct.pack_into("<I", buf, 12, zlib.crc32(bytes(buf[CRC_FROM:total])) & 0xFFFFFFFF)
-    return bytes(buf)
 
 
 def unpack(blob, check=True):
