@@ -28,4 +28,5 @@ echo "== cross builds (Cortex-M7/M4/M0+) and ARM unit tests under qemu-user"
 tests/cross_run.sh
 
 echo "== Python oracle, parity and end-to-end tests (shared build: build/libvd.so)"
-VD_LIB="$PWD/build/libvd.so" VD_BUILD_DIR="$PWD/build" python3 -m pytest -q tests/python
+# PYTHONPATH: the tests also run from a worktree without the editable install of tools/
+PYTHONPATH="$PWD/tools${PYTHONPATH:+:$PYTHONPATH}" VD_LIB="$PWD/build/libvd.so" VD_BUILD_DIR="$PWD/build" python3 -m pytest -q tests/python

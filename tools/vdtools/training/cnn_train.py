@@ -38,6 +38,7 @@ from vdtools.metrics.evaluate import average_precision
 STRIDE = 4
 CROP = 192
 SIZE_WEIGHT = 1.0           # L1 of log sizes + offsets, against the focal heatmap loss
+GIOU_WEIGHT = 0.0           # --giou: weight of the GIoU box term (off in the first models)
 SCALE = (0.6, 1.4)          # random rescale of the half-resolution frame (MSRS test cars are smaller than train)
 NORM = dict(norm_lo_permille=10, norm_hi_permille=995, norm_min_range=48)
 
@@ -135,14 +136,45 @@ class Net(nn.Module):
             f.append(fi * d["stride"] if d["op"] in ("conv", "dw") else (fi // 2 if d["op"] == "up" else fi))
         self.align = max(f)
 
+    fq = None   # quantisation-aware training: dict(scale, zp) per tensor (set_fake_quant)
+
+    def set_fake_quant(self, q):
+        """q = the exporter's per-tensor scales and zero points (cnn_export.quantise), or None for float."""
+        self.fq = q
+
+    def _fq_layer(self, d, i, a):
+        """One weighted layer as the int8 export runs it: batch norm folded with its running statistics
+        (frozen: QAT fine-tunes a trained network), weights fake-quantised per output channel (symmetric,
+        max|w| / 127, as cnn_export), ReLU, then the output fake-quantised with the tensor's scale. Rounding
+        passes gradients straight through; values clamped by the int8 range get none."""
+        seq = self.mods[d["mod"]]
+        conv = seq[0]
+        w = conv.weight
+        b = conv.bias if conv.bias is not None else torch.zeros(w.shape[0])
+        if len(seq) > 1 and isinstance(seq[1], nn.BatchNorm2d):
+            bn = seq[1]
+            g = bn.weight / torch.sqrt(bn.running_var + bn.eps)
+            w = w * g[:, None, None, None]
+            b = bn.bias + (b - bn.running_mean) * g
+        sw = (w.detach().abs().flatten(1).amax(1).clamp(min=1e-8) / 127.0)[:, None, None, None]
+        w = w + (torch.clamp(torch.round(w / sw), -127, 127) * sw - w).detach()
+        y = F.conv2d(a, w, b, conv.stride, conv.padding, 1, conv.groups)
+        if d["op"] != "head":
+            y = F.relu(y)
+        s, z = self.fq["scale"][i + 1], self.fq["zp"][i + 1]
+        y = torch.clamp(y, (-128 - z) * s, (127 - z) * s)
+        return y + (torch.round(y / s) * s - y).detach()
+
     def forward(self, x, return_all=False):
         t = [x]
-        for d in self.spec:
+        for i, d in enumerate(self.spec):
             a = t[d["in"]]
             if d["op"] == "up":
                 y = F.interpolate(a, scale_factor=2, mode="nearest")
             elif d["op"] == "cat":
                 y = torch.cat([a, t[d["in2"]]], 1)
+            elif self.fq is not None:
+                y = self._fq_layer(d, i, a)
             else:
                 y = self.mods[d["mod"]](a)
             t.append(y)
@@ -314,7 +346,30 @@ def loss_fn(out, hm, m, reg, regm):
     hm_l = (pos_l + neg_l) / npos
     r = (out[:, 1:5] - reg).abs().sum(1)
     size_l = (r * regm).sum() / regm.sum().clamp(min=1)
-    return hm_l + SIZE_WEIGHT * size_l, hm_l.item(), size_l.item()
+    total = hm_l + SIZE_WEIGHT * size_l
+    if GIOU_WEIGHT > 0:
+        total = total + GIOU_WEIGHT * ((1 - giou(out[:, 1:5], reg)) * regm).sum() / regm.sum().clamp(min=1)
+    return total, hm_l.item(), size_l.item()
+
+
+def giou(o, t, stride=STRIDE):
+    """Generalised IoU (Rezatofighi et al. 2019) of the decoded box and the target box at each cell:
+    (log w, log h, dx, dy) channels, both boxes anchored at the same cell, target centred at 0.
+    Added to the L1 terms because an L1 on log sizes does not weigh what AP@0.5 measures: large close
+    cars whose detections overlap 0.3-0.5 (docs/results/detector.md)."""
+    wp, hp = torch.exp(o[:, 0].clamp(max=8.0)), torch.exp(o[:, 1].clamp(max=8.0))
+    wt, ht = torch.exp(t[:, 0]), torch.exp(t[:, 1])
+    dx, dy = (o[:, 2] - t[:, 2]) * stride, (o[:, 3] - t[:, 3]) * stride
+    def span(d, a, b):          # predicted [d - a/2, d + a/2] against target [-b/2, b/2]
+        inter = (torch.minimum(d + a / 2, b / 2) - torch.maximum(d - a / 2, -b / 2)).clamp(min=0)
+        hull = torch.maximum(d + a / 2, b / 2) - torch.minimum(d - a / 2, -b / 2)
+        return inter, hull
+    iw, cw = span(dx, wp, wt)
+    ih, ch = span(dy, hp, ht)
+    inter = iw * ih
+    union = wp * hp + wt * ht - inter
+    hull = cw * ch
+    return inter / union - (hull - union) / hull
 
 
 # ---------------------------------------------------------------- float decoding and evaluation
@@ -388,7 +443,15 @@ def main(argv=None):
     ap.add_argument("--synth", action="store_true", help="add the synthetic training clips (15 %% of the crops)")
     ap.add_argument("--exclude", choices=("msrs-night",), help="leave these frames out of training (the "
                     "another-camera estimate of docs/results/detector.md: train without night MSRS, test on it)")
+    ap.add_argument("--qat", action="store_true", help="quantisation-aware fine-tuning of --init: frozen batch "
+                    "norm, weights and activations fake-quantised with the exporter's scales (recalibrated at "
+                    "every evaluation); best.pt is chosen on the fake-quantised val AP")
+    ap.add_argument("--giou", type=float, default=0.0, help="weight of a GIoU box term (0: L1 only)")
     a = ap.parse_args(argv)
+    if a.qat and not a.init:
+        ap.error("--qat fine-tunes a trained network: give --init")
+    global GIOU_WEIGHT
+    GIOU_WEIGHT = a.giou
     torch.set_num_threads(a.threads)
     torch.manual_seed(a.seed)
     rng = np.random.default_rng(a.seed)
@@ -408,6 +471,18 @@ def main(argv=None):
     net = Net(a.arch)
     if a.init:
         net.load_state_dict(torch.load(a.init, weights_only=False, map_location="cpu")["net"])
+    if a.qat:
+        from vdtools.training import cnn_export as E     # same layer; imported here (it imports this module)
+        calib_rng = np.random.default_rng(0)
+        calib = [train[i] for i in calib_rng.choice(len(train), min(E.CALIB_FRAMES, len(train)), replace=False)]
+        def recalibrate():
+            net.set_fake_quant(None)
+            net.eval()
+            _, q = E.quantise(net, E.calibrate(net, calib))
+            net.train()
+            net.set_fake_quant(q)
+        recalibrate()
+        print(f"QAT: int8 val AP at start {evaluate(net, val)}", flush=True)
     if a.share:
         FAMILY_SHARE.update({k: float(v) for k, v in (kv.split("=") for kv in a.share.split(","))})
     print(f"arch {a.arch}: {sum(p.numel() for p in net.parameters())} parameters, "
@@ -441,6 +516,8 @@ def main(argv=None):
         if step % 50 == 0:
             print(f"step {step} t {el / 60:.1f} min lr {lr:.2e} loss {loss.item():.3f} hm {hl:.3f} size {sl:.3f}", flush=True)
         if step % a.eval_every == 0 or time.time() - t0 >= budget:
+            if a.qat:
+                recalibrate()
             aps = evaluate(net, val)
             mean = float(np.nanmean(list(aps.values())))
             log.append(dict(step=step, minutes=(time.time() - t0) / 60, val_ap=aps))

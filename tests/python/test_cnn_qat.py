@@ -1,0 +1,103 @@
+# SPDX-License-Identifier: MIT
+"""Quantisation-aware training (cnn_train --qat) simulates the int8 network the exporter writes: the
+fake-quantised float forward of a network, with the exporter's own scales and zero points, must give the
+integer codes of the numpy integer reference of its export (which the C library equals bit for bit,
+test_cnn_parity.py) up to the rounding of float against integer requantisation. Needs PyTorch (the
+`train` extra, not installed by CI: skipped there)."""
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch", reason="PyTorch is not installed (pip install -e tools[train]); "
+                            "the QAT simulation test needs it")
+
+from vdtools.formats import cnn_ref as R          # noqa: E402
+from vdtools.training import cnn_export as E      # noqa: E402
+from vdtools.training import cnn_train as T       # noqa: E402
+
+
+def _net():
+    torch.manual_seed(0)
+    net = T.Net("compact")
+    with torch.no_grad():
+        for m in net.modules():        # batch norm that is not the identity, so folding is exercised
+            if isinstance(m, torch.nn.BatchNorm2d):
+                m.running_mean.uniform_(-0.2, 0.2)
+                m.running_var.uniform_(0.5, 2.0)
+                m.weight.uniform_(0.5, 1.5)
+                m.bias.uniform_(-0.1, 0.3)
+        head = net.mods[net.spec[-1]["mod"]][0]
+        head.weight.mul_(20.0)         # the training init scales the head by 0.1: make its codes vary
+    net.eval()
+    return net
+
+
+def _planes(n=3, side=64):
+    rng = np.random.default_rng(1)
+    y, x = np.mgrid[0:side, 0:side]
+    out = []
+    for _ in range(n):
+        a = 100 + 60 * np.sin(x / rng.uniform(4, 9)) * np.cos(y / rng.uniform(4, 9)) + rng.normal(0, 20, x.shape)
+        out.append(np.clip(a, 0, 255).astype(np.uint8))
+    return out
+
+
+def _ranges(net, planes):
+    """cnn_export.calibrate's percentiles, on planes instead of data-set frames."""
+    vals = None
+    with torch.no_grad():
+        for u in planes:
+            ts = net(torch.from_numpy(u[None, None].astype(np.float32) / 255), return_all=True)
+            vals = vals or [[] for _ in ts]
+            for i, t in enumerate(ts):
+                vals[i].append(t.numpy().ravel())
+    return [(float(np.percentile(np.concatenate(v), 0.01)), float(np.percentile(np.concatenate(v), 99.99)))
+            for v in vals]
+
+
+def test_fake_quant_forward_matches_integer_reference():
+    net = _net()
+    planes = _planes()
+    desc, q = E.quantise(net, _ranges(net, planes))
+    net.set_fake_quant(q)
+    for u in planes:
+        with torch.no_grad():
+            fq = net(torch.from_numpy(u[None, None].astype(np.float32) / 255), return_all=True)
+        ref = R.forward(desc, (u.astype(np.int16) - 128).astype(np.int8))
+        assert len(fq) == len(ref)
+        for t in range(1, len(ref)):
+            codes = np.round(fq[t][0].numpy() / q["scale"][t]).astype(np.int64) + q["zp"][t]
+            want = ref[t].astype(np.int64).transpose(2, 0, 1)
+            d = np.abs(codes - want)
+            # float rounding of s_in s_w / s_out against the Q31 multiplier, and the int32 bias rounding,
+            # move a value across a rounding boundary now and then: one code, rarely two after a
+            # difference upstream; never a different network
+            assert d.max() <= 2, f"tensor {t}: max code difference {d.max()}"
+            assert (d == 0).mean() >= 0.9 and d.mean() <= 0.1, f"tensor {t}: {(d == 0).mean():.3f} equal, mean {d.mean():.3f}"
+        # the head is not degenerate (one code everywhere would make the comparison empty)
+        assert len(np.unique(ref[-1])) > 10 and len(np.unique(ref[-1][:, :, 0])) > 4
+
+
+def test_fake_quant_off_is_the_float_network():
+    net = _net()
+    x = torch.from_numpy(_planes(1)[0][None, None].astype(np.float32) / 255)
+    with torch.no_grad():
+        a = net(x)
+        desc, q = E.quantise(net, _ranges(net, _planes(1)))
+        net.set_fake_quant(q)
+        b = net(x)
+        net.set_fake_quant(None)
+        c = net(x)
+    assert torch.equal(a, c)
+    assert not torch.equal(a, b)
+
+
+def test_giou_hand_worked():
+    # identical boxes: 1; a box twice as wide, same centre: IoU 1/2, hull = union: 1/2;
+    # disjoint boxes 10 px wide, 20 px apart, same height: IoU 0, hull 30 x h, union 20 x h: -1/3
+    lw, lh = np.log(10.0), np.log(8.0)
+    o = torch.tensor([[lw, lw + np.log(2.0), lw], [lh, lh, lh], [0.0, 0.0, 5.0], [0.0, 0.0, 0.0]])[None, :, :, None]
+    t = torch.tensor([[lw, lw, lw], [lh, lh, lh], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])[None, :, :, None]
+    g = T.giou(o, t).flatten().tolist()
+    assert g[0] == pytest.approx(1.0)
+    assert g[1] == pytest.approx(0.5)
+    assert g[2] == pytest.approx(-1.0 / 3.0)       # dx = 5 cells x stride 4 = 20 px
