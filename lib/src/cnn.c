@@ -51,6 +51,9 @@
 #include "internal/crc32.h"
 #include "internal/requant.h"
 #include "internal/vd_internal.h"
+#if defined(VD_CNN_X86)
+#include "internal/cnn_x86.h"
+#endif
 
 #include <string.h>
 
@@ -110,7 +113,7 @@
 #define E_SHIFT 24u
 #define E_RES1 28u
 
-#define CNN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM)   // every flag of the _ex calls
+#define CNN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE)   // every flag of the _ex calls
 #define MAX_ABS_PRODUCT (128L * 255L)   // weights may be -128: |w (x - zp)| <= 128 * 255
 #define INPUT_ZP (-128)
 
@@ -1058,17 +1061,111 @@ CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_
     }
 }
 
+#if defined(VD_CNN_X86)
+// run_conv_pw on the AVX-512 VNNI GEMM (lib/src/cnn_x86.c), same scratch:
+// per tile of <= 64 output channels the int8 weights packed [k4 / 4][n][4]
+// (n k4 <= the int16 copy's 2 chunk kp bytes), per block of 16 pixels the
+// rows as unsigned bytes x + 128, k4 apart (16 k4 <= the int16 rows' bytes);
+// padding taps are zp_in + 128 and the bias loses (zp_in + 128) sum w, so
+// the int32 sums equal the portable ones modulo 2^32 (cnn_x86.c).
+CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in,
+                                         const ring_t *out, uint32_t y0, uint32_t y1, uint8_t *scr,
+                                         const scratch_layout_t *s, const rq_t *q)
+{
+    const size_t k = k_of(L);
+    const size_t k4 = round_up((uint32_t)k, 4u);
+    int8_t *wp = (int8_t *)(void *)(scr + s->w16);
+    uint8_t *rows = scr + s->rows;
+    memset(rows, 0, (size_t)VD_CNN_NPIX * k4);   // the k..k4 tails stay 0 (their weights are 0 too)
+    const uint8_t upad = (uint8_t)(g->zp_in + 128);
+    const vd_cnn_x86_rq_t xq = {q->zp, q->lo, q->hi, q->general, q->general || !q->relu};
+    const size_t ci = g->ci;
+    const int32_t step = L->stride;
+    const bool pw = L->op == VD_CNN_OP_PW1X1;
+    const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
+    const int32_t pad = ks / 2;
+    for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
+        const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
+        int32_t corr[VD_CNN_X86_TILE];
+        for (size_t o = 0u; o < n_o; o++) {
+            const int8_t *src = L->w + (o0 + o) * k;
+            uint32_t sum = 0u;   // modulo 2^32, as the accumulation
+            for (size_t i = 0u; i < k4; i++) {
+                const int32_t wv = (i < k) ? src[i] : 0;
+                wp[(i / 4u) * n_o * 4u + o * 4u + i % 4u] = (int8_t)wv;
+                sum += (uint32_t)wv;
+            }
+            corr[o] = vd_rq_u32_to_i32(sum * (uint32_t)(g->zp_in + 128));
+        }
+        vd_cnn_x86_rqv_t cv[VD_CNN_X86_TILE / VD_CNN_X86_LANES];
+        for (size_t v = 0u; v * VD_CNN_X86_LANES < n_o; v++) {
+            uint32_t ch_of[VD_CNN_X86_LANES];
+            const size_t n_l = (n_o - v * 16u < 16u) ? n_o - v * 16u : 16u;
+            for (size_t j = 0u; j < n_l; j++) {
+                ch_of[j] = (uint32_t)(o0 + v * 16u + j);
+            }
+            vd_cnn_x86_rqv_fill(&cv[v], q->ch, ch_of, corr + v * 16u, (uint32_t)n_l);
+        }
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rowp[5];
+            for (int32_t ky = 0; ky < ks; ky++) {
+                const int32_t iy = (int32_t)oy * step - pad + ky;
+                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
+            }
+            int8_t *orow = ring_row(out, oy) + o0;
+            for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
+                const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
+                for (uint32_t i = 0u; i < npix; i++) {
+                    uint8_t *r = rows + (size_t)i * k4;
+                    const int32_t ox = (int32_t)(x0 + i);
+                    if (pw) {
+                        const int8_t *x = rowp[0] + (size_t)ox * ci;
+                        for (size_t c = 0u; c < ci; c++) {
+                            r[c] = (uint8_t)((uint8_t)x[c] ^ 0x80u);
+                        }
+                        continue;
+                    }
+                    for (int32_t ky = 0; ky < ks; ky++) {
+                        for (int32_t kx = 0; kx < ks; kx++) {
+                            const int32_t ix = ox * step - pad + kx;
+                            uint8_t *d = r + (size_t)(ky * ks + kx) * ci;
+                            if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
+                                memset(d, upad, ci);
+                            } else {
+                                const int8_t *x = rowp[ky] + (size_t)ix * ci;
+                                for (size_t c = 0u; c < ci; c++) {
+                                    d[c] = (uint8_t)((uint8_t)x[c] ^ 0x80u);
+                                }
+                            }
+                        }
+                    }
+                }
+                vd_cnn_x86_gemm(rows, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+            }
+        }
+    }
+}
+#endif
+
 // Output rows [y0, y1) of a CONV3X3 / CONV5X5 / PW1X1 layer; the input rows
 // they read (y * stride - pad .. + pad, clamped) must be in the input ring.
 // Output channels in chunks of chunk_of(L, stream) (one chunk unless
 // streamed): per chunk the int16 weights, then every pixel block.
 CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                                     uint32_t y0, uint32_t y1, bool stream, uint8_t *scr)
+                                     uint32_t y0, uint32_t y1, bool stream, bool fast, uint8_t *scr)
 {
     scratch_layout_t s;
     (void)scratch_layout(L, stream, &s);
     rq_t q;
     rq_setup(L, scr, &s, &q);
+#if defined(VD_CNN_X86)
+    if (fast) {
+        run_conv_pw_x86(L, g, in, out, y0, y1, scr, &s, &q);
+        return;
+    }
+#else
+    (void)fast;
+#endif
     const size_t k = k_of(L);
     const size_t kp = round_up((uint32_t)k, VD_CNN_KCHUNK);
     int16_t *w16 = (int16_t *)(void *)(scr + s.w16);
@@ -1198,7 +1295,7 @@ static inline void dw_store(const int32_t *acc, size_t n, size_t c0, const rq_t 
 
 // Output rows [y0, y1) of a DW3X3 layer (input rows y * stride - 1 .. + 1 in the ring).
 CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                                uint32_t y0, uint32_t y1, uint8_t *scr)
+                                uint32_t y0, uint32_t y1, bool fast, uint8_t *scr)
 {
     scratch_layout_t s;
     (void)scratch_layout(L, false, &s);   // no chunks: the same layout either way
@@ -1223,6 +1320,22 @@ CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const 
         zrow[c] = (int8_t)g->zp_in;
     }
     const int32_t step = L->stride;
+#if defined(VD_CNN_X86)
+    if (fast) {
+        const vd_cnn_x86_rq_t xq = {q.zp, q.lo, q.hi, q.general, q.general || !q.relu};
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rowp[3];
+            for (int32_t ky = 0; ky < 3; ky++) {
+                const int32_t iy = (int32_t)oy * step - 1 + ky;
+                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
+            }
+            vd_cnn_x86_dw_row(rowp, zrow, c_n, g->wi, g->wo, (uint32_t)step, w16, cp, ch, &xq, ring_row(out, oy));
+        }
+        return;
+    }
+#else
+    (void)fast;
+#endif
     const size_t pstep = (size_t)step * c_n;   // input bytes per output pixel along a row
     for (uint32_t oy = y0; oy < y1; oy++) {
         // Row pointers of the three input rows (NULL above/below the tensor);
@@ -1424,6 +1537,18 @@ typedef struct run_io {
     const chain_t *c;
 } run_io_t;
 
+// The optional x86 kernels run unless the caller asked for the portable
+// ones or the CPU lacks AVX-512 VNNI (checked per call: no global state).
+static bool use_x86(uint32_t flags)
+{
+#if defined(VD_CNN_X86)
+    return (flags & VD_CNN_PORTABLE) == 0u && vd_cnn_x86_ok();
+#else
+    (void)flags;
+    return false;
+#endif
+}
+
 // Output rows [y0, y1) of layer l; its input rows must be in their rings.
 static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_plan_t *p, uint8_t *base, uint32_t l,
                        uint32_t y0, uint32_t y1)
@@ -1441,14 +1566,15 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     const ring_t o = ring_of(base, p, c, l + 1u);
     // The streamed plan has one scratch for all layers (item 3), refilled per call.
     uint8_t *scr = base + p->off[((p->flags & VD_CNN_STREAM) != 0u) ? 3u : 3u + 2u * l];
+    const bool fast = use_x86(p->flags);
     switch (L->op) {
     case VD_CNN_OP_CONV3X3:
     case VD_CNN_OP_CONV5X5:
     case VD_CNN_OP_PW1X1:
-        run_conv_pw(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr);
+        run_conv_pw(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, fast, scr);
         break;
     case VD_CNN_OP_DW3X3:
-        run_dw(L, &g, &in, &o, y0, y1, scr);
+        run_dw(L, &g, &in, &o, y0, y1, fast, scr);
         break;
     case VD_CNN_OP_MAXPOOL2:
         run_maxpool(&g, &in, &o, y0, y1);

@@ -1,0 +1,230 @@
+// SPDX-License-Identifier: MIT
+// Optional x86-64 AVX-512 VNNI kernels of the int8 CNN: pointwise/spatial GEMM, depthwise 3x3, exact requantisation.
+//
+// Compiled only when CMake's VD_CNN_X86 is ON (x86-64 gcc/clang hosts); the
+// kernels carry per-function target attributes and cnn.c calls them only
+// after vd_cnn_x86_ok() (runtime CPU check), so the library still runs on an
+// x86-64 CPU without AVX-512. Every output equals the portable kernels' byte
+// for byte (tests/unit/test_cnn.c compares the two on random models and the
+// shipped ones):
+//  * GEMM (CONV3X3 / CONV5X5 / PW1X1): vpdpbusd multiplies unsigned by signed
+//    bytes, four products into an int32 lane, with no intermediate
+//    saturation (unlike vpmaddubsw), so with u = x + 128 in 0..255,
+//    sum w u = sum w (x - zp_in) + (zp_in + 128) sum w exactly; the caller
+//    feeds padding taps as u = zp_in + 128 (a zero term, as in the portable
+//    rows) and subtracts (zp_in + 128) sum w from the bias, modulo 2^32 like
+//    every accumulation. Output channels run along the lanes (16 per
+//    register, 4 registers per tile), 4 pixels per pass.
+//  * DW3X3: int16 products, vpdpwssd on tap pairs interleaved per channel
+//    (unpacklo/hi); 2 products + int32 per lane, exact. packs_epi32 of the
+//    lo/hi results restores the channel order.
+//  * Requantisation: the one-shift form of internal/requant.h (vd_rq_z,
+//    vd_rq_z_nn, vd_rq_lshift_sat) on 16 lanes: the 64-bit product u * mult
+//    of even and odd lanes by vpmuludq, + k (- dk), per-lane vpsrlvq. Same
+//    integer operations, so the same result.
+// Bounds: as the portable kernels; stack ~3.5 KiB (constants of one tile).
+#include "internal/cnn_x86.h"
+
+#include <immintrin.h>
+#include <string.h>
+
+#define X86_TARGET __attribute__((target("avx512f,avx512bw,avx512vl,avx512vnni")))
+#define X86_INLINE static inline __attribute__((always_inline)) X86_TARGET
+
+bool vd_cnn_x86_ok(void)
+{
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx512f") != 0 && __builtin_cpu_supports("avx512bw") != 0 &&
+           __builtin_cpu_supports("avx512vl") != 0 && __builtin_cpu_supports("avx512vnni") != 0;
+}
+
+void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_rq_ch_t *ch, const uint32_t *ch_of, const int32_t *corr,
+                         uint32_t n_lanes)
+{
+    for (uint32_t j = 0u; j < 16u; j++) {
+        const uint32_t jj = (j < n_lanes) ? j : 0u;
+        const vd_rq_ch_t *c = &ch[ch_of[jj]];
+        const uint32_t cr = (corr != NULL) ? (uint32_t)corr[jj] : 0u;
+        v->bias[j] = vd_rq_u32_to_i32((uint32_t)c->bias - cr);
+        v->mult[j] = c->mult;
+        v->thr[j] = c->thr;
+        v->dk[j] = c->dk;
+        v->off[j] = c->off;
+        v->lsh[j] = c->lsh;
+        if ((j & 1u) == 0u) {
+            v->k_e[j / 2u] = c->k;
+            v->rsh_e[j / 2u] = c->rsh;
+        } else {
+            v->k_o[j / 2u] = c->k;
+            v->rsh_o[j / 2u] = c->rsh;
+        }
+    }
+}
+
+// z = clamp(requantize(acc + bias), lo, hi) + zp on 16 lanes, as
+// rq_out(vd_rq_apply(..)) (general), rq_out(vd_rq_z(..)) (sign) or
+// rq_out(vd_rq_z_nn(..)) in cnn.c.
+X86_INLINE __m512i rq16(__m512i acc, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q)
+{
+    __m512i x = _mm512_add_epi32(acc, _mm512_loadu_si512(c->bias));
+    if (q->general) {
+        // vd_rq_lshift_sat: x * 2^lsh, saturated where the shift changes the value.
+        const __m512i sh = _mm512_loadu_si512(c->lsh);
+        const __m512i t = _mm512_sllv_epi32(x, sh);
+        const __mmask16 ovf = _mm512_cmpneq_epi32_mask(_mm512_srav_epi32(t, sh), x);
+        const __m512i sat = _mm512_xor_si512(_mm512_srai_epi32(x, 31), _mm512_set1_epi32(INT32_MAX));
+        x = _mm512_mask_blend_epi32(ovf, t, sat);
+    }
+    const __m512i xu = _mm512_xor_si512(x, _mm512_set1_epi32(INT32_MIN));   // x + 2^31 as uint32
+    const __m512i mult = _mm512_loadu_si512(c->mult);
+    __m512i ve = _mm512_add_epi64(_mm512_mul_epu32(xu, mult), _mm512_loadu_si512(c->k_e));
+    __m512i vo = _mm512_add_epi64(_mm512_mul_epu32(_mm512_srli_epi64(xu, 32), _mm512_srli_epi64(mult, 32)),
+                                  _mm512_loadu_si512(c->k_o));
+    if (q->sign) {
+        // - dk where x <= thr (modulo 2^64 like the portable uint64 sum).
+        const __mmask16 neg = _mm512_cmple_epi32_mask(x, _mm512_loadu_si512(c->thr));
+        const __m512i d = _mm512_maskz_mov_epi32(neg, _mm512_loadu_si512(c->dk));
+        ve = _mm512_sub_epi64(ve, _mm512_and_si512(d, _mm512_set1_epi64(0xFFFFFFFFLL)));
+        vo = _mm512_sub_epi64(vo, _mm512_srli_epi64(d, 32));
+    }
+    ve = _mm512_srlv_epi64(ve, _mm512_loadu_si512(c->rsh_e));
+    vo = _mm512_srlv_epi64(vo, _mm512_loadu_si512(c->rsh_o));
+    __m512i z = _mm512_mask_blend_epi32((__mmask16)0xAAAAu, ve, _mm512_slli_epi64(vo, 32));
+    z = _mm512_sub_epi32(z, _mm512_loadu_si512(c->off));
+    z = _mm512_max_epi32(z, _mm512_set1_epi32(q->lo));
+    z = _mm512_min_epi32(z, _mm512_set1_epi32(q->hi));
+    return _mm512_add_epi32(z, _mm512_set1_epi32(q->zp));
+}
+
+static uint32_t lane_mask16(size_t rem)
+{
+    return (rem >= 16u) ? 0xFFFFu : (((uint32_t)1 << rem) - 1u);
+}
+
+// The GEMM with nv (1..4, a constant after inlining) registers of channels.
+X86_INLINE void gemm_nv(const uint8_t *rows, size_t k4, const int8_t *wp, size_t n_o, const vd_cnn_x86_rqv_t *cv,
+                        const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out, uint32_t npix, const size_t nv)
+{
+    __mmask16 m[4];
+    for (size_t v = 0u; v < 4u; v++) {
+        m[v] = (__mmask16)((v < nv) ? lane_mask16(n_o - 16u * v) : 0u);
+    }
+    const size_t wstep = n_o * 4u;   // bytes per group of 4 k
+    const size_t ng = k4 / 4u;
+    for (uint32_t p0 = 0u; p0 < npix; p0 += 4u) {
+        __m512i a[4][4];
+        for (size_t p = 0u; p < 4u; p++) {
+            for (size_t v = 0u; v < nv; v++) {
+                a[p][v] = _mm512_setzero_si512();
+            }
+        }
+        const uint8_t *r = rows + (size_t)p0 * k4;
+        const int8_t *w = wp;
+        for (size_t gi = 0u; gi < ng; gi++) {
+            __m512i wv[4];
+            for (size_t v = 0u; v < nv; v++) {
+                wv[v] = _mm512_maskz_loadu_epi32(m[v], w + 64u * v);
+            }
+            for (size_t p = 0u; p < 4u; p++) {
+                int32_t b;
+                memcpy(&b, r + p * k4 + 4u * gi, sizeof b);
+                const __m512i bb = _mm512_set1_epi32(b);
+                for (size_t v = 0u; v < nv; v++) {
+                    a[p][v] = _mm512_dpbusd_epi32(a[p][v], bb, wv[v]);
+                }
+            }
+            w += wstep;
+        }
+        const uint32_t np = (npix - p0 < 4u) ? npix - p0 : 4u;
+        for (size_t p = 0u; p < np; p++) {
+            int8_t *d = out + ((size_t)p0 + p) * pstride;
+            for (size_t v = 0u; v < nv; v++) {
+                _mm512_mask_cvtepi32_storeu_epi8(d + 16u * v, m[v], rq16(a[p][v], &cv[v], q));
+            }
+        }
+    }
+}
+
+X86_TARGET void vd_cnn_x86_gemm(const uint8_t *rows, size_t k4, const int8_t *wp, size_t n_o,
+                                const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                                uint32_t npix)
+{
+    switch ((n_o + 15u) / 16u) {
+    case 1:
+        gemm_nv(rows, k4, wp, n_o, cv, q, pstride, out, npix, 1u);
+        break;
+    case 2:
+        gemm_nv(rows, k4, wp, n_o, cv, q, pstride, out, npix, 2u);
+        break;
+    case 3:
+        gemm_nv(rows, k4, wp, n_o, cv, q, pstride, out, npix, 3u);
+        break;
+    default:
+        gemm_nv(rows, k4, wp, n_o, cv, q, pstride, out, npix, 4u);
+        break;
+    }
+}
+
+X86_INLINE __m512i dw_tap(const int8_t *t, __mmask32 m)
+{
+    return _mm512_cvtepi8_epi16(_mm256_maskz_loadu_epi8(m, t));
+}
+
+X86_TARGET void vd_cnn_x86_dw_row(const int8_t *const t_rows[3], const int8_t *zrow, size_t c_n, uint32_t wi,
+                                  uint32_t wo, uint32_t stride, const int16_t *w16, size_t cp, const vd_rq_ch_t *ch,
+                                  const vd_cnn_x86_rq_t *q, int8_t *orow)
+{
+    const size_t pstep = (size_t)stride * c_n;
+    for (size_t c0 = 0u; c0 < c_n; c0 += 32u) {
+        const size_t nc = (c_n - c0 < 32u) ? c_n - c0 : 32u;
+        const __mmask32 m = (nc == 32u) ? (__mmask32)0xFFFFFFFFu : (__mmask32)(((uint32_t)1 << nc) - 1u);
+        // Tap pairs (0,1) (2,3) (4,5) (6,7) (8,-) interleaved per channel as the activations will be.
+        __m512i wl[5], wh[5];
+        for (size_t i = 0u; i < 5u; i++) {
+            const __m512i wa = _mm512_maskz_loadu_epi16(m, w16 + 2u * i * cp + c0);
+            const __m512i wb = (i < 4u) ? _mm512_maskz_loadu_epi16(m, w16 + (2u * i + 1u) * cp + c0)
+                                        : _mm512_setzero_si512();
+            wl[i] = _mm512_unpacklo_epi16(wa, wb);
+            wh[i] = _mm512_unpackhi_epi16(wa, wb);
+        }
+        // Lane 4 L + i of the lo / hi sums holds channel c0 + 8 L + i / + 4.
+        uint32_t map_lo[16], map_hi[16];
+        for (uint32_t j = 0u; j < 16u; j++) {
+            const size_t cl = c0 + 8u * (j / 4u) + (j % 4u);
+            map_lo[j] = (uint32_t)((cl < c_n) ? cl : c0);
+            map_hi[j] = (uint32_t)((cl + 4u < c_n) ? cl + 4u : c0);
+        }
+        vd_cnn_x86_rqv_t cl, chv;
+        vd_cnn_x86_rqv_fill(&cl, ch, map_lo, NULL, 16u);
+        vd_cnn_x86_rqv_fill(&chv, ch, map_hi, NULL, 16u);
+        for (uint32_t ox = 0u; ox < wo; ox++) {
+            const int8_t *t[9];
+            const int32_t ix0 = (int32_t)ox * (int32_t)stride - 1;
+            const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)wi;
+            for (size_t ky = 0u; ky < 3u; ky++) {
+                const int8_t *r = t_rows[ky];
+                if (r == NULL) {
+                    t[ky * 3u] = zrow;
+                    t[ky * 3u + 1u] = zrow;
+                    t[ky * 3u + 2u] = zrow;
+                    continue;
+                }
+                const int8_t *c1 = r + (size_t)ox * pstep;
+                t[ky * 3u] = left ? c1 - c_n : zrow;
+                t[ky * 3u + 1u] = c1;
+                t[ky * 3u + 2u] = right ? c1 + c_n : zrow;
+            }
+            __m512i al = _mm512_setzero_si512(), ah = _mm512_setzero_si512();
+            for (size_t i = 0u; i < 4u; i++) {
+                const __m512i xa = dw_tap(t[2u * i] + c0, m), xb = dw_tap(t[2u * i + 1u] + c0, m);
+                al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(xa, xb), wl[i]);
+                ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(xa, xb), wh[i]);
+            }
+            const __m512i x8 = dw_tap(t[8] + c0, m), zero = _mm512_setzero_si512();
+            al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(x8, zero), wl[4]);
+            ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(x8, zero), wh[4]);
+            const __m512i z = _mm512_packs_epi32(rq16(al, &cl, q), rq16(ah, &chv, q));
+            _mm512_mask_cvtepi16_storeu_epi8(orow + (size_t)ox * c_n + c0, m, z);
+        }
+    }
+}

@@ -1,0 +1,67 @@
+// SPDX-License-Identifier: MIT
+// Optional x86-64 AVX-512 VNNI kernels of the int8 CNN (lib/src/cnn_x86.c), bit-exact with the portable ones.
+//
+// Built only when CMake's VD_CNN_X86 is ON (x86-64 gcc/clang hosts, never in
+// cross builds); cnn.c calls them only if vd_cnn_x86_ok() (runtime CPU check)
+// and the run flags lack VD_CNN_PORTABLE. Private to lib/; tests include it.
+#ifndef VD_CNN_X86_H
+#define VD_CNN_X86_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "internal/requant.h"
+
+// Output channels per vector (one 512-bit register of int32) and per GEMM
+// tile (four vectors).
+#define VD_CNN_X86_LANES 16u
+#define VD_CNN_X86_TILE 64u
+
+// Requantisation constants of 16 int32 lanes (any lane -> channel map):
+// the vd_rq_ch_t fields spread for the even/odd 64-bit halves of
+// _mm512_mul_epu32. bias includes the kernel's zero-point correction.
+typedef struct vd_cnn_x86_rqv {
+    int32_t bias[16];
+    uint32_t mult[16];   // Q31 multiplier
+    int32_t thr[16];
+    uint32_t dk[16];     // 0 or 2^31
+    uint32_t off[16];
+    uint32_t lsh[16];
+    uint64_t k_e[8], k_o[8];       // k of lanes 2j, 2j + 1
+    uint64_t rsh_e[8], rsh_o[8];   // s of lanes 2j, 2j + 1 (31..62)
+} vd_cnn_x86_rqv_t;
+
+// Layer-wide part of the requantisation (output clamp relative to the zero point).
+typedef struct vd_cnn_x86_rq {
+    int32_t zp, lo, hi;
+    bool general;   // some channel has lsh > 0
+    bool sign;      // the sign term is needed (not ReLU-clamped, or general)
+} vd_cnn_x86_rq_t;
+
+// True when the CPU (and OS) has AVX-512 F, BW, VL and VNNI.
+bool vd_cnn_x86_ok(void);
+
+// Fills v for lanes 0..15: lane j takes channel ch_of[j] of ch (n_lanes
+// lanes valid; the others copy lane 0) with corr[j] subtracted from its
+// bias modulo 2^32 (corr may be NULL).
+void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_rq_ch_t *ch, const uint32_t *ch_of, const int32_t *corr,
+                         uint32_t n_lanes);
+
+// Pointwise / spatial GEMM of one block: npix (1..16) rows of k4 unsigned
+// bytes (x + 128, k4 a multiple of 4, rows k4 bytes apart) against packed
+// int8 weights wp[k4 / 4][n_o][4] (n_o 1..64 channels), requantised with
+// cv[n_o / 16 rounded up]; writes n_o int8 channels of npix pixels at out,
+// pstride bytes apart. Rows of pixels npix..(npix rounded up to 4) - 1 are
+// read (the caller's row buffer holds 16), their results discarded.
+void vd_cnn_x86_gemm(const uint8_t *rows, size_t k4, const int8_t *wp, size_t n_o, const vd_cnn_x86_rqv_t *cv,
+                     const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out, uint32_t npix);
+
+// Depthwise 3x3 output row: t_rows[3] input rows (zrow, c_n bytes of zp_in,
+// for rows outside the tensor), w16 the int16 weights [9][cp], ch the
+// per-channel constants with bias - zp_in sum w already folded in.
+void vd_cnn_x86_dw_row(const int8_t *const t_rows[3], const int8_t *zrow, size_t c_n, uint32_t wi, uint32_t wo,
+                       uint32_t stride, const int16_t *w16, size_t cp, const vd_rq_ch_t *ch, const vd_cnn_x86_rq_t *q,
+                       int8_t *orow);
+
+#endif
