@@ -1087,15 +1087,10 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
     for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
         int32_t corr[VD_CNN_X86_TILE];
+        uint32_t wsum[VD_CNN_X86_TILE];
+        vd_cnn_x86_pack(L->w + o0 * k, k, n_o, wp, wsum);
         for (size_t o = 0u; o < n_o; o++) {
-            const int8_t *src = L->w + (o0 + o) * k;
-            uint32_t sum = 0u;   // modulo 2^32, as the accumulation
-            for (size_t i = 0u; i < k4; i++) {
-                const int32_t wv = (i < k) ? src[i] : 0;
-                wp[(i / 4u) * n_o * 4u + o * 4u + i % 4u] = (int8_t)wv;
-                sum += (uint32_t)wv;
-            }
-            corr[o] = vd_rq_u32_to_i32(sum * (uint32_t)(g->zp_in + 128));
+            corr[o] = vd_rq_u32_to_i32(wsum[o] * (uint32_t)(g->zp_in + 128));   // modulo 2^32, as the sums
         }
         vd_cnn_x86_rqv_t cv[VD_CNN_X86_TILE / VD_CNN_X86_LANES];
         for (size_t v = 0u; v * VD_CNN_X86_LANES < n_o; v++) {

@@ -165,6 +165,40 @@ X86_TARGET void vd_cnn_x86_gemm(const uint8_t *rows, size_t k4, const int8_t *wp
     }
 }
 
+X86_TARGET void vd_cnn_x86_pack(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum)
+{
+    const size_t k4 = (k + 3u) / 4u * 4u;
+    const size_t full = k / 4u;   // groups of 4 weights inside the channel
+    const __m512i ones = _mm512_set1_epi8(1);
+    const __m512i idx = _mm512_mullo_epi32(_mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
+                                           _mm512_set1_epi32((int32_t)k));
+    for (size_t o0 = 0u; o0 < n_o; o0 += 16u) {
+        const size_t nl = (n_o - o0 < 16u) ? n_o - o0 : 16u;
+        const __mmask16 m = (__mmask16)lane_mask16(nl);
+        const int8_t *src = w + o0 * k;
+        int8_t *dst = wp + o0 * 4u;
+        __m512i sum = _mm512_setzero_si512();
+        for (size_t gi = 0u; gi < full; gi++) {
+            // Lane j: weights 4 gi .. 4 gi + 3 of channel o0 + j (a 32-bit transpose).
+            const __m512i v = _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), m, idx, src + 4u * gi, 1);
+            _mm512_mask_storeu_epi32(dst + gi * n_o * 4u, m, v);
+            sum = _mm512_dpbusd_epi32(sum, ones, v);
+        }
+        uint32_t s[16];
+        _mm512_storeu_si512(s, sum);
+        for (size_t j = 0u; j < nl; j++) {
+            // The last, partial group: zero weights past k (their activations are 0 too).
+            int8_t *d = dst + full * n_o * 4u + j * 4u;
+            for (size_t i = 4u * full; i < k4; i++) {
+                const int32_t wv = (i < k) ? src[j * k + i] : 0;
+                d[i - 4u * full] = (int8_t)wv;
+                s[j] += (uint32_t)wv;
+            }
+            wsum[o0 + j] = s[j];
+        }
+    }
+}
+
 X86_INLINE __m512i dw_tap(const int8_t *t, __mmask32 m)
 {
     return _mm512_cvtepi8_epi16(_mm256_maskz_loadu_epi8(m, t));

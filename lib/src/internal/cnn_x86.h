@@ -57,6 +57,11 @@ void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_rq_ch_t *ch, const uint32
 void vd_cnn_x86_gemm(const uint8_t *rows, size_t k4, const int8_t *wp, size_t n_o, const vd_cnn_x86_rqv_t *cv,
                      const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out, uint32_t npix);
 
+// Packs the int8 weights w[n_o][k] (n_o <= 64) as wp[k4 / 4][n_o][4]
+// (k4 = k rounded up to 4, zeros past k) and writes sum w of each channel
+// (modulo 2^32) to wsum[n_o].
+void vd_cnn_x86_pack(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum);
+
 // Depthwise 3x3 output row: t_rows[3] input rows (zrow, c_n bytes of zp_in,
 // for rows outside the tensor), w16 the int16 weights [9][cp], ch the
 // per-channel constants with bias - zp_in sum w already folded in.
