@@ -1084,6 +1084,7 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
     const int32_t pad = ks / 2;
+    const bool in_place = pw && ci % 4u == 0u;
     for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
         int32_t corr[VD_CNN_X86_TILE];
@@ -1110,6 +1111,12 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
             int8_t *orow = ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
+                if (in_place) {
+                    // The input pixels are the rows (x, flipped to x + 128 in the kernel).
+                    vd_cnn_x86_gemm((const uint8_t *)(const void *)(rowp[0] + (size_t)x0 * ci), ci, true, k4, wp,
+                                    n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+                    continue;
+                }
                 for (uint32_t i = 0u; i < npix; i++) {
                     uint8_t *r = rows + (size_t)i * k4;
                     const int32_t ox = (int32_t)(x0 + i);
@@ -1120,22 +1127,33 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
                         }
                         continue;
                     }
+                    const int32_t ix0 = ox * step - pad;
+                    const bool inside = ix0 >= 0 && ix0 + ks <= (int32_t)g->wi;
                     for (int32_t ky = 0; ky < ks; ky++) {
+                        uint8_t *d = r + (size_t)(ky * ks) * ci;
+                        if (inside && rowp[ky] != NULL) {
+                            // ks taps of ci channels, contiguous in the input row.
+                            const int8_t *x = rowp[ky] + (size_t)ix0 * ci;
+                            for (size_t c = 0u; c < (size_t)ks * ci; c++) {
+                                d[c] = (uint8_t)((uint8_t)x[c] ^ 0x80u);
+                            }
+                            continue;
+                        }
                         for (int32_t kx = 0; kx < ks; kx++) {
-                            const int32_t ix = ox * step - pad + kx;
-                            uint8_t *d = r + (size_t)(ky * ks + kx) * ci;
+                            const int32_t ix = ix0 + kx;
+                            uint8_t *dk = d + (size_t)kx * ci;
                             if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
-                                memset(d, upad, ci);
+                                memset(dk, upad, ci);
                             } else {
                                 const int8_t *x = rowp[ky] + (size_t)ix * ci;
                                 for (size_t c = 0u; c < ci; c++) {
-                                    d[c] = (uint8_t)((uint8_t)x[c] ^ 0x80u);
+                                    dk[c] = (uint8_t)((uint8_t)x[c] ^ 0x80u);
                                 }
                             }
                         }
                     }
                 }
-                vd_cnn_x86_gemm(rows, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+                vd_cnn_x86_gemm(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }
     }

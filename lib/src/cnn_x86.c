@@ -102,8 +102,9 @@ static uint32_t lane_mask16(size_t rem)
 }
 
 // The GEMM with nv (1..4, a constant after inlining) registers of channels.
-X86_INLINE void gemm_nv(const uint8_t *rows, size_t k4, const int8_t *wp, size_t n_o, const vd_cnn_x86_rqv_t *cv,
-                        const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out, uint32_t npix, const size_t nv)
+X86_INLINE void gemm_nv(const uint8_t *rows, size_t rstride, uint32_t flip, size_t k4, const int8_t *wp, size_t n_o,
+                        const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                        uint32_t npix, const size_t nv)
 {
     __mmask16 m[4];
     for (size_t v = 0u; v < 4u; v++) {
@@ -118,7 +119,11 @@ X86_INLINE void gemm_nv(const uint8_t *rows, size_t k4, const int8_t *wp, size_t
                 a[p][v] = _mm512_setzero_si512();
             }
         }
-        const uint8_t *r = rows + (size_t)p0 * k4;
+        // Rows of the 4 pixels; past npix the last one again (read, not stored).
+        const uint8_t *r[4];
+        for (size_t p = 0u; p < 4u; p++) {
+            r[p] = rows + (size_t)((p0 + p < npix) ? p0 + p : npix - 1u) * rstride;
+        }
         const int8_t *w = wp;
         for (size_t gi = 0u; gi < ng; gi++) {
             __m512i wv[4];
@@ -126,41 +131,44 @@ X86_INLINE void gemm_nv(const uint8_t *rows, size_t k4, const int8_t *wp, size_t
                 wv[v] = _mm512_maskz_loadu_epi32(m[v], w + 64u * v);
             }
             for (size_t p = 0u; p < 4u; p++) {
-                int32_t b;
-                memcpy(&b, r + p * k4 + 4u * gi, sizeof b);
-                const __m512i bb = _mm512_set1_epi32(b);
+                uint32_t b;
+                memcpy(&b, r[p] + 4u * gi, sizeof b);
+                const __m512i bb = _mm512_set1_epi32((int32_t)(b ^ flip));
                 for (size_t v = 0u; v < nv; v++) {
                     a[p][v] = _mm512_dpbusd_epi32(a[p][v], bb, wv[v]);
                 }
             }
             w += wstep;
         }
-        const uint32_t np = (npix - p0 < 4u) ? npix - p0 : 4u;
-        for (size_t p = 0u; p < np; p++) {
-            int8_t *d = out + ((size_t)p0 + p) * pstride;
-            for (size_t v = 0u; v < nv; v++) {
-                _mm512_mask_cvtepi32_storeu_epi8(d + 16u * v, m[v], rq16(a[p][v], &cv[v], q));
+        // Constant indices only (a runtime bound on p would keep a[][] in memory).
+        for (size_t p = 0u; p < 4u; p++) {
+            if (p0 + p < npix) {
+                int8_t *d = out + ((size_t)p0 + p) * pstride;
+                for (size_t v = 0u; v < nv; v++) {
+                    _mm512_mask_cvtepi32_storeu_epi8(d + 16u * v, m[v], rq16(a[p][v], &cv[v], q));
+                }
             }
         }
     }
 }
 
-X86_TARGET void vd_cnn_x86_gemm(const uint8_t *rows, size_t k4, const int8_t *wp, size_t n_o,
-                                const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
-                                uint32_t npix)
+X86_TARGET void vd_cnn_x86_gemm(const uint8_t *rows, size_t rstride, bool flip, size_t k4, const int8_t *wp,
+                                size_t n_o, const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride,
+                                int8_t *out, uint32_t npix)
 {
+    const uint32_t f = flip ? 0x80808080u : 0u;
     switch ((n_o + 15u) / 16u) {
     case 1:
-        gemm_nv(rows, k4, wp, n_o, cv, q, pstride, out, npix, 1u);
+        gemm_nv(rows, rstride, f, k4, wp, n_o, cv, q, pstride, out, npix, 1u);
         break;
     case 2:
-        gemm_nv(rows, k4, wp, n_o, cv, q, pstride, out, npix, 2u);
+        gemm_nv(rows, rstride, f, k4, wp, n_o, cv, q, pstride, out, npix, 2u);
         break;
     case 3:
-        gemm_nv(rows, k4, wp, n_o, cv, q, pstride, out, npix, 3u);
+        gemm_nv(rows, rstride, f, k4, wp, n_o, cv, q, pstride, out, npix, 3u);
         break;
     default:
-        gemm_nv(rows, k4, wp, n_o, cv, q, pstride, out, npix, 4u);
+        gemm_nv(rows, rstride, f, k4, wp, n_o, cv, q, pstride, out, npix, 4u);
         break;
     }
 }

@@ -48,14 +48,16 @@ bool vd_cnn_x86_ok(void);
 void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_rq_ch_t *ch, const uint32_t *ch_of, const int32_t *corr,
                          uint32_t n_lanes);
 
-// Pointwise / spatial GEMM of one block: npix (1..16) rows of k4 unsigned
-// bytes (x + 128, k4 a multiple of 4, rows k4 bytes apart) against packed
+// Pointwise / spatial GEMM of one block: npix (1..16) rows of k4 bytes
+// (k4 a multiple of 4), rstride bytes apart: unsigned x + 128 or, with
+// flip, the int8 x itself (the kernel flips bit 7: a pointwise layer with
+// cin a multiple of 4 reads its input row in place). Dotted with the packed
 // int8 weights wp[k4 / 4][n_o][4] (n_o 1..64 channels), requantised with
 // cv[n_o / 16 rounded up]; writes n_o int8 channels of npix pixels at out,
-// pstride bytes apart. Rows of pixels npix..(npix rounded up to 4) - 1 are
-// read (the caller's row buffer holds 16), their results discarded.
-void vd_cnn_x86_gemm(const uint8_t *rows, size_t k4, const int8_t *wp, size_t n_o, const vd_cnn_x86_rqv_t *cv,
-                     const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out, uint32_t npix);
+// pstride bytes apart. Only the npix rows are read.
+void vd_cnn_x86_gemm(const uint8_t *rows, size_t rstride, bool flip, size_t k4, const int8_t *wp, size_t n_o,
+                     const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                     uint32_t npix);
 
 // Packs the int8 weights w[n_o][k] (n_o <= 64) as wp[k4 / 4][n_o][4]
 // (k4 = k rounded up to 4, zeros past k) and writes sum w of each channel
