@@ -1062,6 +1062,21 @@ CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_
 }
 
 #if defined(VD_CNN_X86)
+// Layer-wide requantisation flags of the x86 kernels (as rq_setup's).
+static vd_cnn_x86_rq_t x86_rq(const vd_cnn_layer_t *L)
+{
+    vd_cnn_x86_rq_t q;
+    q.zp = L->out_zp;
+    q.lo = L->act_min - L->out_zp;
+    q.hi = L->act_max - L->out_zp;
+    q.general = false;
+    for (uint32_t o = 0u; o < L->cout; o++) {
+        q.general = q.general || L->shift[o] > 0;
+    }
+    q.sign = q.general || q.lo < 0;
+    return q;
+}
+
 // run_conv_pw on the AVX-512 VNNI GEMM (lib/src/cnn_x86.c), same scratch:
 // per tile of <= 64 output channels the int8 weights packed [k4 / 4][n][4]
 // (n k4 <= the int16 copy's 2 chunk kp bytes), per block of 16 pixels the
@@ -1070,7 +1085,7 @@ CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_
 // the int32 sums equal the portable ones modulo 2^32 (cnn_x86.c).
 CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in,
                                          const ring_t *out, uint32_t y0, uint32_t y1, uint8_t *scr,
-                                         const scratch_layout_t *s, const rq_t *q)
+                                         const scratch_layout_t *s)
 {
     const size_t k = k_of(L);
     const size_t k4 = round_up((uint32_t)k, 4u);
@@ -1078,7 +1093,7 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
     uint8_t *rows = scr + s->rows;
     memset(rows, 0, (size_t)VD_CNN_NPIX * k4);   // the k..k4 tails stay 0 (their weights are 0 too)
     const uint8_t upad = (uint8_t)(g->zp_in + 128);
-    const vd_cnn_x86_rq_t xq = {q->zp, q->lo, q->hi, q->general, q->general || !q->relu};
+    const vd_cnn_x86_rq_t xq = x86_rq(L);
     const size_t ci = g->ci;
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
@@ -1100,7 +1115,7 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
             for (size_t j = 0u; j < n_l; j++) {
                 ch_of[j] = (uint32_t)(o0 + v * 16u + j);
             }
-            vd_cnn_x86_rqv_fill(&cv[v], q->ch, ch_of, corr + v * 16u, (uint32_t)n_l);
+            vd_cnn_x86_rqv_fill(&cv[v], L, ch_of, corr + v * 16u, (uint32_t)n_l);
         }
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rowp[5];
@@ -1169,16 +1184,16 @@ CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, c
 {
     scratch_layout_t s;
     (void)scratch_layout(L, stream, &s);
-    rq_t q;
-    rq_setup(L, scr, &s, &q);
 #if defined(VD_CNN_X86)
     if (fast) {
-        run_conv_pw_x86(L, g, in, out, y0, y1, scr, &s, &q);
+        run_conv_pw_x86(L, g, in, out, y0, y1, scr, &s);
         return;
     }
 #else
     (void)fast;
 #endif
+    rq_t q;
+    rq_setup(L, scr, &s, &q);
     const size_t k = k_of(L);
     const size_t kp = round_up((uint32_t)k, VD_CNN_KCHUNK);
     int16_t *w16 = (int16_t *)(void *)(scr + s.w16);
@@ -1312,6 +1327,19 @@ CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const 
 {
     scratch_layout_t s;
     (void)scratch_layout(L, false, &s);   // no chunks: the same layout either way
+#if defined(VD_CNN_X86)
+    if (fast) {
+        int8_t *zr = (int8_t *)(void *)(scr + s.rows);
+        memset(zr, g->zp_in, g->co);
+        const vd_cnn_x86_dw_t d = {in->base, in->row, in->rows, g->wi, g->hi, out->base, out->row, out->rows,
+                                   g->wo, L->stride, g->co, g->zp_in, zr};
+        const vd_cnn_x86_rq_t xq = x86_rq(L);
+        vd_cnn_x86_dw_rows(&d, L, &xq, y0, y1);
+        return;
+    }
+#else
+    (void)fast;
+#endif
     rq_t q;
     rq_setup(L, scr, &s, &q);
     const size_t c_n = g->co;
@@ -1333,22 +1361,6 @@ CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const 
         zrow[c] = (int8_t)g->zp_in;
     }
     const int32_t step = L->stride;
-#if defined(VD_CNN_X86)
-    if (fast) {
-        const vd_cnn_x86_rq_t xq = {q.zp, q.lo, q.hi, q.general, q.general || !q.relu};
-        for (uint32_t oy = y0; oy < y1; oy++) {
-            const int8_t *rowp[3];
-            for (int32_t ky = 0; ky < 3; ky++) {
-                const int32_t iy = (int32_t)oy * step - 1 + ky;
-                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
-            }
-            vd_cnn_x86_dw_row(rowp, zrow, c_n, g->wi, g->wo, (uint32_t)step, w16, cp, ch, &xq, ring_row(out, oy));
-        }
-        return;
-    }
-#else
-    (void)fast;
-#endif
     const size_t pstep = (size_t)step * c_n;   // input bytes per output pixel along a row
     for (uint32_t oy = y0; oy < y1; oy++) {
         // Row pointers of the three input rows (NULL above/below the tensor);

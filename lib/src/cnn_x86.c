@@ -24,6 +24,7 @@
 //    integer operations, so the same result.
 // Bounds: as the portable kernels; stack ~3.5 KiB (constants of one tile).
 #include "internal/cnn_x86.h"
+#include "internal/blob_internal.h"
 
 #include <immintrin.h>
 #include <string.h>
@@ -38,25 +39,28 @@ bool vd_cnn_x86_ok(void)
            __builtin_cpu_supports("avx512vl") != 0 && __builtin_cpu_supports("avx512vnni") != 0;
 }
 
-void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_rq_ch_t *ch, const uint32_t *ch_of, const int32_t *corr,
+void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const uint32_t *ch_of, const int32_t *corr,
                          uint32_t n_lanes)
 {
     for (uint32_t j = 0u; j < 16u; j++) {
         const uint32_t jj = (j < n_lanes) ? j : 0u;
-        const vd_rq_ch_t *c = &ch[ch_of[jj]];
+        const size_t o = ch_of[jj];
         const uint32_t cr = (corr != NULL) ? (uint32_t)corr[jj] : 0u;
-        v->bias[j] = vd_rq_u32_to_i32((uint32_t)c->bias - cr);
-        v->mult[j] = c->mult;
-        v->thr[j] = c->thr;
-        v->dk[j] = c->dk;
-        v->off[j] = c->off;
-        v->lsh[j] = c->lsh;
+        const int32_t bias = vd_rq_u32_to_i32(vd_blob_u32(L->bias + 4u * o) - cr);
+        vd_rq_ch_t c;
+        vd_rq_prepare(vd_rq_u32_to_i32(vd_blob_u32(L->mult + 4u * o)), L->shift[o], bias, &c);
+        v->bias[j] = c.bias;
+        v->mult[j] = c.mult;
+        v->thr[j] = c.thr;
+        v->dk[j] = c.dk;
+        v->off[j] = c.off;
+        v->lsh[j] = c.lsh;
         if ((j & 1u) == 0u) {
-            v->k_e[j / 2u] = c->k;
-            v->rsh_e[j / 2u] = c->rsh;
+            v->k_e[j / 2u] = c.k;
+            v->rsh_e[j / 2u] = c.rsh;
         } else {
-            v->k_o[j / 2u] = c->k;
-            v->rsh_o[j / 2u] = c->rsh;
+            v->k_o[j / 2u] = c.k;
+            v->rsh_o[j / 2u] = c.rsh;
         }
     }
 }
@@ -212,61 +216,82 @@ X86_INLINE __m512i dw_tap(const int8_t *t, __mmask32 m)
     return _mm512_cvtepi8_epi16(_mm256_maskz_loadu_epi8(m, t));
 }
 
-X86_TARGET void vd_cnn_x86_dw_row(const int8_t *const t_rows[3], const int8_t *zrow, size_t c_n, uint32_t wi,
-                                  uint32_t wo, uint32_t stride, const int16_t *w16, size_t cp, const vd_rq_ch_t *ch,
-                                  const vd_cnn_x86_rq_t *q, int8_t *orow)
+X86_TARGET void vd_cnn_x86_dw_rows(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
+                                   uint32_t y0, uint32_t y1)
 {
-    const size_t pstep = (size_t)stride * c_n;
+    const size_t c_n = d->c_n;
+    const size_t pstep = (size_t)d->stride * c_n;
     for (size_t c0 = 0u; c0 < c_n; c0 += 32u) {
         const size_t nc = (c_n - c0 < 32u) ? c_n - c0 : 32u;
         const __mmask32 m = (nc == 32u) ? (__mmask32)0xFFFFFFFFu : (__mmask32)(((uint32_t)1 << nc) - 1u);
-        // Tap pairs (0,1) (2,3) (4,5) (6,7) (8,-) interleaved per channel as the activations will be.
+        // Weights [9][c_n] straight from the model; tap pairs (0,1) (2,3)
+        // (4,5) (6,7) (8,-) interleaved per channel as the activations will be.
+        __m512i wt[9];
+        __m512i wsum = _mm512_setzero_si512();
+        for (size_t i = 0u; i < 9u; i++) {
+            wt[i] = dw_tap(L->w + i * c_n + c0, m);
+            wsum = _mm512_add_epi16(wsum, wt[i]);   // |sum| <= 9 * 128: int16
+        }
         __m512i wl[5], wh[5];
         for (size_t i = 0u; i < 5u; i++) {
-            const __m512i wa = _mm512_maskz_loadu_epi16(m, w16 + 2u * i * cp + c0);
-            const __m512i wb = (i < 4u) ? _mm512_maskz_loadu_epi16(m, w16 + (2u * i + 1u) * cp + c0)
-                                        : _mm512_setzero_si512();
-            wl[i] = _mm512_unpacklo_epi16(wa, wb);
-            wh[i] = _mm512_unpackhi_epi16(wa, wb);
+            const __m512i wb = (i < 4u) ? wt[2u * i + 1u] : _mm512_setzero_si512();
+            wl[i] = _mm512_unpacklo_epi16(wt[2u * i], wb);
+            wh[i] = _mm512_unpackhi_epi16(wt[2u * i], wb);
         }
+        // bias - zp_in sum w (the taps are x, padding taps zp_in), modulo 2^32.
+        int16_t ws[32];
+        _mm512_storeu_si512(ws, wsum);
         // Lane 4 L + i of the lo / hi sums holds channel c0 + 8 L + i / + 4.
         uint32_t map_lo[16], map_hi[16];
+        int32_t corr_lo[16], corr_hi[16];
         for (uint32_t j = 0u; j < 16u; j++) {
-            const size_t cl = c0 + 8u * (j / 4u) + (j % 4u);
-            map_lo[j] = (uint32_t)((cl < c_n) ? cl : c0);
-            map_hi[j] = (uint32_t)((cl + 4u < c_n) ? cl + 4u : c0);
+            const size_t cl = 8u * (j / 4u) + (j % 4u);
+            map_lo[j] = (uint32_t)((c0 + cl < c_n) ? c0 + cl : c0);
+            map_hi[j] = (uint32_t)((c0 + cl + 4u < c_n) ? c0 + cl + 4u : c0);
+            corr_lo[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl]);
+            corr_hi[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl + 4u]);
         }
         vd_cnn_x86_rqv_t cl, chv;
-        vd_cnn_x86_rqv_fill(&cl, ch, map_lo, NULL, 16u);
-        vd_cnn_x86_rqv_fill(&chv, ch, map_hi, NULL, 16u);
-        for (uint32_t ox = 0u; ox < wo; ox++) {
-            const int8_t *t[9];
-            const int32_t ix0 = (int32_t)ox * (int32_t)stride - 1;
-            const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)wi;
-            for (size_t ky = 0u; ky < 3u; ky++) {
-                const int8_t *r = t_rows[ky];
-                if (r == NULL) {
-                    t[ky * 3u] = zrow;
-                    t[ky * 3u + 1u] = zrow;
-                    t[ky * 3u + 2u] = zrow;
-                    continue;
+        vd_cnn_x86_rqv_fill(&cl, L, map_lo, corr_lo, 16u);
+        vd_cnn_x86_rqv_fill(&chv, L, map_hi, corr_hi, 16u);
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rows[3];
+            for (uint32_t ky = 0u; ky < 3u; ky++) {
+                const int32_t iy = (int32_t)oy * (int32_t)d->stride - 1 + (int32_t)ky;
+                rows[ky] = (iy >= 0 && iy < (int32_t)d->hi)
+                               ? d->in + (size_t)((uint32_t)iy % d->in_slots) * d->in_row
+                               : NULL;
+            }
+            int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
+            for (uint32_t ox = 0u; ox < d->wo; ox++) {
+                const int8_t *t[9];
+                const int32_t ix0 = (int32_t)ox * (int32_t)d->stride - 1;
+                const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)d->wi;
+                for (size_t ky = 0u; ky < 3u; ky++) {
+                    const int8_t *r = rows[ky];
+                    if (r == NULL) {
+                        t[ky * 3u] = d->zrow;
+                        t[ky * 3u + 1u] = d->zrow;
+                        t[ky * 3u + 2u] = d->zrow;
+                        continue;
+                    }
+                    const int8_t *c1 = r + (size_t)ox * pstep;
+                    t[ky * 3u] = left ? c1 - c_n : d->zrow;
+                    t[ky * 3u + 1u] = c1;
+                    t[ky * 3u + 2u] = right ? c1 + c_n : d->zrow;
                 }
-                const int8_t *c1 = r + (size_t)ox * pstep;
-                t[ky * 3u] = left ? c1 - c_n : zrow;
-                t[ky * 3u + 1u] = c1;
-                t[ky * 3u + 2u] = right ? c1 + c_n : zrow;
+                __m512i al = _mm512_setzero_si512(), ah = _mm512_setzero_si512();
+                for (size_t i = 0u; i < 4u; i++) {
+                    const __m512i xa = dw_tap(t[2u * i] + c0, m), xb = dw_tap(t[2u * i + 1u] + c0, m);
+                    al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(xa, xb), wl[i]);
+                    ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(xa, xb), wh[i]);
+                }
+                const __m512i x8 = dw_tap(t[8] + c0, m), zero = _mm512_setzero_si512();
+                al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(x8, zero), wl[4]);
+                ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(x8, zero), wh[4]);
+                const __m512i z = _mm512_packs_epi32(rq16(al, &cl, q), rq16(ah, &chv, q));
+                _mm512_mask_cvtepi16_storeu_epi8(orow + (size_t)ox * c_n + c0, m, z);
             }
-            __m512i al = _mm512_setzero_si512(), ah = _mm512_setzero_si512();
-            for (size_t i = 0u; i < 4u; i++) {
-                const __m512i xa = dw_tap(t[2u * i] + c0, m), xb = dw_tap(t[2u * i + 1u] + c0, m);
-                al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(xa, xb), wl[i]);
-                ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(xa, xb), wh[i]);
-            }
-            const __m512i x8 = dw_tap(t[8] + c0, m), zero = _mm512_setzero_si512();
-            al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(x8, zero), wl[4]);
-            ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(x8, zero), wh[4]);
-            const __m512i z = _mm512_packs_epi32(rq16(al, &cl, q), rq16(ah, &chv, q));
-            _mm512_mask_cvtepi16_storeu_epi8(orow + (size_t)ox * c_n + c0, m, z);
         }
     }
 }

@@ -11,6 +11,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "vd/cnn.h"
 #include "internal/requant.h"
 
 // Output channels per vector (one 512-bit register of int32) and per GEMM
@@ -42,10 +43,11 @@ typedef struct vd_cnn_x86_rq {
 // True when the CPU (and OS) has AVX-512 F, BW, VL and VNNI.
 bool vd_cnn_x86_ok(void);
 
-// Fills v for lanes 0..15: lane j takes channel ch_of[j] of ch (n_lanes
-// lanes valid; the others copy lane 0) with corr[j] subtracted from its
-// bias modulo 2^32 (corr may be NULL).
-void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_rq_ch_t *ch, const uint32_t *ch_of, const int32_t *corr,
+// Fills v for lanes 0..15: lane j takes output channel ch_of[j] of layer L
+// (its bias, mult, shift; vd_rq_prepare), n_lanes lanes valid and the
+// others copying lane 0, with corr[j] subtracted from the bias modulo 2^32
+// (corr may be NULL).
+void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const uint32_t *ch_of, const int32_t *corr,
                          uint32_t n_lanes);
 
 // Pointwise / spatial GEMM of one block: npix (1..16) rows of k4 bytes
@@ -64,11 +66,24 @@ void vd_cnn_x86_gemm(const uint8_t *rows, size_t rstride, bool flip, size_t k4, 
 // (modulo 2^32) to wsum[n_o].
 void vd_cnn_x86_pack(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum);
 
-// Depthwise 3x3 output row: t_rows[3] input rows (zrow, c_n bytes of zp_in,
-// for rows outside the tensor), w16 the int16 weights [9][cp], ch the
-// per-channel constants with bias - zp_in sum w already folded in.
-void vd_cnn_x86_dw_row(const int8_t *const t_rows[3], const int8_t *zrow, size_t c_n, uint32_t wi, uint32_t wo,
-                       uint32_t stride, const int16_t *w16, size_t cp, const vd_rq_ch_t *ch, const vd_cnn_x86_rq_t *q,
-                       int8_t *orow);
+// A depthwise layer's input and output as rings of full rows (row y at slot
+// y % slots; a whole plane has slots = height) and its geometry.
+typedef struct vd_cnn_x86_dw {
+    const int8_t *in;
+    size_t in_row;        // bytes per input row (wi * c_n)
+    uint32_t in_slots, wi, hi;
+    int8_t *out;
+    size_t out_row;
+    uint32_t out_slots, wo;
+    uint32_t stride;
+    size_t c_n;
+    int32_t zp_in;
+    const int8_t *zrow;   // c_n bytes of zp_in (padding taps)
+} vd_cnn_x86_dw_t;
+
+// Output rows [y0, y1) of a DW3X3 layer L (weights read in place [9][c_n];
+// bias - zp_in sum w folded into the constants here).
+void vd_cnn_x86_dw_rows(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q, uint32_t y0,
+                        uint32_t y1);
 
 #endif
