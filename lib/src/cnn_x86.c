@@ -105,54 +105,80 @@ static uint32_t lane_mask16(size_t rem)
     return (rem >= 16u) ? 0xFFFFu : (((uint32_t)1 << rem) - 1u);
 }
 
-// The GEMM with nv (1..4, a constant after inlining) registers of channels.
+// One pixel's row of the tile: broadcast 4 bytes of its row, 1..4 vpdpbusd.
+#define GEMM_PIX(p)                                                                     \
+    do {                                                                                \
+        uint32_t b_;                                                                    \
+        memcpy(&b_, r##p + 4u * gi, sizeof b_);                                         \
+        const __m512i bb_ = _mm512_set1_epi32((int32_t)(b_ ^ flip));                    \
+        a##p##0 = _mm512_dpbusd_epi32(a##p##0, bb_, w0);                                \
+        if (nv > 1u) {                                                                  \
+            a##p##1 = _mm512_dpbusd_epi32(a##p##1, bb_, w1);                            \
+        }                                                                               \
+        if (nv > 2u) {                                                                  \
+            a##p##2 = _mm512_dpbusd_epi32(a##p##2, bb_, w2);                            \
+        }                                                                               \
+        if (nv > 3u) {                                                                  \
+            a##p##3 = _mm512_dpbusd_epi32(a##p##3, bb_, w3);                            \
+        }                                                                               \
+    } while (0)
+
+// Requantises and stores one pixel of the tile (if it is one of the npix).
+#define GEMM_OUT(p)                                                                     \
+    do {                                                                                \
+        if (p0 + (p) < npix) {                                                          \
+            int8_t *d_ = out + ((size_t)p0 + (p)) * pstride;                            \
+            _mm512_mask_cvtepi32_storeu_epi8(d_, m0, rq16(a##p##0, &cv[0], q));         \
+            if (nv > 1u) {                                                              \
+                _mm512_mask_cvtepi32_storeu_epi8(d_ + 16, m1, rq16(a##p##1, &cv[1], q)); \
+            }                                                                           \
+            if (nv > 2u) {                                                              \
+                _mm512_mask_cvtepi32_storeu_epi8(d_ + 32, m2, rq16(a##p##2, &cv[2], q)); \
+            }                                                                           \
+            if (nv > 3u) {                                                              \
+                _mm512_mask_cvtepi32_storeu_epi8(d_ + 48, m3, rq16(a##p##3, &cv[3], q)); \
+            }                                                                           \
+        }                                                                               \
+    } while (0)
+
+// The GEMM with nv (1..4, a constant after inlining) registers of channels:
+// tiles of 4 pixels x nv * 16 channels, the 4 nv accumulators as separate
+// variables (gcc 12 keeps an array of 16 vectors in memory).
 X86_INLINE void gemm_nv(const uint8_t *rows, size_t rstride, uint32_t flip, size_t k4, const int8_t *wp, size_t n_o,
                         const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
                         uint32_t npix, const size_t nv)
 {
-    __mmask16 m[4];
-    for (size_t v = 0u; v < 4u; v++) {
-        m[v] = (__mmask16)((v < nv) ? lane_mask16(n_o - 16u * v) : 0u);
-    }
+    const __mmask16 m0 = (__mmask16)lane_mask16(n_o);
+    const __mmask16 m1 = (__mmask16)((nv > 1u) ? lane_mask16(n_o - 16u) : 0u);
+    const __mmask16 m2 = (__mmask16)((nv > 2u) ? lane_mask16(n_o - 32u) : 0u);
+    const __mmask16 m3 = (__mmask16)((nv > 3u) ? lane_mask16(n_o - 48u) : 0u);
     const size_t wstep = n_o * 4u;   // bytes per group of 4 k
     const size_t ng = k4 / 4u;
     for (uint32_t p0 = 0u; p0 < npix; p0 += 4u) {
-        __m512i a[4][4];
-        for (size_t p = 0u; p < 4u; p++) {
-            for (size_t v = 0u; v < nv; v++) {
-                a[p][v] = _mm512_setzero_si512();
-            }
-        }
         // Rows of the 4 pixels; past npix the last one again (read, not stored).
-        const uint8_t *r[4];
-        for (size_t p = 0u; p < 4u; p++) {
-            r[p] = rows + (size_t)((p0 + p < npix) ? p0 + p : npix - 1u) * rstride;
-        }
+        const uint8_t *r0 = rows + (size_t)p0 * rstride;
+        const uint8_t *r1 = rows + (size_t)((p0 + 1u < npix) ? p0 + 1u : npix - 1u) * rstride;
+        const uint8_t *r2 = rows + (size_t)((p0 + 2u < npix) ? p0 + 2u : npix - 1u) * rstride;
+        const uint8_t *r3 = rows + (size_t)((p0 + 3u < npix) ? p0 + 3u : npix - 1u) * rstride;
+        const __m512i z = _mm512_setzero_si512();
+        __m512i a00 = z, a01 = z, a02 = z, a03 = z, a10 = z, a11 = z, a12 = z, a13 = z;
+        __m512i a20 = z, a21 = z, a22 = z, a23 = z, a30 = z, a31 = z, a32 = z, a33 = z;
         const int8_t *w = wp;
         for (size_t gi = 0u; gi < ng; gi++) {
-            __m512i wv[4];
-            for (size_t v = 0u; v < nv; v++) {
-                wv[v] = _mm512_maskz_loadu_epi32(m[v], w + 64u * v);
-            }
-            for (size_t p = 0u; p < 4u; p++) {
-                uint32_t b;
-                memcpy(&b, r[p] + 4u * gi, sizeof b);
-                const __m512i bb = _mm512_set1_epi32((int32_t)(b ^ flip));
-                for (size_t v = 0u; v < nv; v++) {
-                    a[p][v] = _mm512_dpbusd_epi32(a[p][v], bb, wv[v]);
-                }
-            }
+            const __m512i w0 = _mm512_maskz_loadu_epi32(m0, w);
+            const __m512i w1 = (nv > 1u) ? _mm512_maskz_loadu_epi32(m1, w + 64) : z;
+            const __m512i w2 = (nv > 2u) ? _mm512_maskz_loadu_epi32(m2, w + 128) : z;
+            const __m512i w3 = (nv > 3u) ? _mm512_maskz_loadu_epi32(m3, w + 192) : z;
+            GEMM_PIX(0);
+            GEMM_PIX(1);
+            GEMM_PIX(2);
+            GEMM_PIX(3);
             w += wstep;
         }
-        // Constant indices only (a runtime bound on p would keep a[][] in memory).
-        for (size_t p = 0u; p < 4u; p++) {
-            if (p0 + p < npix) {
-                int8_t *d = out + ((size_t)p0 + p) * pstride;
-                for (size_t v = 0u; v < nv; v++) {
-                    _mm512_mask_cvtepi32_storeu_epi8(d + 16u * v, m[v], rq16(a[p][v], &cv[v], q));
-                }
-            }
-        }
+        GEMM_OUT(0);
+        GEMM_OUT(1);
+        GEMM_OUT(2);
+        GEMM_OUT(3);
     }
 }
 
