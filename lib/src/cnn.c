@@ -1173,6 +1173,20 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
         }
     }
 }
+
+// run_dw on the AVX-512 VNNI kernel: the scratch holds only the zero-point row.
+CNN_NOINLINE static void run_dw_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                                    uint32_t y0, uint32_t y1, uint8_t *scr)
+{
+    scratch_layout_t s;
+    (void)scratch_layout(L, false, &s);
+    int8_t *zr = (int8_t *)(void *)(scr + s.rows);
+    memset(zr, g->zp_in, g->co);
+    const vd_cnn_x86_dw_t d = {in->base, in->row, in->rows, g->wi, g->hi, out->base, out->row, out->rows,
+                               g->wo, L->stride, g->co, g->zp_in, zr};
+    const vd_cnn_x86_rq_t xq = x86_rq(L);
+    vd_cnn_x86_dw_rows(&d, L, &xq, y0, y1);
+}
 #endif
 
 // Output rows [y0, y1) of a CONV3X3 / CONV5X5 / PW1X1 layer; the input rows
@@ -1180,18 +1194,10 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
 // Output channels in chunks of chunk_of(L, stream) (one chunk unless
 // streamed): per chunk the int16 weights, then every pixel block.
 CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                                     uint32_t y0, uint32_t y1, bool stream, bool fast, uint8_t *scr)
+                                     uint32_t y0, uint32_t y1, bool stream, uint8_t *scr)
 {
     scratch_layout_t s;
     (void)scratch_layout(L, stream, &s);
-#if defined(VD_CNN_X86)
-    if (fast) {
-        run_conv_pw_x86(L, g, in, out, y0, y1, scr, &s);
-        return;
-    }
-#else
-    (void)fast;
-#endif
     rq_t q;
     rq_setup(L, scr, &s, &q);
     const size_t k = k_of(L);
@@ -1323,23 +1329,10 @@ static inline void dw_store(const int32_t *acc, size_t n, size_t c0, const rq_t 
 
 // Output rows [y0, y1) of a DW3X3 layer (input rows y * stride - 1 .. + 1 in the ring).
 CNN_NOINLINE static void run_dw(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                                uint32_t y0, uint32_t y1, bool fast, uint8_t *scr)
+                                uint32_t y0, uint32_t y1, uint8_t *scr)
 {
     scratch_layout_t s;
     (void)scratch_layout(L, false, &s);   // no chunks: the same layout either way
-#if defined(VD_CNN_X86)
-    if (fast) {
-        int8_t *zr = (int8_t *)(void *)(scr + s.rows);
-        memset(zr, g->zp_in, g->co);
-        const vd_cnn_x86_dw_t d = {in->base, in->row, in->rows, g->wi, g->hi, out->base, out->row, out->rows,
-                                   g->wo, L->stride, g->co, g->zp_in, zr};
-        const vd_cnn_x86_rq_t xq = x86_rq(L);
-        vd_cnn_x86_dw_rows(&d, L, &xq, y0, y1);
-        return;
-    }
-#else
-    (void)fast;
-#endif
     rq_t q;
     rq_setup(L, scr, &s, &q);
     const size_t c_n = g->co;
@@ -1564,15 +1557,12 @@ typedef struct run_io {
 
 // The optional x86 kernels run unless the caller asked for the portable
 // ones or the CPU lacks AVX-512 VNNI (checked per call: no global state).
+#if defined(VD_CNN_X86)
 static bool use_x86(uint32_t flags)
 {
-#if defined(VD_CNN_X86)
     return (flags & VD_CNN_PORTABLE) == 0u && vd_cnn_x86_ok();
-#else
-    (void)flags;
-    return false;
-#endif
 }
+#endif
 
 // Output rows [y0, y1) of layer l; its input rows must be in their rings.
 static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_plan_t *p, uint8_t *base, uint32_t l,
@@ -1591,15 +1581,31 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     const ring_t o = ring_of(base, p, c, l + 1u);
     // The streamed plan has one scratch for all layers (item 3), refilled per call.
     uint8_t *scr = base + p->off[((p->flags & VD_CNN_STREAM) != 0u) ? 3u : 3u + 2u * l];
+#if defined(VD_CNN_X86)
     const bool fast = use_x86(p->flags);
+#endif
     switch (L->op) {
     case VD_CNN_OP_CONV3X3:
     case VD_CNN_OP_CONV5X5:
     case VD_CNN_OP_PW1X1:
-        run_conv_pw(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, fast, scr);
+#if defined(VD_CNN_X86)
+        if (fast) {
+            scratch_layout_t s;
+            (void)scratch_layout(L, (p->flags & VD_CNN_STREAM) != 0u, &s);
+            run_conv_pw_x86(L, &g, &in, &o, y0, y1, scr, &s);
+            break;
+        }
+#endif
+        run_conv_pw(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr);
         break;
     case VD_CNN_OP_DW3X3:
-        run_dw(L, &g, &in, &o, y0, y1, fast, scr);
+#if defined(VD_CNN_X86)
+        if (fast) {
+            run_dw_x86(L, &g, &in, &o, y0, y1, scr);
+            break;
+        }
+#endif
+        run_dw(L, &g, &in, &o, y0, y1, scr);
         break;
     case VD_CNN_OP_MAXPOOL2:
         run_maxpool(&g, &in, &o, y0, y1);
