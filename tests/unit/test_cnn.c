@@ -303,7 +303,8 @@ static int8_t ref_out(const tl_t *L, uint32_t o, int64_t sum)
 {
     const int64_t acc = (int64_t)L->bias[o] + sum;
     TEST_ASSERT_TRUE(acc >= INT32_MIN && acc <= INT32_MAX);
-    int32_t z = vd_rq_requantize((int32_t)acc, L->mult[o], L->shift[o]) + L->zp;
+    // int64: near INT32_MIN (shift > 0 saturating) z + zp leaves int32.
+    int64_t z = (int64_t)vd_rq_requantize((int32_t)acc, L->mult[o], L->shift[o]) + L->zp;
     z = z < L->amin ? L->amin : (z > L->amax ? L->amax : z);
     return (int8_t)z;
 }
@@ -2079,6 +2080,42 @@ static void awkward_model(tm_t *d, uint32_t arch, uint32_t seed, uint32_t mode)
     }
 }
 
+// The awkward models with extreme values against the naive reference
+// (every build: the portable kernels, or the x86 ones where they run).
+static void test_awkward_models_match_naive_reference(void)
+{
+    static uint8_t img[132 * 36];
+    static const uint32_t modes[3] = {0u, 1u | 2u | 4u | 8u | 16u, 8u | 16u};
+    static const uint32_t sizes[2][2][2] = {{{4, 4}, {132, 36}}, {{8, 8}, {56, 16}}};
+    uint32_t checked = 0u;
+    for (uint32_t arch = 0u; arch < 2u; arch++) {
+        for (uint32_t mi = 0u; mi < 3u; mi++) {
+            tm_t d;
+            awkward_model(&d, arch, 5u + mi, modes[mi]);
+            for (uint32_t si = 0u; si < 2u; si++) {
+                const uint32_t w = sizes[arch][si][0], h = sizes[arch][si][1];
+                rnd_image(img, w, h, mi + si + 400u);
+                int8_t *ref[VD_CNN_MAX_TENSORS];
+                ref_forward(&d, img, w, h, ref);
+                vd_cnn_output_t head;
+                run_keep(&d, img, w, h, &head);
+                for (uint32_t t = 0u; t <= d.n; t++) {
+                    vd_cnn_output_t x;
+                    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&g_m, g_ws, g_ws_bytes, w, h, t, &x));
+                    char msg[64];
+                    snprintf(msg, sizeof msg, "awkward %u mode %u %ux%u tensor %u", (unsigned)arch,
+                             (unsigned)modes[mi], (unsigned)w, (unsigned)h, (unsigned)t);
+                    TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(ref[t], x.data, x.w * x.h * x.c, msg);
+                    checked += x.w * x.h * x.c;
+                    free(ref[t]);
+                }
+                run_free();
+            }
+        }
+    }
+    TEST_ASSERT_TRUE(checked > 100000u);
+}
+
 #if defined(VD_CNN_X86)
 // Every tensor of m on img (w x h): flags fl (with VD_CNN_KEEP_TENSORS)
 // against fl | VD_CNN_PORTABLE, byte for byte; same workspace size; and the
@@ -2255,6 +2292,7 @@ int main(void)
     RUN_TEST(test_depthwise_extremes_match_reference);
     RUN_TEST(test_stream_random_models_match_whole_plane);
     RUN_TEST(test_stream_committed_models_match_whole_plane);
+    RUN_TEST(test_awkward_models_match_naive_reference);
     RUN_TEST(test_x86_kernels_match_portable_random);
     RUN_TEST(test_x86_kernels_match_portable_committed);
     RUN_TEST(test_structural_corruptions_rejected);
