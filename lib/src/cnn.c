@@ -1077,6 +1077,71 @@ static vd_cnn_x86_rq_t x86_rq(const vd_cnn_layer_t *L)
     return q;
 }
 
+// run_conv_pw on the AVX2 GEMM: the portable int16 rows (x - zp_in, padding
+// 0) and, per tile of <= 64 output channels, int16 weight pairs
+// [k2 / 2][n][2] (2 n k2 <= the int16 copy's 2 chunk kp bytes).
+static void run_conv_pw_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                             uint32_t y0, uint32_t y1, uint8_t *scr, const scratch_layout_t *s)
+{
+    const size_t k = k_of(L);
+    const size_t kp = round_up((uint32_t)k, VD_CNN_KCHUNK);
+    int16_t *wp = (int16_t *)(void *)(scr + s->w16);
+    int16_t *rows = (int16_t *)(void *)(scr + s->rows);
+    memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
+    const vd_cnn_x86_rq_t xq = x86_rq(L);
+    const size_t ci = g->ci;
+    const int16_t zp = (int16_t)g->zp_in;
+    const int32_t step = L->stride;
+    const bool pw = L->op == VD_CNN_OP_PW1X1;
+    const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
+    const int32_t pad = ks / 2;
+    for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
+        const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
+        vd_cnn_x86_pack16(L->w + o0 * k, k, n_o, wp);
+        vd_cnn_x86_rqv_t cv[VD_CNN_X86_TILE / VD_CNN_X86_LANES];
+        for (size_t v = 0u; v * VD_CNN_X86_LANES < n_o; v++) {
+            uint32_t ch_of[VD_CNN_X86_LANES];
+            const size_t n_l = (n_o - v * 16u < 16u) ? n_o - v * 16u : 16u;
+            for (size_t j = 0u; j < n_l; j++) {
+                ch_of[j] = (uint32_t)(o0 + v * 16u + j);
+            }
+            vd_cnn_x86_rqv_fill(&cv[v], L, ch_of, NULL, (uint32_t)n_l);
+        }
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rowp[5];
+            for (int32_t ky = 0; ky < ks; ky++) {
+                const int32_t iy = (int32_t)oy * step - pad + ky;
+                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
+            }
+            int8_t *orow = ring_row(out, oy) + o0;
+            for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
+                const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
+                for (uint32_t i = 0u; i < npix; i++) {
+                    int16_t *r = rows + (size_t)i * kp;
+                    const int32_t ox = (int32_t)(x0 + i);
+                    for (int32_t ky = 0; ky < ks; ky++) {
+                        for (int32_t kx = 0; kx < ks; kx++) {
+                            const int32_t ix = ox * step - pad + kx;
+                            int16_t *d = r + (size_t)(ky * ks + kx) * ci;
+                            if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
+                                for (size_t c = 0u; c < ci; c++) {
+                                    d[c] = 0;
+                                }
+                            } else {
+                                const int8_t *x = rowp[ky] + (size_t)ix * ci;
+                                for (size_t c = 0u; c < ci; c++) {
+                                    d[c] = (int16_t)(x[c] - zp);
+                                }
+                            }
+                        }
+                    }
+                }
+                vd_cnn_x86_gemm16(rows, kp, k, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+            }
+        }
+    }
+}
+
 // run_conv_pw on the AVX-512 VNNI GEMM (lib/src/cnn_x86.c), same scratch:
 // per tile of <= 64 output channels the int8 weights packed [k4 / 4][n][4]
 // (n k4 <= the int16 copy's 2 chunk kp bytes), per block of 16 pixels the
@@ -1085,8 +1150,12 @@ static vd_cnn_x86_rq_t x86_rq(const vd_cnn_layer_t *L)
 // the int32 sums equal the portable ones modulo 2^32 (cnn_x86.c).
 CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in,
                                          const ring_t *out, uint32_t y0, uint32_t y1, uint8_t *scr,
-                                         const scratch_layout_t *s)
+                                         const scratch_layout_t *s, uint32_t level)
 {
+    if (level != VD_CNN_X86_AVX512) {
+        run_conv_pw_avx2(L, g, in, out, y0, y1, scr, s);
+        return;
+    }
     const size_t k = k_of(L);
     const size_t k4 = round_up((uint32_t)k, 4u);
     int8_t *wp = (int8_t *)(void *)(scr + s->w16);
@@ -1176,7 +1245,7 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
 
 // run_dw on the AVX-512 VNNI kernel: the scratch holds only the zero-point row.
 CNN_NOINLINE static void run_dw_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                                    uint32_t y0, uint32_t y1, uint8_t *scr)
+                                    uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level)
 {
     scratch_layout_t s;
     (void)scratch_layout(L, false, &s);
@@ -1185,7 +1254,11 @@ CNN_NOINLINE static void run_dw_x86(const vd_cnn_layer_t *L, const geom_t *g, co
     const vd_cnn_x86_dw_t d = {in->base, in->row, in->rows, g->wi, g->hi, out->base, out->row, out->rows,
                                g->wo, L->stride, g->co, g->zp_in, zr};
     const vd_cnn_x86_rq_t xq = x86_rq(L);
-    vd_cnn_x86_dw_rows(&d, L, &xq, y0, y1);
+    if (level == VD_CNN_X86_AVX512) {
+        vd_cnn_x86_dw_rows(&d, L, &xq, y0, y1);
+    } else {
+        vd_cnn_x86_dw_rows_avx2(&d, L, &xq, y0, y1);
+    }
 }
 #endif
 
@@ -1558,9 +1631,9 @@ typedef struct run_io {
 // The optional x86 kernels run unless the caller asked for the portable
 // ones or the CPU lacks AVX-512 VNNI (checked per call: no global state).
 #if defined(VD_CNN_X86)
-static bool use_x86(uint32_t flags)
+static uint32_t x86_level(uint32_t flags)
 {
-    return (flags & VD_CNN_PORTABLE) == 0u && vd_cnn_x86_ok();
+    return ((flags & VD_CNN_PORTABLE) != 0u) ? VD_CNN_X86_NONE : vd_cnn_x86_level();
 }
 #endif
 
@@ -1582,17 +1655,17 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     // The streamed plan has one scratch for all layers (item 3), refilled per call.
     uint8_t *scr = base + p->off[((p->flags & VD_CNN_STREAM) != 0u) ? 3u : 3u + 2u * l];
 #if defined(VD_CNN_X86)
-    const bool fast = use_x86(p->flags);
+    const uint32_t level = x86_level(p->flags);
 #endif
     switch (L->op) {
     case VD_CNN_OP_CONV3X3:
     case VD_CNN_OP_CONV5X5:
     case VD_CNN_OP_PW1X1:
 #if defined(VD_CNN_X86)
-        if (fast) {
+        if (level != VD_CNN_X86_NONE) {
             scratch_layout_t s;
             (void)scratch_layout(L, (p->flags & VD_CNN_STREAM) != 0u, &s);
-            run_conv_pw_x86(L, &g, &in, &o, y0, y1, scr, &s);
+            run_conv_pw_x86(L, &g, &in, &o, y0, y1, scr, &s, level);
             break;
         }
 #endif
@@ -1600,8 +1673,8 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
         break;
     case VD_CNN_OP_DW3X3:
 #if defined(VD_CNN_X86)
-        if (fast) {
-            run_dw_x86(L, &g, &in, &o, y0, y1, scr);
+        if (level != VD_CNN_X86_NONE) {
+            run_dw_x86(L, &g, &in, &o, y0, y1, scr, level);
             break;
         }
 #endif

@@ -32,11 +32,22 @@
 #define X86_TARGET __attribute__((target("avx512f,avx512bw,avx512vl,avx512vnni")))
 #define X86_INLINE static inline __attribute__((always_inline)) X86_TARGET
 
-bool vd_cnn_x86_ok(void)
+uint32_t vd_cnn_x86_level(void)
 {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx512f") != 0 && __builtin_cpu_supports("avx512bw") != 0 &&
-           __builtin_cpu_supports("avx512vl") != 0 && __builtin_cpu_supports("avx512vnni") != 0;
+    uint32_t level = VD_CNN_X86_NONE;
+    if (__builtin_cpu_supports("avx2") != 0) {
+        level = VD_CNN_X86_AVX2;
+    }
+    if (__builtin_cpu_supports("avx512f") != 0 && __builtin_cpu_supports("avx512bw") != 0 &&
+        __builtin_cpu_supports("avx512vl") != 0 && __builtin_cpu_supports("avx512vnni") != 0) {
+        level = VD_CNN_X86_AVX512;
+    }
+#if defined(VD_CNN_X86_MAX_LEVEL)
+    // Test builds cap the level to exercise the AVX2 kernels on an AVX-512 CPU.
+    level = (level > VD_CNN_X86_MAX_LEVEL) ? VD_CNN_X86_MAX_LEVEL : level;
+#endif
+    return level;
 }
 
 void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const uint32_t *ch_of, const int32_t *corr,
@@ -317,6 +328,257 @@ X86_TARGET void vd_cnn_x86_dw_rows(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_
                 ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(x8, zero), wh[4]);
                 const __m512i z = _mm512_packs_epi32(rq16(al, &cl, q), rq16(ah, &chv, q));
                 _mm512_mask_cvtepi16_storeu_epi8(orow + (size_t)ox * c_n + c0, m, z);
+            }
+        }
+    }
+}
+
+// ------------------------------------------------------------ AVX2 (no AVX-512)
+//
+// The same scheme on 256-bit registers without VNNI: exact int16 products
+// by vpmaddwd (pairs of int16 products summed into int32: |sum| <= 2 * 255 *
+// 128, no saturation) on the portable kernel's int16 rows (x - zp_in,
+// padding 0), so no zero-point correction. 8 output channels per register,
+// tiles of 4 pixels x 16 channels (16 ymm registers).
+
+#define AVX2_TARGET __attribute__((target("avx2")))
+#define AVX2_INLINE static inline __attribute__((always_inline)) AVX2_TARGET
+
+// rq16 on lanes 8 h .. 8 h + 7 of c.
+AVX2_INLINE __m256i rq8(__m256i acc, const vd_cnn_x86_rqv_t *c, uint32_t h, const vd_cnn_x86_rq_t *q)
+{
+    __m256i x = _mm256_add_epi32(acc, _mm256_loadu_si256((const __m256i *)(const void *)(c->bias + 8u * h)));
+    if (q->general) {
+        const __m256i sh = _mm256_loadu_si256((const __m256i *)(const void *)(c->lsh + 8u * h));
+        const __m256i t = _mm256_sllv_epi32(x, sh);
+        const __m256i same = _mm256_cmpeq_epi32(_mm256_srav_epi32(t, sh), x);
+        const __m256i sat = _mm256_xor_si256(_mm256_srai_epi32(x, 31), _mm256_set1_epi32(INT32_MAX));
+        x = _mm256_blendv_epi8(sat, t, same);
+    }
+    const __m256i xu = _mm256_xor_si256(x, _mm256_set1_epi32(INT32_MIN));
+    const __m256i mult = _mm256_loadu_si256((const __m256i *)(const void *)(c->mult + 8u * h));
+    __m256i ve = _mm256_add_epi64(_mm256_mul_epu32(xu, mult),
+                                  _mm256_loadu_si256((const __m256i *)(const void *)(c->k_e + 4u * h)));
+    __m256i vo = _mm256_add_epi64(_mm256_mul_epu32(_mm256_srli_epi64(xu, 32), _mm256_srli_epi64(mult, 32)),
+                                  _mm256_loadu_si256((const __m256i *)(const void *)(c->k_o + 4u * h)));
+    if (q->sign) {
+        // d = dk where not (x > thr).
+        const __m256i gt = _mm256_cmpgt_epi32(x, _mm256_loadu_si256((const __m256i *)(const void *)(c->thr + 8u * h)));
+        const __m256i d = _mm256_andnot_si256(gt, _mm256_loadu_si256((const __m256i *)(const void *)(c->dk + 8u * h)));
+        ve = _mm256_sub_epi64(ve, _mm256_and_si256(d, _mm256_set1_epi64x(0xFFFFFFFFLL)));
+        vo = _mm256_sub_epi64(vo, _mm256_srli_epi64(d, 32));
+    }
+    ve = _mm256_srlv_epi64(ve, _mm256_loadu_si256((const __m256i *)(const void *)(c->rsh_e + 4u * h)));
+    vo = _mm256_srlv_epi64(vo, _mm256_loadu_si256((const __m256i *)(const void *)(c->rsh_o + 4u * h)));
+    __m256i z = _mm256_blend_epi32(ve, _mm256_slli_epi64(vo, 32), 0xAA);
+    z = _mm256_sub_epi32(z, _mm256_loadu_si256((const __m256i *)(const void *)(c->off + 8u * h)));
+    z = _mm256_max_epi32(z, _mm256_set1_epi32(q->lo));
+    z = _mm256_min_epi32(z, _mm256_set1_epi32(q->hi));
+    return _mm256_add_epi32(z, _mm256_set1_epi32(q->zp));
+}
+
+// The low byte of each int32 lane (values in -128..127), n of them (1..8), to d.
+AVX2_INLINE void store8(int8_t *d, __m256i z, size_t n)
+{
+    const __m256i p16 = _mm256_packs_epi32(z, z);
+    const __m256i p8 = _mm256_packs_epi16(p16, p16);
+    const __m128i b = _mm_unpacklo_epi32(_mm256_castsi256_si128(p8), _mm256_extracti128_si256(p8, 1));
+    if (n >= 8u) {
+        _mm_storel_epi64((__m128i *)(void *)d, b);
+    } else {
+        int8_t tmp[16];
+        _mm_storeu_si128((__m128i *)(void *)tmp, b);
+        memcpy(d, tmp, n);
+    }
+}
+
+// All-ones in lanes 0 .. rem - 1 (a vpmaskmovd mask).
+AVX2_INLINE __m256i lane_mask8(size_t rem)
+{
+    const __m256i idx = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const int32_t r = (rem >= 8u) ? 8 : (int32_t)rem;
+    return _mm256_cmpgt_epi32(_mm256_set1_epi32(r), idx);
+}
+
+AVX2_TARGET void vd_cnn_x86_pack16(const int8_t *w, size_t k, size_t n_o, int16_t *wp)
+{
+    const size_t k2 = (k + 1u) / 2u * 2u;
+    const size_t full = k / 4u;
+    const __m256i idx = _mm256_mullo_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32((int32_t)k));
+    const __m256i even_odd = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+    const size_t row = n_o * 2u;   // int16 per pair row [n_o][2]
+    for (size_t o0 = 0u; o0 < n_o; o0 += 8u) {
+        const size_t nl = (n_o - o0 < 8u) ? n_o - o0 : 8u;
+        const __m256i m = lane_mask8(nl);
+        const int8_t *src = w + o0 * k;
+        for (size_t gi = 0u; gi < full; gi++) {
+            // Lane j: weights 4 gi .. 4 gi + 3 of channel o0 + j, then as
+            // int16 pairs (4 gi, 4 gi + 1) and (4 gi + 2, 4 gi + 3) for rows 2 gi, 2 gi + 1.
+            const __m256i v = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
+                                                          (const int *)(const void *)(src + 4u * gi), idx, m, 1);
+            const __m256i a = _mm256_permutevar8x32_epi32(_mm256_cvtepi8_epi16(_mm256_castsi256_si128(v)), even_odd);
+            const __m256i b =
+                _mm256_permutevar8x32_epi32(_mm256_cvtepi8_epi16(_mm256_extracti128_si256(v, 1)), even_odd);
+            _mm256_maskstore_epi32((int *)(void *)(wp + 2u * gi * row + 2u * o0), m,
+                                   _mm256_permute2x128_si256(a, b, 0x20));
+            _mm256_maskstore_epi32((int *)(void *)(wp + (2u * gi + 1u) * row + 2u * o0), m,
+                                   _mm256_permute2x128_si256(a, b, 0x31));
+        }
+        for (size_t j = 0u; j < nl; j++) {
+            for (size_t i = 4u * full; i < k2; i++) {
+                wp[(i / 2u) * row + 2u * (o0 + j) + i % 2u] = (int16_t)((i < k) ? src[j * k + i] : 0);
+            }
+        }
+    }
+}
+
+AVX2_TARGET void vd_cnn_x86_gemm16(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                                   const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                                   uint32_t npix)
+{
+    const size_t ng = (k + 1u) / 2u;
+    const size_t row = n_o * 2u;
+    for (size_t o0 = 0u; o0 < n_o; o0 += 16u) {
+        const size_t n0 = (n_o - o0 < 8u) ? n_o - o0 : 8u;
+        const size_t n1 = (n_o - o0 > 8u) ? ((n_o - o0 - 8u < 8u) ? n_o - o0 - 8u : 8u) : 0u;
+        const __m256i m0 = lane_mask8(n0), m1 = lane_mask8(n1);
+        const vd_cnn_x86_rqv_t *c = &cv[o0 / 16u];
+        for (uint32_t p0 = 0u; p0 < npix; p0 += 4u) {
+            const int16_t *r0 = rows + (size_t)p0 * rstride;
+            const int16_t *r1 = rows + (size_t)((p0 + 1u < npix) ? p0 + 1u : npix - 1u) * rstride;
+            const int16_t *r2 = rows + (size_t)((p0 + 2u < npix) ? p0 + 2u : npix - 1u) * rstride;
+            const int16_t *r3 = rows + (size_t)((p0 + 3u < npix) ? p0 + 3u : npix - 1u) * rstride;
+            const __m256i z = _mm256_setzero_si256();
+            __m256i a00 = z, a01 = z, a10 = z, a11 = z, a20 = z, a21 = z, a30 = z, a31 = z;
+            const int16_t *wr = wp + 2u * o0;
+            for (size_t gi = 0u; gi < ng; gi++) {
+                const __m256i w0 = _mm256_maskload_epi32((const int *)(const void *)wr, m0);
+                const __m256i w1 = _mm256_maskload_epi32((const int *)(const void *)(wr + 16), m1);
+                int32_t b;
+                memcpy(&b, r0 + 2u * gi, sizeof b);
+                __m256i bb = _mm256_set1_epi32(b);
+                a00 = _mm256_add_epi32(a00, _mm256_madd_epi16(bb, w0));
+                a01 = _mm256_add_epi32(a01, _mm256_madd_epi16(bb, w1));
+                memcpy(&b, r1 + 2u * gi, sizeof b);
+                bb = _mm256_set1_epi32(b);
+                a10 = _mm256_add_epi32(a10, _mm256_madd_epi16(bb, w0));
+                a11 = _mm256_add_epi32(a11, _mm256_madd_epi16(bb, w1));
+                memcpy(&b, r2 + 2u * gi, sizeof b);
+                bb = _mm256_set1_epi32(b);
+                a20 = _mm256_add_epi32(a20, _mm256_madd_epi16(bb, w0));
+                a21 = _mm256_add_epi32(a21, _mm256_madd_epi16(bb, w1));
+                memcpy(&b, r3 + 2u * gi, sizeof b);
+                bb = _mm256_set1_epi32(b);
+                a30 = _mm256_add_epi32(a30, _mm256_madd_epi16(bb, w0));
+                a31 = _mm256_add_epi32(a31, _mm256_madd_epi16(bb, w1));
+                wr += row;
+            }
+            const __m256i acc[4][2] = {{a00, a01}, {a10, a11}, {a20, a21}, {a30, a31}};
+            for (uint32_t p = 0u; p < 4u; p++) {
+                if (p0 + p < npix) {
+                    int8_t *d = out + ((size_t)p0 + p) * pstride + o0;
+                    store8(d, rq8(acc[p][0], c, 0u, q), n0);
+                    if (n1 > 0u) {
+                        store8(d + 8, rq8(acc[p][1], c, 1u, q), n1);
+                    }
+                }
+            }
+        }
+    }
+}
+
+// 16 int8 at p (n of them, 1..16; the rest 0) as int16.
+AVX2_INLINE __m256i tap16(const int8_t *p, size_t n)
+{
+    if (n >= 16u) {
+        return _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)p));
+    }
+    int8_t tmp[16] = {0};
+    memcpy(tmp, p, n);
+    return _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)tmp));
+}
+
+AVX2_TARGET void vd_cnn_x86_dw_rows_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L,
+                                         const vd_cnn_x86_rq_t *q, uint32_t y0, uint32_t y1)
+{
+    const size_t c_n = d->c_n;
+    const size_t pstep = (size_t)d->stride * c_n;
+    for (size_t c0 = 0u; c0 < c_n; c0 += 16u) {
+        const size_t nc = (c_n - c0 < 16u) ? c_n - c0 : 16u;
+        __m256i wt[9];
+        __m256i wsum = _mm256_setzero_si256();
+        for (size_t i = 0u; i < 9u; i++) {
+            wt[i] = tap16(L->w + i * c_n + c0, nc);
+            wsum = _mm256_add_epi16(wsum, wt[i]);   // |sum| <= 9 * 128: int16
+        }
+        __m256i wl[5], wh[5];
+        for (size_t i = 0u; i < 5u; i++) {
+            const __m256i wb = (i < 4u) ? wt[2u * i + 1u] : _mm256_setzero_si256();
+            wl[i] = _mm256_unpacklo_epi16(wt[2u * i], wb);
+            wh[i] = _mm256_unpackhi_epi16(wt[2u * i], wb);
+        }
+        int16_t ws[16];
+        _mm256_storeu_si256((__m256i *)(void *)ws, wsum);
+        // Lane j of the lo sums holds channel c0 + 8 (j / 4) + j % 4, of the
+        // hi sums 4 more: one constant set, lanes 0..7 lo and 8..15 hi.
+        uint32_t map[16];
+        int32_t corr[16];
+        for (uint32_t j = 0u; j < 8u; j++) {
+            const size_t cl = 8u * (j / 4u) + (j % 4u);
+            map[j] = (uint32_t)((c0 + cl < c_n) ? c0 + cl : c0);
+            map[8u + j] = (uint32_t)((c0 + cl + 4u < c_n) ? c0 + cl + 4u : c0);
+            corr[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl]);
+            corr[8u + j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl + 4u]);
+        }
+        vd_cnn_x86_rqv_t cv;
+        vd_cnn_x86_rqv_fill(&cv, L, map, corr, 16u);
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rows[3];
+            for (uint32_t ky = 0u; ky < 3u; ky++) {
+                const int32_t iy = (int32_t)oy * (int32_t)d->stride - 1 + (int32_t)ky;
+                rows[ky] = (iy >= 0 && iy < (int32_t)d->hi)
+                               ? d->in + (size_t)((uint32_t)iy % d->in_slots) * d->in_row
+                               : NULL;
+            }
+            int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
+            for (uint32_t ox = 0u; ox < d->wo; ox++) {
+                const int8_t *t[9];
+                const int32_t ix0 = (int32_t)ox * (int32_t)d->stride - 1;
+                const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)d->wi;
+                for (size_t ky = 0u; ky < 3u; ky++) {
+                    const int8_t *r = rows[ky];
+                    if (r == NULL) {
+                        t[ky * 3u] = d->zrow;
+                        t[ky * 3u + 1u] = d->zrow;
+                        t[ky * 3u + 2u] = d->zrow;
+                        continue;
+                    }
+                    const int8_t *c1 = r + (size_t)ox * pstep;
+                    t[ky * 3u] = left ? c1 - c_n : d->zrow;
+                    t[ky * 3u + 1u] = c1;
+                    t[ky * 3u + 2u] = right ? c1 + c_n : d->zrow;
+                }
+                __m256i al = _mm256_setzero_si256(), ah = _mm256_setzero_si256();
+                for (size_t i = 0u; i < 4u; i++) {
+                    const __m256i xa = tap16(t[2u * i] + c0, nc), xb = tap16(t[2u * i + 1u] + c0, nc);
+                    al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(xa, xb), wl[i]));
+                    ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(xa, xb), wh[i]));
+                }
+                const __m256i x8 = tap16(t[8] + c0, nc), zero = _mm256_setzero_si256();
+                al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(x8, zero), wl[4]));
+                ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(x8, zero), wh[4]));
+                // packs restores the channel order per 128-bit lane; permute joins the lanes' bytes.
+                const __m256i z16 = _mm256_packs_epi32(rq8(al, &cv, 0u, q), rq8(ah, &cv, 1u, q));
+                const __m256i z8 = _mm256_permute4x64_epi64(_mm256_packs_epi16(z16, z16), 0x08);
+                const __m128i b = _mm256_castsi256_si128(z8);
+                int8_t *o = orow + (size_t)ox * c_n + c0;
+                if (nc == 16u) {
+                    _mm_storeu_si128((__m128i *)(void *)o, b);
+                } else {
+                    int8_t tmp[16];
+                    _mm_storeu_si128((__m128i *)(void *)tmp, b);
+                    memcpy(o, tmp, nc);
+                }
             }
         }
     }

@@ -40,8 +40,11 @@ typedef struct vd_cnn_x86_rq {
     bool sign;      // the sign term is needed (not ReLU-clamped, or general)
 } vd_cnn_x86_rq_t;
 
-// True when the CPU (and OS) has AVX-512 F, BW, VL and VNNI.
-bool vd_cnn_x86_ok(void);
+// Kernel sets by what the CPU (and OS) supports.
+#define VD_CNN_X86_NONE 0u     // portable C
+#define VD_CNN_X86_AVX2 1u     // AVX2: 256-bit, int16 vpmaddwd
+#define VD_CNN_X86_AVX512 2u   // AVX-512 F, BW, VL and VNNI: vpdpbusd / vpdpwssd
+uint32_t vd_cnn_x86_level(void);
 
 // Fills v for lanes 0..15: lane j takes output channel ch_of[j] of layer L
 // (its bias, mult, shift; vd_rq_prepare), n_lanes lanes valid and the
@@ -85,5 +88,18 @@ typedef struct vd_cnn_x86_dw {
 // bias - zp_in sum w folded into the constants here).
 void vd_cnn_x86_dw_rows(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q, uint32_t y0,
                         uint32_t y1);
+
+// AVX2 kernels. Packs w[n_o][k] as int16 pairs wp[k2 / 2][n_o][2] (k2 = k
+// rounded up to 2, zero past k).
+void vd_cnn_x86_pack16(const int8_t *w, size_t k, size_t n_o, int16_t *wp);
+// The GEMM on the portable kernel's int16 rows (x - zp_in, padding 0;
+// rstride int16 apart, zero past k), no correction; otherwise as
+// vd_cnn_x86_gemm.
+void vd_cnn_x86_gemm16(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                       const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                       uint32_t npix);
+// As vd_cnn_x86_dw_rows, 16 channels per pass.
+void vd_cnn_x86_dw_rows_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
+                             uint32_t y0, uint32_t y1);
 
 #endif
