@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: MIT
-// Optional x86-64 AVX-512 VNNI kernels of the int8 CNN: pointwise/spatial GEMM, depthwise 3x3, exact requantisation.
+// Optional x86-64 kernels of the int8 CNN (AVX-512 VNNI, AVX2): pointwise/spatial GEMM, depthwise 3x3, exact requantisation.
 //
 // Compiled only when CMake's VD_CNN_X86 is ON (x86-64 gcc/clang hosts); the
-// kernels carry per-function target attributes and cnn.c calls them only
-// after vd_cnn_x86_ok() (runtime CPU check), so the library still runs on an
-// x86-64 CPU without AVX-512. Every output equals the portable kernels' byte
+// kernels carry per-function target attributes and cnn.c picks them per
+// call by vd_cnn_x86_level() (runtime CPU check: AVX-512 F/BW/VL/VNNI, else
+// AVX2, else the portable C), so the library runs on any x86-64 CPU. The
+// AVX2 set (end of the file) is described there. Every output equals the portable kernels' byte
 // for byte (tests/unit/test_cnn.c compares the two on random models and the
 // shipped ones):
 //  * GEMM (CONV3X3 / CONV5X5 / PW1X1): vpdpbusd multiplies unsigned by signed
@@ -22,7 +23,7 @@
 //    vd_rq_z_nn, vd_rq_lshift_sat) on 16 lanes: the 64-bit product u * mult
 //    of even and odd lanes by vpmuludq, + k (- dk), per-lane vpsrlvq. Same
 //    integer operations, so the same result.
-// Bounds: as the portable kernels; stack ~3.5 KiB (constants of one tile).
+// Bounds: as the portable kernels; stack ~3.5 KiB (constants of one tile of 64 channels).
 #include "internal/cnn_x86.h"
 #include "internal/blob_internal.h"
 

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: MIT
-// Optional x86-64 AVX-512 VNNI kernels of the int8 CNN (lib/src/cnn_x86.c), bit-exact with the portable ones.
+// Optional x86-64 kernels of the int8 CNN (lib/src/cnn_x86.c: AVX-512 VNNI, AVX2), bit-exact with the portable ones.
 //
 // Built only when CMake's VD_CNN_X86 is ON (x86-64 gcc/clang hosts, never in
-// cross builds); cnn.c calls them only if vd_cnn_x86_ok() (runtime CPU check)
-// and the run flags lack VD_CNN_PORTABLE. Private to lib/; tests include it.
+// cross builds); cnn.c picks the set vd_cnn_x86_level() names (runtime CPU
+// check) unless the run flags have VD_CNN_PORTABLE. Private to lib/; tests include it.
 #ifndef VD_CNN_X86_H
 #define VD_CNN_X86_H
 
