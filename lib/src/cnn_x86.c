@@ -488,7 +488,8 @@ AVX2_TARGET void vd_cnn_x86_gemm16(const int16_t *rows, size_t rstride, size_t k
     }
 }
 
-// 16 int8 at p (n of them, 1..16; the rest 0) as int16.
+// 16 int8 at p (n of them, 1..16; the rest 0) as int16, reading only
+// p[0..n) (a copy through the stack: weights, once per group).
 AVX2_INLINE __m256i tap16(const int8_t *p, size_t n)
 {
     if (n >= 16u) {
@@ -497,6 +498,48 @@ AVX2_INLINE __m256i tap16(const int8_t *p, size_t n)
     int8_t tmp[16] = {0};
     memcpy(tmp, p, n);
     return _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)tmp));
+}
+
+// How tap_act reads the n channels of a pass: 0 all 16 bytes; 1 the 16
+// bytes ending at p + n, moved down by shuf (the pixel has >= 16 channels,
+// so they are its own); 2 (8 <= n < 16) 8 bytes at p and the 8 ending at
+// p + n, shifted by sh bits; 3 (n < 8) through the stack. Never reads
+// outside the pixel's channels, without a store-forwarding stall.
+typedef struct tail {
+    uint32_t mode;
+    size_t n;
+    __m128i shuf, sh;
+} tail_t;
+
+AVX2_INLINE tail_t tail_of(size_t n, size_t c_n)
+{
+    tail_t t;
+    t.n = n;
+    t.mode = (n >= 16u) ? 0u : (c_n >= 16u) ? 1u : (n >= 8u) ? 2u : 3u;
+    int8_t idx[16];
+    for (size_t i = 0u; i < 16u; i++) {
+        idx[i] = (int8_t)((i < n) ? (int32_t)(i + 16u - n) : -128);   // -128: pshufb writes 0
+    }
+    t.shuf = _mm_loadu_si128((const __m128i *)(const void *)idx);
+    t.sh = _mm_cvtsi32_si128((int)(8u * (16u - n)));
+    return t;
+}
+
+AVX2_INLINE __m256i tap_act(const int8_t *p, const tail_t *t)
+{
+    __m128i v;
+    if (t->mode == 0u) {
+        v = _mm_loadu_si128((const __m128i *)(const void *)p);
+    } else if (t->mode == 1u) {
+        v = _mm_shuffle_epi8(_mm_loadu_si128((const __m128i *)(const void *)(p + t->n - 16u)), t->shuf);
+    } else if (t->mode == 2u) {
+        const __m128i lo = _mm_loadl_epi64((const __m128i *)(const void *)p);
+        const __m128i hi = _mm_srl_epi64(_mm_loadl_epi64((const __m128i *)(const void *)(p + t->n - 8u)), t->sh);
+        v = _mm_unpacklo_epi64(lo, hi);
+    } else {
+        return tap16(p, t->n);
+    }
+    return _mm256_cvtepi8_epi16(v);
 }
 
 AVX2_TARGET void vd_cnn_x86_dw_rows_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L,
@@ -533,6 +576,7 @@ AVX2_TARGET void vd_cnn_x86_dw_rows_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_
         }
         vd_cnn_x86_rqv_t cv;
         vd_cnn_x86_rqv_fill(&cv, L, map, corr, 16u);
+        const tail_t tl = tail_of(nc, c_n);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
             for (uint32_t ky = 0u; ky < 3u; ky++) {
@@ -561,11 +605,11 @@ AVX2_TARGET void vd_cnn_x86_dw_rows_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_
                 }
                 __m256i al = _mm256_setzero_si256(), ah = _mm256_setzero_si256();
                 for (size_t i = 0u; i < 4u; i++) {
-                    const __m256i xa = tap16(t[2u * i] + c0, nc), xb = tap16(t[2u * i + 1u] + c0, nc);
+                    const __m256i xa = tap_act(t[2u * i] + c0, &tl), xb = tap_act(t[2u * i + 1u] + c0, &tl);
                     al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(xa, xb), wl[i]));
                     ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(xa, xb), wh[i]));
                 }
-                const __m256i x8 = tap16(t[8] + c0, nc), zero = _mm256_setzero_si256();
+                const __m256i x8 = tap_act(t[8] + c0, &tl), zero = _mm256_setzero_si256();
                 al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(x8, zero), wl[4]));
                 ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(x8, zero), wh[4]));
                 // packs restores the channel order per 128-bit lane; permute joins the lanes' bytes.
