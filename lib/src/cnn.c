@@ -27,6 +27,9 @@
 //    bias (bias - zp_in sum w) and products are 16-bit multiplies; without a
 //    weight of -128 two products still fit int16 and are added before
 //    widening.
+// Optional x86-64 kernels (CMake VD_CNN_X86, lib/src/cnn_x86.c: AVX-512
+// VNNI or AVX2, picked per call by a CPU check unless VD_CNN_PORTABLE) take
+// over CONV / PW / DW in layer_rows with the same scratch and the same bytes.
 // Reference: TFLite/CMSIS-NN int8 quantisation; the numpy integer reference
 // tools/vdtools/formats/cnn_ref.py (bit-exact); format docs/model-format.md ("CNN
 // kind"), arithmetic docs/fixed-point.md ("cnn").
