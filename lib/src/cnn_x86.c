@@ -230,7 +230,12 @@ X86_TARGET void vd_cnn_x86_pack(const int8_t *w, size_t k, size_t n_o, int8_t *w
         __m512i sum = _mm512_setzero_si512();
         for (size_t gi = 0u; gi < full; gi++) {
             // Lane j: weights 4 gi .. 4 gi + 3 of channel o0 + j (a 32-bit transpose).
+            // (gcc 12 at -O0 expands the intrinsic to a builtin whose mask
+            // parameter is a signed short: a false -Wsign-conversion.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wsign-conversion"
             const __m512i v = _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), m, idx, src + 4u * gi, 1);
+#pragma GCC diagnostic pop
             _mm512_mask_storeu_epi32(dst + gi * n_o * 4u, m, v);
             sum = _mm512_dpbusd_epi32(sum, ones, v);
         }
