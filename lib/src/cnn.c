@@ -27,6 +27,9 @@
 //    bias (bias - zp_in sum w) and products are 16-bit multiplies; without a
 //    weight of -128 two products still fit int16 and are added before
 //    widening.
+// Optional x86-64 kernels (CMake VD_CNN_X86, lib/src/cnn_x86.c: AVX-512
+// VNNI or AVX2, picked per call by a CPU check unless VD_CNN_PORTABLE) take
+// over CONV / PW / DW in layer_rows with the same scratch and the same bytes.
 // Reference: TFLite/CMSIS-NN int8 quantisation; the numpy integer reference
 // tools/vdtools/formats/cnn_ref.py (bit-exact); format docs/model-format.md ("CNN
 // kind"), arithmetic docs/fixed-point.md ("cnn").
@@ -51,6 +54,9 @@
 #include "internal/crc32.h"
 #include "internal/requant.h"
 #include "internal/vd_internal.h"
+#if defined(VD_CNN_X86)
+#include "internal/cnn_x86.h"
+#endif
 
 #include <string.h>
 
@@ -110,7 +116,7 @@
 #define E_SHIFT 24u
 #define E_RES1 28u
 
-#define CNN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM)   // every flag of the _ex calls
+#define CNN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE)   // every flag of the _ex calls
 #define MAX_ABS_PRODUCT (128L * 255L)   // weights may be -128: |w (x - zp)| <= 128 * 255
 #define INPUT_ZP (-128)
 
@@ -1058,6 +1064,207 @@ CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_
     }
 }
 
+#if defined(VD_CNN_X86)
+// Layer-wide requantisation flags of the x86 kernels (as rq_setup's).
+static vd_cnn_x86_rq_t x86_rq(const vd_cnn_layer_t *L)
+{
+    vd_cnn_x86_rq_t q;
+    q.zp = L->out_zp;
+    q.lo = L->act_min - L->out_zp;
+    q.hi = L->act_max - L->out_zp;
+    q.general = false;
+    for (uint32_t o = 0u; o < L->cout; o++) {
+        q.general = q.general || L->shift[o] > 0;
+    }
+    q.sign = q.general || q.lo < 0;
+    return q;
+}
+
+// run_conv_pw on the AVX2 GEMM: the portable int16 rows (x - zp_in, padding
+// 0) and, per tile of <= 64 output channels, int16 weight pairs
+// [k2 / 2][n][2] (2 n k2 <= the int16 copy's 2 chunk kp bytes).
+static void run_conv_pw_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                             uint32_t y0, uint32_t y1, uint8_t *scr, const scratch_layout_t *s)
+{
+    const size_t k = k_of(L);
+    const size_t kp = round_up((uint32_t)k, VD_CNN_KCHUNK);
+    int16_t *wp = (int16_t *)(void *)(scr + s->w16);
+    int16_t *rows = (int16_t *)(void *)(scr + s->rows);
+    memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
+    const vd_cnn_x86_rq_t xq = x86_rq(L);
+    const size_t ci = g->ci;
+    const int16_t zp = (int16_t)g->zp_in;
+    const int32_t step = L->stride;
+    const bool pw = L->op == VD_CNN_OP_PW1X1;
+    const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
+    const int32_t pad = ks / 2;
+    for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
+        const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
+        vd_cnn_x86_pack16(L->w + o0 * k, k, n_o, wp);
+        vd_cnn_x86_rqv_t cv[VD_CNN_X86_TILE / VD_CNN_X86_LANES];
+        for (size_t v = 0u; v * VD_CNN_X86_LANES < n_o; v++) {
+            uint32_t ch_of[VD_CNN_X86_LANES];
+            const size_t n_l = (n_o - v * 16u < 16u) ? n_o - v * 16u : 16u;
+            for (size_t j = 0u; j < n_l; j++) {
+                ch_of[j] = (uint32_t)(o0 + v * 16u + j);
+            }
+            vd_cnn_x86_rqv_fill(&cv[v], L, ch_of, NULL, (uint32_t)n_l);
+        }
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rowp[5];
+            for (int32_t ky = 0; ky < ks; ky++) {
+                const int32_t iy = (int32_t)oy * step - pad + ky;
+                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
+            }
+            int8_t *orow = ring_row(out, oy) + o0;
+            for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
+                const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
+                for (uint32_t i = 0u; i < npix; i++) {
+                    int16_t *r = rows + (size_t)i * kp;
+                    const int32_t ox = (int32_t)(x0 + i);
+                    for (int32_t ky = 0; ky < ks; ky++) {
+                        for (int32_t kx = 0; kx < ks; kx++) {
+                            const int32_t ix = ox * step - pad + kx;
+                            int16_t *d = r + (size_t)(ky * ks + kx) * ci;
+                            if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
+                                for (size_t c = 0u; c < ci; c++) {
+                                    d[c] = 0;
+                                }
+                            } else {
+                                const int8_t *x = rowp[ky] + (size_t)ix * ci;
+                                for (size_t c = 0u; c < ci; c++) {
+                                    d[c] = (int16_t)(x[c] - zp);
+                                }
+                            }
+                        }
+                    }
+                }
+                vd_cnn_x86_gemm16(rows, kp, k, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+            }
+        }
+    }
+}
+
+// run_conv_pw on the AVX-512 VNNI GEMM (lib/src/cnn_x86.c), same scratch:
+// per tile of <= 64 output channels the int8 weights packed [k4 / 4][n][4]
+// (n k4 <= the int16 copy's 2 chunk kp bytes), per block of 16 pixels the
+// rows as unsigned bytes x + 128, k4 apart (16 k4 <= the int16 rows' bytes);
+// padding taps are zp_in + 128 and the bias loses (zp_in + 128) sum w, so
+// the int32 sums equal the portable ones modulo 2^32 (cnn_x86.c).
+CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in,
+                                         const ring_t *out, uint32_t y0, uint32_t y1, uint8_t *scr,
+                                         const scratch_layout_t *s, uint32_t level)
+{
+    if (level != VD_CNN_X86_AVX512) {
+        run_conv_pw_avx2(L, g, in, out, y0, y1, scr, s);
+        return;
+    }
+    const size_t k = k_of(L);
+    const size_t k4 = round_up((uint32_t)k, 4u);
+    int8_t *wp = (int8_t *)(void *)(scr + s->w16);
+    uint8_t *rows = scr + s->rows;
+    memset(rows, 0, (size_t)VD_CNN_NPIX * k4);   // the k..k4 tails stay 0 (their weights are 0 too)
+    const uint8_t upad = (uint8_t)(g->zp_in + 128);
+    const vd_cnn_x86_rq_t xq = x86_rq(L);
+    const size_t ci = g->ci;
+    const int32_t step = L->stride;
+    const bool pw = L->op == VD_CNN_OP_PW1X1;
+    const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
+    const int32_t pad = ks / 2;
+    const bool in_place = pw && ci % 4u == 0u;
+    for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
+        const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
+        int32_t corr[VD_CNN_X86_TILE];
+        uint32_t wsum[VD_CNN_X86_TILE];
+        vd_cnn_x86_pack(L->w + o0 * k, k, n_o, wp, wsum);
+        for (size_t o = 0u; o < n_o; o++) {
+            corr[o] = vd_rq_u32_to_i32(wsum[o] * (uint32_t)(g->zp_in + 128));   // modulo 2^32, as the sums
+        }
+        vd_cnn_x86_rqv_t cv[VD_CNN_X86_TILE / VD_CNN_X86_LANES];
+        for (size_t v = 0u; v * VD_CNN_X86_LANES < n_o; v++) {
+            uint32_t ch_of[VD_CNN_X86_LANES];
+            const size_t n_l = (n_o - v * 16u < 16u) ? n_o - v * 16u : 16u;
+            for (size_t j = 0u; j < n_l; j++) {
+                ch_of[j] = (uint32_t)(o0 + v * 16u + j);
+            }
+            vd_cnn_x86_rqv_fill(&cv[v], L, ch_of, corr + v * 16u, (uint32_t)n_l);
+        }
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rowp[5];
+            for (int32_t ky = 0; ky < ks; ky++) {
+                const int32_t iy = (int32_t)oy * step - pad + ky;
+                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
+            }
+            int8_t *orow = ring_row(out, oy) + o0;
+            for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
+                const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
+                if (in_place) {
+                    // The input pixels are the rows (x, flipped to x + 128 in the kernel).
+                    vd_cnn_x86_gemm((const uint8_t *)(const void *)(rowp[0] + (size_t)x0 * ci), ci, true, k4, wp,
+                                    n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+                    continue;
+                }
+                for (uint32_t i = 0u; i < npix; i++) {
+                    uint8_t *r = rows + (size_t)i * k4;
+                    const int32_t ox = (int32_t)(x0 + i);
+                    if (pw) {
+                        const int8_t *x = rowp[0] + (size_t)ox * ci;
+                        for (size_t c = 0u; c < ci; c++) {
+                            r[c] = (uint8_t)((uint8_t)x[c] ^ 0x80u);
+                        }
+                        continue;
+                    }
+                    const int32_t ix0 = ox * step - pad;
+                    const bool inside = ix0 >= 0 && ix0 + ks <= (int32_t)g->wi;
+                    for (int32_t ky = 0; ky < ks; ky++) {
+                        uint8_t *d = r + (size_t)(ky * ks) * ci;
+                        if (inside && rowp[ky] != NULL) {
+                            // ks taps of ci channels, contiguous in the input row.
+                            const int8_t *x = rowp[ky] + (size_t)ix0 * ci;
+                            for (size_t c = 0u; c < (size_t)ks * ci; c++) {
+                                d[c] = (uint8_t)((uint8_t)x[c] ^ 0x80u);
+                            }
+                            continue;
+                        }
+                        for (int32_t kx = 0; kx < ks; kx++) {
+                            const int32_t ix = ix0 + kx;
+                            uint8_t *dk = d + (size_t)kx * ci;
+                            if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
+                                memset(dk, upad, ci);
+                            } else {
+                                const int8_t *x = rowp[ky] + (size_t)ix * ci;
+                                for (size_t c = 0u; c < ci; c++) {
+                                    dk[c] = (uint8_t)((uint8_t)x[c] ^ 0x80u);
+                                }
+                            }
+                        }
+                    }
+                }
+                vd_cnn_x86_gemm(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+            }
+        }
+    }
+}
+
+// run_dw on the AVX-512 VNNI kernel: the scratch holds only the zero-point row.
+CNN_NOINLINE static void run_dw_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                                    uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level)
+{
+    scratch_layout_t s;
+    (void)scratch_layout(L, false, &s);
+    int8_t *zr = (int8_t *)(void *)(scr + s.rows);
+    memset(zr, g->zp_in, g->co);
+    const vd_cnn_x86_dw_t d = {in->base, in->row, in->rows, g->wi, g->hi, out->base, out->row, out->rows,
+                               g->wo, L->stride, g->co, g->zp_in, zr};
+    const vd_cnn_x86_rq_t xq = x86_rq(L);
+    if (level == VD_CNN_X86_AVX512) {
+        vd_cnn_x86_dw_rows(&d, L, &xq, y0, y1);
+    } else {
+        vd_cnn_x86_dw_rows_avx2(&d, L, &xq, y0, y1);
+    }
+}
+#endif
+
 // Output rows [y0, y1) of a CONV3X3 / CONV5X5 / PW1X1 layer; the input rows
 // they read (y * stride - pad .. + pad, clamped) must be in the input ring.
 // Output channels in chunks of chunk_of(L, stream) (one chunk unless
@@ -1424,6 +1631,15 @@ typedef struct run_io {
     const chain_t *c;
 } run_io_t;
 
+// The optional x86 kernels run unless the caller asked for the portable
+// ones or the CPU lacks AVX-512 VNNI (checked per call: no global state).
+#if defined(VD_CNN_X86)
+static uint32_t x86_level(uint32_t flags)
+{
+    return ((flags & VD_CNN_PORTABLE) != 0u) ? VD_CNN_X86_NONE : vd_cnn_x86_level();
+}
+#endif
+
 // Output rows [y0, y1) of layer l; its input rows must be in their rings.
 static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_plan_t *p, uint8_t *base, uint32_t l,
                        uint32_t y0, uint32_t y1)
@@ -1441,13 +1657,30 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     const ring_t o = ring_of(base, p, c, l + 1u);
     // The streamed plan has one scratch for all layers (item 3), refilled per call.
     uint8_t *scr = base + p->off[((p->flags & VD_CNN_STREAM) != 0u) ? 3u : 3u + 2u * l];
+#if defined(VD_CNN_X86)
+    const uint32_t level = x86_level(p->flags);
+#endif
     switch (L->op) {
     case VD_CNN_OP_CONV3X3:
     case VD_CNN_OP_CONV5X5:
     case VD_CNN_OP_PW1X1:
+#if defined(VD_CNN_X86)
+        if (level != VD_CNN_X86_NONE) {
+            scratch_layout_t s;
+            (void)scratch_layout(L, (p->flags & VD_CNN_STREAM) != 0u, &s);
+            run_conv_pw_x86(L, &g, &in, &o, y0, y1, scr, &s, level);
+            break;
+        }
+#endif
         run_conv_pw(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr);
         break;
     case VD_CNN_OP_DW3X3:
+#if defined(VD_CNN_X86)
+        if (level != VD_CNN_X86_NONE) {
+            run_dw_x86(L, &g, &in, &o, y0, y1, scr, level);
+            break;
+        }
+#endif
         run_dw(L, &g, &in, &o, y0, y1, scr);
         break;
     case VD_CNN_OP_MAXPOOL2:

@@ -16,6 +16,9 @@
 #include "internal/cnn_internal.h"
 #include "internal/crc32.h"
 #include "internal/requant.h"
+#if defined(VD_CNN_X86)
+#include "internal/cnn_x86.h"
+#endif
 
 void setUp(void) {}
 void tearDown(void) {}
@@ -300,7 +303,8 @@ static int8_t ref_out(const tl_t *L, uint32_t o, int64_t sum)
 {
     const int64_t acc = (int64_t)L->bias[o] + sum;
     TEST_ASSERT_TRUE(acc >= INT32_MIN && acc <= INT32_MAX);
-    int32_t z = vd_rq_requantize((int32_t)acc, L->mult[o], L->shift[o]) + L->zp;
+    // int64: near INT32_MIN (shift > 0 saturating) z + zp leaves int32.
+    int64_t z = (int64_t)vd_rq_requantize((int32_t)acc, L->mult[o], L->shift[o]) + L->zp;
     z = z < L->amin ? L->amin : (z > L->amax ? L->amax : z);
     return (int8_t)z;
 }
@@ -1036,11 +1040,11 @@ static void test_run_arguments(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 4100u, 8u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 0u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 8u, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 8u, 8u, 4u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 8u, 8u, 8u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(NULL, img, 8u, 8u, 16u, ws, bytes, &out));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, NULL, 8u, 8u, 16u, ws, bytes, &out));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, img, 8u, 8u, 16u, ws, bytes, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_ex(&m, img, 8u, 8u, 16u, 4u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_ex(&m, img, 8u, 8u, 16u, 8u, ws, bytes, &out));
     uint64_t macs;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_macs(&m, 8u, 8u, NULL));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_macs(&m, 9u, 8u, &macs));
@@ -1992,6 +1996,281 @@ static void test_stream_committed_models_match_whole_plane(void)
     TEST_ASSERT_TRUE(loaded == 2u);
 }
 
+
+// ------------------------------------------------------------ x86 kernels against the portable ones
+
+// Pushes a random weighted layer to the limits (mode bits): 1 weights
+// -128 / 127 only (else half of them), 2 the output zero point -128 or 127,
+// 4 multipliers 2^30 / 2^31 - 1, 8 shifts -31 / -1 / 0 / 1 / 7, 16 biases
+// at the loader's bound +-(INT32_MAX - K * 128 * 255).
+static void push_extremes(tl_t *L, uint32_t *st, uint32_t mode)
+{
+    int8_t *w = g_wpool + (L->w - g_wpool);
+    int32_t *bias = g_ipool + (L->bias - g_ipool);
+    int32_t *mult = g_ipool + (L->mult - g_ipool);
+    int8_t *shift = g_spool + (L->shift - g_spool);
+    const uint32_t wl = w_len(L);
+    for (uint32_t i = 0u; i < wl; i++) {
+        if ((mode & 1u) != 0u || (tu_rand(st) & 1u) != 0u) {
+            w[i] = (int8_t)((tu_rand(st) & 1u) ? 127 : -128);
+        }
+    }
+    if ((mode & 2u) != 0u) {
+        const bool relu = L->amin == L->zp;
+        L->zp = (int8_t)((tu_rand(st) & 1u) ? 127 : -128);
+        L->amin = relu ? L->zp : -128;
+        L->amax = 127;
+    }
+    const uint32_t k = (L->op == VD_CNN_OP_DW3X3) ? 9u
+                       : (L->op == VD_CNN_OP_PW1X1) ? L->cin
+                       : (L->op == VD_CNN_OP_CONV5X5) ? 25u * L->cin : 9u * L->cin;
+    const int32_t bmax = (int32_t)(INT32_MAX - (int64_t)k * 128 * 255);
+    static const int8_t shifts[5] = {-31, -1, 0, 1, 7};
+    for (uint32_t o = 0u; o < L->cout; o++) {
+        if ((mode & 4u) != 0u) {
+            mult[o] = (tu_rand(st) & 1u) ? INT32_MAX : 0x40000000;
+        }
+        if ((mode & 8u) != 0u) {
+            shift[o] = shifts[tu_rand(st) % 5u];
+        }
+        if ((mode & 16u) != 0u && (tu_rand(st) & 1u) != 0u) {
+            bias[o] = (tu_rand(st) & 1u) ? bmax : -bmax;
+        }
+    }
+}
+
+// Awkward shapes for the x86 tiles: channel counts 1, 3, 5, 17, 33, 65, 129
+// (lane and tile tails), K = 9, 25 cin, cin 65, every weighted op. arch 0
+// reaches stride 4 in two layers, so inputs 4, 28, 132 wide give tensors 1,
+// 7, 33 wide; arch 1 strides 2 by 3x3, dw and 5x5 (head at stride 8).
+static void awkward_model(tm_t *d, uint32_t arch, uint32_t seed, uint32_t mode)
+{
+    uint32_t st = seed * 2246822519u + 3u;
+    pools_reset();
+    g_wsym = false;
+    static const uint16_t c1s[3] = {1, 3, 5};
+    const uint16_t c1 = c1s[seed % 3u];
+    if (arch == 0u) {
+        tm_init(d, 8u, 8u, 5u, 4u);
+        d->L[0] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 2u, 0u, 1u, c1);
+        d->L[1] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 2u, 1u, c1, c1);
+        d->L[2] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 2u, c1, 17u);
+        d->L[3] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 3u, 17u, 17u);
+        d->L[4] = rnd_weighted(&st, VD_CNN_OP_CONV5X5, 1u, 4u, 17u, 3u);
+        d->L[5] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 5u, 3u, 33u);
+        d->L[6] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 6u, 33u, 33u);
+        d->L[7] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 1u, 7u, 33u, 65u);
+        d->L[8] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 8u, 65u, 65u);
+        d->L[9] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 9u, 65u, 129u);
+        d->L[10] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 10u, 129u, 129u);
+        d->L[11] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 11u, 129u, 5u);
+        d->n = 12u;
+    } else {
+        tm_init(d, 8u, 8u, 5u, 8u);
+        d->L[0] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 2u, 0u, 1u, c1);
+        d->L[1] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 1u, c1, c1);
+        d->L[2] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 2u, c1, 17u);
+        d->L[3] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 2u, 3u, 17u, 17u);
+        d->L[4] = rnd_weighted(&st, VD_CNN_OP_CONV5X5, 2u, 4u, 17u, 33u);
+        d->L[5] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 5u, 33u, 5u);
+        d->n = 6u;
+    }
+    for (uint32_t l = 0u; l < d->n; l++) {
+        push_extremes(&d->L[l], &st, mode);
+    }
+}
+
+// The awkward models with extreme values against the naive reference
+// (every build: the portable kernels, or the x86 ones where they run).
+static void test_awkward_models_match_naive_reference(void)
+{
+    static uint8_t img[132 * 36];
+    static const uint32_t modes[3] = {0u, 1u | 2u | 4u | 8u | 16u, 8u | 16u};
+    static const uint32_t sizes[2][2][2] = {{{4, 4}, {132, 36}}, {{8, 8}, {56, 16}}};
+    uint32_t checked = 0u;
+    for (uint32_t arch = 0u; arch < 2u; arch++) {
+        for (uint32_t mi = 0u; mi < 3u; mi++) {
+            tm_t d;
+            awkward_model(&d, arch, 5u + mi, modes[mi]);
+            for (uint32_t si = 0u; si < 2u; si++) {
+                const uint32_t w = sizes[arch][si][0], h = sizes[arch][si][1];
+                rnd_image(img, w, h, mi + si + 400u);
+                int8_t *ref[VD_CNN_MAX_TENSORS];
+                ref_forward(&d, img, w, h, ref);
+                vd_cnn_output_t head;
+                run_keep(&d, img, w, h, &head);
+                for (uint32_t t = 0u; t <= d.n; t++) {
+                    vd_cnn_output_t x;
+                    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&g_m, g_ws, g_ws_bytes, w, h, t, &x));
+                    char msg[64];
+                    snprintf(msg, sizeof msg, "awkward %u mode %u %ux%u tensor %u", (unsigned)arch,
+                             (unsigned)modes[mi], (unsigned)w, (unsigned)h, (unsigned)t);
+                    TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(ref[t], x.data, x.w * x.h * x.c, msg);
+                    checked += x.w * x.h * x.c;
+                    free(ref[t]);
+                }
+                run_free();
+            }
+        }
+    }
+    TEST_ASSERT_TRUE(checked > 100000u);
+}
+
+#if defined(VD_CNN_X86)
+// Every tensor of m on img (w x h): flags fl (with VD_CNN_KEEP_TENSORS)
+// against fl | VD_CNN_PORTABLE, byte for byte; same workspace size; and the
+// shared-memory head (fl without KEEP) likewise. Returns the bytes compared.
+static uint32_t x86_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h, uint32_t fl,
+                          const char *what)
+{
+    uint32_t compared = 0u;
+    for (uint32_t keep = 0u; keep < 2u; keep++) {
+        const uint32_t f = fl | (keep ? VD_CNN_KEEP_TENSORS : 0u);
+        size_t fast_b = 0u, port_b = 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(m, w, h, f, &fast_b));
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(m, w, h, f | VD_CNN_PORTABLE, &port_b));
+        TEST_ASSERT_EQUAL_UINT64_MESSAGE(port_b, fast_b, what);
+        uint8_t *a = tu_guarded_alloc(0, fast_b);
+        uint8_t *b = tu_guarded_alloc(1, port_b);
+        memset(a, 0x5A, fast_b);
+        memset(b, 0xA5, port_b);
+        vd_cnn_output_t ha, hb;
+        TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_run_ex(m, img, w, h, w, f, a, fast_b, &ha), what);
+        TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_run_ex(m, img, w, h, w, f | VD_CNN_PORTABLE, b, port_b, &hb),
+                                      what);
+        TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(hb.data, ha.data, ha.w * ha.h * ha.c, what);
+        compared += ha.w * ha.h * ha.c;
+        for (uint32_t t = 0u; keep && t <= m->n_layers; t++) {
+            vd_cnn_output_t xa, xb;
+            const vd_status_t sa = vd_cnn_tensor(m, a, fast_b, w, h, t, &xa);
+            TEST_ASSERT_EQUAL_INT_MESSAGE(vd_cnn_tensor(m, b, port_b, w, h, t, &xb), sa, what);
+            if (sa == VD_OK) {
+                char msg[128];
+                snprintf(msg, sizeof msg, "%s flags %u tensor %u", what, (unsigned)f, (unsigned)t);
+                TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(xb.data, xa.data, xa.w * xa.h * xa.c, msg);
+                compared += xa.w * xa.h * xa.c;
+            }
+        }
+        tu_guard_check(0);
+        tu_guard_check(1);
+        tu_guarded_free(1);
+        tu_guarded_free(0);
+    }
+    return compared;
+}
+#endif
+
+static void x86_skip_unless_available(void)
+{
+#if !defined(VD_CNN_X86)
+    TEST_IGNORE_MESSAGE("x86 kernels not built (CMake VD_CNN_X86=OFF): nothing to compare");
+#else
+    const uint32_t level = vd_cnn_x86_level();
+    if (level == VD_CNN_X86_NONE) {
+        TEST_IGNORE_MESSAGE("x86 kernels built, but this CPU lacks AVX2 and AVX-512 VNNI: portable path only, "
+                            "not compared");
+    }
+    printf("x86 kernels compared with the portable ones: %s\n",
+           (level == VD_CNN_X86_AVX512) ? "AVX-512 VNNI" : "AVX2");
+#endif
+}
+
+// Random models of every op (architectures 0-2 of the tests above) and the
+// awkward ones with extreme values: every tensor of the x86 kernels equals
+// the portable kernels' (VD_CNN_PORTABLE), whole plane and streamed.
+static void test_x86_kernels_match_portable_random(void)
+{
+    x86_skip_unless_available();
+#if defined(VD_CNN_X86)
+    static uint8_t img[264 * 40];
+    uint32_t compared = 0u;
+    tm_t d;
+    for (uint32_t arch = 0u; arch < 3u; arch++) {
+        static const uint32_t sizes[3][3][2] = {{{8, 8}, {24, 16}, {56, 40}},
+                                                {{8, 8}, {40, 24}, {56, 40}},
+                                                {{4, 4}, {20, 12}, {44, 28}}};
+        for (uint32_t seed = 0u; seed < 4u; seed++) {
+            if (arch < 2u) {
+                rnd_model(&d, arch, seed);
+            } else {
+                rnd_model2(&d, seed);
+            }
+            TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &g_m));
+            for (uint32_t si = 0u; si < 3u; si++) {
+                const uint32_t w = sizes[arch][si][0], h = sizes[arch][si][1];
+                rnd_image(img, w, h, seed * 3u + si + 200u);
+                char msg[64];
+                snprintf(msg, sizeof msg, "arch %u seed %u %ux%u", (unsigned)arch, (unsigned)seed, (unsigned)w,
+                         (unsigned)h);
+                compared += x86_check(&g_m, img, w, h, 0u, msg);
+                compared += x86_check(&g_m, img, w, h, VD_CNN_STREAM, msg);
+            }
+        }
+    }
+    static const uint32_t modes[6] = {0u, 1u, 2u | 16u, 4u | 8u, 1u | 2u | 4u | 8u | 16u, 8u | 16u};
+    for (uint32_t arch = 0u; arch < 2u; arch++) {
+        static const uint32_t sizes[2][3][2] = {{{4, 4}, {28, 20}, {132, 36}}, {{8, 8}, {56, 16}, {264, 24}}};
+        for (uint32_t mi = 0u; mi < 6u; mi++) {
+            for (uint32_t seed = 0u; seed < 3u; seed++) {
+                awkward_model(&d, arch, seed + 10u * mi, modes[mi]);
+                TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &g_m));
+                for (uint32_t si = 0u; si < 3u; si++) {
+                    const uint32_t w = sizes[arch][si][0], h = sizes[arch][si][1];
+                    TEST_ASSERT_TRUE(w % g_m.align == 0u && h % g_m.align == 0u);
+                    rnd_image(img, w, h, seed + si + 300u);
+                    char msg[64];
+                    snprintf(msg, sizeof msg, "awkward %u mode %u seed %u %ux%u", (unsigned)arch,
+                             (unsigned)modes[mi], (unsigned)seed, (unsigned)w, (unsigned)h);
+                    compared += x86_check(&g_m, img, w, h, 0u, msg);
+                    compared += x86_check(&g_m, img, w, h, VD_CNN_STREAM, msg);
+                }
+            }
+        }
+    }
+    TEST_ASSERT_TRUE(compared > 1000000u);
+#endif
+}
+
+// The committed networks at several input sizes, whole plane and streamed:
+// every tensor of the x86 kernels equals the portable kernels'.
+static void test_x86_kernels_match_portable_committed(void)
+{
+    x86_skip_unless_available();
+#if defined(VD_CNN_X86)
+    static const char *const paths[2] = {VD_SOURCE_DIR "/models/vd_cnn.vdm", VD_SOURCE_DIR "/models/vd_cnn_compact.vdm"};
+    static const uint32_t sizes[4][2] = {{320, 256}, {100, 60}, {33, 17}, {8, 8}};
+    static uint8_t img[320 * 256];
+    static vd_cnn_model_t m;
+    uint32_t loaded = 0u;
+    for (uint32_t mi = 0u; mi < 2u; mi++) {
+        if (!load_file_model(paths[mi], &m)) {
+            continue;
+        }
+        loaded++;
+        const uint32_t a = m.align;
+        for (uint32_t si = 0u; si < 4u; si++) {
+            const uint32_t w = (sizes[si][0] + a - 1u) / a * a;
+            const uint32_t h = (sizes[si][1] + a - 1u) / a * a;
+            uint32_t st = 7u + si * 13u + mi;
+            for (uint32_t y = 0u; y < h; y++) {
+                for (uint32_t x = 0u; x < w; x++) {
+                    uint32_t v = 30u + (y * 140u) / h + (tu_rand(&st) & 31u);
+                    if (((x / 10u) * 3u + (y / 7u) * 5u + si) % 11u == 0u) {
+                        v += 100u;
+                    }
+                    img[(size_t)y * w + x] = (uint8_t)(v > 255u ? 255u : v);
+                }
+            }
+            char msg[96];
+            snprintf(msg, sizeof msg, "%s %ux%u", m.name, (unsigned)w, (unsigned)h);
+            (void)x86_check(&m, img, w, h, 0u, msg);
+            (void)x86_check(&m, img, w, h, VD_CNN_STREAM, msg);
+        }
+    }
+    TEST_ASSERT_TRUE(loaded == 2u);
+#endif
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -2016,6 +2295,9 @@ int main(void)
     RUN_TEST(test_depthwise_extremes_match_reference);
     RUN_TEST(test_stream_random_models_match_whole_plane);
     RUN_TEST(test_stream_committed_models_match_whole_plane);
+    RUN_TEST(test_awkward_models_match_naive_reference);
+    RUN_TEST(test_x86_kernels_match_portable_random);
+    RUN_TEST(test_x86_kernels_match_portable_committed);
     RUN_TEST(test_structural_corruptions_rejected);
     RUN_TEST(test_every_bit_flip_and_truncation_rejected);
     return UNITY_END();
