@@ -8,6 +8,11 @@ cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
 
 echo "== gcc build + unit tests"
+# A cache made by another compiler (the preset leaves cc) makes CMake drop it and re-run without the
+# other -D values, so the build type was lost and the first run built unoptimised: start afresh instead.
+if [ -f build/CMakeCache.txt ] && ! grep -q "^CMAKE_C_COMPILER:[A-Z]*=\(.*/\)\?gcc$" build/CMakeCache.txt; then
+  rm -rf build/CMakeCache.txt build/CMakeFiles
+fi
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=gcc >/dev/null
 cmake --build build -j "$jobs"
 ctest --test-dir build --output-on-failure -j "$jobs"

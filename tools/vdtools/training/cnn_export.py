@@ -164,9 +164,13 @@ def main(argv=None):
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
     ap.add_argument("--thr", type=float, default=0.3, help="default score threshold written into the header")
     ap.add_argument("--out-dir", default=str(clib.REPO / "models"))
+    ap.add_argument("--exclude", choices=("msrs-night",), help="calibrate without these frames (a model "
+                    "trained with cnn_train --exclude: the another-camera estimate must not see them at all)")
     a = ap.parse_args(argv)
     net, ck = load_net(a.ckpt)
     frames = CD.load_frames(a.data, splits=("train",))
+    if a.exclude == "msrs-night":
+        frames = [f for f in frames if not (f.dataset == "msrs" and f.name.endswith("N.png"))]
     rng = np.random.default_rng(0)
     calib = [frames[i] for i in rng.choice(len(frames), min(CALIB_FRAMES, len(frames)), replace=False)]
     ranges = calibrate(net, calib)
