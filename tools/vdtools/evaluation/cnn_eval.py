@@ -180,6 +180,25 @@ def figures(results, thresholds=THRESHOLDS):
     return rep
 
 
+def subset_of(fr):
+    """The subsets docs/results/detector.md reports AP for: MSRS night/day (file name N/D), HIT-UAV frames
+    night/day (the T flag of T_H_A_W_ID, 1 = night) and the sequence-0_100 flight."""
+    if fr.dataset == "msrs":
+        return "msrs-night" if fr.name.endswith("N.png") else "msrs-day"
+    if fr.dataset == "seq":
+        return "hit-flight"
+    return "hit-night" if fr.name.startswith("1_") else "hit-day"
+
+
+def subset_ap(results):
+    """{subset: (AP@0.5, frames, vehicles)}."""
+    by = {}
+    for fam, fr, dets, gts in results:
+        by.setdefault(subset_of(fr), []).append((fr, dets, gts))
+    return {k: (average_precision([(d, g) for _, d, g in v])[0], len(v), sum(len(fr.boxes) for fr, _, _ in v))
+            for k, v in sorted(by.items())}
+
+
 def choose_threshold(rep):
     """Operating point on the val split: the threshold with TP >= 70 % and FP <= 30 % on every family and
     the highest mean F1 among those; else the highest mean F1 overall."""
@@ -271,12 +290,18 @@ def main(argv=None):
         print(f"{a.split} {fam}: {v['n_frames']} frames, {v['n_vehicles']} vehicles; AP@0.5 {100 * v['ap']:.1f}; "
               f"at {thr}: TP {100 * at['tp_rate']:.1f} % FP {100 * at['fp_rate']:.1f} % "
               f"(hot {100 * at['hot_tp_rate']:.1f} %, cold {100 * at['cold_tp_rate']:.1f} %)")
+    subsets = subset_ap(res)
+    print("AP@0.5 per subset: " + ", ".join(f"{k} {100 * ap:.1f} ({nf} frames, {nv} vehicles)"
+                                             for k, (ap, nf, nv) in subsets.items()))
     print(f"threshold {thr}; {len(frames)} frames in {sec:.1f} s")
     if a.pr:
         plot_pr(rep, a.pr, f"CNN detector, {a.split} split ({Path(a.model or a.ckpt).name})")
     if a.out:
         Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, thr=thr,
-                                               families=summary(rep, thr)), indent=1) + "\n")
+                                               families=summary(rep, thr),
+                                               subsets={k: dict(ap=ap, n_frames=nf, n_vehicles=nv)
+                                                        for k, (ap, nf, nv) in subsets.items()}),
+                                          indent=1) + "\n")
 
 
 if __name__ == "__main__":
