@@ -16,6 +16,8 @@ the val split choose the checkpoint/thresholds; the test split is never read her
 
     python3 -m vdtools.training.cnn_train --arch main --minutes 40 --out tools/.cache/cnn/main
     python3 -m vdtools.training.cnn_train --arch compact --minutes 30 --out tools/.cache/cnn/compact
+    python3 -m vdtools.training.cnn_train --arch main --init tools/.cache/cnn/main_ft2/best.pt --qat --lr 3e-4 \
+        --minutes 60 --out tools/.cache/cnn/qat     # quantisation-aware fine-tuning (docs/training.md)
 
 Then vdtools.training.cnn_export quantises and writes models/vd_cnn_<arch>.vdm (docs/training.md).
 """
