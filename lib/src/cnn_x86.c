@@ -112,6 +112,37 @@ X86_INLINE __m512i rq16(__m512i acc, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86
     return _mm512_add_epi32(z, _mm512_set1_epi32(q->zp));
 }
 
+// Depthwise (both kernel sets): the 3 input rows of output row oy (NULL: padding row) ...
+static inline void dw_rows(const vd_cnn_x86_dw_t *d, uint32_t oy, const int8_t *rows[3])
+{
+    for (uint32_t ky = 0u; ky < 3u; ky++) {
+        const int32_t iy = (int32_t)oy * (int32_t)d->stride - 1 + (int32_t)ky;
+        rows[ky] = (iy >= 0 && iy < (int32_t)d->hi) ? d->in + (size_t)((uint32_t)iy % d->in_slots) * d->in_row
+                                                     : NULL;
+    }
+}
+
+// ... and the 9 tap pointers of output pixel ox; padding taps read the zero row.
+static inline void dw_taps(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], uint32_t ox, const int8_t *t[9])
+{
+    const size_t c_n = d->c_n;
+    const int32_t ix0 = (int32_t)ox * (int32_t)d->stride - 1;
+    const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)d->wi;
+    for (size_t ky = 0u; ky < 3u; ky++) {
+        const int8_t *r = rows[ky];
+        if (r == NULL) {
+            t[ky * 3u] = d->zrow;
+            t[ky * 3u + 1u] = d->zrow;
+            t[ky * 3u + 2u] = d->zrow;
+            continue;
+        }
+        const int8_t *c1 = r + (size_t)ox * (size_t)d->stride * c_n;
+        t[ky * 3u] = left ? c1 - c_n : d->zrow;
+        t[ky * 3u + 1u] = c1;
+        t[ky * 3u + 2u] = right ? c1 + c_n : d->zrow;
+    }
+}
+
 static uint32_t lane_mask16(size_t rem)
 {
     return (rem >= 16u) ? 0xFFFFu : (((uint32_t)1 << rem) - 1u);
@@ -263,7 +294,6 @@ X86_TARGET void vd_cnn_x86_dw_rows(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_
                                    uint32_t y0, uint32_t y1)
 {
     const size_t c_n = d->c_n;
-    const size_t pstep = (size_t)d->stride * c_n;
     for (size_t c0 = 0u; c0 < c_n; c0 += 32u) {
         const size_t nc = (c_n - c0 < 32u) ? c_n - c0 : 32u;
         const __mmask32 m = (nc == 32u) ? (__mmask32)0xFFFFFFFFu : (__mmask32)(((uint32_t)1 << nc) - 1u);
@@ -299,30 +329,11 @@ X86_TARGET void vd_cnn_x86_dw_rows(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_
         vd_cnn_x86_rqv_fill(&chv, L, map_hi, corr_hi, 16u);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
-            for (uint32_t ky = 0u; ky < 3u; ky++) {
-                const int32_t iy = (int32_t)oy * (int32_t)d->stride - 1 + (int32_t)ky;
-                rows[ky] = (iy >= 0 && iy < (int32_t)d->hi)
-                               ? d->in + (size_t)((uint32_t)iy % d->in_slots) * d->in_row
-                               : NULL;
-            }
+            dw_rows(d, oy, rows);
             int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
             for (uint32_t ox = 0u; ox < d->wo; ox++) {
                 const int8_t *t[9];
-                const int32_t ix0 = (int32_t)ox * (int32_t)d->stride - 1;
-                const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)d->wi;
-                for (size_t ky = 0u; ky < 3u; ky++) {
-                    const int8_t *r = rows[ky];
-                    if (r == NULL) {
-                        t[ky * 3u] = d->zrow;
-                        t[ky * 3u + 1u] = d->zrow;
-                        t[ky * 3u + 2u] = d->zrow;
-                        continue;
-                    }
-                    const int8_t *c1 = r + (size_t)ox * pstep;
-                    t[ky * 3u] = left ? c1 - c_n : d->zrow;
-                    t[ky * 3u + 1u] = c1;
-                    t[ky * 3u + 2u] = right ? c1 + c_n : d->zrow;
-                }
+                dw_taps(d, rows, ox, t);
                 __m512i al = _mm512_setzero_si512(), ah = _mm512_setzero_si512();
                 for (size_t i = 0u; i < 4u; i++) {
                     const __m512i xa = dw_tap(t[2u * i] + c0, m), xb = dw_tap(t[2u * i + 1u] + c0, m);
@@ -551,7 +562,6 @@ AVX2_TARGET void vd_cnn_x86_dw_rows_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_
                                          const vd_cnn_x86_rq_t *q, uint32_t y0, uint32_t y1)
 {
     const size_t c_n = d->c_n;
-    const size_t pstep = (size_t)d->stride * c_n;
     for (size_t c0 = 0u; c0 < c_n; c0 += 16u) {
         const size_t nc = (c_n - c0 < 16u) ? c_n - c0 : 16u;
         __m256i wt[9];
@@ -584,30 +594,11 @@ AVX2_TARGET void vd_cnn_x86_dw_rows_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_
         const tail_t tl = tail_of(nc, c_n);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
-            for (uint32_t ky = 0u; ky < 3u; ky++) {
-                const int32_t iy = (int32_t)oy * (int32_t)d->stride - 1 + (int32_t)ky;
-                rows[ky] = (iy >= 0 && iy < (int32_t)d->hi)
-                               ? d->in + (size_t)((uint32_t)iy % d->in_slots) * d->in_row
-                               : NULL;
-            }
+            dw_rows(d, oy, rows);
             int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
             for (uint32_t ox = 0u; ox < d->wo; ox++) {
                 const int8_t *t[9];
-                const int32_t ix0 = (int32_t)ox * (int32_t)d->stride - 1;
-                const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)d->wi;
-                for (size_t ky = 0u; ky < 3u; ky++) {
-                    const int8_t *r = rows[ky];
-                    if (r == NULL) {
-                        t[ky * 3u] = d->zrow;
-                        t[ky * 3u + 1u] = d->zrow;
-                        t[ky * 3u + 2u] = d->zrow;
-                        continue;
-                    }
-                    const int8_t *c1 = r + (size_t)ox * pstep;
-                    t[ky * 3u] = left ? c1 - c_n : d->zrow;
-                    t[ky * 3u + 1u] = c1;
-                    t[ky * 3u + 2u] = right ? c1 + c_n : d->zrow;
-                }
+                dw_taps(d, rows, ox, t);
                 __m256i al = _mm256_setzero_si256(), ah = _mm256_setzero_si256();
                 for (size_t i = 0u; i < 4u; i++) {
                     const __m256i xa = tap_act(t[2u * i] + c0, &tl), xb = tap_act(t[2u * i + 1u] + c0, &tl);
