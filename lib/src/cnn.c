@@ -1064,6 +1064,45 @@ CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_
     }
 }
 
+// The int16 GEMM rows of npix output pixels from x0 (portable and AVX2
+// paths): x - zp_in per tap in the weight order [ky][kx][c], padding taps 0
+// (the K..kp tails stay as the caller zeroed them). rowp: the ks input rows
+// of the output row (NULL: padding row).
+static inline void conv_rows(const geom_t *g, const int8_t *const rowp[5], int32_t ks, int32_t step, uint32_t x0,
+                             uint32_t npix, size_t kp, int16_t *rows)
+{
+    const size_t ci = g->ci;
+    const int16_t zp = (int16_t)g->zp_in;
+    const int32_t pad = ks / 2;
+    for (uint32_t i = 0u; i < npix; i++) {
+        int16_t *r = rows + (size_t)i * kp;
+        const int32_t ox = (int32_t)(x0 + i);
+        if (ks == 1) {      // pointwise: one tap, never padding
+            const int8_t *x = rowp[0] + (size_t)ox * ci;
+            for (size_t c = 0u; c < ci; c++) {
+                r[c] = (int16_t)(x[c] - zp);
+            }
+            continue;
+        }
+        for (int32_t ky = 0; ky < ks; ky++) {
+            for (int32_t kx = 0; kx < ks; kx++) {
+                const int32_t ix = ox * step - pad + kx;
+                int16_t *d = r + (size_t)(ky * ks + kx) * ci;
+                if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
+                    for (size_t c = 0u; c < ci; c++) {
+                        d[c] = 0;
+                    }
+                } else {
+                    const int8_t *x = rowp[ky] + (size_t)ix * ci;
+                    for (size_t c = 0u; c < ci; c++) {
+                        d[c] = (int16_t)(x[c] - zp);
+                    }
+                }
+            }
+        }
+    }
+}
+
 #if defined(VD_CNN_X86)
 // Layer-wide requantisation flags of the x86 kernels (as rq_setup's).
 static vd_cnn_x86_rq_t x86_rq(const vd_cnn_layer_t *L)
@@ -1092,8 +1131,6 @@ static void run_conv_pw_avx2(const vd_cnn_layer_t *L, const geom_t *g, const rin
     int16_t *rows = (int16_t *)(void *)(scr + s->rows);
     memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
     const vd_cnn_x86_rq_t xq = x86_rq(L);
-    const size_t ci = g->ci;
-    const int16_t zp = (int16_t)g->zp_in;
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
@@ -1119,26 +1156,7 @@ static void run_conv_pw_avx2(const vd_cnn_layer_t *L, const geom_t *g, const rin
             int8_t *orow = ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
-                for (uint32_t i = 0u; i < npix; i++) {
-                    int16_t *r = rows + (size_t)i * kp;
-                    const int32_t ox = (int32_t)(x0 + i);
-                    for (int32_t ky = 0; ky < ks; ky++) {
-                        for (int32_t kx = 0; kx < ks; kx++) {
-                            const int32_t ix = ox * step - pad + kx;
-                            int16_t *d = r + (size_t)(ky * ks + kx) * ci;
-                            if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
-                                for (size_t c = 0u; c < ci; c++) {
-                                    d[c] = 0;
-                                }
-                            } else {
-                                const int8_t *x = rowp[ky] + (size_t)ix * ci;
-                                for (size_t c = 0u; c < ci; c++) {
-                                    d[c] = (int16_t)(x[c] - zp);
-                                }
-                            }
-                        }
-                    }
-                }
+                conv_rows(g, rowp, ks, step, x0, npix, kp, rows);
                 vd_cnn_x86_gemm16(rows, kp, k, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }
@@ -1283,8 +1301,6 @@ CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, c
     // Zero once: the K..kp tails stay zero, and rows of a short last block
     // hold finite values whose results are not stored.
     memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
-    const size_t ci = g->ci;
-    const int16_t zp = (int16_t)g->zp_in;
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);   // kernel side
@@ -1312,34 +1328,7 @@ CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, c
             int8_t *orow = ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
-                for (uint32_t i = 0u; i < npix; i++) {
-                    int16_t *r = rows + (size_t)i * kp;
-                    const int32_t ox = (int32_t)(x0 + i);
-                    if (pw) {
-                        const int8_t *x = rowp[0] + (size_t)ox * ci;
-                        for (size_t c = 0u; c < ci; c++) {
-                            r[c] = (int16_t)(x[c] - zp);
-                        }
-                        continue;
-                    }
-                    // ks x ks taps in the weight order [ky][kx][c]; padding taps are 0.
-                    for (int32_t ky = 0; ky < ks; ky++) {
-                        for (int32_t kx = 0; kx < ks; kx++) {
-                            const int32_t ix = ox * step - pad + kx;
-                            int16_t *d = r + (size_t)(ky * ks + kx) * ci;
-                            if (rowp[ky] == NULL || ix < 0 || ix >= (int32_t)g->wi) {
-                                for (size_t c = 0u; c < ci; c++) {
-                                    d[c] = 0;
-                                }
-                            } else {
-                                const int8_t *x = rowp[ky] + (size_t)ix * ci;
-                                for (size_t c = 0u; c < ci; c++) {
-                                    d[c] = (int16_t)(x[c] - zp);
-                                }
-                            }
-                        }
-                    }
-                }
+                conv_rows(g, rowp, ks, step, x0, npix, kp, rows);
                 gemm_block(rows, kp, w16, q.ch + o0, &q, n_o, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }
