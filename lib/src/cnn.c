@@ -1064,6 +1064,16 @@ CNN_NOINLINE static void gemm_block(const int16_t *rows, size_t kp, const int16_
     }
 }
 
+// The ks input rows of output row oy (NULL: padding row).
+static inline void conv_row_ptrs(const geom_t *g, const ring_t *in, uint32_t oy, int32_t step, int32_t ks,
+                                 const int8_t *rowp[5])
+{
+    for (int32_t ky = 0; ky < ks; ky++) {
+        const int32_t iy = (int32_t)oy * step - ks / 2 + ky;
+        rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
+    }
+}
+
 // The int16 GEMM rows of npix output pixels from x0 (portable and AVX2
 // paths): x - zp_in per tap in the weight order [ky][kx][c], padding taps 0
 // (the K..kp tails stay as the caller zeroed them). rowp: the ks input rows
@@ -1134,7 +1144,6 @@ static void run_conv_pw_avx2(const vd_cnn_layer_t *L, const geom_t *g, const rin
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
-    const int32_t pad = ks / 2;
     for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
         vd_cnn_x86_pack16(L->w + o0 * k, k, n_o, wp);
@@ -1149,10 +1158,7 @@ static void run_conv_pw_avx2(const vd_cnn_layer_t *L, const geom_t *g, const rin
         }
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rowp[5];
-            for (int32_t ky = 0; ky < ks; ky++) {
-                const int32_t iy = (int32_t)oy * step - pad + ky;
-                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
-            }
+            conv_row_ptrs(g, in, oy, step, ks, rowp);
             int8_t *orow = ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
@@ -1209,10 +1215,7 @@ CNN_NOINLINE static void run_conv_pw_x86(const vd_cnn_layer_t *L, const geom_t *
         }
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rowp[5];
-            for (int32_t ky = 0; ky < ks; ky++) {
-                const int32_t iy = (int32_t)oy * step - pad + ky;
-                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
-            }
+            conv_row_ptrs(g, in, oy, step, ks, rowp);
             int8_t *orow = ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
@@ -1304,7 +1307,6 @@ CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, c
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);   // kernel side
-    const int32_t pad = ks / 2;
     const size_t chunk = chunk_of(L, stream);
     for (size_t o0 = 0u; o0 < g->co; o0 += chunk) {
         const size_t n_o = (g->co - o0 < chunk) ? g->co - o0 : chunk;
@@ -1319,12 +1321,8 @@ CNN_NOINLINE static void run_conv_pw(const vd_cnn_layer_t *L, const geom_t *g, c
             }
         }
         for (uint32_t oy = y0; oy < y1; oy++) {
-            // The ks input rows of this output row (NULL: padding row).
             const int8_t *rowp[5];
-            for (int32_t ky = 0; ky < ks; ky++) {
-                const int32_t iy = (int32_t)oy * step - pad + ky;
-                rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? ring_row(in, (uint32_t)iy) : NULL;
-            }
+            conv_row_ptrs(g, in, oy, step, ks, rowp);
             int8_t *orow = ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
