@@ -1961,6 +1961,22 @@ static bool load_file_model(const char *path, vd_cnn_model_t *m)
     return vd_cnn_load(m, g_model_buf, n) == VD_OK;
 }
 
+// A test frame for the committed models: warm blobs (vehicles) on a
+// sky-to-road gradient with noise; phase shifts the blob pattern.
+static void warm_frame(uint8_t *img, uint32_t w, uint32_t h, uint32_t seed, uint32_t phase)
+{
+    uint32_t st = seed;
+    for (uint32_t y = 0u; y < h; y++) {
+        for (uint32_t x = 0u; x < w; x++) {
+            uint32_t v = 40u + (y * 120u) / h + (tu_rand(&st) & 15u);
+            if (((x / 12u) * 5u + (y / 9u) * 3u + phase) % 13u == 0u) {
+                v += 90u;
+            }
+            img[(size_t)y * w + x] = (uint8_t)(v > 255u ? 255u : v);
+        }
+    }
+}
+
 static void test_stream_committed_models_match_whole_plane(void)
 {
     static const char *const paths[2] = {VD_SOURCE_DIR "/models/vd_cnn.vdm", VD_SOURCE_DIR "/models/vd_cnn_compact.vdm"};
@@ -1977,17 +1993,7 @@ static void test_stream_committed_models_match_whole_plane(void)
         for (uint32_t si = 0u; si < 5u; si++) {
             const uint32_t w = (sizes[si][0] + a - 1u) / a * a;
             const uint32_t h = (sizes[si][1] + a - 1u) / a * a;
-            // Warm blobs (vehicles) on a sky-to-road gradient with noise.
-            uint32_t st = 99u + si * 7u + mi;
-            for (uint32_t y = 0u; y < h; y++) {
-                for (uint32_t x = 0u; x < w; x++) {
-                    uint32_t v = 40u + (y * 120u) / h + (tu_rand(&st) & 15u);
-                    if (((x / 12u) * 5u + (y / 9u) * 3u + si) % 13u == 0u) {
-                        v += 90u;
-                    }
-                    img[(size_t)y * w + x] = (uint8_t)(v > 255u ? 255u : v);
-                }
-            }
+            warm_frame(img, w, h, 99u + si * 7u + mi, si);
             char msg[96];
             snprintf(msg, sizeof msg, "%s %ux%u", m.name, (unsigned)w, (unsigned)h);
             stream_check(&m, img, w, h, msg);
@@ -2251,16 +2257,7 @@ static void test_x86_kernels_match_portable_committed(void)
         for (uint32_t si = 0u; si < 4u; si++) {
             const uint32_t w = (sizes[si][0] + a - 1u) / a * a;
             const uint32_t h = (sizes[si][1] + a - 1u) / a * a;
-            uint32_t st = 7u + si * 13u + mi;
-            for (uint32_t y = 0u; y < h; y++) {
-                for (uint32_t x = 0u; x < w; x++) {
-                    uint32_t v = 30u + (y * 140u) / h + (tu_rand(&st) & 31u);
-                    if (((x / 10u) * 3u + (y / 7u) * 5u + si) % 11u == 0u) {
-                        v += 100u;
-                    }
-                    img[(size_t)y * w + x] = (uint8_t)(v > 255u ? 255u : v);
-                }
-            }
+            warm_frame(img, w, h, 7u + si * 13u + mi, si + 1u);
             char msg[96];
             snprintf(msg, sizeof msg, "%s %ux%u", m.name, (unsigned)w, (unsigned)h);
             (void)x86_check(&m, img, w, h, 0u, msg);
