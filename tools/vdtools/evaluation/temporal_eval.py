@@ -44,6 +44,11 @@ def gt_tracks(frames):
     return ids
 
 
+def _repo_relative(arg):
+    p = Path(arg)
+    return str(p.relative_to(clib.REPO)) if p.is_absolute() and p.is_relative_to(clib.REPO) else arg
+
+
 def run(demo, model, data_dir, temporal, extra=(), tmp="out/temporal_eval"):
     _, seq = D.load_hit(data_dir)
     seq = sorted(seq, key=lambda f: f.name)
@@ -92,7 +97,8 @@ def run(demo, model, data_dir, temporal, extra=(), tmp="out/temporal_eval"):
     n["confirmed_share"] = n["confirmed"] / max(n["detections"], 1)
     n["confirmed_tp_rate"] = n.get("confirmed_tp", 0) / max(n["vehicles"], 1)
     n["confirmed_fp_rate"] = n.get("confirmed_fp", 0) / max(n.get("confirmed_tp", 0) + n.get("confirmed_fp", 0), 1)
-    n["command"] = " ".join(shlex.quote(c) for c in cmd)
+    # recorded relative to the repository: the record must not carry this machine's paths
+    n["command"] = " ".join(shlex.quote(_repo_relative(c)) for c in cmd)
     return n
 
 
