@@ -177,11 +177,12 @@ def main(argv=None):
     desc, q = quantise(net, ranges, a.thr, name=a.name)
     blob = V.pack(desc)
     V.write_c_array(blob, a.name, a.out_dir)
+    kind = "fake-quantised (QAT)" if ck.get("qat") else "float"   # what the checkpoint's val AP measured
     # per-tensor real scales: the ONNX peer (vdtools.formats.cnn_onnx) needs them; the .vdm holds only multipliers
     meta = dict(scale=q["scale"], zp=q["zp"], ranges=ranges, arch=ck["arch"], step=ck.get("step"),
-                val_ap_float=ck.get("val_ap"), thr=a.thr)
+                val_ap_float=ck.get("val_ap"), val_ap_kind=kind, thr=a.thr)
     Path(a.out_dir, f"{a.name}.scales.json").write_text(json.dumps(meta, indent=1) + "\n")
-    print(f"wrote {a.out_dir}/{a.name}.vdm ({len(blob)} bytes), step {ck.get('step')}, val AP (float) {ck.get('val_ap')}")
+    print(f"wrote {a.out_dir}/{a.name}.vdm ({len(blob)} bytes), step {ck.get('step')}, val AP ({kind}) {ck.get('val_ap')}")
 
 
 if __name__ == "__main__":

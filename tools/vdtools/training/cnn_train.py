@@ -498,7 +498,7 @@ def main(argv=None):
         step, t_used, log = ck["step"], ck["t_used"], ck["log"]
     budget = a.minutes * 60
     t0 = time.time() - t_used
-    best = -1.0
+    best, best_fam = -1.0, {}
     while True:
         el = time.time() - t0
         if el >= budget:
@@ -526,13 +526,18 @@ def main(argv=None):
             print(f"== step {step}: val AP {aps}", flush=True)
             if mean > best:
                 best = mean
-                torch.save(dict(net=net.state_dict(), arch=a.arch, step=step, val_ap=aps), out / "best.pt")
+                torch.save(dict(net=net.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat), out / "best.pt")
+            for fam, v in aps.items():      # per family too: a preset for one viewpoint is chosen on its AP alone
+                if v > best_fam.get(fam, -1.0):
+                    best_fam[fam] = v
+                    torch.save(dict(net=net.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat),
+                               out / f"best_{fam}.pt")
         if step % 250 == 0:
             torch.save(dict(net=net.state_dict(), opt=opt.state_dict(), step=step, t_used=time.time() - t0,
                             log=log, arch=a.arch), out / "last.pt")
     aps = evaluate(net, val)
     log.append(dict(step=step, minutes=(time.time() - t0) / 60, val_ap=aps))
-    torch.save(dict(net=net.state_dict(), arch=a.arch, step=step, val_ap=aps), out / "final.pt")
+    torch.save(dict(net=net.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat), out / "final.pt")
     (out / "log.json").write_text(json.dumps(log, indent=1))
     print(f"done: {step} steps, val AP {aps}", flush=True)
 
