@@ -83,3 +83,15 @@ def frame_path(fr):
 def family(fr):
     """'msrs' (road level), 'synth' (synthetic clips) or 'hit' (drone, incl. the sequence flight)."""
     return fr.dataset if fr.dataset in ("msrs", "synth") else "hit"
+
+
+def subset(fr):
+    """The subsets results are reported for (docs/results/detector.md): MSRS night / day (file name N / D),
+    HIT-UAV frames night / day (the T flag of T_H_A_W_ID, 1 = night), the sequence-0_100 flight
+    (and "synth" for the synthetic training clips).
+    "msrs-night" is also the set the another-camera estimate leaves out (cnn_train / cnn_export --exclude)."""
+    if fr.dataset == "msrs":
+        return "msrs-night" if fr.name.endswith("N.png") else "msrs-day"
+    if fr.dataset in ("seq", "synth"):
+        return "hit-flight" if fr.dataset == "seq" else "synth"
+    return "hit-night" if fr.name.startswith("1_") else "hit-day"

@@ -180,21 +180,11 @@ def figures(results, thresholds=THRESHOLDS):
     return rep
 
 
-def subset_of(fr):
-    """The subsets docs/results/detector.md reports AP for: MSRS night/day (file name N/D), HIT-UAV frames
-    night/day (the T flag of T_H_A_W_ID, 1 = night) and the sequence-0_100 flight."""
-    if fr.dataset == "msrs":
-        return "msrs-night" if fr.name.endswith("N.png") else "msrs-day"
-    if fr.dataset == "seq":
-        return "hit-flight"
-    return "hit-night" if fr.name.startswith("1_") else "hit-day"
-
-
 def subset_ap(results):
     """{subset: (AP@0.5, frames, vehicles)}."""
     by = {}
     for fam, fr, dets, gts in results:
-        by.setdefault(subset_of(fr), []).append((fr, dets, gts))
+        by.setdefault(CD.subset(fr), []).append((fr, dets, gts))
     return {k: (average_precision([(d, g) for _, d, g in v])[0], len(v), sum(len(fr.boxes) for fr, _, _ in v))
             for k, v in sorted(by.items())}
 
@@ -270,7 +260,7 @@ def main(argv=None):
         raise SystemExit("--split all is only for --subset (frames the model never trained on)")
     frames = CD.load_frames(a.data, splits=("train", "val", "test") if a.split == "all" else (a.split,))
     if a.subset == "msrs-night":     # the rule of cnn_train --exclude msrs-night
-        frames = [f for f in frames if f.dataset == "msrs" and f.name.endswith("N.png")]
+        frames = [f for f in frames if CD.subset(f) == "msrs-night"]
     if a.perturb:
         frames = perturb(frames, a.perturb)
     t0 = time.time()

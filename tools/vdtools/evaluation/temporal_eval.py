@@ -62,7 +62,7 @@ def run(demo, model, data_dir, temporal, extra=(), tmp="out/temporal_eval"):
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
     recs = {Path(json.loads(l)["frame"]).name: json.loads(l) for l in js.read_text().splitlines()}
     gid = gt_tracks(seq)
-    n = dict(detections=0, new=0, confirmed=0, recovered=0, tp=0, fp=0, vehicles=0)
+    n = dict(detections=0, new=0, confirmed=0, recovered=0, tp=0, fp=0, vehicles=0, confirmed_tp=0, confirmed_fp=0)
     tracks, last = set(), {}
     switches = 0
     for fr, ids in zip(seq, gid):
@@ -79,8 +79,8 @@ def run(demo, model, data_dir, temporal, extra=(), tmp="out/temporal_eval"):
         n["vehicles"] += len(fr.vehicles)
         # the confirmed detections alone: the high-confidence subset an application can use
         cflags, _ = match_flags([(tuple(d["box"]), d["score"]) for d in dets if d["state"] == "confirmed"], gts)
-        n["confirmed_tp"] = n.get("confirmed_tp", 0) + sum(1 for _, f in cflags if f == 1)
-        n["confirmed_fp"] = n.get("confirmed_fp", 0) + sum(1 for _, f in cflags if f == 0)
+        n["confirmed_tp"] += sum(1 for _, f in cflags if f == 1)
+        n["confirmed_fp"] += sum(1 for _, f in cflags if f == 0)
         # track of the detection matched to each GT box (best IoU >= 0.5)
         for b, g in zip(fr.vehicles, ids):
             best = max(((iou(tuple(d["box"]), b), d["track"]) for d in dets), default=(0, None),
@@ -95,8 +95,8 @@ def run(demo, model, data_dir, temporal, extra=(), tmp="out/temporal_eval"):
     n["tp_rate"] = n["tp"] / max(n["vehicles"], 1)
     n["fp_rate"] = n["fp"] / max(n["tp"] + n["fp"], 1)
     n["confirmed_share"] = n["confirmed"] / max(n["detections"], 1)
-    n["confirmed_tp_rate"] = n.get("confirmed_tp", 0) / max(n["vehicles"], 1)
-    n["confirmed_fp_rate"] = n.get("confirmed_fp", 0) / max(n.get("confirmed_tp", 0) + n.get("confirmed_fp", 0), 1)
+    n["confirmed_tp_rate"] = n["confirmed_tp"] / max(n["vehicles"], 1)
+    n["confirmed_fp_rate"] = n["confirmed_fp"] / max(n["confirmed_tp"] + n["confirmed_fp"], 1)
     # recorded relative to the repository: the record must not carry this machine's paths
     n["command"] = " ".join(shlex.quote(_repo_relative(c)) for c in cmd)
     return n

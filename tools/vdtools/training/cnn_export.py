@@ -46,16 +46,8 @@ def folded(net):
         if d["mod"] is None:
             out.append(None)
             continue
-        seq = net.mods[d["mod"]]
-        conv = seq[0]
-        w = conv.weight.detach().double().numpy()          # (cout, cin/groups, kh, kw)
-        b = conv.bias.detach().double().numpy() if conv.bias is not None else np.zeros(w.shape[0])
-        if len(seq) > 1 and isinstance(seq[1], torch.nn.BatchNorm2d):
-            bn = seq[1]
-            g = (bn.weight / torch.sqrt(bn.running_var + bn.eps)).detach().double().numpy()
-            w = w * g[:, None, None, None]
-            b = bn.bias.detach().double().numpy() + (b - bn.running_mean.detach().double().numpy()) * g
-        out.append((w, b))
+        w, b = T.fold_bn(net.mods[d["mod"]], torch.float64)     # w: (cout, cin/groups, kh, kw)
+        out.append((w.numpy(), b.numpy()))
     return out
 
 
@@ -170,7 +162,7 @@ def main(argv=None):
     net, ck = load_net(a.ckpt)
     frames = CD.load_frames(a.data, splits=("train",))
     if a.exclude == "msrs-night":
-        frames = [f for f in frames if not (f.dataset == "msrs" and f.name.endswith("N.png"))]
+        frames = [f for f in frames if CD.subset(f) != "msrs-night"]
     rng = np.random.default_rng(0)
     calib = [frames[i] for i in rng.choice(len(frames), min(CALIB_FRAMES, len(frames)), replace=False)]
     ranges = calibrate(net, calib)

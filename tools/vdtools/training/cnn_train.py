@@ -40,7 +40,6 @@ from vdtools.metrics.evaluate import average_precision
 STRIDE = 4
 CROP = 192
 SIZE_WEIGHT = 1.0           # L1 of log sizes + offsets, against the focal heatmap loss
-GIOU_WEIGHT = 0.0           # --giou: weight of the GIoU box term (off in the first models)
 SCALE = (0.6, 1.4)          # random rescale of the half-resolution frame (MSRS test cars are smaller than train)
 NORM = dict(norm_lo_permille=10, norm_hi_permille=995, norm_min_range=48)
 
@@ -71,6 +70,22 @@ ARCHS = {
                 ("pw", 8), ("up",), ("cat", "s4"), ("dw", 1), ("pw", 12),
                 ("dw", 1), ("head", 5)],
 }
+
+
+def fold_bn(seq, dtype=None):
+    """(weight, bias) of a conv [+ batch norm] block with the norm's running statistics folded in:
+    w' = w g, b' = beta + (b - mean) g, g = gamma / sqrt(var + eps). QAT folds in float32 with gradients;
+    cnn_export in float64 (dtype), with g computed in the parameters' own precision."""
+    conv = seq[0]
+    cast = (lambda t: t) if dtype is None else (lambda t: t.detach().to(dtype))
+    w = cast(conv.weight)
+    b = cast(conv.bias) if conv.bias is not None else torch.zeros(w.shape[0], dtype=w.dtype)
+    if len(seq) > 1 and isinstance(seq[1], nn.BatchNorm2d):
+        bn = seq[1]
+        g = cast(bn.weight / torch.sqrt(bn.running_var + bn.eps))
+        w = w * g[:, None, None, None]
+        b = cast(bn.bias) + (b - cast(bn.running_mean)) * g
+    return w, b
 
 
 class Net(nn.Module):
@@ -149,15 +164,8 @@ class Net(nn.Module):
         (frozen: QAT fine-tunes a trained network), weights fake-quantised per output channel (symmetric,
         max|w| / 127, as cnn_export), ReLU, then the output fake-quantised with the tensor's scale. Rounding
         passes gradients straight through; values clamped by the int8 range get none."""
-        seq = self.mods[d["mod"]]
-        conv = seq[0]
-        w = conv.weight
-        b = conv.bias if conv.bias is not None else torch.zeros(w.shape[0])
-        if len(seq) > 1 and isinstance(seq[1], nn.BatchNorm2d):
-            bn = seq[1]
-            g = bn.weight / torch.sqrt(bn.running_var + bn.eps)
-            w = w * g[:, None, None, None]
-            b = bn.bias + (b - bn.running_mean) * g
+        conv = self.mods[d["mod"]][0]
+        w, b = fold_bn(self.mods[d["mod"]])
         sw = (w.detach().abs().flatten(1).amax(1).clamp(min=1e-8) / 127.0)[:, None, None, None]
         w = w + (torch.clamp(torch.round(w / sw), -127, 127) * sw - w).detach()
         y = F.conv2d(a, w, b, conv.stride, conv.padding, 1, conv.groups)
@@ -337,7 +345,8 @@ def batch(frames_by_fam, rng, n, crop=CROP):
             torch.from_numpy(np.stack(regs)), torch.from_numpy(np.stack(regms)))
 
 
-def loss_fn(out, hm, m, reg, regm):
+def loss_fn(out, hm, m, reg, regm, giou_weight=0.0):
+    """giou_weight: cnn_train --giou, the weight of a GIoU box term (0 in the shipped models)."""
     logit = out[:, 0]
     p = torch.sigmoid(logit).clamp(1e-4, 1 - 1e-4)
     pos = (hm >= 1.0).float()
@@ -349,8 +358,8 @@ def loss_fn(out, hm, m, reg, regm):
     r = (out[:, 1:5] - reg).abs().sum(1)
     size_l = (r * regm).sum() / regm.sum().clamp(min=1)
     total = hm_l + SIZE_WEIGHT * size_l
-    if GIOU_WEIGHT > 0:
-        total = total + GIOU_WEIGHT * ((1 - giou(out[:, 1:5], reg)) * regm).sum() / regm.sum().clamp(min=1)
+    if giou_weight > 0:
+        total = total + giou_weight * ((1 - giou(out[:, 1:5], reg)) * regm).sum() / regm.sum().clamp(min=1)
     return total, hm_l.item(), size_l.item()
 
 
@@ -452,8 +461,6 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if a.qat and not a.init:
         ap.error("--qat fine-tunes a trained network: give --init")
-    global GIOU_WEIGHT
-    GIOU_WEIGHT = a.giou
     torch.set_num_threads(a.threads)
     torch.manual_seed(a.seed)
     rng = np.random.default_rng(a.seed)
@@ -463,9 +470,8 @@ def main(argv=None):
     train = [f for f in frames if f.split == "train"]
     val = [f for f in frames if f.split == "val"]
     if a.exclude == "msrs-night":
-        night = lambda f: f.dataset == "msrs" and f.name.endswith("N.png")
-        train = [f for f in train if not night(f)]
-        val = [f for f in val if not night(f)]      # nor choose the checkpoint on them
+        train = [f for f in train if CD.subset(f) != "msrs-night"]
+        val = [f for f in val if CD.subset(f) != "msrs-night"]      # nor choose the checkpoint on them
     by_fam = {}
     for f in train:
         by_fam.setdefault(CD.family(f), []).append(f)
@@ -510,7 +516,7 @@ def main(argv=None):
             g["lr"] = lr
         x, hm, m, reg, regm = batch(by_fam, rng, a.batch)
         o = net(x)
-        loss, hl, sl = loss_fn(o, hm, m, reg, regm)
+        loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou)
         opt.zero_grad()
         loss.backward()
         opt.step()
