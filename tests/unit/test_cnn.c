@@ -1363,6 +1363,26 @@ static void rnd_image(uint8_t *img, uint32_t w, uint32_t h, uint32_t seed)
     }
 }
 
+// Runs d on img keeping every tensor and compares each with the naive
+// reference (ref: the reference tensors, freed by the caller); returns the
+// bytes compared. head: the run's head (workspace g_ws).
+static uint32_t every_tensor_checked(const tm_t *d, const uint8_t *img, uint32_t w, uint32_t h, const char *tag,
+                                     int8_t *ref[VD_CNN_MAX_TENSORS], vd_cnn_output_t *head)
+{
+    ref_forward(d, img, w, h, ref);
+    run_keep(d, img, w, h, head);
+    uint32_t n = 0u;
+    for (uint32_t t = 0u; t <= d->n; t++) {
+        vd_cnn_output_t x;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&g_m, g_ws, g_ws_bytes, w, h, t, &x));
+        char msg[96];
+        snprintf(msg, sizeof msg, "%s size %ux%u tensor %u", tag, (unsigned)w, (unsigned)h, (unsigned)t);
+        TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(ref[t], x.data, x.w * x.h * x.c, msg);
+        n += x.w * x.h * x.c;
+    }
+    return n;
+}
+
 static void test_random_models_match_naive_reference(void)
 {
     static const uint32_t sizes[5][2] = {{8, 8}, {16, 8}, {24, 16}, {40, 24}, {56, 40}};
@@ -1375,19 +1395,11 @@ static void test_random_models_match_naive_reference(void)
             for (uint32_t si = 0u; si < 5u; si++) {
                 const uint32_t w = sizes[si][0], h = sizes[si][1];
                 rnd_image(img, w, h, seed * 5u + si);
+                char tag[48];
+                snprintf(tag, sizeof tag, "arch %u seed %u", (unsigned)arch, (unsigned)seed);
                 int8_t *ref[VD_CNN_MAX_TENSORS];
-                ref_forward(&d, img, w, h, ref);
                 vd_cnn_output_t head;
-                run_keep(&d, img, w, h, &head);
-                for (uint32_t t = 0u; t <= d.n; t++) {
-                    vd_cnn_output_t x;
-                    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&g_m, g_ws, g_ws_bytes, w, h, t, &x));
-                    char msg[64];
-                    snprintf(msg, sizeof msg, "arch %u seed %u size %ux%u tensor %u", (unsigned)arch,
-                             (unsigned)seed, (unsigned)w, (unsigned)h, (unsigned)t);
-                    TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(ref[t], x.data, x.w * x.h * x.c, msg);
-                    checked += x.w * x.h * x.c;
-                }
+                checked += every_tensor_checked(&d, img, w, h, tag, ref, &head);
                 // The shared-memory plan gives the same head, whatever the
                 // workspace held before.
                 const size_t keep_bytes = g_ws_bytes;
@@ -2101,18 +2113,12 @@ static void test_awkward_models_match_naive_reference(void)
             for (uint32_t si = 0u; si < 2u; si++) {
                 const uint32_t w = sizes[arch][si][0], h = sizes[arch][si][1];
                 rnd_image(img, w, h, mi + si + 400u);
+                char tag[48];
+                snprintf(tag, sizeof tag, "awkward %u mode %u", (unsigned)arch, (unsigned)modes[mi]);
                 int8_t *ref[VD_CNN_MAX_TENSORS];
-                ref_forward(&d, img, w, h, ref);
                 vd_cnn_output_t head;
-                run_keep(&d, img, w, h, &head);
+                checked += every_tensor_checked(&d, img, w, h, tag, ref, &head);
                 for (uint32_t t = 0u; t <= d.n; t++) {
-                    vd_cnn_output_t x;
-                    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_tensor(&g_m, g_ws, g_ws_bytes, w, h, t, &x));
-                    char msg[64];
-                    snprintf(msg, sizeof msg, "awkward %u mode %u %ux%u tensor %u", (unsigned)arch,
-                             (unsigned)modes[mi], (unsigned)w, (unsigned)h, (unsigned)t);
-                    TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(ref[t], x.data, x.w * x.h * x.c, msg);
-                    checked += x.w * x.h * x.c;
                     free(ref[t]);
                 }
                 run_free();
