@@ -27,7 +27,6 @@ import math
 import time
 from pathlib import Path
 
-import cv2
 import numpy as np
 import torch
 import torch.nn as nn
@@ -36,12 +35,9 @@ import torch.nn.functional as F
 from vdtools.bindings import clib
 from vdtools.data import cnn_data as CD
 from vdtools.metrics.evaluate import average_precision
+from vdtools.training.cnn_targets import CROP, NORM, STRIDE, sample, stretch, targets  # noqa: F401 (NORM: cnn_export)
 
-STRIDE = 4
-CROP = 192
 SIZE_WEIGHT = 1.0           # L1 of log sizes + offsets, against the focal heatmap loss
-SCALE = (0.6, 1.4)          # random rescale of the half-resolution frame (MSRS test cars are smaller than train)
-NORM = dict(norm_lo_permille=10, norm_hi_permille=995, norm_min_range=48)
 
 # Architectures: (op, args) in execution order; tensors are numbered as in the .vdm (0 = input,
 # i + 1 = output of layer i). ("save", name) labels the latest tensor for a later ("cat", name).
@@ -203,126 +199,6 @@ def macs(net, w, h):
     return total
 
 
-# ---------------------------------------------------------------- input normalisation
-
-def stretch(img, lo_pm=NORM["norm_lo_permille"], hi_pm=NORM["norm_hi_permille"], min_range=NORM["norm_min_range"]):
-    """The .vdm input_norm 1 percentile stretch (integer; the C module and cnn_ref do the same)."""
-    n = img.size
-    cum = np.cumsum(np.bincount(img.ravel(), minlength=256))
-    lo = int(np.argmax(cum > (n * lo_pm) // 1000))
-    k = (n * hi_pm) // 1000
-    hi = int(np.argmax(cum > k)) if cum[-1] > k else 255
-    r = max(hi - lo, min_range)
-    p = img.astype(np.int64) - lo
-    out = np.where(p <= 0, 0, np.minimum(255, (p * 510 + r) // (2 * r)))
-    return out.astype(np.uint8)
-
-
-# ---------------------------------------------------------------- augmentation and targets
-
-def photometric(img, rng):
-    """AGC-like changes on a uint8 half-resolution frame (before the stretch, as a camera would)."""
-    x = img.astype(np.float32) / 255.0
-    if rng.random() < 0.8:
-        g = math.exp(rng.uniform(-0.5, 0.5))
-        x = np.clip(x, 1e-4, 1) ** g                       # gamma
-    if rng.random() < 0.8:
-        x = x * rng.uniform(0.6, 1.4) + rng.uniform(-0.25, 0.25)   # gain / offset
-    if rng.random() < 0.3:
-        k = int(rng.choice([3, 5]))
-        x = cv2.GaussianBlur(x, (k, k), rng.uniform(0.5, 1.5))
-    if rng.random() < 0.5:
-        x = x + rng.normal(0, rng.uniform(0.005, 0.03), x.shape).astype(np.float32)
-    return np.clip(np.round(x * 255), 0, 255).astype(np.uint8)
-
-
-def sample(fr, rng, crop=CROP, augment=True):
-    """One training crop: (stretched uint8 crop, boxes (N,4) in crop pixels, ignore boxes)."""
-    img = CD.half(fr.img)
-    boxes = fr.boxes * 0.5
-    ign = fr.ignore * 0.5
-    if augment:
-        img = photometric(img, rng)
-    img = stretch(img)
-    s = rng.uniform(SCALE[0], SCALE[1]) if augment else 1.0
-    if s != 1.0:
-        img = cv2.resize(img, (int(round(img.shape[1] * s)), int(round(img.shape[0] * s))),
-                         interpolation=cv2.INTER_LINEAR if s > 1 else cv2.INTER_AREA)
-        boxes, ign = boxes * s, ign * s
-    if min(img.shape) < crop:   # black padding: what the network's zero padding shows at a frame edge
-        img = np.pad(img, ((0, max(0, crop - img.shape[0])), (0, max(0, crop - img.shape[1]))))
-    H, W = img.shape
-    # crops centred on a vehicle half of the time (MSRS has many frames without one)
-    if len(boxes) and rng.random() < 0.5:
-        b = boxes[rng.integers(len(boxes))]
-        cx, cy = b[0] + b[2] / 2 + rng.uniform(-crop / 3, crop / 3), b[1] + b[3] / 2 + rng.uniform(-crop / 3, crop / 3)
-        x0, y0 = int(np.clip(cx - crop / 2, 0, W - crop)), int(np.clip(cy - crop / 2, 0, H - crop))
-    else:
-        x0, y0 = int(rng.integers(0, W - crop + 1)), int(rng.integers(0, H - crop + 1))
-    img = img[y0:y0 + crop, x0:x0 + crop]
-    def shift(bb):
-        bb = bb.copy()
-        if len(bb):
-            bb[:, 0] -= x0
-            bb[:, 1] -= y0
-        return bb
-    boxes, ign = shift(boxes), shift(ign)
-    if augment and rng.random() < 0.5:
-        img = img[:, ::-1]
-        if len(boxes):
-            boxes[:, 0] = crop - boxes[:, 0] - boxes[:, 2]
-        if len(ign):
-            ign[:, 0] = crop - ign[:, 0] - ign[:, 2]
-    # keep boxes whose centre is inside the crop; clip them to it
-    def clip(bb, need_centre=True):
-        out = []
-        for x, y, w, h in bb:
-            cx, cy = x + w / 2, y + h / 2
-            if need_centre and not (0 <= cx < crop and 0 <= cy < crop):
-                continue
-            x1, y1 = min(crop, x + w), min(crop, y + h)
-            x, y = max(0.0, x), max(0.0, y)
-            if x1 - x >= 1 and y1 - y >= 1:
-                out.append((x, y, x1 - x, y1 - y))
-        return np.array(out, np.float32).reshape(-1, 4)
-    return np.ascontiguousarray(img), clip(boxes), clip(ign, False)
-
-
-def targets(boxes, ign, size, stride=STRIDE):
-    """CenterNet targets on the (size/stride)^2 grid: heatmap (elliptic Gaussian, TTFNet-style sigma =
-    0.54 * side / 6 in cells, at least 0.5), loss mask (0 inside ignore boxes), size/offset targets and
-    their mask at the centre cell."""
-    g = size // stride
-    hm = np.zeros((g, g), np.float32)
-    mask = np.ones((g, g), np.float32)
-    reg = np.zeros((4, g, g), np.float32)
-    regm = np.zeros((g, g), np.float32)
-    ys, xs = np.mgrid[0:g, 0:g].astype(np.float32)
-    for x, y, w, h in ign:
-        mask[int(y // stride):int(math.ceil((y + h) / stride)), int(x // stride):int(math.ceil((x + w) / stride))] = 0
-    for x, y, w, h in boxes:
-        cx, cy = (x + w / 2) / stride, (y + h / 2) / stride
-        ix, iy = min(g - 1, int(cx)), min(g - 1, int(cy))
-        sx, sy = max(0.5, 0.54 * w / stride / 6), max(0.5, 0.54 * h / stride / 6)
-        gau = np.exp(-((xs - ix) ** 2) / (2 * sx * sx) - ((ys - iy) ** 2) / (2 * sy * sy))
-        hm = np.maximum(hm, gau)
-        hm[iy, ix] = 1.0
-        mask[iy, ix] = 1.0
-        # size and offset are learnt at the centre cell and its 3x3 neighbours inside the box (weight = the
-        # Gaussian there), so that a peak one cell off still reads a good box; offsets then span [-1, 2)
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                jy, jx = iy + dy, ix + dx
-                if not (0 <= jy < g and 0 <= jx < g) or not (x <= (jx + 0.5) * stride <= x + w and
-                                                            y <= (jy + 0.5) * stride <= y + h):
-                    continue
-                wgt = 1.0 if (dy, dx) == (0, 0) else float(gau[jy, jx])
-                if wgt > regm[jy, jx]:
-                    reg[:, jy, jx] = (math.log(max(w, 1.0)), math.log(max(h, 1.0)), cx - jx, cy - jy)
-                    regm[jy, jx] = wgt
-    return hm, mask, reg, regm
-
-
 FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a batch
 
 
@@ -458,9 +334,13 @@ def main(argv=None):
                     "norm, weights and activations fake-quantised with the exporter's scales (recalibrated at "
                     "every evaluation); best.pt is chosen on the fake-quantised val AP")
     ap.add_argument("--giou", type=float, default=0.0, help="weight of a GIoU box term (0: L1 only)")
+    ap.add_argument("--crop", type=int, default=CROP, help="side of the square training crops, half-resolution "
+                    "pixels (multiple of 16)")
     a = ap.parse_args(argv)
     if a.qat and not a.init:
         ap.error("--qat fine-tunes a trained network: give --init")
+    if a.crop % 16:
+        ap.error("--crop must be a multiple of 16")
     torch.set_num_threads(a.threads)
     torch.manual_seed(a.seed)
     rng = np.random.default_rng(a.seed)
@@ -514,7 +394,7 @@ def main(argv=None):
             lr *= (step + 1) / 200
         for g in opt.param_groups:
             g["lr"] = lr
-        x, hm, m, reg, regm = batch(by_fam, rng, a.batch)
+        x, hm, m, reg, regm = batch(by_fam, rng, a.batch, a.crop)
         o = net(x)
         loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou)
         opt.zero_grad()

@@ -1,0 +1,81 @@
+# SPDX-License-Identifier: MIT
+"""Training crops and targets of the CNN detector (tools/vdtools/training/cnn_targets.py), hand-worked:
+the rule for vehicles a training crop cuts, and the heatmap / size / offset targets. numpy only (no
+PyTorch), so CI runs them."""
+import math
+
+import numpy as np
+
+from vdtools.training import cnn_targets as G
+
+
+def _boxes(*b):
+    return np.array(b, np.float32).reshape(-1, 4)
+
+
+def test_split_cut_hand_worked():
+    crop = 100
+    pos, cut = G.split_cut(_boxes(
+        (10, 10, 20, 20),      # inside: positive as it is
+        (80, 10, 40, 20),      # centre (100, 20) outside, half inside: ignore over x 80..100
+        (70, 50, 40, 20),      # centre (90, 60) inside, 30/40 = 75 % inside: positive clipped to 70..100
+        (60, 70, 80, 20),      # centre (100, 80) on the edge = outside: ignore
+        (45, 90, 20, 40),      # centre (55, 110) outside, 10/40 inside: ignore over y 90..100
+        (30, 85, 20, 26),      # centre (40, 98) inside, 15/26 = 58 % < 60 %: ignore
+        (150, 10, 20, 20),     # wholly outside: neither
+        (99.5, 10, 20, 20),    # half a pixel inside: less than 1 px, neither
+    ), crop)
+    np.testing.assert_allclose(pos, _boxes((10, 10, 20, 20), (70, 50, 30, 20)))
+    np.testing.assert_allclose(cut, _boxes((80, 10, 20, 20), (60, 70, 40, 20), (45, 90, 20, 10), (30, 85, 20, 15)))
+    # the threshold is a parameter: at 50 % the 58 %-visible car stays a positive
+    pos, cut = G.split_cut(_boxes((30, 85, 20, 26)), crop, min_visible=0.5)
+    np.testing.assert_allclose(pos, _boxes((30, 85, 20, 15)))
+    assert cut.shape == (0, 4)
+    pos, cut = G.split_cut(np.zeros((0, 4), np.float32), crop)
+    assert pos.shape == (0, 4) and cut.shape == (0, 4)
+
+
+def test_targets_hand_worked():
+    # a 16 x 8 box at (20, 24) on a 64 crop, stride 4: centre (28, 28) px = cell (7, 7), offsets 0
+    hm, mask, reg, regm = G.targets(_boxes((20, 24, 16, 8)), _boxes((0, 0, 10, 6)), 64)
+    assert hm.shape == (16, 16) and hm[7, 7] == 1.0 and (hm <= 1.0).all()
+    assert hm.argmax() == 7 * 16 + 7 and np.count_nonzero(hm == 1.0) == 1
+    # Gaussian sigmas max(0.5, 0.54 side / 4 / 6) cells: 0.5 across (the 16 px side gives 0.36), 0.5 down
+    assert math.isclose(hm[7, 8], math.exp(-1 / (2 * 0.25)), rel_tol=1e-6)
+    np.testing.assert_allclose(reg[:, 7, 7], [math.log(16), math.log(8), 0.0, 0.0], rtol=1e-6)
+    assert regm[7, 7] == 1.0
+    # neighbours inside the box learn the box too, weighted by the Gaussian; cells outside do not
+    assert math.isclose(regm[7, 6], hm[7, 6], rel_tol=1e-6) and regm[7, 6] > 0
+    np.testing.assert_allclose(reg[:, 7, 6], [math.log(16), math.log(8), 1.0, 0.0], rtol=1e-6)
+    assert regm[5, 7] == 0.0               # cell centre y 22 px is above the box (24..32)
+    # the ignore box 0..10 x 0..6 px covers cells x 0..2, y 0..1 (ceil): no loss there
+    assert (mask[0:2, 0:3] == 0).all() and mask[2, 0] == 1 and mask[0, 3] == 1
+    assert mask.sum() == 16 * 16 - 6
+
+
+def test_sample_applies_split_cut_to_the_crop():
+    """sample() with augmentation off (scale 1, no flip, no photometric change) cuts a crop of the stretched
+    half-resolution frame; its positives and ignore regions are exactly split_cut of the halved boxes shifted
+    to the crop, wherever the crop falls (found back by its pixels: the frame is random, so unique)."""
+    from vdtools.data import cnn_data as CD
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 255, (480, 640), dtype=np.uint8)
+    boxes = _boxes((10, 10, 300, 200), (400, 300, 120, 90), (600, 20, 40, 60), (200, 400, 60, 80))
+
+    class Fr:
+        pass
+    fr = Fr()
+    fr.img, fr.boxes, fr.ignore = img, boxes, np.zeros((0, 4), np.float32)
+    full = G.stretch(CD.half(img))
+    crop, n_pos, n_cut = 96, 0, 0
+    for _ in range(40):
+        crop_img, pos, ign = G.sample(fr, rng, crop=crop, augment=False)
+        ys, xs = np.nonzero((full[:-crop + 1, :-crop + 1] == crop_img[0, 0]))
+        at = [(y, x) for y, x in zip(ys, xs) if np.array_equal(full[y:y + crop, x:x + crop], crop_img)]
+        assert len(at) == 1
+        y0, x0 = at[0]
+        want_pos, want_cut = G.split_cut(boxes * 0.5 - np.array([x0, y0, 0, 0], np.float32), crop)
+        np.testing.assert_allclose(pos, want_pos, atol=1e-4)
+        np.testing.assert_allclose(ign, want_cut, atol=1e-4)
+        n_pos, n_cut = n_pos + len(pos), n_cut + len(ign)
+    assert n_pos > 0 and n_cut > 0          # both cases were exercised
