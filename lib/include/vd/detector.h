@@ -204,8 +204,9 @@ typedef struct vd_detector_stats {
     uint32_t windows;              // windows enumerated (window source)
     uint32_t windows_passed;       // windows passing the pre-filter (before the budget)
     uint32_t deduplicated;         // hot-spot/contrast/window candidates dropped by the merge (IoU > dedup_iou)
-    uint32_t cnn_boxes;            // CNN boxes decoded (peaks >= the threshold, at most the header's max_peaks)
-    uint32_t cand_cnn;             // CNN boxes merged (clipped to the frame, within max_candidates)
+    uint32_t cnn_boxes;            // CNN boxes decoded (peaks >= the threshold, at most the header's max_peaks
+                                   //   per pass; both passes with cnn_flip)
+    uint32_t cand_cnn;             // CNN boxes merged (clipped to the frame, within max_candidates; both passes)
     uint32_t time_us[VD_DET_STAGE_COUNT];  // per stage, 0 without clock_us
 } vd_detector_stats_t;
 
