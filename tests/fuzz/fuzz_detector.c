@@ -8,7 +8,8 @@
 // 32x32 model instead of the tiny 8x8 one. Flag 64 adds the CNN source with the shipped
 // compact network (models/vd_cnn_compact.vdm): one more byte picks the sources (with or
 // without the CNN bit, values above the documented set included), cnn_rescore (0..3) and
-// whether the network's score threshold is fuzzed (a u16, 0 = the model's, > 32768 invalid).
+// whether the network's score threshold is fuzzed (a u16, 0 = the model's, > 32768 invalid);
+// mask bit 29 fuzzes cnn_flip (0..3: the second, mirrored pass, and invalid values).
 // Checks: the size
 // query and init agree; a frame inside the configured maximum gives VD_OK or
 // VD_ERR_CAPACITY with every box inside the frame; a bad frame gives its
@@ -128,7 +129,7 @@ static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask, int has_model
         c->nms_iou_q15 > 32768u || cand > 4096u || (c->max_detections && c->max_detections > cand) ||
         c->max_region_w > c->max_width || c->max_region_h > c->max_height ||
         (c->temporal && c->max_tracks > 1024u) || c->sources > 0x0Fu || c->cnn_score_thr_q15 > 32768u ||
-        c->cnn_rescore > 1u || ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_model == NULL) ||
+        c->cnn_rescore > 1u || c->cnn_flip > 1u || ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_model == NULL) ||
         ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_rescore && !has_model)) {
         return -1;
     }
@@ -191,6 +192,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FZ_FIELD(26, temporal_cfg.confirm_frames, fz_u8(&r));
     FZ_FIELD(27, reserved0, fz_u8(&r));
     FZ_FIELD(28, max_runs, (uint32_t)fz_u16(&r));
+    FZ_FIELD(29, cnn_flip, (uint8_t)(fz_u8(&r) % 4u));
 #undef FZ_FIELD
     if (flags & 64u) {
         const uint8_t cb = fz_u8(&r);

@@ -128,6 +128,64 @@ def test_budgets_and_suppression_rule(demo, clip_frames, random_net, tmp_path):
             nms_iou_q15=int(round(0.2 * 32768)))
 
 
+def _flip_changes_something(frames, d, **kw):
+    """Frames whose detections the flip pass changes (the test must not be vacuous)."""
+    return sum(CDet.detect(d, img, flip=True, **kw) != CDet.detect(d, img, **kw) for img in frames.values())
+
+
+def test_flip_random_network_on_clip_frames(demo, clip_frames, random_net, tmp_path):
+    """--cnn-flip on: a second pass on the mirrored half-resolution plane (mirrored before the padding; odd
+    widths leave the last frame column out of it), boxes mirrored back, appended, then suppression:
+    demo == Python (cnn_detector.detect(flip=True)) on full and odd-sized frames, at the header's threshold
+    and at --cnn-thr, with the demo's default budgets (twice the top-K with the flip pass); a bare
+    --cnn-flip and the config key do the same."""
+    d, net = random_net
+    mp = int(d["max_peaks"])
+    total = changed = 0
+    for tag, frames in clip_frames.items():
+        src = write_frames(tmp_path / tag, frames)
+        for thr in (None, 0.62):
+            jl = tmp_path / f"{tag}_{thr}.jsonl"
+            extra = [] if thr is None else ["--cnn-thr", thr]
+            run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--model", "none", "--temporal", "off",
+                "--cnn-flip", "on", "--json", jl, "--quiet", *extra)
+            q15 = 0 if thr is None else int(round(thr * 32768))
+            kw = dict(score_thr_q15=q15, max_candidates=2 * mp, max_detections=2 * mp)
+            total += compare(demo_dets(jl), frames, d, f"flip, thr {thr}: ", flip=True, **kw)
+            changed += _flip_changes_something(frames, d, **kw)
+    assert total > 20 and changed >= 4, (total, changed)
+    frames = clip_frames["203x157"]
+    cfg = tmp_path / "flip.json"
+    cfg.write_text(json.dumps({"cnn_flip": True}))
+    for args in (["--cnn-flip"], ["--config", cfg]):
+        jl = tmp_path / "bare.jsonl"
+        p = run(demo, "--input", tmp_path / "203x157", "--sources", "cnn", "--cnn-model", net, "--model", "none",
+                "--temporal", "off", "--json", jl, *args)
+        assert "(+ flip pass)" in p.stderr, p.stderr
+        compare(demo_dets(jl), frames, d, f"{args}: ", flip=True, max_candidates=2 * mp, max_detections=2 * mp)
+    # off is the default and --cnn-flip off restores it
+    jl = tmp_path / "off.jsonl"
+    p = run(demo, "--input", tmp_path / "203x157", "--sources", "cnn", "--cnn-model", net, "--model", "none",
+            "--temporal", "off", "--json", jl, "--cnn-flip", "on", "--cnn-flip", "off")
+    assert "(+ flip pass)" not in p.stderr, p.stderr
+    compare(demo_dets(jl), frames, d, "off: ", max_candidates=mp, max_detections=mp)
+
+
+def test_flip_budgets(demo, clip_frames, random_net, tmp_path):
+    """With explicit budgets the first pass's boxes come first; the flip pass's fill what is left."""
+    d, net = random_net
+    frames = clip_frames["640x512"]
+    src = write_frames(tmp_path / "f", frames)
+    for mc in (7, 150):
+        jl = tmp_path / f"b{mc}.jsonl"
+        p = run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--model", "none", "--temporal", "off",
+                "--max-candidates", mc, "--max-detections", 5, "--nms-iou", 0.2, "--cnn-thr", 0.001,
+                "--cnn-flip", "on", "--json", jl, "--quiet")
+        assert "budget" in p.stdout, p.stdout   # VD_ERR_CAPACITY noted (candidates at 7, detections at 5)
+        compare(demo_dets(jl), frames, d, f"max-candidates {mc}: ", score_thr_q15=int(round(0.001 * 32768)),
+                max_candidates=mc, max_detections=5, nms_iou_q15=int(round(0.2 * 32768)), flip=True)
+
+
 def test_nms_rule_is_q15():
     """The C rule differs from a float IoU > 0.5 just above 0.5 (unions above 16384 px)."""
     a, b = (0, 0, 200, 100), (0, 0, 200, 201)   # IoU = 20000 / 40200 = 0.4975 -> below
@@ -158,26 +216,33 @@ def _real_frames(data_dir, per_family=6):
     return out
 
 
-def test_real_frames_equal_python(demo, data_dir, tmp_path):
+@pytest.mark.parametrize("flip", [False, True], ids=["one_pass", "flip"])
+def test_real_frames_equal_python(demo, data_dir, tmp_path, flip):
+    """The shipped model on real test-split frames and odd-sized crops of them (601 x 449: the last column
+    is outside the half-resolution plane), with and without --cnn-flip."""
     if not MODEL.is_file():
         pytest.skip(f"no CNN model at {MODEL} (the trained network is committed there)")
     from vdtools.evaluation import cnn_eval
     desc = V.unpack(MODEL.read_bytes())
-    mp = int(desc["max_peaks"])
-    ref = cnn_eval.Int8(MODEL, backend="ref")
+    mp = int(desc["max_peaks"]) * (2 if flip else 1)
+    ref = cnn_eval.Int8(MODEL, backend="ref", flip=flip)
     total = 0
-    for tag, frames in _real_frames(data_dir).items():
+    sets = _real_frames(data_dir)
+    if flip:   # odd crops (the flip pass mirrors the plane, not the frame)
+        sets["601x449"] = {f"odd_{k}": v[7:456, 13:614] for fr in sets.values() for k, v in list(fr.items())[:2]}
+    for tag, frames in sets.items():
         src = write_frames(tmp_path / tag, frames)
         jl = tmp_path / f"{tag}.jsonl"
-        run(demo, "--input", src, "--sources", "cnn", "--model", MODEL, "--temporal", "off", "--json", jl, "--quiet")
+        run(demo, "--input", src, "--sources", "cnn", "--model", MODEL, "--temporal", "off", "--json", jl, "--quiet",
+            "--cnn-flip", "on" if flip else "off")
         dets = demo_dets(jl)
-        total += compare(dets, frames, desc, max_candidates=mp, max_detections=mp)
-        if mp == 100:   # cnn_eval.Int8 decodes the top 100: the candidate stage is exactly cnn_eval's pipeline
+        total += compare(dets, frames, desc, max_candidates=mp, max_detections=mp, flip=flip)
+        if int(desc["max_peaks"]) == 100:   # cnn_eval.Int8 decodes the top 100: exactly cnn_eval's candidates
             thr = int(desc["score_threshold_q"])
             for name, img in frames.items():
                 h, w = img.shape
                 got = [(b, int(round(s * 32768))) for b, s in ref(img, w, h, thr_q=thr)]
-                assert got == CDet.boxes(desc, img), name
+                assert got == CDet.boxes(desc, img, flip=flip), name
     assert total > 0
 
 
@@ -186,7 +251,7 @@ def test_demo_cnn_options(demo, clip_frames, random_net, tmp_path):
     d, net = random_net
     mp = int(d["max_peaks"])
     p = run(demo, "--help")
-    for opt in ("--cnn-model", "--cnn-thr", "--cnn-rescore", "cnn"):
+    for opt in ("--cnn-model", "--cnn-thr", "--cnn-rescore", "--cnn-flip", "cnn"):
         assert opt in p.stdout, opt
     frames = clip_frames["97x61"]
     src = write_frames(tmp_path / "f", frames)
@@ -203,10 +268,14 @@ def test_demo_cnn_options(demo, clip_frames, random_net, tmp_path):
     srcs = {x["source"] for line in jl2.read_text().splitlines() for x in json.loads(line)["detections"]}
     assert srcs <= {"hotspot", "cnn"} and "cnn" in srcs
     # Errors: one line, non-zero exit.
+    bad_flip = tmp_path / "bad_flip.json"
+    bad_flip.write_text(json.dumps({"cnn_flip": "maybe"}))
     bad = [(["--sources", "cnn", "--cnn-model", tmp_path / "nope.vdm"], "--cnn-model"),
            (["--sources", "cnn", "--cnn-model", cfg], "not a valid CNN"),
            (["--cnn-model", net, "--model", "none", "--cnn-rescore"], "--cnn-rescore needs a DBN model"),
-           (["--cnn-thr", "1.5"], "cnn-thr")]
+           (["--cnn-thr", "1.5"], "cnn-thr"),
+           (["--cnn-model", net, "--model", "none", "--cnn-flip", "maybe"], "unexpected argument 'maybe'"),
+           (["--config", bad_flip], "bad value 'maybe' for cnn-flip")]
     for args, msg in bad:
         q = run(demo, "--input", src, "--quiet", *args, check=False)
         assert q.returncode != 0 and len(q.stderr.strip().splitlines()) == 1 and msg in q.stderr, (args, q.stderr)

@@ -462,6 +462,16 @@ static void test_bad_configs(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_init(&g_det, &c, NULL, g_ws, sizeof(g_ws)));
     c = cnn_cfg();
+    c.cnn_flip = 2u;   // 0 or 1, checked even without the CNN source
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_init(&g_det, &c, NULL, g_ws, sizeof(g_ws)));
+    r = c;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_cfg_resolve(&r));
+    c.sources = VD_DETECTOR_SRC_HOTSPOT;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
+    c.cnn_flip = 1u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b));
+    c = cnn_cfg();
     c.sources = 0x10u;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
     // A model struct that vd_cnn_load did not fill.
@@ -610,6 +620,223 @@ static void test_rescore_with_dbn(void)
     expect_box(&g_out[0], 20, 12, 16, 16, 201u);
 }
 
+// ------------------------------------------------------------ cnn_flip
+
+// Every merged candidate of a run, in list order (the observer sees them
+// before verification; a CNN-only list is exactly the CNN source's output).
+typedef struct cand_rec {
+    vd_detection_t c[256];
+    size_t n;
+} cand_rec_t;
+
+static cand_rec_t g_rec_a, g_rec_b, g_rec_c;
+
+static void rec_candidate(void *user, const vd_detection_t *cand)
+{
+    cand_rec_t *l = (cand_rec_t *)user;
+    TEST_ASSERT_TRUE(l->n < 256u);
+    l->c[l->n++] = *cand;
+}
+
+// Runs f with cnn_flip = flip and records its candidates in *rec.
+static void run_recorded(vd_detector_cfg_t c, uint8_t flip, const vd_frame_t *f, cand_rec_t *rec,
+                         vd_detector_stats_t *stats)
+{
+    c.cnn_flip = flip;
+    c.on_candidate = rec_candidate;
+    c.candidate_user = rec;
+    rec->n = 0u;
+    init_or_fail(&c, NULL);
+    size_t nd = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, f, g_out, 64u, &nd));
+    *stats = *vd_detector_last_stats(&g_det);
+}
+
+static void expect_cand(const vd_detection_t *d, int32_t x, int32_t y, int32_t w, int32_t h, uint8_t score)
+{
+    expect_box(d, x, y, w, h, score);
+    TEST_ASSERT_EQUAL_INT32(d->box.x, d->candidate.x);
+    TEST_ASSERT_EQUAL_INT32(d->box.w, d->candidate.w);
+    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, d->source);
+}
+
+// Hand-worked: frame 50 x 48, plane 25 x 24 padded to 28 x 24 (cells of 4
+// half-resolution pixels; the mirrored plane maps half-res x to 24 - x).
+// A spot at frame columns 24..25 is half-res x 12, cell 3: box [20, 36).
+// Mirrored it is half-res x 12 again, cell 3, box [20, 36) in the mirrored
+// frame, which maps back to [50 - 36, 50 - 20) = [14, 30). A spot at frame
+// columns 0..1 (half-res x 0, cell 0): [-4, 12) clamped by the decoder to
+// [0, 12); mirrored it is half-res x 24, whose padding copies fill cell 6:
+// [44, 60) clamped to the 56-wide network frame [44, 56), back [-6, 6),
+// clipped at the left edge to [0, 6).
+static void test_flip_hand_worked(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    fill(20u);
+    rect8(24u, 18u, 2u, 2u, 201u);   // half-res (12, 9): cell (3, 2)
+    rect8(0u, 34u, 2u, 2u, 180u);    // half-res (0, 17): cell (0, 4)
+    vd_frame_t f = frame8(50u, 48u);
+    vd_detector_cfg_t c = cnn_cfg();
+    vd_detector_stats_t s;
+    run_recorded(c, 0u, &f, &g_rec_b, &s);
+    TEST_ASSERT_EQUAL_size_t(2u, g_rec_b.n);
+    expect_cand(&g_rec_b.c[0], 20, 12, 16, 16, 201u);
+    expect_cand(&g_rec_b.c[1], 0, 28, 12, 16, 180u);
+    run_recorded(c, 1u, &f, &g_rec_a, &s);
+    TEST_ASSERT_EQUAL_size_t(4u, g_rec_a.n);
+    expect_cand(&g_rec_a.c[0], 20, 12, 16, 16, 201u);   // pass 0 first, unchanged
+    expect_cand(&g_rec_a.c[1], 0, 28, 12, 16, 180u);
+    expect_cand(&g_rec_a.c[2], 14, 12, 16, 16, 201u);   // pass 1, mirrored back
+    expect_cand(&g_rec_a.c[3], 0, 28, 6, 16, 180u);
+    TEST_ASSERT_EQUAL_UINT32(4u, s.cnn_boxes);
+    TEST_ASSERT_EQUAL_UINT32(4u, s.cand_cnn);
+    // Suppression merges the passes: IoU([20, 36), [14, 30)) = 160 / 352 and
+    // IoU([0, 12), [0, 6)) = 1/2, neither > 0.5: all four stay, best first.
+    TEST_ASSERT_EQUAL_UINT32(0u, s.suppressed);
+    TEST_ASSERT_EQUAL_UINT32(4u, s.detections);
+    expect_box(&g_out[0], 20, 12, 16, 16, 201u);
+    expect_box(&g_out[1], 14, 12, 16, 16, 201u);
+    // A plane of a multiple of 4 columns (frame 64 wide) mirrors cells onto
+    // cells: the spot's mirrored box is the same box, suppressed as a duplicate.
+    fill(20u);
+    rect8(26u, 18u, 2u, 2u, 201u);
+    f = frame8(64u, 48u);
+    run_recorded(c, 1u, &f, &g_rec_a, &s);
+    TEST_ASSERT_EQUAL_size_t(2u, g_rec_a.n);
+    expect_cand(&g_rec_a.c[0], 20, 12, 16, 16, 201u);
+    expect_cand(&g_rec_a.c[1], 20, 12, 16, 16, 201u);
+    TEST_ASSERT_EQUAL_UINT32(1u, s.suppressed);
+    TEST_ASSERT_EQUAL_UINT32(1u, s.detections);
+    // The workspace does not grow: both passes share it.
+    size_t b0 = 0u, b1 = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b0));
+    c.cnn_flip = 1u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b1));
+    TEST_ASSERT_EQUAL_size_t(b0, b1);
+}
+
+// mirror(d) of the rule: [x, x + w) -> [2 hw - x - w, 2 hw - x) within [0, fw);
+// false when nothing is left.
+static bool mirror_cand(vd_detection_t *d, uint32_t hw, uint32_t fw)
+{
+    int32_t x0 = 2 * (int32_t)hw - (d->box.x + d->box.w);
+    int32_t x1 = 2 * (int32_t)hw - d->box.x;
+    x0 = x0 > 0 ? x0 : 0;
+    x1 = x1 < (int32_t)fw ? x1 : (int32_t)fw;
+    if (x1 <= x0) {
+        return false;
+    }
+    d->box.x = x0;
+    d->box.w = x1 - x0;
+    d->candidate = d->box;
+    return true;
+}
+
+// On pseudo-random frames (every 4x4 cell a peak candidate, ties and the
+// top-K at work) of even and odd widths, with and without padding, 8 and
+// 16 bits: candidates(F, flip 1) == candidates(F, flip 0) followed by the
+// mirrored-back candidates(M, flip 0), where M is F with its first 2 hw
+// columns reversed (so that M's half-resolution plane is F's, mirrored; an
+// odd last column is not read and is set to 255 to show it).
+static void test_flip_equals_mirrored_frame(void)
+{
+    net_t n = net_default();
+    n.max_peaks = 100u;
+    net_load(&n);
+    static const uint32_t sizes[6][2] = {{64u, 48u}, {50u, 40u}, {61u, 45u}, {63u, 33u}, {96u, 80u}, {3u, 9u}};
+    static uint8_t src8[MH][MW];
+    static uint16_t src16[MH][MW];
+    uint32_t seed = 777u;
+    for (uint32_t k = 0u; k < 12u; k++) {
+        const uint32_t w = sizes[k % 6u][0], h = sizes[k % 6u][1], hw = w / 2u;
+        const bool wide = k >= 6u;
+        for (uint32_t y = 0u; y < h; y++) {
+            for (uint32_t x = 0u; x < w; x++) {
+                const uint32_t v = tu_rand(&seed);
+                g_px[y][x] = (uint8_t)(v & 0xFFu);
+                g_px16[y][x] = (uint16_t)(27315u + (v >> 8) % 5200u);
+            }
+        }
+        memcpy(src8, g_px, sizeof src8);
+        memcpy(src16, g_px16, sizeof src16);
+        vd_frame_t f = {wide ? (const void *)g_px16 : (const void *)g_px, w, h, wide ? MW * 2u : MW,
+                        wide ? VD_PIX_U16 : VD_PIX_U8, 0, 0};
+        vd_detector_cfg_t c = cnn_cfg();
+        c.max_candidates = 256u;
+        vd_detector_stats_t sa, sb, sc;
+        run_recorded(c, 1u, &f, &g_rec_a, &sa);
+        run_recorded(c, 0u, &f, &g_rec_b, &sb);
+        for (uint32_t y = 0u; y < h; y++) {
+            for (uint32_t x = 0u; x < w; x++) {
+                g_px[y][x] = (x < 2u * hw) ? src8[y][2u * hw - 1u - x] : 255u;
+                g_px16[y][x] = (x < 2u * hw) ? src16[y][2u * hw - 1u - x] : (uint16_t)65535u;
+            }
+        }
+        run_recorded(c, 0u, &f, &g_rec_c, &sc);
+        size_t want = g_rec_b.n;
+        for (size_t i = 0u; i < g_rec_b.n; i++) {
+            const vd_detection_t *d = &g_rec_a.c[i];
+            const vd_detection_t *e = &g_rec_b.c[i];
+            TEST_ASSERT_EQUAL_MEMORY(e, d, sizeof *d);
+        }
+        for (size_t i = 0u; i < g_rec_c.n; i++) {
+            vd_detection_t e = g_rec_c.c[i];
+            if (!mirror_cand(&e, hw, w)) {
+                continue;
+            }
+            TEST_ASSERT_TRUE(want < g_rec_a.n);
+            const vd_detection_t *d = &g_rec_a.c[want++];
+            TEST_ASSERT_EQUAL_INT32(e.box.x, d->box.x);
+            TEST_ASSERT_EQUAL_INT32(e.box.y, d->box.y);
+            TEST_ASSERT_EQUAL_INT32(e.box.w, d->box.w);
+            TEST_ASSERT_EQUAL_INT32(e.box.h, d->box.h);
+            TEST_ASSERT_EQUAL_MEMORY(&d->box, &d->candidate, sizeof d->box);
+            TEST_ASSERT_EQUAL_UINT8(e.score_q8, d->score_q8);
+            TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, d->source);
+            TEST_ASSERT_EQUAL_UINT8(0u, d->flags);
+        }
+        TEST_ASSERT_EQUAL_size_t(want, g_rec_a.n);
+        TEST_ASSERT_TRUE(g_rec_b.n > 0u && g_rec_a.n > g_rec_b.n);
+        TEST_ASSERT_EQUAL_UINT32(sb.cnn_boxes + sc.cnn_boxes, sa.cnn_boxes);
+        TEST_ASSERT_EQUAL_UINT32((uint32_t)g_rec_a.n, sa.cand_cnn);
+        TEST_ASSERT_EQUAL_UINT32(0u, sa.overflow_candidates);
+    }
+}
+
+// The budget is shared by both passes: pass 0's boxes first, the rest of
+// pass 1's counted as overflow and reported as VD_ERR_CAPACITY.
+static void test_flip_capacity(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    fill(20u);
+    rect8(24u, 18u, 2u, 2u, 201u);
+    rect8(0u, 34u, 2u, 2u, 180u);
+    vd_frame_t f = frame8(50u, 48u);
+    for (uint16_t cap = 1u; cap <= 4u; cap++) {
+        vd_detector_cfg_t c = cnn_cfg();
+        c.cnn_flip = 1u;
+        c.max_candidates = cap;
+        c.max_detections = cap;
+        c.on_candidate = rec_candidate;
+        c.candidate_user = &g_rec_a;
+        g_rec_a.n = 0u;
+        init_or_fail(&c, NULL);
+        size_t nd = 0u;
+        TEST_ASSERT_EQUAL_INT(cap < 4u ? VD_ERR_CAPACITY : VD_OK, vd_detector_run(&g_det, &f, g_out, 64u, &nd));
+        const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
+        TEST_ASSERT_EQUAL_size_t(cap, g_rec_a.n);
+        TEST_ASSERT_EQUAL_UINT32(4u, s->cnn_boxes);
+        TEST_ASSERT_EQUAL_UINT32(cap, s->cand_cnn);
+        TEST_ASSERT_EQUAL_UINT32(4u - cap, s->overflow_candidates);
+        expect_cand(&g_rec_a.c[0], 20, 12, 16, 16, 201u);
+        if (cap >= 3u) {
+            expect_cand(&g_rec_a.c[2], 14, 12, 16, 16, 201u);
+        }
+    }
+}
+
 static uint32_t g_clock;
 static uint32_t fake_clock(void *user)
 {
@@ -651,6 +878,9 @@ int main(void)
     RUN_TEST(test_bad_configs);
     RUN_TEST(test_merge_with_hotspots);
     RUN_TEST(test_rescore_with_dbn);
+    RUN_TEST(test_flip_hand_worked);
+    RUN_TEST(test_flip_equals_mirrored_frame);
+    RUN_TEST(test_flip_capacity);
     RUN_TEST(test_clock_and_temporal);
     return UNITY_END();
 }

@@ -4,7 +4,7 @@
 // Detector settings are one table: each has a flag "--name VALUE" and the
 // same key in the --config file ("name" or "name_with_underscores"). The
 // config file is applied first, flags after it, so flags win. A switch
-// setting (--cnn-rescore) may be given without a value on the command line
+// setting (--cnn-rescore, --cnn-flip) may be given without a value on the command line
 // (= on); in the config file it takes true/false or "on"/"off".
 #include "demo.h"
 
@@ -69,6 +69,7 @@ typedef enum setting_id {
     SET_CNN_MODEL,
     SET_CNN_THR,
     SET_CNN_RESCORE,
+    SET_CNN_FLIP,
     SET_VERIFIER,
     SET_BOOST_MODEL,
     SET_BOOST_OFFSET,
@@ -84,7 +85,7 @@ typedef struct setting {
 // Switch settings: the value may be left out on the command line (= on).
 static bool is_switch(int id)
 {
-    return id == SET_CNN_RESCORE;
+    return id == SET_CNN_RESCORE || id == SET_CNN_FLIP;
 }
 
 static const setting_t k_settings[SET_COUNT] = {
@@ -165,6 +166,10 @@ static const setting_t k_settings[SET_COUNT] = {
     [SET_CNN_RESCORE] = {"cnn-rescore", "[on|off]",
                          "cnn source: the DBN also scores each network box (whole box, as windows) and keeps it "
                          "at >= --score-thr; the score is then the DBN's (needs a DBN model; default off)"},
+    [SET_CNN_FLIP] = {"cnn-flip", "[on|off]",
+                      "cnn source: run the network a second time on the mirrored half-resolution frame and "
+                      "add its boxes, mirrored back, before overlap suppression (test-time augmentation: "
+                      "about twice the network's time; default off)"},
     [SET_VERIFIER] = {"verifier", "dbn|boost",
                       "verifier of hot-spot/contrast/window (and re-scored cnn) candidates: dbn (default, --model) "
                       "or boost (paper 003's boosted CNN-feature stumps, --boost-model)"},
@@ -202,8 +207,8 @@ void demo_args_usage(FILE *f)
             "                      taken as --cnn-model. Without --sources, a DBN --model keeps the paper pipeline\n"
             "                      and a CNN model (--cnn-model, a CNN --model, or models/vd_cnn.vdm when no\n"
             "                      --model is given) makes the sources cnn; with the cnn source and no\n"
-            "                      --max-candidates/--max-detections, both become the model's top-K (+64\n"
-            "                      candidates for the other sources)\n"
+            "                      --max-candidates/--max-detections, both become the model's top-K (twice\n"
+            "                      that with --cnn-flip; +64 candidates for the other sources)\n"
             "  --out DIR           annotated PNG frames: boxes yellow = new, green = confirmed,\n"
             "                      magenta = recovered; track id and score above each box\n"
             "  --no-scores         do not draw the id/score text\n"
@@ -696,6 +701,10 @@ static bool apply_setting(demo_opts_t *o, setting_id_t id, const char *v, char *
     case SET_CNN_RESCORE:
         ok = parse_switch(v, &on);
         cfg->cnn_rescore = ok ? (uint8_t)on : cfg->cnn_rescore;
+        break;
+    case SET_CNN_FLIP:
+        ok = parse_switch(v, &on);
+        cfg->cnn_flip = ok ? (uint8_t)on : cfg->cnn_flip;
         break;
     case SET_VERIFIER:
         ok = strcmp(v, "dbn") == 0 || strcmp(v, "boost") == 0;

@@ -637,8 +637,9 @@ static int run(run_t *r)
         char src[64];
         sources_text(o->cfg.sources, src, sizeof src);
         const bool paper = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u;
-        fprintf(stderr, "vd_fir_demo: input %s; sources %s%s%s; DBN model %s\n", o->input, src,
+        fprintf(stderr, "vd_fir_demo: input %s; sources %s%s%s%s; DBN model %s\n", o->input, src,
                 r->m.have_cnn ? "; CNN model " : "", r->m.have_cnn ? r->m.cnn_path : "",
+                (r->m.have_cnn && o->cfg.cnn_flip != 0u) ? " (+ flip pass)" : "",
                 r->m.have_model ? r->m.model_path
                               : (paper ? "none (candidates are not verified; score 1.0)" : "none (not needed)"));
     }

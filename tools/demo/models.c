@@ -169,14 +169,14 @@ vd_status_t demo_models_load(demo_models_t *m, demo_opts_t *o, const char *model
         }
         m->have_cnn = true;
         o->cfg.cnn_model = &m->cnn;
-        // Room for the model's top-K (and the paper sources' 64) unless set.
+        // Room for the model's top-K per pass (two with --cnn-flip; and the paper sources' 64) unless set.
+        const uint32_t topk = m->cnn.max_peaks * (o->cfg.cnn_flip != 0u ? 2u : 1u);
         if (!o->max_candidates_set) {
-            uint32_t mc = m->cnn.max_peaks + (((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u) ? 64u : 0u);
+            uint32_t mc = topk + (((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u) ? 64u : 0u);
             o->cfg.max_candidates = (uint16_t)(mc > 4096u ? 4096u : mc);
         }
         if (!o->max_detections_set) {
-            o->cfg.max_detections = (uint16_t)(m->cnn.max_peaks < o->cfg.max_candidates ? m->cnn.max_peaks
-                                                                                      : o->cfg.max_candidates);
+            o->cfg.max_detections = (uint16_t)(topk < o->cfg.max_candidates ? topk : o->cfg.max_candidates);
         }
     }
     // An explicit DBN --model is checked even when no source needs it.

@@ -148,7 +148,13 @@ typedef struct vd_detector_cfg {
     uint8_t cnn_rescore;         // 0: CNN boxes skip the DBN (score = CNN score); 1: the DBN scores them as it
                                  //   scores windows (whole box) and keeps them when score >= score_thr; their
                                  //   score is then the DBN's. 1 needs a DBN model (else VD_ERR_ARG)
-    uint8_t reserved2;           // 0
+    uint8_t cnn_flip;            // 0: one pass (default); 1: horizontal-flip test-time augmentation: a second
+                                 //   pass on the mirrored half-resolution plane (x -> floor(W/2) - 1 - x, then
+                                 //   padded as usual), its boxes mirrored back ([x, x + w) -> [2 floor(W/2) -
+                                 //   x - w, 2 floor(W/2) - x)), clipped to the frame and appended after the
+                                 //   first pass's (same threshold, top-K, budget and stats); overlap
+                                 //   suppression merges them. About twice the network's time; no extra
+                                 //   workspace (both passes share it). Other values: VD_ERR_ARG
     // Verifier (issue 12). Appended so the fields above keep their offsets.
     // VD_DETECTOR_VERIFIER_DBN (0): the DBN `model` of vd_detector_init scores
     // candidates (32x32 sample, score_thr_q8). VD_DETECTOR_VERIFIER_BOOST: the
@@ -198,8 +204,9 @@ typedef struct vd_detector_stats {
     uint32_t windows;              // windows enumerated (window source)
     uint32_t windows_passed;       // windows passing the pre-filter (before the budget)
     uint32_t deduplicated;         // hot-spot/contrast/window candidates dropped by the merge (IoU > dedup_iou)
-    uint32_t cnn_boxes;            // CNN boxes decoded (peaks >= the threshold, at most the header's max_peaks)
-    uint32_t cand_cnn;             // CNN boxes merged (clipped to the frame, within max_candidates)
+    uint32_t cnn_boxes;            // CNN boxes decoded (peaks >= the threshold, at most the header's max_peaks
+                                   //   per pass; both passes with cnn_flip)
+    uint32_t cand_cnn;             // CNN boxes merged (clipped to the frame, within max_candidates; both passes)
     uint32_t time_us[VD_DET_STAGE_COUNT];  // per stage, 0 without clock_us
 } vd_detector_stats_t;
 
@@ -274,7 +281,7 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 // smaller frame runs the network at its own size inside that plan (the
 // planner's size grows with the input: measured on every aligned size of the
 // shipped model and 150 random ones; vd_cnn_run would answer VD_ERR_WORKSPACE
-// otherwise).
+// otherwise). cnn_flip adds nothing: its second pass reuses D.
 // Returns VD_OK; VD_ERR_ARG for NULL bytes, a cfg value out of range, the CNN
 // source without cfg.cnn_model, cnn_rescore without a DBN model, or a network
 // input above VD_CNN_MAX_SIDE (or twice it above VD_MAX_DIM); VD_ERR_MODEL

@@ -72,7 +72,7 @@ class DetectorCfg(C.Structure):
                 ("clock_us", CLOCK_FN), ("clock_user", C.c_void_p),
                 ("on_candidate", CANDIDATE_FN), ("candidate_user", C.c_void_p),
                 ("cnn_model", C.c_void_p), ("cnn_score_thr_q15", C.c_uint16), ("cnn_rescore", C.c_uint8),
-                ("reserved2", C.c_uint8), ("verifier", C.c_uint8), ("reserved3", C.c_uint8 * 3),
+                ("cnn_flip", C.c_uint8), ("verifier", C.c_uint8), ("reserved3", C.c_uint8 * 3),
                 ("boost_model", C.c_void_p), ("boost_thr_offset", C.c_int32)]
 
 

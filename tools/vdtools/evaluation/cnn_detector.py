@@ -5,7 +5,9 @@ integer: what `vd_fir_demo --sources cnn --temporal off` reports for an 8-bit fr
 Pipeline: vdtools.evaluation.cnn_eval.net_input (half resolution, edge padding to the model's alignment) ->
 numpy integer reference (vdtools.formats.cnn_ref, equal to vd_cnn_run) -> decode at the header's top-K into a
 2 nw x 2 nh frame -> boxes clipped to the real frame (as cnn_eval.Int8) -> score_q8 -> the detector's
-budget (max_candidates) and overlap suppression (vd_suppress_nms) -> max_detections.
+budget (max_candidates) and overlap suppression (vd_suppress_nms) -> max_detections. With flip
+(cfg.cnn_flip, `--cnn-flip on`) a second pass on the mirrored half-resolution plane follows the first, its
+boxes mirrored back (cnn_eval.clip_boxes) and appended before the budget.
 
 Differences from cnn_eval.run (kept here so cnn_eval is not changed):
 - suppression is the C rule: a stable sort by score_q8 (not the Q15 score: boxes whose scores round to
@@ -19,6 +21,9 @@ Differences from cnn_eval.run (kept here so cnn_eval is not changed):
     from vdtools.evaluation import cnn_detector as CDet
     dets = CDet.detect(desc, img)   # [((x, y, w, h), score_q8)], best first
 """
+import numpy as np
+
+from vdtools.data import cnn_data as CD
 from vdtools.evaluation import cnn_eval
 from vdtools.formats import cnn_ref as R
 from vdtools.formats import cnn_vdm as V
@@ -65,32 +70,35 @@ def nms_q15(dets, iou_thr_q15=16384, max_keep=None):
     return keep
 
 
-def boxes(desc, img, thr_q=None):
+def boxes(desc, img, thr_q=None, flip=False):
     """The CNN source's candidates of an 8-bit frame, in decode order: [((x, y, w, h), score_q15)].
-    thr_q: int8 heatmap threshold (None: the header's)."""
+    thr_q: int8 heatmap threshold (None: the header's). flip: cfg.cnn_flip, the mirrored pass's boxes
+    (mirrored back) after the first pass's."""
     fh, fw = img.shape
     if fw < 2 or fh < 2:
         return []   # no half-resolution pixel: the detector runs nothing
-    x = cnn_eval.net_input(img, V.alignment(desc))
-    head = R.run(desc, x)
+    align = V.alignment(desc)
+    planes = [cnn_eval.net_input(img, align)]
+    if flip:   # the half-resolution plane mirrored, then padded (not the frame: odd widths)
+        planes.append(CD.pad_to(np.ascontiguousarray(CD.half(img)[:, ::-1]), align))
     out = []
-    for bx, by, bw, bh, s, _ in R.decode(desc, head, 2 * x.shape[1], 2 * x.shape[0], thr_q=thr_q):
-        x1, y1 = min(bx + bw, fw), min(by + bh, fh)
-        if x1 > bx and y1 > by:
-            out.append(((bx, by, x1 - bx, y1 - by), int(s)))
+    for k, x in enumerate(planes):
+        dec = R.decode(desc, R.run(desc, x), 2 * x.shape[1], 2 * x.shape[0], thr_q=thr_q)
+        out += cnn_eval.clip_boxes(dec, fw, fh, flip_hw=fw // 2 if k else None)
     return out
 
 
-def detect(desc, img, score_thr_q15=0, nms_iou_q15=16384, max_candidates=None, max_detections=None):
+def detect(desc, img, score_thr_q15=0, nms_iou_q15=16384, max_candidates=None, max_detections=None, flip=False):
     """Detections of vd_detector_run with sources = cnn, no rescoring, temporal analysis off:
     [((x, y, w, h), score_q8)], best first. score_thr_q15: cfg.cnn_score_thr_q15 (0 = the header's
-    threshold); max_candidates / max_detections: the detector's budgets (None = unlimited)."""
+    threshold); max_candidates / max_detections: the detector's budgets (None = unlimited); flip:
+    cfg.cnn_flip."""
     thr = None
     if score_thr_q15:
         thr = thr_from_score(desc, score_thr_q15)
         if thr is None:
             return []
-    cands = [(b, score_q8(s)) for b, s in boxes(desc, img, thr)]
+    cands = [(b, score_q8(s)) for b, s in boxes(desc, img, thr, flip)]
     if max_candidates is not None:
         cands = cands[:max_candidates]
     return nms_q15(cands, nms_iou_q15, max_detections)

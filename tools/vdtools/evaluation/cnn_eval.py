@@ -6,13 +6,16 @@ matching rules of vdtools.metrics.evaluate / vd_fir_demo --eval, ignore regions 
 precision), and TP rate / FP rate / hot and cold TP at score thresholds. Backends: the int8 network
 through the C library (`--backend c`, default; vd_cnn_run + vd_cnn_decode, equal bit for bit to the
 numpy reference), the numpy integer reference (`--backend ref`), or the float checkpoint (`--ckpt`).
-Boxes then go through overlap suppression at IoU 0.5 as in the detector.
+Boxes then go through overlap suppression at IoU 0.5 as in the detector. `--flip` adds the detector's
+horizontal-flip test-time augmentation (cfg.cnn_flip / `vd_fir_demo --cnn-flip on`): a second pass on the
+mirrored half-resolution plane whose boxes, mirrored back, join the first pass's before suppression.
 
 The operating point is chosen on the VAL split (largest threshold whose TP rate and FP rate meet the
 issue's bar on both families, else the best mean F1) and then only reported on the test split.
 
     python3 -m vdtools.evaluation.cnn_eval --model models/vd_cnn.vdm --split val --out out/val.json
     python3 -m vdtools.evaluation.cnn_eval --model models/vd_cnn.vdm --split test --thr 0.35 --out out/test.json [--pr out.png]
+    python3 -m vdtools.evaluation.cnn_eval --model models/vd_cnn.vdm --backend demo --split val --flip
 """
 import argparse
 import json
@@ -67,29 +70,45 @@ def net_input(img, align=16):
     return CD.pad_to(CD.half(img), align)
 
 
-class Int8:
-    """Runs a .vdm through the C library (or the numpy reference)."""
+def clip_boxes(boxes, frame_w, frame_h, flip_hw=None):
+    """Decoded boxes [(x, y, w, h, score_q15, ...)] -> [((x, y, w, h), score_q15)] inside the frame, empty
+    ones dropped (lib/src/detector_cnn.c append_boxes). flip_hw: the boxes of the mirrored half-resolution
+    plane (hw = frame_w // 2 columns), mirrored back first: [x, x + w) -> [2 hw - x - w, 2 hw - x)."""
+    out = []
+    for bx, by, bw, bh, s, *_ in boxes:
+        bx, by, bw, bh = int(bx), int(by), int(bw), int(bh)
+        x0, x1 = (bx, bx + bw) if flip_hw is None else (2 * flip_hw - bx - bw, 2 * flip_hw - bx)
+        x0, x1, y1 = max(x0, 0), min(x1, frame_w), min(by + bh, frame_h)
+        if x1 > x0 and y1 > by:
+            out.append(((x0, by, x1 - x0, y1 - by), int(s)))
+    return out
 
-    def __init__(self, model_path, backend="c"):
+
+class Int8:
+    """Runs a .vdm through the C library (or the numpy reference). flip: the detector's cfg.cnn_flip, a second
+    pass on the mirrored half-resolution plane (mirrored before the padding, so odd widths match C), its
+    boxes mirrored back and appended."""
+
+    def __init__(self, model_path, backend="c", flip=False):
         self.blob = Path(model_path).read_bytes()
         self.desc = V.unpack(self.blob)
         self.backend = backend
+        self.flip = flip
         self.c = vd_cnn.CModel(self.blob) if backend == "c" else None
         self.align = V.alignment(self.desc)
 
-    def __call__(self, img, frame_w, frame_h, thr_q=-128):
-        x = net_input(img, self.align)
+    def _decode(self, x, thr_q):
         fw, fh = x.shape[1] * 2, x.shape[0] * 2
         if self.c is not None:
-            boxes = self.c.decode(self.c.run(x), fw, fh, thr_q=thr_q, max_peaks=100)
-        else:
-            boxes = R.decode(self.desc, R.run(self.desc, x), fw, fh, thr_q=thr_q, max_peaks=100)
-        out = []
-        for bx, by, bw, bh, s, _ in boxes:
-            x1, y1 = min(bx + bw, frame_w), min(by + bh, frame_h)
-            if x1 > bx and y1 > by:
-                out.append(((bx, by, x1 - bx, y1 - by), s / 32768.0))
-        return out
+            return self.c.decode(self.c.run(x), fw, fh, thr_q=thr_q, max_peaks=100)
+        return R.decode(self.desc, R.run(self.desc, x), fw, fh, thr_q=thr_q, max_peaks=100)
+
+    def __call__(self, img, frame_w, frame_h, thr_q=-128):
+        out = clip_boxes(self._decode(net_input(img, self.align), thr_q), frame_w, frame_h)
+        if self.flip:
+            x = CD.pad_to(np.ascontiguousarray(CD.half(img)[:, ::-1]), self.align)
+            out += clip_boxes(self._decode(x, thr_q), frame_w, frame_h, flip_hw=img.shape[1] // 2)
+        return [(b, s / 32768.0) for b, s in out]
 
 
 class Float:
@@ -121,7 +140,7 @@ def run(pred, frames):
 def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval", paper=None):
     """The whole C detector (vd_fir_demo --sources cnn, temporal off, score threshold 0.05 so that the
     AP sees the low-score tail) on frames; results as run(). One demo call per family (file names of
-    the two HIT-UAV folders could collide)."""
+    the two HIT-UAV folders could collide). extra: more demo flags (e.g. --cnn-flip on)."""
     import subprocess
     tmp = Path(tmp)
     tmp.mkdir(parents=True, exist_ok=True)
@@ -253,6 +272,9 @@ def main(argv=None):
                     "(--model is then a DBN model; --backend demo)")
     ap.add_argument("--thr", type=float, help="operating point to report (default: chosen here, val split only)")
     ap.add_argument("--perturb", choices=sorted(PERTURB), help="camera-like change of the frames (backends c/ref)")
+    ap.add_argument("--flip", action="store_true",
+                    help="horizontal-flip test-time augmentation: a second pass on the mirrored half-resolution "
+                         "plane, boxes merged (backends c/ref; with --backend demo: vd_fir_demo --cnn-flip on)")
     ap.add_argument("--out", help="JSON report")
     ap.add_argument("--pr", help="precision-recall PNG")
     a = ap.parse_args(argv)
@@ -264,10 +286,13 @@ def main(argv=None):
     if a.perturb:
         frames = perturb(frames, a.perturb)
     t0 = time.time()
+    if a.flip and (a.ckpt or a.paper):
+        raise SystemExit("--flip is for the int8 network (--model, not --ckpt or --paper)")
     if a.backend == "demo" and not a.ckpt:
-        res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split())
+        res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
+                       extra=["--cnn-flip", "on"] if a.flip else [])
     else:
-        res = run(Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend), frames)
+        res = run(Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend, flip=a.flip), frames)
     sec = time.time() - t0
     rep = figures(res)
     thr = a.thr
@@ -283,11 +308,11 @@ def main(argv=None):
     subsets = subset_ap(res)
     print("AP@0.5 per subset: " + ", ".join(f"{k} {100 * ap:.1f} ({nf} frames, {nv} vehicles)"
                                              for k, (ap, nf, nv) in subsets.items()))
-    print(f"threshold {thr}; {len(frames)} frames in {sec:.1f} s")
+    print(f"threshold {thr}; {'flip pass on; ' if a.flip else ''}{len(frames)} frames in {sec:.1f} s")
     if a.pr:
         plot_pr(rep, a.pr, f"CNN detector, {a.split} split ({Path(a.model or a.ckpt).name})")
     if a.out:
-        Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, thr=thr,
+        Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, thr=thr, flip=a.flip,
                                                families=summary(rep, thr),
                                                subsets={k: dict(ap=ap, n_frames=nf, n_vehicles=nv)
                                                         for k, (ap, nf, nv) in subsets.items()}),
