@@ -23,7 +23,8 @@
 //
 // Bounds: time O(W*H) for threshold, labelling and the contrast/window
 // sources, the network's multiply-adds once per frame (vd_cnn_macs at the
-// half-resolution input; twice with cnn_flip) for the CNN source, O(windows * (1 + max_candidates))
+// half-resolution input; twice with cnn_flip, plus at most max_peaks^2 IoUs
+// for its fusion) for the CNN source, O(windows * (1 + max_candidates))
 // for the window walks and the merge, plus per candidate (<= max_candidates)
 // O(region) for refine and contour and the DBN's multiply-adds; NMS
 // O(max_candidates^2); temporal as temporal.h with at most 289 refine probes

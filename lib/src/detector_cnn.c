@@ -10,18 +10,28 @@
 // and row (numpy np.pad mode "edge"), the network runs once, its heatmap
 // peaks are decoded at the header's top-K into a 2 nw x 2 nh frame and each
 // box is clipped to the real frame (dropped when nothing is left). With
-// cfg.cnn_flip (horizontal-flip test-time augmentation) a second pass runs on
-// the mirrored plane (each row's floor(W/2) pixels reversed, then padded the
-// same way) and its boxes, mirrored back about x = floor(W/2) in frame
-// pixels, follow the first pass's; suppression merges the two. This is
-// exactly tools/vdtools/evaluation/cnn_eval.py Int8.__call__ (net_input, decode,
-// clip; flip=True) and tools/vdtools/evaluation/cnn_detector.py, which tests/python compares with.
+// cfg.cnn_flip (horizontal-flip test-time augmentation) the two passes are
+// fused instead: pass A on the plane and pass B on the mirrored plane (each
+// row's floor(W/2) pixels reversed, then padded the same way), both decoded
+// at the logit threshold of the score max(1, 2T - 32768), T being the score
+// threshold in Q15 (a fused score is the mean of two, so a box below T can
+// end above it); B's boxes are mirrored back about x = floor(W/2) in frame
+// pixels, both sets clipped, then matched greedily in A's decode order (the
+// unused B box of largest IoU >= VD_CNN_FLIP_IOU_Q15, ties to the first):
+// a matched pair averages its corners and scores, an unmatched box keeps its
+// corners and half its score (the other pass voted 0), and fused boxes below
+// T are dropped
+// (fuse_passes). This is exactly tools/vdtools/evaluation/cnn_eval.py
+// Int8.__call__ (net_input, decode, clip; flip=True: fuse_flip) and
+// tools/vdtools/evaluation/cnn_detector.py, which tests/python compares with.
 // Bounds: O(W*H) for the plane and padding, vd_cnn_macs() multiply-adds for
 // the network, O(Wo*Ho*(1 + max_peaks)) for decoding, O(max_peaks) for the
-// merge -- each twice with cnn_flip. Memory: the overlay (network workspace,
-// boxes; see detector_init.c), the same for both passes. Stack: this file's
-// frames plus vd_cnn_run_rows (~1.1 KiB on Cortex-M7 -Os, docs/embedded.md);
-// no recursion.
+// merge -- the first three twice with cnn_flip, whose fusion computes at most
+// max_peaks^2 IoUs (10 000 for the shipped models' top-100). Memory: the
+// overlay (network workspace, max_peaks boxes, 2 max_peaks with cnn_flip: pass
+// A's survive pass B's decode; see detector_init.c), the workspace shared by
+// both passes. Stack: this file's frames plus vd_cnn_run_rows (~1.1 KiB on
+// Cortex-M7 -Os, docs/embedded.md); no recursion.
 #include <string.h>
 
 #include "vd/resample.h"
@@ -86,49 +96,108 @@ static void cnn_row(void *ctx, uint32_t y, uint8_t *dst)
 }
 
 // Q15 score -> Q8, rounded half up; 1.0 (32768) saturates at 255.
-static uint8_t score_q8_of(uint16_t score_q15)
+static uint8_t score_q8_of(uint32_t score_q15)
 {
-    const uint32_t q = ((uint32_t)score_q15 + 64u) >> 7;
+    const uint32_t q = (score_q15 + 64u) >> 7;
     return (uint8_t)(q > 255u ? 255u : q);
 }
 
-// Appends the decoded boxes det->cnn_boxes[0..nb) to the candidates at *n.
-// flip: the boxes of the mirrored plane, mirrored back first: [x, x + w) ->
-// [2 hw - x - w, 2 hw - x) (the plane's hw columns are frame columns 0..2 hw).
-// Then clipped to the frame (decode already keeps x >= 0 and the box inside
-// 2 nw x 2 nh; a mirrored box may start left of 0 when it came from the
-// padding); empty ones dropped, those beyond max_candidates counted.
-static void append_boxes(vd_detector_t *det, const vd_frame_t *f, size_t nb, bool flip, uint32_t hw, size_t *n)
+// Clips the decoded boxes b[0..nb) to the frame in place and returns how many
+// are left (order kept, empty ones dropped). flip: the boxes of the mirrored
+// plane, mirrored back first: [x, x + w) -> [2 hw - x - w, 2 hw - x) (the
+// plane's hw columns are frame columns 0..2 hw). Decode already keeps x, y >= 0
+// and the box inside 2 nw x 2 nh; a mirrored box may start left of 0 when it
+// came from the padding, and any box may reach into the padding.
+static size_t clip_boxes(vd_cnn_box_t *b, size_t nb, bool flip, uint32_t hw, const vd_frame_t *f)
 {
     const int32_t fw = (int32_t)f->width;
     const int32_t fh = (int32_t)f->height;
     const int32_t span = 2 * (int32_t)hw;   // <= VD_MAX_DIM
-    // Boxes in decode order (logit descending, then raster): the best keep the budget.
+    size_t kept = 0u;
     for (size_t i = 0u; i < nb; i++) {
-        const vd_cnn_box_t *b = &det->cnn_boxes[i];
-        int32_t x0 = flip ? span - (b->rect.x + b->rect.w) : b->rect.x;
-        int32_t x1 = flip ? span - b->rect.x : b->rect.x + b->rect.w;
+        const vd_rect_t r = b[i].rect;
+        int32_t x0 = flip ? span - (r.x + r.w) : r.x;
+        int32_t x1 = flip ? span - r.x : r.x + r.w;
         x0 = (x0 > 0) ? x0 : 0;
         x1 = (x1 < fw) ? x1 : fw;
-        const int32_t y1 = (b->rect.y + b->rect.h < fh) ? b->rect.y + b->rect.h : fh;
-        if (x1 <= x0 || y1 <= b->rect.y) {
+        const int32_t y1 = (r.y + r.h < fh) ? r.y + r.h : fh;
+        if (x1 <= x0 || y1 <= r.y) {
             continue;   // wholly in the padding
         }
-        if (*n >= det->cfg.max_candidates) {
-            det->stats.overflow_candidates++;
-            continue;   // counted: each remaining box that would have been a candidate
+        b[kept] = b[i];
+        b[kept].rect.x = x0;
+        b[kept].rect.w = x1 - x0;
+        b[kept].rect.h = y1 - r.y;
+        kept++;
+    }
+    return kept;
+}
+
+// Appends one box (frame pixels, non-empty) with its Q15 score to the
+// candidates at *n, or counts it when max_candidates are taken.
+static void push_box(vd_detector_t *det, const vd_rect_t *box, uint32_t score_q15, size_t *n)
+{
+    if (*n >= det->cfg.max_candidates) {
+        det->stats.overflow_candidates++;
+        return;   // counted: each remaining box that would have been a candidate
+    }
+    vd_detection_t *d = &det->cand[*n];
+    memset(d, 0, sizeof(*d));
+    d->box = *box;
+    d->candidate = *box;
+    d->score_q8 = score_q8_of(score_q15);
+    d->source = (uint8_t)VD_SOURCE_CNN;
+    (*n)++;
+    det->stats.cand_cnn++;
+}
+
+// The fused flip pass (cfg.cnn_flip): a[0..na) are the normal pass's clipped
+// boxes, b[0..nb) the mirrored pass's (mirrored back and clipped), both in
+// decode order. For each a[i] in turn, the unused b[j] with the largest
+// IoU >= VD_CNN_FLIP_IOU_Q15 (ties: lowest j) is its match: corners averaged
+// (left/top rounded down, right/bottom rounded up, so the box stays non-empty
+// and inside the frame), score (sa + sb + 1) >> 1; unmatched a[i] keep their
+// box with score (sa + 1) >> 1 (the other pass's vote is 0). Then each unused
+// b[j] in order, score (sb + 1) >> 1. A used b[j] is marked in place by
+// rect.w = 0 (clipped boxes have w >= 1). Fused boxes scoring below the score
+// threshold T (det->cnn_thr_score_q15) are dropped; the rest become
+// candidates in that order. na * nb <= max_peaks^2 IoUs.
+static void fuse_passes(vd_detector_t *det, const vd_cnn_box_t *a, size_t na, vd_cnn_box_t *b, size_t nb, size_t *n)
+{
+    const uint32_t thr = det->cnn_thr_score_q15;
+    for (size_t i = 0u; i < na; i++) {
+        size_t best = nb;
+        uint32_t best_iou = 0u;
+        for (size_t j = 0u; j < nb; j++) {
+            const uint32_t iou = (b[j].rect.w != 0) ? vd_rect_iou_q15(&a[i].rect, &b[j].rect) : 0u;
+            if (iou >= VD_CNN_FLIP_IOU_Q15 && (best == nb || iou > best_iou)) {
+                best = j;
+                best_iou = iou;
+            }
         }
-        vd_detection_t *d = &det->cand[*n];
-        memset(d, 0, sizeof(*d));
-        d->box.x = x0;
-        d->box.y = b->rect.y;
-        d->box.w = x1 - x0;
-        d->box.h = y1 - b->rect.y;
-        d->candidate = d->box;
-        d->score_q8 = score_q8_of(b->score_q15);
-        d->source = (uint8_t)VD_SOURCE_CNN;
-        (*n)++;
-        det->stats.cand_cnn++;
+        vd_rect_t r = a[i].rect;
+        uint32_t sum = a[i].score_q15;
+        if (best < nb) {
+            // Corners x0, y0 rounded down, exclusive x1, y1 rounded up; all >= 0.
+            const vd_rect_t *q = &b[best].rect;
+            const int32_t x1 = (r.x + r.w + q->x + q->w + 1) >> 1;
+            const int32_t y1 = (r.y + r.h + q->y + q->h + 1) >> 1;
+            r.x = (r.x + q->x) >> 1;
+            r.y = (r.y + q->y) >> 1;
+            r.w = x1 - r.x;
+            r.h = y1 - r.y;
+            sum += b[best].score_q15;
+            b[best].rect.w = 0;   // used
+        }
+        if (((sum + 1u) >> 1) >= thr) {
+            push_box(det, &r, (sum + 1u) >> 1, n);
+        }
+    }
+    for (size_t j = 0u; j < nb; j++) {
+        const uint32_t s = ((uint32_t)b[j].score_q15 + 1u) >> 1;
+        if (b[j].rect.w != 0 && s >= thr) {
+            push_box(det, &b[j].rect, s, n);
+        }
     }
 }
 
@@ -158,19 +227,30 @@ vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n
         VD_TRY(vd_frame_view_u8(f, &r.v8));
     }
     const vd_cnn_rows_t rows = {cnn_row, &r};
-    // Pass 0 on the plane; with cnn_flip pass 1 on its mirror. Both use the same
-    // workspace and box array: pass 0's boxes are candidates before pass 1 decodes.
+    // Pass 0 on the plane into boxes [0, K); with cnn_flip pass 1 on its
+    // mirror into [K, 2K) (init sized the array so), both decoded at
+    // det->cnn_thr_q; the passes share the network workspace.
     const uint32_t passes = (det->cfg.cnn_flip != 0u) ? 2u : 1u;
+    const size_t k = det->cnn_boxes_cap / passes;
+    size_t kept[2] = {0u, 0u};
     for (uint32_t p = 0u; p < passes; p++) {
         r.flip = p == 1u;
+        vd_cnn_box_t *boxes = det->cnn_boxes + (size_t)p * k;
         vd_cnn_output_t head;
         VD_TRY(vd_cnn_run_rows(m, &rows, nw, nh, VD_CNN_STREAM, det->cnn_ws, det->cnn_ws_bytes, &head));
         VD_TRY(r.st);
         size_t nb = 0u;
-        VD_TRY(vd_cnn_decode(m, &head, det->cnn_thr_q, 0u, 2u * nw, 2u * nh, det->cnn_boxes, det->cnn_boxes_cap,
-                             &nb));
+        VD_TRY(vd_cnn_decode(m, &head, det->cnn_thr_q, 0u, 2u * nw, 2u * nh, boxes, k, &nb));
         det->stats.cnn_boxes += (uint32_t)nb;
-        append_boxes(det, f, nb, r.flip, r.hw, n);
+        kept[p] = clip_boxes(boxes, nb, r.flip, r.hw, f);
+    }
+    if (passes == 2u) {
+        fuse_passes(det, det->cnn_boxes, kept[0], det->cnn_boxes + k, kept[1], n);
+    } else {
+        // Decode order (logit descending, then raster): the best keep the budget.
+        for (size_t i = 0u; i < kept[0]; i++) {
+            push_box(det, &det->cnn_boxes[i].rect, det->cnn_boxes[i].score_q15, n);
+        }
     }
     return (det->stats.overflow_candidates != 0u) ? VD_ERR_CAPACITY : VD_OK;
 }

@@ -9,11 +9,13 @@
 // contour tracer reuses), then the contrast source's strip workspace and the
 // window pre-filter's integrals; with the CNN source, first of all the
 // network's streamed workspace (row rings; its input rows are made on demand) and decoded
-// boxes. No hot mask and no buffer per frame pixel except the labeller's row buffers.
+// boxes (the header's max_peaks; twice that with cnn_flip, whose fusion needs
+// both passes' boxes). No hot mask and no buffer per frame pixel except the labeller's row buffers.
 // Bounds: O(1) time and stack, plus the CNN planner (O(layers^2), ~950 bytes
 // of stack, cnn.h) when the source is on; no allocation.
 #include <string.h>
 
+#include "internal/blob_internal.h"
 #include "internal/detector_internal.h"
 #include "internal/vd_internal.h"
 
@@ -150,11 +152,16 @@ typedef struct layout {
     size_t cnn_ws, cnn_boxes;
     size_t points_cap, contours_cap, cnn_boxes_cap;
     int32_t cnn_thr_q;
+    uint32_t cnn_thr_score_q15;
     bool cnn_never;
 } layout_t;
 
 // The CNN source's slices (they overlay the others: the network runs before
-// labelling) and its resolved threshold.
+// labelling) and its resolved thresholds: T, the score threshold in Q15
+// (cnn_score_thr_q15, or the decode-table score of the header's logit
+// threshold), and the logit threshold of the decode: that of T, or with
+// cnn_flip that of max(1, 2T - 32768) (a fused score (sa + sb + 1) >> 1 can
+// reach T from there).
 static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
 {
     const vd_cnn_model_t *m = c->cnn_model;
@@ -164,10 +171,24 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     VD_VERIFY(st != VD_ERR_STATE, VD_ERR_MODEL);
     VD_TRY(st);
     l->cnn_thr_q = m->score_threshold_q;
+    // The loader checked the score table (0..32768, non-decreasing).
+    l->cnn_thr_score_q15 = vd_blob_u32(m->decode_table + 4u * (uint32_t)(m->score_threshold_q + 128));
     if (c->cnn_score_thr_q15 != 0u) {
+        l->cnn_thr_score_q15 = c->cnn_score_thr_q15;
         st = vd_cnn_thr_from_score(m, c->cnn_score_thr_q15, &l->cnn_thr_q);
         if (st == VD_ERR_RANGE) {
             l->cnn_never = true;   // no logit scores that high: nothing to run for
+        } else {
+            VD_TRY(st);
+        }
+    }
+    if (c->cnn_flip != 0u && !l->cnn_never) {
+        const uint32_t t2 = 2u * l->cnn_thr_score_q15;
+        const uint32_t lo = (t2 > (uint32_t)VD_CNN_SCORE_ONE_Q15 + 1u) ? t2 - (uint32_t)VD_CNN_SCORE_ONE_Q15 : 1u;
+        // lo <= T, so this fails only when T is 0 and no logit scores 1 or more.
+        st = vd_cnn_thr_from_score(m, lo, &l->cnn_thr_q);
+        if (st == VD_ERR_RANGE) {
+            l->cnn_never = true;
         } else {
             VD_TRY(st);
         }
@@ -187,7 +208,8 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     st = vd_cnn_workspace_size_ex(m, nw, nh, VD_CNN_STREAM, &l->cnn_ws);
     VD_VERIFY(st != VD_ERR_STATE, VD_ERR_MODEL);
     VD_TRY(st);
-    l->cnn_boxes_cap = m->max_peaks;
+    // With cnn_flip pass A's boxes [0, K) survive pass B's decode into [K, 2K).
+    l->cnn_boxes_cap = (size_t)m->max_peaks * (c->cnn_flip != 0u ? 2u : 1u);
     l->cnn_boxes = l->cnn_boxes_cap * sizeof(vd_cnn_box_t);
     return VD_OK;
 }
@@ -369,6 +391,7 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         VD_ASSERT(det->cnn_boxes != NULL);
     }
     det->cnn_thr_q = l.cnn_thr_q;
+    det->cnn_thr_score_q15 = l.cnn_thr_score_q15;
     det->cnn_never = l.cnn_never;
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     memset(x, 0, sizeof(*x));

@@ -638,9 +638,10 @@ static void rec_candidate(void *user, const vd_detection_t *cand)
     l->c[l->n++] = *cand;
 }
 
-// Runs f with cnn_flip = flip and records its candidates in *rec.
-static void run_recorded(vd_detector_cfg_t c, uint8_t flip, const vd_frame_t *f, cand_rec_t *rec,
-                         vd_detector_stats_t *stats)
+// Runs f with cnn_flip = flip and records its candidates in *rec; returns the
+// run's status (detections in g_out).
+static vd_status_t run_recorded(vd_detector_cfg_t c, uint8_t flip, const vd_frame_t *f, cand_rec_t *rec,
+                                vd_detector_stats_t *stats)
 {
     c.cnn_flip = flip;
     c.on_candidate = rec_candidate;
@@ -648,72 +649,298 @@ static void run_recorded(vd_detector_cfg_t c, uint8_t flip, const vd_frame_t *f,
     rec->n = 0u;
     init_or_fail(&c, NULL);
     size_t nd = 0u;
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, f, g_out, 64u, &nd));
+    const vd_status_t st = vd_detector_run(&g_det, f, g_out, 64u, &nd);
     *stats = *vd_detector_last_stats(&g_det);
+    return st;
 }
 
 static void expect_cand(const vd_detection_t *d, int32_t x, int32_t y, int32_t w, int32_t h, uint8_t score)
 {
     expect_box(d, x, y, w, h, score);
-    TEST_ASSERT_EQUAL_INT32(d->box.x, d->candidate.x);
-    TEST_ASSERT_EQUAL_INT32(d->box.w, d->candidate.w);
+    TEST_ASSERT_EQUAL_MEMORY(&d->box, &d->candidate, sizeof d->box);
     TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, d->source);
+    TEST_ASSERT_EQUAL_UINT8(0u, d->flags);
 }
 
-// Hand-worked: frame 50 x 48, plane 25 x 24 padded to 28 x 24 (cells of 4
-// half-resolution pixels; the mirrored plane maps half-res x to 24 - x).
-// A spot at frame columns 24..25 is half-res x 12, cell 3: box [20, 36).
-// Mirrored it is half-res x 12 again, cell 3, box [20, 36) in the mirrored
-// frame, which maps back to [50 - 36, 50 - 20) = [14, 30). A spot at frame
-// columns 0..1 (half-res x 0, cell 0): [-4, 12) clamped by the decoder to
-// [0, 12); mirrored it is half-res x 24, whose padding copies fill cell 6:
-// [44, 60) clamped to the 56-wide network frame [44, 56), back [-6, 6),
-// clipped at the left edge to [0, 6).
-static void test_flip_hand_worked(void)
+// Hand-worked geometry of the fusion tests. The network's width channel
+// decodes to wb frame pixels (size logit wb - 128) and its x offset to d
+// frame pixels right of the cell's left edge (offset logit 8 d - 64; the
+// default -32 is d = 4, the centre), so decoding (rounding half up) gives
+// cell c the box [8c + d - wb/2, 8c + d + wb/2) in the 2 nw wide network
+// frame; rows stay as in the file comment ([8 cy - 4, 8 cy + 12)). A spot
+// of value v at half-resolution (p, 9) (frame columns 2p, 2p + 1, rows 18,
+// 19) is in cell (p >> 2, 2) of pass A and, the mirrored plane mapping x to
+// hw - 1 - x, in cell ((hw - 1 - p) >> 2, 2) of pass B, whose box [x0, x1)
+// goes back to [2 hw - x1, 2 hw - x0). Both rows are [12, 28). Scores:
+// v * 128 in Q15 (score_q8 v). A flat background of 20 makes one more peak
+// per pass (the plateau's first cell, (0, 0), score 2560), decoded only when
+// the decode threshold is that low.
+#define SPOT_ROW 18u
+static void spot(uint32_t p, uint8_t v)
+{
+    rect8(2u * p, SPOT_ROW, 2u, 2u, v);
+}
+
+static uint16_t thr_q15_of_pixel(uint32_t v)
+{
+    return (uint16_t)(v * 128u);
+}
+
+// Matched, unmatched A, leftover B, a tie on IoU, the threshold T on the
+// fused score. Frame 50 x 48: hw = 25 (plane padded to 28, 7 cells), pass B
+// cell of p: (24 - p) >> 2. Width 16, d = 5: A(c) = [8c - 3, 8c + 13), B(c')
+// = [8c' - 3, 8c' + 13) mirrored back to [37 - 8c', 53 - 8c'). Spots O0 at p
+// = 8 and O1 at p = 16, both 200 (score 25600):
+//   A: O0 cell 2 [13, 29), O1 cell 4 [29, 45)  (equal logits: raster order)
+//   B: O1 cell 2 [21, 37), O0 cell 4 [5, 21)   (the mirrored raster: O1 first)
+// A0 = [13, 29) overlaps B0 = [21, 37) and B1 = [5, 21) by 8 columns each:
+// IoU 128 / 384 = 10922 both, a tie >= 9830 -> the first in B's order, B0
+// (O1's box, not O0's own): x0 = (13 + 21) >> 1 = 17, x1 = (29 + 37 + 1) >> 1
+// = 33, rows (12 + 12) >> 1 = 12 and (28 + 28 + 1) >> 1 = 28: [17, 33) x [12,
+// 28), score (25600 + 25600 + 1) >> 1 = 25600 (Q8 200). A1 = [29, 45) and the
+// leftover B1 = [5, 21) do not overlap: A1 alone scores (25600 + 1) >> 1 =
+// 12800 (Q8 100), then B1 likewise.
+//   T = 19200 (150): decode at 2 T - 32768 = 5632 (pixel 44: no background
+//     peaks); A1 and B1 (12800) fall below T although A1's own score 25600 is
+//     above it: one candidate.
+//   T = 12800 (100): decode at max(1, 25600 - 32768) = 1: the background
+//     peaks join, A [0, 13) x [0, 12) and B [0, 13) -> [37, 50) x [0, 12),
+//     unmatched, score 1280 < T: dropped. Candidates: the pair, A1, B1.
+static void test_flip_fusion_hand_worked(void)
 {
     net_t n = net_default();
+    n.off_x = -24;   // d = 5
     net_load(&n);
     fill(20u);
-    rect8(24u, 18u, 2u, 2u, 201u);   // half-res (12, 9): cell (3, 2)
-    rect8(0u, 34u, 2u, 2u, 180u);    // half-res (0, 17): cell (0, 4)
+    spot(8u, 200u);
+    spot(16u, 200u);
     vd_frame_t f = frame8(50u, 48u);
     vd_detector_cfg_t c = cnn_cfg();
     vd_detector_stats_t s;
-    run_recorded(c, 0u, &f, &g_rec_b, &s);
+    c.cnn_score_thr_q15 = thr_q15_of_pixel(150u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 0u, &f, &g_rec_b, &s));   // one pass: A as it is
     TEST_ASSERT_EQUAL_size_t(2u, g_rec_b.n);
-    expect_cand(&g_rec_b.c[0], 20, 12, 16, 16, 201u);
-    expect_cand(&g_rec_b.c[1], 0, 28, 12, 16, 180u);
-    run_recorded(c, 1u, &f, &g_rec_a, &s);
-    TEST_ASSERT_EQUAL_size_t(4u, g_rec_a.n);
-    expect_cand(&g_rec_a.c[0], 20, 12, 16, 16, 201u);   // pass 0 first, unchanged
-    expect_cand(&g_rec_a.c[1], 0, 28, 12, 16, 180u);
-    expect_cand(&g_rec_a.c[2], 14, 12, 16, 16, 201u);   // pass 1, mirrored back
-    expect_cand(&g_rec_a.c[3], 0, 28, 6, 16, 180u);
+    expect_cand(&g_rec_b.c[0], 13, 12, 16, 16, 200u);
+    expect_cand(&g_rec_b.c[1], 29, 12, 16, 16, 200u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_a, &s));
+    TEST_ASSERT_EQUAL_size_t(1u, g_rec_a.n);
+    expect_cand(&g_rec_a.c[0], 17, 12, 16, 16, 200u);
     TEST_ASSERT_EQUAL_UINT32(4u, s.cnn_boxes);
-    TEST_ASSERT_EQUAL_UINT32(4u, s.cand_cnn);
-    // Suppression merges the passes: IoU([20, 36), [14, 30)) = 160 / 352 and
-    // IoU([0, 12), [0, 6)) = 1/2, neither > 0.5: all four stay, best first.
-    TEST_ASSERT_EQUAL_UINT32(0u, s.suppressed);
-    TEST_ASSERT_EQUAL_UINT32(4u, s.detections);
-    expect_box(&g_out[0], 20, 12, 16, 16, 201u);
-    expect_box(&g_out[1], 14, 12, 16, 16, 201u);
-    // A plane of a multiple of 4 columns (frame 64 wide) mirrors cells onto
-    // cells: the spot's mirrored box is the same box, suppressed as a duplicate.
-    fill(20u);
-    rect8(26u, 18u, 2u, 2u, 201u);
-    f = frame8(64u, 48u);
-    run_recorded(c, 1u, &f, &g_rec_a, &s);
-    TEST_ASSERT_EQUAL_size_t(2u, g_rec_a.n);
-    expect_cand(&g_rec_a.c[0], 20, 12, 16, 16, 201u);
-    expect_cand(&g_rec_a.c[1], 20, 12, 16, 16, 201u);
-    TEST_ASSERT_EQUAL_UINT32(1u, s.suppressed);
+    TEST_ASSERT_EQUAL_UINT32(1u, s.cand_cnn);
     TEST_ASSERT_EQUAL_UINT32(1u, s.detections);
-    // The workspace does not grow: both passes share it.
+    c.cnn_score_thr_q15 = thr_q15_of_pixel(100u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_a, &s));
+    TEST_ASSERT_EQUAL_size_t(3u, g_rec_a.n);
+    expect_cand(&g_rec_a.c[0], 17, 12, 16, 16, 200u);   // A0 + B0
+    expect_cand(&g_rec_a.c[1], 29, 12, 16, 16, 100u);   // A1 alone
+    expect_cand(&g_rec_a.c[2], 5, 12, 16, 16, 100u);    // B1 left over
+    TEST_ASSERT_EQUAL_UINT32(6u, s.cnn_boxes);          // 3 + 3 decoded, background included
+    TEST_ASSERT_EQUAL_UINT32(3u, s.cand_cnn);
+    TEST_ASSERT_EQUAL_UINT32(0u, s.overflow_candidates);
+    // Suppression (IoU 0.5) as for any candidates: the overlaps are 4 columns.
+    TEST_ASSERT_EQUAL_UINT32(0u, s.suppressed);
+    TEST_ASSERT_EQUAL_UINT32(3u, s.detections);
+    expect_box(&g_out[0], 17, 12, 16, 16, 200u);
+    expect_box(&g_out[1], 29, 12, 16, 16, 100u);
+    expect_box(&g_out[2], 5, 12, 16, 16, 100u);
+}
+
+// A match across objects with two different scores. Frame 50 x 48 again,
+// width 16, d = 8: A(c) = [8c, 8c + 16), B(c') mirrored back to [34 - 8c',
+// 50 - 8c'). Spot X at p = 12 (220, score 28160) and Y at p = 19 (180,
+// 23040): in pass A they are in the adjacent cells 3 and 4, so only X is a
+// peak, A0 = [24, 40); in pass B they are in cells 3 and 1, both peaks:
+// B0 = X [10, 26), B1 = Y [26, 42). IoU(A0, B0) = 32 / 480 = 2184, IoU(A0, B1)
+// = 224 / 288 = 25486: A0 takes B1. Fused: x0 = (24 + 26) >> 1 = 25, x1 = (40
+// + 42 + 1) >> 1 = 41, score (28160 + 23040 + 1) >> 1 = 25600 (Q8 200). B0
+// is left over: (28160 + 1) >> 1 = 14080, Q8 (14080 + 64) >> 7 = 110. T =
+// 12800: the background boxes decode (1280 after fusion: dropped).
+static void test_flip_fusion_two_scores(void)
+{
+    net_t n = net_default();
+    n.off_x = 0;   // d = 8
+    net_load(&n);
+    fill(20u);
+    spot(12u, 220u);
+    spot(19u, 180u);
+    vd_frame_t f = frame8(50u, 48u);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.cnn_score_thr_q15 = thr_q15_of_pixel(100u);
+    vd_detector_stats_t s;
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_a, &s));
+    TEST_ASSERT_EQUAL_size_t(2u, g_rec_a.n);
+    expect_cand(&g_rec_a.c[0], 25, 12, 16, 16, 200u);
+    expect_cand(&g_rec_a.c[1], 10, 12, 16, 16, 110u);
+    TEST_ASSERT_EQUAL_UINT32(5u, s.cnn_boxes);   // A: X, background; B: X, Y, background
+    TEST_ASSERT_EQUAL_UINT32(2u, s.cand_cnn);
+}
+
+// The IoU bound VD_CNN_FLIP_IOU_Q15 = 9830 is inclusive.
+//   At it: frame 50 x 48, width 13 (logit -115), d = 1 (logit -56): cell c is
+//   [8c + 1 - 6.5, 8c + 1 + 6.5) rounded half up = [8c - 5, 8c + 8). A spot
+//   (200) at p = 9: A cell 2 [11, 24); B cell (24 - 9) >> 2 = 3 [19, 32) ->
+//   [18, 31). Overlap 6 columns: IoU 96 / 320 = 0.3 exactly, Q15 9830.4 ->
+//   9830: matched, [(11 + 18) >> 1, (24 + 31 + 1) >> 1) = [14, 28), score 200.
+//   Just below: frame 64 x 48 (hw = 32), width 22 (logit -106), offset logit
+//   19 (332 Q8, d = 10.375): cell c is [8c - 0.625, 8c + 21.375) rounded half
+//   up = [8c - 1, 8c + 21). A spot (200) at p = 18: A cell 4 [31, 53); B cell
+//   (31 - 18) >> 2 = 3 [23, 45) -> [19, 41). Overlap 10 columns: IoU 10 / 34 =
+//   0.294, Q15 9637 < 9830: not matched, both at half score (Q8 100; T = 12800).
+static void test_flip_iou_bound(void)
+{
+    net_t n = net_default();
+    n.size_w = 13 - 128;
+    n.off_x = -56;
+    net_load(&n);
+    fill(20u);
+    spot(9u, 200u);
+    vd_frame_t f = frame8(50u, 48u);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.cnn_score_thr_q15 = thr_q15_of_pixel(100u);
+    vd_detector_stats_t s;
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_a, &s));
+    TEST_ASSERT_EQUAL_size_t(1u, g_rec_a.n);
+    expect_cand(&g_rec_a.c[0], 14, 12, 14, 16, 200u);
+    const vd_rect_t a = {11, 12, 13, 16}, b = {18, 12, 13, 16};
+    TEST_ASSERT_EQUAL_UINT32(VD_CNN_FLIP_IOU_Q15, vd_rect_iou_q15(&a, &b));
+    n.size_w = 22 - 128;
+    n.off_x = 19;
+    net_load(&n);
+    fill(20u);
+    spot(18u, 200u);
+    f = frame8(64u, 48u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_a, &s));
+    TEST_ASSERT_EQUAL_size_t(2u, g_rec_a.n);
+    expect_cand(&g_rec_a.c[0], 31, 12, 22, 16, 100u);
+    expect_cand(&g_rec_a.c[1], 19, 12, 22, 16, 100u);
+    const vd_rect_t a2 = {31, 12, 22, 16}, b2 = {19, 12, 22, 16};
+    TEST_ASSERT_EQUAL_UINT32(9637u, vd_rect_iou_q15(&a2, &b2));
+}
+
+// The budget holds the fused boxes in their order (test_flip_fusion_hand_worked
+// at T = 12800: the pair, A1, B1); those beyond it are counted as overflow
+// (VD_ERR_CAPACITY), the ones below T are not.
+static void test_flip_capacity(void)
+{
+    net_t n = net_default();
+    n.off_x = -24;
+    net_load(&n);
+    fill(20u);
+    spot(8u, 200u);
+    spot(16u, 200u);
+    vd_frame_t f = frame8(50u, 48u);
+    for (uint16_t cap = 1u; cap <= 3u; cap++) {
+        vd_detector_cfg_t c = cnn_cfg();
+        c.cnn_score_thr_q15 = thr_q15_of_pixel(100u);
+        c.max_candidates = cap;
+        c.max_detections = cap;
+        vd_detector_stats_t s;
+        TEST_ASSERT_EQUAL_INT(cap < 3u ? VD_ERR_CAPACITY : VD_OK, run_recorded(c, 1u, &f, &g_rec_a, &s));
+        TEST_ASSERT_EQUAL_size_t(cap, g_rec_a.n);
+        TEST_ASSERT_EQUAL_UINT32(6u, s.cnn_boxes);
+        TEST_ASSERT_EQUAL_UINT32(cap, s.cand_cnn);
+        TEST_ASSERT_EQUAL_UINT32(3u - cap, s.overflow_candidates);
+        expect_cand(&g_rec_a.c[0], 17, 12, 16, 16, 200u);
+        if (cap >= 2u) {
+            expect_cand(&g_rec_a.c[1], 29, 12, 16, 16, 100u);
+        }
+    }
+}
+
+// cnn_flip keeps both passes' boxes: max_peaks more in the CNN's part D of the
+// overlay. Where D is the overlay's largest part (1 x 1 regions, one run,
+// top-K 1024) the workspace grows by exactly that; elsewhere by at most that.
+static vd_status_t ws_run_flip(void *ws, size_t bytes, void *ctx)
+{
+    vd_detector_t det;
+    vd_status_t st = vd_detector_init(&det, (const vd_detector_cfg_t *)ctx, NULL, ws, bytes);
+    if (st != VD_OK) {
+        return st;
+    }
+    vd_frame_t f = frame8(50u, 48u);
+    size_t n = 0u;
+    st = vd_detector_run(&det, &f, g_out, 64u, &n);
+    return (st == VD_OK && n == 3u) ? VD_OK : VD_ERR_STATE;
+}
+
+static void test_flip_workspace(void)
+{
+    net_t n = net_default();
+    n.off_x = -24;
+    n.max_peaks = 1024u;
+    net_load(&n);
+    fill(20u);
+    spot(8u, 200u);
+    spot(16u, 200u);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.max_region_w = 1u;
+    c.max_region_h = 1u;
+    c.max_runs = 1u;
+    c.cnn_score_thr_q15 = thr_q15_of_pixel(100u);
     size_t b0 = 0u, b1 = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b0));
     c.cnn_flip = 1u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b1));
-    TEST_ASSERT_EQUAL_size_t(b0, b1);
+    TEST_ASSERT_EQUAL_size_t(b0 + 1024u * sizeof(vd_cnn_box_t), b1);
+    tu_check_workspace_contract(b1, ws_run_flip, &c);   // b1 - 1 fails, guards intact
+    // The default plan at 96 x 80: the region buffers are the larger part.
+    n.max_peaks = 100u;
+    net_load(&n);
+    c = cnn_cfg();
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b0));
+    c.cnn_flip = 1u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b1));
+    TEST_ASSERT_TRUE(b1 >= b0 && b1 - b0 <= 100u * sizeof(vd_cnn_box_t));
+}
+
+// The fusion written again from the definition (detector.h, cfg.cnn_flip),
+// on candidate lists: a[0..na) the normal pass, b[0..nb) the mirrored pass
+// (mirrored back and clipped), Q15 scores score_q8 * 128 (the test network
+// scores pixel * 128). Appends the fused candidates >= thr to *out.
+static void ref_fuse(const cand_rec_t *a, const cand_rec_t *b, uint32_t thr, cand_rec_t *out)
+{
+    bool used[256] = {false};
+    out->n = 0u;
+    for (size_t i = 0u; i <= a->n + b->n; i++) {
+        vd_detection_t d;
+        uint32_t score;
+        if (i < a->n) {
+            d = a->c[i];
+            score = 128u * d.score_q8;
+            size_t best = SIZE_MAX;
+            uint32_t best_iou = 0u;
+            for (size_t j = 0u; j < b->n; j++) {
+                const uint32_t q = used[j] ? 0u : vd_rect_iou_q15(&d.box, &b->c[j].box);
+                if (q >= 9830u && (best == SIZE_MAX || q > best_iou)) {
+                    best = j;
+                    best_iou = q;
+                }
+            }
+            if (best != SIZE_MAX) {
+                const vd_rect_t *e = &b->c[best].box;
+                const int32_t x0 = (d.box.x + e->x) / 2, y0 = (d.box.y + e->y) / 2;
+                const int32_t x1 = (d.box.x + d.box.w + e->x + e->w + 1) / 2;
+                const int32_t y1 = (d.box.y + d.box.h + e->y + e->h + 1) / 2;
+                d.box.x = x0;
+                d.box.y = y0;
+                d.box.w = x1 - x0;
+                d.box.h = y1 - y0;
+                score += 128u * b->c[best].score_q8;
+                used[best] = true;
+            }
+        } else if (i < a->n + b->n && !used[i - a->n]) {
+            d = b->c[i - a->n];
+            score = 128u * d.score_q8;
+        } else {
+            continue;
+        }
+        score = (score + 1u) / 2u;
+        if (score >= thr) {
+            d.candidate = d.box;
+            d.score_q8 = (uint8_t)((score + 64u) / 128u > 255u ? 255u : (score + 64u) / 128u);
+            out->c[out->n++] = d;
+        }
+    }
 }
 
 // mirror(d) of the rule: [x, x + w) -> [2 hw - x - w, 2 hw - x) within [0, fw);
@@ -735,22 +962,27 @@ static bool mirror_cand(vd_detection_t *d, uint32_t hw, uint32_t fw)
 
 // On pseudo-random frames (every 4x4 cell a peak candidate, ties and the
 // top-K at work) of even and odd widths, with and without padding, 8 and
-// 16 bits: candidates(F, flip 1) == candidates(F, flip 0) followed by the
-// mirrored-back candidates(M, flip 0), where M is F with its first 2 hw
+// 16 bits, at the header's threshold (T = 16384, decode at score 1) and at
+// T = 150 * 128 (decode at 44 * 128): candidates(F, flip 1) == ref_fuse of
+// candidates(F, flip 0) and the mirrored-back candidates(M, flip 0), both
+// one-pass runs at the decode threshold, where M is F with its first 2 hw
 // columns reversed (so that M's half-resolution plane is F's, mirrored; an
 // odd last column is not read and is set to 255 to show it).
-static void test_flip_equals_mirrored_frame(void)
+static void test_flip_equals_fusion_of_passes(void)
 {
     net_t n = net_default();
-    n.max_peaks = 100u;
     net_load(&n);
     static const uint32_t sizes[6][2] = {{64u, 48u}, {50u, 40u}, {61u, 45u}, {63u, 33u}, {96u, 80u}, {3u, 9u}};
     static uint8_t src8[MH][MW];
     static uint16_t src16[MH][MW];
+    static cand_rec_t fused;
     uint32_t seed = 777u;
-    for (uint32_t k = 0u; k < 12u; k++) {
+    uint32_t matched = 0u, dropped = 0u;
+    for (uint32_t k = 0u; k < 24u; k++) {
         const uint32_t w = sizes[k % 6u][0], h = sizes[k % 6u][1], hw = w / 2u;
-        const bool wide = k >= 6u;
+        const bool wide = (k / 6u) % 2u == 1u;
+        const uint32_t thr = (k < 12u) ? 16384u : 150u * 128u;
+        const uint32_t dec = (k < 12u) ? 1u : 2u * thr - 32768u;
         for (uint32_t y = 0u; y < h; y++) {
             for (uint32_t x = 0u; x < w; x++) {
                 const uint32_t v = tu_rand(&seed);
@@ -764,77 +996,41 @@ static void test_flip_equals_mirrored_frame(void)
                         wide ? VD_PIX_U16 : VD_PIX_U8, 0, 0};
         vd_detector_cfg_t c = cnn_cfg();
         c.max_candidates = 256u;
+        c.max_detections = 64u;
+        c.cnn_score_thr_q15 = (k < 12u) ? 0u : (uint16_t)thr;
         vd_detector_stats_t sa, sb, sc;
-        run_recorded(c, 1u, &f, &g_rec_a, &sa);
-        run_recorded(c, 0u, &f, &g_rec_b, &sb);
+        TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_a, &sa));
+        c.cnn_score_thr_q15 = (uint16_t)dec;
+        TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 0u, &f, &g_rec_b, &sb));
         for (uint32_t y = 0u; y < h; y++) {
             for (uint32_t x = 0u; x < w; x++) {
                 g_px[y][x] = (x < 2u * hw) ? src8[y][2u * hw - 1u - x] : 255u;
                 g_px16[y][x] = (x < 2u * hw) ? src16[y][2u * hw - 1u - x] : (uint16_t)65535u;
             }
         }
-        run_recorded(c, 0u, &f, &g_rec_c, &sc);
-        size_t want = g_rec_b.n;
-        for (size_t i = 0u; i < g_rec_b.n; i++) {
-            const vd_detection_t *d = &g_rec_a.c[i];
-            const vd_detection_t *e = &g_rec_b.c[i];
-            TEST_ASSERT_EQUAL_MEMORY(e, d, sizeof *d);
-        }
+        TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 0u, &f, &g_rec_c, &sc));
+        size_t m = 0u;
         for (size_t i = 0u; i < g_rec_c.n; i++) {
             vd_detection_t e = g_rec_c.c[i];
-            if (!mirror_cand(&e, hw, w)) {
-                continue;
+            if (mirror_cand(&e, hw, w)) {
+                g_rec_c.c[m++] = e;
             }
-            TEST_ASSERT_TRUE(want < g_rec_a.n);
-            const vd_detection_t *d = &g_rec_a.c[want++];
-            TEST_ASSERT_EQUAL_INT32(e.box.x, d->box.x);
-            TEST_ASSERT_EQUAL_INT32(e.box.y, d->box.y);
-            TEST_ASSERT_EQUAL_INT32(e.box.w, d->box.w);
-            TEST_ASSERT_EQUAL_INT32(e.box.h, d->box.h);
-            TEST_ASSERT_EQUAL_MEMORY(&d->box, &d->candidate, sizeof d->box);
-            TEST_ASSERT_EQUAL_UINT8(e.score_q8, d->score_q8);
-            TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, d->source);
-            TEST_ASSERT_EQUAL_UINT8(0u, d->flags);
         }
-        TEST_ASSERT_EQUAL_size_t(want, g_rec_a.n);
-        TEST_ASSERT_TRUE(g_rec_b.n > 0u && g_rec_a.n > g_rec_b.n);
+        g_rec_c.n = m;
+        ref_fuse(&g_rec_b, &g_rec_c, thr, &fused);
+        TEST_ASSERT_EQUAL_size_t(fused.n, g_rec_a.n);
+        for (size_t i = 0u; i < fused.n; i++) {
+            TEST_ASSERT_EQUAL_MEMORY(&fused.c[i], &g_rec_a.c[i], sizeof fused.c[i]);
+        }
         TEST_ASSERT_EQUAL_UINT32(sb.cnn_boxes + sc.cnn_boxes, sa.cnn_boxes);
         TEST_ASSERT_EQUAL_UINT32((uint32_t)g_rec_a.n, sa.cand_cnn);
         TEST_ASSERT_EQUAL_UINT32(0u, sa.overflow_candidates);
+        matched += (uint32_t)(g_rec_b.n + g_rec_c.n) > (uint32_t)g_rec_a.n ? 1u : 0u;
+        dropped += (g_rec_b.n > 0u && g_rec_a.n < g_rec_b.n) ? 1u : 0u;
     }
-}
-
-// The budget is shared by both passes: pass 0's boxes first, the rest of
-// pass 1's counted as overflow and reported as VD_ERR_CAPACITY.
-static void test_flip_capacity(void)
-{
-    net_t n = net_default();
-    net_load(&n);
-    fill(20u);
-    rect8(24u, 18u, 2u, 2u, 201u);
-    rect8(0u, 34u, 2u, 2u, 180u);
-    vd_frame_t f = frame8(50u, 48u);
-    for (uint16_t cap = 1u; cap <= 4u; cap++) {
-        vd_detector_cfg_t c = cnn_cfg();
-        c.cnn_flip = 1u;
-        c.max_candidates = cap;
-        c.max_detections = cap;
-        c.on_candidate = rec_candidate;
-        c.candidate_user = &g_rec_a;
-        g_rec_a.n = 0u;
-        init_or_fail(&c, NULL);
-        size_t nd = 0u;
-        TEST_ASSERT_EQUAL_INT(cap < 4u ? VD_ERR_CAPACITY : VD_OK, vd_detector_run(&g_det, &f, g_out, 64u, &nd));
-        const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
-        TEST_ASSERT_EQUAL_size_t(cap, g_rec_a.n);
-        TEST_ASSERT_EQUAL_UINT32(4u, s->cnn_boxes);
-        TEST_ASSERT_EQUAL_UINT32(cap, s->cand_cnn);
-        TEST_ASSERT_EQUAL_UINT32(4u - cap, s->overflow_candidates);
-        expect_cand(&g_rec_a.c[0], 20, 12, 16, 16, 201u);
-        if (cap >= 3u) {
-            expect_cand(&g_rec_a.c[2], 14, 12, 16, 16, 201u);
-        }
-    }
+    // Not vacuous: pairs were fused and boxes dropped below T.
+    TEST_ASSERT_TRUE(matched >= 12u);
+    TEST_ASSERT_TRUE(dropped >= 4u);
 }
 
 static uint32_t g_clock;
@@ -878,9 +1074,12 @@ int main(void)
     RUN_TEST(test_bad_configs);
     RUN_TEST(test_merge_with_hotspots);
     RUN_TEST(test_rescore_with_dbn);
-    RUN_TEST(test_flip_hand_worked);
-    RUN_TEST(test_flip_equals_mirrored_frame);
+    RUN_TEST(test_flip_fusion_hand_worked);
+    RUN_TEST(test_flip_fusion_two_scores);
+    RUN_TEST(test_flip_iou_bound);
     RUN_TEST(test_flip_capacity);
+    RUN_TEST(test_flip_workspace);
+    RUN_TEST(test_flip_equals_fusion_of_passes);
     RUN_TEST(test_clock_and_temporal);
     return UNITY_END();
 }

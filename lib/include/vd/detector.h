@@ -143,18 +143,29 @@ typedef struct vd_detector_cfg {
     // 1.0 saturates at 255). Frames under 2 x 2 pixels give no CNN boxes.
     const vd_cnn_model_t *cnn_model;  // loaded by vd_cnn_load; required when the source is on (else
                                       //   VD_ERR_ARG), ignored otherwise; must outlive the detector
-    uint16_t cnn_score_thr_q15;  // boxes whose score_q15 < this are dropped (vd_cnn_thr_from_score), 1..32768;
-                                 //   0 = the model header's threshold; above the model's top score: no boxes
+    uint16_t cnn_score_thr_q15;  // boxes whose score_q15 < this are dropped (vd_cnn_thr_from_score; with
+                                 //   cnn_flip the fused scores), 1..32768; 0 = the model header's threshold
+                                 //   (its logit; as a score, that logit's); above the model's top score: no boxes
     uint8_t cnn_rescore;         // 0: CNN boxes skip the DBN (score = CNN score); 1: the DBN scores them as it
                                  //   scores windows (whole box) and keeps them when score >= score_thr; their
                                  //   score is then the DBN's. 1 needs a DBN model (else VD_ERR_ARG)
-    uint8_t cnn_flip;            // 0: one pass (default); 1: horizontal-flip test-time augmentation: a second
-                                 //   pass on the mirrored half-resolution plane (x -> floor(W/2) - 1 - x, then
-                                 //   padded as usual), its boxes mirrored back ([x, x + w) -> [2 floor(W/2) -
-                                 //   x - w, 2 floor(W/2) - x)), clipped to the frame and appended after the
-                                 //   first pass's (same threshold, top-K, budget and stats); overlap
-                                 //   suppression merges them. About twice the network's time; no extra
-                                 //   workspace (both passes share it). Other values: VD_ERR_ARG
+    uint8_t cnn_flip;            // 0: one pass (default); 1: horizontal-flip test-time augmentation, the
+                                 //   fused flip pass: pass A on the plane and pass B on the mirrored plane
+                                 //   (x -> floor(W/2) - 1 - x, then padded as usual), both decoded at the
+                                 //   logit threshold of the score max(1, 2T - 32768) where T is the Q15 score
+                                 //   threshold (cnn_score_thr_q15, or the score of the header's logit
+                                 //   threshold); B's boxes mirrored back ([x, x + w) -> [2 floor(W/2) - x - w,
+                                 //   2 floor(W/2) - x)); both sets clipped to the frame (empty ones dropped).
+                                 //   In A's decode order each A box takes the unused B box of largest IoU
+                                 //   (vd_rect_iou_q15) >= VD_CNN_FLIP_IOU_Q15, ties to the first in B's
+                                 //   order: corners x0 = (a.x0 + b.x0) >> 1, y0 likewise, x1 = (a.x1 + b.x1 +
+                                 //   1) >> 1, y1 likewise (x1 = x + w, exclusive), score (sa + sb + 1) >> 1;
+                                 //   an A box without a match keeps its box with score (sa + 1) >> 1; then
+                                 //   every unused B box in order, score (sb + 1) >> 1. Fused boxes with
+                                 //   score < T are dropped, the rest are the CNN candidates in that order.
+                                 //   About twice the network's time plus at most max_peaks^2 IoUs; max_peaks
+                                 //   more decoded boxes in the workspace (vd_detector_workspace_size).
+                                 //   Other values: VD_ERR_ARG
     // Verifier (issue 12). Appended so the fields above keep their offsets.
     // VD_DETECTOR_VERIFIER_DBN (0): the DBN `model` of vd_detector_init scores
     // candidates (32x32 sample, score_thr_q8). VD_DETECTOR_VERIFIER_BOOST: the
@@ -171,6 +182,11 @@ typedef struct vd_detector_cfg {
     const vd_boost_model_t *boost_model;  // loaded by vd_boost_load; required with VERIFIER_BOOST
     int32_t boost_thr_offset;    // added to the model's threshold, -2^24..2^24; 0 = the model's
 } vd_detector_cfg_t;
+
+// cfg.cnn_flip: the IoU (Q15, rounded down as vd_rect_iou_q15) at or above
+// which a box of the mirrored pass can be fused with one of the normal pass
+// (9830 = 0.3 rounded down).
+#define VD_CNN_FLIP_IOU_Q15 9830u
 
 // Values of vd_detector_cfg_t.verifier.
 #define VD_DETECTOR_VERIFIER_DBN 0u
@@ -205,8 +221,10 @@ typedef struct vd_detector_stats {
     uint32_t windows_passed;       // windows passing the pre-filter (before the budget)
     uint32_t deduplicated;         // hot-spot/contrast/window candidates dropped by the merge (IoU > dedup_iou)
     uint32_t cnn_boxes;            // CNN boxes decoded (peaks >= the threshold, at most the header's max_peaks
-                                   //   per pass; both passes with cnn_flip)
-    uint32_t cand_cnn;             // CNN boxes merged (clipped to the frame, within max_candidates; both passes)
+                                   //   per pass; with cnn_flip nA + nB, both passes at their lower decode
+                                   //   threshold, before clipping and fusion)
+    uint32_t cand_cnn;             // CNN boxes merged (clipped to the frame, within max_candidates; with
+                                   //   cnn_flip the fused boxes >= the score threshold)
     uint32_t time_us[VD_DET_STAGE_COUNT];  // per stage, 0 without clock_us
 } vd_detector_stats_t;
 
@@ -235,9 +253,13 @@ typedef struct vd_detector {
     void *cnn_ws;                // CNN source (in the overlay; NULL when off): streamed vd_cnn_run_rows
                                  //   workspace for the largest input (no input plane: rows on demand),
     size_t cnn_ws_bytes;
-    vd_cnn_box_t *cnn_boxes;     //   decoded boxes (header max_peaks)
+    vd_cnn_box_t *cnn_boxes;     //   decoded boxes (header max_peaks; twice that with cnn_flip: pass A in
+                                 //   [0, max_peaks), pass B in [max_peaks, 2 max_peaks))
     size_t cnn_boxes_cap;
-    int32_t cnn_thr_q;           // int8 heatmap threshold resolved from cnn_score_thr_q15
+    int32_t cnn_thr_q;           // int8 heatmap threshold of the decode: the logit of T, or of
+                                 //   max(1, 2T - 32768) with cnn_flip
+    uint32_t cnn_thr_score_q15;  // T: cnn_score_thr_q15, or the header threshold's score (cnn_flip drops
+                                 //   fused boxes below it)
     bool cnn_never;              // threshold above every score, or frames under 2 x 2: the network never runs
     size_t cc_ws_bytes;
     size_t refine_ws_bytes;
@@ -281,7 +303,10 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 // smaller frame runs the network at its own size inside that plan (the
 // planner's size grows with the input: measured on every aligned size of the
 // shipped model and 150 random ones; vd_cnn_run would answer VD_ERR_WORKSPACE
-// otherwise). cnn_flip adds nothing: its second pass reuses D.
+// otherwise). cnn_flip adds max_peaks boxes to D (max_peaks * sizeof(vd_cnn_box_t)
+// bytes; pass A's boxes must survive pass B's decode), so the total grows by
+// that much when D is the overlay's largest part and by less (or nothing)
+// otherwise; its second network pass reuses D's network workspace.
 // Returns VD_OK; VD_ERR_ARG for NULL bytes, a cfg value out of range, the CNN
 // source without cfg.cnn_model, cnn_rescore without a DBN model, or a network
 // input above VD_CNN_MAX_SIDE (or twice it above VD_MAX_DIM); VD_ERR_MODEL
@@ -324,7 +349,9 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 //    and scored by the same DBN]
 //   [CNN source (first, cfg.cnn_model): half-resolution plane (cfg comment) ->
 //    vd_cnn_run -> vd_cnn_decode (threshold from cnn_score_thr_q15, top
-//    max_peaks, frame 2 nw x 2 nh) -> boxes clipped to the frame start the
+//    max_peaks, frame 2 nw x 2 nh) -> boxes clipped to the frame (cnn_flip:
+//    the same on the mirrored plane, boxes mirrored back, the two sets fused
+//    as the cfg comment says) start the
 //    merged list (beyond max_candidates: stats.overflow_candidates,
 //    VD_ERR_CAPACITY); hot spots and the other sources are then merged behind
 //    them with the dedup rule; CNN boxes skip the DBN unless cnn_rescore]

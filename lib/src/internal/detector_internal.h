@@ -80,8 +80,8 @@ vd_status_t vd_det_contrast_source(vd_detector_t *det, const vd_frame_t *f, size
 vd_status_t vd_det_window_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8);
 
 // detector_cnn.c. The network's boxes appended to det->cand[*n..) (the list is
-// empty when it runs: CNN boxes come first; with cfg.cnn_flip the mirrored
-// pass's boxes follow). Uses the overlay (plane, network
+// empty when it runs: CNN boxes come first; with cfg.cnn_flip the two passes'
+// boxes fused, those from the normal pass first). Uses the overlay (network
 // workspace, decoded boxes), so it must run before the hot-spot labelling.
 // Returns VD_OK, VD_ERR_CAPACITY (boxes beyond max_candidates, counted in
 // stats.overflow_candidates) or a vd_cnn_* / resample status.
