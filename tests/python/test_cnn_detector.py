@@ -134,11 +134,12 @@ def _flip_changes_something(frames, d, **kw):
 
 
 def test_flip_random_network_on_clip_frames(demo, clip_frames, random_net, tmp_path):
-    """--cnn-flip on: a second pass on the mirrored half-resolution plane (mirrored before the padding; odd
-    widths leave the last frame column out of it), boxes mirrored back, appended, then suppression:
-    demo == Python (cnn_detector.detect(flip=True)) on full and odd-sized frames, at the header's threshold
-    and at --cnn-thr, with the demo's default budgets (twice the top-K with the flip pass); a bare
-    --cnn-flip and the config key do the same."""
+    """--cnn-flip on, the fused flip pass: a second pass on the mirrored half-resolution plane (mirrored before
+    the padding; odd widths leave the last frame column out of it), both passes decoded at the lower
+    threshold, boxes mirrored back, the two sets fused (pairs averaged, the rest at half score, fused scores
+    below the threshold dropped), then suppression: demo == Python (cnn_detector.detect(flip=True)) on full
+    and odd-sized frames, at the header's threshold and at --cnn-thr, with the demo's default budgets (twice
+    the top-K with the flip pass); a bare --cnn-flip and the config key do the same."""
     d, net = random_net
     mp = int(d["max_peaks"])
     total = changed = 0
@@ -172,7 +173,8 @@ def test_flip_random_network_on_clip_frames(demo, clip_frames, random_net, tmp_p
 
 
 def test_flip_budgets(demo, clip_frames, random_net, tmp_path):
-    """With explicit budgets the first pass's boxes come first; the flip pass's fill what is left."""
+    """With explicit budgets the fused boxes keep their order (those of the first pass's boxes first, then the
+    mirrored pass's leftovers) until the budget is full."""
     d, net = random_net
     frames = clip_frames["640x512"]
     src = write_frames(tmp_path / "f", frames)
@@ -237,12 +239,20 @@ def test_real_frames_equal_python(demo, data_dir, tmp_path, flip):
             "--cnn-flip", "on" if flip else "off")
         dets = demo_dets(jl)
         total += compare(dets, frames, desc, max_candidates=mp, max_detections=mp, flip=flip)
+        if flip:   # a threshold above 0.5: both passes decode at 2 T - 1 = 0.2, fused boxes below 0.6 dropped
+            jl = tmp_path / f"{tag}_0.6.jsonl"
+            run(demo, "--input", src, "--sources", "cnn", "--model", MODEL, "--temporal", "off", "--json", jl,
+                "--quiet", "--cnn-flip", "on", "--cnn-thr", 0.6)
+            total += compare(demo_dets(jl), frames, desc, score_thr_q15=int(round(0.6 * 32768)), max_candidates=mp,
+                             max_detections=mp, flip=True)
         if int(desc["max_peaks"]) == 100:   # cnn_eval.Int8 decodes the top 100: exactly cnn_eval's candidates
             thr = int(desc["score_threshold_q"])
             for name, img in frames.items():
                 h, w = img.shape
                 got = [(b, int(round(s * 32768))) for b, s in ref(img, w, h, thr_q=thr)]
                 assert got == CDet.boxes(desc, img, flip=flip), name
+                got = [(b, int(round(s * 32768))) for b, s in ref(img, w, h, score_thr_q15=11469)]
+                assert got == CDet.boxes(desc, img, score_thr_q15=11469, flip=flip), name
     assert total > 0
 
 

@@ -6,8 +6,10 @@ Pipeline: vdtools.evaluation.cnn_eval.net_input (half resolution, edge padding t
 numpy integer reference (vdtools.formats.cnn_ref, equal to vd_cnn_run) -> decode at the header's top-K into a
 2 nw x 2 nh frame -> boxes clipped to the real frame (as cnn_eval.Int8) -> score_q8 -> the detector's
 budget (max_candidates) and overlap suppression (vd_suppress_nms) -> max_detections. With flip
-(cfg.cnn_flip, `--cnn-flip on`) a second pass on the mirrored half-resolution plane follows the first, its
-boxes mirrored back (cnn_eval.clip_boxes) and appended before the budget.
+(cfg.cnn_flip, `--cnn-flip on`) the fused flip pass: both passes (the plane and its mirror) decode at the
+logit of cnn_eval.flip_decode_score(T), T the Q15 score threshold; the mirrored pass's boxes are mirrored
+back (cnn_eval.clip_boxes) and the two sets fused (cnn_eval.fuse_flip, which drops fused scores below T)
+before the budget.
 
 Differences from cnn_eval.run (kept here so cnn_eval is not changed):
 - suppression is the C rule: a stable sort by score_q8 (not the Q15 score: boxes whose scores round to
@@ -16,7 +18,8 @@ Differences from cnn_eval.run (kept here so cnn_eval is not changed):
   with > 0.5, which differs for IoU in (0.5, 16385/32768), i.e. unions above 16384 px;
 - the decode's top-K is the header's max_peaks (cnn_eval.Int8 passes 100; equal for models with
   max_peaks 100);
-- a score threshold is applied as the int8 logit threshold vd_cnn_thr_from_score gives.
+- a score threshold is applied as the int8 logit threshold vd_cnn_thr_from_score gives (with flip: that of
+  the lower decode score, then T on the fused scores).
 
     from vdtools.evaluation import cnn_detector as CDet
     dets = CDet.detect(desc, img)   # [((x, y, w, h), score_q8)], best first
@@ -28,36 +31,14 @@ from vdtools.evaluation import cnn_eval
 from vdtools.formats import cnn_ref as R
 from vdtools.formats import cnn_vdm as V
 
-SCORE_ONE_Q15 = 32768
-
-
-def thr_from_score(desc, score_q15):
-    """vd_cnn_thr_from_score: the smallest logit whose decoded score is >= score_q15, or None when even
-    logit 127 scores lower."""
-    if not 0 <= score_q15 <= SCORE_ONE_Q15:
-        raise ValueError("score_q15 must be 0..32768")
-    for i, v in enumerate(desc["table"][0]):
-        if int(v) >= score_q15:
-            return i - 128
-    return None
+SCORE_ONE_Q15 = cnn_eval.SCORE_ONE_Q15
+thr_from_score = cnn_eval.thr_from_score   # vd_cnn_thr_from_score
+iou_q15 = cnn_eval.iou_q15                 # vd_rect_iou_q15
 
 
 def score_q8(score_q15):
     """The detector's Q15 -> Q8 score: rounded half up, 1.0 saturating at 255."""
     return min(255, (int(score_q15) + 64) >> 7)
-
-
-def iou_q15(a, b):
-    """vd_rect_iou_q15: intersection over union in Q15, rounded down (0 for an empty box)."""
-    ax, ay, aw, ah = (int(v) for v in a)
-    bx, by, bw, bh = (int(v) for v in b)
-    if aw <= 0 or ah <= 0 or bw <= 0 or bh <= 0:
-        return 0
-    iw = min(ax + aw, bx + bw) - max(ax, bx)
-    ih = min(ay + ah, by + bh) - max(ay, by)
-    inter = iw * ih if iw > 0 and ih > 0 else 0
-    union = aw * ah + bw * bh - inter
-    return (inter << 15) // union
 
 
 def nms_q15(dets, iou_thr_q15=16384, max_keep=None):
@@ -70,22 +51,36 @@ def nms_q15(dets, iou_thr_q15=16384, max_keep=None):
     return keep
 
 
-def boxes(desc, img, thr_q=None, flip=False):
-    """The CNN source's candidates of an 8-bit frame, in decode order: [((x, y, w, h), score_q15)].
-    thr_q: int8 heatmap threshold (None: the header's). flip: cfg.cnn_flip, the mirrored pass's boxes
-    (mirrored back) after the first pass's."""
+def score_threshold(desc, score_thr_q15=0):
+    """The detector's T, the score threshold in Q15: cfg.cnn_score_thr_q15, or (0) the decoded score of the
+    header's logit threshold."""
+    return int(score_thr_q15) if score_thr_q15 else int(desc["table"][0][int(desc["score_threshold_q"]) + 128])
+
+
+def boxes(desc, img, score_thr_q15=0, flip=False):
+    """The CNN source's candidates of an 8-bit frame, in order: [((x, y, w, h), score_q15)].
+    score_thr_q15: cfg.cnn_score_thr_q15 (0: the header's threshold). flip: cfg.cnn_flip, the fused flip
+    pass (A-derived boxes first, then the mirrored pass's leftovers)."""
     fh, fw = img.shape
     if fw < 2 or fh < 2:
         return []   # no half-resolution pixel: the detector runs nothing
+    thr = int(desc["score_threshold_q"])
+    if score_thr_q15:
+        thr = thr_from_score(desc, score_thr_q15)
+    t = score_threshold(desc, score_thr_q15)
+    if flip and thr is not None:
+        thr = thr_from_score(desc, cnn_eval.flip_decode_score(t))
+    if thr is None:
+        return []   # no logit scores that high: the detector never runs the network
     align = V.alignment(desc)
     planes = [cnn_eval.net_input(img, align)]
     if flip:   # the half-resolution plane mirrored, then padded (not the frame: odd widths)
         planes.append(CD.pad_to(np.ascontiguousarray(CD.half(img)[:, ::-1]), align))
     out = []
     for k, x in enumerate(planes):
-        dec = R.decode(desc, R.run(desc, x), 2 * x.shape[1], 2 * x.shape[0], thr_q=thr_q)
-        out += cnn_eval.clip_boxes(dec, fw, fh, flip_hw=fw // 2 if k else None)
-    return out
+        dec = R.decode(desc, R.run(desc, x), 2 * x.shape[1], 2 * x.shape[0], thr_q=thr)
+        out.append(cnn_eval.clip_boxes(dec, fw, fh, flip_hw=fw // 2 if k else None))
+    return cnn_eval.fuse_flip(out[0], out[1], t) if flip else out[0]
 
 
 def detect(desc, img, score_thr_q15=0, nms_iou_q15=16384, max_candidates=None, max_detections=None, flip=False):
@@ -93,12 +88,7 @@ def detect(desc, img, score_thr_q15=0, nms_iou_q15=16384, max_candidates=None, m
     [((x, y, w, h), score_q8)], best first. score_thr_q15: cfg.cnn_score_thr_q15 (0 = the header's
     threshold); max_candidates / max_detections: the detector's budgets (None = unlimited); flip:
     cfg.cnn_flip."""
-    thr = None
-    if score_thr_q15:
-        thr = thr_from_score(desc, score_thr_q15)
-        if thr is None:
-            return []
-    cands = [(b, score_q8(s)) for b, s in boxes(desc, img, thr, flip)]
+    cands = [(b, score_q8(s)) for b, s in boxes(desc, img, score_thr_q15, flip)]
     if max_candidates is not None:
         cands = cands[:max_candidates]
     return nms_q15(cands, nms_iou_q15, max_detections)

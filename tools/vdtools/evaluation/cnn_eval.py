@@ -8,7 +8,8 @@ through the C library (`--backend c`, default; vd_cnn_run + vd_cnn_decode, equal
 numpy reference), the numpy integer reference (`--backend ref`), or the float checkpoint (`--ckpt`).
 Boxes then go through overlap suppression at IoU 0.5 as in the detector. `--flip` adds the detector's
 horizontal-flip test-time augmentation (cfg.cnn_flip / `vd_fir_demo --cnn-flip on`): a second pass on the
-mirrored half-resolution plane whose boxes, mirrored back, join the first pass's before suppression.
+mirrored half-resolution plane whose boxes, mirrored back, are fused with the first pass's (fuse_flip:
+matched pairs averaged, unmatched boxes at half their score) before suppression.
 
 The operating point is chosen on the VAL split (largest threshold whose TP rate and FP rate meet the
 issue's bar on both families, else the best mean F1) and then only reported on the test split.
@@ -70,6 +71,68 @@ def net_input(img, align=16):
     return CD.pad_to(CD.half(img), align)
 
 
+SCORE_ONE_Q15 = 32768
+FLIP_IOU_Q15 = 9830   # VD_CNN_FLIP_IOU_Q15 (detector.h): 0.3 in Q15, rounded down
+
+
+def thr_from_score(desc, score_q15):
+    """vd_cnn_thr_from_score: the smallest logit whose decoded score is >= score_q15, or None when even
+    logit 127 scores lower."""
+    if not 0 <= score_q15 <= SCORE_ONE_Q15:
+        raise ValueError("score_q15 must be 0..32768")
+    for i, v in enumerate(desc["table"][0]):
+        if int(v) >= score_q15:
+            return i - 128
+    return None
+
+
+def iou_q15(a, b):
+    """vd_rect_iou_q15: intersection over union in Q15, rounded down (0 for an empty box)."""
+    ax, ay, aw, ah = (int(v) for v in a)
+    bx, by, bw, bh = (int(v) for v in b)
+    if aw <= 0 or ah <= 0 or bw <= 0 or bh <= 0:
+        return 0
+    iw = min(ax + aw, bx + bw) - max(ax, bx)
+    ih = min(ay + ah, by + bh) - max(ay, by)
+    inter = iw * ih if iw > 0 and ih > 0 else 0
+    union = aw * ah + bw * bh - inter
+    return (inter << 15) // union
+
+
+def flip_decode_score(thr_q15):
+    """The score at which both passes of the fused flip pass decode, for the score threshold thr_q15 (T):
+    max(1, 2 T - 32768), since a fused score (sa + sb + 1) >> 1 can reach T from there."""
+    return max(1, 2 * int(thr_q15) - SCORE_ONE_Q15)
+
+
+def fuse_flip(a, b, thr_q15):
+    """The fused flip pass (lib/src/detector_cnn.c fuse_passes), integer for integer. a, b: the normal and
+    the mirrored pass's clipped boxes [((x, y, w, h), score_q15)] in decode order (clip_boxes). In a's order,
+    each box takes the unused b box of the largest iou_q15 >= FLIP_IOU_Q15 (ties: the first in b's order):
+    corners averaged, x0 = (ax0 + bx0) >> 1 and y0 likewise rounded down, the exclusive x1, y1 rounded up
+    ((ax1 + bx1 + 1) >> 1), score (sa + sb + 1) >> 1; an a box without a match keeps its box with score
+    (sa + 1) >> 1 (the other pass voted 0); then every unused b box in order with (sb + 1) >> 1. Boxes
+    scoring below thr_q15 are dropped. Returns [((x, y, w, h), score_q15)]: a-derived first, then b's."""
+    used = [False] * len(b)
+    out = []
+    for box, sa in a:
+        best, best_iou = None, -1
+        for j, (other, _) in enumerate(b):
+            q = -1 if used[j] else iou_q15(box, other)
+            if q >= FLIP_IOU_Q15 and q > best_iou:
+                best, best_iou = j, q
+        if best is None:
+            out.append((tuple(box), (int(sa) + 1) >> 1))
+            continue
+        used[best] = True
+        (ax, ay, aw, ah), ((bx, by, bw, bh), sb) = box, b[best]
+        x0, y0 = (ax + bx) >> 1, (ay + by) >> 1
+        x1, y1 = (ax + aw + bx + bw + 1) >> 1, (ay + ah + by + bh + 1) >> 1
+        out.append(((x0, y0, x1 - x0, y1 - y0), (int(sa) + int(sb) + 1) >> 1))
+    out += [(tuple(box), (int(sb) + 1) >> 1) for j, (box, sb) in enumerate(b) if not used[j]]
+    return [(box, s) for box, s in out if s >= thr_q15]
+
+
 def clip_boxes(boxes, frame_w, frame_h, flip_hw=None):
     """Decoded boxes [(x, y, w, h, score_q15, ...)] -> [((x, y, w, h), score_q15)] inside the frame, empty
     ones dropped (lib/src/detector_cnn.c append_boxes). flip_hw: the boxes of the mirrored half-resolution
@@ -85,9 +148,9 @@ def clip_boxes(boxes, frame_w, frame_h, flip_hw=None):
 
 
 class Int8:
-    """Runs a .vdm through the C library (or the numpy reference). flip: the detector's cfg.cnn_flip, a second
-    pass on the mirrored half-resolution plane (mirrored before the padding, so odd widths match C), its
-    boxes mirrored back and appended."""
+    """Runs a .vdm through the C library (or the numpy reference). flip: the detector's cfg.cnn_flip, the fused
+    flip pass: a second pass on the mirrored half-resolution plane (mirrored before the padding, so odd widths
+    match C), its boxes mirrored back and fused with the first pass's (fuse_flip)."""
 
     def __init__(self, model_path, backend="c", flip=False):
         self.blob = Path(model_path).read_bytes()
@@ -103,12 +166,30 @@ class Int8:
             return self.c.decode(self.c.run(x), fw, fh, thr_q=thr_q, max_peaks=100)
         return R.decode(self.desc, R.run(self.desc, x), fw, fh, thr_q=thr_q, max_peaks=100)
 
-    def __call__(self, img, frame_w, frame_h, thr_q=-128):
-        out = clip_boxes(self._decode(net_input(img, self.align), thr_q), frame_w, frame_h)
-        if self.flip:
-            x = CD.pad_to(np.ascontiguousarray(CD.half(img)[:, ::-1]), self.align)
-            out += clip_boxes(self._decode(x, thr_q), frame_w, frame_h, flip_hw=img.shape[1] // 2)
-        return [(b, s / 32768.0) for b, s in out]
+    def __call__(self, img, frame_w, frame_h, thr_q=-128, score_thr_q15=None):
+        """[((x, y, w, h), score)], score = score_q15 / 32768. thr_q: int8 heatmap threshold (-128, the
+        default for AP curves: every peak); score_thr_q15: a Q15 score threshold instead (the detector's
+        cnn_score_thr_q15). With flip the threshold T is score_thr_q15, else the score of logit thr_q (0 for
+        -128: every peak of both passes, nothing dropped); both passes decode at the logit of
+        flip_decode_score(T) (every peak when T = 0) and fused boxes below T are dropped."""
+        if score_thr_q15 is not None and not self.flip:
+            thr_q = thr_from_score(self.desc, score_thr_q15)
+            if thr_q is None:
+                return []
+        if not self.flip:
+            return [(b, s / 32768.0) for b, s in clip_boxes(self._decode(net_input(img, self.align), thr_q),
+                                                             frame_w, frame_h)]
+        if score_thr_q15 is not None:
+            t = int(score_thr_q15)
+        else:
+            t = 0 if thr_q == -128 else int(self.desc["table"][0][int(thr_q) + 128])
+        dec_q = -128 if t == 0 else thr_from_score(self.desc, flip_decode_score(t))
+        if dec_q is None:
+            return []
+        a = clip_boxes(self._decode(net_input(img, self.align), dec_q), frame_w, frame_h)
+        x = CD.pad_to(np.ascontiguousarray(CD.half(img)[:, ::-1]), self.align)
+        b = clip_boxes(self._decode(x, dec_q), frame_w, frame_h, flip_hw=img.shape[1] // 2)
+        return [(box, s / 32768.0) for box, s in fuse_flip(a, b, t)]
 
 
 class Float:
@@ -274,7 +355,8 @@ def main(argv=None):
     ap.add_argument("--perturb", choices=sorted(PERTURB), help="camera-like change of the frames (backends c/ref)")
     ap.add_argument("--flip", action="store_true",
                     help="horizontal-flip test-time augmentation: a second pass on the mirrored half-resolution "
-                         "plane, boxes merged (backends c/ref; with --backend demo: vd_fir_demo --cnn-flip on)")
+                         "plane, its boxes fused with the first pass's (backends c/ref; with --backend demo: "
+                         "vd_fir_demo --cnn-flip on)")
     ap.add_argument("--out", help="JSON report")
     ap.add_argument("--pr", help="precision-recall PNG")
     a = ap.parse_args(argv)
