@@ -170,7 +170,7 @@ static void fuse_passes(vd_detector_t *det, const vd_cnn_box_t *a, size_t na, vd
         uint32_t best_iou = 0u;
         for (size_t j = 0u; j < nb; j++) {
             const uint32_t iou = (b[j].rect.w != 0) ? vd_rect_iou_q15(&a[i].rect, &b[j].rect) : 0u;
-            if (iou >= VD_CNN_FLIP_IOU_Q15 && (best == nb || iou > best_iou)) {
+            if (iou >= VD_CNN_FLIP_IOU_Q15 && iou > best_iou) {   // strict: ties keep the lowest j
                 best = j;
                 best_iou = iou;
             }
@@ -189,8 +189,9 @@ static void fuse_passes(vd_detector_t *det, const vd_cnn_box_t *a, size_t na, vd
             sum += b[best].score_q15;
             b[best].rect.w = 0;   // used
         }
-        if (((sum + 1u) >> 1) >= thr) {
-            push_box(det, &r, (sum + 1u) >> 1, n);
+        const uint32_t s = (sum + 1u) >> 1;   // unmatched: the other pass's vote is 0
+        if (s >= thr) {
+            push_box(det, &r, s, n);
         }
     }
     for (size_t j = 0u; j < nb; j++) {
