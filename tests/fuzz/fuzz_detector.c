@@ -9,7 +9,7 @@
 // compact network (models/vd_cnn_compact.vdm): one more byte picks the sources (with or
 // without the CNN bit, values above the documented set included), cnn_rescore (0..3) and
 // whether the network's score threshold is fuzzed (a u16, 0 = the model's, > 32768 invalid);
-// mask bit 29 fuzzes cnn_flip (0..3: the second, mirrored pass, and invalid values).
+// mask bit 29 fuzzes cnn_flip (0..3: the fused flip pass, and invalid values).
 // Checks: the size
 // query and init agree; a frame inside the configured maximum gives VD_OK or
 // VD_ERR_CAPACITY with every box inside the frame; a bad frame gives its

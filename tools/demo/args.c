@@ -168,8 +168,9 @@ static const setting_t k_settings[SET_COUNT] = {
                          "at >= --score-thr; the score is then the DBN's (needs a DBN model; default off)"},
     [SET_CNN_FLIP] = {"cnn-flip", "[on|off]",
                       "cnn source: run the network a second time on the mirrored half-resolution frame and "
-                      "add its boxes, mirrored back, before overlap suppression (test-time augmentation: "
-                      "about twice the network's time; default off)"},
+                      "fuse its boxes, mirrored back, with the first pass's (pairs averaged, the rest at half "
+                      "score, fused scores below the score threshold dropped) before overlap suppression (test-time "
+                      "augmentation: about twice the network's time; default off)"},
     [SET_VERIFIER] = {"verifier", "dbn|boost",
                       "verifier of hot-spot/contrast/window (and re-scored cnn) candidates: dbn (default, --model) "
                       "or boost (paper 003's boosted CNN-feature stumps, --boost-model)"},

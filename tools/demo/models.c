@@ -169,7 +169,8 @@ vd_status_t demo_models_load(demo_models_t *m, demo_opts_t *o, const char *model
         }
         m->have_cnn = true;
         o->cfg.cnn_model = &m->cnn;
-        // Room for the model's top-K per pass (two with --cnn-flip; and the paper sources' 64) unless set.
+        // Room for every decoded box unless set: the model's top-K, twice that with --cnn-flip (its fusion
+        // yields up to one box per box of either pass); and the paper sources' 64.
         const uint32_t topk = m->cnn.max_peaks * (o->cfg.cnn_flip != 0u ? 2u : 1u);
         if (!o->max_candidates_set) {
             uint32_t mc = topk + (((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u) ? 64u : 0u);
