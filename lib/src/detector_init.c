@@ -183,6 +183,7 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
         }
     }
     if (c->cnn_flip != 0u && !l->cnn_never) {
+        // lo = max(1, 2T - 32768); T <= 32768, so 2T fits.
         const uint32_t t2 = 2u * l->cnn_thr_score_q15;
         const uint32_t lo = (t2 > (uint32_t)VD_CNN_SCORE_ONE_Q15 + 1u) ? t2 - (uint32_t)VD_CNN_SCORE_ONE_Q15 : 1u;
         // lo <= T, so this fails only when T is 0 and no logit scores 1 or more.
