@@ -100,7 +100,7 @@ def test_random_network_on_clip_frames(demo, clip_frames, random_net, tmp_path):
             jl = tmp_path / f"{tag}_{thr}.jsonl"
             extra = [] if thr is None else ["--cnn-thr", thr]
             run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--model", "none", "--temporal", "off",
-                "--json", jl, "--quiet", *extra)
+                "--cnn-flip", "off", "--json", jl, "--quiet", *extra)
             q15 = 0 if thr is None else int(round(thr * 32768))
             total += compare(demo_dets(jl), frames, d, f"thr {thr}: ", score_thr_q15=q15, max_candidates=mp,
                              max_detections=mp)
@@ -110,7 +110,8 @@ def test_random_network_on_clip_frames(demo, clip_frames, random_net, tmp_path):
     jl = tmp_path / "convenience.jsonl"
     p = run(demo, "--input", tmp_path / "203x157", "--model", net, "--temporal", "off", "--json", jl)
     assert "sources cnn" in p.stderr and "CNN model" in p.stderr, p.stderr
-    compare(demo_dets(jl), frames, d, "--model: ", max_candidates=mp, max_detections=mp)
+    # ... with the demo's default fused flip pass and room for both passes' boxes
+    compare(demo_dets(jl), frames, d, "--model: ", max_candidates=2 * mp, max_detections=2 * mp, flip=True)
 
 
 def test_budgets_and_suppression_rule(demo, clip_frames, random_net, tmp_path):
@@ -121,7 +122,8 @@ def test_budgets_and_suppression_rule(demo, clip_frames, random_net, tmp_path):
     src = write_frames(tmp_path / "f", frames)
     jl = tmp_path / "b.jsonl"
     p = run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--model", "none", "--temporal", "off",
-            "--max-candidates", 7, "--max-detections", 5, "--nms-iou", 0.2, "--cnn-thr", 0.001, "--json", jl,
+            "--max-candidates", 7, "--max-detections", 5, "--nms-iou", 0.2, "--cnn-thr", 0.001, "--cnn-flip", "off",
+            "--json", jl,
             "--quiet")
     assert "budget" in p.stdout   # more peaks than 7: VD_ERR_CAPACITY noted, results valid
     compare(demo_dets(jl), frames, d, score_thr_q15=int(round(0.001 * 32768)), max_candidates=7, max_detections=5,
@@ -270,7 +272,8 @@ def test_demo_cnn_options(demo, clip_frames, random_net, tmp_path):
     cfg.write_text(json.dumps({"sources": "cnn", "cnn-model": str(net), "cnn_thr": 0.55, "temporal": False}))
     jl = tmp_path / "cfg.jsonl"
     run(demo, "--input", src, "--model", "none", "--config", cfg, "--json", jl, "--quiet")
-    compare(demo_dets(jl), frames, d, score_thr_q15=int(round(0.55 * 32768)), max_candidates=mp, max_detections=mp)
+    compare(demo_dets(jl), frames, d, score_thr_q15=int(round(0.55 * 32768)), max_candidates=2 * mp,
+            max_detections=2 * mp, flip=True)      # the demo's default: the fused flip pass
     # cnn with hot spots: both sources may appear; nothing else.
     jl2 = tmp_path / "both.jsonl"
     run(demo, "--input", src, "--model", "none", "--sources", "hotspot,cnn", "--cnn-model", net, "--json", jl2,

@@ -5,6 +5,7 @@ PyTorch), so CI runs them."""
 import math
 
 import numpy as np
+import pytest
 
 from vdtools.training import cnn_targets as G
 
@@ -53,10 +54,13 @@ def test_targets_hand_worked():
     assert mask.sum() == 16 * 16 - 6
 
 
-def test_sample_applies_split_cut_to_the_crop():
+@pytest.mark.parametrize("cut_ignore", [False, True])
+def test_sample_applies_split_cut_to_the_crop(cut_ignore):
     """sample() with augmentation off (scale 1, no flip, no photometric change) cuts a crop of the stretched
     half-resolution frame; its positives and ignore regions are exactly split_cut of the halved boxes shifted
-    to the crop, wherever the crop falls (found back by its pixels: the frame is random, so unique)."""
+    to the crop, wherever the crop falls (found back by its pixels: the frame is random, so unique). Without
+    cut_ignore (the shipped recipe) a vehicle is a clipped positive when its centre is in the crop, else
+    nothing: split_cut at min_visible 0 without its ignore regions."""
     from vdtools.data import cnn_data as CD
     rng = np.random.default_rng(3)
     img = rng.integers(0, 255, (480, 640), dtype=np.uint8)
@@ -69,13 +73,16 @@ def test_sample_applies_split_cut_to_the_crop():
     full = G.stretch(CD.half(img))
     crop, n_pos, n_cut = 96, 0, 0
     for _ in range(40):
-        crop_img, pos, ign = G.sample(fr, rng, crop=crop, augment=False)
+        crop_img, pos, ign = G.sample(fr, rng, crop=crop, augment=False, cut_ignore=cut_ignore)
         ys, xs = np.nonzero((full[:-crop + 1, :-crop + 1] == crop_img[0, 0]))
         at = [(y, x) for y, x in zip(ys, xs) if np.array_equal(full[y:y + crop, x:x + crop], crop_img)]
         assert len(at) == 1
         y0, x0 = at[0]
-        want_pos, want_cut = G.split_cut(boxes * 0.5 - np.array([x0, y0, 0, 0], np.float32), crop)
+        want_pos, want_cut = G.split_cut(boxes * 0.5 - np.array([x0, y0, 0, 0], np.float32), crop,
+                                         G.MIN_VISIBLE if cut_ignore else 0.0)
+        if not cut_ignore:
+            want_cut = want_cut[:0]
         np.testing.assert_allclose(pos, want_pos, atol=1e-4)
         np.testing.assert_allclose(ign, want_cut, atol=1e-4)
         n_pos, n_cut = n_pos + len(pos), n_cut + len(ign)
-    assert n_pos > 0 and n_cut > 0          # both cases were exercised
+    assert n_pos > 0 and (n_cut > 0) == cut_ignore     # both cases were exercised

@@ -64,7 +64,7 @@ def test_firmware_matches_demo(qemu, toolchain, tmp_path):
 
     out = tmp_path / "demo.jsonl"
     subprocess.run([str(demo), "--input", str(bdir / "frames"), "--cnn-model", str(REPO / "models" / "vd_cnn_compact.vdm"),
-                    "--json", str(out), "--quiet"], check=True, capture_output=True, text=True)
+                    "--cnn-flip", "off", "--json", str(out), "--quiet"], check=True, capture_output=True, text=True)
     host = out.read_text()
     assert "".join(fw_lines) == host
     # One line per frame (three by default), with vehicles: not two empty outputs compared.

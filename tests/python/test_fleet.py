@@ -162,7 +162,10 @@ def test_manifest_csv_and_plan(tmp_path):
 def test_settings_follow_the_demo():
     fields, cnn, dbn, desc = fleet.resolve({})
     assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm"} and dbn is None
-    assert fields["max_candidates"] == fields["max_detections"] == 100   # the shipped model's top-K
+    # the demo's defaults: the fused flip pass, room for every box of both passes (2 x the model's top-K)
+    assert fields["cnn_flip"] == 1 and fields["max_candidates"] == fields["max_detections"] == 200
+    fields = fleet.resolve({"cnn-flip": "off"})[0]
+    assert fields["cnn_flip"] == 0 and fields["max_candidates"] == fields["max_detections"] == 100
     fields, cnn, dbn, desc = fleet.resolve({"sources": "hotspot", "temporal": "off"})
     assert cnn is None and desc["dbn_model"] == "vd_dbn_grey.vdm" and fields["temporal"] is False
     assert fleet.resolve({"cnn_thr": 0.35})[0]["cnn_score_thr_q15"] == 11469   # round(0.35 * 32768)

@@ -372,7 +372,7 @@ def main(argv=None):
         raise SystemExit("--flip is for the int8 network (--model, not --ckpt or --paper)")
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
-                       extra=["--cnn-flip", "on"] if a.flip else [])
+                       extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"])
     else:
         res = run(Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend, flip=a.flip), frames)
     sec = time.time() - t0

@@ -157,8 +157,8 @@ def plan(recs, shard_frames=256):
 
 # ------------------------------------------------------------------ detector settings (as vd_fir_demo)
 
-SETTINGS = ("sources", "cnn-model", "model", "temporal", "cnn-thr", "thr-mode", "hot-thr", "max-candidates",
-            "max-detections", "max-tracks")
+SETTINGS = ("sources", "cnn-model", "model", "temporal", "cnn-thr", "cnn-flip", "thr-mode", "hot-thr",
+            "max-candidates", "max-detections", "max-tracks")
 
 
 def _vdm_version(blob):
@@ -198,7 +198,7 @@ def resolve(settings, models_dir=None):
         raise FleetError(f"settings not supported by vdtools.evaluation.fleet: {', '.join(bad)} "
                          f"(supported: {', '.join(SETTINGS)})")
     models_dir = Path(models_dir or clib.REPO / "models")
-    fields = {"temporal": _switch(s.get("temporal", True))}
+    fields = {"temporal": _switch(s.get("temporal", True)), "cnn_flip": int(_switch(s.get("cnn-flip", True)))}
     if "thr-mode" in s:
         fields["thr_mode"] = {"constant": 0, "adaptive": 1}[s["thr-mode"]]
     if "hot-thr" in s:
@@ -233,11 +233,12 @@ def resolve(settings, models_dir=None):
             raise FleetError(f"the cnn source needs a CNN model: cnn-model FILE ({def_cnn} not found)")
         from vdtools.bindings import detector as vdet
         m, _keep = vdet._load_cnn(cnn)
+        topk = int(m.max_peaks) * (2 if fields["cnn_flip"] else 1)     # the fused flip pass: up to 2 K boxes
         if "max-candidates" not in s:
-            mc = int(m.max_peaks) + (64 if sources & SRC_ALL else 0)
+            mc = topk + (64 if sources & SRC_ALL else 0)
             fields["max_candidates"] = min(mc, 4096)
         if "max-detections" not in s:
-            fields["max_detections"] = min(int(m.max_peaks), fields["max_candidates"])
+            fields["max_detections"] = min(topk, fields["max_candidates"])
     want_dbn = bool(sources & SRC_ALL)
     if mblob is not None and not model_is_cnn:
         dbn, desc["dbn_model"] = (mblob if want_dbn else None), Path(mp).name

@@ -49,8 +49,10 @@ def photometric(img, rng):
     return np.clip(np.round(x * 255), 0, 255).astype(np.uint8)
 
 
-def sample(fr, rng, crop=CROP, augment=True):
-    """One training crop: (stretched uint8 crop, boxes (N,4) in crop pixels, ignore boxes)."""
+def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False):
+    """One training crop: (stretched uint8 crop, boxes (N,4) in crop pixels, ignore boxes). cut_ignore: the
+    split_cut rule for vehicles the crop cuts (cnn_train --cut-ignore); off, every vehicle whose centre is in
+    the crop is a positive clipped to it and the others are background (the shipped models' recipe)."""
     img = CD.half(fr.img)
     boxes = fr.boxes * 0.5
     ign = fr.ignore * 0.5
@@ -86,7 +88,9 @@ def sample(fr, rng, crop=CROP, augment=True):
             boxes[:, 0] = crop - boxes[:, 0] - boxes[:, 2]
         if len(ign):
             ign[:, 0] = crop - ign[:, 0] - ign[:, 2]
-    pos, cut = split_cut(boxes, crop)
+    pos, cut = split_cut(boxes, crop, MIN_VISIBLE if cut_ignore else 0.0)
+    if not cut_ignore:
+        cut = cut[:0]
     return np.ascontiguousarray(img), pos, np.concatenate([clip_boxes(ign, crop), cut])
 
 

@@ -202,14 +202,14 @@ def macs(net, w, h):
 FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a batch
 
 
-def batch(frames_by_fam, rng, n, crop=CROP):
+def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False):
     xs, hms, ms, regs, regms = [], [], [], [], []
     fams = sorted(frames_by_fam)
     p = np.array([FAMILY_SHARE[f] for f in fams])
     for i in range(n):
         fam = fams[rng.choice(len(fams), p=p / p.sum())]
         lst = frames_by_fam[fam]
-        img, b, ig = sample(lst[rng.integers(len(lst))], rng, crop)
+        img, b, ig = sample(lst[rng.integers(len(lst))], rng, crop, cut_ignore=cut_ignore)
         hm, m, reg, regm = targets(b, ig, crop)
         xs.append(img)
         hms.append(hm)
@@ -336,6 +336,9 @@ def main(argv=None):
     ap.add_argument("--giou", type=float, default=0.0, help="weight of a GIoU box term (0: L1 only)")
     ap.add_argument("--crop", type=int, default=CROP, help="side of the square training crops, half-resolution "
                     "pixels (multiple of 16)")
+    ap.add_argument("--cut-ignore", action="store_true", help="a vehicle the crop cuts to under 60 %% of its area, "
+                    "or whose centre it cuts off, is an ignore region (cnn_targets.split_cut) instead of a clipped "
+                    "positive or background; measured without a val gain (docs/training.md), so off by default")
     a = ap.parse_args(argv)
     if a.qat and not a.init:
         ap.error("--qat fine-tunes a trained network: give --init")
@@ -394,7 +397,7 @@ def main(argv=None):
             lr *= (step + 1) / 200
         for g in opt.param_groups:
             g["lr"] = lr
-        x, hm, m, reg, regm = batch(by_fam, rng, a.batch, a.crop)
+        x, hm, m, reg, regm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore)
         o = net(x)
         loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou)
         opt.zero_grad()
