@@ -64,6 +64,19 @@ def compare(dets, frames, desc, first_diff_msg="", **kw):
     return n
 
 
+def demo_on_clip_sets(demo, clip_frames, net, tmp_path, flip):
+    """vd_fir_demo (cnn source, temporal off, --cnn-flip flip) on every frame set of clip_frames, at the
+    network header's threshold and at --cnn-thr 0.62: yields (frames, thr, demo detections, cfg Q15 threshold)."""
+    for tag, frames in clip_frames.items():
+        src = write_frames(tmp_path / f"{tag}_{flip}", frames)
+        for thr in (None, 0.62):
+            jl = tmp_path / f"{tag}_{flip}_{thr}.jsonl"
+            extra = [] if thr is None else ["--cnn-thr", thr]
+            run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--model", "none", "--temporal", "off",
+                "--cnn-flip", flip, "--json", jl, "--quiet", *extra)
+            yield frames, thr, demo_dets(jl), 0 if thr is None else int(round(thr * 32768))
+
+
 # ------------------------------------------------------------------ random networks, the bundled clip
 @pytest.fixture(scope="module")
 def clip_frames(tmp_path_factory):
@@ -94,21 +107,13 @@ def test_random_network_on_clip_frames(demo, clip_frames, random_net, tmp_path):
     d, net = random_net
     mp = int(d["max_peaks"])
     total = 0
-    for tag, frames in clip_frames.items():
-        src = write_frames(tmp_path / tag, frames)
-        for thr in (None, 0.62):
-            jl = tmp_path / f"{tag}_{thr}.jsonl"
-            extra = [] if thr is None else ["--cnn-thr", thr]
-            run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--model", "none", "--temporal", "off",
-                "--cnn-flip", "off", "--json", jl, "--quiet", *extra)
-            q15 = 0 if thr is None else int(round(thr * 32768))
-            total += compare(demo_dets(jl), frames, d, f"thr {thr}: ", score_thr_q15=q15, max_candidates=mp,
-                             max_detections=mp)
+    for frames, thr, dets, q15 in demo_on_clip_sets(demo, clip_frames, net, tmp_path, "off"):
+        total += compare(dets, frames, d, f"thr {thr}: ", score_thr_q15=q15, max_candidates=mp, max_detections=mp)
     assert total > 20, "the random network should find peaks on the clip"
     # A version-3 --model is the CNN model, and without --sources it selects the cnn source.
     frames = clip_frames["203x157"]
     jl = tmp_path / "convenience.jsonl"
-    p = run(demo, "--input", tmp_path / "203x157", "--model", net, "--temporal", "off", "--json", jl)
+    p = run(demo, "--input", tmp_path / "203x157_off", "--model", net, "--temporal", "off", "--json", jl)
     assert "sources cnn" in p.stderr and "CNN model" in p.stderr, p.stderr
     # ... with the demo's default fused flip pass and room for both passes' boxes
     compare(demo_dets(jl), frames, d, "--model: ", max_candidates=2 * mp, max_detections=2 * mp, flip=True)
@@ -145,30 +150,23 @@ def test_flip_random_network_on_clip_frames(demo, clip_frames, random_net, tmp_p
     d, net = random_net
     mp = int(d["max_peaks"])
     total = changed = 0
-    for tag, frames in clip_frames.items():
-        src = write_frames(tmp_path / tag, frames)
-        for thr in (None, 0.62):
-            jl = tmp_path / f"{tag}_{thr}.jsonl"
-            extra = [] if thr is None else ["--cnn-thr", thr]
-            run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--model", "none", "--temporal", "off",
-                "--cnn-flip", "on", "--json", jl, "--quiet", *extra)
-            q15 = 0 if thr is None else int(round(thr * 32768))
-            kw = dict(score_thr_q15=q15, max_candidates=2 * mp, max_detections=2 * mp)
-            total += compare(demo_dets(jl), frames, d, f"flip, thr {thr}: ", flip=True, **kw)
-            changed += _flip_changes_something(frames, d, **kw)
+    for frames, thr, dets, q15 in demo_on_clip_sets(demo, clip_frames, net, tmp_path, "on"):
+        kw = dict(score_thr_q15=q15, max_candidates=2 * mp, max_detections=2 * mp)
+        total += compare(dets, frames, d, f"flip, thr {thr}: ", flip=True, **kw)
+        changed += _flip_changes_something(frames, d, **kw)
     assert total > 20 and changed >= 4, (total, changed)
     frames = clip_frames["203x157"]
     cfg = tmp_path / "flip.json"
     cfg.write_text(json.dumps({"cnn_flip": True}))
     for args in (["--cnn-flip"], ["--config", cfg]):
         jl = tmp_path / "bare.jsonl"
-        p = run(demo, "--input", tmp_path / "203x157", "--sources", "cnn", "--cnn-model", net, "--model", "none",
+        p = run(demo, "--input", tmp_path / "203x157_on", "--sources", "cnn", "--cnn-model", net, "--model", "none",
                 "--temporal", "off", "--json", jl, *args)
         assert "(+ flip pass)" in p.stderr, p.stderr
         compare(demo_dets(jl), frames, d, f"{args}: ", flip=True, max_candidates=2 * mp, max_detections=2 * mp)
-    # off is the default and --cnn-flip off restores it
+    # the last --cnn-flip wins: off gives one pass (the demo default is on)
     jl = tmp_path / "off.jsonl"
-    p = run(demo, "--input", tmp_path / "203x157", "--sources", "cnn", "--cnn-model", net, "--model", "none",
+    p = run(demo, "--input", tmp_path / "203x157_on", "--sources", "cnn", "--cnn-model", net, "--model", "none",
             "--temporal", "off", "--json", jl, "--cnn-flip", "on", "--cnn-flip", "off")
     assert "(+ flip pass)" not in p.stderr, p.stderr
     compare(demo_dets(jl), frames, d, "off: ", max_candidates=mp, max_detections=mp)
