@@ -297,9 +297,10 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 // contrast (vd_contrast_workspace_size, row strips: 49 664 bytes at 640 x 512,
 // E in the overlay, used between the hot-spot refinement and the windows).
 // CNN: the network runs first in a frame, in the overlay, which must then
-// also hold D = the input plane nw x nh + vd_cnn_workspace_size(nw, nh) +
-// max_peaks boxes, with nw, nh = floor(max_width / 2), floor(max_height / 2)
-// rounded up to the model's alignment; the overlay is max(A, B, C, D, E). A
+// also hold D = vd_cnn_workspace_size_ex(nw, nh, VD_CNN_STREAM) (row rings; no
+// input plane: its rows are made from the frame on demand) + max_peaks boxes,
+// with nw, nh = floor(max_width / 2), floor(max_height / 2) rounded up to the
+// model's alignment; the overlay is max(A, B, C, D, E). A
 // smaller frame runs the network at its own size inside that plan (the
 // planner's size grows with the input: measured on every aligned size of the
 // shipped model and 150 random ones; vd_cnn_run would answer VD_ERR_WORKSPACE
