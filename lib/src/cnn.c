@@ -1813,6 +1813,11 @@ static int32_t table_at(const vd_cnn_model_t *m, uint32_t ch, int32_t v)
     return rd_i32(m->decode_table + 4u * (ch * 256u + (uint32_t)(v + 128)));
 }
 
+uint32_t vd_cnn_score_of_logit(const vd_cnn_model_t *m, int32_t v)
+{
+    return (uint32_t)table_at(m, 0u, v);
+}
+
 // floor(a / d) for d > 0 (C division truncates toward zero).
 static int64_t floor_div(int64_t a, int64_t d)
 {

@@ -15,7 +15,7 @@
 // of stack, cnn.h) when the source is on; no allocation.
 #include <string.h>
 
-#include "internal/blob_internal.h"
+#include "internal/cnn_internal.h"
 #include "internal/detector_internal.h"
 #include "internal/vd_internal.h"
 
@@ -171,8 +171,7 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     VD_VERIFY(st != VD_ERR_STATE, VD_ERR_MODEL);
     VD_TRY(st);
     l->cnn_thr_q = m->score_threshold_q;
-    // The loader checked the score table (0..32768, non-decreasing).
-    l->cnn_thr_score_q15 = vd_blob_u32(m->decode_table + 4u * (uint32_t)(m->score_threshold_q + 128));
+    l->cnn_thr_score_q15 = vd_cnn_score_of_logit(m, m->score_threshold_q);
     if (c->cnn_score_thr_q15 != 0u) {
         l->cnn_thr_score_q15 = c->cnn_score_thr_q15;
         st = vd_cnn_thr_from_score(m, c->cnn_score_thr_q15, &l->cnn_thr_q);
@@ -185,7 +184,7 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     if (c->cnn_flip != 0u && !l->cnn_never) {
         // lo = max(1, 2T - 32768); T <= 32768, so 2T fits.
         const uint32_t t2 = 2u * l->cnn_thr_score_q15;
-        const uint32_t lo = (t2 > (uint32_t)VD_CNN_SCORE_ONE_Q15 + 1u) ? t2 - (uint32_t)VD_CNN_SCORE_ONE_Q15 : 1u;
+        const uint32_t lo = (t2 > (uint32_t)VD_CNN_SCORE_ONE_Q15) ? t2 - (uint32_t)VD_CNN_SCORE_ONE_Q15 : 1u;
         // lo <= T, so this fails only when T is 0 and no logit scores 1 or more.
         st = vd_cnn_thr_from_score(m, lo, &l->cnn_thr_q);
         if (st == VD_ERR_RANGE) {

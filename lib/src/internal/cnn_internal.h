@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Private constants of the CNN module (lib/src/cnn.c): workspace run record, kernel block sizes.
+// Private constants of the CNN module (lib/src/cnn.c): workspace run record, kernel block sizes; and the
+// decode-table lookup the detector needs for its score threshold.
 #ifndef VD_CNN_INTERNAL_H
 #define VD_CNN_INTERNAL_H
 
@@ -67,5 +68,10 @@ typedef struct vd_cnn_plan {
 // Bytes of the record (items start after it).
 #define VD_CNN_REC_BYTES \
     ((uint32_t)((sizeof(vd_cnn_plan_t) + VD_CNN_ITEM_ALIGN - 1u) / VD_CNN_ITEM_ALIGN * VD_CNN_ITEM_ALIGN))
+
+// Decoded heatmap score (Q15, 0..32768) of int8 value v (-128..127) of a
+// model vd_cnn_load filled (its score table is checked there); the table
+// vd_cnn_thr_from_score searches.
+uint32_t vd_cnn_score_of_logit(const vd_cnn_model_t *m, int32_t v);
 
 #endif

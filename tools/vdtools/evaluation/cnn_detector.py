@@ -24,9 +24,6 @@ Differences from cnn_eval.run (kept here so cnn_eval is not changed):
     from vdtools.evaluation import cnn_detector as CDet
     dets = CDet.detect(desc, img)   # [((x, y, w, h), score_q8)], best first
 """
-import numpy as np
-
-from vdtools.data import cnn_data as CD
 from vdtools.evaluation import cnn_eval
 from vdtools.formats import cnn_ref as R
 from vdtools.formats import cnn_vdm as V
@@ -54,7 +51,7 @@ def nms_q15(dets, iou_thr_q15=16384, max_keep=None):
 def score_threshold(desc, score_thr_q15=0):
     """The detector's T, the score threshold in Q15: cfg.cnn_score_thr_q15, or (0) the decoded score of the
     header's logit threshold."""
-    return int(score_thr_q15) if score_thr_q15 else int(desc["table"][0][int(desc["score_threshold_q"]) + 128])
+    return int(score_thr_q15) if score_thr_q15 else cnn_eval.score_of_logit(desc, desc["score_threshold_q"])
 
 
 def boxes(desc, img, score_thr_q15=0, flip=False):
@@ -73,14 +70,12 @@ def boxes(desc, img, score_thr_q15=0, flip=False):
     if thr is None:
         return []   # no logit scores that high: the detector never runs the network
     align = V.alignment(desc)
-    planes = [cnn_eval.net_input(img, align)]
-    if flip:   # the half-resolution plane mirrored, then padded (not the frame: odd widths)
-        planes.append(CD.pad_to(np.ascontiguousarray(CD.half(img)[:, ::-1]), align))
-    out = []
-    for k, x in enumerate(planes):
-        dec = R.decode(desc, R.run(desc, x), 2 * x.shape[1], 2 * x.shape[0], thr_q=thr)
-        out.append(cnn_eval.clip_boxes(dec, fw, fh, flip_hw=fw // 2 if k else None))
-    return cnn_eval.fuse_flip(out[0], out[1], t) if flip else out[0]
+
+    def decode(x, q):   # the header's top-K, as the detector
+        return R.decode(desc, R.run(desc, x), 2 * x.shape[1], 2 * x.shape[0], thr_q=q)
+    if flip:
+        return cnn_eval.fused_flip_pass(decode, img, align, fw, fh, thr, t)
+    return cnn_eval.clip_boxes(decode(cnn_eval.net_input(img, align), thr), fw, fh)
 
 
 def detect(desc, img, score_thr_q15=0, nms_iou_q15=16384, max_candidates=None, max_detections=None, flip=False):

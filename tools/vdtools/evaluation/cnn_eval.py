@@ -65,10 +65,12 @@ def nms(dets, thr=0.5):
     return keep
 
 
-def net_input(img, align=16):
+def net_input(img, align=16, mirror=False):
     """Half-resolution plane, padded (edge replicate) to a multiple of the model's alignment: the
-    detector's network input."""
-    return CD.pad_to(CD.half(img), align)
+    detector's network input. mirror: the flip pass's input, the half-resolution plane mirrored left to
+    right before the padding (not the frame: for odd widths the detector drops the last frame column)."""
+    h = CD.half(img)
+    return CD.pad_to(np.ascontiguousarray(h[:, ::-1]) if mirror else h, align)
 
 
 SCORE_ONE_Q15 = 32768
@@ -97,6 +99,11 @@ def iou_q15(a, b):
     inter = iw * ih if iw > 0 and ih > 0 else 0
     union = aw * ah + bw * bh - inter
     return (inter << 15) // union
+
+
+def score_of_logit(desc, q):
+    """The decoded heatmap score (Q15) of int8 value q: the model's score table (vd_cnn_score_of_logit)."""
+    return int(desc["table"][0][int(q) + 128])
 
 
 def flip_decode_score(thr_q15):
@@ -131,6 +138,15 @@ def fuse_flip(a, b, thr_q15):
         out.append(((x0, y0, x1 - x0, y1 - y0), (int(sa) + int(sb) + 1) >> 1))
     out += [(tuple(box), (int(sb) + 1) >> 1) for j, (box, sb) in enumerate(b) if not used[j]]
     return [(box, s) for box, s in out if s >= thr_q15]
+
+
+def fused_flip_pass(decode, img, align, frame_w, frame_h, dec_q, thr_q15):
+    """The detector's two passes with cfg.cnn_flip: decode(plane, thr_q) -> decoded boxes, run on the plane
+    and on its mirror at dec_q (the logit of flip_decode_score(T), or -128), clipped (the mirror's boxes
+    mirrored back) and fused with threshold thr_q15 (T): [((x, y, w, h), score_q15)]."""
+    a = clip_boxes(decode(net_input(img, align), dec_q), frame_w, frame_h)
+    b = clip_boxes(decode(net_input(img, align, mirror=True), dec_q), frame_w, frame_h, flip_hw=img.shape[1] // 2)
+    return fuse_flip(a, b, thr_q15)
 
 
 def clip_boxes(boxes, frame_w, frame_h, flip_hw=None):
@@ -182,14 +198,12 @@ class Int8:
         if score_thr_q15 is not None:
             t = int(score_thr_q15)
         else:
-            t = 0 if thr_q == -128 else int(self.desc["table"][0][int(thr_q) + 128])
+            t = 0 if thr_q == -128 else score_of_logit(self.desc, thr_q)
         dec_q = -128 if t == 0 else thr_from_score(self.desc, flip_decode_score(t))
         if dec_q is None:
             return []
-        a = clip_boxes(self._decode(net_input(img, self.align), dec_q), frame_w, frame_h)
-        x = CD.pad_to(np.ascontiguousarray(CD.half(img)[:, ::-1]), self.align)
-        b = clip_boxes(self._decode(x, dec_q), frame_w, frame_h, flip_hw=img.shape[1] // 2)
-        return [(box, s / 32768.0) for box, s in fuse_flip(a, b, t)]
+        fused = fused_flip_pass(self._decode, img, self.align, frame_w, frame_h, dec_q, t)
+        return [(box, s / 32768.0) for box, s in fused]
 
 
 class Float:
