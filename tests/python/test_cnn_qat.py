@@ -101,3 +101,23 @@ def test_giou_hand_worked():
     assert g[0] == pytest.approx(1.0)
     assert g[1] == pytest.approx(0.5)
     assert g[2] == pytest.approx(-1.0 / 3.0)       # dx = 5 cells x stride 4 = 20 px
+
+
+def test_soup_is_the_mean_of_the_weights():
+    from vdtools.training import cnn_soup as S
+    a, b = _net(), T.Net("compact")
+    ca = dict(net=a.state_dict(), arch="compact", qat=True, step=1)
+    cb = dict(net=b.state_dict(), arch="compact", qat=True, step=2)
+    s = S.soup([ca, cb])
+    assert s["arch"] == "compact" and s["qat"] and s["soup"] == 2
+    for k, v in s["net"].items():
+        if v.dtype.is_floating_point:
+            torch.testing.assert_close(v, (ca["net"][k] + cb["net"][k]) / 2)
+        else:       # batch counters: the first checkpoint's
+            assert torch.equal(v, ca["net"][k])
+    with pytest.raises(ValueError):
+        S.soup([ca, dict(cb, qat=False)])
+    with pytest.raises(ValueError):
+        S.soup([ca, dict(net=T.Net("main").state_dict(), arch="main", qat=True)])
+    with pytest.raises(ValueError):
+        S.soup([])

@@ -86,3 +86,58 @@ def test_sample_applies_split_cut_to_the_crop(cut_ignore):
         np.testing.assert_allclose(ign, want_cut, atol=1e-4)
         n_pos, n_cut = n_pos + len(pos), n_cut + len(ign)
     assert n_pos > 0 and (n_cut > 0) == cut_ignore     # both cases were exercised
+
+
+class _Script:
+    """A scripted stand-in for numpy's Generator: integers() and uniform() return the queued values."""
+
+    def __init__(self, ints, unif):
+        self.ints, self.unif = list(ints), list(unif)
+
+    def integers(self, lo, hi=None):
+        v = self.ints.pop(0)
+        assert (0 if hi is None else lo) <= v < (lo if hi is None else hi)
+        return v
+
+    def uniform(self, lo, hi):
+        v = self.unif.pop(0)
+        assert lo <= v <= hi
+        return v
+
+
+def _frame(img, boxes):
+    from types import SimpleNamespace
+    return SimpleNamespace(img=np.asarray(img, np.uint8), boxes=_boxes(*boxes))
+
+
+def _donor():
+    # full resolution 80 x 80, a car of 200 at (20, 20, 20, 20) = half resolution (10, 10, 10, 10) on 0
+    d = np.zeros((80, 80), np.uint8)
+    d[20:40, 20:40] = 200
+    return _frame(d, [(20, 20, 20, 20)])
+
+
+def test_paste_hand_worked():
+    # margin 0.25 * 10 + 1 = 3.5 px: patch x, y 6..24 (int(6.5), ceil(23.5)), 18 x 18 at scale 1, the car at
+    # (4, 4) inside it. Spots: (0, 0) touches the vehicle at (5, 5, 8, 8), (20, 2) is free: box (24, 6, 10, 10).
+    img = np.full((40, 40), 30, np.uint8)
+    rng = _Script(ints=[1, 0, 0, 0, 0, 20, 2], unif=[1.0])
+    out, boxes, ign = G.paste(img, _boxes((5, 5, 8, 8)), _boxes(), [_donor()], rng)
+    np.testing.assert_allclose(boxes, _boxes((5, 5, 8, 8), (24, 6, 10, 10)))
+    assert ign.shape == (0, 4)
+    # mean-matched: the patch's ring (0) is moved to the spot's mean (30), so the car is 230 and the
+    # background 30; the feather (max(1, 0.5 * 3.5) = 1.75 px) blends only the outer two rings
+    assert (out[6:16, 24:34] == 230).all()
+    assert (out[2:20, 20:38] != 30).sum() == 100 and (out[:, :20] == 30).all() and (out[20:] == 30).all()
+
+
+def test_paste_keep_row_and_no_free_spot():
+    img = np.zeros((40, 40), np.uint8)
+    # keep_row (road level): y of the spot is the patch's own, (6 + 24 - 18) / 2 = 6: the car stays at y 10
+    rng = _Script(ints=[1, 0, 0, 15, 3], unif=[1.0])
+    _, boxes, _ = G.paste(img, _boxes(), _boxes(), [_donor()], rng, keep_row=True)
+    np.testing.assert_allclose(boxes, _boxes((19, 10, 10, 10)))
+    # an ignore region over the whole frame: every try fails, nothing is pasted, the frame is unchanged
+    rng = _Script(ints=[1, 0, 0] + [3, 4] * G.PASTE_TRIES, unif=[1.0])
+    out, boxes, _ = G.paste(img, _boxes(), _boxes((0, 0, 40, 40)), [_donor()], rng)
+    assert boxes.shape == (0, 4) and (out == 0).all()

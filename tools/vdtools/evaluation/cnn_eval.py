@@ -17,6 +17,8 @@ issue's bar on both families, else the best mean F1) and then only reported on t
     python3 -m vdtools.evaluation.cnn_eval --model models/vd_cnn.vdm --split val --out out/val.json
     python3 -m vdtools.evaluation.cnn_eval --model models/vd_cnn.vdm --split test --thr 0.35 --out out/test.json [--pr out.png]
     python3 -m vdtools.evaluation.cnn_eval --model models/vd_cnn.vdm --backend demo --split val --flip
+    python3 -m vdtools.evaluation.cnn_eval --model models/vd_cnn.vdm --backend demo --split train --flip \
+        --thr 0.35     # the frames the model trained on: seen-scene against unseen-scene accuracy
 """
 import argparse
 import json
@@ -357,8 +359,9 @@ def main(argv=None):
                     help="c: vd_cnn_run/decode + suppression here; ref: numpy reference; demo: the whole C "
                          "detector through vd_fir_demo (--demo), the figures docs/results/detector.md reports")
     ap.add_argument("--demo", default=str(clib.REPO / "build" / "tools" / "vd_fir_demo"))
-    ap.add_argument("--split", default="val", choices=("val", "test", "all"),
-                    help="all: every frame (only with --subset, for a model trained without that subset)")
+    ap.add_argument("--split", default="val", choices=("val", "test", "train", "all"),
+                    help="all: every frame (only with --subset, for a model trained without that subset); "
+                         "train: the frames the model trained on, for the generalisation gap (not accuracy)")
     ap.add_argument("--subset", choices=("msrs-night",),
                     help="only these frames: the another-camera estimate of docs/results/detector.md (a model "
                          "trained with cnn_train --exclude msrs-night, run on the night MSRS frames it never saw)")
@@ -395,6 +398,8 @@ def main(argv=None):
     if thr is None:
         if a.split != "val":
             raise SystemExit("choose the operating point on the val split, then pass --thr")
+    if a.split == "train" and a.subset:
+        raise SystemExit("--subset is for a model trained without it: use --split all")
         thr = choose_threshold(rep)
     for fam, v in rep.items():
         at = v["at"][thr]

@@ -13,6 +13,9 @@ STRIDE = 4
 CROP = 192
 MIN_VISIBLE = 0.6           # a crop-cut vehicle with less of its area inside is an ignore region (split_cut)
 SCALE = (0.6, 1.4)          # random rescale of the half-resolution frame (MSRS test cars are smaller than train)
+PASTE_MAX = 3               # vehicles pasted into one frame (paste)
+PASTE_TRIES = 10            # random spots tried per pasted vehicle
+PASTE_MARGIN = 0.25         # context around a pasted vehicle, of its width / height
 NORM = dict(norm_lo_permille=10, norm_hi_permille=995, norm_min_range=48)
 
 
@@ -49,13 +52,71 @@ def photometric(img, rng):
     return np.clip(np.round(x * 255), 0, 255).astype(np.uint8)
 
 
-def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False):
+def overlaps(b, bb):
+    """True when box b (x, y, w, h) intersects any row of bb."""
+    for x, y, w, h in np.asarray(bb, np.float64).reshape(-1, 4):
+        if min(b[0] + b[2], x + w) > max(b[0], x) and min(b[1] + b[3], y + h) > max(b[1], y):
+            return True
+    return False
+
+
+def paste(img, boxes, ign, donors, rng, n_max=PASTE_MAX, tries=PASTE_TRIES, keep_row=False):
+    """Copy-paste augmentation on a half-resolution frame (cnn_train --paste): 1..n_max vehicles cut from
+    other training frames of the same family (donors: frames with vehicles), each with a margin of
+    PASTE_MARGIN of its size around it, rescaled by 0.8-1.25, mean-matched to the spot it lands on, blended
+    in with a feathered edge, at a random spot where it touches no vehicle or ignore region (keep_row: at
+    its own height in the frame, for road-level frames, whose cars stand on the road below the horizon of
+    one fixed camera mount; drone views take any spot). Returns (img,
+    boxes, ign) with the pasted vehicles appended to boxes. Why: the road-level training set has 603 cars
+    in scenes of a few drives; the network fits them (train AP 81) far better than unseen scenes (val AP
+    40), and pasting puts the same cars on other backgrounds."""
+    img = img.astype(np.float32)
+    H, W = img.shape
+    boxes = [tuple(b) for b in np.asarray(boxes, np.float64).reshape(-1, 4)]
+    for _ in range(int(rng.integers(1, n_max + 1))):
+        d = donors[int(rng.integers(len(donors)))]
+        src = CD.half(d.img).astype(np.float32)
+        x, y, w, h = (d.boxes[int(rng.integers(len(d.boxes)))] * 0.5).tolist()
+        mx, my = PASTE_MARGIN * w + 1, PASTE_MARGIN * h + 1
+        x0, y0 = int(max(0, x - mx)), int(max(0, y - my))
+        x1, y1 = int(min(src.shape[1], math.ceil(x + w + mx))), int(min(src.shape[0], math.ceil(y + h + my)))
+        s = float(rng.uniform(0.8, 1.25))
+        pw, ph = max(2, int(round((x1 - x0) * s))), max(2, int(round((y1 - y0) * s)))
+        if pw >= W or ph >= H:
+            continue
+        patch = cv2.resize(src[y0:y1, x0:x1], (pw, ph), interpolation=cv2.INTER_LINEAR)
+        nb = ((x - x0) * s, (y - y0) * s, w * s, h * s)     # the vehicle inside the patch
+        for _t in range(tries):
+            px, py = int(rng.integers(0, W - pw + 1)), int(rng.integers(0, H - ph + 1))
+            if keep_row:
+                py = int(np.clip(round((y0 + y1 - ph) / 2), 0, H - ph))
+            box = (px + nb[0], py + nb[1], nb[2], nb[3])
+            if not overlaps((px, py, pw, ph), boxes) and not overlaps((px, py, pw, ph), ign):
+                break
+        else:
+            continue
+        spot = img[py:py + ph, px:px + pw]
+        ring = np.concatenate([patch[0], patch[-1], patch[:, 0], patch[:, -1]])
+        patch = patch + (float(spot.mean()) - float(ring.mean()))
+        fy = np.minimum(np.arange(ph), np.arange(ph)[::-1]).astype(np.float32)
+        fx = np.minimum(np.arange(pw), np.arange(pw)[::-1]).astype(np.float32)
+        feather = max(1.0, 0.5 * min(mx, my) * s)
+        a = np.clip(np.minimum(fy[:, None], fx[None, :]) / feather, 0, 1)
+        img[py:py + ph, px:px + pw] = a * patch + (1 - a) * spot
+        boxes.append(box)
+    return (np.clip(np.round(img), 0, 255).astype(np.uint8), np.array(boxes, np.float32).reshape(-1, 4), ign)
+
+
+def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, paste_p=0.0):
     """One training crop: (stretched uint8 crop, boxes (N,4) in crop pixels, ignore boxes). cut_ignore: the
     split_cut rule for vehicles the crop cuts (cnn_train --cut-ignore); off, every vehicle whose centre is in
-    the crop is a positive clipped to it and the others are background (the shipped models' recipe)."""
+    the crop is a positive clipped to it and the others are background (the shipped models' recipe).
+    donors, paste_p: copy-paste augmentation (paste) with probability paste_p."""
     img = CD.half(fr.img)
     boxes = fr.boxes * 0.5
     ign = fr.ignore * 0.5
+    if augment and donors and rng.random() < paste_p:
+        img, boxes, ign = paste(img, boxes, ign, donors, rng, keep_row=CD.family(fr) == "msrs")
     if augment:
         img = photometric(img, rng)
     img = stretch(img)

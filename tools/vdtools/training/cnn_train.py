@@ -202,14 +202,15 @@ def macs(net, w, h):
 FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a batch
 
 
-def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False):
+def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donors=None):
     xs, hms, ms, regs, regms = [], [], [], [], []
     fams = sorted(frames_by_fam)
     p = np.array([FAMILY_SHARE[f] for f in fams])
     for i in range(n):
         fam = fams[rng.choice(len(fams), p=p / p.sum())]
         lst = frames_by_fam[fam]
-        img, b, ig = sample(lst[rng.integers(len(lst))], rng, crop, cut_ignore=cut_ignore)
+        img, b, ig = sample(lst[rng.integers(len(lst))], rng, crop, cut_ignore=cut_ignore,
+                            donors=(donors or {}).get(fam), paste_p=paste_p)
         hm, m, reg, regm = targets(b, ig, crop)
         xs.append(img)
         hms.append(hm)
@@ -339,6 +340,8 @@ def main(argv=None):
     ap.add_argument("--cut-ignore", action="store_true", help="a vehicle the crop cuts to under 60 %% of its area, "
                     "or whose centre it cuts off, is an ignore region (cnn_targets.split_cut) instead of a clipped "
                     "positive or background; measured without a val gain (docs/training.md), so off by default")
+    ap.add_argument("--paste", type=float, default=0.0, help="probability of copy-paste augmentation per crop: "
+                    "1-3 vehicles of other training frames of the same family pasted in (cnn_targets.paste)")
     a = ap.parse_args(argv)
     if a.qat and not a.init:
         ap.error("--qat fine-tunes a trained network: give --init")
@@ -358,6 +361,7 @@ def main(argv=None):
     by_fam = {}
     for f in train:
         by_fam.setdefault(CD.family(f), []).append(f)
+    donors = {k: [f for f in v if len(f.boxes)] for k, v in by_fam.items()}
     print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }), val {len(val)}", flush=True)
     net = Net(a.arch)
     if a.init:
@@ -397,7 +401,7 @@ def main(argv=None):
             lr *= (step + 1) / 200
         for g in opt.param_groups:
             g["lr"] = lr
-        x, hm, m, reg, regm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore)
+        x, hm, m, reg, regm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore, a.paste, donors)
         o = net(x)
         loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou)
         opt.zero_grad()
