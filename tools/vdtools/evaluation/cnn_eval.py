@@ -305,6 +305,19 @@ def subset_ap(results):
             for k, v in sorted(by.items())}
 
 
+def angle_ap(results):
+    """{"day 30": (AP@0.5, vehicles), ...} of the drone-view frames by the camera angle in their HIT-UAV
+    file name (T_H_A_W_ID: T 0 day / 1 night, A the angle in degrees; the flight too)."""
+    by = {}
+    for fam, fr, dets, gts in results:
+        if fam != "hit":
+            continue
+        t, _, a = Path(CD.frame_path(fr)).name.split("_")[:3]
+        by.setdefault(f"{'day' if t == '0' else 'night'} {a}", []).append((fr, dets, gts))
+    return {k: (average_precision([(d, g) for _, d, g in v])[0], sum(len(fr.boxes) for fr, _, _ in v))
+            for k, v in sorted(by.items(), key=lambda kv: (kv[0].split()[0], int(kv[0].split()[1])))}
+
+
 def choose_threshold(rep):
     """Operating point on the val split: the threshold with TP >= 70 % and FP <= 30 % on every family and
     the highest mean F1 among those; else the highest mean F1 overall."""
@@ -409,6 +422,10 @@ def main(argv=None):
     subsets = subset_ap(res)
     print("AP@0.5 per subset: " + ", ".join(f"{k} {100 * ap:.1f} ({nf} frames, {nv} vehicles)"
                                              for k, (ap, nf, nv) in subsets.items()))
+    angles = angle_ap(res)
+    if angles:
+        print("drone AP@0.5 per camera angle (degrees): " + ", ".join(f"{k} {100 * ap:.1f} ({nv})"
+                                                                       for k, (ap, nv) in angles.items()))
     print(f"threshold {thr}; {'flip pass on; ' if a.flip else ''}{len(frames)} frames in {sec:.1f} s")
     if a.pr:
         plot_pr(rep, a.pr, f"CNN detector, {a.split} split ({Path(a.model or a.ckpt).name})")
@@ -416,7 +433,8 @@ def main(argv=None):
         Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, thr=thr, flip=a.flip,
                                                families=summary(rep, thr),
                                                subsets={k: dict(ap=ap, n_frames=nf, n_vehicles=nv)
-                                                        for k, (ap, nf, nv) in subsets.items()}),
+                                                        for k, (ap, nf, nv) in subsets.items()},
+                                               angles={k: dict(ap=ap, n_vehicles=nv) for k, (ap, nv) in angles.items()}),
                                           indent=1) + "\n")
 
 
