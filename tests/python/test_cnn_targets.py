@@ -141,3 +141,16 @@ def test_paste_keep_row_and_no_free_spot():
     rng = _Script(ints=[1, 0, 0] + [3, 4] * G.PASTE_TRIES, unif=[1.0])
     out, boxes, _ = G.paste(img, _boxes(), _boxes((0, 0, 40, 40)), [_donor()], rng)
     assert boxes.shape == (0, 4) and (out == 0).all()
+
+
+def test_camera_angle_and_oblique_weights():
+    from types import SimpleNamespace
+
+    def fr(dataset, name):
+        return SimpleNamespace(dataset=dataset, path=f"x/{name}")
+    frames = [fr("hit", "0_100_30_0_00001.jpg"), fr("hit", "1_60_40_0_00002.jpg"),
+              fr("hit", "1_60_90_0_00003.jpg"), fr("seq", "0_100_50_0_08067.jpg"), fr("msrs", "00012N.png")]
+    assert [G.camera_angle(f) for f in frames] == [30, 40, 90, 50, None]
+    # two oblique frames (<= 40 degrees) at weight 3, three at 1: 3/9, 3/9, 1/9, 1/9, 1/9
+    np.testing.assert_allclose(G.frame_weights(frames, 3.0), [3 / 9, 3 / 9, 1 / 9, 1 / 9, 1 / 9])
+    np.testing.assert_allclose(G.frame_weights(frames), [0.2] * 5)

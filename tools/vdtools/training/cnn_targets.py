@@ -3,6 +3,7 @@
 tests run them without PyTorch: the .vdm input normalisation, AGC-like augmentation, the crop with its
 rule for vehicles the crop cuts (split_cut), and the heatmap / size / offset targets."""
 import math
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -16,6 +17,7 @@ SCALE = (0.6, 1.4)          # random rescale of the half-resolution frame (MSRS 
 PASTE_MAX = 3               # vehicles pasted into one frame (paste)
 PASTE_TRIES = 10            # random spots tried per pasted vehicle
 PASTE_MARGIN = 0.25         # context around a pasted vehicle, of its width / height
+OBLIQUE_MAX_DEG = 40        # "oblique" drone views (frame_weights): the weakest angles (docs/results/detector.md)
 NORM = dict(norm_lo_permille=10, norm_hi_permille=995, norm_min_range=48)
 
 
@@ -66,8 +68,8 @@ def paste(img, boxes, ign, donors, rng, n_max=PASTE_MAX, tries=PASTE_TRIES, keep
     PASTE_MARGIN of its size around it, rescaled by 0.8-1.25, mean-matched to the spot it lands on, blended
     in with a feathered edge, at a random spot where it touches no vehicle or ignore region (keep_row: at
     its own height in the frame, for road-level frames, whose cars stand on the road below the horizon of
-    one fixed camera mount; drone views take any spot). Returns (img,
-    boxes, ign) with the pasted vehicles appended to boxes. Why: the road-level training set has 603 cars
+    one fixed camera mount; drone views take any spot). Returns (img, boxes, ign) with the pasted vehicles
+    appended to boxes. Why: the road-level training set has 603 cars
     in scenes of a few drives; the network fits them (train AP 81) far better than unseen scenes (val AP
     40), and pasting puts the same cars on other backgrounds."""
     img = img.astype(np.float32)
@@ -220,3 +222,19 @@ def targets(boxes, ign, size, stride=STRIDE):
                     reg[:, jy, jx] = (math.log(max(w, 1.0)), math.log(max(h, 1.0)), cx - jx, cy - jy)
                     regm[jy, jx] = wgt
     return hm, mask, reg, regm
+
+
+# ---------------------------------------------------------------- frame sampling
+
+def camera_angle(fr):
+    """The camera angle in degrees of a HIT-UAV frame (file name T_H_A_W_ID), else None."""
+    parts = Path(CD.frame_path(fr)).name.split("_")
+    return int(parts[2]) if CD.family(fr) == "hit" and len(parts) >= 5 and parts[2].isdigit() else None
+
+
+def frame_weights(frames, oblique=1.0):
+    """Sampling probabilities of one family's training frames: uniform, except drone frames at a camera
+    angle of at most OBLIQUE_MAX_DEG, drawn `oblique` times as often (cnn_train --oblique)."""
+    w = np.array([oblique if (a := camera_angle(f)) is not None and a <= OBLIQUE_MAX_DEG else 1.0
+                  for f in frames], np.float64)
+    return w / w.sum()

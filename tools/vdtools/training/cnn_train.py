@@ -35,7 +35,8 @@ import torch.nn.functional as F
 from vdtools.bindings import clib
 from vdtools.data import cnn_data as CD
 from vdtools.metrics.evaluate import average_precision
-from vdtools.training.cnn_targets import CROP, NORM, STRIDE, sample, stretch, targets  # noqa: F401 (NORM: cnn_export)
+from vdtools.training.cnn_targets import (CROP, NORM, STRIDE, frame_weights, sample, stretch,  # noqa: F401
+                                          targets)    # (NORM: for cnn_export)
 
 SIZE_WEIGHT = 1.0           # L1 of log sizes + offsets, against the focal heatmap loss
 
@@ -202,14 +203,15 @@ def macs(net, w, h):
 FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a batch
 
 
-def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donors=None):
+def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donors=None, weights=None):
     xs, hms, ms, regs, regms = [], [], [], [], []
     fams = sorted(frames_by_fam)
     p = np.array([FAMILY_SHARE[f] for f in fams])
     for i in range(n):
         fam = fams[rng.choice(len(fams), p=p / p.sum())]
         lst = frames_by_fam[fam]
-        img, b, ig = sample(lst[rng.integers(len(lst))], rng, crop, cut_ignore=cut_ignore,
+        k = rng.integers(len(lst)) if weights is None else rng.choice(len(lst), p=weights[fam])
+        img, b, ig = sample(lst[k], rng, crop, cut_ignore=cut_ignore,
                             donors=(donors or {}).get(fam), paste_p=paste_p)
         hm, m, reg, regm = targets(b, ig, crop)
         xs.append(img)
@@ -342,6 +344,8 @@ def main(argv=None):
                     "positive or background; measured without a val gain (docs/training.md), so off by default")
     ap.add_argument("--paste", type=float, default=0.0, help="probability of copy-paste augmentation per crop: "
                     "1-3 vehicles of other training frames of the same family pasted in (cnn_targets.paste)")
+    ap.add_argument("--oblique", type=float, default=1.0, help="draw drone frames with a camera angle of at most "
+                    "40 degrees this many times as often as the others (1: uniform)")
     a = ap.parse_args(argv)
     if a.qat and not a.init:
         ap.error("--qat fine-tunes a trained network: give --init")
@@ -362,6 +366,7 @@ def main(argv=None):
     for f in train:
         by_fam.setdefault(CD.family(f), []).append(f)
     donors = {k: [f for f in v if len(f.boxes)] for k, v in by_fam.items()}
+    weights = None if a.oblique == 1.0 else {k: frame_weights(v, a.oblique) for k, v in by_fam.items()}
     print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }), val {len(val)}", flush=True)
     net = Net(a.arch)
     if a.init:
@@ -401,7 +406,7 @@ def main(argv=None):
             lr *= (step + 1) / 200
         for g in opt.param_groups:
             g["lr"] = lr
-        x, hm, m, reg, regm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore, a.paste, donors)
+        x, hm, m, reg, regm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore, a.paste, donors, weights)
         o = net(x)
         loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou)
         opt.zero_grad()
