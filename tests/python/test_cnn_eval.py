@@ -1,16 +1,22 @@
 # SPDX-License-Identifier: MIT
-"""Reporting helpers of vdtools.evaluation.cnn_eval that the other CNN tests do not reach: the drone AP per
-HIT-UAV camera angle (angle_ap), hand-worked on made-up results (no data, no model)."""
+"""Parts of vdtools.evaluation.cnn_eval that the other CNN tests do not reach: the drone AP per HIT-UAV camera
+angle (angle_ap), hand-worked on made-up results (no data, no model); the command's own checks; and its
+operating-point choice on the val split (real data and the committed model)."""
+import json
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from vdtools.bindings.clib import REPO
 from vdtools.evaluation import cnn_eval
+
+MODEL = REPO / "models" / "vd_cnn.vdm"
 
 
 def _result(fam, name, boxes, dets):
-    fr = SimpleNamespace(path=f"frames/{name}", boxes=np.array(boxes, np.float32).reshape(-1, 4))
+    fr = SimpleNamespace(dataset="hit" if fam == "hit" else fam, name=name,
+                         boxes=np.array(boxes, np.float32).reshape(-1, 4))
     gts = [tuple(b) + (True, False) for b in fr.boxes.tolist()]
     return fam, fr, dets, gts
 
@@ -28,3 +34,21 @@ def test_angle_ap_groups_drone_frames_by_time_and_angle():
     assert got["day 30"][0] == pytest.approx(1 / 3) and got["day 30"][1] == 3
     assert got["night 5"] == (pytest.approx(1.0), 1) and got["night 90"] == (pytest.approx(0.0), 1)
     assert cnn_eval.angle_ap(res[-1:]) == {}
+
+
+def test_split_rules_are_checked_before_any_frame_is_read(tmp_path):
+    for argv in (["--split", "all"], ["--split", "train", "--subset", "msrs-night"]):
+        with pytest.raises(SystemExit):      # the data folder does not exist: reading it would fail otherwise
+            cnn_eval.main(["--model", str(MODEL), "--data", str(tmp_path / "none")] + argv)
+
+
+def test_val_run_chooses_the_operating_point(data_dir, tmp_path):
+    """Without --thr on val the command chooses the threshold (choose_threshold) and records it."""
+    if not MODEL.is_file():
+        pytest.skip("models/vd_cnn.vdm absent")
+    out = tmp_path / "val.json"
+    cnn_eval.main(["--model", str(MODEL), "--data", str(data_dir), "--split", "val", "--flip", "--out", str(out)])
+    rep = json.loads(out.read_text())
+    assert rep["thr"] in cnn_eval.THRESHOLDS and rep["flip"] and set(rep["families"]) == {"hit", "msrs"}
+    assert rep["families"]["hit"]["at_thr"] == rep["families"]["hit"]["at"][str(rep["thr"])]
+    assert rep["angles"] and all(k.split()[0] in ("day", "night") for k in rep["angles"])

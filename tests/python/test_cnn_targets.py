@@ -146,11 +146,13 @@ def test_paste_keep_row_and_no_free_spot():
 def test_camera_angle_and_oblique_weights():
     from types import SimpleNamespace
 
+    from vdtools.data import cnn_data as CD
+
     def fr(dataset, name):
-        return SimpleNamespace(dataset=dataset, path=f"x/{name}")
+        return SimpleNamespace(dataset=dataset, name=name)
     frames = [fr("hit", "0_100_30_0_00001.jpg"), fr("hit", "1_60_40_0_00002.jpg"),
               fr("hit", "1_60_90_0_00003.jpg"), fr("seq", "0_100_50_0_08067.jpg"), fr("msrs", "00012N.png")]
-    assert [G.camera_angle(f) for f in frames] == [30, 40, 90, 50, None]
+    assert [CD.hit_view(f) for f in frames] == [(False, 30), (True, 40), (True, 90), (False, 50), None]
     # two oblique frames (<= 40 degrees) at weight 3, three at 1: 3/9, 3/9, 1/9, 1/9, 1/9
     np.testing.assert_allclose(G.frame_weights(frames, 3.0), [3 / 9, 3 / 9, 1 / 9, 1 / 9, 1 / 9])
     np.testing.assert_allclose(G.frame_weights(frames), [0.2] * 5)

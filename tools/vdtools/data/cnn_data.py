@@ -85,6 +85,15 @@ def family(fr):
     return fr.dataset if fr.dataset in ("msrs", "synth") else "hit"
 
 
+def hit_view(fr):
+    """(night, camera angle in degrees) of a drone-view frame, from its HIT-UAV file name T_H_A_W_ID (T 1 =
+    night), the sequence flight's too; None for other frames."""
+    parts = fr.name.split("_")
+    if family(fr) != "hit" or len(parts) < 5 or not parts[2].isdigit():
+        return None
+    return parts[0] == "1", int(parts[2])
+
+
 def subset(fr):
     """The subsets results are reported for (docs/results/detector.md): MSRS night / day (file name N / D),
     HIT-UAV frames night / day (the T flag of T_H_A_W_ID, 1 = night), the sequence-0_100 flight

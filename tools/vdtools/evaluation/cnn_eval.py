@@ -306,16 +306,16 @@ def subset_ap(results):
 
 
 def angle_ap(results):
-    """{"day 30": (AP@0.5, vehicles), ...} of the drone-view frames by the camera angle in their HIT-UAV
-    file name (T_H_A_W_ID: T 0 day / 1 night, A the angle in degrees; the flight too)."""
+    """{"day 30": (AP@0.5, vehicles), ...} of the drone-view frames by camera angle (cnn_data.hit_view: the
+    HIT-UAV file name; the flight too), day before night, angles ascending."""
     by = {}
     for fam, fr, dets, gts in results:
-        if fam != "hit":
-            continue
-        t, _, a = Path(CD.frame_path(fr)).name.split("_")[:3]
-        by.setdefault(f"{'day' if t == '0' else 'night'} {a}", []).append((fr, dets, gts))
-    return {k: (average_precision([(d, g) for _, d, g in v])[0], sum(len(fr.boxes) for fr, _, _ in v))
-            for k, v in sorted(by.items(), key=lambda kv: (kv[0].split()[0], int(kv[0].split()[1])))}
+        view = CD.hit_view(fr)
+        if view is not None:
+            by.setdefault(view, []).append((fr, dets, gts))
+    return {f"{'night' if night else 'day'} {deg}": (average_precision([(d, g) for _, d, g in v])[0],
+                                                     sum(len(fr.boxes) for fr, _, _ in v))
+            for (night, deg), v in sorted(by.items())}
 
 
 def choose_threshold(rep):
@@ -392,6 +392,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if a.split == "all" and not a.subset:
         raise SystemExit("--split all is only for --subset (frames the model never trained on)")
+    if a.split == "train" and a.subset:
+        raise SystemExit("--subset is for a model trained without it: use --split all")
     frames = CD.load_frames(a.data, splits=("train", "val", "test") if a.split == "all" else (a.split,))
     if a.subset == "msrs-night":     # the rule of cnn_train --exclude msrs-night
         frames = [f for f in frames if CD.subset(f) == "msrs-night"]
@@ -411,8 +413,6 @@ def main(argv=None):
     if thr is None:
         if a.split != "val":
             raise SystemExit("choose the operating point on the val split, then pass --thr")
-    if a.split == "train" and a.subset:
-        raise SystemExit("--subset is for a model trained without it: use --split all")
         thr = choose_threshold(rep)
     for fam, v in rep.items():
         at = v["at"][thr]

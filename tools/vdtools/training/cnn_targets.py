@@ -3,12 +3,12 @@
 tests run them without PyTorch: the .vdm input normalisation, AGC-like augmentation, the crop with its
 rule for vehicles the crop cuts (split_cut), and the heatmap / size / offset targets."""
 import math
-from pathlib import Path
 
 import cv2
 import numpy as np
 
 from vdtools.data import cnn_data as CD
+from vdtools.metrics.evaluate import iou
 
 STRIDE = 4
 CROP = 192
@@ -54,14 +54,6 @@ def photometric(img, rng):
     return np.clip(np.round(x * 255), 0, 255).astype(np.uint8)
 
 
-def overlaps(b, bb):
-    """True when box b (x, y, w, h) intersects any row of bb."""
-    for x, y, w, h in np.asarray(bb, np.float64).reshape(-1, 4):
-        if min(b[0] + b[2], x + w) > max(b[0], x) and min(b[1] + b[3], y + h) > max(b[1], y):
-            return True
-    return False
-
-
 def paste(img, boxes, ign, donors, rng, n_max=PASTE_MAX, tries=PASTE_TRIES, keep_row=False):
     """Copy-paste augmentation on a half-resolution frame (cnn_train --paste): 1..n_max vehicles cut from
     other training frames of the same family (donors: frames with vehicles), each with a margin of
@@ -93,7 +85,8 @@ def paste(img, boxes, ign, donors, rng, n_max=PASTE_MAX, tries=PASTE_TRIES, keep
             if keep_row:
                 py = int(np.clip(round((y0 + y1 - ph) / 2), 0, H - ph))
             box = (px + nb[0], py + nb[1], nb[2], nb[3])
-            if not overlaps((px, py, pw, ph), boxes) and not overlaps((px, py, pw, ph), ign):
+            spot_box = (px, py, pw, ph)
+            if all(iou(spot_box, tuple(b)) == 0.0 for b in list(boxes) + ign.reshape(-1, 4).tolist()):
                 break
         else:
             continue
@@ -226,15 +219,9 @@ def targets(boxes, ign, size, stride=STRIDE):
 
 # ---------------------------------------------------------------- frame sampling
 
-def camera_angle(fr):
-    """The camera angle in degrees of a HIT-UAV frame (file name T_H_A_W_ID), else None."""
-    parts = Path(CD.frame_path(fr)).name.split("_")
-    return int(parts[2]) if CD.family(fr) == "hit" and len(parts) >= 5 and parts[2].isdigit() else None
-
-
 def frame_weights(frames, oblique=1.0):
     """Sampling probabilities of one family's training frames: uniform, except drone frames at a camera
     angle of at most OBLIQUE_MAX_DEG, drawn `oblique` times as often (cnn_train --oblique)."""
-    w = np.array([oblique if (a := camera_angle(f)) is not None and a <= OBLIQUE_MAX_DEG else 1.0
+    w = np.array([oblique if (v := CD.hit_view(f)) is not None and v[1] <= OBLIQUE_MAX_DEG else 1.0
                   for f in frames], np.float64)
     return w / w.sum()
