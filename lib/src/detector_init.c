@@ -219,13 +219,20 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_dbn_model_t *model,
     memset(l, 0, sizeof(*l));
     size_t rw = c->max_region_w;
     size_t rh = c->max_region_h;
-    VD_VERIFY(vd_mul_size(c->max_components, sizeof(vd_component_t), &l->comps), VD_ERR_OVERFLOW);
+    // The components table holds hot-spot and contrast components, the
+    // histogram the adaptive threshold and the window ranking: a network-only
+    // detector needs neither (8 KiB at the defaults).
+    if ((c->sources & (VD_DETECTOR_SRC_HOTSPOT | VD_DETECTOR_SRC_CONTRAST)) != 0u) {
+        VD_VERIFY(vd_mul_size(c->max_components, sizeof(vd_component_t), &l->comps), VD_ERR_OVERFLOW);
+    }
     VD_VERIFY(vd_mul_size(c->max_candidates, sizeof(vd_detection_t), &l->cand), VD_ERR_OVERFLOW);
     if (c->temporal) {
         l->obs = ((size_t)c->max_detections + c->max_tracks) * sizeof(vd_temporal_obs_t);
         l->tracks = (size_t)c->max_tracks * sizeof(vd_track_t);
     }
-    l->hist = 256u * sizeof(uint32_t);
+    if ((c->sources & (VD_DETECTOR_SRC_HOTSPOT | VD_DETECTOR_SRC_WINDOW)) != 0u) {
+        l->hist = 256u * sizeof(uint32_t);
+    }
     l->scratch = sizeof(cand_ctx_t);
     if (model != NULL) {
         VD_VERIFY(model->blob != NULL && model->input_w > 0u && model->input_h > 0u, VD_ERR_MODEL);

@@ -156,3 +156,24 @@ def test_camera_angle_and_oblique_weights():
     # two oblique frames (<= 40 degrees) at weight 3, three at 1: 3/9, 3/9, 1/9, 1/9, 1/9
     np.testing.assert_allclose(G.frame_weights(frames, 3.0), [3 / 9, 3 / 9, 1 / 9, 1 / 9, 1 / 9])
     np.testing.assert_allclose(G.frame_weights(frames), [0.2] * 5)
+
+
+def test_scene_subset_keeps_whole_groups_of_one_family():
+    from types import SimpleNamespace
+
+    from vdtools.data import cnn_data as CD
+
+    # four MSRS scene groups of 2 frames, one drone group of 3 frames
+    frames = [SimpleNamespace(dataset="msrs", name=f"{i:05d}N.png", group=f"N{i // 2}") for i in range(8)] + \
+             [SimpleNamespace(dataset="hit", name=f"1_60_40_0_{i:05d}.jpg", group="1_60_40") for i in range(3)]
+    half = CD.scene_subset(frames, "msrs", 0.5)
+    kept = {f.group for f in half if f.dataset == "msrs"}
+    assert len(kept) == 2                                     # round(0.5 x 4) groups, each whole
+    assert sum(f.dataset == "msrs" for f in half) == 4
+    assert sum(f.dataset == "hit" for f in half) == 3         # the other family untouched
+    assert {f.group for f in CD.scene_subset(frames, "msrs", 0.5)} == {f.group for f in half}   # seeded
+    assert len({f.group for f in CD.scene_subset(frames, "msrs", 0.1) if f.dataset == "msrs"}) == 1   # >= 1
+    assert CD.scene_subset(frames, "msrs", 1.0) == frames
+    for bad in (0.0, 1.5):
+        with pytest.raises(ValueError):
+            CD.scene_subset(frames, "msrs", bad)

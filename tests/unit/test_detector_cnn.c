@@ -385,12 +385,15 @@ static void test_u16_frame(void)
     TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[0].source);
 }
 
+// ctx: the configuration, or NULL for the network + hot spots with temporal analysis.
 static vd_status_t ws_run(void *ws, size_t bytes, void *ctx)
 {
-    (void)ctx;
     vd_detector_cfg_t c = cnn_cfg();
     c.sources |= VD_DETECTOR_SRC_HOTSPOT;
     c.temporal = true;
+    if (ctx != NULL) {
+        c = *(const vd_detector_cfg_t *)ctx;
+    }
     vd_detector_t det;
     vd_status_t st = vd_detector_init(&det, &c, NULL, ws, bytes);
     if (st != VD_OK) {
@@ -428,6 +431,14 @@ static void test_workspace_contract(void)
     c.sources = VD_DETECTOR_SRC_HOTSPOT;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &base));
     TEST_ASSERT_TRUE(bytes >= base);
+    // The network alone needs no components table (28 B x 256, the default
+    // max_components) and no histogram (256 x 4 B): hand-worked 7168 + 1024,
+    // both multiples of 8, so the slices' alignment adds nothing.
+    size_t alone = 0u;
+    c.sources = VD_DETECTOR_SRC_CNN;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &alone));
+    TEST_ASSERT_EQUAL_size_t(bytes - 8192u, alone);
+    tu_check_workspace_contract(alone, ws_run, &c);   // and it runs in exactly that
     // A larger frame: the network input and workspace grow with it.
     c = cnn_cfg();
     c.max_width = 640u;

@@ -209,7 +209,7 @@ void demo_args_usage(FILE *f)
             "                      and a CNN model (--cnn-model, a CNN --model, or models/vd_cnn.vdm when no\n"
             "                      --model is given) makes the sources cnn; with the cnn source and no\n"
             "                      --max-candidates/--max-detections, both become the model's top-K (twice\n"
-            "                      that with --cnn-flip; +64 candidates for the other sources)\n"
+            "                      that for candidates with --cnn-flip; +64 for the other sources)\n"
             "  --out DIR           annotated PNG frames: boxes yellow = new, green = confirmed,\n"
             "                      magenta = recovered; track id and score above each box\n"
             "  --no-scores         do not draw the id/score text\n"

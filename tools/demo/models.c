@@ -170,14 +170,17 @@ vd_status_t demo_models_load(demo_models_t *m, demo_opts_t *o, const char *model
         m->have_cnn = true;
         o->cfg.cnn_model = &m->cnn;
         // Room for every decoded box unless set: the model's top-K, twice that with --cnn-flip (its fusion
-        // yields up to one box per box of either pass); and the paper sources' 64.
+        // yields up to one box per box of either pass); and the paper sources' 64. Detections after
+        // suppression: top-K also with --cnn-flip (the best by score; more is reported as a capacity hit),
+        // which keeps the demo's workspace with temporal analysis under 256 KiB at 640x512.
         const uint32_t topk = m->cnn.max_peaks * (o->cfg.cnn_flip != 0u ? 2u : 1u);
         if (!o->max_candidates_set) {
             uint32_t mc = topk + (((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u) ? 64u : 0u);
             o->cfg.max_candidates = (uint16_t)(mc > 4096u ? 4096u : mc);
         }
         if (!o->max_detections_set) {
-            o->cfg.max_detections = (uint16_t)(topk < o->cfg.max_candidates ? topk : o->cfg.max_candidates);
+            const uint32_t md = m->cnn.max_peaks;
+            o->cfg.max_detections = (uint16_t)(md < o->cfg.max_candidates ? md : o->cfg.max_candidates);
         }
     }
     // An explicit DBN --model is checked even when no source needs it.

@@ -94,6 +94,19 @@ def hit_view(fr):
     return parts[0] == "1", int(parts[2])
 
 
+def scene_subset(frames, fam, frac, seed=0):
+    """The frames of family fam from a share frac (0 < frac <= 1) of its scene groups, every other family's
+    frames as they are: round(frac * groups) groups (at least 1), drawn with the seed from the sorted group
+    names, so the same frac and seed always keep the same scenes. For learning curves (cnn_train
+    --road-scenes): how accuracy on unseen scenes grows with the number of training scenes."""
+    if not 0 < frac <= 1:
+        raise ValueError("frac must be in (0, 1]")
+    groups = sorted({f.group for f in frames if family(f) == fam})
+    n = max(1, int(round(frac * len(groups)))) if groups else 0
+    keep = {groups[i] for i in np.random.default_rng(seed).permutation(len(groups))[:n]}
+    return [f for f in frames if family(f) != fam or f.group in keep]
+
+
 def subset(fr):
     """The subsets results are reported for (docs/results/detector.md): MSRS night / day (file name N / D),
     HIT-UAV frames night / day (the T flag of T_H_A_W_ID, 1 = night), the sequence-0_100 flight

@@ -174,8 +174,17 @@ def _aligned(n, a=8):
     return (n + a - 1) // a * a
 
 
+def cnn_configs(max_peaks):
+    """[(label, vd_detector_cfg_t fields)] the CNN workspace is reported for: the library's defaults, the
+    fused flip pass, and vd_fir_demo's own budgets (tools/demo/models.c: flip pass, temporal analysis on,
+    candidates for both passes' top-K, detections the model's top-K)."""
+    return [("default", {}), ("flip pass", dict(cnn_flip=1)),
+            ("vd_fir_demo", dict(cnn_flip=1, temporal=1, max_candidates=2 * max_peaks, max_detections=max_peaks))]
+
+
 def cnn_workspace():
-    """[(model, parameters, MACs at 320x256, frame, detector workspace bytes)] for the committed CNN models."""
+    """[(model, parameters, MACs at 320x256, frame, config, detector workspace bytes)] for the committed CNN
+    models (cnn_configs)."""
     rows = []
     try:
         from vdtools.bindings import detector as det
@@ -183,8 +192,9 @@ def cnn_workspace():
         for path in sorted((REPO / "models").glob("vd_cnn*.vdm")):
             desc = V.unpack(path.read_bytes())
             for w, h in ((640, 512), (640, 480)):
-                rows.append((path.stem, R.params(desc), R.macs(desc, 320, 256), f"{w}×{h}",
-                             det.workspace_size(w, h, sources="cnn", cnn_model=str(path))))
+                for label, cfg in cnn_configs(desc["max_peaks"]):
+                    rows.append((path.stem, R.params(desc), R.macs(desc, 320, 256), f"{w}×{h}", label,
+                                 det.workspace_size(w, h, sources="cnn", cnn_model=str(path), **cfg)))
     except Exception as e:  # report what is measurable; the page says so
         print(f"note: CNN workspace not measured ({e})", file=sys.stderr)
     return rows
@@ -273,7 +283,7 @@ def firmware_section(fw, cnn_rows):
     m7 = fw[0]
     sz = m7["sizes"]
     nframes = len(m7["insns"])
-    macs = next((m for name, _, m, frame, _ in cnn_rows if name == "vd_cnn_compact"), None)
+    macs = next((m for name, _, m, _frame, _cfg, _ in cnn_rows if name == "vd_cnn_compact"), None)
     lines = ["", "## Firmware on an emulated board (tools/firmware, issue 16)", "",
              "The firmware example runs from reset on QEMU's Arm MPS2 boards (`mps2-an500` Cortex-M7,",
              "`mps2-an386` Cortex-M4): `models/vd_cnn_compact.vdm` as a `const` array in flash, the first",
@@ -474,17 +484,24 @@ def main():
                   "half-resolution input rows are made from the frame on demand (`vd_cnn_run_rows`), so there is",
                   "no input plane (docs/architecture.md, \"Streamed CNN\"). The CNN's share",
                   "(`vd_cnn_workspace_size_ex(..., VD_CNN_STREAM)` + decoded boxes) overlays the labelling",
-                  "workspace, so for `vd_cnn_compact` the total is the hot-spot detector's. Goal ≤ 256 KiB",
+                  "workspace (for `vd_cnn_compact` that is the larger part, so its total is the hot-spot",
+                  "detector's without the components table and histogram). Goal ≤ 256 KiB",
                   f"({WORKSPACE_GOAL} B): **met** for both. Before (whole-plane liveness plan + an 80 KiB input",
                   "plane, commit a2a6141): `vd_cnn` 649200 B at 640×512 and 609520 B at 640×480, `vd_cnn_compact`",
                   "382960 B and 359920 B.", "",
-                  "| model | parameters | MACs at 320×256 | frame | detector workspace (bytes) | ≤ 256 KiB |",
-                  "|---|---:|---:|---|---:|---|"]
-        for name, params, macs, frame, b in cnn_rows:
+                  "Configurations: the library's defaults (one pass, 64 candidates, 32 detections, no temporal",
+                  "analysis), the fused flip pass (`cnn_flip = 1`: twice the decoded boxes in the overlay), and",
+                  "`vd_fir_demo`'s own budgets (flip pass, temporal analysis with 32 tracks, candidates for both",
+                  "passes' top-K, detections the model's top-K; `tools/demo/models.c`). A network-only detector",
+                  "has no components table and no histogram (8 192 B at the defaults; since 2026-11-25).", "",
+                  "| model | parameters | MACs at 320×256 | frame | configuration | detector workspace (bytes) | ≤ 256 KiB |",
+                  "|---|---:|---:|---|---|---:|---|"]
+        for name, params, macs, frame, label, b in cnn_rows:
             ok = "yes" if b <= WORKSPACE_GOAL else "**no**"
-            lines.append(f"| `{name}` | {params} | {macs / 1e6:.1f} M | {frame} | {b} ({b / 1024:.0f} KiB) | {ok} |")
+            lines.append(f"| `{name}` | {params} | {macs / 1e6:.1f} M | {frame} | {label} | {b} ({b / 1024:.0f} KiB) "
+                         f"| {ok} |")
             if b > WORKSPACE_GOAL:
-                problems.append(f"detector workspace with {name} at {frame}: {b} B > {WORKSPACE_GOAL} B")
+                problems.append(f"detector workspace with {name} at {frame} ({label}): {b} B > {WORKSPACE_GOAL} B")
     if runs:
         lines += ["", "## Labelling run counts on real frames", "",
                   "Horizontal runs of pixels ≥ threshold per frame (`vd_components_stats_t.runs`), measured with the",

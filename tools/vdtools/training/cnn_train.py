@@ -333,6 +333,9 @@ def main(argv=None):
     ap.add_argument("--synth", action="store_true", help="add the synthetic training clips (15 %% of the crops)")
     ap.add_argument("--exclude", choices=("msrs-night",), help="leave these frames out of training (the "
                     "another-camera estimate of docs/results/detector.md: train without night MSRS, test on it)")
+    ap.add_argument("--road-scenes", type=float, default=1.0, help="train on this share of the MSRS training "
+                    "scene groups only (cnn_data.scene_subset, seed 0; val unchanged): the learning curve of "
+                    "docs/training.md")
     ap.add_argument("--qat", action="store_true", help="quantisation-aware fine-tuning of --init: frozen batch "
                     "norm, weights and activations fake-quantised with the exporter's scales (recalibrated at "
                     "every evaluation); best.pt is chosen on the fake-quantised val AP")
@@ -362,12 +365,15 @@ def main(argv=None):
     if a.exclude == "msrs-night":
         train = [f for f in train if CD.subset(f) != "msrs-night"]
         val = [f for f in val if CD.subset(f) != "msrs-night"]      # nor choose the checkpoint on them
+    if a.road_scenes != 1.0:
+        train = CD.scene_subset(train, "msrs", a.road_scenes)
     by_fam = {}
     for f in train:
         by_fam.setdefault(CD.family(f), []).append(f)
     donors = {k: [f for f in v if len(f.boxes)] for k, v in by_fam.items()}
     weights = None if a.oblique == 1.0 else {k: frame_weights(v, a.oblique) for k, v in by_fam.items()}
-    print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }), val {len(val)}", flush=True)
+    print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }; "
+          f"{len({f.group for f in by_fam.get('msrs', [])})} MSRS scene groups), val {len(val)}", flush=True)
     net = Net(a.arch)
     if a.init:
         net.load_state_dict(torch.load(a.init, weights_only=False, map_location="cpu")["net"])
