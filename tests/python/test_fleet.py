@@ -163,7 +163,8 @@ def test_settings_follow_the_demo():
     fields, cnn, dbn, desc = fleet.resolve({})
     assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm"} and dbn is None
     # the demo's defaults: the fused flip pass, room for every box of both passes (2 x the model's top-K)
-    assert fields["cnn_flip"] == 1 and fields["max_candidates"] == fields["max_detections"] == 200
+    # as candidates, the model's top-K as detections (tools/demo/models.c)
+    assert fields["cnn_flip"] == 1 and fields["max_candidates"] == 200 and fields["max_detections"] == 100
     fields = fleet.resolve({"cnn-flip": "off"})[0]
     assert fields["cnn_flip"] == 0 and fields["max_candidates"] == fields["max_detections"] == 100
     fields, cnn, dbn, desc = fleet.resolve({"sources": "hotspot", "temporal": "off"})

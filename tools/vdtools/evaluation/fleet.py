@@ -237,8 +237,8 @@ def resolve(settings, models_dir=None):
         if "max-candidates" not in s:
             mc = topk + (64 if sources & SRC_ALL else 0)
             fields["max_candidates"] = min(mc, 4096)
-        if "max-detections" not in s:
-            fields["max_detections"] = min(topk, fields["max_candidates"])
+        if "max-detections" not in s:     # top-K, also with the flip pass (the best by score survive)
+            fields["max_detections"] = min(int(m.max_peaks), fields["max_candidates"])
     want_dbn = bool(sources & SRC_ALL)
     if mblob is not None and not model_is_cnn:
         dbn, desc["dbn_model"] = (mblob if want_dbn else None), Path(mp).name
