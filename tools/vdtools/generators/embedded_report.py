@@ -174,12 +174,14 @@ def _aligned(n, a=8):
     return (n + a - 1) // a * a
 
 
-def cnn_configs(max_peaks):
-    """[(label, vd_detector_cfg_t fields)] the CNN workspace is reported for: the library's defaults, the
-    fused flip pass, and vd_fir_demo's own budgets (tools/demo/models.c: flip pass, temporal analysis on,
-    candidates for both passes' top-K, detections the model's top-K)."""
-    return [("default", {}), ("flip pass", dict(cnn_flip=1)),
-            ("vd_fir_demo", dict(cnn_flip=1, temporal=1, max_candidates=2 * max_peaks, max_detections=max_peaks))]
+def cnn_configs(path):
+    """[(label, vd_detector_cfg_t fields)] the CNN workspace of the model at path is reported for: the
+    library's defaults, the fused flip pass, and vd_fir_demo's own settings for that model (the demo's rules
+    of tools/demo/models.c as fleet.resolve mirrors them: flip pass, temporal analysis on, candidates for
+    both passes' top-K, detections the model's top-K)."""
+    from vdtools.evaluation import fleet
+    demo = fleet.resolve({"cnn-model": str(path)})[0]
+    return [("default", {"sources": "cnn"}), ("flip pass", {"sources": "cnn", "cnn_flip": 1}), ("vd_fir_demo", demo)]
 
 
 def cnn_workspace():
@@ -192,9 +194,9 @@ def cnn_workspace():
         for path in sorted((REPO / "models").glob("vd_cnn*.vdm")):
             desc = V.unpack(path.read_bytes())
             for w, h in ((640, 512), (640, 480)):
-                for label, cfg in cnn_configs(desc["max_peaks"]):
+                for label, cfg in cnn_configs(path):
                     rows.append((path.stem, R.params(desc), R.macs(desc, 320, 256), f"{w}×{h}", label,
-                                 det.workspace_size(w, h, sources="cnn", cnn_model=str(path), **cfg)))
+                                 det.workspace_size(w, h, cnn_model=str(path), **cfg)))
     except Exception as e:  # report what is measurable; the page says so
         print(f"note: CNN workspace not measured ({e})", file=sys.stderr)
     return rows
