@@ -245,6 +245,9 @@ def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval", paper=None):
     fams = {}
     for fr in frames:
         fams.setdefault(fr.dataset, []).append(fr)
+    # Every box both passes decode (2 x top-K) survives suppression: the demo keeps top-K detections, which
+    # the low-score tail of the AP curve can exceed with the flip pass.
+    k2 = None if paper is not None else 2 * V.unpack(Path(model).read_bytes())["max_peaks"]
     for ds, frs in sorted(fams.items()):
         lst, js = tmp / f"{ds}.txt", tmp / f"{ds}.jsonl"
         paths = {}
@@ -253,11 +256,8 @@ def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval", paper=None):
             paths[Path(p).name] = fr
         lst.write_text("".join(f"{Path(CD.frame_path(fr)).resolve()}\n" for fr in frs))   # list entries are read relative to the list
         if paper is None:
-            # Every box both passes decode (2 x top-K) survives suppression: the demo keeps top-K detections,
-            # which the low-score tail of the AP curve can exceed with the flip pass.
-            k = V.unpack(Path(model).read_bytes())["max_peaks"]
             src = ["--sources", "cnn", "--cnn-model", str(model), "--model", "none", "--cnn-thr", "0.05",
-                   "--max-candidates", str(2 * k), "--max-detections", str(2 * k)]
+                   "--max-candidates", str(k2), "--max-detections", str(k2)]
         else:   # the paper pipeline with a DBN model, for the comparison rows (score threshold 0.05 for AP)
             src = ["--model", str(model), "--score-thr", "0.05"] + list(paper)
         cmd = [str(demo), "--input", str(lst)] + src + ["--temporal", "off", "--json", str(js), "--quiet"] + list(extra)

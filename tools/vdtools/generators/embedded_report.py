@@ -193,8 +193,9 @@ def cnn_workspace():
         from vdtools.formats import cnn_vdm as V, cnn_ref as R
         for path in sorted((REPO / "models").glob("vd_cnn*.vdm")):
             desc = V.unpack(path.read_bytes())
+            configs = cnn_configs(path)      # resolved once per model: they do not depend on the frame size
             for w, h in ((640, 512), (640, 480)):
-                for label, cfg in cnn_configs(path):
+                for label, cfg in configs:
                     rows.append((path.stem, R.params(desc), R.macs(desc, 320, 256), f"{w}×{h}", label,
                                  det.workspace_size(w, h, cnn_model=str(path), **cfg)))
     except Exception as e:  # report what is measurable; the page says so
