@@ -121,3 +121,47 @@ def test_soup_is_the_mean_of_the_weights():
         S.soup([ca, dict(net=T.Net("main").state_dict(), arch="main", qat=True)])
     with pytest.raises(ValueError):
         S.soup([])
+
+
+def test_weight_average_hand_worked():
+    """cnn_train --ema: the first update copies the network; after the weights and the batch-norm
+    statistics all move by +1, one update at decay 0.75 moves the average by 0.25."""
+    net = _net()
+    avg = T.weight_average(net, 0.75)
+    avg.update_parameters(net)
+    before = {k: v.clone() for k, v in avg.module.state_dict().items()}
+    for k, v in net.state_dict().items():
+        assert torch.equal(before[k], v), k
+    with torch.no_grad():
+        for p in net.parameters():
+            p.add_(1.0)
+        for m in net.modules():
+            if isinstance(m, torch.nn.BatchNorm2d):
+                m.running_mean.add_(1.0)
+    avg.update_parameters(net)
+    after = avg.module.state_dict()
+    w = net.spec[0]["mod"]
+    for k in (f"mods.{w}.0.weight", f"mods.{w}.1.bias", f"mods.{w}.1.running_mean"):
+        assert torch.allclose(after[k], before[k] + 0.25, atol=1e-6), k
+    assert torch.allclose(after[f"mods.{w}.1.running_var"], before[f"mods.{w}.1.running_var"])
+
+
+def test_refresh_bn_measures_the_averaged_weights(monkeypatch):
+    """cnn_train --ema re-estimates the average's batch-norm statistics on fixed training crops: the
+    first layer's running mean becomes the mean of its convolution over all those crops (equal batches),
+    whatever it was before, and no weight moves."""
+    net = _net()
+    gen = torch.Generator().manual_seed(3)
+    xs = [torch.rand(4, 1, 32, 32, generator=gen) for _ in range(T.BN_BATCHES)]
+    it = iter(xs)
+    monkeypatch.setattr(T, "batch", lambda *a, **k: (next(it),))
+    with torch.no_grad():
+        net.mods[0][1].running_mean.fill_(1e3)
+    weights = {k: v.clone() for k, v in net.state_dict().items() if "running" not in k and "num_batches" not in k}
+    T.refresh_bn(net, {})
+    conv = net.mods[0][0]
+    with torch.no_grad():
+        want = torch.stack([conv(x).mean((0, 2, 3)) for x in xs]).mean(0)
+    assert torch.allclose(net.mods[0][1].running_mean, want, atol=1e-5)
+    for k, v in weights.items():
+        assert torch.equal(net.state_dict()[k], v), k
