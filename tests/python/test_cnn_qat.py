@@ -165,3 +165,17 @@ def test_refresh_bn_measures_the_averaged_weights(monkeypatch):
     assert torch.allclose(net.mods[0][1].running_mean, want, atol=1e-5)
     for k, v in weights.items():
         assert torch.equal(net.state_dict()[k], v), k
+
+
+def test_short_run_evaluates_its_last_step_once(data_dir, tmp_path):
+    """A run whose time budget ends on a step evaluates that step once: log.json holds each step once and
+    final.pt carries that evaluation (the weight average on, so its batch-norm refresh runs too)."""
+    import json
+    T.main(["--arch", "compact", "--data", str(data_dir), "--out", str(tmp_path), "--minutes", "0.03",
+            "--threads", "1", "--batch", "2", "--eval-every", "1000", "--ema", "0.9"])
+    log = json.loads((tmp_path / "log.json").read_text())
+    steps = [e["step"] for e in log]
+    assert steps and len(steps) == len(set(steps)), steps
+    final = torch.load(tmp_path / "final.pt", weights_only=False)
+    assert final["step"] == steps[-1] and final["val_ap"] == log[-1]["val_ap"]
+    assert (tmp_path / "best.pt").is_file()

@@ -424,7 +424,7 @@ def main(argv=None):
         calib = [train[i] for i in calib_rng.choice(len(train), min(E.CALIB_FRAMES, len(train)), replace=False)]
         def recalibrate():
             """The exporter's scales for the trained weights and, with --ema, for the average."""
-            for m in {id(net): net, id(ev): ev}.values():
+            for m in (net,) if ev is net else (net, ev):
                 m.set_fake_quant(None)
                 m.eval()
                 _, q = E.quantise(m, E.calibrate(m, calib))
@@ -447,6 +447,17 @@ def main(argv=None):
         step, t_used, log = ck["step"], ck["t_used"], ck["log"]
     budget = a.minutes * 60
     t0 = time.time() - t_used
+
+    def evaluate_now():
+        """Val AP of the network that is chosen and saved (`ev`), made ready as its export will run it."""
+        if a.qat:
+            recalibrate()
+        elif ema is not None:
+            refresh_bn(ev, by_fam, a.crop)
+        aps = evaluate(ev, val)
+        log.append(dict(step=step, minutes=(time.time() - t0) / 60, val_ap=aps))
+        return aps
+
     best, best_fam = -1.0, {}
     while True:
         el = time.time() - t0
@@ -469,13 +480,8 @@ def main(argv=None):
         if step % 50 == 0:
             print(f"step {step} t {el / 60:.1f} min lr {lr:.2e} loss {loss.item():.3f} hm {hl:.3f} size {sl:.3f}", flush=True)
         if step % a.eval_every == 0 or time.time() - t0 >= budget:
-            if a.qat:
-                recalibrate()
-            if ema is not None and not a.qat:
-                refresh_bn(ev, by_fam, a.crop)
-            aps = evaluate(ev, val)
+            aps = evaluate_now()
             mean = float(np.nanmean(list(aps.values())))
-            log.append(dict(step=step, minutes=(time.time() - t0) / 60, val_ap=aps))
             print(f"== step {step}: val AP {aps}", flush=True)
             if mean > best:
                 best = mean
@@ -489,12 +495,8 @@ def main(argv=None):
             torch.save(dict(net=net.state_dict(), opt=opt.state_dict(), step=step, t_used=time.time() - t0,
                             log=log, arch=a.arch, **({"ema": ema.state_dict()} if ema is not None else {})),
                        out / "last.pt")
-    if a.qat:
-        recalibrate()
-    elif ema is not None:
-        refresh_bn(ev, by_fam, a.crop)
-    aps = evaluate(ev, val)
-    log.append(dict(step=step, minutes=(time.time() - t0) / 60, val_ap=aps))
+    # the loop's last step is normally evaluated already (its time budget ran out there)
+    aps = log[-1]["val_ap"] if log and log[-1]["step"] == step else evaluate_now()
     torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat), out / "final.pt")
     (out / "log.json").write_text(json.dumps(log, indent=1))
     print(f"done: {step} steps, val AP {aps}", flush=True)
