@@ -50,8 +50,8 @@ def _ranges(net, planes):
             vals = vals or [[] for _ in ts]
             for i, t in enumerate(ts):
                 vals[i].append(t.numpy().ravel())
-    return [(float(np.percentile(np.concatenate(v), 0.01)), float(np.percentile(np.concatenate(v), 99.99)))
-            for v in vals]
+    return [(float(np.percentile(np.concatenate(v), 100.0 - E.CALIB_PCT)),
+             float(np.percentile(np.concatenate(v), E.CALIB_PCT))) for v in vals]
 
 
 def test_fake_quant_forward_matches_integer_reference():
