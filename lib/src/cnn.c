@@ -624,8 +624,16 @@ static bool reads(const vd_cnn_layer_t *L, uint32_t t)
     return L->in == t || (L->op == VD_CNN_OP_CONCAT && L->in2 == t);
 }
 
-// Tensor heights and liveness (p->h, p->live) of a plan.
-static void sched_init(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, vd_cnn_plan_t *p)
+// p->live value of an upsample fused into the concats that read it (below).
+#define LIVE_FUSED 2u
+
+// Tensor heights and liveness (p->h, p->live) of a plan. Streamed without
+// VD_CNN_KEEP_TENSORS, an upsample output whose every live consumer is a
+// concat is fused into them (LIVE_FUSED): never stored or computed, the
+// concat reads its source's row y / 2, column x / 2 instead. That drops the
+// upsampled rings, twice the source's row bytes each (models/vd_cnn.vdm at
+// 320x256: 7 680 B).
+static void sched_init(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
     for (uint32_t t = 0u; t <= n; t++) {
@@ -638,6 +646,20 @@ static void sched_init(const vd_cnn_model_t *m, const chain_t *c, uint32_t heigh
             p->live[L->in] = 1u;
             p->live[L->in2] = (L->op == VD_CNN_OP_CONCAT) ? 1u : p->live[L->in2];
         }
+    }
+    if ((flags & VD_CNN_STREAM) == 0u || (flags & VD_CNN_KEEP_TENSORS) != 0u) {
+        return;
+    }
+    for (uint32_t l = 0u; l + 1u < n; l++) {   // never the head
+        if (m->layers[l].op != VD_CNN_OP_UPSAMPLE2 || p->live[l + 1u] == 0u) {
+            continue;
+        }
+        bool only_concat = true;
+        for (uint32_t k = l + 1u; k < n; k++) {
+            const vd_cnn_layer_t *K = &m->layers[k];
+            only_concat = only_concat && !(p->live[k + 1u] != 0u && reads(K, l + 1u) && K->op != VD_CNN_OP_CONCAT);
+        }
+        p->live[l + 1u] = only_concat ? (uint8_t)LIVE_FUSED : p->live[l + 1u];
     }
 }
 
@@ -689,19 +711,35 @@ static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
 }
 
 // Oldest row of tensor t that a live, unfinished consumer still reads
-// (p->req[t] when none).
+// (p->req[t] when none). A fused upsample's rows are read by its concats
+// (row y of it is row y / 2 of t), so for it their progress counts.
 static uint32_t sched_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t t)
 {
+    const uint32_t n = m->n_layers;
     uint32_t oldest = p->req[t];
-    for (uint32_t l = t; l < m->n_layers; l++) {
+    for (uint32_t l = t; l < n; l++) {
         const vd_cnn_layer_t *L = &m->layers[l];
-        if (p->live[l + 1u] == 0u || p->done[l + 1u] >= p->h[l + 1u] || !reads(L, t)) {
+        if (p->live[l + 1u] == 0u || !reads(L, t)) {
             continue;
         }
-        int32_t lo, hi;
-        rows_read(L, p->done[l + 1u], &lo, &hi);
-        (void)hi;
-        const uint32_t r = (lo > 0) ? (uint32_t)lo : 0u;
+        uint32_t r;
+        if (p->live[l + 1u] == LIVE_FUSED) {
+            uint32_t up = p->req[l + 1u];   // its concats read rows >= up (concat: row y reads row y)
+            for (uint32_t k = l + 1u; k < n; k++) {
+                if (p->live[k + 1u] != 0u && p->done[k + 1u] < p->h[k + 1u] && reads(&m->layers[k], l + 1u)) {
+                    up = (p->done[k + 1u] < up) ? p->done[k + 1u] : up;
+                }
+            }
+            r = up / 2u;
+        } else {
+            if (p->done[l + 1u] >= p->h[l + 1u]) {
+                continue;
+            }
+            int32_t lo, hi;
+            rows_read(L, p->done[l + 1u], &lo, &hi);
+            (void)hi;
+            r = (lo > 0) ? (uint32_t)lo : 0u;
+        }
         oldest = (r < oldest) ? r : oldest;
     }
     return oldest;
@@ -742,7 +780,7 @@ static void sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps)
 static void sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
-    sched_init(m, c, height, p);
+    sched_init(m, c, height, flags, p);
     const bool stream = (flags & VD_CNN_STREAM) != 0u;
     const bool keep = (flags & VD_CNN_KEEP_TENSORS) != 0u;
     for (uint32_t t = 0u; t <= n; t++) {
@@ -767,8 +805,10 @@ static void sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t heigh
     VD_ASSERT(p->done[n] == p->h[n]);
     for (uint32_t t = 0u; t <= n; t++) {
         // A computed tensor is read, so some batch had a span >= 1; the
-        // floor only keeps ring_row's modulo defined whatever happens.
+        // floor only keeps ring_row's modulo defined whatever happens. A
+        // fused upsample has no rows.
         p->rows[t] = (uint16_t)((p->live[t] != 0u && p->rows[t] == 0u) ? 1u : p->rows[t]);
+        p->rows[t] = (p->live[t] == LIVE_FUSED) ? 0u : p->rows[t];
     }
 }
 
@@ -1499,18 +1539,20 @@ static void run_upsample(const geom_t *g, const ring_t *in, const ring_t *out, u
     }
 }
 
-static void run_concat(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, const ring_t *b, const ring_t *out,
-                       uint32_t y0, uint32_t y1)
+// ua / ub (0 or 1): operand a / b is a fused upsample and its ring the
+// upsample's source, read at row y >> 1, column x >> 1.
+static void run_concat(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, uint32_t ua, const ring_t *b,
+                       uint32_t ub, const ring_t *out, uint32_t y0, uint32_t y1)
 {
     const uint32_t ca = L->cin;
     const uint32_t cb = (uint32_t)L->cout - L->cin;
     for (uint32_t y = y0; y < y1; y++) {
-        const int8_t *ra = ring_row(a, y);
-        const int8_t *rb = ring_row(b, y);
+        const int8_t *ra = ring_row(a, y >> ua);
+        const int8_t *rb = ring_row(b, y >> ub);
         int8_t *o = ring_row(out, y);
         for (uint32_t x = 0u; x < g->wo; x++) {
-            memcpy(o + (size_t)x * L->cout, ra + (size_t)x * ca, ca);
-            memcpy(o + (size_t)x * L->cout + ca, rb + (size_t)x * cb, cb);
+            memcpy(o + (size_t)x * L->cout, ra + (size_t)(x >> ua) * ca, ca);
+            memcpy(o + (size_t)x * L->cout + ca, rb + (size_t)(x >> ub) * cb, cb);
         }
     }
 }
@@ -1678,8 +1720,12 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
         break;
     }
     default: {
-        const ring_t b = ring_of(base, p, c, L->in2);
-        run_concat(L, &g, &in, &b, &o, y0, y1);
+        const uint32_t ua = (p->live[L->in] == LIVE_FUSED) ? 1u : 0u;
+        const uint32_t ub = (p->live[L->in2] == LIVE_FUSED) ? 1u : 0u;
+        // A fused upsample's source: the input of the layer that makes it.
+        const ring_t a = ring_of(base, p, c, (ua != 0u) ? m->layers[L->in - 1u].in : L->in);
+        const ring_t b = ring_of(base, p, c, (ub != 0u) ? m->layers[L->in2 - 1u].in : L->in2);
+        run_concat(L, &g, &a, ua, &b, ub, &o, y0, y1);
         break;
     }
     }
@@ -1691,7 +1737,7 @@ static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_i
     if (t == 0u) {
         const ring_t t0 = ring_of(io->base, p, io->c, 0u);
         input_rows(io->src, p->width, io->lut, &t0, p->done[0], p->req[0]);
-    } else {
+    } else if (p->live[t] != LIVE_FUSED) {   // a fused upsample is read through by its concats
         layer_rows(m, io->c, p, io->base, t - 1u, p->done[t], p->req[t]);
     }
 }

@@ -1889,24 +1889,65 @@ static void rnd_model2(tm_t *d, uint32_t seed)
     }
 }
 
-// Random models of every op (architectures 0-2: upsample/concat skips,
+// Architecture 3 (alignment 16, head stride 4): upsamples the streamed plan
+// fuses into their concats and ones it must keep. Tensor 6 (an upsample read
+// by an upsample) and tensor 8 (an upsample read by a concat and a
+// pointwise layer) are stored; tensor 7 (up of up, the second operand of a
+// concat) is fused, its concat reading tensor 6 at half the row and column.
+static void rnd_model3(tm_t *d, uint32_t seed)
+{
+    uint32_t st = seed * 3266489917u + 5u;
+    pools_reset();
+    g_wsym = seed % 2u == 0u;
+    tm_init(d, 16u, 16u, 3u, 4u);
+    d->L[0] = rnd_weighted(&st, VD_CNN_OP_CONV3X3, 2u, 0u, 1u, 6u);
+    d->L[1] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 2u, 1u, 6u, 6u);
+    d->L[2] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 2u, 6u, 8u);
+    d->L[3] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 2u, 3u, 8u, 8u);
+    d->L[4] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 2u, 4u, 8u, 8u);
+    const int8_t zp = d->L[1].zp;   // every concat operand below shares it
+    d->L[3].zp = zp;
+    d->L[4].zp = zp;
+    d->L[5] = layer_copy(VD_CNN_OP_UPSAMPLE2, 5u, 0u, 8u, 8u, zp);    // t6, stride 8
+    d->L[6] = layer_copy(VD_CNN_OP_UPSAMPLE2, 6u, 0u, 8u, 8u, zp);    // t7, stride 4: fused
+    d->L[7] = layer_copy(VD_CNN_OP_UPSAMPLE2, 4u, 0u, 8u, 8u, zp);    // t8, stride 4: kept (L10 reads it)
+    d->L[8] = layer_copy(VD_CNN_OP_CONCAT, 2u, 7u, 6u, 14u, zp);      // t9
+    d->L[9] = layer_copy(VD_CNN_OP_CONCAT, 9u, 8u, 14u, 22u, zp);     // t10
+    d->L[10] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 8u, 8u, 4u);    // t11
+    d->L[10].zp = zp;
+    d->L[11] = layer_copy(VD_CNN_OP_CONCAT, 10u, 11u, 22u, 26u, zp);  // t12
+    d->L[12] = rnd_weighted(&st, VD_CNN_OP_DW3X3, 1u, 12u, 26u, 26u);
+    d->L[13] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 13u, 26u, 3u);
+    d->n = 14u;
+    if (seed % 2u == 1u) {
+        d->norm = 1u;
+        d->lo = (uint16_t)(tu_rand(&st) % 100u);
+        d->hi = (uint16_t)(900u + tu_rand(&st) % 101u);
+        d->min_range = (uint16_t)(1u + tu_rand(&st) % 64u);
+    }
+}
+
+// Random models of every op (architectures 0-3: upsample/concat skips,
 // stride 2 down to odd tensor sizes, max-pools, 5x5, a dead branch): the
 // streamed head equals the whole-plane head; with VD_CNN_KEEP_TENSORS too,
 // every computed tensor equals the naive reference and the dead one is
 // reported as not available.
 static void test_stream_random_models_match_whole_plane(void)
 {
-    static const uint32_t sizes[3][5][2] = {{{8, 8}, {16, 8}, {24, 16}, {40, 24}, {56, 40}},
+    static const uint32_t sizes[4][5][2] = {{{8, 8}, {16, 8}, {24, 16}, {40, 24}, {56, 40}},
                                             {{8, 8}, {16, 8}, {24, 16}, {40, 24}, {56, 40}},
-                                            {{4, 4}, {12, 8}, {20, 12}, {36, 20}, {44, 28}}};
-    static uint8_t img[56 * 40];
-    for (uint32_t arch = 0u; arch < 3u; arch++) {
+                                            {{4, 4}, {12, 8}, {20, 12}, {36, 20}, {44, 28}},
+                                            {{16, 16}, {32, 16}, {48, 32}, {64, 48}, {80, 48}}};
+    static uint8_t img[80 * 48];
+    for (uint32_t arch = 0u; arch < 4u; arch++) {
         for (uint32_t seed = 0u; seed < 4u; seed++) {
             tm_t d;
             if (arch < 2u) {
                 rnd_model(&d, arch, seed);
-            } else {
+            } else if (arch == 2u) {
                 rnd_model2(&d, seed);
+            } else {
+                rnd_model3(&d, seed);
             }
             for (uint32_t si = 0u; si < 5u; si++) {
                 const uint32_t w = sizes[arch][si][0], h = sizes[arch][si][1];
@@ -1952,6 +1993,37 @@ static void test_stream_random_models_match_whole_plane(void)
                 }
             }
         }
+    }
+}
+
+// Which upsamples the streamed plan fuses (run record, cnn_internal.h):
+// only one whose every consumer is a concat, and none with
+// VD_CNN_KEEP_TENSORS or on a whole plane. A fused one has no ring and no
+// bytes; the kept ones have theirs.
+static void test_stream_fuses_upsample_read_only_by_concats(void)
+{
+    tm_t d;
+    rnd_model3(&d, 1u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &g_m));
+    static uint8_t img[64 * 32];
+    rnd_image(img, 64u, 32u, 9u);
+    const uint32_t flags[3] = {VD_CNN_STREAM, VD_CNN_STREAM | VD_CNN_KEEP_TENSORS, 0u};
+    for (uint32_t i = 0u; i < 3u; i++) {
+        size_t bytes = 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&g_m, 64u, 32u, flags[i], &bytes));
+        void *ws = tu_guarded_alloc(0, bytes);
+        vd_cnn_output_t head;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run_ex(&g_m, img, 64u, 32u, 64u, flags[i], ws, bytes, &head));
+        const vd_cnn_plan_t *p = (const vd_cnn_plan_t *)ws;
+        const bool fused = i == 0u;
+        TEST_ASSERT_EQUAL_UINT8(fused ? 2u : 1u, p->live[7]);
+        TEST_ASSERT_EQUAL_UINT16(fused ? 0u : 8u, p->rows[7]);   // 32 / 4 rows when stored whole
+        TEST_ASSERT_EQUAL_UINT32(fused ? 0u : 16u * 8u * 8u, p->len[2u * 7u]);
+        TEST_ASSERT_EQUAL_UINT8(1u, p->live[6]);
+        TEST_ASSERT_EQUAL_UINT8(1u, p->live[8]);
+        TEST_ASSERT_TRUE(p->rows[6] > 0u && p->rows[8] > 0u);
+        tu_guard_check(0);
+        tu_guarded_free(0);
     }
 }
 
@@ -2297,6 +2369,7 @@ int main(void)
     RUN_TEST(test_random_models_match_naive_reference);
     RUN_TEST(test_depthwise_extremes_match_reference);
     RUN_TEST(test_stream_random_models_match_whole_plane);
+    RUN_TEST(test_stream_fuses_upsample_read_only_by_concats);
     RUN_TEST(test_stream_committed_models_match_whole_plane);
     RUN_TEST(test_awkward_models_match_naive_reference);
     RUN_TEST(test_x86_kernels_match_portable_random);

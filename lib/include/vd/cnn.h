@@ -64,7 +64,8 @@ extern "C" {
 #define VD_CNN_KEEP_TENSORS 1u
 // vd_cnn_workspace_size_ex / vd_cnn_run_ex flag: run the network in bands of
 // head rows, every tensor but the head kept as a ring of the rows its
-// consumers still read (MCUNetV2-style band inference). The head is
+// consumers still read (MCUNetV2-style band inference); an upsample that
+// only concats read is not stored at all (they read its source). The head is
 // bit-identical to the whole-plane run; the workspace is a fraction of it
 // (models/vd_cnn.vdm at 320x256: docs/embedded.md). The detector uses it.
 // With VD_CNN_KEEP_TENSORS too, every tensor the head depends on is kept

@@ -62,7 +62,7 @@ typedef struct vd_cnn_plan {
     uint16_t done[VD_CNN_MAX_TENSORS];   // rows produced so far
     uint16_t need[VD_CNN_MAX_TENSORS];   // rows needed for the current head target
     uint16_t req[VD_CNN_MAX_TENSORS];    // rows made by the current sub-step
-    uint8_t live[VD_CNN_MAX_TENSORS];    // 1: the head depends on it
+    uint8_t live[VD_CNN_MAX_TENSORS];    // 1: the head depends on it; 2: also, an upsample fused into its concats
 } vd_cnn_plan_t;
 
 // Bytes of the record (items start after it).
