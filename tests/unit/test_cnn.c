@@ -1309,6 +1309,16 @@ static tl_t rnd_weighted(uint32_t *st, uint8_t op, uint8_t stride, uint8_t in, u
     return L;
 }
 
+// A random percentile stretch for a test model (the input normalisation of
+// the .vdm header).
+static void rnd_norm(tm_t *d, uint32_t *st)
+{
+    d->norm = 1u;
+    d->lo = (uint16_t)(tu_rand(st) % 100u);
+    d->hi = (uint16_t)(900u + tu_rand(st) % 101u);
+    d->min_range = (uint16_t)(1u + tu_rand(st) % 64u);
+}
+
 // Architecture 0: stride-2 stem, depthwise-separable blocks (odd channel
 // counts: 17 and 33 exercise the 16-channel tails, cin 17 the K padding),
 // upsample + concat skip, head 5 channels at stride 4. Architecture 1: full
@@ -1345,10 +1355,7 @@ static void rnd_model(tm_t *d, uint32_t arch, uint32_t seed)
         d->n = 6u;
     }
     if (seed % 2u == 1u) {
-        d->norm = 1u;
-        d->lo = (uint16_t)(tu_rand(&st) % 100u);
-        d->hi = (uint16_t)(900u + tu_rand(&st) % 101u);
-        d->min_range = (uint16_t)(1u + tu_rand(&st) % 64u);
+        rnd_norm(d, &st);
     }
 }
 
@@ -1882,10 +1889,7 @@ static void rnd_model2(tm_t *d, uint32_t seed)
     d->L[6] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 6u, 9u, 3u);
     d->n = 7u;
     if (seed % 2u == 0u) {
-        d->norm = 1u;
-        d->lo = (uint16_t)(tu_rand(&st) % 100u);
-        d->hi = (uint16_t)(900u + tu_rand(&st) % 101u);
-        d->min_range = (uint16_t)(1u + tu_rand(&st) % 64u);
+        rnd_norm(d, &st);
     }
 }
 
@@ -1920,10 +1924,7 @@ static void rnd_model3(tm_t *d, uint32_t seed)
     d->L[13] = rnd_weighted(&st, VD_CNN_OP_PW1X1, 1u, 13u, 26u, 3u);
     d->n = 14u;
     if (seed % 2u == 1u) {
-        d->norm = 1u;
-        d->lo = (uint16_t)(tu_rand(&st) % 100u);
-        d->hi = (uint16_t)(900u + tu_rand(&st) % 101u);
-        d->min_range = (uint16_t)(1u + tu_rand(&st) % 64u);
+        rnd_norm(d, &st);
     }
 }
 
