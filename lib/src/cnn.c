@@ -655,9 +655,9 @@ static void sched_init(const vd_cnn_model_t *m, const chain_t *c, uint32_t heigh
             continue;
         }
         bool only_concat = true;
-        for (uint32_t k = l + 1u; k < n; k++) {
+        for (uint32_t k = l + 1u; k < n && only_concat; k++) {
             const vd_cnn_layer_t *K = &m->layers[k];
-            only_concat = only_concat && !(p->live[k + 1u] != 0u && reads(K, l + 1u) && K->op != VD_CNN_OP_CONCAT);
+            only_concat = p->live[k + 1u] == 0u || !reads(K, l + 1u) || K->op == VD_CNN_OP_CONCAT;
         }
         p->live[l + 1u] = only_concat ? (uint8_t)LIVE_FUSED : p->live[l + 1u];
     }
@@ -710,37 +710,36 @@ static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
     }
 }
 
-// Oldest row of tensor t that a live, unfinished consumer still reads
-// (p->req[t] when none). A fused upsample's rows are read by its concats
-// (row y of it is row y / 2 of t), so for it their progress counts.
-static uint32_t sched_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t t)
+// Oldest row of tensor t that a live, unfinished consumer other than a
+// fused upsample still reads (`oldest` when none is older).
+static uint32_t read_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t t, uint32_t oldest)
 {
-    const uint32_t n = m->n_layers;
-    uint32_t oldest = p->req[t];
-    for (uint32_t l = t; l < n; l++) {
+    for (uint32_t l = t; l < m->n_layers; l++) {
         const vd_cnn_layer_t *L = &m->layers[l];
-        if (p->live[l + 1u] == 0u || !reads(L, t)) {
+        if (p->live[l + 1u] == 0u || p->live[l + 1u] == LIVE_FUSED || p->done[l + 1u] >= p->h[l + 1u] ||
+            !reads(L, t)) {
             continue;
         }
-        uint32_t r;
-        if (p->live[l + 1u] == LIVE_FUSED) {
-            uint32_t up = p->req[l + 1u];   // its concats read rows >= up (concat: row y reads row y)
-            for (uint32_t k = l + 1u; k < n; k++) {
-                if (p->live[k + 1u] != 0u && p->done[k + 1u] < p->h[k + 1u] && reads(&m->layers[k], l + 1u)) {
-                    up = (p->done[k + 1u] < up) ? p->done[k + 1u] : up;
-                }
-            }
-            r = up / 2u;
-        } else {
-            if (p->done[l + 1u] >= p->h[l + 1u]) {
-                continue;
-            }
-            int32_t lo, hi;
-            rows_read(L, p->done[l + 1u], &lo, &hi);
-            (void)hi;
-            r = (lo > 0) ? (uint32_t)lo : 0u;
-        }
+        int32_t lo, hi;
+        rows_read(L, p->done[l + 1u], &lo, &hi);
+        (void)hi;
+        const uint32_t r = (lo > 0) ? (uint32_t)lo : 0u;
         oldest = (r < oldest) ? r : oldest;
+    }
+    return oldest;
+}
+
+// Oldest row of tensor t that a live, unfinished consumer still reads
+// (p->req[t] when none). Row y of a fused upsample of t is row y / 2 of t,
+// read when its concats read it (they are never fused themselves).
+static uint32_t sched_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t t)
+{
+    uint32_t oldest = read_oldest(m, p, t, p->req[t]);
+    for (uint32_t l = t; l < m->n_layers; l++) {
+        if (p->live[l + 1u] == LIVE_FUSED && reads(&m->layers[l], t)) {
+            const uint32_t r = read_oldest(m, p, l + 1u, p->req[l + 1u]) / 2u;
+            oldest = (r < oldest) ? r : oldest;
+        }
     }
     return oldest;
 }
@@ -807,8 +806,8 @@ static void sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t heigh
         // A computed tensor is read, so some batch had a span >= 1; the
         // floor only keeps ring_row's modulo defined whatever happens. A
         // fused upsample has no rows.
-        p->rows[t] = (uint16_t)((p->live[t] != 0u && p->rows[t] == 0u) ? 1u : p->rows[t]);
-        p->rows[t] = (p->live[t] == LIVE_FUSED) ? 0u : p->rows[t];
+        const uint32_t min_rows = (p->live[t] == LIVE_FUSED || p->live[t] == 0u) ? 0u : 1u;
+        p->rows[t] = (p->live[t] == LIVE_FUSED) ? 0u : (uint16_t)((p->rows[t] < min_rows) ? min_rows : p->rows[t]);
     }
 }
 
