@@ -710,36 +710,46 @@ static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
     }
 }
 
-// Oldest row of tensor t that a live, unfinished consumer other than a
-// fused upsample still reads (`oldest` when none is older).
-static uint32_t read_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t t, uint32_t oldest)
+// The oldest input row that layer L, which makes tensor u, still reads
+// (UINT32_MAX once u is complete).
+static uint32_t consumer_row(const vd_cnn_layer_t *L, const vd_cnn_plan_t *p, uint32_t u)
 {
-    for (uint32_t l = t; l < m->n_layers; l++) {
-        const vd_cnn_layer_t *L = &m->layers[l];
-        if (p->live[l + 1u] == 0u || p->live[l + 1u] == LIVE_FUSED || p->done[l + 1u] >= p->h[l + 1u] ||
-            !reads(L, t)) {
-            continue;
+    if (p->done[u] >= p->h[u]) {
+        return UINT32_MAX;
+    }
+    int32_t lo, hi;
+    rows_read(L, p->done[u], &lo, &hi);
+    (void)hi;
+    return (lo > 0) ? (uint32_t)lo : 0u;
+}
+
+// Oldest row of tensor u that its live consumers still read (p->req[u] when
+// none). For the consumers of a fused upsample, which are never fused.
+static uint32_t read_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t u)
+{
+    uint32_t oldest = p->req[u];
+    for (uint32_t l = u; l < m->n_layers; l++) {
+        if (p->live[l + 1u] != 0u && reads(&m->layers[l], u)) {
+            const uint32_t r = consumer_row(&m->layers[l], p, l + 1u);
+            oldest = (r < oldest) ? r : oldest;
         }
-        int32_t lo, hi;
-        rows_read(L, p->done[l + 1u], &lo, &hi);
-        (void)hi;
-        const uint32_t r = (lo > 0) ? (uint32_t)lo : 0u;
-        oldest = (r < oldest) ? r : oldest;
     }
     return oldest;
 }
 
 // Oldest row of tensor t that a live, unfinished consumer still reads
 // (p->req[t] when none). Row y of a fused upsample of t is row y / 2 of t,
-// read when its concats read it (they are never fused themselves).
+// read when the upsample's concats read it.
 static uint32_t sched_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t t)
 {
-    uint32_t oldest = read_oldest(m, p, t, p->req[t]);
+    uint32_t oldest = p->req[t];
     for (uint32_t l = t; l < m->n_layers; l++) {
-        if (p->live[l + 1u] == LIVE_FUSED && reads(&m->layers[l], t)) {
-            const uint32_t r = read_oldest(m, p, l + 1u, p->req[l + 1u]) / 2u;
-            oldest = (r < oldest) ? r : oldest;
+        if (p->live[l + 1u] == 0u || !reads(&m->layers[l], t)) {
+            continue;
         }
+        const uint32_t r = (p->live[l + 1u] == LIVE_FUSED) ? read_oldest(m, p, l + 1u) / 2u
+                                                           : consumer_row(&m->layers[l], p, l + 1u);
+        oldest = (r < oldest) ? r : oldest;
     }
     return oldest;
 }
