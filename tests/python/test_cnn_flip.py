@@ -140,3 +140,36 @@ def test_int8_flip_c_equals_ref_on_real_frames(vdlib, data_dir):
                 first = {b for b, _ in one(im, w, h)}
                 n_moved += sum(b not in first for b, _ in got)   # averaged boxes and mirrored leftovers
     assert n > 0 and n_moved > 0
+
+
+def test_extra_scale_experiment(vdlib, data_dir):
+    """cnn_eval --extra-scale (multi-scale test-time augmentation, an experiment of docs/results/detector.md):
+    an empty height range gives the base boxes unchanged; the quarter-resolution pass appends exactly the
+    fused flip pass of the plane made by two 2x2 box averages, its boxes scaled by 4 into the frame (C and the
+    numpy reference alike); factor 2 (the base's own scale) is refused."""
+    if not MODEL.is_file():
+        pytest.skip(f"no CNN model at {MODEL} (the trained network is committed there)")
+    import cv2
+    f = frames_in_test_split(data_dir)[0]
+    img = cv2.imread(str(f.path), cv2.IMREAD_GRAYSCALE)
+    h, w = img.shape
+    for backend in ("c", "ref"):
+        base = cnn_eval.Int8(MODEL, backend=backend, flip=True)
+        assert cnn_eval.ExtraScale(base, 4, (0, 0))(img, w, h) == base(img, w, h)
+        q = CD.half(CD.half(img))
+        one = cnn_eval.Int8(MODEL, backend=backend)
+        passes = []
+        for mirror in (False, True):
+            plane = np.ascontiguousarray(q[:, ::-1]) if mirror else q
+            x = CD.pad_to(plane, one.align)
+            if backend == "c":
+                dec = one.c.decode(one.c.run(x), x.shape[1] * 4, x.shape[0] * 4, thr_q=-128, max_peaks=100)
+            else:
+                dec = R.decode(one.desc, R.run(one.desc, x), x.shape[1] * 4, x.shape[0] * 4, thr_q=-128, max_peaks=100)
+            passes.append(cnn_eval.clip_boxes(dec, w, h, flip_hw=q.shape[1] * 2 if mirror else None))
+        want = [(b, s / 32768.0) for b, s in cnn_eval.fuse_flip(passes[0], passes[1], 0)]
+        got = cnn_eval.ExtraScale(base, 4)(img, w, h)
+        assert got[:len(got) - len(want)] == base(img, w, h) and got[len(got) - len(want):] == want
+        assert len(want) > 0
+    with pytest.raises(ValueError):
+        cnn_eval.ExtraScale(base, 2)

@@ -208,6 +208,37 @@ class Int8:
         return [(box, s / 32768.0) for box, s in fused]
 
 
+class ExtraScale:
+    """Multi-scale test-time augmentation, an experiment (cnn_eval --extra-scale; not in the detector): the
+    network's boxes on the frame at a second scale, appended to those of `base` (an Int8) before
+    suppression. factor: the frame side divided by the extra plane's side (4: quarter resolution, made by
+    two exact 2x2 box averages; 1: the full-resolution frame). The extra scale runs the fused flip pass
+    too (every peak, fuse_flip at threshold 0). h_range: keep only the extra scale's boxes whose height in
+    frame pixels is in [lo, hi)."""
+
+    def __init__(self, base, factor, h_range=(0, 1 << 30)):
+        if factor not in (1, 4):
+            raise ValueError("extra scale factor: 1 (full resolution) or 4 (quarter resolution)")
+        self.base, self.factor, self.h_range = base, factor, h_range
+
+    def _boxes(self, img, fw, fh, mirror):
+        plane = img if self.factor == 1 else CD.half(CD.half(img))
+        plane = np.ascontiguousarray(plane[:, ::-1]) if mirror else plane
+        x = CD.pad_to(plane, self.base.align)
+        m = self.base
+        f = self.factor
+        if m.c is not None:
+            dec = m.c.decode(m.c.run(x), x.shape[1] * f, x.shape[0] * f, thr_q=-128, max_peaks=100)
+        else:
+            dec = R.decode(m.desc, R.run(m.desc, x), x.shape[1] * f, x.shape[0] * f, thr_q=-128, max_peaks=100)
+        return clip_boxes(dec, fw, fh, flip_hw=(img.shape[1] // f) * f // 2 if mirror else None)
+
+    def __call__(self, img, frame_w, frame_h):
+        lo, hi = self.h_range
+        extra = fuse_flip(self._boxes(img, frame_w, frame_h, False), self._boxes(img, frame_w, frame_h, True), 0)
+        return self.base(img, frame_w, frame_h) + [(b, sc / 32768.0) for b, sc in extra if lo <= b[3] < hi]
+
+
 class Float:
     def __init__(self, ckpt):
         import torch
@@ -322,6 +353,26 @@ def angle_ap(results):
             for (night, deg), v in sorted(by.items())}
 
 
+HEIGHT_BINS = (0, 24, 32, 48, 64, 96, 160, 1 << 30)
+
+
+def height_recall(results, thr, bins=HEIGHT_BINS):
+    """{family: [(lo, hi, vehicles, found, localised)]} by annotated box height (frame pixels): `found` = some
+    detection with IoU >= 0.5 scores >= thr, `localised` = some detection with IoU >= 0.5 at any score (what
+    a lower threshold could still find). Per vehicle, without the one-to-one matching of AP: a diagnosis of
+    where misses are, not an accuracy figure."""
+    out = {}
+    for fam, fr, dets, gts in results:
+        rows = out.setdefault(fam, [[lo, hi, 0, 0, 0] for lo, hi in zip(bins[:-1], bins[1:])])
+        for g in fr.boxes.tolist():
+            s = max((d[1] for d in dets if iou(d[0], tuple(g)) >= 0.5), default=None)
+            r = next(r for r in rows if r[0] <= g[3] < r[1])
+            r[2] += 1
+            r[3] += int(s is not None and s >= thr)
+            r[4] += int(s is not None)
+    return {k: [tuple(r) for r in v if r[2]] for k, v in sorted(out.items())}
+
+
 def choose_threshold(rep):
     """Operating point on the val split: the threshold with TP >= 70 % and FP <= 30 % on every family and
     the highest mean F1 among those; else the highest mean F1 overall."""
@@ -391,6 +442,11 @@ def main(argv=None):
                     help="horizontal-flip test-time augmentation: a second pass on the mirrored half-resolution "
                          "plane, its boxes fused with the first pass's (backends c/ref; with --backend demo: "
                          "vd_fir_demo --cnn-flip on)")
+    ap.add_argument("--extra-scale", type=int, choices=(1, 4),
+                    help="experiment: also run the network (fused flip pass) on the frame at full (1) or quarter (4) "
+                         "resolution and append those boxes before suppression (backends c/ref; ExtraScale)")
+    ap.add_argument("--extra-h", default="0:1073741824",
+                    help="with --extra-scale: keep its boxes of height lo:hi frame pixels (lo <= h < hi)")
     ap.add_argument("--out", help="JSON report")
     ap.add_argument("--pr", help="precision-recall PNG")
     a = ap.parse_args(argv)
@@ -406,11 +462,18 @@ def main(argv=None):
     t0 = time.time()
     if a.flip and (a.ckpt or a.paper):
         raise SystemExit("--flip is for the int8 network (--model, not --ckpt or --paper)")
+    if a.extra_scale and a.backend == "demo":
+        raise SystemExit("--extra-scale is an experiment of backends c/ref (the detector has no such pass)")
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
                        extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"])
     else:
-        res = run(Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend, flip=a.flip), frames)
+        pred = Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend, flip=a.flip)
+        if a.extra_scale:
+            if a.ckpt or not a.flip:
+                raise SystemExit("--extra-scale is for the int8 network with --flip")
+            pred = ExtraScale(pred, a.extra_scale, tuple(int(v) for v in a.extra_h.split(":")))
+        res = run(pred, frames)
     sec = time.time() - t0
     rep = figures(res)
     thr = a.thr
@@ -430,6 +493,11 @@ def main(argv=None):
     if angles:
         print("drone AP@0.5 per camera angle (degrees): " + ", ".join(f"{k} {100 * ap:.1f} ({nv})"
                                                                        for k, (ap, nv) in angles.items()))
+    heights = height_recall(res, thr)
+    for fam, rows in heights.items():
+        print(f"{fam} by box height (px: vehicles, found at {thr} %, a box with IoU >= 0.5 at any score %): " +
+              ", ".join(f"{lo}-{hi if hi < 1 << 30 else ''}: {n}, {100 * f / n:.0f}, {100 * l / n:.0f}"
+                        for lo, hi, n, f, l in rows))
     print(f"threshold {thr}; {'flip pass on; ' if a.flip else ''}{len(frames)} frames in {sec:.1f} s")
     if a.pr:
         plot_pr(rep, a.pr, f"CNN detector, {a.split} split ({Path(a.model or a.ckpt).name})")
@@ -438,7 +506,9 @@ def main(argv=None):
                                                families=summary(rep, thr),
                                                subsets={k: dict(ap=ap, n_frames=nf, n_vehicles=nv)
                                                         for k, (ap, nf, nv) in subsets.items()},
-                                               angles={k: dict(ap=ap, n_vehicles=nv) for k, (ap, nv) in angles.items()}),
+                                               angles={k: dict(ap=ap, n_vehicles=nv) for k, (ap, nv) in angles.items()},
+                                               by_height={k: [dict(lo=lo, hi=hi, vehicles=n, found=f, localised=l)
+                                                              for lo, hi, n, f, l in v] for k, v in heights.items()}),
                                           indent=1) + "\n")
 
 

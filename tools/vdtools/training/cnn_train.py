@@ -169,6 +169,7 @@ class Net(nn.Module):
         self.align = max(f)
 
     fq = None   # quantisation-aware training: dict(scale, zp) per tensor (set_fake_quant)
+    dropout = 0.0   # cnn_train --dropout: channel dropout on every concat output while training (float only)
 
     def set_fake_quant(self, q):
         """q = the exporter's per-tensor scales and zero points (cnn_export.quantise), or None for float."""
@@ -198,6 +199,8 @@ class Net(nn.Module):
                 y = F.interpolate(a, scale_factor=2, mode="nearest")
             elif d["op"] == "cat":
                 y = torch.cat([a, t[d["in2"]]], 1)
+                if self.dropout and self.training and self.fq is None:
+                    y = F.dropout2d(y, self.dropout)
             elif self.fq is not None:
                 y = self._fq_layer(d, i, a)
             else:
@@ -390,6 +393,9 @@ def main(argv=None):
                     "1-3 vehicles of other training frames of the same family pasted in (cnn_targets.paste)")
     ap.add_argument("--oblique", type=float, default=1.0, help="draw drone frames with a camera angle of at most "
                     "40 degrees this many times as often as the others (1: uniform)")
+    ap.add_argument("--wd", type=float, default=1e-4, help="AdamW weight decay (1e-4 in every shipped model)")
+    ap.add_argument("--dropout", type=float, default=0.0, help="channel dropout (Dropout2d) on the decoder's "
+                    "concat outputs while training, float only (0 in every shipped model)")
     ap.add_argument("--ema", type=float, default=0.0, help="keep an exponential moving average of the weights "
                     "and batch-norm statistics with this decay per step (e.g. 0.999; 0: off) and evaluate, "
                     "choose and save it instead of the raw weights")
@@ -421,12 +427,15 @@ def main(argv=None):
     print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }; "
           f"{len({f.group for f in by_fam.get('msrs', [])})} MSRS scene groups), val {len(val)}", flush=True)
     net = Net(a.arch)
+    net.dropout = a.dropout
     if a.init:
         net.load_state_dict(torch.load(a.init, weights_only=False, map_location="cpu")["net"])
     # --ema: torch's own averaging (AveragedModel with use_buffers averages the batch-norm statistics too);
     # `ev` is the network evaluated, chosen and saved: the average, or the trained weights themselves.
     ema = weight_average(net, a.ema) if a.ema else None
     ev = ema.module if ema is not None else net
+    if ema is not None:
+        ev.dropout = 0.0    # the average is only evaluated: no dropout while refresh_bn measures its statistics
     if a.qat:
         from vdtools.training import cnn_export as E     # same layer; imported here (it imports this module)
         calib_rng = np.random.default_rng(0)
@@ -445,7 +454,7 @@ def main(argv=None):
         FAMILY_SHARE.update({k: float(v) for k, v in (kv.split("=") for kv in a.share.split(","))})
     print(f"arch {a.arch}: {sum(p.numel() for p in net.parameters())} parameters, "
           f"{macs(net, 320, 256) / 1e6:.1f} M MACs at 320x256", flush=True)
-    opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=1e-4)
+    opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=a.wd)
     step, t_used, log = 0, 0.0, []
     if a.resume and (out / "last.pt").exists():
         ck = torch.load(out / "last.pt", weights_only=False)
