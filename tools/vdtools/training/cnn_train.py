@@ -68,6 +68,15 @@ ARCHS = {
             ("pw", 64), ("up",), ("cat", "s16"), ("dw", 1), ("pw", 128),
             ("pw", 64), ("up",), ("cat", "s8"), ("dw", 1), ("pw", 64),
             ("pw", 16), ("up",), ("cat", "s4"), ("dw", 1), ("head", 5)],
+    # s32 with thinner skips (16 stride-4, 32 stride-8 channels): its stride-32 receptive field within the
+    # detector's 256 KiB workspace budget at 640x512
+    "s32l": [("conv", 16, 2), ("dw", 2), ("pw", 16), ("save", "s4"),
+             ("dw", 2), ("pw", 64), ("dw", 1), ("pw", 32), ("save", "s8"),
+             ("dw", 2), ("pw", 128), ("dw", 1), ("pw", 128), ("save", "s16"),
+             ("dw", 2), ("pw", 160), ("dw", 1), ("pw", 160), ("dw", 1), ("pw", 160),
+             ("pw", 64), ("up",), ("cat", "s16"), ("dw", 1), ("pw", 128),
+             ("pw", 64), ("up",), ("cat", "s8"), ("dw", 1), ("pw", 64),
+             ("pw", 16), ("up",), ("cat", "s4"), ("dw", 1), ("head", 5)],
     # main whose bottleneck runs at stride 32 (receptive field of s32, main's stride-4/8 blocks, 30 layers),
     # joined straight to stride 8 by two upsamples; 24 stride-4 skip channels and a 32-channel bottleneck
     # output keep the detector workspace within 256 KiB at 640x512 (253 856 B with the flip pass)
