@@ -160,6 +160,8 @@ def main(argv=None):
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
     ap.add_argument("--thr", type=float, default=0.3, help="default score threshold written into the header")
     ap.add_argument("--out-dir", default=str(clib.REPO / "models"))
+    ap.add_argument("--max-peaks", type=int, default=100, help="decoding top-K written into the header (the "
+                    "demo sizes its candidate and detection budgets from it: docs/embedded.md)")
     ap.add_argument("--exclude", choices=("msrs-night",), help="calibrate without these frames (a model "
                     "trained with cnn_train --exclude: the another-camera estimate must not see them at all)")
     a = ap.parse_args(argv)
@@ -170,7 +172,7 @@ def main(argv=None):
     rng = np.random.default_rng(0)
     calib = [frames[i] for i in rng.choice(len(frames), min(CALIB_FRAMES, len(frames)), replace=False)]
     ranges = calibrate(net, calib)
-    desc, q = quantise(net, ranges, a.thr, name=a.name)
+    desc, q = quantise(net, ranges, a.thr, max_peaks=a.max_peaks, name=a.name)
     blob = V.pack(desc)
     V.write_c_array(blob, a.name, a.out_dir)
     kind = "fake-quantised (QAT)" if ck.get("qat") else "float"   # what the checkpoint's val AP measured
