@@ -178,8 +178,9 @@ class Int8:
         self.c = vd_cnn.CModel(self.blob) if backend == "c" else None
         self.align = V.alignment(self.desc)
 
-    def _decode(self, x, thr_q):
-        fw, fh = x.shape[1] * 2, x.shape[0] * 2
+    def _decode(self, x, thr_q, factor=2):
+        """Boxes of plane x in the coordinates of a frame `factor` times its size (2: the half-resolution plane)."""
+        fw, fh = x.shape[1] * factor, x.shape[0] * factor
         if self.c is not None:
             return self.c.decode(self.c.run(x), fw, fh, thr_q=thr_q, max_peaks=100)
         return R.decode(self.desc, R.run(self.desc, x), fw, fh, thr_q=thr_q, max_peaks=100)
@@ -224,13 +225,8 @@ class ExtraScale:
     def _boxes(self, img, fw, fh, mirror):
         plane = img if self.factor == 1 else CD.half(CD.half(img))
         plane = np.ascontiguousarray(plane[:, ::-1]) if mirror else plane
-        x = CD.pad_to(plane, self.base.align)
-        m = self.base
+        dec = self.base._decode(CD.pad_to(plane, self.base.align), -128, self.factor)
         f = self.factor
-        if m.c is not None:
-            dec = m.c.decode(m.c.run(x), x.shape[1] * f, x.shape[0] * f, thr_q=-128, max_peaks=100)
-        else:
-            dec = R.decode(m.desc, R.run(m.desc, x), x.shape[1] * f, x.shape[0] * f, thr_q=-128, max_peaks=100)
         return clip_boxes(dec, fw, fh, flip_hw=(img.shape[1] // f) * f // 2 if mirror else None)
 
     def __call__(self, img, frame_w, frame_h):
@@ -445,8 +441,8 @@ def main(argv=None):
     ap.add_argument("--extra-scale", type=int, choices=(1, 4),
                     help="experiment: also run the network (fused flip pass) on the frame at full (1) or quarter (4) "
                          "resolution and append those boxes before suppression (backends c/ref; ExtraScale)")
-    ap.add_argument("--extra-h", default="0:1073741824",
-                    help="with --extra-scale: keep its boxes of height lo:hi frame pixels (lo <= h < hi)")
+    ap.add_argument("--extra-h", help="with --extra-scale: keep only its boxes of height lo:hi frame pixels "
+                    "(lo <= h < hi; default all)")
     ap.add_argument("--out", help="JSON report")
     ap.add_argument("--pr", help="precision-recall PNG")
     a = ap.parse_args(argv)
@@ -472,7 +468,8 @@ def main(argv=None):
         if a.extra_scale:
             if a.ckpt or not a.flip:
                 raise SystemExit("--extra-scale is for the int8 network with --flip")
-            pred = ExtraScale(pred, a.extra_scale, tuple(int(v) for v in a.extra_h.split(":")))
+            h = {} if a.extra_h is None else dict(h_range=tuple(int(v) for v in a.extra_h.split(":")))
+            pred = ExtraScale(pred, a.extra_scale, **h)
         res = run(pred, frames)
     sec = time.time() - t0
     rep = figures(res)

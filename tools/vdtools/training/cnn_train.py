@@ -436,15 +436,13 @@ def main(argv=None):
     print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }; "
           f"{len({f.group for f in by_fam.get('msrs', [])})} MSRS scene groups), val {len(val)}", flush=True)
     net = Net(a.arch)
-    net.dropout = a.dropout
     if a.init:
         net.load_state_dict(torch.load(a.init, weights_only=False, map_location="cpu")["net"])
     # --ema: torch's own averaging (AveragedModel with use_buffers averages the batch-norm statistics too);
     # `ev` is the network evaluated, chosen and saved: the average, or the trained weights themselves.
     ema = weight_average(net, a.ema) if a.ema else None
     ev = ema.module if ema is not None else net
-    if ema is not None:
-        ev.dropout = 0.0    # the average is only evaluated: no dropout while refresh_bn measures its statistics
+    net.dropout = a.dropout     # after the average copied the network: the average is only evaluated (no dropout)
     if a.qat:
         from vdtools.training import cnn_export as E     # same layer; imported here (it imports this module)
         calib_rng = np.random.default_rng(0)
