@@ -151,20 +151,25 @@ static void push_box(vd_detector_t *det, const vd_rect_t *box, uint32_t score_q1
     det->stats.cand_cnn++;
 }
 
-// The fused flip pass (cfg.cnn_flip): a[0..na) are the normal pass's clipped
-// boxes, b[0..nb) the mirrored pass's (mirrored back and clipped), both in
-// decode order. For each a[i] in turn, the unused b[j] with the largest
-// IoU >= VD_CNN_FLIP_IOU_Q15 (ties: lowest j) is its match: corners averaged
-// (left/top rounded down, right/bottom rounded up, so the box stays non-empty
-// and inside the frame), score (sa + sb + 1) >> 1; unmatched a[i] keep their
-// box with score (sa + 1) >> 1 (the other pass's vote is 0). Then each unused
-// b[j] in order, score (sb + 1) >> 1. A used b[j] is marked in place by
-// rect.w = 0 (clipped boxes have w >= 1). Fused boxes scoring below the score
-// threshold T (det->cnn_thr_score_q15) are dropped; the rest become
-// candidates in that order. na * nb <= max_peaks^2 IoUs.
-static void fuse_passes(vd_detector_t *det, const vd_cnn_box_t *a, size_t na, vd_cnn_box_t *b, size_t nb, size_t *n)
+// Two box sets fused (cfg.cnn_flip's rule; also the two networks of
+// cfg.cnn_model2): a[0..na) and b[0..nb) in decode order. For each a[i] in
+// turn, the unused b[j] with the largest IoU >= VD_CNN_FLIP_IOU_Q15 (ties:
+// lowest j) is its match: corners averaged (left/top rounded down,
+// right/bottom rounded up, so the box stays non-empty and inside the frame),
+// score (sa + sb + 1) >> 1; unmatched a[i] keep their box with score
+// (sa + 1) >> 1 (the other pass's vote is 0). Then each unused b[j] in order,
+// score (sb + 1) >> 1. A used b[j] is marked in place by rect.w = 0 (clipped
+// boxes have w >= 1). out == NULL: fused boxes scoring >= the score threshold
+// T (det->cnn_thr_score_q15) become candidates in that order (push_box).
+// Else every fused box is written to out[0..) in that order and the count
+// returned; out may be a itself when b lies at or after a + na (the write
+// index never passes the box being read: a[i] -> out[<= i], b[j] ->
+// out[<= na + j]). na * nb IoUs.
+static size_t fuse_boxes(vd_detector_t *det, vd_cnn_box_t *a, size_t na, vd_cnn_box_t *b, size_t nb,
+                         vd_cnn_box_t *out, size_t *n)
 {
     const uint32_t thr = det->cnn_thr_score_q15;
+    size_t w = 0u;
     for (size_t i = 0u; i < na; i++) {
         size_t best = nb;
         uint32_t best_iou = 0u;
@@ -175,36 +180,90 @@ static void fuse_passes(vd_detector_t *det, const vd_cnn_box_t *a, size_t na, vd
                 best_iou = iou;
             }
         }
-        vd_rect_t r = a[i].rect;
+        vd_cnn_box_t f = a[i];
         uint32_t sum = a[i].score_q15;
         if (best < nb) {
             // Corners x0, y0 rounded down, exclusive x1, y1 rounded up; all >= 0.
             const vd_rect_t *q = &b[best].rect;
-            const int32_t x1 = (r.x + r.w + q->x + q->w + 1) >> 1;
-            const int32_t y1 = (r.y + r.h + q->y + q->h + 1) >> 1;
-            r.x = (r.x + q->x) >> 1;
-            r.y = (r.y + q->y) >> 1;
-            r.w = x1 - r.x;
-            r.h = y1 - r.y;
+            vd_rect_t *r = &f.rect;
+            const int32_t x1 = (r->x + r->w + q->x + q->w + 1) >> 1;
+            const int32_t y1 = (r->y + r->h + q->y + q->h + 1) >> 1;
+            r->x = (r->x + q->x) >> 1;
+            r->y = (r->y + q->y) >> 1;
+            r->w = x1 - r->x;
+            r->h = y1 - r->y;
             sum += b[best].score_q15;
             b[best].rect.w = 0;   // used
         }
         const uint32_t s = (sum + 1u) >> 1;   // unmatched: the other pass's vote is 0
-        if (s >= thr) {
-            push_box(det, &r, s, n);
+        if (out != NULL) {
+            f.score_q15 = (uint16_t)s;   // <= 32768
+            out[w++] = f;
+        } else if (s >= thr) {
+            push_box(det, &f.rect, s, n);
         }
     }
     for (size_t j = 0u; j < nb; j++) {
         const uint32_t s = ((uint32_t)b[j].score_q15 + 1u) >> 1;
-        if (b[j].rect.w != 0 && s >= thr) {
+        if (b[j].rect.w == 0) {
+            continue;
+        }
+        if (out != NULL) {
+            vd_cnn_box_t f = b[j];
+            f.score_q15 = (uint16_t)s;
+            out[w++] = f;
+        } else if (s >= thr) {
             push_box(det, &b[j].rect, s, n);
         }
     }
+    return w;
+}
+
+// One network's passes on the frame's plane (r: its row maker, r->nw that
+// network's padded width): pass 0 on the plane into boxes[0, k), with
+// cnn_flip pass 1 on its mirror into [k, 2k), decoded at thr_q; the passes
+// share the network workspace. *kept: the clipped boxes of each pass.
+static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32_t thr_q, cnn_rows_ctx_t *r,
+                              uint32_t nw, uint32_t nh, const vd_frame_t *f, vd_cnn_box_t *boxes, size_t k,
+                              uint32_t passes, size_t kept[2])
+{
+    const vd_cnn_rows_t rows = {cnn_row, r};
+    r->nw = nw;
+    for (uint32_t p = 0u; p < passes; p++) {
+        r->flip = p == 1u;
+        vd_cnn_output_t head;
+        VD_TRY(vd_cnn_run_rows(m, &rows, nw, nh, VD_CNN_STREAM, det->cnn_ws, det->cnn_ws_bytes, &head));
+        VD_TRY(r->st);
+        size_t nb = 0u;
+        VD_TRY(vd_cnn_decode(m, &head, thr_q, 0u, 2u * nw, 2u * nh, boxes + (size_t)p * k, k, &nb));
+        det->stats.cnn_boxes += (uint32_t)nb;
+        kept[p] = clip_boxes(boxes + (size_t)p * k, nb, r->flip, r->hw, f);
+    }
+    return VD_OK;
+}
+
+// The boxes of one network of a cfg.cnn_model2 pair at boxes[0..): its passes
+// (two fused in place, without a threshold, with cnn_flip); *count of them.
+static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_t thr_q, bool never,
+                             cnn_rows_ctx_t *r, const vd_frame_t *f, vd_cnn_box_t *boxes, size_t k, size_t *count)
+{
+    *count = 0u;
+    if (never) {
+        return VD_OK;
+    }
+    uint32_t nw = 0u;
+    uint32_t nh = 0u;
+    vd_det_cnn_input_size(m, f->width, f->height, &nw, &nh);
+    const uint32_t passes = (det->cfg.cnn_flip != 0u) ? 2u : 1u;
+    size_t kept[2] = {0u, 0u};
+    VD_TRY(run_passes(det, m, thr_q, r, nw, nh, f, boxes, k, passes, kept));
+    *count = (passes == 2u) ? fuse_boxes(det, boxes, kept[0], boxes + k, kept[1], boxes, NULL) : kept[0];
+    return VD_OK;
 }
 
 vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n)
 {
-    if (det->cnn_never) {
+    if (det->cnn_never && (det->cfg.cnn_model2 == NULL || det->cnn2_never)) {
         return VD_OK;
     }
     const vd_cnn_model_t *m = det->cfg.cnn_model;
@@ -220,33 +279,33 @@ vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n
     r.wide = f->format != VD_PIX_U8;
     r.hw = f->width / 2u;
     r.hh = f->height / 2u;
-    r.nw = nw;
     r.st = VD_OK;
     if (r.wide) {
         VD_TRY(vd_frame_view_u16(f, &r.v16));
     } else {
         VD_TRY(vd_frame_view_u8(f, &r.v8));
     }
-    const vd_cnn_rows_t rows = {cnn_row, &r};
-    // Pass 0 on the plane into boxes [0, K); with cnn_flip pass 1 on its
-    // mirror into [K, 2K) (init sized the array so), both decoded at
-    // det->cnn_thr_q; the passes share the network workspace.
     const uint32_t passes = (det->cfg.cnn_flip != 0u) ? 2u : 1u;
+    if (det->cfg.cnn_model2 != NULL) {
+        // Network 1's boxes in [0, at), network 2's in [at, cap), each set
+        // fused over its own passes first (init sized the array so).
+        const size_t at = det->cnn2_boxes_at;
+        const vd_cnn_model_t *m2 = det->cfg.cnn_model2;
+        size_t n1 = 0u;
+        size_t n2 = 0u;
+        VD_TRY(net_boxes(det, m, det->cnn_thr_q, det->cnn_never, &r, f, det->cnn_boxes, at / passes, &n1));
+        VD_TRY(net_boxes(det, m2, det->cnn2_thr_q, det->cnn2_never, &r, f, det->cnn_boxes + at,
+                         (det->cnn_boxes_cap - at) / passes, &n2));
+        (void)fuse_boxes(det, det->cnn_boxes, n1, det->cnn_boxes + at, n2, NULL, n);
+        return (det->stats.overflow_candidates != 0u) ? VD_ERR_CAPACITY : VD_OK;
+    }
+    // Pass 0 on the plane into boxes [0, K); with cnn_flip pass 1 on its
+    // mirror into [K, 2K), both decoded at det->cnn_thr_q.
     const size_t k = det->cnn_boxes_cap / passes;
     size_t kept[2] = {0u, 0u};
-    for (uint32_t p = 0u; p < passes; p++) {
-        r.flip = p == 1u;
-        vd_cnn_box_t *boxes = det->cnn_boxes + (size_t)p * k;
-        vd_cnn_output_t head;
-        VD_TRY(vd_cnn_run_rows(m, &rows, nw, nh, VD_CNN_STREAM, det->cnn_ws, det->cnn_ws_bytes, &head));
-        VD_TRY(r.st);
-        size_t nb = 0u;
-        VD_TRY(vd_cnn_decode(m, &head, det->cnn_thr_q, 0u, 2u * nw, 2u * nh, boxes, k, &nb));
-        det->stats.cnn_boxes += (uint32_t)nb;
-        kept[p] = clip_boxes(boxes, nb, r.flip, r.hw, f);
-    }
+    VD_TRY(run_passes(det, m, det->cnn_thr_q, &r, nw, nh, f, det->cnn_boxes, k, passes, kept));
     if (passes == 2u) {
-        fuse_passes(det, det->cnn_boxes, kept[0], det->cnn_boxes + k, kept[1], n);
+        (void)fuse_boxes(det, det->cnn_boxes, kept[0], det->cnn_boxes + k, kept[1], NULL, n);
     } else {
         // Decode order (logit descending, then raster): the best keep the budget.
         for (size_t i = 0u; i < kept[0]; i++) {

@@ -10,7 +10,8 @@
 // window pre-filter's integrals; with the CNN source, first of all the
 // network's streamed workspace (row rings; its input rows are made on demand) and decoded
 // boxes (the header's max_peaks; twice that with cnn_flip, whose fusion needs
-// both passes' boxes). No hot mask and no buffer per frame pixel except the labeller's row buffers.
+// both passes' boxes; with cfg.cnn_model2 the larger network's workspace and
+// both networks' boxes). No hot mask and no buffer per frame pixel except the labeller's row buffers.
 // Bounds: O(1) time and stack, plus the CNN planner (O(layers^2), ~950 bytes
 // of stack, cnn.h) when the source is on; no allocation.
 #include <string.h>
@@ -151,53 +152,37 @@ typedef struct layout {
     size_t contrast, integral;
     size_t cnn_ws, cnn_boxes;
     size_t points_cap, contours_cap, cnn_boxes_cap;
-    int32_t cnn_thr_q;
+    int32_t cnn_thr_q, cnn2_thr_q;
     uint32_t cnn_thr_score_q15;
-    bool cnn_never;
+    size_t cnn2_boxes_at;
+    bool cnn_never, cnn2_never;
 } layout_t;
 
-// The CNN source's slices (they overlay the others: the network runs before
-// labelling) and its resolved thresholds: T, the score threshold in Q15
-// (cnn_score_thr_q15, or the decode-table score of the header's logit
-// threshold), and the logit threshold of the decode: that of T, or with
-// cnn_flip that of max(1, 2T - 32768) (a fused score (sa + sb + 1) >> 1 can
-// reach T from there).
-static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
+// *q = the logit threshold of network m for decode score lo (>= 1), or
+// *never when no logit of m scores that high.
+static vd_status_t decode_thr(const vd_cnn_model_t *m, uint32_t lo, int32_t *q, bool *never)
 {
-    const vd_cnn_model_t *m = c->cnn_model;
+    const vd_status_t st = vd_cnn_thr_from_score(m, lo, q);
+    if (st == VD_ERR_RANGE) {
+        *never = true;
+        return VD_OK;
+    }
+    return st;
+}
+
+// Checks that m is loaded (score 0 always maps to -128) and adds its
+// streamed workspace for the largest frame to the max in l->cnn_ws.
+static vd_status_t plan_net(const vd_detector_cfg_t *c, const vd_cnn_model_t *m, layout_t *l, bool *no_plane)
+{
     int32_t thr = 0;
-    // Score 0 always maps to -128: the call only checks that m is loaded.
     vd_status_t st = vd_cnn_thr_from_score(m, 0u, &thr);
     VD_VERIFY(st != VD_ERR_STATE, VD_ERR_MODEL);
     VD_TRY(st);
-    l->cnn_thr_q = m->score_threshold_q;
-    l->cnn_thr_score_q15 = vd_cnn_score_of_logit(m, m->score_threshold_q);
-    if (c->cnn_score_thr_q15 != 0u) {
-        l->cnn_thr_score_q15 = c->cnn_score_thr_q15;
-        st = vd_cnn_thr_from_score(m, c->cnn_score_thr_q15, &l->cnn_thr_q);
-        if (st == VD_ERR_RANGE) {
-            l->cnn_never = true;   // no logit scores that high: nothing to run for
-        } else {
-            VD_TRY(st);
-        }
-    }
-    if (c->cnn_flip != 0u && !l->cnn_never) {
-        // lo = max(1, 2T - 32768); T <= 32768, so 2T fits.
-        const uint32_t t2 = 2u * l->cnn_thr_score_q15;
-        const uint32_t lo = (t2 > (uint32_t)VD_CNN_SCORE_ONE_Q15) ? t2 - (uint32_t)VD_CNN_SCORE_ONE_Q15 : 1u;
-        // lo <= T, so this fails only when T is 0 and no logit scores 1 or more.
-        st = vd_cnn_thr_from_score(m, lo, &l->cnn_thr_q);
-        if (st == VD_ERR_RANGE) {
-            l->cnn_never = true;
-        } else {
-            VD_TRY(st);
-        }
-    }
     uint32_t nw = 0u;
     uint32_t nh = 0u;
     vd_det_cnn_input_size(m, c->max_width, c->max_height, &nw, &nh);
     if (nw == 0u || nh == 0u) {
-        l->cnn_never = true;   // no half-resolution pixel in any frame
+        *no_plane = true;   // no half-resolution pixel in any frame
         return VD_OK;
     }
     // Decoding scales to 2 nw x 2 nh, which must be a valid frame size.
@@ -205,11 +190,66 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
               VD_ERR_ARG);
     // Streamed: the network keeps row rings, and its input rows are made on
     // demand from the frame (no input plane).
-    st = vd_cnn_workspace_size_ex(m, nw, nh, VD_CNN_STREAM, &l->cnn_ws);
+    size_t ws = 0u;
+    st = vd_cnn_workspace_size_ex(m, nw, nh, VD_CNN_STREAM, &ws);
     VD_VERIFY(st != VD_ERR_STATE, VD_ERR_MODEL);
     VD_TRY(st);
-    // With cnn_flip pass A's boxes [0, K) survive pass B's decode into [K, 2K).
-    l->cnn_boxes_cap = (size_t)m->max_peaks * (c->cnn_flip != 0u ? 2u : 1u);
+    l->cnn_ws = (ws > l->cnn_ws) ? ws : l->cnn_ws;   // the networks run in turn
+    return VD_OK;
+}
+
+// The CNN source's slices (they overlay the others: the network runs before
+// labelling) and its resolved thresholds: T, the score threshold in Q15
+// (cnn_score_thr_q15, or the decode-table score of the header's logit
+// threshold), and the logit threshold of the decode: that of T, or, when P
+// passes are averaged into a final score (2 with cnn_flip or cnn_model2, 4
+// with both), that of max(1, P T - (P - 1) 32768) (one pass below it cannot
+// lift the mean to T), for each network through its own score table.
+static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
+{
+    const vd_cnn_model_t *m = c->cnn_model;
+    const vd_cnn_model_t *m2 = c->cnn_model2;
+    bool no_plane = false;
+    VD_TRY(plan_net(c, m, l, &no_plane));
+    if (m2 != NULL) {
+        VD_TRY(plan_net(c, m2, l, &no_plane));
+    }
+    l->cnn_thr_q = m->score_threshold_q;
+    l->cnn_thr_score_q15 = vd_cnn_score_of_logit(m, m->score_threshold_q);
+    const uint32_t passes = (c->cnn_flip != 0u ? 2u : 1u) * (m2 != NULL ? 2u : 1u);
+    if (c->cnn_score_thr_q15 != 0u) {
+        l->cnn_thr_score_q15 = c->cnn_score_thr_q15;
+        // No logit scores that high: nothing to run for (a fused score is at
+        // most the larger of the networks' top scores).
+        VD_TRY(decode_thr(m, c->cnn_score_thr_q15, &l->cnn_thr_q, &l->cnn_never));
+        if (m2 != NULL) {
+            int32_t q2 = 0;
+            VD_TRY(decode_thr(m2, c->cnn_score_thr_q15, &q2, &l->cnn2_never));
+            l->cnn_never = l->cnn2_never = l->cnn_never && l->cnn2_never;
+        }
+    }
+    if (passes > 1u && !l->cnn_never) {
+        // lo = max(1, P T - (P - 1) 32768); T <= 32768 and P <= 4, so P T fits.
+        const uint32_t pt = passes * l->cnn_thr_score_q15;
+        const uint32_t sub = (passes - 1u) * (uint32_t)VD_CNN_SCORE_ONE_Q15;
+        const uint32_t lo = (pt > sub) ? pt - sub : 1u;
+        // lo <= T, so this fails only when no logit scores lo or more.
+        VD_TRY(decode_thr(m, lo, &l->cnn_thr_q, &l->cnn_never));
+        if (m2 != NULL) {
+            VD_TRY(decode_thr(m2, lo, &l->cnn2_thr_q, &l->cnn2_never));
+        }
+    }
+    if (no_plane) {
+        l->cnn_never = true;
+        l->cnn2_never = true;
+        l->cnn_ws = 0u;
+        return VD_OK;
+    }
+    // With cnn_flip pass A's boxes [0, K) survive pass B's decode into [K, 2K);
+    // cnn_model2's boxes follow the first network's.
+    const size_t f = (c->cnn_flip != 0u) ? 2u : 1u;
+    l->cnn2_boxes_at = (size_t)m->max_peaks * f;
+    l->cnn_boxes_cap = l->cnn2_boxes_at + (m2 != NULL ? (size_t)m2->max_peaks * f : 0u);
     l->cnn_boxes = l->cnn_boxes_cap * sizeof(vd_cnn_box_t);
     return VD_OK;
 }
@@ -400,6 +440,9 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->cnn_thr_q = l.cnn_thr_q;
     det->cnn_thr_score_q15 = l.cnn_thr_score_q15;
     det->cnn_never = l.cnn_never;
+    det->cnn2_thr_q = l.cnn2_thr_q;
+    det->cnn2_boxes_at = l.cnn2_boxes_at;
+    det->cnn2_never = l.cnn2_never;
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     memset(x, 0, sizeof(*x));
     region_bufs(det, &x->b);

@@ -80,10 +80,15 @@ static void entry(uint8_t *e, uint8_t op, uint8_t in, uint16_t cout, int8_t zp, 
     tu_wr32(e + 24, shift);
 }
 
-// Writes the network into g_blob and loads it into g_cnn.
-static void net_load(const net_t *n)
+static union {
+    uint64_t align;
+    uint8_t b[8192];
+} g_blob2;
+static vd_cnn_model_t g_cnn2;   // cfg.cnn_model2 of the pair tests
+
+// Writes the network into blob b and loads it into *m.
+static void net_load_into(const net_t *n, uint8_t *b, vd_cnn_model_t *m)
 {
-    uint8_t *b = g_blob.b;
     const uint32_t w = 224u, bias = 232u, mult = 252u, shift = 272u, dec = 280u;
     const uint32_t total = dec + 5u * 256u * 4u;
     memset(b, 0, total);
@@ -126,8 +131,14 @@ static void net_load(const net_t *n)
         tu_wr32(b + dec + 4u * 255u, 32768u);
     }
     tu_wr32(b + 12, vd_crc32(0u, b + 16, total - 16u));
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&g_cnn, b, total));
-    TEST_ASSERT_EQUAL_UINT32(4u, g_cnn.align);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(m, b, total));
+    TEST_ASSERT_EQUAL_UINT32(4u, m->align);
+}
+
+// Writes the network into g_blob and loads it into g_cnn.
+static void net_load(const net_t *n)
+{
+    net_load_into(n, g_blob.b, &g_cnn);
 }
 
 // ------------------------------------------------------------ frames
@@ -904,6 +915,122 @@ static void test_flip_workspace(void)
     TEST_ASSERT_TRUE(b1 >= b0 && b1 - b0 <= 100u * sizeof(vd_cnn_box_t));
 }
 
+// ------------------------------------------------------------ cnn_model2
+
+// Two networks fused (cfg.cnn_model2), hand-worked. Frame 50 x 48 (hw = 25,
+// plane padded to 28), width 16. Network 1 d = 5: cell c is [8c - 3, 8c +
+// 13); network 2 d = 16 (offset logit 64): [8c + 8, 8c + 24). Spots O0 (p =
+// 8, cell 2) and O1 (p = 16, cell 4), both 200 (score 25600); rows [12, 28).
+//   Network 1: A0 = O0 [13, 29), A1 = O1 [29, 45) (equal logits: raster).
+//   Network 2: B0 = O0 [24, 40), B1 = O1 [40, 56) clipped to [40, 50).
+//   A0: IoU with B0 5 / 27 (Q15 6068), with B1 0: unmatched, score (25600 +
+//   1) >> 1 = 12800 (Q8 100). A1: IoU with B0 11 / 21 (17164), with B1 5 / 21
+//   (7801): takes B0 (another object's box: the rule is geometric), x0 = (29
+//   + 24) >> 1 = 26, x1 = (45 + 40 + 1) >> 1 = 43, score 25600 (Q8 200). B1
+//   left over: 12800 (Q8 100).
+//   T = 19200 (150): P = 2, both decode at 2 T - 32768 = 5632 (no background
+//     peak): only the fused box reaches T.
+//   T = 12800 (100): decode at max(1, 25600 - 32768) = 1: the background
+//     peaks join (network 1 [0, 13), network 2 [8, 24), rows [0, 12): IoU
+//     60 / 288, unmatched, 1280 < T: dropped). Candidates in order: A0, the
+//     pair, B1.
+static void test_pair_fusion_hand_worked(void)
+{
+    net_t n = net_default();
+    n.off_x = -24;   // d = 5
+    net_load(&n);
+    net_t n2 = net_default();
+    n2.off_x = 64;   // d = 16
+    net_load_into(&n2, g_blob2.b, &g_cnn2);
+    fill(20u);
+    spot(8u, 200u);
+    spot(16u, 200u);
+    vd_frame_t f = frame8(50u, 48u);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.cnn_model2 = &g_cnn2;
+    vd_detector_stats_t s;
+    c.cnn_score_thr_q15 = thr_q15_of_pixel(150u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 0u, &f, &g_rec_a, &s));
+    TEST_ASSERT_EQUAL_size_t(1u, g_rec_a.n);
+    expect_cand(&g_rec_a.c[0], 26, 12, 17, 16, 200u);
+    TEST_ASSERT_EQUAL_UINT32(4u, s.cnn_boxes);
+    c.cnn_score_thr_q15 = thr_q15_of_pixel(100u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 0u, &f, &g_rec_a, &s));
+    TEST_ASSERT_EQUAL_size_t(3u, g_rec_a.n);
+    expect_cand(&g_rec_a.c[0], 13, 12, 16, 16, 100u);   // A0 alone
+    expect_cand(&g_rec_a.c[1], 26, 12, 17, 16, 200u);   // A1 + B0
+    expect_cand(&g_rec_a.c[2], 40, 12, 10, 16, 100u);   // B1 left over
+    TEST_ASSERT_EQUAL_UINT32(6u, s.cnn_boxes);          // 3 + 3 decoded, background included
+    TEST_ASSERT_EQUAL_UINT32(3u, s.cand_cnn);
+    // A threshold above both networks' top score (32640): nothing runs.
+    c.cnn_score_thr_q15 = 32700u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_a, &s));
+    TEST_ASSERT_EQUAL_size_t(0u, g_rec_a.n);
+    TEST_ASSERT_EQUAL_UINT32(0u, s.cnn_boxes);
+}
+
+// The same network twice is one pass (every box matches itself: same box,
+// score (s + s + 1) >> 1 = s), decoded at the lower score of P = 2 (4 with
+// cnn_flip): the same candidates as one network, twice the decoded boxes.
+static void test_pair_of_one_network(void)
+{
+    net_t n = net_default();
+    n.off_x = -24;
+    net_load(&n);
+    fill(20u);
+    spot(8u, 200u);
+    spot(16u, 200u);
+    vd_frame_t f = frame8(50u, 48u);
+    for (uint8_t flip = 0u; flip <= 1u; flip++) {
+        vd_detector_cfg_t c = cnn_cfg();
+        c.cnn_score_thr_q15 = thr_q15_of_pixel(100u);
+        vd_detector_stats_t s1, s2;
+        TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, flip, &f, &g_rec_b, &s1));
+        c.cnn_model2 = &g_cnn;
+        TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, flip, &f, &g_rec_a, &s2));
+        TEST_ASSERT_TRUE(g_rec_b.n > 0u);
+        TEST_ASSERT_EQUAL_size_t(g_rec_b.n, g_rec_a.n);
+        for (size_t i = 0u; i < g_rec_a.n; i++) {
+            expect_cand(&g_rec_a.c[i], g_rec_b.c[i].box.x, g_rec_b.c[i].box.y, g_rec_b.c[i].box.w,
+                        g_rec_b.c[i].box.h, g_rec_b.c[i].score_q8);
+        }
+        TEST_ASSERT_TRUE(s2.cnn_boxes >= 2u * s1.cnn_boxes);
+    }
+}
+
+// Workspace: both networks' boxes (max_peaks each, twice with cnn_flip) where
+// D is the overlay's largest part; an unloaded second network is VD_ERR_MODEL;
+// without the CNN source cnn_model2 is ignored.
+static void test_pair_workspace_and_bad_model(void)
+{
+    net_t n = net_default();
+    n.max_peaks = 1024u;
+    net_load(&n);
+    net_t n2 = net_default();
+    n2.max_peaks = 512u;
+    net_load_into(&n2, g_blob2.b, &g_cnn2);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.max_region_w = 1u;
+    c.max_region_h = 1u;
+    c.max_runs = 1u;
+    size_t b0 = 0u, b1 = 0u, b2 = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b0));
+    c.cnn_model2 = &g_cnn2;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b1));
+    TEST_ASSERT_EQUAL_size_t(b0 + 512u * sizeof(vd_cnn_box_t), b1);
+    c.cnn_flip = 1u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
+    TEST_ASSERT_EQUAL_size_t(b0 + (1024u + 2u * 512u) * sizeof(vd_cnn_box_t), b2);
+    vd_cnn_model_t unloaded;
+    memset(&unloaded, 0, sizeof unloaded);
+    c.cnn_model2 = &unloaded;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_detector_workspace_size(&c, NULL, &b2));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_MODEL, vd_detector_init(&g_det, &c, NULL, g_ws, sizeof g_ws));
+    c.sources = VD_DETECTOR_SRC_HOTSPOT;
+    c.cnn_model = NULL;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
+}
+
 // The fusion written again from the definition (detector.h, cfg.cnn_flip),
 // on candidate lists: a[0..na) the normal pass, b[0..nb) the mirrored pass
 // (mirrored back and clipped), Q15 scores score_q8 * 128 (the test network
@@ -1091,6 +1218,9 @@ int main(void)
     RUN_TEST(test_flip_capacity);
     RUN_TEST(test_flip_workspace);
     RUN_TEST(test_flip_equals_fusion_of_passes);
+    RUN_TEST(test_pair_fusion_hand_worked);
+    RUN_TEST(test_pair_of_one_network);
+    RUN_TEST(test_pair_workspace_and_bad_model);
     RUN_TEST(test_clock_and_temporal);
     return UNITY_END();
 }

@@ -70,6 +70,7 @@ typedef enum setting_id {
     SET_CNN_THR,
     SET_CNN_RESCORE,
     SET_CNN_FLIP,
+    SET_CNN_MODEL2,
     SET_VERIFIER,
     SET_BOOST_MODEL,
     SET_BOOST_OFFSET,
@@ -171,6 +172,11 @@ static const setting_t k_settings[SET_COUNT] = {
                       "fuse its boxes, mirrored back, with the first pass's (pairs averaged, the rest at half "
                       "score, fused scores below the score threshold dropped) before overlap suppression (test-time "
                       "augmentation: about twice the network's time; default on, chosen on the val split)"},
+    [SET_CNN_MODEL2] = {"cnn-model2", "FILE|none",
+                        "cnn source: a second version-3 .vdm network run on the same frame, its boxes fused with "
+                        "the first network's as the flip pass fuses (an ensemble: about the second network's time "
+                        "again; default models/vd_cnn2.vdm with the default --cnn-model, none otherwise; 'none' "
+                        "= one network)"},
     [SET_VERIFIER] = {"verifier", "dbn|boost",
                       "verifier of hot-spot/contrast/window (and re-scored cnn) candidates: dbn (default, --model) "
                       "or boost (paper 003's boosted CNN-feature stumps, --boost-model)"},
@@ -689,6 +695,13 @@ static bool apply_setting(demo_opts_t *o, setting_id_t id, const char *v, char *
         if (ok) {
             snprintf(o->cnn_model_buf, sizeof o->cnn_model_buf, "%s", v);
             o->cnn_model = o->cnn_model_buf;
+        }
+        break;
+    case SET_CNN_MODEL2:
+        ok = v[0] != '\0' && strlen(v) < sizeof o->cnn_model2_buf;
+        if (ok) {
+            snprintf(o->cnn_model2_buf, sizeof o->cnn_model2_buf, "%s", v);
+            o->cnn_model2 = o->cnn_model2_buf;
         }
         break;
     case SET_CNN_THR:

@@ -225,6 +225,8 @@ typedef struct demo_opts {
     vd_detector_cfg_t cfg;      // detector settings (--config FILE, then flags)
     const char *cnn_model;      // --cnn-model FILE (flag or config); NULL = a CNN --model, else models/vd_cnn.vdm
     char cnn_model_buf[4096];   // its copy (a config file's text is freed after parsing)
+    const char *cnn_model2;     // --cnn-model2 FILE|none; NULL = models/vd_cnn2.vdm with the default --cnn-model
+    char cnn_model2_buf[4096];
     const char *boost_model;    // --boost-model FILE; NULL = models/vd_boost.vdm (with --verifier boost)
     char boost_model_buf[4096];
     bool sources_set;           // --sources given (flag or config): no default source choice
@@ -254,6 +256,10 @@ typedef struct demo_models {
     vd_cnn_model_t cnn;
     bool have_cnn;
     char cnn_path[4096];
+    uint8_t *cnn2_blob;         // --cnn-model2 (malloc'd); cnn2 points into it
+    vd_cnn_model_t cnn2;
+    bool have_cnn2;
+    char cnn2_path[4096];
     uint8_t *boost_blob;        // --verifier boost: the boosted verifier's file (malloc'd); boost points into it
     vd_boost_model_t boost;
 } demo_models_t;

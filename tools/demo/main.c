@@ -522,9 +522,10 @@ static vd_status_t write_report(run_t *r)
     }
     const double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
     const double wall_total = sum_us(r->times[VD_DET_STAGE_COUNT], r->n_times);
-    char src[64], models[9000];
+    char src[64], models[13000];
     sources_text(r->o.cfg.sources, src, sizeof src);
-    snprintf(models, sizeof models, "%s%s%s%s%s", r->m.have_cnn ? "CNN " : "", r->m.have_cnn ? r->m.cnn_path : "",
+    snprintf(models, sizeof models, "%s%s%s%s%s%s%s", r->m.have_cnn ? "CNN " : "", r->m.have_cnn ? r->m.cnn_path : "",
+             r->m.have_cnn2 ? " + " : "", r->m.have_cnn2 ? r->m.cnn2_path : "",
              r->m.have_cnn && r->m.have_model ? ", " : "", r->m.have_model ? "DBN " : "",
              r->m.have_model ? r->m.model_path : "");
     if (!r->m.have_cnn && !r->m.have_model) {
@@ -637,8 +638,9 @@ static int run(run_t *r)
         char src[64];
         sources_text(o->cfg.sources, src, sizeof src);
         const bool paper = (o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u;
-        fprintf(stderr, "vd_fir_demo: input %s; sources %s%s%s%s; DBN model %s\n", o->input, src,
+        fprintf(stderr, "vd_fir_demo: input %s; sources %s%s%s%s%s%s; DBN model %s\n", o->input, src,
                 r->m.have_cnn ? "; CNN model " : "", r->m.have_cnn ? r->m.cnn_path : "",
+                r->m.have_cnn2 ? " + " : "", r->m.have_cnn2 ? r->m.cnn2_path : "",
                 (r->m.have_cnn && o->cfg.cnn_flip != 0u) ? " (+ flip pass)" : "",
                 r->m.have_model ? r->m.model_path
                               : (paper ? "none (candidates are not verified; score 1.0)" : "none (not needed)"));

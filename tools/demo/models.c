@@ -169,11 +169,35 @@ vd_status_t demo_models_load(demo_models_t *m, demo_opts_t *o, const char *model
         }
         m->have_cnn = true;
         o->cfg.cnn_model = &m->cnn;
+        // The second network: --cnn-model2, or models/vd_cnn2.vdm next to the default first network
+        // (the shipped pair, docs/results/detector.md); 'none' keeps one.
+        char def_cnn2[4096];
+        snprintf(def_cnn2, sizeof def_cnn2, "%s/vd_cnn2.vdm", models_dir);
+        const bool def_pair = o->cnn_model == NULL && !model_is_cnn && file_exists(def_cnn2);
+        if ((o->cnn_model2 != NULL && strcmp(o->cnn_model2, "none") != 0) || (o->cnn_model2 == NULL && def_pair)) {
+            size_t len2 = 0;
+            snprintf(m->cnn2_path, sizeof m->cnn2_path, "%s", o->cnn_model2 != NULL ? o->cnn_model2 : def_cnn2);
+            st = read_model("--cnn-model2", m->cnn2_path, &m->cnn2_blob, &len2, err, err_len);
+            if (st == VD_OK) {
+                st = vd_cnn_load(&m->cnn2, m->cnn2_blob, len2);
+                if (st != VD_OK) {
+                    snprintf(err, err_len, "--cnn-model2 %s: not a valid CNN .vdm model (version 3)", m->cnn2_path);
+                }
+            }
+            if (st != VD_OK) {
+                free(mblob);
+                return st;
+            }
+            m->have_cnn2 = true;
+            o->cfg.cnn_model2 = &m->cnn2;
+        }
         // Room for every decoded box unless set: the model's top-K, twice that with --cnn-flip (its fusion
         // yields up to one box per box of either pass); and the paper sources' 64. Detections after
         // suppression: top-K also with --cnn-flip (the best by score; more is reported as a capacity hit),
         // which keeps the demo's workspace with temporal analysis under 256 KiB at 640x512.
-        const uint32_t topk = m->cnn.max_peaks * (o->cfg.cnn_flip != 0u ? 2u : 1u);
+        // With a second network, both networks' top-K (their fusion yields up to one box per box of either).
+        const uint32_t peaks = m->cnn.max_peaks + (m->have_cnn2 ? m->cnn2.max_peaks : 0u);
+        const uint32_t topk = peaks * (o->cfg.cnn_flip != 0u ? 2u : 1u);
         if (!o->max_candidates_set) {
             uint32_t mc = topk + (((o->cfg.sources & VD_DETECTOR_SRC_ALL) != 0u) ? 64u : 0u);
             o->cfg.max_candidates = (uint16_t)(mc > 4096u ? 4096u : mc);
@@ -221,9 +245,12 @@ void demo_models_free(demo_models_t *m)
 {
     free(m->model_blob);
     free(m->cnn_blob);
+    free(m->cnn2_blob);
     free(m->boost_blob);
     m->model_blob = NULL;
     m->cnn_blob = NULL;
+    m->cnn2_blob = NULL;
+    m->have_cnn2 = false;
     m->have_model = false;
     m->have_cnn = false;
 }

@@ -181,6 +181,22 @@ typedef struct vd_detector_cfg {
     uint8_t reserved3[3];        // 0
     const vd_boost_model_t *boost_model;  // loaded by vd_boost_load; required with VERIFIER_BOOST
     int32_t boost_thr_offset;    // added to the model's threshold, -2^24..2^24; 0 = the model's
+    // A second network (appended so the fields above keep their offsets): two
+    // networks' boxes fused, an ensemble. NULL (default): cnn_model alone.
+    // Otherwise (loaded by vd_cnn_load, must outlive the detector; ignored
+    // without the CNN source) each network runs its passes on the same
+    // half-resolution plane (each padded to its own alignment): one pass, or
+    // with cnn_flip its two passes fused as above but without a threshold
+    // (nothing dropped), in place; then the first network's boxes (A) and the
+    // second's (B) are fused by the cnn_flip rule (match IoU >=
+    // VD_CNN_FLIP_IOU_Q15, corners and scores averaged, an unmatched box at
+    // half its score) and boxes with score < T are dropped. T is
+    // cnn_score_thr_q15, or the score of cnn_model's header threshold. Every
+    // pass decodes, through its own network's score table, at the logit of
+    // the score max(1, P T - (P - 1) 32768), P = 2 (4 with cnn_flip) being
+    // the passes averaged into a final score. The workspace holds the larger
+    // network's and both networks' boxes (vd_detector_workspace_size).
+    const vd_cnn_model_t *cnn_model2;
 } vd_detector_cfg_t;
 
 // cfg.cnn_flip: the IoU (Q15, rounded down as vd_rect_iou_q15) at or above
@@ -257,7 +273,11 @@ typedef struct vd_detector {
                                  //   [0, max_peaks), pass B in [max_peaks, 2 max_peaks))
     size_t cnn_boxes_cap;
     int32_t cnn_thr_q;           // int8 heatmap threshold of the decode: the logit of T, or of
-                                 //   max(1, 2T - 32768) with cnn_flip
+                                 //   max(1, 2T - 32768) with cnn_flip (of max(1, P T - (P - 1) 32768) with
+                                 //   cnn_model2)
+    int32_t cnn2_thr_q;          // cfg.cnn_model2's decode threshold (its own logit of the same score)
+    size_t cnn2_boxes_at;        // cfg.cnn_model2's boxes: cnn_boxes[cnn2_boxes_at, cnn_boxes_cap)
+    bool cnn2_never;             // no logit of cfg.cnn_model2 reaches its decode score: it adds no box
     uint32_t cnn_thr_score_q15;  // T: cnn_score_thr_q15, or the header threshold's score (cnn_flip drops
                                  //   fused boxes below it)
     bool cnn_never;              // threshold above every score, or frames under 2 x 2: the network never runs
@@ -308,6 +328,9 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 // bytes; pass A's boxes must survive pass B's decode), so the total grows by
 // that much when D is the overlay's largest part and by less (or nothing)
 // otherwise; its second network pass reuses D's network workspace.
+// cfg.cnn_model2: D's network workspace is the larger of the two networks'
+// (they run in turn) and its boxes are both networks' (max_peaks, twice that
+// with cnn_flip, each).
 // Returns VD_OK; VD_ERR_ARG for NULL bytes, a cfg value out of range, the CNN
 // source without cfg.cnn_model, cnn_rescore without a DBN model, or a network
 // input above VD_CNN_MAX_SIDE (or twice it above VD_MAX_DIM); VD_ERR_MODEL

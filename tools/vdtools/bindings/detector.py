@@ -73,7 +73,7 @@ class DetectorCfg(C.Structure):
                 ("on_candidate", CANDIDATE_FN), ("candidate_user", C.c_void_p),
                 ("cnn_model", C.c_void_p), ("cnn_score_thr_q15", C.c_uint16), ("cnn_rescore", C.c_uint8),
                 ("cnn_flip", C.c_uint8), ("verifier", C.c_uint8), ("reserved3", C.c_uint8 * 3),
-                ("boost_model", C.c_void_p), ("boost_thr_offset", C.c_int32)]
+                ("boost_model", C.c_void_p), ("boost_thr_offset", C.c_int32), ("cnn_model2", C.c_void_p)]
 
 
 STAT_FIELDS = ("hot_thr_u8", "hot_thr_raw", "hot_pixels", "components", "kept", "refined", "verified",
@@ -129,7 +129,7 @@ def _struct_dict(s):
         if isinstance(v, C.Structure):
             v = _struct_dict(v)
         elif name in ("clock_us", "clock_user", "on_candidate", "candidate_user", "cnn_model", "boost_model",
-                      "reserved3"):
+                      "reserved3", "cnn_model2"):
             continue
         out[name] = v
     return out
@@ -199,31 +199,37 @@ def _load_cnn(cnn_model):
 
 
 def _cfg_with_cnn(**kw):
-    """make_cfg(**kw) with cnn_model (a .vdm path or bytes) loaded: (cfg, keep-alive objects)."""
+    """make_cfg(**kw) with cnn_model and cnn_model2 (.vdm paths or bytes) loaded: (cfg, keep-alive objects)."""
     cm, keep = _load_cnn(kw.pop("cnn_model", None))
+    cm2, keep2 = _load_cnn(kw.pop("cnn_model2", None))
     c = make_cfg(**kw)
     if cm is not None:
         c.cnn_model = C.addressof(cm)
-    return c, (cm, keep)
+    if cm2 is not None:
+        c.cnn_model2 = C.addressof(cm2)
+    return c, (cm, keep, cm2, keep2)
 
 
-def cfg_from_default(fields, cnn_model=None):
-    """vd_detector_cfg_default() with the given fields set and cnn_model (a .vdm path or bytes, or None)
-    loaded: (DetectorCfg, (vd_cnn_model_t, keep-alive blob)) -- the caller keeps the second alive."""
+def cfg_from_default(fields, cnn_model=None, cnn_model2=None):
+    """vd_detector_cfg_default() with the given fields set and cnn_model / cnn_model2 (.vdm paths or bytes,
+    or None) loaded: (DetectorCfg, keep-alive objects) -- the caller keeps the second alive."""
     cfg = DetectorCfg()
     _lib().vd_detector_cfg_default(C.byref(cfg))
     for k, v in fields.items():
         setattr(cfg, k, v)
     cnn = _load_cnn(cnn_model) if cnn_model is not None else (None, None)
+    cnn2 = _load_cnn(cnn_model2) if cnn_model2 is not None else (None, None)
     if cnn[0] is not None:
         cfg.cnn_model = C.addressof(cnn[0])
-    return cfg, cnn
+    if cnn2[0] is not None:
+        cfg.cnn_model2 = C.addressof(cnn2[0])
+    return cfg, cnn + cnn2
 
 
 def workspace_size(width=640, height=512, model=None, **cfg):
     """vd_detector_workspace_size for a width x height detector (other keywords:
-    vd_detector_cfg_t fields, cnn_model a path/bytes of a version-3 .vdm; model: path/bytes of a DBN .vdm
-    or None)."""
+    vd_detector_cfg_t fields, cnn_model / cnn_model2 paths/bytes of version-3 .vdm files; model: path/bytes of
+    a DBN .vdm or None)."""
     c, _keep = _cfg_with_cnn(max_width=width, max_height=height, **cfg)
     m, _blob = _load_model(model)
     n = C.c_size_t()

@@ -178,12 +178,12 @@ class Int8:
         self.c = vd_cnn.CModel(self.blob) if backend == "c" else None
         self.align = V.alignment(self.desc)
 
-    def _decode(self, x, thr_q, factor=2):
+    def _decode(self, x, thr_q, factor=2, max_peaks=100):
         """Boxes of plane x in the coordinates of a frame `factor` times its size (2: the half-resolution plane)."""
         fw, fh = x.shape[1] * factor, x.shape[0] * factor
         if self.c is not None:
-            return self.c.decode(self.c.run(x), fw, fh, thr_q=thr_q, max_peaks=100)
-        return R.decode(self.desc, R.run(self.desc, x), fw, fh, thr_q=thr_q, max_peaks=100)
+            return self.c.decode(self.c.run(x), fw, fh, thr_q=thr_q, max_peaks=max_peaks)
+        return R.decode(self.desc, R.run(self.desc, x), fw, fh, thr_q=thr_q, max_peaks=max_peaks)
 
     def __call__(self, img, frame_w, frame_h, thr_q=-128, score_thr_q15=None):
         """[((x, y, w, h), score)], score = score_q15 / 32768. thr_q: int8 heatmap threshold (-128, the
@@ -207,6 +207,45 @@ class Int8:
             return []
         fused = fused_flip_pass(self._decode, img, self.align, frame_w, frame_h, dec_q, t)
         return [(box, s / 32768.0) for box, s in fused]
+
+
+class Pair:
+    """Two networks' boxes fused, the detector's cfg.cnn_model2 (vd_fir_demo --cnn-model2; integer for integer
+    vdtools.evaluation.cnn_detector.pair_boxes, through the C library or the numpy reference): each network
+    (its header's top-K) decodes at the logit of max(1, P T - (P - 1) 32768), P = 2 (4 with flip), its flip
+    passes fused without a threshold; then the first's boxes and the second's are fused at T (fuse_flip).
+    first, second: Int8 of the same backend and flip."""
+
+    def __init__(self, first, second):
+        if first.flip != second.flip:
+            raise ValueError("both networks of a pair run with the same flip setting")
+        self.nets, self.flip = (first, second), first.flip
+
+    def __call__(self, img, frame_w, frame_h, thr_q=-128, score_thr_q15=None):
+        """As Int8.__call__: T = score_thr_q15, else the score of first's logit thr_q (0 for -128: every peak)."""
+        first = self.nets[0]
+        if score_thr_q15 is not None:
+            t = int(score_thr_q15)
+            if all(thr_from_score(n.desc, t) is None for n in self.nets):
+                return []
+        else:
+            t = 0 if thr_q == -128 else score_of_logit(first.desc, thr_q)
+        p = 4 if self.flip else 2
+        lo = max(1, p * t - (p - 1) * SCORE_ONE_Q15)
+        sets = []
+        for n in self.nets:
+            q = -128 if t == 0 else thr_from_score(n.desc, lo)
+            if q is None:
+                sets.append([])
+                continue
+
+            def decode(x, qq, n=n):
+                return n._decode(x, qq, max_peaks=int(n.desc["max_peaks"]))
+            if self.flip:
+                sets.append(fused_flip_pass(decode, img, n.align, frame_w, frame_h, q, 0))
+            else:
+                sets.append(clip_boxes(decode(net_input(img, n.align), q), frame_w, frame_h))
+        return [(box, s / 32768.0) for box, s in fuse_flip(sets[0], sets[1], t)]
 
 
 class ExtraScale:
@@ -261,7 +300,7 @@ def run(pred, frames):
     return out
 
 
-def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval", paper=None):
+def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval", paper=None, model2=None):
     """The whole C detector (vd_fir_demo --sources cnn, temporal off, score threshold 0.05 so that the
     AP sees the low-score tail) on frames; results as run(). One demo call per family (file names of
     the two HIT-UAV folders could collide). extra: more demo flags (e.g. --cnn-flip on)."""
@@ -274,7 +313,9 @@ def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval", paper=None):
         fams.setdefault(fr.dataset, []).append(fr)
     # Every box both passes decode (2 x top-K) survives suppression: the demo keeps top-K detections, which
     # the low-score tail of the AP curve can exceed with the flip pass.
-    k2 = None if paper is not None else 2 * V.unpack(Path(model).read_bytes())["max_peaks"]
+    # model2 (--cnn-model2): both networks' top-K, each twice.
+    k2 = None if paper is not None else 2 * sum(V.unpack(Path(m).read_bytes())["max_peaks"]
+                                                for m in (model, model2) if m is not None)
     for ds, frs in sorted(fams.items()):
         lst, js = tmp / f"{ds}.txt", tmp / f"{ds}.jsonl"
         paths = {}
@@ -284,7 +325,8 @@ def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval", paper=None):
         lst.write_text("".join(f"{Path(CD.frame_path(fr)).resolve()}\n" for fr in frs))   # list entries are read relative to the list
         if paper is None:
             src = ["--sources", "cnn", "--cnn-model", str(model), "--model", "none", "--cnn-thr", "0.05",
-                   "--max-candidates", str(k2), "--max-detections", str(k2)]
+                   "--max-candidates", str(k2), "--max-detections", str(k2)] + \
+                  ["--cnn-model2", str(model2) if model2 else "none"]
         else:   # the paper pipeline with a DBN model, for the comparison rows (score threshold 0.05 for AP)
             src = ["--model", str(model), "--score-thr", "0.05"] + list(paper)
         cmd = [str(demo), "--input", str(lst)] + src + ["--temporal", "off", "--json", str(js), "--quiet"] + list(extra)
@@ -418,6 +460,8 @@ def summary(rep, thr=None):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--model", help=".vdm (int8)")
+    ap.add_argument("--model2", help="a second .vdm fused with --model (the detector's cnn_model2, "
+                    "vd_fir_demo --cnn-model2; class Pair)")
     ap.add_argument("--ckpt", help="float checkpoint instead of --model")
     ap.add_argument("--backend", default="c", choices=("c", "ref", "demo"),
                     help="c: vd_cnn_run/decode + suppression here; ref: numpy reference; demo: the whole C "
@@ -462,9 +506,13 @@ def main(argv=None):
         raise SystemExit("--extra-scale is an experiment of backends c/ref (the detector has no such pass)")
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
-                       extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"])
+                       extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"], model2=a.model2)
     else:
         pred = Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend, flip=a.flip)
+        if a.model2:
+            if a.ckpt or a.extra_scale:
+                raise SystemExit("--model2 pairs two int8 networks (--model), without --extra-scale")
+            pred = Pair(pred, Int8(a.model2, a.backend, flip=a.flip))
         if a.extra_scale:
             if a.ckpt or not a.flip:
                 raise SystemExit("--extra-scale is for the int8 network with --flip")
@@ -497,9 +545,11 @@ def main(argv=None):
                         for lo, hi, n, f, l in rows))
     print(f"threshold {thr}; {'flip pass on; ' if a.flip else ''}{len(frames)} frames in {sec:.1f} s")
     if a.pr:
-        plot_pr(rep, a.pr, f"CNN detector, {a.split} split ({Path(a.model or a.ckpt).name})")
+        name = Path(a.model or a.ckpt).name + (f" + {Path(a.model2).name}" if a.model2 else "")
+        plot_pr(rep, a.pr, f"CNN detector, {a.split} split ({name})")
     if a.out:
-        Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, thr=thr, flip=a.flip,
+        Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, model2=a.model2, thr=thr,
+                                               flip=a.flip,
                                                families=summary(rep, thr),
                                                subsets={k: dict(ap=ap, n_frames=nf, n_vehicles=nv)
                                                         for k, (ap, nf, nv) in subsets.items()},
