@@ -29,6 +29,7 @@ from realdata import frames_in_test_split
 from buildpaths import build_dir, run_demo as run
 
 MODEL = REPO / "models" / "vd_cnn.vdm"
+MODEL2 = REPO / "models" / "vd_cnn2.vdm"   # the second network of the shipped pair (cfg.cnn_model2)
 
 
 def demo_dets(jsonl):
@@ -199,6 +200,74 @@ def test_nms_rule_is_q15():
     assert CDet.score_q8(32768) == 255 and CDet.score_q8(64) == 1 and CDet.score_q8(63) == 0
 
 
+# ------------------------------------------------------------------ cfg.cnn_model2, the pair of networks
+def test_pair_random_networks_on_clip_frames(demo, clip_frames, random_net, tmp_path):
+    """--cnn-model2: each network decodes at the lower score of P = 2 (4 with --cnn-flip) passes, its flip
+    passes fused without a threshold, then the two networks' boxes fused at T: demo == Python
+    (cnn_detector.detect(desc2=...)) on full and odd-sized frames, at the header's threshold and at --cnn-thr,
+    with the demo's default budgets (both networks' top-K, twice with the flip pass); the pair changes the
+    detections (not vacuous); --cnn-model2 none is one network."""
+    d, net = random_net
+    d2 = R.random_model(np.random.default_rng(77), out_channels=5, width=(6, 8, 8, 6), name="det_random2")
+    d2["score_threshold_q"] = 10
+    d2["max_peaks"] = 40
+    net2 = tmp_path / "net2.vdm"
+    net2.write_bytes(V.pack(d2))
+    k1, k = int(d["max_peaks"]), int(d["max_peaks"]) + 40
+    total = changed = 0
+    for flip in ("off", "on"):
+        f = 2 if flip == "on" else 1
+        for tag, frames in clip_frames.items():
+            src = write_frames(tmp_path / f"pair_{tag}_{flip}", frames)
+            for thr in (None, 0.62):
+                jl = tmp_path / f"pair_{tag}_{flip}_{thr}.jsonl"
+                extra = [] if thr is None else ["--cnn-thr", thr]
+                p = run(demo, "--input", src, "--sources", "cnn", "--cnn-model", net, "--cnn-model2", net2, "--model",
+                        "none", "--temporal", "off", "--cnn-flip", flip, "--json", jl, *extra)
+                assert f"{net} + {net2}" in p.stderr, p.stderr
+                kw = dict(score_thr_q15=0 if thr is None else int(round(thr * 32768)), max_candidates=k * f,
+                          max_detections=k1, flip=flip == "on")
+                total += compare(demo_dets(jl), frames, d, f"pair, flip {flip}, thr {thr}: ", desc2=d2, **kw)
+                changed += sum(CDet.detect(d, img, desc2=d2, **kw) != CDet.detect(d, img, **kw)
+                               for img in frames.values())
+    assert total > 20 and changed >= 4, (total, changed)
+    frames = clip_frames["203x157"]
+    jl = tmp_path / "pair_none.jsonl"
+    p = run(demo, "--input", tmp_path / "pair_203x157_off", "--sources", "cnn", "--cnn-model", net, "--cnn-model2",
+            "none", "--model", "none", "--temporal", "off", "--cnn-flip", "off", "--json", jl)
+    assert " + " not in p.stderr.split("CNN model")[1].split(";")[0], p.stderr
+    compare(demo_dets(jl), frames, d, "none: ", max_candidates=k1, max_detections=k1)
+    q = run(demo, "--input", tmp_path / "pair_203x157_off", "--quiet", "--cnn-model", net, "--cnn-model2",
+            tmp_path / "nope.vdm", "--model", "none", check=False)
+    assert q.returncode != 0 and "--cnn-model2" in q.stderr, q.stderr
+
+
+@pytest.mark.parametrize("flip", [False, True], ids=["one_pass", "flip"])
+def test_pair_real_frames_equal_python(demo, data_dir, tmp_path, flip):
+    """The shipped pair (models/vd_cnn.vdm + models/vd_cnn2.vdm, the demo's default) on real test-split
+    frames: demo == cnn_detector.detect(desc2=...), and cnn_eval.Pair (numpy reference) == cnn_detector.pair_boxes."""
+    if not (MODEL.is_file() and MODEL2.is_file()):
+        pytest.skip("the shipped pair (models/vd_cnn.vdm, models/vd_cnn2.vdm) is not committed")
+    from vdtools.evaluation import cnn_eval
+    desc, desc2 = V.unpack(MODEL.read_bytes()), V.unpack(MODEL2.read_bytes())
+    f = 2 if flip else 1
+    kw = dict(max_candidates=f * (int(desc["max_peaks"]) + int(desc2["max_peaks"])),
+              max_detections=int(desc["max_peaks"]), flip=flip)
+    pair = cnn_eval.Pair(cnn_eval.Int8(MODEL, backend="ref", flip=flip), cnn_eval.Int8(MODEL2, backend="ref", flip=flip))
+    total = 0
+    for tag, frames in _real_frames(data_dir, per_family=3).items():
+        src = write_frames(tmp_path / tag, frames)
+        jl = tmp_path / f"{tag}.jsonl"
+        # the demo's defaults choose the pair: only the flip setting is named
+        run(demo, "--input", src, "--temporal", "off", "--json", jl, "--quiet", "--cnn-flip", "on" if flip else "off")
+        total += compare(demo_dets(jl), frames, desc, f"pair flip {flip}: ", desc2=desc2, **kw)
+        for name, img in list(frames.items())[:2]:
+            h, w = img.shape
+            got = [(b, int(round(s * 32768))) for b, s in pair(img, w, h, score_thr_q15=11469)]
+            assert got == CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=flip), name
+    assert total > 0
+
+
 # ------------------------------------------------------------------ real frames, the shipped model
 def _real_frames(data_dir, per_family=6):
     """A few test-split frames per family (MSRS 640x480, HIT-UAV and its flight 640x512), read as
@@ -303,6 +372,7 @@ def test_demo_cnn_options(demo, clip_frames, random_net, tmp_path):
     # Defaults: models/vd_cnn.vdm makes cnn the default source unless a DBN --model is named.
     q = run(demo, "--input", src, "--temporal", "off")
     assert ("sources cnn" in q.stderr) == MODEL.is_file(), q.stderr
+    assert ("vd_cnn2.vdm" in q.stderr) == (MODEL.is_file() and MODEL2.is_file()), q.stderr
     if dbn.is_file():
         q = run(demo, "--input", src, "--model", dbn, "--temporal", "off")
         assert "sources hotspot" in q.stderr, q.stderr

@@ -286,6 +286,23 @@ static void test_box_hand_worked(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&v, &roi, 5, 3, &d1));
     // (11+..+15 + 21+..+25 + 31+..+35) = 345, with 200 instead of 25: 520 / 15 = 34.67 -> 35.
     TEST_ASSERT_EQUAL_UINT8(35u, one);
+    // k = 2 x 2 (the CNN's half resolution, its own loop): ROI rows 1-2, columns 1-4; the ROI's
+    // last row (y = 3) and column (x = 5) are not read. (11 + 12 + 21 + 22) / 4 = 16.5 -> 17 (half
+    // up); (13 + 14 + 23 + 24) / 4 = 18.5 -> 19. A 2 x 2 block summing to 2 mod 4 rounds up, 1 down.
+    uint8_t q[1][2];
+    vd_image_u8_t dq = {&q[0][0], 2, 1, 2};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&v, &roi, 2, 2, &dq));
+    TEST_ASSERT_EQUAL_UINT8(17u, q[0][0]);
+    TEST_ASSERT_EQUAL_UINT8(19u, q[0][1]);
+    const uint8_t blk[2][2] = {{0u, 1u}, {1u, 0u}};
+    const uint8_t blk1[2][2] = {{0u, 1u}, {0u, 0u}};
+    const vd_view_u8_t vb = {&blk[0][0], 2, 2, 2};
+    const vd_view_u8_t vb1 = {&blk1[0][0], 2, 2, 2};
+    vd_image_u8_t d11 = {&one, 1, 1, 1};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&vb, NULL, 2, 2, &d11));
+    TEST_ASSERT_EQUAL_UINT8(1u, one);   // 2 / 4 = 0.5 -> 1
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&vb1, NULL, 2, 2, &d11));
+    TEST_ASSERT_EQUAL_UINT8(0u, one);   // 1 / 4 = 0.25 -> 0
 }
 
 static void test_box_u16_grey(void)
@@ -328,8 +345,11 @@ static void test_box_random_vs_naive(void)
         r.h = (int32_t)(1u + tu_rand(&seed) % h);
         r.x = (int32_t)(tu_rand(&seed) % (w - (uint32_t)r.w + 1u));
         r.y = (int32_t)(tu_rand(&seed) % (h - (uint32_t)r.h + 1u));
-        const uint32_t kx = 1u + tu_rand(&seed) % (uint32_t)r.w;
-        const uint32_t ky = 1u + tu_rand(&seed) % (uint32_t)r.h;
+        uint32_t kx = 1u + tu_rand(&seed) % (uint32_t)r.w;
+        uint32_t ky = 1u + tu_rand(&seed) % (uint32_t)r.h;
+        if ((trial & 2) != 0 && r.w >= 2 && r.h >= 2) {
+            kx = ky = 2u;   // half of the trials: the 2 x 2 fast path (8-bit) and its 16-bit twin
+        }
         const uint32_t cw = (uint32_t)r.w / kx;
         const uint32_t ch = (uint32_t)r.h / ky;
         const bool wide = (trial & 1) != 0;
