@@ -161,12 +161,19 @@ def test_manifest_csv_and_plan(tmp_path):
 
 def test_settings_follow_the_demo():
     fields, cnn, dbn, desc = fleet.resolve({})
-    assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm"} and dbn is None
-    # the demo's defaults: the fused flip pass, room for every box of both passes (2 x the model's top-K)
-    # as candidates, the model's top-K as detections (tools/demo/models.c)
-    assert fields["cnn_flip"] == 1 and fields["max_candidates"] == 200 and fields["max_detections"] == 100
+    assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm", "cnn_model2": "vd_cnn2.vdm"} and dbn is None
+    assert isinstance(cnn, tuple) and len(cnn) == 2
+    # the demo's defaults: the pair of networks with the fused flip pass, room for every box of both passes
+    # of both (2 x (100 + 80), the models' top-K) as candidates, the first model's top-K as detections
+    # (tools/demo/models.c)
+    assert fields["cnn_flip"] == 1 and fields["max_candidates"] == 360 and fields["max_detections"] == 100
     fields = fleet.resolve({"cnn-flip": "off"})[0]
-    assert fields["cnn_flip"] == 0 and fields["max_candidates"] == fields["max_detections"] == 100
+    assert fields["cnn_flip"] == 0 and fields["max_candidates"] == 180 and fields["max_detections"] == 100
+    fields, cnn, dbn, desc = fleet.resolve({"cnn-model2": "none"})
+    assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm"} and isinstance(cnn, bytes)
+    assert fields["max_candidates"] == 200 and fields["max_detections"] == 100
+    fields, cnn, dbn, desc = fleet.resolve({"cnn-model": str(fleet.clib.REPO / "models" / "vd_cnn.vdm")})
+    assert "cnn_model2" not in desc   # a named first network runs alone unless cnn-model2 is named too
     fields, cnn, dbn, desc = fleet.resolve({"sources": "hotspot", "temporal": "off"})
     assert cnn is None and desc["dbn_model"] == "vd_dbn_grey.vdm" and fields["temporal"] is False
     assert fleet.resolve({"cnn_thr": 0.35})[0]["cnn_score_thr_q15"] == 11469   # round(0.35 * 32768)

@@ -157,7 +157,7 @@ def plan(recs, shard_frames=256):
 
 # ------------------------------------------------------------------ detector settings (as vd_fir_demo)
 
-SETTINGS = ("sources", "cnn-model", "model", "temporal", "cnn-thr", "cnn-flip", "thr-mode", "hot-thr",
+SETTINGS = ("sources", "cnn-model", "cnn-model2", "model", "temporal", "cnn-thr", "cnn-flip", "thr-mode", "hot-thr",
             "max-candidates", "max-detections", "max-tracks")
 
 
@@ -189,8 +189,8 @@ def _switch(v):
 
 def resolve(settings, models_dir=None):
     """vd_fir_demo's detector set-up (tools/demo/models.c demo_models_load and demo_detector_cfg, args.c)
-    for the settings it shares with the fleet: ({cfg field: value}, CNN model bytes or None, DBN model
-    bytes or None, description).
+    for the settings it shares with the fleet: ({cfg field: value}, CNN model bytes (a pair of them with a
+    second network, cfg.cnn_model2) or None, DBN model bytes or None, description).
     settings: {name: value} with the demo's names (dashes or underscores)."""
     s = {k.replace("_", "-"): v for k, v in (settings or {}).items()}
     bad = sorted(set(s) - set(SETTINGS))
@@ -231,9 +231,19 @@ def resolve(settings, models_dir=None):
             cnn, desc["cnn_model"] = def_cnn.read_bytes(), def_cnn.name
         else:
             raise FleetError(f"the cnn source needs a CNN model: cnn-model FILE ({def_cnn} not found)")
+        # the second network: cnn-model2, or models/vd_cnn2.vdm beside the default first one ('none': one)
+        def_cnn2 = models_dir / "vd_cnn2.vdm"
+        m2 = s.get("cnn-model2")
+        if m2 is None and "cnn-model" not in s and not model_is_cnn and def_cnn2.is_file():
+            m2 = def_cnn2
         from vdtools.bindings import detector as vdet
         m, _keep = vdet._load_cnn(cnn)
-        topk = int(m.max_peaks) * (2 if fields["cnn_flip"] else 1)     # the fused flip pass: up to 2 K boxes
+        peaks = int(m.max_peaks)
+        if m2 is not None and str(m2) != "none":
+            cnn2, desc["cnn_model2"] = Path(m2).read_bytes(), Path(m2).name
+            peaks += int(vdet._load_cnn(cnn2)[0].max_peaks)
+            cnn = (cnn, cnn2)   # the pair: cfg.cnn_model2
+        topk = peaks * (2 if fields["cnn_flip"] else 1)     # the fused flip pass: up to 2 K boxes
         if "max-candidates" not in s:
             mc = topk + (64 if sources & SRC_ALL else 0)
             fields["max_candidates"] = min(mc, 4096)
@@ -276,7 +286,7 @@ class _Runner:
 
     def __init__(self, fields, cnn, dbn, width, height):
         from vdtools.bindings import detector as vdet
-        cfg, self._cnn = vdet.cfg_from_default(fields, cnn)
+        cfg, self._cnn = vdet.cfg_from_default(fields, *(cnn if isinstance(cnn, tuple) else (cnn,)))
         cfg.max_width, cfg.max_height = width, height
         cfg.max_region_w = min(cfg.max_region_w, width)
         cfg.max_region_h = min(cfg.max_region_h, height)
@@ -488,7 +498,8 @@ def _key(shard, fields, models):
     h = hashlib.sha256()
     h.update(json.dumps([VERSION, shard["rec"], shard["index"], shard["files"], fields], sort_keys=True).encode())
     for m in models:
-        h.update(hashlib.sha256(m or b"").digest())
+        for b in (m if isinstance(m, tuple) else (m,)):   # a pair of CNN models
+            h.update(hashlib.sha256(b or b"").digest())
     return h.hexdigest()[:24]
 
 
