@@ -163,13 +163,12 @@ def test_settings_follow_the_demo():
     fields, cnn, dbn, desc = fleet.resolve({})
     assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm", "cnn_model2": "vd_cnn2.vdm"} and dbn is None
     assert isinstance(cnn, tuple) and len(cnn) == 2
-    # the demo's defaults: the pair of networks with the fused flip pass, room for every box of both passes
-    # of both (2 x (100 + 80), the models' top-K) as candidates, the first model's top-K as detections
-    # (tools/demo/models.c)
-    assert fields["cnn_flip"] == 1 and fields["max_candidates"] == 360 and fields["max_detections"] == 100
+    # the demo's defaults: the pair of networks with the fused flip pass, the larger top-K (100) as
+    # candidates and the library's 32 detections (tools/demo/models.c: under 256 KiB of workspace)
+    assert fields["cnn_flip"] == 1 and fields["max_candidates"] == 100 and fields["max_detections"] == 32
     fields = fleet.resolve({"cnn-flip": "off"})[0]
-    assert fields["cnn_flip"] == 0 and fields["max_candidates"] == 180 and fields["max_detections"] == 100
-    fields, cnn, dbn, desc = fleet.resolve({"cnn-model2": "none"})
+    assert fields["cnn_flip"] == 0 and fields["max_candidates"] == 100 and fields["max_detections"] == 32
+    fields, cnn, dbn, desc = fleet.resolve({"cnn-model2": "none"})   # one network: room for both passes' top-K
     assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm"} and isinstance(cnn, bytes)
     assert fields["max_candidates"] == 200 and fields["max_detections"] == 100
     fields, cnn, dbn, desc = fleet.resolve({"cnn-model": str(fleet.clib.REPO / "models" / "vd_cnn.vdm")})

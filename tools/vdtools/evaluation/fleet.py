@@ -238,17 +238,17 @@ def resolve(settings, models_dir=None):
             m2 = def_cnn2
         from vdtools.bindings import detector as vdet
         m, _keep = vdet._load_cnn(cnn)
-        peaks = int(m.max_peaks)
+        topk = int(m.max_peaks) * (2 if fields["cnn_flip"] else 1)     # the fused flip pass: up to 2 K boxes
+        md = int(m.max_peaks)   # top-K, also with the flip pass (the best by score survive)
         if m2 is not None and str(m2) != "none":
             cnn2, desc["cnn_model2"] = Path(m2).read_bytes(), Path(m2).name
-            peaks += int(vdet._load_cnn(cnn2)[0].max_peaks)
+            topk, md = max(int(m.max_peaks), int(vdet._load_cnn(cnn2)[0].max_peaks)), 32   # the pair's budgets
             cnn = (cnn, cnn2)   # the pair: cfg.cnn_model2
-        topk = peaks * (2 if fields["cnn_flip"] else 1)     # the fused flip pass: up to 2 K boxes
         if "max-candidates" not in s:
             mc = topk + (64 if sources & SRC_ALL else 0)
             fields["max_candidates"] = min(mc, 4096)
-        if "max-detections" not in s:     # top-K, also with the flip pass (the best by score survive)
-            fields["max_detections"] = min(int(m.max_peaks), fields["max_candidates"])
+        if "max-detections" not in s:
+            fields["max_detections"] = min(md, fields["max_candidates"])
     want_dbn = bool(sources & SRC_ALL)
     if mblob is not None and not model_is_cnn:
         dbn, desc["dbn_model"] = (mblob if want_dbn else None), Path(mp).name

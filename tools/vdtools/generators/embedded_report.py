@@ -198,6 +198,19 @@ def cnn_workspace():
                 for label, cfg in configs:
                     rows.append((path.stem, R.params(desc), R.macs(desc, 320, 256), f"{w}×{h}", label,
                                  det.workspace_size(w, h, cnn_model=str(path), **cfg)))
+        # The shipped pair (cfg.cnn_model2 = vd_cnn2, the demo's default): both networks' parameters and
+        # multiply-adds; the demo's budgets are its own for a pair (fleet.resolve({}) = vd_fir_demo's defaults).
+        p1, p2 = REPO / "models" / "vd_cnn.vdm", REPO / "models" / "vd_cnn2.vdm"
+        if p1.is_file() and p2.is_file():
+            from vdtools.evaluation import fleet
+            d1, d2 = V.unpack(p1.read_bytes()), V.unpack(p2.read_bytes())
+            configs = [("default", {"sources": "cnn"}), ("flip pass", {"sources": "cnn", "cnn_flip": 1}),
+                       ("vd_fir_demo", fleet.resolve({})[0])]
+            for w, h in ((640, 512), (640, 480)):
+                for label, cfg in configs:
+                    rows.append(("vd_cnn + vd_cnn2", R.params(d1) + R.params(d2),
+                                 R.macs(d1, 320, 256) + R.macs(d2, 320, 256), f"{w}×{h}", label,
+                                 det.workspace_size(w, h, cnn_model=str(p1), cnn_model2=str(p2), **cfg)))
     except Exception as e:  # report what is measurable; the page says so
         print(f"note: CNN workspace not measured ({e})", file=sys.stderr)
     return rows
