@@ -8,8 +8,10 @@ splits are made of, vdtools.data.dataset.assign_splits), recomputes both network
 and reports the spread of B − A. Both networks run through the same backend on the same frames
 (`--backend demo`: the whole C detector, as cnn_eval).
 
-    python3 -m vdtools.evaluation.cnn_compare --a models/vd_cnn.vdm --b models/candidates/vd_cnn_s32lq.vdm \
+    python3 -m vdtools.evaluation.cnn_compare --a models/vd_cnn.vdm --b models/vd_cnn2.vdm \
         --backend demo --flip --split val [--boot 2000] [--out out/cmp.json]
+    python3 -m vdtools.evaluation.cnn_compare --a models/vd_cnn.vdm --b models/vd_cnn.vdm+models/vd_cnn2.vdm \
+        --backend demo --flip --split test      # the pair (vd_fir_demo's default) against one network
 """
 import argparse
 import json
@@ -83,16 +85,21 @@ def paired_bootstrap(ta, tb, n_boot=2000, seed=0):
 
 
 def _results(model, a, frames):
+    """Detections of one network (.vdm or .pt), or of a pair "FIRST.vdm+SECOND.vdm" (cfg.cnn_model2)."""
     if model.endswith(".pt"):
         return E.run(E.Float(model), frames)
+    first, _, second = model.partition("+")
     if a.backend == "demo":
-        return E.run_demo(a.demo, model, frames, extra=["--cnn-flip", "on" if a.flip else "off"])
-    return E.run(E.Int8(model, a.backend, flip=a.flip), frames)
+        return E.run_demo(a.demo, first, frames, extra=["--cnn-flip", "on" if a.flip else "off"],
+                          model2=second or None)
+    pred = E.Int8(first, a.backend, flip=a.flip)
+    return E.run(E.Pair(pred, E.Int8(second, a.backend, flip=a.flip)) if second else pred, frames)
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--a", required=True, help="network A: .vdm (int8) or .pt (float checkpoint)")
+    ap.add_argument("--a", required=True, help="network A: .vdm (int8), .pt (float checkpoint), or a pair of "
+                    ".vdm files FIRST+SECOND (the detector's cnn_model2)")
     ap.add_argument("--b", required=True, help="network B, the same kinds")
     ap.add_argument("--backend", default="demo", choices=("c", "ref", "demo"), help="for .vdm networks")
     ap.add_argument("--demo", default=str(clib.REPO / "build" / "tools" / "vd_fir_demo"))
