@@ -21,13 +21,18 @@
 // a matched pair averages its corners and scores, an unmatched box keeps its
 // corners and half its score (the other pass voted 0), and fused boxes below
 // T are dropped
-// (fuse_passes). This is exactly tools/vdtools/evaluation/cnn_eval.py
-// Int8.__call__ (net_input, decode, clip; flip=True: fuse_flip) and
-// tools/vdtools/evaluation/cnn_detector.py, which tests/python compares with.
+// (fuse_boxes). With cfg.cnn_model2 each network runs its passes in turn on
+// the same frame (its own alignment, decode threshold and top-K; two flip
+// passes fused in place without a threshold), then the two networks' boxes
+// are fused by the same rule at T. This is exactly
+// tools/vdtools/evaluation/cnn_eval.py Int8.__call__ (net_input, decode,
+// clip; flip=True: fuse_flip; Pair) and tools/vdtools/evaluation/cnn_detector.py
+// (boxes, pair_boxes), which tests/python compares with.
 // Bounds: O(W*H) for the plane and padding, vd_cnn_macs() multiply-adds for
 // the network, O(Wo*Ho*(1 + max_peaks)) for decoding, O(max_peaks) for the
 // merge -- the first three twice with cnn_flip, whose fusion computes at most
-// max_peaks^2 IoUs (10 000 for the shipped models' top-100). Memory: the
+// max_peaks^2 IoUs (10 000 for the shipped models' top-100), and per network
+// with cnn_model2 (then at most (2 K1) (2 K2) IoUs more). Memory: the
 // overlay (network workspace, max_peaks boxes, 2 max_peaks with cnn_flip: pass
 // A's survive pass B's decode; see detector_init.c), the workspace shared by
 // both passes. Stack: this file's frames plus vd_cnn_run_rows (~1.1 KiB on

@@ -115,7 +115,7 @@ def flip_decode_score(thr_q15):
 
 
 def fuse_flip(a, b, thr_q15):
-    """The fused flip pass (lib/src/detector_cnn.c fuse_passes), integer for integer. a, b: the normal and
+    """The fused flip pass (lib/src/detector_cnn.c fuse_boxes), integer for integer. a, b: the normal and
     the mirrored pass's clipped boxes [((x, y, w, h), score_q15)] in decode order (clip_boxes). In a's order,
     each box takes the unused b box of the largest iou_q15 >= FLIP_IOU_Q15 (ties: the first in b's order):
     corners averaged, x0 = (ax0 + bx0) >> 1 and y0 likewise rounded down, the exclusive x1, y1 rounded up
