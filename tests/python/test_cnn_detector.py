@@ -239,6 +239,14 @@ def test_pair_random_networks_on_clip_frames(demo, clip_frames, random_net, tmp_
     q = run(demo, "--input", tmp_path / "pair_203x157_off", "--quiet", "--cnn-model", net, "--cnn-model2",
             tmp_path / "nope.vdm", "--model", "none", check=False)
     assert q.returncode != 0 and "--cnn-model2" in q.stderr, q.stderr
+    # the config file takes the same key
+    cfg = tmp_path / "pair.json"
+    cfg.write_text(json.dumps({"cnn_model2": str(net2), "cnn-flip": False}))
+    jl = tmp_path / "pair_cfg.jsonl"
+    p = run(demo, "--input", tmp_path / "pair_203x157_off", "--sources", "cnn", "--cnn-model", net, "--model", "none",
+            "--temporal", "off", "--config", cfg, "--json", jl)
+    assert f"{net} + {net2}" in p.stderr, p.stderr
+    compare(demo_dets(jl), frames, d, "config: ", desc2=d2, max_candidates=k1, max_detections=32)
 
 
 @pytest.mark.parametrize("flip", [False, True], ids=["one_pass", "flip"])
