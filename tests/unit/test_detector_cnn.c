@@ -708,6 +708,20 @@ static uint16_t thr_q15_of_pixel(uint32_t v)
     return (uint16_t)(v * 128u);
 }
 
+// The scene of test_flip_fusion_hand_worked: network d = 5 (offset logit
+// -24), spots O0 (p = 8) and O1 (p = 16) of 200 on a background of 20 in a
+// 50 x 48 frame.
+static vd_frame_t two_spot_scene(void)
+{
+    net_t n = net_default();
+    n.off_x = -24;   // d = 5
+    net_load(&n);
+    fill(20u);
+    spot(8u, 200u);
+    spot(16u, 200u);
+    return frame8(50u, 48u);
+}
+
 // Matched, unmatched A, leftover B, a tie on IoU, the threshold T on the
 // fused score. Frame 50 x 48: hw = 25 (plane padded to 28, 7 cells), pass B
 // cell of p: (24 - p) >> 2. Width 16, d = 5: A(c) = [8c - 3, 8c + 13), B(c')
@@ -730,13 +744,7 @@ static uint16_t thr_q15_of_pixel(uint32_t v)
 //     unmatched, score 1280 < T: dropped. Candidates: the pair, A1, B1.
 static void test_flip_fusion_hand_worked(void)
 {
-    net_t n = net_default();
-    n.off_x = -24;   // d = 5
-    net_load(&n);
-    fill(20u);
-    spot(8u, 200u);
-    spot(16u, 200u);
-    vd_frame_t f = frame8(50u, 48u);
+    vd_frame_t f = two_spot_scene();
     vd_detector_cfg_t c = cnn_cfg();
     vd_detector_stats_t s;
     c.cnn_score_thr_q15 = thr_q15_of_pixel(150u);
@@ -844,13 +852,7 @@ static void test_flip_iou_bound(void)
 // (VD_ERR_CAPACITY), the ones below T are not.
 static void test_flip_capacity(void)
 {
-    net_t n = net_default();
-    n.off_x = -24;
-    net_load(&n);
-    fill(20u);
-    spot(8u, 200u);
-    spot(16u, 200u);
-    vd_frame_t f = frame8(50u, 48u);
+    vd_frame_t f = two_spot_scene();
     for (uint16_t cap = 1u; cap <= 3u; cap++) {
         vd_detector_cfg_t c = cnn_cfg();
         c.cnn_score_thr_q15 = thr_q15_of_pixel(100u);
@@ -974,13 +976,7 @@ static void test_pair_fusion_hand_worked(void)
 // cnn_flip): the same candidates as one network, twice the decoded boxes.
 static void test_pair_of_one_network(void)
 {
-    net_t n = net_default();
-    n.off_x = -24;
-    net_load(&n);
-    fill(20u);
-    spot(8u, 200u);
-    spot(16u, 200u);
-    vd_frame_t f = frame8(50u, 48u);
+    vd_frame_t f = two_spot_scene();
     for (uint8_t flip = 0u; flip <= 1u; flip++) {
         vd_detector_cfg_t c = cnn_cfg();
         c.cnn_score_thr_q15 = thr_q15_of_pixel(100u);
