@@ -83,6 +83,18 @@ typedef struct setting {
     const char *help;
 } setting_t;
 
+// A model path setting: copied into buf (a --config file's text is freed
+// after parsing) and *out pointed at it; false for an empty or too long path.
+static bool keep_path(const char *v, char *buf, size_t size, const char **out)
+{
+    if (v[0] == '\0' || strlen(v) >= size) {
+        return false;
+    }
+    snprintf(buf, size, "%s", v);
+    *out = buf;
+    return true;
+}
+
 // Switch settings: the value may be left out on the command line (= on).
 static bool is_switch(int id)
 {
@@ -692,19 +704,10 @@ static bool apply_setting(demo_opts_t *o, setting_id_t id, const char *v, char *
         }
         break;
     case SET_CNN_MODEL:
-        // Copied: a --config file's text is freed after parsing.
-        ok = v[0] != '\0' && strlen(v) < sizeof o->cnn_model_buf;
-        if (ok) {
-            snprintf(o->cnn_model_buf, sizeof o->cnn_model_buf, "%s", v);
-            o->cnn_model = o->cnn_model_buf;
-        }
+        ok = keep_path(v, o->cnn_model_buf, sizeof o->cnn_model_buf, &o->cnn_model);
         break;
     case SET_CNN_MODEL2:
-        ok = v[0] != '\0' && strlen(v) < sizeof o->cnn_model2_buf;
-        if (ok) {
-            snprintf(o->cnn_model2_buf, sizeof o->cnn_model2_buf, "%s", v);
-            o->cnn_model2 = o->cnn_model2_buf;
-        }
+        ok = keep_path(v, o->cnn_model2_buf, sizeof o->cnn_model2_buf, &o->cnn_model2);
         break;
     case SET_CNN_THR:
         // Q15; p = 0 keeps every box (1/32768: 0 would mean the model's threshold)
@@ -734,11 +737,7 @@ static bool apply_setting(demo_opts_t *o, setting_id_t id, const char *v, char *
         break;
     }
     case SET_BOOST_MODEL:
-        ok = v[0] != '\0' && strlen(v) < sizeof o->boost_model_buf;
-        if (ok) {
-            snprintf(o->boost_model_buf, sizeof o->boost_model_buf, "%s", v);
-            o->boost_model = o->boost_model_buf;
-        }
+        ok = keep_path(v, o->boost_model_buf, sizeof o->boost_model_buf, &o->boost_model);
         break;
     default:
         ok = false;
