@@ -292,16 +292,15 @@ vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n
     }
     const uint32_t passes = (det->cfg.cnn_flip != 0u) ? 2u : 1u;
     if (det->cfg.cnn_model2 != NULL) {
-        // Network 1's boxes in [0, at), network 2's in [at, cap), each set
-        // fused over its own passes first (init sized the array so).
-        const size_t at = det->cnn2_boxes_at;
+        // Network 1's boxes in [0, K1 passes), network 2's after them, each
+        // set fused over its own passes first (init sized the array so).
         const vd_cnn_model_t *m2 = det->cfg.cnn_model2;
+        vd_cnn_box_t *b2 = det->cnn_boxes + (size_t)m->max_peaks * passes;
         size_t n1 = 0u;
         size_t n2 = 0u;
-        VD_TRY(net_boxes(det, m, det->cnn_thr_q, det->cnn_never, &r, f, det->cnn_boxes, at / passes, &n1));
-        VD_TRY(net_boxes(det, m2, det->cnn2_thr_q, det->cnn2_never, &r, f, det->cnn_boxes + at,
-                         (det->cnn_boxes_cap - at) / passes, &n2));
-        (void)fuse_boxes(det, det->cnn_boxes, n1, det->cnn_boxes + at, n2, NULL, n);
+        VD_TRY(net_boxes(det, m, det->cnn_thr_q, det->cnn_never, &r, f, det->cnn_boxes, m->max_peaks, &n1));
+        VD_TRY(net_boxes(det, m2, det->cnn2_thr_q, det->cnn2_never, &r, f, b2, m2->max_peaks, &n2));
+        (void)fuse_boxes(det, det->cnn_boxes, n1, b2, n2, NULL, n);
         return (det->stats.overflow_candidates != 0u) ? VD_ERR_CAPACITY : VD_OK;
     }
     // Pass 0 on the plane into boxes [0, K); with cnn_flip pass 1 on its

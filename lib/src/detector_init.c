@@ -154,7 +154,6 @@ typedef struct layout {
     size_t points_cap, contours_cap, cnn_boxes_cap;
     int32_t cnn_thr_q, cnn2_thr_q;
     uint32_t cnn_thr_score_q15;
-    size_t cnn2_boxes_at;
     bool cnn_never, cnn2_never;
 } layout_t;
 
@@ -248,8 +247,7 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     // With cnn_flip pass A's boxes [0, K) survive pass B's decode into [K, 2K);
     // cnn_model2's boxes follow the first network's.
     const size_t f = (c->cnn_flip != 0u) ? 2u : 1u;
-    l->cnn2_boxes_at = (size_t)m->max_peaks * f;
-    l->cnn_boxes_cap = l->cnn2_boxes_at + (m2 != NULL ? (size_t)m2->max_peaks * f : 0u);
+    l->cnn_boxes_cap = ((size_t)m->max_peaks + (m2 != NULL ? (size_t)m2->max_peaks : 0u)) * f;
     l->cnn_boxes = l->cnn_boxes_cap * sizeof(vd_cnn_box_t);
     return VD_OK;
 }
@@ -441,7 +439,6 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->cnn_thr_score_q15 = l.cnn_thr_score_q15;
     det->cnn_never = l.cnn_never;
     det->cnn2_thr_q = l.cnn2_thr_q;
-    det->cnn2_boxes_at = l.cnn2_boxes_at;
     det->cnn2_never = l.cnn2_never;
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     memset(x, 0, sizeof(*x));

@@ -270,13 +270,13 @@ typedef struct vd_detector {
                                  //   workspace for the largest input (no input plane: rows on demand),
     size_t cnn_ws_bytes;
     vd_cnn_box_t *cnn_boxes;     //   decoded boxes (header max_peaks; twice that with cnn_flip: pass A in
-                                 //   [0, max_peaks), pass B in [max_peaks, 2 max_peaks))
+                                 //   [0, max_peaks), pass B in [max_peaks, 2 max_peaks)); cfg.cnn_model2's
+                                 //   follow, laid out the same way with its own max_peaks
     size_t cnn_boxes_cap;
     int32_t cnn_thr_q;           // int8 heatmap threshold of the decode: the logit of T, or of
                                  //   max(1, 2T - 32768) with cnn_flip (of max(1, P T - (P - 1) 32768) with
                                  //   cnn_model2)
     int32_t cnn2_thr_q;          // cfg.cnn_model2's decode threshold (its own logit of the same score)
-    size_t cnn2_boxes_at;        // cfg.cnn_model2's boxes: cnn_boxes[cnn2_boxes_at, cnn_boxes_cap)
     bool cnn2_never;             // no logit of cfg.cnn_model2 reaches its decode score: it adds no box
     uint32_t cnn_thr_score_q15;  // T: cnn_score_thr_q15, or the header threshold's score (cnn_flip drops
                                  //   fused boxes below it)

@@ -198,16 +198,23 @@ def _load_cnn(cnn_model):
     return m, keep
 
 
+def _attach_cnn(cfg, cnn_model, cnn_model2):
+    """Loads cnn_model and cnn_model2 (.vdm paths or bytes, or None) into cfg's pointers; returns the
+    keep-alive objects (models and blobs) the caller must hold while cfg is used."""
+    cm, keep = _load_cnn(cnn_model)
+    cm2, keep2 = _load_cnn(cnn_model2)
+    if cm is not None:
+        cfg.cnn_model = C.addressof(cm)
+    if cm2 is not None:
+        cfg.cnn_model2 = C.addressof(cm2)
+    return cm, keep, cm2, keep2
+
+
 def _cfg_with_cnn(**kw):
     """make_cfg(**kw) with cnn_model and cnn_model2 (.vdm paths or bytes) loaded: (cfg, keep-alive objects)."""
-    cm, keep = _load_cnn(kw.pop("cnn_model", None))
-    cm2, keep2 = _load_cnn(kw.pop("cnn_model2", None))
+    cnn, cnn2 = kw.pop("cnn_model", None), kw.pop("cnn_model2", None)
     c = make_cfg(**kw)
-    if cm is not None:
-        c.cnn_model = C.addressof(cm)
-    if cm2 is not None:
-        c.cnn_model2 = C.addressof(cm2)
-    return c, (cm, keep, cm2, keep2)
+    return c, _attach_cnn(c, cnn, cnn2)
 
 
 def cfg_from_default(fields, cnn_model=None, cnn_model2=None):
@@ -217,13 +224,7 @@ def cfg_from_default(fields, cnn_model=None, cnn_model2=None):
     _lib().vd_detector_cfg_default(C.byref(cfg))
     for k, v in fields.items():
         setattr(cfg, k, v)
-    cnn = _load_cnn(cnn_model) if cnn_model is not None else (None, None)
-    cnn2 = _load_cnn(cnn_model2) if cnn_model2 is not None else (None, None)
-    if cnn[0] is not None:
-        cfg.cnn_model = C.addressof(cnn[0])
-    if cnn2[0] is not None:
-        cfg.cnn_model2 = C.addressof(cnn2[0])
-    return cfg, cnn + cnn2
+    return cfg, _attach_cnn(cfg, cnn_model, cnn_model2)
 
 
 def workspace_size(width=640, height=512, model=None, **cfg):

@@ -79,35 +79,19 @@ def boxes(desc, img, score_thr_q15=0, flip=False):
 
 
 def pair_boxes(desc, desc2, img, score_thr_q15=0, flip=False):
-    """The CNN source's candidates with cfg.cnn_model2 (desc2), in order: [((x, y, w, h), score_q15)]. Each
-    network decodes, through its own score table, at the logit of max(1, P T - (P - 1) 32768) (P = 2, 4 with
-    flip: the passes averaged into a final score; T from desc's header or score_thr_q15); with flip its two
-    passes are fused first without a threshold (cnn_eval.fused_flip_pass at T = 0); then the first network's
-    boxes and the second's are fused at T (cnn_eval.fuse_flip). A network none of whose logits reaches its
-    decode score adds no box; with score_thr_q15 above both networks' top scores nothing runs."""
+    """The CNN source's candidates with cfg.cnn_model2 (desc2), in order: [((x, y, w, h), score_q15)]: both
+    networks through the numpy reference at their headers' top-K, fused by cnn_eval.fuse_pair at T (desc's
+    header threshold or score_thr_q15); with score_thr_q15 above both networks' top scores nothing runs."""
     fh, fw = img.shape
     if fw < 2 or fh < 2:
         return []
     t = score_threshold(desc, score_thr_q15)
     if score_thr_q15 and thr_from_score(desc, score_thr_q15) is None and thr_from_score(desc2, score_thr_q15) is None:
         return []
-    p = 4 if flip else 2
-    lo = max(1, p * t - (p - 1) * SCORE_ONE_Q15)
-    sets = []
-    for d in (desc, desc2):
-        q = thr_from_score(d, lo)
-        if q is None:
-            sets.append([])
-            continue
 
-        def decode(x, qq, d=d):   # the header's top-K, as the detector
-            return R.decode(d, R.run(d, x), 2 * x.shape[1], 2 * x.shape[0], thr_q=qq)
-        align = V.alignment(d)
-        if flip:
-            sets.append(cnn_eval.fused_flip_pass(decode, img, align, fw, fh, q, 0))
-        else:
-            sets.append(cnn_eval.clip_boxes(decode(cnn_eval.net_input(img, align), q), fw, fh))
-    return cnn_eval.fuse_flip(sets[0], sets[1], t)
+    def net(d):   # the header's top-K, as the detector
+        return d, V.alignment(d), lambda x, q: R.decode(d, R.run(d, x), 2 * x.shape[1], 2 * x.shape[0], thr_q=q)
+    return cnn_eval.fuse_pair([net(desc), net(desc2)], img, fw, fh, t, flip)
 
 
 def detect(desc, img, score_thr_q15=0, nms_iou_q15=16384, max_candidates=None, max_detections=None, flip=False,

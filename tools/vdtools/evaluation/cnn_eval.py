@@ -209,12 +209,31 @@ class Int8:
         return [(box, s / 32768.0) for box, s in fused]
 
 
+def fuse_pair(nets, img, frame_w, frame_h, t, flip, every_peak=False):
+    """The detector's cfg.cnn_model2 (lib/src/detector_cnn.c), integer for integer: nets = two (desc, align,
+    decode(plane, thr_q)) of the first and the second network. Each decodes, through its own score table, at
+    the logit of max(1, P T - (P - 1) 32768), P = 2 (4 with flip: the passes averaged into a final score),
+    or every peak with every_peak (AP curves); with flip its two passes are fused without a threshold
+    (fused_flip_pass at 0). A network none of whose logits reaches that score adds no box. Then the first
+    network's boxes and the second's are fused at T (fuse_flip): [((x, y, w, h), score_q15)]."""
+    p = 4 if flip else 2
+    lo = max(1, p * int(t) - (p - 1) * SCORE_ONE_Q15)
+    sets = []
+    for desc, align, decode in nets:
+        q = -128 if every_peak else thr_from_score(desc, lo)
+        if q is None:
+            sets.append([])
+        elif flip:
+            sets.append(fused_flip_pass(decode, img, align, frame_w, frame_h, q, 0))
+        else:
+            sets.append(clip_boxes(decode(net_input(img, align), q), frame_w, frame_h))
+    return fuse_flip(sets[0], sets[1], t)
+
+
 class Pair:
-    """Two networks' boxes fused, the detector's cfg.cnn_model2 (vd_fir_demo --cnn-model2; integer for integer
-    vdtools.evaluation.cnn_detector.pair_boxes, through the C library or the numpy reference): each network
-    (its header's top-K) decodes at the logit of max(1, P T - (P - 1) 32768), P = 2 (4 with flip), its flip
-    passes fused without a threshold; then the first's boxes and the second's are fused at T (fuse_flip).
-    first, second: Int8 of the same backend and flip."""
+    """Two networks' boxes fused, the detector's cfg.cnn_model2 (vd_fir_demo --cnn-model2; fuse_pair), through
+    the C library or the numpy reference, each network at its header's top-K. first, second: Int8 of the same
+    backend and flip."""
 
     def __init__(self, first, second):
         if first.flip != second.flip:
@@ -222,30 +241,17 @@ class Pair:
         self.nets, self.flip = (first, second), first.flip
 
     def __call__(self, img, frame_w, frame_h, thr_q=-128, score_thr_q15=None):
-        """As Int8.__call__: T = score_thr_q15, else the score of first's logit thr_q (0 for -128: every peak)."""
-        first = self.nets[0]
+        """As Int8.__call__: T = score_thr_q15 (nothing runs when it is above both networks' top scores),
+        else the score of first's logit thr_q (0 for -128: every peak)."""
         if score_thr_q15 is not None:
             t = int(score_thr_q15)
             if all(thr_from_score(n.desc, t) is None for n in self.nets):
                 return []
         else:
-            t = 0 if thr_q == -128 else score_of_logit(first.desc, thr_q)
-        p = 4 if self.flip else 2
-        lo = max(1, p * t - (p - 1) * SCORE_ONE_Q15)
-        sets = []
-        for n in self.nets:
-            q = -128 if t == 0 else thr_from_score(n.desc, lo)
-            if q is None:
-                sets.append([])
-                continue
-
-            def decode(x, qq, n=n):
-                return n._decode(x, qq, max_peaks=int(n.desc["max_peaks"]))
-            if self.flip:
-                sets.append(fused_flip_pass(decode, img, n.align, frame_w, frame_h, q, 0))
-            else:
-                sets.append(clip_boxes(decode(net_input(img, n.align), q), frame_w, frame_h))
-        return [(box, s / 32768.0) for box, s in fuse_flip(sets[0], sets[1], t)]
+            t = 0 if thr_q == -128 else score_of_logit(self.nets[0].desc, thr_q)
+        nets = [(n.desc, n.align, lambda x, q, n=n: n._decode(x, q, max_peaks=int(n.desc["max_peaks"])))
+                for n in self.nets]
+        return [(box, s / 32768.0) for box, s in fuse_pair(nets, img, frame_w, frame_h, t, self.flip, t == 0)]
 
 
 class ExtraScale:

@@ -68,15 +68,6 @@ ARCHS = {
             ("pw", 64), ("up",), ("cat", "s16"), ("dw", 1), ("pw", 128),
             ("pw", 64), ("up",), ("cat", "s8"), ("dw", 1), ("pw", 64),
             ("pw", 16), ("up",), ("cat", "s4"), ("dw", 1), ("head", 5)],
-    # s32 with thinner skips (16 stride-4, 32 stride-8 channels): its stride-32 receptive field within the
-    # detector's 256 KiB workspace budget at 640x512
-    "s32l": [("conv", 16, 2), ("dw", 2), ("pw", 16), ("save", "s4"),
-             ("dw", 2), ("pw", 64), ("dw", 1), ("pw", 32), ("save", "s8"),
-             ("dw", 2), ("pw", 128), ("dw", 1), ("pw", 128), ("save", "s16"),
-             ("dw", 2), ("pw", 160), ("dw", 1), ("pw", 160), ("dw", 1), ("pw", 160),
-             ("pw", 64), ("up",), ("cat", "s16"), ("dw", 1), ("pw", 128),
-             ("pw", 64), ("up",), ("cat", "s8"), ("dw", 1), ("pw", 64),
-             ("pw", 16), ("up",), ("cat", "s4"), ("dw", 1), ("head", 5)],
     # main whose bottleneck runs at stride 32 (receptive field of s32, main's stride-4/8 blocks, 30 layers),
     # joined straight to stride 8 by two upsamples; 24 stride-4 skip channels and a 32-channel bottleneck
     # output keep the detector workspace within 256 KiB at 640x512 (253 856 B with the flip pass)
@@ -94,6 +85,21 @@ ARCHS = {
                 ("pw", 8), ("up",), ("cat", "s4"), ("dw", 1), ("pw", 12),
                 ("dw", 1), ("head", 5)],
 }
+
+
+def _thin_skips(arch, widths):
+    """arch with the pointwise layer before each ("save", name) of widths narrowed to widths[name] channels."""
+    out = list(arch)
+    for i, op in enumerate(out):
+        if op[0] == "save" and op[1] in widths:
+            assert out[i - 1][0] == "pw", (arch, i)
+            out[i - 1] = ("pw", widths[op[1]])
+    return out
+
+
+# s32 with thinner skips (16 stride-4, 32 stride-8 channels): its stride-32 receptive field within the
+# detector's 256 KiB workspace budget at 640x512 (the second network of the shipped pair, models/vd_cnn2.vdm)
+ARCHS["s32l"] = _thin_skips(ARCHS["s32"], {"s4": 16, "s8": 32})
 
 
 def fold_bn(seq, dtype=None):
