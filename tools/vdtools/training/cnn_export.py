@@ -36,7 +36,13 @@ OPS = {"conv": V.CONV3X3, "dw": V.DW3X3, "pw": V.PW1X1, "head": V.PW1X1, "up": V
 
 
 def load_net(ckpt):
-    ck = torch.load(ckpt, weights_only=False, map_location="cpu")
+    """A training checkpoint (.pt) or the float weights kept beside a shipped model (.npz, save_float)."""
+    if str(ckpt).endswith(".npz"):
+        with np.load(ckpt) as z:
+            ck = dict(net={k: torch.from_numpy(z[k]) for k in z.files if not k.startswith("__")},
+                      arch=str(z["__arch__"]), step=int(z["__step__"]), qat=bool(z["__qat__"]))
+    else:
+        ck = torch.load(ckpt, weights_only=False, map_location="cpu")
     net = T.Net(ck["arch"])
     net.load_state_dict(ck["net"])
     net.eval()
@@ -53,6 +59,15 @@ def folded(net):
         w, b = T.fold_bn(net.mods[d["mod"]], torch.float64)     # w: (cout, cin/groups, kh, kw)
         out.append((w.numpy(), b.numpy()))
     return out
+
+
+def save_float(net, ck, path):
+    """The float weights a .vdm was exported from, as plain arrays (.npz: no pickle, no torch needed to read
+    them): `cnn_eval --ckpt` measures int8 against float from them after the training cache is gone, and
+    tests/python/test_cnn_float.py checks that they quantise to the shipped int8 weights."""
+    arrays = {k: v.detach().cpu().numpy() for k, v in net.state_dict().items()}
+    np.savez_compressed(path, __arch__=np.array(ck["arch"]), __step__=np.array(int(ck.get("step") or 0)),
+                        __qat__=np.array(bool(ck.get("qat"))), **arrays)
 
 
 def calibrate(net, frames):
@@ -162,6 +177,7 @@ def main(argv=None):
     ap.add_argument("--out-dir", default=str(clib.REPO / "models"))
     ap.add_argument("--max-peaks", type=int, default=100, help="decoding top-K written into the header (the "
                     "demo sizes its candidate and detection budgets from it: docs/embedded.md)")
+    ap.add_argument("--float-out", help="also write the checkpoint's float weights here (.npz, models/float/)")
     ap.add_argument("--exclude", choices=("msrs-night",), help="calibrate without these frames (a model "
                     "trained with cnn_train --exclude: the another-camera estimate must not see them at all)")
     a = ap.parse_args(argv)
@@ -180,6 +196,8 @@ def main(argv=None):
     meta = dict(scale=q["scale"], zp=q["zp"], ranges=ranges, arch=ck["arch"], step=ck.get("step"),
                 val_ap_float=ck.get("val_ap"), val_ap_kind=kind, thr=a.thr)
     Path(a.out_dir, f"{a.name}.scales.json").write_text(json.dumps(meta, indent=1) + "\n")
+    if a.float_out:
+        save_float(net, ck, a.float_out)
     print(f"wrote {a.out_dir}/{a.name}.vdm ({len(blob)} bytes), step {ck.get('step')}, val AP ({kind}) {ck.get('val_ap')}")
 
 
