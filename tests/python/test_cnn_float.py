@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""models/float/<name>.npz holds the float weights models/<name>.vdm was exported from (cnn_export
+"""models/float/<name>.npz (and models/candidates/float/<name>.npz) holds the float weights models/<name>.vdm was exported from (cnn_export
 --float-out), so that int8 against float (`cnn_eval --ckpt models/float/<name>.npz`) can be measured after
 the training cache is gone. Checked here without PyTorch: batch norm folded as cnn_export.fold_bn does
 (scale gamma / sqrt(var + eps) in float32, product in float64) and quantised per output channel
@@ -17,7 +17,11 @@ BN_EPS = np.float32(1e-5)          # torch.nn.BatchNorm2d's default, as cnn_trai
 
 
 def _pairs():
-    return sorted(p for p in FLOAT_DIR.glob("*.npz") if (clib.REPO / "models" / (p.stem + ".vdm")).is_file())
+    """(float .npz, .vdm): models/float/<name>.npz for models/<name>.vdm, and the same under models/candidates/."""
+    out = []
+    for d in (clib.REPO / "models", clib.REPO / "models" / "candidates"):
+        out += [(p, d / (p.stem + ".vdm")) for p in sorted((d / "float").glob("*.npz")) if (d / (p.stem + ".vdm")).is_file()]
+    return out
 
 
 def fold_quantise(z, j):
@@ -51,9 +55,9 @@ def test_fold_quantise_hand_worked():
     assert fold_quantise(Z(z), 0)[:, :, 0, 0].tolist() == [[38, -127], [-127, -32]]
 
 
-@pytest.mark.parametrize("npz", _pairs(), ids=lambda p: p.stem)
-def test_float_weights_quantise_to_the_shipped_model(npz):
-    desc = V.unpack((clib.REPO / "models" / (npz.stem + ".vdm")).read_bytes())
+@pytest.mark.parametrize("npz,vdm", _pairs(), ids=lambda p: p.parent.parent.name + "/" + p.stem)
+def test_float_weights_quantise_to_the_committed_model(npz, vdm):
+    desc = V.unpack(vdm.read_bytes())
     with np.load(npz) as z:
         assert str(z["__arch__"]) and int(z["__step__"]) >= 0
         weighted = [L for L in desc["layers"] if L["w"] is not None]

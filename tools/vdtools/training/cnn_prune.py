@@ -96,6 +96,8 @@ def main(argv=None):
     ap.add_argument("--out", required=True)
     ap.add_argument("--frames", type=int, default=96, help="calibration frames (training split)")
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
+    ap.add_argument("--exclude", choices=("msrs-night",), help="score channels without these frames (a network "
+                    "trained with cnn_train --exclude: the another-camera estimate must not see them at all)")
     a = ap.parse_args(argv)
     ck = torch.load(a.ckpt, weights_only=False, map_location="cpu")
     src, dst = T.Net(ck["arch"]), T.Net(a.arch)
@@ -105,6 +107,8 @@ def main(argv=None):
             [(d["op"], d["stride"], d["in"], d["in2"]) for d in dst.spec]:
         raise SystemExit(f"{ck['arch']} and {a.arch} differ beyond channel counts")
     frames = CD.load_frames(a.data, splits=("train",))
+    if a.exclude == "msrs-night":
+        frames = [f for f in frames if CD.subset(f) != "msrs-night"]
     rng = np.random.default_rng(0)
     calib = [frames[i] for i in rng.choice(len(frames), min(a.frames, len(frames)), replace=False)]
     keep = keep_sets(src, dst, channel_importance(src, calib))
