@@ -3,14 +3,14 @@
 --float-out), so that int8 against float (`cnn_eval --ckpt models/float/<name>.npz`) can be measured after
 the training cache is gone. Checked here without PyTorch: batch norm folded as cnn_export.fold_bn does
 (scale gamma / sqrt(var + eps) in float32, product in float64) and quantised per output channel
-(max|w| / 127, rounded to nearest), the weights must equal the .vdm's int8 weights exactly."""
-from pathlib import Path
+(quantise.int8_per_channel, cnn_export's rule), the weights must equal the .vdm's int8 weights exactly."""
 
 import numpy as np
 import pytest
 
 from vdtools.bindings import clib
 from vdtools.formats import cnn_vdm as V
+from vdtools.formats.quantise import int8_per_channel
 
 FLOAT_DIR = clib.REPO / "models" / "float"
 BN_EPS = np.float32(1e-5)          # torch.nn.BatchNorm2d's default, as cnn_train builds it
@@ -30,16 +30,7 @@ def fold_quantise(z, j):
     if f"mods.{j}.1.running_var" in z.files:
         g = z[f"mods.{j}.1.weight"] / np.sqrt(z[f"mods.{j}.1.running_var"] + BN_EPS)    # float32
         w = w * g.astype(np.float64)[:, None, None, None]
-    sw = np.maximum(np.abs(w.reshape(w.shape[0], -1)).max(1), 1e-8) / 127.0
-    return np.clip(np.round(w / sw[:, None, None, None]), -127, 127).astype(np.int8)
-
-
-def to_vdm_layout(q, op):
-    if op == V.CONV3X3:
-        return q.transpose(0, 2, 3, 1)      # OHWI
-    if op == V.DW3X3:
-        return q[:, 0].transpose(1, 2, 0)   # HWC
-    return q[:, :, 0, 0]                    # (cout, cin)
+    return int8_per_channel(w)[0]
 
 
 def test_fold_quantise_hand_worked():
@@ -63,12 +54,12 @@ def test_float_weights_quantise_to_the_committed_model(npz, vdm):
         weighted = [L for L in desc["layers"] if L["w"] is not None]
         assert len(weighted) == len({k.split(".")[1] for k in z.files if k.startswith("mods.")})
         for j, L in enumerate(weighted):
-            got = to_vdm_layout(fold_quantise(z, j), V.op_id(L["op"]))
+            got = V.weights_from_oihw(fold_quantise(z, j), V.op_id(L["op"]))
             assert got.shape == L["w"].shape, (j, got.shape, L["w"].shape)
             assert np.array_equal(got, L["w"]), f"layer {j}: {int((got != L['w']).sum())} weights differ"
 
 
-def test_float_weights_are_kept_for_every_network_after_2026_11_27():
+def test_vd_cnn2_float_weights_are_kept():
     # vd_cnn2 is exported with --float-out since it was retrained for the 256 KiB pair budget; the older
     # networks' float checkpoints were lost with their training cache (docs/training.md)
     if not (clib.REPO / "models" / "vd_cnn2.vdm").is_file():

@@ -95,6 +95,15 @@ def weight_shape(op, cin, cout):
             CONV5X5: (cout, 5, 5, cin)}.get(op)
 
 
+def weights_from_oihw(w, op):
+    """Weights in PyTorch's (cout, cin / groups, kh, kw) layout -> op's .vdm layout (weight_shape)."""
+    if op in (CONV3X3, CONV5X5):
+        return np.ascontiguousarray(w.transpose(0, 2, 3, 1))     # OHWI
+    if op == DW3X3:
+        return np.ascontiguousarray(w[:, 0].transpose(1, 2, 0))  # HWC
+    return np.ascontiguousarray(w[:, :, 0, 0])                   # (cout, cin)
+
+
 def _int_array(v, dtype, lo, hi, what, shape=None):
     """v as a numpy array of dtype after checking every value lies in [lo, hi] (no silent wrap)."""
     if v is None:

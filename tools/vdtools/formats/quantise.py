@@ -115,6 +115,16 @@ def quantize_multiplier(m):
     return q, shift
 
 
+def int8_per_channel(w):
+    """Symmetric per-output-channel int8 weights of float w (cout, ...): scale max|w| / 127 per channel
+    (at least 1e-8 / 127), values rounded to nearest (half to even) and clipped to [-127, 127].
+    Returns (int8 array of w's shape, float64 scales (cout,)). cnn_export's rule."""
+    w = np.asarray(w, dtype=np.float64)
+    sw = np.maximum(np.abs(w.reshape(w.shape[0], -1)).max(1), 1e-8) / 127.0
+    q = np.clip(np.round(w / sw.reshape((-1,) + (1,) * (w.ndim - 1))), -127, 127).astype(np.int8)
+    return q, sw
+
+
 def srdhm(a, b):
     """gemmlowp SaturatingRoundingDoublingHighMul on int64 arrays holding int32 values."""
     a = np.asarray(a, dtype=np.int64)

@@ -25,7 +25,7 @@ from vdtools.bindings import clib
 from vdtools.data import cnn_data as CD
 from vdtools.training import cnn_train as T
 from vdtools.formats import cnn_vdm as V
-from vdtools.formats.quantise import quantize_multiplier
+from vdtools.formats.quantise import int8_per_channel, quantize_multiplier
 
 CALIB_FRAMES = 96
 # Vehicles cover few pixels, so the largest activations are theirs: the 99.99th percentile clipped them and
@@ -70,20 +70,30 @@ def save_float(net, ck, path):
                         __qat__=np.array(bool(ck.get("qat"))), **arrays)
 
 
+def calibration_frames(frames, n=CALIB_FRAMES):
+    """The n frames (seeded draw without replacement) the exporter, QAT and cnn_prune calibrate on."""
+    rng = np.random.default_rng(0)
+    return [frames[i] for i in rng.choice(len(frames), min(n, len(frames)), replace=False)]
+
+
+def forward_all(net, frames):
+    """Every tensor of net (float, as cnn_export calibrates: half resolution, padded) per frame."""
+    with torch.no_grad():
+        for fr in frames:
+            yield net(T.to_input(T.pad_to(CD.half(fr.img), net.align)), return_all=True)
+
+
 def calibrate(net, frames):
     """Per tensor: (lo, hi) real range."""
     vals = None
-    with torch.no_grad():
-        for fr in frames:
-            img = T.pad_to(CD.half(fr.img), net.align)
-            ts = net(T.to_input(img), return_all=True)
-            if vals is None:
-                vals = [[] for _ in ts]
-            for i, t in enumerate(ts):
-                a = t.numpy().ravel()
-                if a.size > 200000:
-                    a = a[:: a.size // 200000]
-                vals[i].append(a)
+    for ts in forward_all(net, frames):
+        if vals is None:
+            vals = [[] for _ in ts]
+        for i, t in enumerate(ts):
+            a = t.numpy().ravel()
+            if a.size > 200000:
+                a = a[:: a.size // 200000]
+            vals[i].append(a)
     rng = []
     for i, v in enumerate(vals):
         a = np.concatenate(v)
@@ -136,15 +146,8 @@ def quantise(net, ranges, thr_score=0.3, max_peaks=100, name="vd_cnn"):
         if fl[i] is not None:
             w, b = fl[i]
             cout = w.shape[0]
-            sw = np.maximum(np.abs(w.reshape(cout, -1)).max(1), 1e-8) / 127.0
-            wq = np.clip(np.round(w / sw[:, None, None, None]), -127, 127).astype(np.int8)
-            if d["op"] == "conv":
-                wq = wq.transpose(0, 2, 3, 1)                  # OHWI
-            elif d["op"] == "dw":
-                wq = wq[:, 0].transpose(1, 2, 0)               # HWC
-            else:
-                wq = wq[:, :, 0, 0]                            # (cout, cin)
-            lay["w"] = np.ascontiguousarray(wq)
+            wq, sw = int8_per_channel(w)
+            lay["w"] = V.weights_from_oihw(wq, OPS[d["op"]])
             lay["bias"] = np.round(b / (s_in * sw)).astype(np.int64).clip(-(2 ** 31) + 1, 2 ** 31 - 1).astype(np.int32)
             ms = [quantize_multiplier(float(s_in * sw[o] / s_out)) for o in range(cout)]
             lay["mult"] = np.array([m for m, _ in ms], np.int32)
@@ -185,9 +188,7 @@ def main(argv=None):
     frames = CD.load_frames(a.data, splits=("train",))
     if a.exclude == "msrs-night":
         frames = [f for f in frames if CD.subset(f) != "msrs-night"]
-    rng = np.random.default_rng(0)
-    calib = [frames[i] for i in rng.choice(len(frames), min(CALIB_FRAMES, len(frames)), replace=False)]
-    ranges = calibrate(net, calib)
+    ranges = calibrate(net, calibration_frames(frames))
     desc, q = quantise(net, ranges, a.thr, max_peaks=a.max_peaks, name=a.name)
     blob = V.pack(desc)
     V.write_c_array(blob, a.name, a.out_dir)

@@ -7,7 +7,7 @@ as cnn_export calibrates) times the norm of the reading pointwise layer's weight
 folded). A depthwise layer keeps its input's channels, so a chain pointwise -> depthwise is scored at the
 depthwise output. The result is a float checkpoint for `cnn_train --init` (a short float fine-tune, then
 `--qat`); used for the pair's second network, whose s32l weights were 18 KB over the 256 KiB model budget
-(docs/training.md "Pruning").
+(docs/training.md, "A second network within the pair's 256 KiB model budget").
 
     python3 -m vdtools.training.cnn_prune tools/.cache/cnn/s32l/best.pt --arch s32m --out tools/.cache/cnn/s32l_pruned.pt
 """
@@ -18,17 +18,16 @@ import torch
 
 from vdtools.bindings import clib
 from vdtools.data import cnn_data as CD
+from vdtools.training import cnn_export as E
 from vdtools.training import cnn_train as T
 
 
 def channel_importance(net, frames):
     """Per tensor: mean |value| per channel over frames (float64)."""
     acc = None
-    with torch.no_grad():
-        for fr in frames:
-            ts = net(T.to_input(T.pad_to(CD.half(fr.img), net.align)), return_all=True)
-            m = [t[0].abs().double().mean((1, 2)).numpy() for t in ts]
-            acc = m if acc is None else [a + b for a, b in zip(acc, m)]
+    for ts in E.forward_all(net, frames):
+        m = [t[0].abs().double().mean((1, 2)).numpy() for t in ts]
+        acc = m if acc is None else [a + b for a, b in zip(acc, m)]
     return [a / len(frames) for a in acc]
 
 
@@ -94,7 +93,7 @@ def main(argv=None):
     ap.add_argument("ckpt")
     ap.add_argument("--arch", required=True, help="target architecture (cnn_train.ARCHS), same layer list")
     ap.add_argument("--out", required=True)
-    ap.add_argument("--frames", type=int, default=96, help="calibration frames (training split)")
+    ap.add_argument("--frames", type=int, default=E.CALIB_FRAMES, help="calibration frames (training split)")
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
     ap.add_argument("--exclude", choices=("msrs-night",), help="score channels without these frames (a network "
                     "trained with cnn_train --exclude: the another-camera estimate must not see them at all)")
@@ -109,9 +108,7 @@ def main(argv=None):
     frames = CD.load_frames(a.data, splits=("train",))
     if a.exclude == "msrs-night":
         frames = [f for f in frames if CD.subset(f) != "msrs-night"]
-    rng = np.random.default_rng(0)
-    calib = [frames[i] for i in rng.choice(len(frames), min(a.frames, len(frames)), replace=False)]
-    keep = keep_sets(src, dst, channel_importance(src, calib))
+    keep = keep_sets(src, dst, channel_importance(src, E.calibration_frames(frames, a.frames)))
     prune(src, dst, keep)
     n = sum(p.numel() for p in dst.parameters())
     torch.save(dict(net=dst.state_dict(), arch=a.arch, step=0, pruned_from=a.ckpt), a.out)

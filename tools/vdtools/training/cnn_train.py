@@ -455,8 +455,7 @@ def main(argv=None):
     net.dropout = a.dropout     # after the average copied the network: the average is only evaluated (no dropout)
     if a.qat:
         from vdtools.training import cnn_export as E     # same layer; imported here (it imports this module)
-        calib_rng = np.random.default_rng(0)
-        calib = [train[i] for i in calib_rng.choice(len(train), min(E.CALIB_FRAMES, len(train)), replace=False)]
+        calib = E.calibration_frames(train)
         def recalibrate():
             """The exporter's scales for the trained weights and, with --ema, for the average."""
             for m in (net,) if ev is net else (net, ev):
