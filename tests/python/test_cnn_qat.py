@@ -179,3 +179,14 @@ def test_short_run_evaluates_its_last_step_once(data_dir, tmp_path):
     final = torch.load(tmp_path / "final.pt", weights_only=False)
     assert final["step"] == steps[-1] and final["val_ap"] == log[-1]["val_ap"]
     assert (tmp_path / "best.pt").is_file()
+
+
+def test_step_budget_stops_at_that_step(data_dir, tmp_path):
+    """--steps replaces the wall-time budget: the run makes exactly that many optimiser steps (so it is the
+    same run whatever else shares the cores) and evaluates its last step once."""
+    import json
+    T.main(["--arch", "compact", "--data", str(data_dir), "--out", str(tmp_path), "--steps", "3",
+            "--minutes", "1e-9", "--threads", "1", "--batch", "2", "--eval-every", "1000"])
+    log = json.loads((tmp_path / "log.json").read_text())
+    assert [e["step"] for e in log] == [3]
+    assert torch.load(tmp_path / "final.pt", weights_only=False)["step"] == 3

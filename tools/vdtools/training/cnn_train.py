@@ -105,6 +105,10 @@ ARCHS["s32l"] = _thin_skips(ARCHS["s32"], {"s4": 16, "s8": 32})
 # this network fits the 256 KiB model budget (s32l's pair file total is 279 824 B)
 ARCHS["s32m"] = [("pw", 128) if op == ("pw", 160) else op for op in ARCHS["s32l"]]
 
+# s32l with a 136-channel stride-32 stage: the widest multiple of 8 whose pair file total stays within
+# 256 KiB (98 304 + 161 192 B), so that pruning s32l to it removes as little as the budget allows
+ARCHS["s32n"] = [("pw", 136) if op == ("pw", 160) else op for op in ARCHS["s32l"]]
+
 
 def fold_bn(seq, dtype=None):
     """(weight, bias) of a conv [+ batch norm] block with the norm's running statistics folded in:
@@ -385,6 +389,8 @@ def main(argv=None):
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
     ap.add_argument("--out", required=True)
     ap.add_argument("--minutes", type=float, default=40.0)
+    ap.add_argument("--steps", type=int, default=0, help="budget in optimiser steps instead of --minutes (the cosine "
+                    "schedule runs over them): the same run whatever else shares the machine's cores")
     ap.add_argument("--batch", type=int, default=16)
     ap.add_argument("--lr", type=float, default=3e-3)
     ap.add_argument("--threads", type=int, default=2)
@@ -495,9 +501,10 @@ def main(argv=None):
     best, best_fam = -1.0, {}
     while True:
         el = time.time() - t0
-        if el >= budget:
+        done = step / a.steps if a.steps > 0 else el / budget
+        if done >= 1.0:
             break
-        lr = a.lr * 0.5 * (1 + math.cos(math.pi * min(1.0, el / budget)))
+        lr = a.lr * 0.5 * (1 + math.cos(math.pi * min(1.0, done)))
         if step < 200:
             lr *= (step + 1) / 200
         for g in opt.param_groups:
@@ -513,7 +520,7 @@ def main(argv=None):
         step += 1
         if step % 50 == 0:
             print(f"step {step} t {el / 60:.1f} min lr {lr:.2e} loss {loss.item():.3f} hm {hl:.3f} size {sl:.3f}", flush=True)
-        if step % a.eval_every == 0 or time.time() - t0 >= budget:
+        if step % a.eval_every == 0 or (step >= a.steps if a.steps > 0 else time.time() - t0 >= budget):
             aps = evaluate_now()
             mean = float(np.nanmean(list(aps.values())))
             print(f"== step {step}: val AP {aps}", flush=True)
