@@ -200,7 +200,7 @@ static vd_status_t plan_net(const vd_detector_cfg_t *c, const vd_cnn_model_t *m,
 // The CNN source's slices (they overlay the others: the network runs before
 // labelling) and its resolved thresholds: T, the score threshold in Q15
 // (cnn_score_thr_q15, or the decode-table score of the header's logit
-// threshold), and the logit threshold of the decode: that of T, or, when P
+// threshold: cnn_model2's for a pair), and the logit threshold of the decode: that of T, or, when P
 // passes are averaged into a final score (2 with cnn_flip or cnn_model2, 4
 // with both), that of max(1, P T - (P - 1) 32768) (one pass below it cannot
 // lift the mean to T), for each network through its own score table.
@@ -213,8 +213,12 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     if (m2 != NULL) {
         VD_TRY(plan_net(c, m2, l, &no_plane));
     }
+    // A pair's default operating point is the second network's header
+    // threshold: it is chosen for the pair, and the first network's header
+    // keeps the threshold of that network alone.
+    const vd_cnn_model_t *mt = (m2 != NULL) ? m2 : m;
     l->cnn_thr_q = m->score_threshold_q;
-    l->cnn_thr_score_q15 = vd_cnn_score_of_logit(m, m->score_threshold_q);
+    l->cnn_thr_score_q15 = vd_cnn_score_of_logit(mt, mt->score_threshold_q);
     const uint32_t passes = (c->cnn_flip != 0u ? 2u : 1u) * (m2 != NULL ? 2u : 1u);
     if (c->cnn_score_thr_q15 != 0u) {
         l->cnn_thr_score_q15 = c->cnn_score_thr_q15;

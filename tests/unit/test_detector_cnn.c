@@ -971,6 +971,46 @@ static void test_pair_fusion_hand_worked(void)
     TEST_ASSERT_EQUAL_UINT32(0u, s.cnn_boxes);
 }
 
+// Without cnn_score_thr_q15 a pair runs at the score of cnn_model2's header
+// threshold (the pair's operating point), not cnn_model's. The scene of
+// test_pair_fusion_hand_worked: second header -28 (pixel 100, T = 12800) and
+// first 0 gives its three candidates at T = 100; swapped (T = 16384 from the
+// second header 0), only the fused box (25600) reaches T: A0 and B1 (12800)
+// and the background peaks (1280; decode at max(1, 2 T - 32768) = 1) drop.
+static void test_pair_threshold_from_second_header(void)
+{
+    static const int8_t thr1[2] = {0, -28};
+    static const int8_t thr2[2] = {-28, 0};
+    static const size_t want[2] = {3u, 1u};
+    fill(20u);
+    spot(8u, 200u);
+    spot(16u, 200u);
+    vd_frame_t f = frame8(50u, 48u);
+    for (size_t k = 0u; k < 2u; k++) {
+        net_t n = net_default();
+        n.off_x = -24;
+        n.thr = thr1[k];
+        net_load(&n);
+        net_t n2 = net_default();
+        n2.off_x = 64;
+        n2.thr = thr2[k];
+        net_load_into(&n2, g_blob2.b, &g_cnn2);
+        vd_detector_cfg_t c = cnn_cfg();
+        c.cnn_model2 = &g_cnn2;
+        vd_detector_stats_t s;
+        TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 0u, &f, &g_rec_a, &s));
+        TEST_ASSERT_EQUAL_size_t(want[k], g_rec_a.n);
+        TEST_ASSERT_EQUAL_UINT32(6u, s.cnn_boxes);
+        if (k == 0u) {
+            expect_cand(&g_rec_a.c[0], 13, 12, 16, 16, 100u);
+            expect_cand(&g_rec_a.c[1], 26, 12, 17, 16, 200u);
+            expect_cand(&g_rec_a.c[2], 40, 12, 10, 16, 100u);
+        } else {
+            expect_cand(&g_rec_a.c[0], 26, 12, 17, 16, 200u);
+        }
+    }
+}
+
 // The same network twice is one pass (every box matches itself: same box,
 // score (s + s + 1) >> 1 = s), decoded at the lower score of P = 2 (4 with
 // cnn_flip): the same candidates as one network, twice the decoded boxes.
@@ -1215,6 +1255,7 @@ int main(void)
     RUN_TEST(test_flip_workspace);
     RUN_TEST(test_flip_equals_fusion_of_passes);
     RUN_TEST(test_pair_fusion_hand_worked);
+    RUN_TEST(test_pair_threshold_from_second_header);
     RUN_TEST(test_pair_of_one_network);
     RUN_TEST(test_pair_workspace_and_bad_model);
     RUN_TEST(test_clock_and_temporal);

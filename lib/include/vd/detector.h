@@ -191,7 +191,9 @@ typedef struct vd_detector_cfg {
     // second's (B) are fused by the cnn_flip rule (match IoU >=
     // VD_CNN_FLIP_IOU_Q15, corners and scores averaged, an unmatched box at
     // half its score) and boxes with score < T are dropped. T is
-    // cnn_score_thr_q15, or the score of cnn_model's header threshold. Every
+    // cnn_score_thr_q15, or the score of cnn_model2's header threshold (the
+    // pair's operating point travels with the second network; cnn_model's
+    // header threshold is that of the first network alone). Every
     // pass decodes, through its own network's score table, at the logit of
     // the score max(1, P T - (P - 1) 32768), P = 2 (4 with cnn_flip) being
     // the passes averaged into a final score. The workspace holds the larger

@@ -80,12 +80,13 @@ def boxes(desc, img, score_thr_q15=0, flip=False):
 
 def pair_boxes(desc, desc2, img, score_thr_q15=0, flip=False):
     """The CNN source's candidates with cfg.cnn_model2 (desc2), in order: [((x, y, w, h), score_q15)]: both
-    networks through the numpy reference at their headers' top-K, fused by cnn_eval.fuse_pair at T (desc's
-    header threshold or score_thr_q15); with score_thr_q15 above both networks' top scores nothing runs."""
+    networks through the numpy reference at their headers' top-K, fused by cnn_eval.fuse_pair at T (desc2's
+    header threshold, the pair's operating point, or score_thr_q15); with score_thr_q15 above both networks'
+    top scores nothing runs."""
     fh, fw = img.shape
     if fw < 2 or fh < 2:
         return []
-    t = score_threshold(desc, score_thr_q15)
+    t = score_threshold(desc2, score_thr_q15)
     if score_thr_q15 and thr_from_score(desc, score_thr_q15) is None and thr_from_score(desc2, score_thr_q15) is None:
         return []
 

@@ -526,7 +526,8 @@ def main(argv=None):
             pred = ExtraScale(pred, a.extra_scale, **h)
         res = run(pred, frames)
     sec = time.time() - t0
-    rep = figures(res)
+    # --thr may be off the grid, e.g. the exact score of a header's threshold (the demo's default)
+    rep = figures(res, sorted(set(THRESHOLDS) | ({a.thr} if a.thr is not None else set())))
     thr = a.thr
     if thr is None:
         if a.split != "val":
