@@ -175,7 +175,8 @@ static const setting_t k_settings[SET_COUNT] = {
                        "cnn source: version-3 .vdm network (default: --model if it is one, else "
                        "models/vd_cnn.vdm)"},
     [SET_CNN_THR] = {"cnn-thr", "P",
-                     "cnn source: keep boxes with network score >= P, 0..1 (default: the model's own threshold)"},
+                     "cnn source: keep boxes with network score >= P, 0..1 (default: the model's own threshold; "
+                     "with --cnn-model2, the second network's)"},
     [SET_CNN_RESCORE] = {"cnn-rescore", "[on|off]",
                          "cnn source: the DBN also scores each network box (whole box, as windows) and keeps it "
                          "at >= --score-thr; the score is then the DBN's (needs a DBN model; default off)"},
