@@ -200,10 +200,11 @@ static vd_status_t plan_net(const vd_detector_cfg_t *c, const vd_cnn_model_t *m,
 // The CNN source's slices (they overlay the others: the network runs before
 // labelling) and its resolved thresholds: T, the score threshold in Q15
 // (cnn_score_thr_q15, or the decode-table score of the header's logit
-// threshold: cnn_model2's for a pair), and the logit threshold of the decode: that of T, or, when P
-// passes are averaged into a final score (2 with cnn_flip or cnn_model2, 4
-// with both), that of max(1, P T - (P - 1) 32768) (one pass below it cannot
-// lift the mean to T), for each network through its own score table.
+// threshold: cnn_model2's for a pair), and the logit threshold of the
+// decode: that of T, or, when P passes are averaged into a final score (2
+// with cnn_flip or cnn_model2, 4 with both), that of max(1, P T - (P - 1)
+// 32768) (one pass below it cannot lift the mean to T), for each network
+// through its own score table.
 static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
 {
     const vd_cnn_model_t *m = c->cnn_model;

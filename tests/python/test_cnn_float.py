@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""models/float/<name>.npz (and models/candidates/float/<name>.npz) holds the float weights models/<name>.vdm was exported from (cnn_export
+"""models/float/<name>.npz holds the float weights models/<name>.vdm was exported from (cnn_export
 --float-out), so that int8 against float (`cnn_eval --ckpt models/float/<name>.npz`) can be measured after
 the training cache is gone. Checked here without PyTorch: batch norm folded as cnn_export.fold_bn does
 (scale gamma / sqrt(var + eps) in float32, product in float64) and quantised per output channel
@@ -17,11 +17,9 @@ BN_EPS = np.float32(1e-5)          # torch.nn.BatchNorm2d's default, as cnn_trai
 
 
 def _pairs():
-    """(float .npz, .vdm): models/float/<name>.npz for models/<name>.vdm, and the same under models/candidates/."""
-    out = []
-    for d in (clib.REPO / "models", clib.REPO / "models" / "candidates"):
-        out += [(p, d / (p.stem + ".vdm")) for p in sorted((d / "float").glob("*.npz")) if (d / (p.stem + ".vdm")).is_file()]
-    return out
+    """(float .npz, .vdm): models/float/<name>.npz for models/<name>.vdm."""
+    models = FLOAT_DIR.parent
+    return [(p, models / (p.stem + ".vdm")) for p in sorted(FLOAT_DIR.glob("*.npz")) if (models / (p.stem + ".vdm")).is_file()]
 
 
 def fold_quantise(z, j):
@@ -46,7 +44,7 @@ def test_fold_quantise_hand_worked():
     assert fold_quantise(Z(z), 0)[:, :, 0, 0].tolist() == [[38, -127], [-127, -32]]
 
 
-@pytest.mark.parametrize("npz,vdm", _pairs(), ids=lambda p: p.parent.parent.name + "/" + p.stem)
+@pytest.mark.parametrize("npz,vdm", _pairs(), ids=lambda p: p.name)
 def test_float_weights_quantise_to_the_committed_model(npz, vdm):
     desc = V.unpack(vdm.read_bytes())
     with np.load(npz) as z:

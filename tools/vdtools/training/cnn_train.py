@@ -101,13 +101,16 @@ def _thin_skips(arch, widths):
 # detector's 256 KiB workspace budget at 640x512 (the second network of the shipped pair, models/vd_cnn2.vdm)
 ARCHS["s32l"] = _thin_skips(ARCHS["s32"], {"s4": 16, "s8": 32})
 
-# s32l with a 128-channel stride-32 stage (s32l's is 160): ~25 k fewer weights, so that the pair vd_cnn +
-# this network fits the 256 KiB model budget (s32l's pair file total is 279 824 B)
-ARCHS["s32m"] = [("pw", 128) if op == ("pw", 160) else op for op in ARCHS["s32l"]]
+def _stride32_width(arch, width):
+    """arch (s32l) with its 160-channel stride-32 pointwise layers narrowed to width channels."""
+    return [("pw", width) if op == ("pw", 160) else op for op in arch]
 
-# s32l with a 136-channel stride-32 stage: the widest multiple of 8 whose pair file total stays within
-# 256 KiB (98 304 + 161 192 B), so that pruning s32l to it removes as little as the budget allows
-ARCHS["s32n"] = [("pw", 136) if op == ("pw", 160) else op for op in ARCHS["s32l"]]
+
+# s32l narrowed at stride 32 so that the pair vd_cnn + this network fits the 256 KiB model budget (s32l's
+# pair file total is 279 824 B): s32m 128 channels (~25 k fewer weights); s32n 136, the widest multiple of
+# 8 that fits (98 304 + 161 192 B), so that pruning s32l to it removes as little as the budget allows
+ARCHS["s32m"] = _stride32_width(ARCHS["s32l"], 128)
+ARCHS["s32n"] = _stride32_width(ARCHS["s32l"], 136)
 
 
 def fold_bn(seq, dtype=None):
@@ -498,10 +501,14 @@ def main(argv=None):
         log.append(dict(step=step, minutes=(time.time() - t0) / 60, val_ap=aps))
         return aps
 
+    def progress():
+        """Share of the budget used: steps with --steps, else wall time."""
+        return step / a.steps if a.steps > 0 else (time.time() - t0) / budget
+
     best, best_fam = -1.0, {}
     while True:
         el = time.time() - t0
-        done = step / a.steps if a.steps > 0 else el / budget
+        done = progress()
         if done >= 1.0:
             break
         lr = a.lr * 0.5 * (1 + math.cos(math.pi * min(1.0, done)))
@@ -520,7 +527,7 @@ def main(argv=None):
         step += 1
         if step % 50 == 0:
             print(f"step {step} t {el / 60:.1f} min lr {lr:.2e} loss {loss.item():.3f} hm {hl:.3f} size {sl:.3f}", flush=True)
-        if step % a.eval_every == 0 or (step >= a.steps if a.steps > 0 else time.time() - t0 >= budget):
+        if step % a.eval_every == 0 or progress() >= 1.0:
             aps = evaluate_now()
             mean = float(np.nanmean(list(aps.values())))
             print(f"== step {step}: val AP {aps}", flush=True)
