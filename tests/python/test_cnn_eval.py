@@ -37,7 +37,7 @@ def test_angle_ap_groups_drone_frames_by_time_and_angle():
 
 
 def test_split_rules_are_checked_before_any_frame_is_read(tmp_path):
-    for argv in (["--split", "all"], ["--split", "train", "--subset", "msrs-night"]):
+    for argv in (["--split", "all"], ["--split", "train", "--subset", "msrs-night"], ["--ckpt2", "x.npz"]):
         with pytest.raises(SystemExit):      # the data folder does not exist: reading it would fail otherwise
             cnn_eval.main(["--model", str(MODEL), "--data", str(tmp_path / "none")] + argv)
 
@@ -52,3 +52,21 @@ def test_val_run_chooses_the_operating_point(data_dir, tmp_path):
     assert rep["thr"] in cnn_eval.THRESHOLDS and rep["flip"] and set(rep["families"]) == {"hit", "msrs"}
     assert rep["families"]["hit"]["at_thr"] == rep["families"]["hit"]["at"][str(rep["thr"])]
     assert rep["angles"] and all(k.split()[0] in ("day", "night") for k in rep["angles"])
+
+
+def test_float_boxes_are_rounded_to_frame_pixels_and_scored_in_q15():
+    """float_boxes_q15: half-resolution (x, y, w, h, score) -> frame corners rounded to the nearest pixel
+    (2 x: 5.2 -> 10.4 -> 10; 5.2 + 10.1 = 15.3 -> 30.6 -> 31), score x 32768 rounded, capped at 1.0."""
+    got = cnn_eval.float_boxes_q15([(5.2, 3.0, 10.1, 4.26, 0.5), (0.0, 0.0, 1.0, 1.0, 1.0)])
+    assert got == [(10, 6, 21, 9, 16384), (0, 0, 2, 2, 32768)]
+
+
+def test_float_pair_fuses_with_the_pair_rule():
+    """FloatPair: the two networks' boxes fused as fuse_flip at threshold 0: the matched pair averaged
+    (corners, score (0.5 + 0.25) -> (16384 + 8192 + 1) >> 1 = 12288), the unmatched box at half score."""
+    a = SimpleNamespace(flip=True, boxes_q15=lambda img, w, h: [((10, 10, 20, 20), 16384)])
+    b = SimpleNamespace(flip=True, boxes_q15=lambda img, w, h: [((12, 10, 20, 20), 8192), ((60, 60, 8, 8), 3000)])
+    got = cnn_eval.FloatPair(a, b)(None, 100, 100)
+    assert got == [((11, 10, 20, 20), 12288 / 32768.0), ((60, 60, 8, 8), 1500 / 32768.0)]
+    with pytest.raises(ValueError):
+        cnn_eval.FloatPair(a, SimpleNamespace(flip=False))

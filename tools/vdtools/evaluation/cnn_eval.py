@@ -280,18 +280,60 @@ class ExtraScale:
         return self.base(img, frame_w, frame_h) + [(b, sc / 32768.0) for b, sc in extra if lo <= b[3] < hi]
 
 
+def float_boxes_q15(boxes):
+    """Float boxes of the half-resolution plane [(x, y, w, h, score)] -> [(x, y, w, h, score_q15)] in frame
+    pixels, corners rounded to the nearest pixel, so that clip_boxes, fuse_flip and fuse_pair (the detector's
+    integer rules) fuse a float network's passes exactly as they fuse the int8 network's."""
+    out = []
+    for x, y, w, h, s in boxes:
+        x0, y0 = int(round(2 * x)), int(round(2 * y))
+        x1, y1 = int(round(2 * (x + w))), int(round(2 * (y + h)))
+        out.append((x0, y0, x1 - x0, y1 - y0, min(SCORE_ONE_Q15, int(round(s * SCORE_ONE_Q15)))))
+    return out
+
+
 class Float:
-    def __init__(self, ckpt):
+    """A float checkpoint (or models/float/*.npz), every peak scoring >= 0.02. flip: the fused flip pass with
+    the detector's integer rule (fuse_flip at threshold 0 on the float scores in Q15), so that the float
+    figures of the shipped operating point (flip passes, a pair) stand beside the int8 ones."""
+
+    def __init__(self, ckpt, flip=False):
         import torch
         from vdtools.training import cnn_export as E
         from vdtools.training import cnn_train as T
-        self.torch, self.T = torch, T
+        self.torch, self.T, self.flip = torch, T, flip
         self.net, _ = E.load_net(ckpt)
 
+    def boxes_q15(self, img, frame_w, frame_h):
+        """[((x, y, w, h), score_q15)] clipped to the frame, the flip passes fused when flip."""
+        def one(mirror):
+            with self.torch.no_grad():
+                o = self.net(self.T.to_input(net_input(img, self.net.align, mirror=mirror)))
+            return clip_boxes(float_boxes_q15(self.T.decode_float(o, 0.02)), frame_w, frame_h,
+                              flip_hw=img.shape[1] // 2 if mirror else None)
+        return fuse_flip(one(False), one(True), 0) if self.flip else one(False)
+
     def __call__(self, img, frame_w, frame_h, thr_q=None):
-        with self.torch.no_grad():
-            o = self.net(self.T.to_input(net_input(img, self.net.align)))
-        return [((x * 2, y * 2, w * 2, h * 2), s) for x, y, w, h, s in self.T.decode_float(o, 0.02)]
+        if not self.flip:   # unchanged since the first float figures: boxes as decoded, not rounded
+            with self.torch.no_grad():
+                o = self.net(self.T.to_input(net_input(img, self.net.align)))
+            return [((x * 2, y * 2, w * 2, h * 2), s) for x, y, w, h, s in self.T.decode_float(o, 0.02)]
+        return [(b, s / 32768.0) for b, s in self.boxes_q15(img, frame_w, frame_h)]
+
+
+class FloatPair:
+    """Two float networks fused by the pair rule (fuse_pair's last step, fuse_flip at threshold 0 on every
+    box): the float counterpart of Pair, for the pair's int8-vs-float figure. Each network keeps every peak
+    >= 0.02 (up to 100), not its header's top-K."""
+
+    def __init__(self, first, second):
+        if first.flip != second.flip:
+            raise ValueError("both networks of a pair run with the same flip setting")
+        self.nets = (first, second)
+
+    def __call__(self, img, frame_w, frame_h, thr_q=None):
+        a, b = (n.boxes_q15(img, frame_w, frame_h) for n in self.nets)
+        return [(box, s / 32768.0) for box, s in fuse_flip(a, b, 0)]
 
 
 def run(pred, frames):
@@ -469,6 +511,8 @@ def main(argv=None):
     ap.add_argument("--model2", help="a second .vdm fused with --model (the detector's cnn_model2, "
                     "vd_fir_demo --cnn-model2; class Pair)")
     ap.add_argument("--ckpt", help="float checkpoint instead of --model")
+    ap.add_argument("--ckpt2", help="a second float checkpoint fused with --ckpt by the pair rule (FloatPair): "
+                                    "the float counterpart of --model2")
     ap.add_argument("--backend", default="c", choices=("c", "ref", "demo"),
                     help="c: vd_cnn_run/decode + suppression here; ref: numpy reference; demo: the whole C "
                          "detector through vd_fir_demo (--demo), the figures docs/results/detector.md reports")
@@ -500,21 +544,25 @@ def main(argv=None):
         raise SystemExit("--split all is only for --subset (frames the model never trained on)")
     if a.split == "train" and a.subset:
         raise SystemExit("--subset is for a model trained without it: use --split all")
+    if a.flip and a.paper:
+        raise SystemExit("--flip is for the networks (--model or --ckpt), not --paper")
+    if a.ckpt2 and not a.ckpt:
+        raise SystemExit("--ckpt2 pairs two float networks: give --ckpt too")
+    if a.extra_scale and a.backend == "demo":
+        raise SystemExit("--extra-scale is an experiment of backends c/ref (the detector has no such pass)")
     frames = CD.load_frames(a.data, splits=("train", "val", "test") if a.split == "all" else (a.split,))
     if a.subset == "msrs-night":     # the rule of cnn_train --exclude msrs-night
         frames = [f for f in frames if CD.subset(f) == "msrs-night"]
     if a.perturb:
         frames = perturb(frames, a.perturb)
     t0 = time.time()
-    if a.flip and (a.ckpt or a.paper):
-        raise SystemExit("--flip is for the int8 network (--model, not --ckpt or --paper)")
-    if a.extra_scale and a.backend == "demo":
-        raise SystemExit("--extra-scale is an experiment of backends c/ref (the detector has no such pass)")
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
                        extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"], model2=a.model2)
     else:
-        pred = Float(a.ckpt) if a.ckpt else Int8(a.model, a.backend, flip=a.flip)
+        pred = Float(a.ckpt, flip=a.flip) if a.ckpt else Int8(a.model, a.backend, flip=a.flip)
+        if a.ckpt2:
+            pred = FloatPair(pred, Float(a.ckpt2, flip=a.flip))
         if a.model2:
             if a.ckpt or a.extra_scale:
                 raise SystemExit("--model2 pairs two int8 networks (--model), without --extra-scale")
@@ -552,10 +600,11 @@ def main(argv=None):
                         for lo, hi, n, f, l in rows))
     print(f"threshold {thr}; {'flip pass on; ' if a.flip else ''}{len(frames)} frames in {sec:.1f} s")
     if a.pr:
-        name = Path(a.model or a.ckpt).name + (f" + {Path(a.model2).name}" if a.model2 else "")
+        second = a.model2 or a.ckpt2
+        name = Path(a.model or a.ckpt).name + (f" + {Path(second).name}" if second else "")
         plot_pr(rep, a.pr, f"CNN detector, {a.split} split ({name})")
     if a.out:
-        Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, model2=a.model2, thr=thr,
+        Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, model2=a.model2 or a.ckpt2, thr=thr,
                                                flip=a.flip,
                                                families=summary(rep, thr),
                                                subsets={k: dict(ap=ap, n_frames=nf, n_vehicles=nv)
