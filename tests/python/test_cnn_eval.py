@@ -70,3 +70,18 @@ def test_float_pair_fuses_with_the_pair_rule():
     assert got == [((11, 10, 20, 20), 12288 / 32768.0), ((60, 60, 8, 8), 1500 / 32768.0)]
     with pytest.raises(ValueError):
         cnn_eval.FloatPair(a, SimpleNamespace(flip=False))
+
+
+def test_false_positives_are_sorted_by_how_they_meet_the_vehicles():
+    """fp_kinds on a hand-made frame with one car (0, 0, 40, 20) and one ignore region: the best box takes the
+    car (TP, not counted); a second box on it (IoU 0.8) is a duplicate; a box of its left quarter (IoU 0.25,
+    all inside) a part; a box twice its size around it (IoU 0.25, car inside) around; a box shifted by half
+    its width (IoU 1/3) misplaced; a box far away background; a box inside the ignore region and a
+    background box under the threshold are not counted."""
+    car = (0, 0, 40, 20)
+    dets = [((0, 0, 40, 20), 0.9), ((0, 0, 40, 16), 0.8), ((0, 0, 10, 20), 0.7), ((0, 0, 80, 40), 0.6),
+            ((20, 0, 40, 20), 0.55), ((200, 200, 20, 20), 0.5), ((300, 300, 10, 10), 0.5),
+            ((400, 0, 20, 20), 0.1)]
+    gts = [car + (True, False), (300, 300, 20, 20, False, True)]
+    got = cnn_eval.fp_kinds([("msrs", None, dets, gts)], 0.3)
+    assert got == {"msrs": dict(background=1, misplaced=1, part=1, around=1, duplicate=1)}

@@ -459,6 +459,48 @@ def height_recall(results, thr, bins=HEIGHT_BINS):
     return {k: [tuple(r) for r in v if r[2]] for k, v in sorted(out.items())}
 
 
+FP_KINDS = ("background", "misplaced", "part", "around", "duplicate")
+
+
+def _inside(a, b):
+    """Share of box a's area inside box b (0 for an empty a)."""
+    ix = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+    iy = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+    return ix * iy / (a[2] * a[3]) if ix > 0 and iy > 0 and a[2] > 0 and a[3] > 0 else 0.0
+
+
+def fp_kinds(results, thr):
+    """{family: {kind: count}} of the false positives scoring >= thr (match_flags' rules, so the same ones the
+    FP rate counts), by how they meet the labelled vehicles: `duplicate` IoU >= 0.5 with a vehicle a better
+    box already took; else, with IoU >= 0.1 to some vehicle, `part` (>= 70 % of the box inside it), `around`
+    (>= 70 % of the vehicle inside the box) or `misplaced`; `background` below 0.1 with every vehicle (an
+    unlabelled car or a non-vehicle). A diagnosis: is a suppression or box rule worth trying, or is it
+    recognition?"""
+    out = {}
+    for fam, _, dets, gts in results:
+        kinds = out.setdefault(fam, dict.fromkeys(FP_KINDS, 0))
+        flags, _ = match_flags(dets, gts)
+        order = sorted(range(len(dets)), key=lambda i: (-dets[i][1], i))     # match_flags' order
+        cars = [g[:4] for g in gts if g[4]]
+        for i, (score, flag) in zip(order, flags):
+            if flag != 0 or score < thr:
+                continue
+            box = dets[i][0]
+            best = max(cars, key=lambda g: iou(box, g), default=None)
+            v = iou(box, best) if best is not None else 0.0
+            if v >= 0.5:
+                kinds["duplicate"] += 1
+            elif v < 0.1:
+                kinds["background"] += 1
+            elif _inside(box, best) >= 0.7:
+                kinds["part"] += 1
+            elif _inside(best, box) >= 0.7:
+                kinds["around"] += 1
+            else:
+                kinds["misplaced"] += 1
+    return dict(sorted(out.items()))
+
+
 def choose_threshold(rep):
     """Operating point on the val split: the threshold with TP >= 70 % and FP <= 30 % on every family and
     the highest mean F1 among those; else the highest mean F1 overall."""
@@ -598,6 +640,9 @@ def main(argv=None):
         print(f"{fam} by box height (px: vehicles, found at {thr} %, a box with IoU >= 0.5 at any score %): " +
               ", ".join(f"{lo}-{hi if hi < 1 << 30 else ''}: {n}, {100 * f / n:.0f}, {100 * l / n:.0f}"
                         for lo, hi, n, f, l in rows))
+    kinds = fp_kinds(res, thr)
+    for fam, k in kinds.items():
+        print(f"{fam} false positives at {thr} by kind: " + ", ".join(f"{n} {v}" for n, v in k.items()))
     print(f"threshold {thr}; {'flip pass on; ' if a.flip else ''}{len(frames)} frames in {sec:.1f} s")
     if a.pr:
         second = a.model2 or a.ckpt2
@@ -610,6 +655,7 @@ def main(argv=None):
                                                subsets={k: dict(ap=ap, n_frames=nf, n_vehicles=nv)
                                                         for k, (ap, nf, nv) in subsets.items()},
                                                angles={k: dict(ap=ap, n_vehicles=nv) for k, (ap, nv) in angles.items()},
+                                               fp_kinds=kinds,
                                                by_height={k: [dict(lo=lo, hi=hi, vehicles=n, found=f, localised=l)
                                                               for lo, hi, n, f, l in v] for k, v in heights.items()}),
                                           indent=1) + "\n")
