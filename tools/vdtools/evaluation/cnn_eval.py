@@ -32,7 +32,7 @@ from vdtools.data import cnn_data as CD
 from vdtools.formats import cnn_ref as R
 from vdtools.formats import cnn_vdm as V
 from vdtools.bindings import cnn as vd_cnn
-from vdtools.metrics.evaluate import average_precision, iou, match_flags
+from vdtools.metrics.evaluate import average_precision, inside_share, iou, match_flags
 
 THRESHOLDS = [round(0.05 * i, 2) for i in range(1, 20)]
 
@@ -304,20 +304,22 @@ class Float:
         self.torch, self.T, self.flip = torch, T, flip
         self.net, _ = E.load_net(ckpt)
 
+    def _peaks(self, img, mirror=False):
+        """decode_float's boxes (half-resolution plane, float) of the frame or its mirror."""
+        with self.torch.no_grad():
+            o = self.net(self.T.to_input(net_input(img, self.net.align, mirror=mirror)))
+        return self.T.decode_float(o, 0.02)
+
     def boxes_q15(self, img, frame_w, frame_h):
         """[((x, y, w, h), score_q15)] clipped to the frame, the flip passes fused when flip."""
         def one(mirror):
-            with self.torch.no_grad():
-                o = self.net(self.T.to_input(net_input(img, self.net.align, mirror=mirror)))
-            return clip_boxes(float_boxes_q15(self.T.decode_float(o, 0.02)), frame_w, frame_h,
+            return clip_boxes(float_boxes_q15(self._peaks(img, mirror)), frame_w, frame_h,
                               flip_hw=img.shape[1] // 2 if mirror else None)
         return fuse_flip(one(False), one(True), 0) if self.flip else one(False)
 
     def __call__(self, img, frame_w, frame_h, thr_q=None):
         if not self.flip:   # unchanged since the first float figures: boxes as decoded, not rounded
-            with self.torch.no_grad():
-                o = self.net(self.T.to_input(net_input(img, self.net.align)))
-            return [((x * 2, y * 2, w * 2, h * 2), s) for x, y, w, h, s in self.T.decode_float(o, 0.02)]
+            return [((x * 2, y * 2, w * 2, h * 2), s) for x, y, w, h, s in self._peaks(img)]
         return [(b, s / 32768.0) for b, s in self.boxes_q15(img, frame_w, frame_h)]
 
 
@@ -462,13 +464,6 @@ def height_recall(results, thr, bins=HEIGHT_BINS):
 FP_KINDS = ("background", "misplaced", "part", "around", "duplicate")
 
 
-def _inside(a, b):
-    """Share of box a's area inside box b (0 for an empty a)."""
-    ix = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
-    iy = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
-    return ix * iy / (a[2] * a[3]) if ix > 0 and iy > 0 and a[2] > 0 and a[3] > 0 else 0.0
-
-
 def fp_kinds(results, thr):
     """{family: {kind: count}} of the false positives scoring >= thr (match_flags' rules, so the same ones the
     FP rate counts), by how they meet the labelled vehicles: `duplicate` IoU >= 0.5 with a vehicle a better
@@ -479,22 +474,21 @@ def fp_kinds(results, thr):
     out = {}
     for fam, _, dets, gts in results:
         kinds = out.setdefault(fam, dict.fromkeys(FP_KINDS, 0))
+        dets = sorted(dets, key=lambda d: -d[1])    # stable: match_flags' order, so its flags line up
         flags, _ = match_flags(dets, gts)
-        order = sorted(range(len(dets)), key=lambda i: (-dets[i][1], i))     # match_flags' order
         cars = [g[:4] for g in gts if g[4]]
-        for i, (score, flag) in zip(order, flags):
+        for (box, score), (_, flag) in zip(dets, flags):
             if flag != 0 or score < thr:
                 continue
-            box = dets[i][0]
             best = max(cars, key=lambda g: iou(box, g), default=None)
             v = iou(box, best) if best is not None else 0.0
             if v >= 0.5:
                 kinds["duplicate"] += 1
             elif v < 0.1:
                 kinds["background"] += 1
-            elif _inside(box, best) >= 0.7:
+            elif inside_share(box, best) >= 0.7:
                 kinds["part"] += 1
-            elif _inside(best, box) >= 0.7:
+            elif inside_share(best, box) >= 0.7:
                 kinds["around"] += 1
             else:
                 kinds["misplaced"] += 1

@@ -165,6 +165,13 @@ if __name__ == "__main__":
     main()
 
 
+def inside_share(a, b):
+    """Share of box a's area (x, y, w, h) that lies inside box b; 0 for an empty a."""
+    ix = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+    iy = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+    return ix * iy / (a[2] * a[3]) if ix > 0 and iy > 0 and a[2] > 0 and a[3] > 0 else 0.0
+
+
 def match_flags(dets, gts):
     """The rules of match_frame, per detection: dets [(box, score)], gts [(x, y, w, h, vehicle, ignore)]
     -> ([(score, flag)] with flag 1 = TP, 0 = FP, None = ignored), list of matched gt indices."""
@@ -188,11 +195,7 @@ def match_flags(dets, gts):
         for g in gts:
             if not g[5]:
                 continue
-            gx, gy, gw, gh = g[:4]
-            ix = min(box[0] + box[2], gx + gw) - max(box[0], gx)
-            iy = min(box[1] + box[3], gy + gh) - max(box[1], gy)
-            inside = ix * iy / (box[2] * box[3]) if ix > 0 and iy > 0 and box[2] > 0 and box[3] > 0 else 0.0
-            if iou(box, g[:4]) >= 0.5 or inside >= 0.5:
+            if iou(box, g[:4]) >= 0.5 or inside_share(box, g[:4]) >= 0.5:
                 ignored = True
                 break
         out.append((score, None if ignored else 0))
