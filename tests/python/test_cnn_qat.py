@@ -190,3 +190,51 @@ def test_step_budget_stops_at_that_step(data_dir, tmp_path):
     log = json.loads((tmp_path / "log.json").read_text())
     assert [e["step"] for e in log] == [3]
     assert torch.load(tmp_path / "final.pt", weights_only=False)["step"] == 3
+
+
+def test_aux_head_is_dropped_by_the_export(tmp_path):
+    """cnn_train --aux: the head gets AUX_CLASSES more channels; a checkpoint without them initialises
+    the leading ones (load_weights), and the exporter's load_net keeps only the HEAD exported channels, so
+    the float network it quantises computes exactly the trained network's first HEAD outputs."""
+    torch.manual_seed(1)
+    plain = T.Net("compact")
+    net = T.Net("compact", T.AUX_CLASSES)
+    head = net.spec[-1]
+    assert head["op"] == "head" and head["cout"] == T.HEAD + T.AUX_CLASSES
+    T.load_weights(net, plain.state_dict())
+    x = torch.rand(1, 1, 64, 64)
+    plain.eval()
+    net.eval()
+    with torch.no_grad():
+        y, y_aux = plain(x), net(x)
+    torch.testing.assert_close(y_aux[:, :T.HEAD], y)
+    hb = net.mods[head["mod"]][0].bias
+    assert (hb[T.HEAD:] == -2.19).all()     # the aux channels keep their init (the heatmap prior)
+    ck = tmp_path / "aux.pt"
+    torch.save(dict(net=net.state_dict(), arch="compact", step=1, qat=False, aux=T.AUX_CLASSES), ck)
+    exp, _ = E.load_net(ck)
+    assert exp.spec[-1]["cout"] == T.HEAD
+    with torch.no_grad():
+        torch.testing.assert_close(exp(x), y_aux[:, :T.HEAD])
+
+
+def test_aux_loss_adds_the_weighted_focal_loss_of_the_extra_channels():
+    """loss_fn with aux targets = the vehicle-only loss + AUX_WEIGHT x focal of the channels after HEAD."""
+    torch.manual_seed(2)
+    out = torch.randn(2, T.HEAD + 2, 8, 8)
+    hm = torch.zeros(2, 8, 8)
+    hm[0, 3, 3] = 1.0
+    m = torch.ones(2, 8, 8)
+    reg, regm = torch.zeros(2, 4, 8, 8), torch.zeros(2, 8, 8)
+    aux = torch.zeros(2, 2, 8, 8)
+    aux[1, 1, 4, 5] = 1.0
+    base = T.loss_fn(out[:, :T.HEAD], hm, m, reg, regm)[0]
+    with_aux = T.loss_fn(out, hm, m, reg, regm, aux_hm=aux)[0]
+    torch.testing.assert_close(with_aux, base + T.AUX_WEIGHT * T.focal(out[:, T.HEAD:], aux, m[:, None]))
+    # focal by hand at the single aux positive (all other cells negatives with target 0)
+    p = torch.sigmoid(out[:, T.HEAD:]).clamp(1e-4, 1 - 1e-4)
+    pos = -(torch.log(p[1, 1, 4, 5]) * (1 - p[1, 1, 4, 5]) ** 2)
+    negm = torch.ones_like(p)
+    negm[1, 1, 4, 5] = 0
+    neg = -(torch.log(1 - p) * p ** 2 * negm).sum()
+    torch.testing.assert_close(T.focal(out[:, T.HEAD:], aux, m[:, None]), pos + neg)

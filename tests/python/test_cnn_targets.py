@@ -177,3 +177,46 @@ def test_scene_subset_keeps_whole_groups_of_one_family():
     for bad in (0.0, 1.5):
         with pytest.raises(ValueError):
             CD.scene_subset(frames, "msrs", bad)
+
+
+def test_aux_targets_hand_worked():
+    """cnn_train --aux: one heatmap per class of other road users, the vehicles' Gaussian; the class picks
+    the channel."""
+    # a bicycle (class 1), 8 x 16 at (40, 8) on a 64 crop: centre (44, 16) px = cell (11, 4)
+    hm = G.aux_targets(np.array([[40, 8, 8, 16, 1]], np.float32), np.zeros((0, 4), np.float32), 64)
+    assert hm.shape == (2, 16, 16) and not hm[0].any()
+    assert hm[1, 4, 11] == 1.0 and np.count_nonzero(hm[1] == 1.0) == 1
+    # sigma down 0.54 * 16 / 4 / 6 = 0.36 -> 0.5 cells
+    assert math.isclose(hm[1, 5, 11], math.exp(-1 / (2 * 0.25)), rel_tol=1e-6)
+    # two people overlap: the maximum of their Gaussians
+    hm = G.aux_targets(np.array([[0, 0, 8, 8, 0], [8, 0, 8, 8, 0]], np.float32), np.zeros((0, 4), np.float32), 64)
+    assert hm[0, 1, 1] == 1.0 and hm[0, 1, 3] == 1.0 and math.isclose(hm[0, 1, 2], math.exp(-2.0), rel_tol=1e-6)
+    assert G.aux_targets(np.zeros((0, 5), np.float32), np.zeros((0, 4), np.float32), 32).shape == (2, 8, 8)
+
+
+def test_sample_moves_other_road_users_with_the_vehicles():
+    """sample(others=True) applies the crop's scale, shift and flip to the persons / bicycles exactly as to
+    the vehicles, keeps a class with its box, draws no extra random numbers (same crop as without them),
+    and keeps one only when its centre is in the crop, clipped to it, as a positive."""
+    rng = np.random.default_rng(5)
+    img = rng.integers(0, 255, (480, 640), dtype=np.uint8)
+    boxes = _boxes((10, 10, 300, 200), (400, 300, 120, 90), (600, 20, 40, 60), (200, 400, 60, 80))
+
+    class Fr:
+        pass
+    fr = Fr()
+    fr.img, fr.boxes, fr.ignore = img, boxes, np.zeros((0, 4), np.float32)
+    fr.others = np.concatenate([boxes, np.array([[0], [1], [1], [0]], np.float32)], 1)
+    kept = 0
+    for seed in range(30):
+        c1, pos, ign = G.sample(fr, np.random.default_rng(seed))
+        c2, pos2, ign2, oth = G.sample(fr, np.random.default_rng(seed), others=True)
+        np.testing.assert_array_equal(c1, c2)
+        np.testing.assert_array_equal(pos, pos2)
+        np.testing.assert_allclose(oth[:, :4], pos, rtol=1e-6)
+        assert set(oth[:, 4].tolist()) <= {0.0, 1.0}
+        kept += len(oth)
+    assert kept > 0
+    # a frame object without `others` (older callers): none
+    del fr.others
+    assert G.sample(fr, np.random.default_rng(0), others=True)[3].shape == (0, 5)

@@ -69,6 +69,10 @@ def test_real_annotations_and_group_split(data_dir):
         manifest = list(csv.DictReader(fh))
     assert len(by["msrs"]) == len(manifest) >= 553 and len(by["hit"]) >= 480 and len(by["seq"]) == 91
     assert sum(len(f.vehicles) for f in by["msrs"]) == sum(int(r["car_boxes"]) for r in manifest)
+    # persons and bicycles (cnn_train --aux) by class, as the manifest counts them
+    for cls, col in ((0, "person_boxes"), (1, "bicycle_boxes")):
+        assert sum(1 for f in by["msrs"] for o in f.others if o[4] == cls) == sum(int(r[col]) for r in manifest)
+    assert {o[4] for f in by["hit"] for o in f.others} == {0, 1}
     assert sum(len(f.vehicles) for f in by["hit"]) >= 2268 + 47
     a = dataset.assign_splits(frames, 0)
     split_groups = {s: {g for g, v in a.items() if v == s} for s in dataset.SPLITS}

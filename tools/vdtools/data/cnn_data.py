@@ -9,7 +9,7 @@ Splits are vdtools.data.dataset.assign_splits (groups: MSRS number // 40, HIT-UA
 grows); the HIT-UAV sequence-0_100 flight is test only. Ground truth: MSRS class 2 (car), HIT-UAV Car and
 OtherVehicle; HIT-UAV DontCare boxes are ignore regions (no loss, no false positive).
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -44,6 +44,7 @@ class Frame:
     boxes: np.ndarray        # (N, 4) float x, y, w, h in full-resolution pixels
     ignore: np.ndarray       # (M, 4)
     hot: np.ndarray          # (N,) bool: box holds a pixel >= the frame's 99th percentile (hot vehicle)
+    others: np.ndarray = field(default_factory=lambda: np.zeros((0, 5), np.float32))   # (K, 5) x, y, w, h, cls
 
 
 def _hot_flags(img, boxes):
@@ -72,7 +73,8 @@ def load_frames(data_dir, splits=("train", "val", "test"), synth=False):
             raise IOError(f"cannot read {f.path}")
         b = np.array(f.vehicles, np.float32).reshape(-1, 4)
         ig = np.array(f.ignore, np.float32).reshape(-1, 4)
-        out.append(Frame(f.dataset, f.name, str(f.path), f.group, s, img, b, ig, _hot_flags(img, b)))
+        oth = np.array(f.others, np.float32).reshape(-1, 5)
+        out.append(Frame(f.dataset, f.name, str(f.path), f.group, s, img, b, ig, _hot_flags(img, b), oth))
     return out
 
 

@@ -77,6 +77,10 @@ DATASETS = ("msrs", "hit", "seq", "synth")
 HIT_VEHICLE = (1, 3)
 HIT_IGNORE = (4,)
 MSRS_CAR = 2
+# Other road users (class 0 person, 1 bicycle in FrameRec.others): never ground truth; cnn_train --aux learns
+# them in extra heatmap channels that the export drops (docs/training.md).
+HIT_OTHER = {0: 0, 2: 1}
+MSRS_OTHER = {0: 0, 1: 1}
 
 
 @dataclass
@@ -87,6 +91,7 @@ class FrameRec:
     group: str
     vehicles: list = field(default_factory=list)   # [(x, y, w, h)] int pixels
     ignore: list = field(default_factory=list)
+    others: list = field(default_factory=list)     # [(x, y, w, h, cls)] persons (0) and bicycles (1)
 
 
 # ---------------------------------------------------------------- annotations
@@ -107,10 +112,14 @@ def load_msrs(data_dir):
         if lab.exists():
             for line in lab.read_text().split("\n"):
                 p = line.split()
-                if len(p) != 5 or int(p[0]) != MSRS_CAR:
+                if len(p) != 5 or int(p[0]) not in (MSRS_CAR, *MSRS_OTHER):
                     continue
                 xc, yc, w, h = (float(v) for v in p[1:])
-                fr.vehicles.append(_clip_box((xc - w / 2) * 640, (yc - h / 2) * 480, w * 640, h * 480, 640, 480))
+                box = _clip_box((xc - w / 2) * 640, (yc - h / 2) * 480, w * 640, h * 480, 640, 480)
+                if int(p[0]) == MSRS_CAR:
+                    fr.vehicles.append(box)
+                else:
+                    fr.others.append(box + (MSRS_OTHER[int(p[0])],))
         out.append(fr)
     return out
 
@@ -128,6 +137,8 @@ def _load_coco(ann_path, images_dir, dataset, group_fn):
             fr.vehicles.append(box)
         elif a["category_id"] in HIT_IGNORE:
             fr.ignore.append(box)
+        elif a["category_id"] in HIT_OTHER:
+            fr.others.append(box + (HIT_OTHER[a["category_id"]],))
     return sorted((f for f, _, _ in frames.values()), key=lambda f: f.name)
 
 

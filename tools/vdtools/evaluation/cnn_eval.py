@@ -461,18 +461,20 @@ def height_recall(results, thr, bins=HEIGHT_BINS):
     return {k: [tuple(r) for r in v if r[2]] for k, v in sorted(out.items())}
 
 
-FP_KINDS = ("background", "misplaced", "part", "around", "duplicate")
+FP_KINDS = ("background", "road_user", "misplaced", "part", "around", "duplicate")
 
 
 def fp_kinds(results, thr):
     """{family: {kind: count}} of the false positives scoring >= thr (match_flags' rules, so the same ones the
     FP rate counts), by how they meet the labelled vehicles: `duplicate` IoU >= 0.5 with a vehicle a better
     box already took; else, with IoU >= 0.1 to some vehicle, `part` (>= 70 % of the box inside it), `around`
-    (>= 70 % of the vehicle inside the box) or `misplaced`; `background` below 0.1 with every vehicle (an
-    unlabelled car or a non-vehicle). A diagnosis: is a suppression or box rule worth trying, or is it
-    recognition?"""
+    (>= 70 % of the vehicle inside the box) or `misplaced`; below 0.1 with every vehicle, `road_user` when
+    it meets a labelled person or bicycle (IoU >= 0.1, or half of it inside the box; Frame.others), else
+    `background` (an unlabelled car or another object; until 2026-11-28 road users counted as background).
+    A diagnosis: is a suppression or box rule worth trying, or is it recognition, and of what?"""
     out = {}
-    for fam, _, dets, gts in results:
+    for fam, fr, dets, gts in results:
+        users = [] if fr is None else [tuple(o[:4]) for o in getattr(fr, "others", np.zeros((0, 5))).tolist()]
         kinds = out.setdefault(fam, dict.fromkeys(FP_KINDS, 0))
         dets = sorted(dets, key=lambda d: -d[1])    # stable: match_flags' order, so its flags line up
         flags, _ = match_flags(dets, gts)
@@ -485,7 +487,8 @@ def fp_kinds(results, thr):
             if v >= 0.5:
                 kinds["duplicate"] += 1
             elif v < 0.1:
-                kinds["background"] += 1
+                on_user = any(iou(box, u) >= 0.1 or inside_share(u, box) >= 0.5 for u in users)
+                kinds["road_user" if on_user else "background"] += 1
             elif inside_share(box, best) >= 0.7:
                 kinds["part"] += 1
             elif inside_share(best, box) >= 0.7:

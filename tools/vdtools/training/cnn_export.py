@@ -44,7 +44,7 @@ def load_net(ckpt):
     else:
         ck = torch.load(ckpt, weights_only=False, map_location="cpu")
     net = T.Net(ck["arch"])
-    net.load_state_dict(ck["net"])
+    net.load_state_dict(T.strip_aux(ck["net"], ck["arch"]) if ck.get("aux") else ck["net"])   # --aux channels dropped
     net.eval()
     return net, ck
 

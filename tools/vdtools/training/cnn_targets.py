@@ -102,14 +102,18 @@ def paste(img, boxes, ign, donors, rng, n_max=PASTE_MAX, tries=PASTE_TRIES, keep
     return (np.clip(np.round(img), 0, 255).astype(np.uint8), np.array(boxes, np.float32).reshape(-1, 4), ign)
 
 
-def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, paste_p=0.0):
+def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, paste_p=0.0, others=False):
     """One training crop: (stretched uint8 crop, boxes (N,4) in crop pixels, ignore boxes). cut_ignore: the
     split_cut rule for vehicles the crop cuts (cnn_train --cut-ignore); off, every vehicle whose centre is in
     the crop is a positive clipped to it and the others are background (the shipped models' recipe).
-    donors, paste_p: copy-paste augmentation (paste) with probability paste_p."""
+    donors, paste_p: copy-paste augmentation (paste) with probability paste_p. others: also return the
+    frame's persons and bicycles (K, 5: box in crop pixels, class) by the positives' rule (cnn_train --aux);
+    they draw no random numbers, so the crops are those of a run without them."""
     img = CD.half(fr.img)
     boxes = fr.boxes * 0.5
     ign = fr.ignore * 0.5
+    fo = getattr(fr, "others", np.zeros((0, 5), np.float32))
+    oth = fo[:, :4] * 0.5
     if augment and donors and rng.random() < paste_p:
         img, boxes, ign = paste(img, boxes, ign, donors, rng, keep_row=CD.family(fr) == "msrs")
     if augment:
@@ -119,7 +123,7 @@ def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, past
     if s != 1.0:
         img = cv2.resize(img, (int(round(img.shape[1] * s)), int(round(img.shape[0] * s))),
                          interpolation=cv2.INTER_LINEAR if s > 1 else cv2.INTER_AREA)
-        boxes, ign = boxes * s, ign * s
+        boxes, ign, oth = boxes * s, ign * s, oth * s
     if min(img.shape) < crop:   # black padding: what the network's zero padding shows at a frame edge
         img = np.pad(img, ((0, max(0, crop - img.shape[0])), (0, max(0, crop - img.shape[1]))))
     H, W = img.shape
@@ -137,17 +141,24 @@ def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, past
             bb[:, 0] -= x0
             bb[:, 1] -= y0
         return bb
-    boxes, ign = shift(boxes), shift(ign)
+    boxes, ign, oth = shift(boxes), shift(ign), shift(oth)
     if augment and rng.random() < 0.5:
         img = img[:, ::-1]
-        if len(boxes):
-            boxes[:, 0] = crop - boxes[:, 0] - boxes[:, 2]
-        if len(ign):
-            ign[:, 0] = crop - ign[:, 0] - ign[:, 2]
+        for bb in (boxes, ign, oth):
+            if len(bb):
+                bb[:, 0] = crop - bb[:, 0] - bb[:, 2]
     pos, cut = split_cut(boxes, crop, MIN_VISIBLE if cut_ignore else 0.0)
     if not cut_ignore:
         cut = cut[:0]
-    return np.ascontiguousarray(img), pos, np.concatenate([clip_boxes(ign, crop), cut])
+    out = (np.ascontiguousarray(img), pos, np.concatenate([clip_boxes(ign, crop), cut]))
+    if not others:
+        return out
+    keep = []
+    for (x, y, w, h), c in zip(oth.tolist(), fo[:, 4].tolist()):
+        cl = clip_boxes(np.array([[x, y, w, h]], np.float32), crop)
+        if len(cl) and 0 <= x + w / 2 < crop and 0 <= y + h / 2 < crop:
+            keep.append(tuple(cl[0]) + (c,))
+    return out + (np.array(keep, np.float32).reshape(-1, 5),)
 
 
 def clip_boxes(bb, crop):
@@ -215,6 +226,25 @@ def targets(boxes, ign, size, stride=STRIDE):
                     reg[:, jy, jx] = (math.log(max(w, 1.0)), math.log(max(h, 1.0)), cx - jx, cy - jy)
                     regm[jy, jx] = wgt
     return hm, mask, reg, regm
+
+
+def aux_targets(others, ign, size, n_cls=2, stride=STRIDE):
+    """(n_cls, g, g) centre heatmaps of the other road users (others: (K, 5) box, class), the vehicles' rule
+    of targets() (their mask applies: no loss inside ignore regions). cnn_train --aux learns them in extra
+    head channels that the export drops: the network is told what a person or a bicycle is, which a
+    vehicle-only heatmap trains only as background."""
+    g = size // stride
+    hm = np.zeros((n_cls, g, g), np.float32)
+    ys, xs = np.mgrid[0:g, 0:g].astype(np.float32)
+    for x, y, w, h, c in others.reshape(-1, 5).tolist():
+        cx, cy = (x + w / 2) / stride, (y + h / 2) / stride
+        ix, iy = min(g - 1, int(cx)), min(g - 1, int(cy))
+        sx, sy = max(0.5, 0.54 * w / stride / 6), max(0.5, 0.54 * h / stride / 6)
+        gau = np.exp(-((xs - ix) ** 2) / (2 * sx * sx) - ((ys - iy) ** 2) / (2 * sy * sy))
+        k = int(c)
+        hm[k] = np.maximum(hm[k], gau)
+        hm[k, iy, ix] = 1.0
+    return hm
 
 
 # ---------------------------------------------------------------- frame sampling

@@ -35,10 +35,13 @@ import torch.nn.functional as F
 from vdtools.bindings import clib
 from vdtools.data import cnn_data as CD
 from vdtools.metrics.evaluate import average_precision
-from vdtools.training.cnn_targets import (CROP, NORM, STRIDE, frame_weights, sample, stretch,  # noqa: F401
-                                          targets)    # (NORM: for cnn_export)
+from vdtools.training.cnn_targets import (CROP, NORM, STRIDE, aux_targets, frame_weights, sample,  # noqa: F401
+                                          stretch, targets)    # (NORM: for cnn_export)
 
 SIZE_WEIGHT = 1.0           # L1 of log sizes + offsets, against the focal heatmap loss
+HEAD = 5                    # the exported head: heatmap logit, log w, log h, x / y offset
+AUX_CLASSES = 2             # cnn_train --aux: person and bicycle heatmaps after the exported channels
+AUX_WEIGHT = 0.5            # their focal loss, against the vehicles'
 
 # Architectures: (op, args) in execution order; tensors are numbered as in the .vdm (0 = input,
 # i + 1 = output of layer i). ("save", name) labels the latest tensor for a later ("cat", name).
@@ -132,8 +135,10 @@ def fold_bn(seq, dtype=None):
 class Net(nn.Module):
     """Executes an ARCHS list; `self.spec` is the layer list the exporter turns into .vdm layers."""
 
-    def __init__(self, arch):
+    def __init__(self, arch, aux=0):
+        """aux: extra head channels after the HEAD exported ones (cnn_train --aux), dropped by the export."""
         super().__init__()
+        self.aux = aux
         self.spec = []          # dicts: op, stride, in, in2, cin, cout, module index
         self.mods = nn.ModuleList()
         chans = [1]             # channels of tensor t
@@ -158,14 +163,15 @@ class Net(nn.Module):
                 m = nn.Sequential(nn.Conv2d(cin, cout, 1, bias=False), nn.BatchNorm2d(cout), nn.ReLU())
                 d = dict(op="pw", stride=1, cin=cin, cout=cout)
             elif kind == "head":
-                cout = item[1]
+                cout = item[1] + aux
                 conv = nn.Conv2d(cin, cout, 1, bias=True)
                 with torch.no_grad():
                     conv.weight.mul_(0.1)
                     conv.bias.zero_()
                     conv.bias[0] = -2.19          # CenterNet prior: p = 0.1
                     conv.bias[1:3] = 2.5          # log size ~ 12 px
-                    conv.bias[3:] = 0.5
+                    conv.bias[3:HEAD] = 0.5
+                    conv.bias[HEAD:] = -2.19      # aux heatmaps: the same prior
                 m = nn.Sequential(conv)
                 d = dict(op="head", stride=1, cin=cin, cout=cout)
             elif kind == "up":
@@ -235,6 +241,25 @@ class Net(nn.Module):
         return t if return_all else t[-1]
 
 
+def load_weights(net, state):
+    """state into net; a head with fewer output channels than net's (a checkpoint without --aux into a net
+    with it) fills the leading channels and leaves the aux ones as initialised."""
+    own = net.state_dict()
+    for k, v in state.items():
+        if k in own and own[k].shape != v.shape and v.shape[1:] == own[k].shape[1:] and v.shape[0] < own[k].shape[0]:
+            w = own[k].clone()
+            w[:v.shape[0]] = v
+            state = dict(state, **{k: w})
+    net.load_state_dict(state)
+
+
+def strip_aux(state, arch):
+    """state of a net trained with --aux, as the exported net (Net(arch)) takes it: the head's leading HEAD
+    channels."""
+    own = Net(arch).state_dict()
+    return {k: (v[:own[k].shape[0]] if k in own and own[k].shape != v.shape else v) for k, v in state.items()}
+
+
 def macs(net, w, h):
     f, total = {0: 1}, 0
     for i, d in enumerate(net.spec):
@@ -273,42 +298,52 @@ def refresh_bn(avg_net, frames_by_fam, crop=CROP):
 FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a batch
 
 
-def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donors=None, weights=None):
-    xs, hms, ms, regs, regms = [], [], [], [], []
+def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donors=None, weights=None, aux=0):
+    """(x, heatmap, mask, size/offset targets, their mask[, aux heatmaps with aux > 0]) of n crops."""
+    xs, hms, ms, regs, regms, auxs = [], [], [], [], [], []
     fams = sorted(frames_by_fam)
     p = np.array([FAMILY_SHARE[f] for f in fams])
     for i in range(n):
         fam = fams[rng.choice(len(fams), p=p / p.sum())]
         lst = frames_by_fam[fam]
         k = rng.integers(len(lst)) if weights is None else rng.choice(len(lst), p=weights[fam])
-        img, b, ig = sample(lst[k], rng, crop, cut_ignore=cut_ignore,
-                            donors=(donors or {}).get(fam), paste_p=paste_p)
+        img, b, ig, *oth = sample(lst[k], rng, crop, cut_ignore=cut_ignore,
+                                  donors=(donors or {}).get(fam), paste_p=paste_p, others=aux > 0)
         hm, m, reg, regm = targets(b, ig, crop)
+        if aux:
+            auxs.append(aux_targets(oth[0], ig, crop, aux))
         xs.append(img)
         hms.append(hm)
         ms.append(m)
         regs.append(reg)
         regms.append(regm)
     x = torch.from_numpy(np.stack(xs)[:, None].astype(np.float32) / 255.0)
-    return (x, torch.from_numpy(np.stack(hms)), torch.from_numpy(np.stack(ms)),
-            torch.from_numpy(np.stack(regs)), torch.from_numpy(np.stack(regms)))
+    out = (x, torch.from_numpy(np.stack(hms)), torch.from_numpy(np.stack(ms)),
+           torch.from_numpy(np.stack(regs)), torch.from_numpy(np.stack(regms)))
+    return out + ((torch.from_numpy(np.stack(auxs)),) if aux else ())
 
 
-def loss_fn(out, hm, m, reg, regm, giou_weight=0.0):
-    """giou_weight: cnn_train --giou, the weight of a GIoU box term (0 in the shipped models)."""
-    logit = out[:, 0]
+def focal(logit, hm, m):
+    """CenterNet's penalty-reduced focal loss of a heatmap logit against its target (m: loss mask)."""
     p = torch.sigmoid(logit).clamp(1e-4, 1 - 1e-4)
     pos = (hm >= 1.0).float()
     neg = (1 - pos) * m
     pos_l = -(torch.log(p) * (1 - p) ** 2 * pos).sum()
     neg_l = -(torch.log(1 - p) * p ** 2 * (1 - hm) ** 4 * neg).sum()
-    npos = pos.sum().clamp(min=1)
-    hm_l = (pos_l + neg_l) / npos
+    return (pos_l + neg_l) / pos.sum().clamp(min=1)
+
+
+def loss_fn(out, hm, m, reg, regm, giou_weight=0.0, aux_hm=None):
+    """giou_weight: cnn_train --giou, the weight of a GIoU box term (0 in the shipped models). aux_hm
+    (cnn_train --aux): targets of the head's channels after HEAD, AUX_WEIGHT times their focal loss."""
+    hm_l = focal(out[:, 0], hm, m)
     r = (out[:, 1:5] - reg).abs().sum(1)
     size_l = (r * regm).sum() / regm.sum().clamp(min=1)
     total = hm_l + SIZE_WEIGHT * size_l
     if giou_weight > 0:
         total = total + giou_weight * ((1 - giou(out[:, 1:5], reg)) * regm).sum() / regm.sum().clamp(min=1)
+    if aux_hm is not None:
+        total = total + AUX_WEIGHT * focal(out[:, HEAD:], aux_hm, m[:, None])
     return total, hm_l.item(), size_l.item()
 
 
@@ -424,6 +459,8 @@ def main(argv=None):
     ap.add_argument("--wd", type=float, default=1e-4, help="AdamW weight decay (1e-4 in every shipped model)")
     ap.add_argument("--dropout", type=float, default=0.0, help="channel dropout (Dropout2d) on the decoder's "
                     "concat outputs while training, float only (0 in every shipped model)")
+    ap.add_argument("--aux", action="store_true", help="also learn person and bicycle heatmaps in extra head "
+                    "channels (AUX_WEIGHT of their focal loss) that the export drops (0 extra cost at run time)")
     ap.add_argument("--ema", type=float, default=0.0, help="keep an exponential moving average of the weights "
                     "and batch-norm statistics with this decay per step (e.g. 0.999; 0: off) and evaluate, "
                     "choose and save it instead of the raw weights")
@@ -454,9 +491,10 @@ def main(argv=None):
     weights = None if a.oblique == 1.0 else {k: frame_weights(v, a.oblique) for k, v in by_fam.items()}
     print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }; "
           f"{len({f.group for f in by_fam.get('msrs', [])})} MSRS scene groups), val {len(val)}", flush=True)
-    net = Net(a.arch)
+    n_aux = AUX_CLASSES if a.aux else 0
+    net = Net(a.arch, n_aux)
     if a.init:
-        net.load_state_dict(torch.load(a.init, weights_only=False, map_location="cpu")["net"])
+        load_weights(net, torch.load(a.init, weights_only=False, map_location="cpu")["net"])
     # --ema: torch's own averaging (AveragedModel with use_buffers averages the batch-norm statistics too);
     # `ev` is the network evaluated, chosen and saved: the average, or the trained weights themselves.
     ema = weight_average(net, a.ema) if a.ema else None
@@ -516,9 +554,10 @@ def main(argv=None):
             lr *= (step + 1) / 200
         for g in opt.param_groups:
             g["lr"] = lr
-        x, hm, m, reg, regm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore, a.paste, donors, weights)
+        x, hm, m, reg, regm, *aux_hm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore, a.paste, donors, weights,
+                                             n_aux)
         o = net(x)
-        loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou)
+        loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou, aux_hm[0] if aux_hm else None)
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -533,19 +572,20 @@ def main(argv=None):
             print(f"== step {step}: val AP {aps}", flush=True)
             if mean > best:
                 best = mean
-                torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat), out / "best.pt")
+                torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat, aux=n_aux),
+                           out / "best.pt")
             for fam, v in aps.items():      # per family too: a preset for one viewpoint is chosen on its AP alone
                 if v > best_fam.get(fam, -1.0):
                     best_fam[fam] = v
-                    torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat),
+                    torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat, aux=n_aux),
                                out / f"best_{fam}.pt")
         if step % 250 == 0:
             torch.save(dict(net=net.state_dict(), opt=opt.state_dict(), step=step, t_used=time.time() - t0,
-                            log=log, arch=a.arch, **({"ema": ema.state_dict()} if ema is not None else {})),
+                            log=log, arch=a.arch, aux=n_aux, **({"ema": ema.state_dict()} if ema is not None else {})),
                        out / "last.pt")
     # the loop's last step is normally evaluated already (its time budget ran out there)
     aps = log[-1]["val_ap"] if log and log[-1]["step"] == step else evaluate_now()
-    torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat), out / "final.pt")
+    torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat, aux=n_aux), out / "final.pt")
     (out / "log.json").write_text(json.dumps(log, indent=1))
     print(f"done: {step} steps, val AP {aps}", flush=True)
 
