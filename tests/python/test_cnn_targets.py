@@ -220,3 +220,35 @@ def test_sample_moves_other_road_users_with_the_vehicles():
     # a frame object without `others` (older callers): none
     del fr.others
     assert G.sample(fr, np.random.default_rng(0), others=True)[3].shape == (0, 5)
+
+
+def test_sample_invert_flips_polarity_without_moving_the_crop(monkeypatch):
+    """invert_p = 1 inverts the half-resolution frame (255 - v) before the stretch, drawing only from
+    inv_rng: same crop place and boxes as without it, and (photometric changes and rescaling switched off)
+    the crop is a window of the stretched inverted frame, possibly mirrored."""
+    from vdtools.data import cnn_data as CD
+    rng = np.random.default_rng(7)
+    img = rng.integers(0, 255, (240, 320), dtype=np.uint8)
+
+    class Fr:
+        pass
+    fr = Fr()
+    fr.img, fr.boxes, fr.ignore = img, _boxes((40, 40, 60, 30)), np.zeros((0, 4), np.float32)
+    c0, p0, _ = G.sample(fr, np.random.default_rng(1), crop=64, augment=False)
+    c1, p1, _ = G.sample(fr, np.random.default_rng(1), crop=64, augment=False, invert_p=1.0,
+                         inv_rng=np.random.default_rng(2))
+    np.testing.assert_array_equal(p0, p1)
+    np.testing.assert_array_equal(c0, c1)          # augment off: no inversion either
+    for seed in range(5):
+        a, pa, _ = G.sample(fr, np.random.default_rng(seed), crop=64)
+        b, pb, _ = G.sample(fr, np.random.default_rng(seed), crop=64, invert_p=1.0, inv_rng=np.random.default_rng(0))
+        np.testing.assert_array_equal(pa, pb)
+        assert not np.array_equal(a, b)
+    monkeypatch.setattr(G, "photometric", lambda x, r: x)
+    monkeypatch.setattr(G, "SCALE", (1.0, 1.0))
+    inv = G.stretch(255 - CD.half(img))
+    for seed in range(5):
+        c, _, _ = G.sample(fr, np.random.default_rng(seed), crop=64, invert_p=1.0, inv_rng=np.random.default_rng(0))
+        found = any(np.array_equal(inv[y:y + 64, x:x + 64], w) for w in (c, c[:, ::-1])
+                    for y in range(inv.shape[0] - 63) for x in range(inv.shape[1] - 63))
+        assert found

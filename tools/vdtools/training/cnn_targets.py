@@ -102,13 +102,16 @@ def paste(img, boxes, ign, donors, rng, n_max=PASTE_MAX, tries=PASTE_TRIES, keep
     return (np.clip(np.round(img), 0, 255).astype(np.uint8), np.array(boxes, np.float32).reshape(-1, 4), ign)
 
 
-def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, paste_p=0.0, others=False):
+def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, paste_p=0.0, others=False,
+           invert_p=0.0, inv_rng=None):
     """One training crop: (stretched uint8 crop, boxes (N,4) in crop pixels, ignore boxes). cut_ignore: the
     split_cut rule for vehicles the crop cuts (cnn_train --cut-ignore); off, every vehicle whose centre is in
     the crop is a positive clipped to it and the others are background (the shipped models' recipe).
     donors, paste_p: copy-paste augmentation (paste) with probability paste_p. others: also return the
     frame's persons and bicycles (K, 5: box in crop pixels, class) by the positives' rule (cnn_train --aux);
-    they draw no random numbers, so the crops are those of a run without them."""
+    they draw no random numbers, so the crops are those of a run without them. invert_p: probability that
+    the frame's polarity is inverted (255 - v, before the photometric changes; cnn_train --invert), drawn
+    from inv_rng so that rng's crops stay those of a run without it."""
     img = CD.half(fr.img)
     boxes = fr.boxes * 0.5
     ign = fr.ignore * 0.5
@@ -116,6 +119,8 @@ def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, past
     oth = fo[:, :4] * 0.5
     if augment and donors and rng.random() < paste_p:
         img, boxes, ign = paste(img, boxes, ign, donors, rng, keep_row=CD.family(fr) == "msrs")
+    if augment and invert_p > 0 and inv_rng.random() < invert_p:
+        img = 255 - img
     if augment:
         img = photometric(img, rng)
     img = stretch(img)

@@ -298,7 +298,8 @@ def refresh_bn(avg_net, frames_by_fam, crop=CROP):
 FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a batch
 
 
-def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donors=None, weights=None, aux=0):
+def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donors=None, weights=None, aux=0,
+          invert_p=0.0, inv_rng=None):
     """(x, heatmap, mask, size/offset targets, their mask[, aux heatmaps with aux > 0]) of n crops."""
     xs, hms, ms, regs, regms, auxs = [], [], [], [], [], []
     fams = sorted(frames_by_fam)
@@ -308,7 +309,8 @@ def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donor
         lst = frames_by_fam[fam]
         k = rng.integers(len(lst)) if weights is None else rng.choice(len(lst), p=weights[fam])
         img, b, ig, *oth = sample(lst[k], rng, crop, cut_ignore=cut_ignore,
-                                  donors=(donors or {}).get(fam), paste_p=paste_p, others=aux > 0)
+                                  donors=(donors or {}).get(fam), paste_p=paste_p, others=aux > 0,
+                                  invert_p=invert_p, inv_rng=inv_rng)
         hm, m, reg, regm = targets(b, ig, crop)
         if aux:
             auxs.append(aux_targets(oth[0], ig, crop, aux))
@@ -459,6 +461,8 @@ def main(argv=None):
     ap.add_argument("--wd", type=float, default=1e-4, help="AdamW weight decay (1e-4 in every shipped model)")
     ap.add_argument("--dropout", type=float, default=0.0, help="channel dropout (Dropout2d) on the decoder's "
                     "concat outputs while training, float only (0 in every shipped model)")
+    ap.add_argument("--invert", type=float, default=0.0, help="probability of inverting a training frame's "
+                    "polarity (255 - v): hot cars look like cold ones and back (0 in every shipped model)")
     ap.add_argument("--aux", action="store_true", help="also learn person and bicycle heatmaps in extra head "
                     "channels (AUX_WEIGHT of their focal loss) that the export drops (0 extra cost at run time)")
     ap.add_argument("--ema", type=float, default=0.0, help="keep an exponential moving average of the weights "
@@ -474,6 +478,7 @@ def main(argv=None):
     torch.set_num_threads(a.threads)
     torch.manual_seed(a.seed)
     rng = np.random.default_rng(a.seed)
+    inv_rng = np.random.default_rng(a.seed + 7919)     # --invert's own draws: rng's crops stay unchanged
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     frames = CD.load_frames(a.data, splits=("train", "val"), synth=a.synth)
@@ -555,7 +560,7 @@ def main(argv=None):
         for g in opt.param_groups:
             g["lr"] = lr
         x, hm, m, reg, regm, *aux_hm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore, a.paste, donors, weights,
-                                             n_aux)
+                                             n_aux, a.invert, inv_rng)
         o = net(x)
         loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou, aux_hm[0] if aux_hm else None)
         opt.zero_grad()
