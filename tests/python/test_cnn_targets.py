@@ -14,6 +14,17 @@ def _boxes(*b):
     return np.array(b, np.float32).reshape(-1, 4)
 
 
+CORNER_BOXES = ((10, 10, 300, 200), (400, 300, 120, 90), (600, 20, 40, 60), (200, 400, 60, 80))
+
+
+def _random_frame(seed, shape=(480, 640), boxes=CORNER_BOXES):
+    """A random frame (so that a crop is found back by its pixels) with vehicles and no ignore region, as
+    sample() reads a cnn_data.Frame."""
+    from types import SimpleNamespace
+    img = np.random.default_rng(seed).integers(0, 255, shape, dtype=np.uint8)
+    return SimpleNamespace(img=img, boxes=_boxes(*boxes), ignore=np.zeros((0, 4), np.float32))
+
+
 def test_split_cut_hand_worked():
     crop = 100
     pos, cut = G.split_cut(_boxes(
@@ -63,13 +74,8 @@ def test_sample_applies_split_cut_to_the_crop(cut_ignore):
     nothing: split_cut at min_visible 0 without its ignore regions."""
     from vdtools.data import cnn_data as CD
     rng = np.random.default_rng(3)
-    img = rng.integers(0, 255, (480, 640), dtype=np.uint8)
-    boxes = _boxes((10, 10, 300, 200), (400, 300, 120, 90), (600, 20, 40, 60), (200, 400, 60, 80))
-
-    class Fr:
-        pass
-    fr = Fr()
-    fr.img, fr.boxes, fr.ignore = img, boxes, np.zeros((0, 4), np.float32)
+    fr = _random_frame(3)
+    img, boxes = fr.img, fr.boxes
     full = G.stretch(CD.half(img))
     crop, n_pos, n_cut = 96, 0, 0
     for _ in range(40):
@@ -198,14 +204,8 @@ def test_sample_moves_other_road_users_with_the_vehicles():
     """sample(others=True) applies the crop's scale, shift and flip to the persons / bicycles exactly as to
     the vehicles, keeps a class with its box, draws no extra random numbers (same crop as without them),
     and keeps one only when its centre is in the crop, clipped to it, as a positive."""
-    rng = np.random.default_rng(5)
-    img = rng.integers(0, 255, (480, 640), dtype=np.uint8)
-    boxes = _boxes((10, 10, 300, 200), (400, 300, 120, 90), (600, 20, 40, 60), (200, 400, 60, 80))
-
-    class Fr:
-        pass
-    fr = Fr()
-    fr.img, fr.boxes, fr.ignore = img, boxes, np.zeros((0, 4), np.float32)
+    fr = _random_frame(5)
+    boxes = fr.boxes
     fr.others = np.concatenate([boxes, np.array([[0], [1], [1], [0]], np.float32)], 1)
     kept = 0
     for seed in range(30):
@@ -227,13 +227,8 @@ def test_sample_invert_flips_polarity_without_moving_the_crop(monkeypatch):
     inv_rng: same crop place and boxes as without it, and (photometric changes and rescaling switched off)
     the crop is a window of the stretched inverted frame, possibly mirrored."""
     from vdtools.data import cnn_data as CD
-    rng = np.random.default_rng(7)
-    img = rng.integers(0, 255, (240, 320), dtype=np.uint8)
-
-    class Fr:
-        pass
-    fr = Fr()
-    fr.img, fr.boxes, fr.ignore = img, _boxes((40, 40, 60, 30)), np.zeros((0, 4), np.float32)
+    fr = _random_frame(7, (240, 320), ((40, 40, 60, 30),))
+    img = fr.img
     c0, p0, _ = G.sample(fr, np.random.default_rng(1), crop=64, augment=False)
     c1, p1, _ = G.sample(fr, np.random.default_rng(1), crop=64, augment=False, invert_p=1.0,
                          inv_rng=np.random.default_rng(2))
