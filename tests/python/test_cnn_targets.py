@@ -189,15 +189,15 @@ def test_aux_targets_hand_worked():
     """cnn_train --aux: one heatmap per class of other road users, the vehicles' Gaussian; the class picks
     the channel."""
     # a bicycle (class 1), 8 x 16 at (40, 8) on a 64 crop: centre (44, 16) px = cell (11, 4)
-    hm = G.aux_targets(np.array([[40, 8, 8, 16, 1]], np.float32), np.zeros((0, 4), np.float32), 64)
+    hm = G.aux_targets(np.array([[40, 8, 8, 16, 1]], np.float32), 64)
     assert hm.shape == (2, 16, 16) and not hm[0].any()
     assert hm[1, 4, 11] == 1.0 and np.count_nonzero(hm[1] == 1.0) == 1
     # sigma down 0.54 * 16 / 4 / 6 = 0.36 -> 0.5 cells
     assert math.isclose(hm[1, 5, 11], math.exp(-1 / (2 * 0.25)), rel_tol=1e-6)
     # two people overlap: the maximum of their Gaussians
-    hm = G.aux_targets(np.array([[0, 0, 8, 8, 0], [8, 0, 8, 8, 0]], np.float32), np.zeros((0, 4), np.float32), 64)
+    hm = G.aux_targets(np.array([[0, 0, 8, 8, 0], [8, 0, 8, 8, 0]], np.float32), 64)
     assert hm[0, 1, 1] == 1.0 and hm[0, 1, 3] == 1.0 and math.isclose(hm[0, 1, 2], math.exp(-2.0), rel_tol=1e-6)
-    assert G.aux_targets(np.zeros((0, 5), np.float32), np.zeros((0, 4), np.float32), 32).shape == (2, 8, 8)
+    assert G.aux_targets(np.zeros((0, 5), np.float32), 32).shape == (2, 8, 8)
 
 
 def test_sample_moves_other_road_users_with_the_vehicles():

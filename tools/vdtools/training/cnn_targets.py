@@ -158,12 +158,9 @@ def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, past
     out = (np.ascontiguousarray(img), pos, np.concatenate([clip_boxes(ign, crop), cut]))
     if not others:
         return out
-    keep = []
-    for (x, y, w, h), c in zip(oth.tolist(), fo[:, 4].tolist()):
-        cl = clip_boxes(np.array([[x, y, w, h]], np.float32), crop)
-        if len(cl) and 0 <= x + w / 2 < crop and 0 <= y + h / 2 < crop:
-            keep.append(tuple(cl[0]) + (c,))
-    return out + (np.array(keep, np.float32).reshape(-1, 5),)
+    kept = [np.append(b, c) for box, c in zip(oth, fo[:, 4])          # the positives' rule, in order
+            for b in split_cut(box[None], crop, 0.0)[0]]
+    return out + (np.array(kept, np.float32).reshape(-1, 5),)
 
 
 def clip_boxes(bb, crop):
@@ -198,6 +195,16 @@ def split_cut(boxes, crop, min_visible=MIN_VISIBLE):
     return np.array(pos, np.float32).reshape(-1, 4), np.array(cut, np.float32).reshape(-1, 4)
 
 
+def _centre_gaussian(x, y, w, h, xs, ys, stride):
+    """(cx, cy) centre in cells, (ix, iy) its cell and the box's elliptic Gaussian on the grid (xs, ys): TTFNet's
+    sigma = 0.54 * side / 6 in cells, at least 0.5."""
+    g = xs.shape[0]
+    cx, cy = (x + w / 2) / stride, (y + h / 2) / stride
+    ix, iy = min(g - 1, int(cx)), min(g - 1, int(cy))
+    sx, sy = max(0.5, 0.54 * w / stride / 6), max(0.5, 0.54 * h / stride / 6)
+    return cx, cy, ix, iy, np.exp(-((xs - ix) ** 2) / (2 * sx * sx) - ((ys - iy) ** 2) / (2 * sy * sy))
+
+
 def targets(boxes, ign, size, stride=STRIDE):
     """CenterNet targets on the (size/stride)^2 grid: heatmap (elliptic Gaussian, TTFNet-style sigma =
     0.54 * side / 6 in cells, at least 0.5), loss mask (0 inside ignore boxes), size/offset targets and
@@ -211,10 +218,7 @@ def targets(boxes, ign, size, stride=STRIDE):
     for x, y, w, h in ign:
         mask[int(y // stride):int(math.ceil((y + h) / stride)), int(x // stride):int(math.ceil((x + w) / stride))] = 0
     for x, y, w, h in boxes:
-        cx, cy = (x + w / 2) / stride, (y + h / 2) / stride
-        ix, iy = min(g - 1, int(cx)), min(g - 1, int(cy))
-        sx, sy = max(0.5, 0.54 * w / stride / 6), max(0.5, 0.54 * h / stride / 6)
-        gau = np.exp(-((xs - ix) ** 2) / (2 * sx * sx) - ((ys - iy) ** 2) / (2 * sy * sy))
+        cx, cy, ix, iy, gau = _centre_gaussian(x, y, w, h, xs, ys, stride)
         hm = np.maximum(hm, gau)
         hm[iy, ix] = 1.0
         mask[iy, ix] = 1.0
@@ -233,22 +237,18 @@ def targets(boxes, ign, size, stride=STRIDE):
     return hm, mask, reg, regm
 
 
-def aux_targets(others, ign, size, n_cls=2, stride=STRIDE):
-    """(n_cls, g, g) centre heatmaps of the other road users (others: (K, 5) box, class), the vehicles' rule
-    of targets() (their mask applies: no loss inside ignore regions). cnn_train --aux learns them in extra
-    head channels that the export drops: the network is told what a person or a bicycle is, which a
-    vehicle-only heatmap trains only as background."""
+def aux_targets(others, size, n_cls=2, stride=STRIDE):
+    """(n_cls, g, g) centre heatmaps of the other road users (others: (K, 5) box, class), the vehicles'
+    Gaussians of targets() (the vehicles' loss mask applies: no loss inside ignore regions). cnn_train --aux
+    learns them in extra head channels that the export drops: the network is told what a person or a
+    bicycle is, which a vehicle-only heatmap trains only as background."""
     g = size // stride
     hm = np.zeros((n_cls, g, g), np.float32)
     ys, xs = np.mgrid[0:g, 0:g].astype(np.float32)
     for x, y, w, h, c in others.reshape(-1, 5).tolist():
-        cx, cy = (x + w / 2) / stride, (y + h / 2) / stride
-        ix, iy = min(g - 1, int(cx)), min(g - 1, int(cy))
-        sx, sy = max(0.5, 0.54 * w / stride / 6), max(0.5, 0.54 * h / stride / 6)
-        gau = np.exp(-((xs - ix) ** 2) / (2 * sx * sx) - ((ys - iy) ** 2) / (2 * sy * sy))
-        k = int(c)
-        hm[k] = np.maximum(hm[k], gau)
-        hm[k, iy, ix] = 1.0
+        _, _, ix, iy, gau = _centre_gaussian(x, y, w, h, xs, ys, stride)
+        hm[int(c)] = np.maximum(hm[int(c)], gau)
+        hm[int(c), iy, ix] = 1.0
     return hm
 
 

@@ -138,7 +138,6 @@ class Net(nn.Module):
     def __init__(self, arch, aux=0):
         """aux: extra head channels after the HEAD exported ones (cnn_train --aux), dropped by the export."""
         super().__init__()
-        self.aux = aux
         self.spec = []          # dicts: op, stride, in, in2, cin, cout, module index
         self.mods = nn.ModuleList()
         chans = [1]             # channels of tensor t
@@ -313,7 +312,7 @@ def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donor
                                   invert_p=invert_p, inv_rng=inv_rng)
         hm, m, reg, regm = targets(b, ig, crop)
         if aux:
-            auxs.append(aux_targets(oth[0], ig, crop, aux))
+            auxs.append(aux_targets(oth[0], crop, aux))
         xs.append(img)
         hms.append(hm)
         ms.append(m)
@@ -544,6 +543,10 @@ def main(argv=None):
         log.append(dict(step=step, minutes=(time.time() - t0) / 60, val_ap=aps))
         return aps
 
+    def save_eval(aps, name):
+        """A checkpoint of the network evaluated (`ev`), as cnn_export.load_net reads it."""
+        torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat, aux=n_aux), out / name)
+
     def progress():
         """Share of the budget used: steps with --steps, else wall time."""
         return step / a.steps if a.steps > 0 else (time.time() - t0) / budget
@@ -577,20 +580,18 @@ def main(argv=None):
             print(f"== step {step}: val AP {aps}", flush=True)
             if mean > best:
                 best = mean
-                torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat, aux=n_aux),
-                           out / "best.pt")
+                save_eval(aps, "best.pt")
             for fam, v in aps.items():      # per family too: a preset for one viewpoint is chosen on its AP alone
                 if v > best_fam.get(fam, -1.0):
                     best_fam[fam] = v
-                    torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat, aux=n_aux),
-                               out / f"best_{fam}.pt")
+                    save_eval(aps, f"best_{fam}.pt")
         if step % 250 == 0:
             torch.save(dict(net=net.state_dict(), opt=opt.state_dict(), step=step, t_used=time.time() - t0,
                             log=log, arch=a.arch, aux=n_aux, **({"ema": ema.state_dict()} if ema is not None else {})),
                        out / "last.pt")
     # the loop's last step is normally evaluated already (its time budget ran out there)
     aps = log[-1]["val_ap"] if log and log[-1]["step"] == step else evaluate_now()
-    torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat, aux=n_aux), out / "final.pt")
+    save_eval(aps, "final.pt")
     (out / "log.json").write_text(json.dumps(log, indent=1))
     print(f"done: {step} steps, val AP {aps}", flush=True)
 
