@@ -474,7 +474,7 @@ def fp_kinds(results, thr):
     A diagnosis: is a suppression or box rule worth trying, or is it recognition, and of what?"""
     out = {}
     for fam, fr, dets, gts in results:
-        users = [] if fr is None else [tuple(o[:4]) for o in getattr(fr, "others", np.zeros((0, 5))).tolist()]
+        users = [] if fr is None else fr.others[:, :4].tolist()
         kinds = out.setdefault(fam, dict.fromkeys(FP_KINDS, 0))
         dets = sorted(dets, key=lambda d: -d[1])    # stable: match_flags' order, so its flags line up
         flags, _ = match_flags(dets, gts)
