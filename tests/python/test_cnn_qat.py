@@ -238,3 +238,28 @@ def test_aux_loss_adds_the_weighted_focal_loss_of_the_extra_channels():
     negm[1, 1, 4, 5] = 0
     neg = -(torch.log(1 - p) * p ** 2 * negm).sum()
     torch.testing.assert_close(T.focal(out[:, T.HEAD:], aux, m[:, None]), pos + neg)
+
+
+def test_soft_focal_hand_worked():
+    """Quality focal loss at logit 0 (p = 1/2): target 1 costs ln 2 x (1/2)^2, target 1/2 costs nothing
+    (|t - p| = 0), masked cells nothing; the sum is divided by the number of positives."""
+    logit = torch.zeros(1, 2, 2)
+    target = torch.tensor([[[1.0, 0.5], [1.0, 0.0]]])
+    m = torch.tensor([[[1.0, 1.0], [0.0, 1.0]]])
+    got = T.soft_focal(logit, target, m, torch.tensor(2.0))
+    want = (0.25 * np.log(2.0) + 0.25 * np.log(2.0)) / 2     # cells (0,0) target 1 and (1,1) target 0
+    torch.testing.assert_close(got, torch.tensor(want, dtype=torch.float32))
+    assert float(T.soft_focal(logit, target, m, torch.tensor(0.0))) == pytest.approx(2 * want)   # n_pos >= 1
+
+
+def test_ensemble_of_one_network_twice_is_that_network(tmp_path):
+    """cnn_eval's FloatEnsemble averages output maps: a network averaged with itself decodes as Float."""
+    from vdtools.evaluation import cnn_eval as CE
+    ck = tmp_path / "n.pt"
+    torch.save(dict(net=_net().state_dict(), arch="compact", step=0), ck)
+    img = _planes(1, 128)[0]
+    one = CE.Float(str(ck))._peaks(img)
+    two = CE.FloatEnsemble([str(ck), str(ck)])._peaks(img)
+    assert len(one) == len(two) > 0
+    for a, b in zip(one, two):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5)

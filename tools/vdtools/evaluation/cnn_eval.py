@@ -323,6 +323,29 @@ class Float:
         return [(b, s / 32768.0) for b, s in self.boxes_q15(img, frame_w, frame_h)]
 
 
+class FloatEnsemble(Float):
+    """An experiment (cnn_eval --ensemble; not in the detector): several float networks whose output maps are
+    averaged before decoding (heatmap probabilities and box channels, on the region all of them cover: the
+    padding is right and bottom), the ceiling of what ensembling or distilling them could give one network.
+    Decoded and flip-fused as Float."""
+
+    def __init__(self, ckpts, flip=False):
+        members = [Float(c) for c in ckpts]
+        self.torch, self.T, self.flip = members[0].torch, members[0].T, flip
+        self.nets = [m.net for m in members]
+
+    def _peaks(self, img, mirror=False):
+        torch = self.torch
+        with torch.no_grad():
+            outs = [n(self.T.to_input(net_input(img, n.align, mirror=mirror))) for n in self.nets]
+            ho, wo = min(o.shape[2] for o in outs), min(o.shape[3] for o in outs)
+            outs = [o[:, :5, :ho, :wo] for o in outs]
+            p = torch.stack([torch.sigmoid(o[:, :1]) for o in outs]).mean(0)
+            box = torch.stack([o[:, 1:] for o in outs]).mean(0)
+            o = torch.cat([torch.logit(p.clamp(1e-6, 1 - 1e-6)), box], 1)
+        return self.T.decode_float(o, 0.02)
+
+
 class FloatPair:
     """Two float networks fused by the pair rule (fuse_pair's last step, fuse_flip at threshold 0 on every
     box): the float counterpart of Pair, for the pair's int8-vs-float figure. Each network keeps every peak
@@ -552,6 +575,8 @@ def main(argv=None):
     ap.add_argument("--ckpt", help="float checkpoint instead of --model")
     ap.add_argument("--ckpt2", help="a second float checkpoint fused with --ckpt by the pair rule (FloatPair): "
                                     "the float counterpart of --model2")
+    ap.add_argument("--ensemble", action="append", default=[], help="experiment (repeatable): a further float "
+                    "checkpoint whose output maps are averaged with --ckpt's before decoding (FloatEnsemble)")
     ap.add_argument("--backend", default="c", choices=("c", "ref", "demo"),
                     help="c: vd_cnn_run/decode + suppression here; ref: numpy reference; demo: the whole C "
                          "detector through vd_fir_demo (--demo), the figures docs/results/detector.md reports")
@@ -599,7 +624,12 @@ def main(argv=None):
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
                        extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"], model2=a.model2)
     else:
-        pred = Float(a.ckpt, flip=a.flip) if a.ckpt else Int8(a.model, a.backend, flip=a.flip)
+        if a.ensemble and (not a.ckpt or a.ckpt2):
+            raise SystemExit("--ensemble averages float networks with --ckpt (not a pair)")
+        if a.ensemble:
+            pred = FloatEnsemble([a.ckpt] + a.ensemble, flip=a.flip)
+        else:
+            pred = Float(a.ckpt, flip=a.flip) if a.ckpt else Int8(a.model, a.backend, flip=a.flip)
         if a.ckpt2:
             pred = FloatPair(pred, Float(a.ckpt2, flip=a.flip))
         if a.model2:
@@ -647,7 +677,7 @@ def main(argv=None):
         plot_pr(rep, a.pr, f"CNN detector, {a.split} split ({name})")
     if a.out:
         Path(a.out).write_text(json.dumps(dict(split=a.split, model=a.model or a.ckpt, model2=a.model2 or a.ckpt2, thr=thr,
-                                               flip=a.flip,
+                                               flip=a.flip, **({"ensemble": a.ensemble} if a.ensemble else {}),
                                                families=summary(rep, thr),
                                                subsets={k: dict(ap=ap, n_frames=nf, n_vehicles=nv)
                                                         for k, (ap, nf, nv) in subsets.items()},

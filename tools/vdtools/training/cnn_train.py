@@ -334,6 +334,16 @@ def focal(logit, hm, m):
     return (pos_l + neg_l) / pos.sum().clamp(min=1)
 
 
+def soft_focal(logit, target, m, n_pos):
+    """Quality focal loss (Li et al., "Generalized Focal Loss", 2020) of a heatmap logit against soft targets
+    in [0, 1] (cnn_train --teacher: the teachers' mean heatmap): binary cross-entropy weighted by
+    |target - p|^2, so that the many cells both call background add little; summed over the mask m and
+    divided by n_pos, as focal()."""
+    p = torch.sigmoid(logit)
+    bce = F.binary_cross_entropy_with_logits(logit, target, reduction="none")
+    return (bce * (target - p).abs() ** 2 * m).sum() / n_pos.clamp(min=1)
+
+
 def loss_fn(out, hm, m, reg, regm, giou_weight=0.0, aux_hm=None):
     """giou_weight: cnn_train --giou, the weight of a GIoU box term (0 in the shipped models). aux_hm
     (cnn_train --aux): targets of the head's channels after HEAD, AUX_WEIGHT times their focal loss."""
@@ -464,6 +474,10 @@ def main(argv=None):
                     "polarity (255 - v): hot cars look like cold ones and back (0 in every shipped model)")
     ap.add_argument("--aux", action="store_true", help="also learn person and bicycle heatmaps in extra head "
                     "channels (AUX_WEIGHT of their focal loss) that the export drops (0 extra cost at run time)")
+    ap.add_argument("--teacher", action="append", default=[], help="distillation (repeatable): a float "
+                    "checkpoint (.pt or models/float/*.npz) whose heatmap, averaged over every --teacher, is a "
+                    "second, soft target of the vehicle heatmap (soft_focal, weight --distill)")
+    ap.add_argument("--distill", type=float, default=1.0, help="weight of the teachers' soft heatmap term")
     ap.add_argument("--ema", type=float, default=0.0, help="keep an exponential moving average of the weights "
                     "and batch-norm statistics with this decay per step (e.g. 0.999; 0: off) and evaluate, "
                     "choose and save it instead of the raw weights")
@@ -501,6 +515,10 @@ def main(argv=None):
         load_weights(net, torch.load(a.init, weights_only=False, map_location="cpu")["net"])
     # --ema: torch's own averaging (AveragedModel with use_buffers averages the batch-norm statistics too);
     # `ev` is the network evaluated, chosen and saved: the average, or the trained weights themselves.
+    teachers = []
+    if a.teacher:
+        from vdtools.training import cnn_export as E     # imported here (it imports this module)
+        teachers = [E.load_net(t)[0] for t in a.teacher]     # eval mode; they draw no random numbers
     ema = weight_average(net, a.ema) if a.ema else None
     ev = ema.module if ema is not None else net
     net.dropout = a.dropout     # after the average copied the network: the average is only evaluated (no dropout)
@@ -566,6 +584,10 @@ def main(argv=None):
                                              n_aux, a.invert, inv_rng)
         o = net(x)
         loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou, aux_hm[0] if aux_hm else None)
+        if teachers:
+            with torch.no_grad():
+                soft = torch.stack([torch.sigmoid(t(x)[:, 0]) for t in teachers]).mean(0)
+            loss = loss + a.distill * soft_focal(o[:, 0], soft, m, (hm >= 1.0).float().sum())
         opt.zero_grad()
         loss.backward()
         opt.step()
