@@ -263,3 +263,19 @@ def test_ensemble_of_one_network_twice_is_that_network(tmp_path):
     assert len(one) == len(two) > 0
     for a, b in zip(one, two):
         np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5)
+
+
+def test_teacher_run_and_crop_alignment(data_dir, tmp_path):
+    """--teacher: a short distilled run trains and saves; a crop the teacher's input alignment does not
+    divide is refused before any training (the teacher would see a differently padded crop)."""
+    ck = tmp_path / "teacher.pt"
+    torch.save(dict(net=_net().state_dict(), arch="compact", step=0), ck)
+    T.main(["--arch", "compact", "--data", str(data_dir), "--out", str(tmp_path / "run"), "--steps", "2",
+            "--threads", "1", "--batch", "2", "--eval-every", "1000", "--teacher", str(ck)])
+    assert torch.load(tmp_path / "run" / "final.pt", weights_only=False)["step"] == 2
+    wide = tmp_path / "s32n.pt"      # input alignment 32: 176 = 5.5 x 32
+    torch.save(dict(net=T.Net("s32n").state_dict(), arch="s32n", step=0), wide)
+    with pytest.raises(SystemExit):
+        T.main(["--arch", "compact", "--data", str(data_dir), "--out", str(tmp_path / "bad"), "--steps", "1",
+                "--crop", "176", "--threads", "1", "--teacher", str(wide)])
+    assert not (tmp_path / "bad" / "final.pt").exists()

@@ -519,6 +519,8 @@ def main(argv=None):
     if a.teacher:
         from vdtools.training import cnn_export as E     # imported here (it imports this module)
         teachers = [E.load_net(t)[0] for t in a.teacher]     # eval mode; they draw no random numbers
+        if any(a.crop % t.align for t in teachers):
+            ap.error("--crop must be a multiple of every teacher's input alignment")
     ema = weight_average(net, a.ema) if a.ema else None
     ev = ema.module if ema is not None else net
     net.dropout = a.dropout     # after the average copied the network: the average is only evaluated (no dropout)
