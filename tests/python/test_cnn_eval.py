@@ -83,7 +83,7 @@ def test_false_positives_are_sorted_by_how_they_meet_the_vehicles():
             ((20, 0, 40, 20), 0.55), ((200, 200, 20, 20), 0.5), ((300, 300, 10, 10), 0.5),
             ((400, 0, 20, 20), 0.1)]
     gts = [car + (True, False), (300, 300, 20, 20, False, True)]
-    got = cnn_eval.fp_kinds([("msrs", None, dets, gts)], 0.3)
+    got = cnn_eval.fp_kinds([("msrs", SimpleNamespace(others=np.zeros((0, 5), np.float32)), dets, gts)], 0.3)
     assert got == {"msrs": dict(background=1, road_user=0, misplaced=1, part=1, around=1, duplicate=1)}
     # with a labelled bicycle (190, 190, 20, 30): the far box (200, 200, 20, 20) overlaps it by IoU 0.25, so it
     # is a road user; a person (205, 205, 4, 8) wholly inside that box would be one too

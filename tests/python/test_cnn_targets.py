@@ -22,7 +22,8 @@ def _random_frame(seed, shape=(480, 640), boxes=CORNER_BOXES):
     sample() reads a cnn_data.Frame."""
     from types import SimpleNamespace
     img = np.random.default_rng(seed).integers(0, 255, shape, dtype=np.uint8)
-    return SimpleNamespace(img=img, boxes=_boxes(*boxes), ignore=np.zeros((0, 4), np.float32))
+    return SimpleNamespace(img=img, boxes=_boxes(*boxes), ignore=np.zeros((0, 4), np.float32),
+                           others=np.zeros((0, 5), np.float32))
 
 
 def test_split_cut_hand_worked():
@@ -217,8 +218,8 @@ def test_sample_moves_other_road_users_with_the_vehicles():
         assert set(oth[:, 4].tolist()) <= {0.0, 1.0}
         kept += len(oth)
     assert kept > 0
-    # a frame object without `others` (older callers): none
-    del fr.others
+    # a frame without persons or bicycles: none
+    fr.others = np.zeros((0, 5), np.float32)
     assert G.sample(fr, np.random.default_rng(0), others=True)[3].shape == (0, 5)
 
 

@@ -330,19 +330,14 @@ class FloatEnsemble(Float):
     Decoded and flip-fused as Float."""
 
     def __init__(self, ckpts, flip=False):
-        members = [Float(c) for c in ckpts]
-        self.torch, self.T, self.flip = members[0].torch, members[0].T, flip
-        self.nets = [m.net for m in members]
+        super().__init__(ckpts[0], flip)
+        self.nets = [self.net] + [Float(c).net for c in ckpts[1:]]
 
     def _peaks(self, img, mirror=False):
         torch = self.torch
         with torch.no_grad():
-            outs = [n(self.T.to_input(net_input(img, n.align, mirror=mirror))) for n in self.nets]
-            ho, wo = min(o.shape[2] for o in outs), min(o.shape[3] for o in outs)
-            outs = [o[:, :5, :ho, :wo] for o in outs]
-            p = torch.stack([torch.sigmoid(o[:, :1]) for o in outs]).mean(0)
-            box = torch.stack([o[:, 1:] for o in outs]).mean(0)
-            o = torch.cat([torch.logit(p.clamp(1e-6, 1 - 1e-6)), box], 1)
+            p, box = self.T.mean_maps([n(self.T.to_input(net_input(img, n.align, mirror=mirror))) for n in self.nets])
+            o = torch.cat([torch.logit(p.clamp(1e-6, 1 - 1e-6))[:, None], box], 1)
         return self.T.decode_float(o, 0.02)
 
 
@@ -497,7 +492,7 @@ def fp_kinds(results, thr):
     A diagnosis: is a suppression or box rule worth trying, or is it recognition, and of what?"""
     out = {}
     for fam, fr, dets, gts in results:
-        users = [] if fr is None else fr.others[:, :4].tolist()
+        users = fr.others[:, :4].tolist()
         kinds = out.setdefault(fam, dict.fromkeys(FP_KINDS, 0))
         dets = sorted(dets, key=lambda d: -d[1])    # stable: match_flags' order, so its flags line up
         flags, _ = match_flags(dets, gts)

@@ -115,7 +115,7 @@ def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, past
     img = CD.half(fr.img)
     boxes = fr.boxes * 0.5
     ign = fr.ignore * 0.5
-    fo = getattr(fr, "others", np.zeros((0, 5), np.float32))
+    fo = fr.others
     oth = fo[:, :4] * 0.5
     if augment and donors and rng.random() < paste_p:
         img, boxes, ign = paste(img, boxes, ign, donors, rng, keep_row=CD.family(fr) == "msrs")

@@ -334,6 +334,16 @@ def focal(logit, hm, m):
     return (pos_l + neg_l) / pos.sum().clamp(min=1)
 
 
+def mean_maps(outs):
+    """Several networks' outputs averaged (cnn_train --teacher, cnn_eval --ensemble): (heatmap probability
+    [N, H, W], box channels [N, 4, H, W]) on the region all of them cover (their inputs are padded right and
+    bottom to different alignments); channels after HEAD (--aux) are left out."""
+    ho, wo = min(o.shape[2] for o in outs), min(o.shape[3] for o in outs)
+    outs = [o[:, :HEAD, :ho, :wo] for o in outs]
+    return (torch.stack([torch.sigmoid(o[:, 0]) for o in outs]).mean(0),
+            torch.stack([o[:, 1:] for o in outs]).mean(0))
+
+
 def soft_focal(logit, target, m, n_pos):
     """Quality focal loss (Li et al., "Generalized Focal Loss", 2020) of a heatmap logit against soft targets
     in [0, 1] (cnn_train --teacher: the teachers' mean heatmap): binary cross-entropy weighted by
@@ -513,14 +523,14 @@ def main(argv=None):
     net = Net(a.arch, n_aux)
     if a.init:
         load_weights(net, torch.load(a.init, weights_only=False, map_location="cpu")["net"])
-    # --ema: torch's own averaging (AveragedModel with use_buffers averages the batch-norm statistics too);
-    # `ev` is the network evaluated, chosen and saved: the average, or the trained weights themselves.
     teachers = []
     if a.teacher:
         from vdtools.training import cnn_export as E     # imported here (it imports this module)
         teachers = [E.load_net(t)[0] for t in a.teacher]     # eval mode; they draw no random numbers
         if any(a.crop % t.align for t in teachers):
             ap.error("--crop must be a multiple of every teacher's input alignment")
+    # --ema: torch's own averaging (AveragedModel with use_buffers averages the batch-norm statistics too);
+    # `ev` is the network evaluated, chosen and saved: the average, or the trained weights themselves.
     ema = weight_average(net, a.ema) if a.ema else None
     ev = ema.module if ema is not None else net
     net.dropout = a.dropout     # after the average copied the network: the average is only evaluated (no dropout)
@@ -588,7 +598,7 @@ def main(argv=None):
         loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou, aux_hm[0] if aux_hm else None)
         if teachers:
             with torch.no_grad():
-                soft = torch.stack([torch.sigmoid(t(x)[:, 0]) for t in teachers]).mean(0)
+                soft = mean_maps([t(x) for t in teachers])[0]
             loss = loss + a.distill * soft_focal(o[:, 0], soft, m, (hm >= 1.0).float().sum())
         opt.zero_grad()
         loss.backward()
