@@ -248,3 +248,44 @@ def test_sample_invert_flips_polarity_without_moving_the_crop(monkeypatch):
         found = any(np.array_equal(inv[y:y + 64, x:x + 64], w) for w in (c, c[:, ::-1])
                     for y in range(inv.shape[0] - 63) for x in range(inv.shape[1] - 63))
         assert found
+
+
+def test_camera_shift_keeps_the_frame_and_its_draws():
+    """camera_shift (cnn_train --camera) changes pixels only: same shape and dtype, deterministic for a seed,
+    and sample() draws it (and --small's rescale) from cam_rng alone, so the crop's boxes are those of the
+    run without it unless --small rescales."""
+    fr = _random_frame(3, (240, 320), ((40, 40, 60, 30), (200, 100, 30, 20)))
+    half = fr.img[::2, ::2].copy()
+    for seed in range(8):       # every kind: the tone curves and the texture change
+        a = G.camera_shift(half, np.random.default_rng(seed))
+        b = G.camera_shift(half, np.random.default_rng(seed))
+        assert a.shape == half.shape and a.dtype == np.uint8
+        np.testing.assert_array_equal(a, b)
+    for seed in range(5):
+        a, pa, _ = G.sample(fr, np.random.default_rng(seed), crop=64)
+        b, pb, _ = G.sample(fr, np.random.default_rng(seed), crop=64, camera_p=1.0, cam_rng=np.random.default_rng(9))
+        np.testing.assert_array_equal(pa, pb)
+        assert not np.array_equal(a, b)
+        c, pc, _ = G.sample(fr, np.random.default_rng(seed), crop=64, camera_p=0.0, cam_rng=np.random.default_rng(9))
+        np.testing.assert_array_equal(a, c)
+        np.testing.assert_array_equal(pa, pc)
+
+
+def test_camera_shift_s_curve_hand_worked(monkeypatch):
+    """Kind 2, the S-curve: its table is the logistic normalised to map 0 to 0 and 255 to 255, so a frame
+    of only those two levels keeps them (no texture step: the second draw is >= 0.5)."""
+    class R:
+        def integers(self, n):
+            return 2
+        def uniform(self, lo, hi):
+            return (lo + hi) / 2
+        def random(self):
+            return 0.9
+    img = np.array([[0, 255], [255, 0]], np.uint8)
+    np.testing.assert_array_equal(G.camera_shift(img, R()), img)
+    # mid level: k = 7, c = 0.5: f(0) = 0.0293, f(128) = 0.5034, f(255) = 0.9707, so 128 maps to
+    # 255 * 0.4741 / 0.9414 = 128.4 -> 128; 200 to 255 * (0.8798 - 0.0293) / 0.9414 = 230.4 -> 230
+    f = lambda v: 1 / (1 + math.exp(-7 * (v / 255 - 0.5)))
+    for v, want in ((128, 128), (200, 230)):
+        assert round(255 * (f(v) - f(0)) / (f(255) - f(0))) == want
+        assert G.camera_shift(np.full((2, 2), v, np.uint8), R())[0, 0] == want

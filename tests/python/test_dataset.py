@@ -84,6 +84,24 @@ def test_real_annotations_and_group_split(data_dir):
         n = len(by[d])
         share = sum(1 for f in by[d] if a[f.group] == "train") / n
         assert 0.6 < share < 0.85
+    # every HIT-UAV frame of the annotation file is read, the vehicle-free ones too (hard negatives in
+    # training, false positives where there is nothing to find in evaluation), counted from the file itself
+    import json
+    with open(data_dir / "hit-uav" / "frames" / "annotations.json") as fh:
+        ann = json.load(fh)
+    with_vehicle = {b["image_id"] for b in ann["annotation"] if b["category_id"] in (1, 3)}
+    assert len(by["hit"]) == len(ann["images"])
+    assert sum(1 for f in by["hit"] if not f.vehicles) == sum(1 for i in ann["images"] if i["id"] not in with_vehicle)
+    # a flight's frames are one group, whatever vehicles they hold: vehicle-free frames are in their flight's split
+    assert {f.group for f in by["hit"] if not f.vehicles} <= {f.group for f in by["hit"] if f.vehicles} | set(a)
+
+
+def test_vehicle_free_frames_reach_the_cnn_splits(data_dir):
+    """The CNN's frame loader keeps frames without a vehicle in every split (training negatives, FP measure)."""
+    from vdtools.data import cnn_data
+    frames = cnn_data.load_frames(data_dir, splits=("val",))
+    assert any(len(f.boxes) == 0 and f.dataset == "hit" for f in frames)
+    assert all(f.split == "val" for f in frames)
 
 
 def test_frame_samples_on_real_frame(data_dir):

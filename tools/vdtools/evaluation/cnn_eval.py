@@ -44,16 +44,46 @@ PERTURB = {
     "lowcontrast": lambda a, r: 0.6 * a + 50.0,
     "blur1.5": lambda a, r: __import__("cv2").GaussianBlur(a, (7, 7), 1.5),
     "noise6": lambda a, r: a + r.normal(0, 6.0, a.shape),
+    # harder changes, closer to a real other camera (docs/results/cameras.md): a global histogram
+    # equalisation and a local one (CLAHE) as other AGC curves, a brighter curve with its top clipped (a
+    # sunny day), and denoise + sharpen (another camera's image processing)
+    "equalize": lambda a, r: _cv2().equalizeHist(a.astype(np.uint8)),
+    "clahe": lambda a, r: _cv2().createCLAHE(clipLimit=3.0, tileGridSize=(8, 8)).apply(a.astype(np.uint8)),
+    "bright": lambda a, r: 255.0 * np.minimum(1.0, 1.15 * (a / 255.0) ** 0.5),
+    "sharpen": lambda a, r: _sharpen(a),
 }
+# geometric changes (boxes scale too): the frame shrunk so that cars are 10-30 px, as a wider lens shows them
+RESCALE = {"down50": 0.5}
+
+
+def _cv2():
+    import cv2
+    return cv2
+
+
+def _sharpen(a):
+    """Edge-preserving denoise, then an unsharp mask of amount 1 (sigma 1): a sharper, denoised picture."""
+    cv2 = _cv2()
+    d = cv2.bilateralFilter(a.astype(np.uint8), 5, 30.0, 3.0).astype(np.float64)
+    return d + 1.0 * (d - cv2.GaussianBlur(d, (0, 0), 1.0))
 
 
 def perturb(frames, name):
+    """The frames as another camera would show them (PERTURB: pixel values; RESCALE: size, boxes scaled)."""
     import copy
     out = []
     for i, fr in enumerate(frames):
         g = copy.copy(fr)
-        a = fr.img.astype(np.float64)
-        g.img = np.clip(np.round(PERTURB[name](a, np.random.default_rng(i))), 0, 255).astype(np.uint8)
+        if name in RESCALE:
+            f = RESCALE[name]
+            h, w = fr.img.shape
+            g.img = _cv2().resize(fr.img, (int(round(w * f)), int(round(h * f))), interpolation=_cv2().INTER_AREA)
+            g.boxes, g.ignore = fr.boxes * f, fr.ignore * f
+            g.others = fr.others.copy()
+            g.others[:, :4] *= f
+        else:
+            a = fr.img.astype(np.float64)
+            g.img = np.clip(np.round(PERTURB[name](a, np.random.default_rng(i))), 0, 255).astype(np.uint8)
         out.append(g)
     return out
 
@@ -586,7 +616,7 @@ def main(argv=None):
     ap.add_argument("--paper", help="evaluate the paper pipeline instead: demo flags, e.g. \"--sources hotspot\" "
                     "(--model is then a DBN model; --backend demo)")
     ap.add_argument("--thr", type=float, help="operating point to report (default: chosen here, val split only)")
-    ap.add_argument("--perturb", choices=sorted(PERTURB), help="camera-like change of the frames (backends c/ref)")
+    ap.add_argument("--perturb", choices=sorted(PERTURB) + sorted(RESCALE), help="camera-like change of the frames (backends c/ref)")
     ap.add_argument("--flip", action="store_true",
                     help="horizontal-flip test-time augmentation: a second pass on the mirrored half-resolution "
                          "plane, its boxes fused with the first pass's (backends c/ref; with --backend demo: "

@@ -14,6 +14,7 @@ STRIDE = 4
 CROP = 192
 MIN_VISIBLE = 0.6           # a crop-cut vehicle with less of its area inside is an ignore region (split_cut)
 SCALE = (0.6, 1.4)          # random rescale of the half-resolution frame (MSRS test cars are smaller than train)
+SMALL_SCALE = (0.3, 0.6)    # cnn_train --small: the rescale that makes cars 10-30 px, as a wider lens shows them
 PASTE_MAX = 3               # vehicles pasted into one frame (paste)
 PASTE_TRIES = 10            # random spots tried per pasted vehicle
 PASTE_MARGIN = 0.25         # context around a pasted vehicle, of its width / height
@@ -52,6 +53,38 @@ def photometric(img, rng):
     if rng.random() < 0.5:
         x = x + rng.normal(0, rng.uniform(0.005, 0.03), x.shape).astype(np.float32)
     return np.clip(np.round(x * 255), 0, 255).astype(np.uint8)
+
+
+def camera_shift(img, rng):
+    """Another camera's picture of the same scene, on a uint8 half-resolution frame (cnn_train --camera): a
+    different AGC tone curve (histogram equalisation, CLAHE, an S-curve, or a brighter gamma with the top
+    clipped), then with probability 1/2 another texture (edge-preserving denoise, then an unsharp mask).
+    Why: a user's camera differs from MSRS and HIT-UAV mostly in its AGC curve and its image processing (the
+    car-mounted FLIR of docs/results/cameras.md is brighter, harder-curved and sharper); the AGC-like changes
+    of photometric() are gentle affine/gamma ones and never change the local contrast or texture."""
+    kind = int(rng.integers(4))
+    x = img
+    if kind == 0:                                   # global histogram equalisation, partly blended
+        a = rng.uniform(0.5, 1.0)
+        x = (1 - a) * x.astype(np.float32) + a * cv2.equalizeHist(x).astype(np.float32)
+    elif kind == 1:                                 # local AGC (CLAHE)
+        t = int(rng.choice([4, 8]))
+        x = cv2.createCLAHE(clipLimit=float(rng.uniform(1.5, 4.0)), tileGridSize=(t, t)).apply(x).astype(np.float32)
+    elif kind == 2:                                 # hard S-curve about a random mid level
+        k, c = rng.uniform(4.0, 10.0), rng.uniform(0.3, 0.7)
+        f = 1.0 / (1.0 + np.exp(-k * (np.arange(256) / 255.0 - c)))
+        lut = (f - f[0]) / (f[-1] - f[0]) * 255.0
+        x = lut[x].astype(np.float32)
+    else:                                           # brighter, top clipped
+        g = rng.uniform(0.35, 0.7)
+        x = 255.0 * np.minimum(1.0, rng.uniform(1.0, 1.3) * (x / 255.0) ** g).astype(np.float32)
+    x = np.clip(np.round(x), 0, 255).astype(np.uint8)
+    if rng.random() < 0.5:
+        x = cv2.bilateralFilter(x, 5, float(rng.uniform(15, 50)), 3.0)
+        xf = x.astype(np.float32)
+        xf = xf + rng.uniform(0.5, 1.5) * (xf - cv2.GaussianBlur(xf, (0, 0), rng.uniform(0.8, 1.5)))
+        x = np.clip(np.round(xf), 0, 255).astype(np.uint8)
+    return x
 
 
 def paste(img, boxes, ign, donors, rng, n_max=PASTE_MAX, tries=PASTE_TRIES, keep_row=False):
@@ -103,7 +136,7 @@ def paste(img, boxes, ign, donors, rng, n_max=PASTE_MAX, tries=PASTE_TRIES, keep
 
 
 def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, paste_p=0.0, others=False,
-           invert_p=0.0, inv_rng=None):
+           invert_p=0.0, inv_rng=None, camera_p=0.0, small_p=0.0, cam_rng=None):
     """One training crop: (stretched uint8 crop, boxes (N,4) in crop pixels, ignore boxes). cut_ignore: the
     split_cut rule for vehicles the crop cuts (cnn_train --cut-ignore); off, every vehicle whose centre is in
     the crop is a positive clipped to it and the others are background (the shipped models' recipe).
@@ -111,7 +144,9 @@ def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, past
     frame's persons and bicycles (K, 5: box in crop pixels, class) by the positives' rule (cnn_train --aux);
     they draw no random numbers, so the crops are those of a run without them. invert_p: probability that
     the frame's polarity is inverted (255 - v, before the photometric changes; cnn_train --invert), drawn
-    from inv_rng so that rng's crops stay those of a run without it."""
+    from inv_rng so that rng's crops stay those of a run without it. camera_p: probability of camera_shift
+    (cnn_train --camera), small_p: probability that the rescale is drawn from SMALL_SCALE (--small), both
+    drawn from cam_rng, so that rng's draws stay those of a run without them."""
     img = CD.half(fr.img)
     boxes = fr.boxes * 0.5
     ign = fr.ignore * 0.5
@@ -121,10 +156,14 @@ def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, past
         img, boxes, ign = paste(img, boxes, ign, donors, rng, keep_row=CD.family(fr) == "msrs")
     if augment and invert_p > 0 and inv_rng.random() < invert_p:
         img = 255 - img
+    if augment and camera_p > 0 and cam_rng.random() < camera_p:
+        img = camera_shift(img, cam_rng)
     if augment:
         img = photometric(img, rng)
     img = stretch(img)
     s = rng.uniform(SCALE[0], SCALE[1]) if augment else 1.0
+    if augment and small_p > 0 and cam_rng.random() < small_p:
+        s = cam_rng.uniform(SMALL_SCALE[0], SMALL_SCALE[1])
     if s != 1.0:
         img = cv2.resize(img, (int(round(img.shape[1] * s)), int(round(img.shape[0] * s))),
                          interpolation=cv2.INTER_LINEAR if s > 1 else cv2.INTER_AREA)

@@ -298,7 +298,7 @@ FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a 
 
 
 def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donors=None, weights=None, aux=0,
-          invert_p=0.0, inv_rng=None):
+          invert_p=0.0, inv_rng=None, camera_p=0.0, small_p=0.0, cam_rng=None):
     """(x, heatmap, mask, size/offset targets, their mask[, aux heatmaps with aux > 0]) of n crops."""
     xs, hms, ms, regs, regms, auxs = [], [], [], [], [], []
     fams = sorted(frames_by_fam)
@@ -309,7 +309,8 @@ def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donor
         k = rng.integers(len(lst)) if weights is None else rng.choice(len(lst), p=weights[fam])
         img, b, ig, *oth = sample(lst[k], rng, crop, cut_ignore=cut_ignore,
                                   donors=(donors or {}).get(fam), paste_p=paste_p, others=aux > 0,
-                                  invert_p=invert_p, inv_rng=inv_rng)
+                                  invert_p=invert_p, inv_rng=inv_rng, camera_p=camera_p, small_p=small_p,
+                                  cam_rng=cam_rng)
         hm, m, reg, regm = targets(b, ig, crop)
         if aux:
             auxs.append(aux_targets(oth[0], crop, aux))
@@ -482,6 +483,10 @@ def main(argv=None):
                     "concat outputs while training, float only (0 in every shipped model)")
     ap.add_argument("--invert", type=float, default=0.0, help="probability of inverting a training frame's "
                     "polarity (255 - v): hot cars look like cold ones and back (0 in every shipped model)")
+    ap.add_argument("--camera", type=float, default=0.0, help="probability of another camera's tone curve and "
+                    "texture per training frame (cnn_targets.camera_shift; docs/results/cameras.md)")
+    ap.add_argument("--small", type=float, default=0.0, help="probability that a training frame is shrunk by "
+                    "0.3-0.6 instead of 0.6-1.4 (small cars, as a wider lens or a higher mount shows them)")
     ap.add_argument("--aux", action="store_true", help="also learn person and bicycle heatmaps in extra head "
                     "channels (AUX_WEIGHT of their focal loss) that the export drops (0 extra cost at run time)")
     ap.add_argument("--teacher", action="append", default=[], help="distillation (repeatable): a float "
@@ -502,6 +507,7 @@ def main(argv=None):
     torch.manual_seed(a.seed)
     rng = np.random.default_rng(a.seed)
     inv_rng = np.random.default_rng(a.seed + 7919)     # --invert's own draws: rng's crops stay unchanged
+    cam_rng = np.random.default_rng(a.seed + 104729)   # --camera / --small: their own draws too
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     frames = CD.load_frames(a.data, splits=("train", "val"), synth=a.synth)
@@ -522,7 +528,11 @@ def main(argv=None):
     n_aux = AUX_CLASSES if a.aux else 0
     net = Net(a.arch, n_aux)
     if a.init:
-        load_weights(net, torch.load(a.init, weights_only=False, map_location="cpu")["net"])
+        if str(a.init).endswith(".npz"):     # the float weights kept beside a shipped model (models/float)
+            with np.load(a.init) as z:
+                load_weights(net, {k: torch.from_numpy(z[k]) for k in z.files if not k.startswith("__")})
+        else:
+            load_weights(net, torch.load(a.init, weights_only=False, map_location="cpu")["net"])
     teachers = []
     if a.teacher:
         from vdtools.training import cnn_export as E     # imported here (it imports this module)
@@ -593,7 +603,7 @@ def main(argv=None):
         for g in opt.param_groups:
             g["lr"] = lr
         x, hm, m, reg, regm, *aux_hm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore, a.paste, donors, weights,
-                                             n_aux, a.invert, inv_rng)
+                                             n_aux, a.invert, inv_rng, a.camera, a.small, cam_rng)
         o = net(x)
         loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou, aux_hm[0] if aux_hm else None)
         if teachers:
