@@ -128,9 +128,9 @@ def test_requantize_matches_reference(dbn):
 
 
 def test_sigmoid_table_in_sync(dbn):
-    path = REPO / "lib" / "src" / "dbn_sigmoid_table.h"
+    path = REPO / "lib" / "src" / "models" / "dbn_sigmoid_table.h"
     assert path.read_text() == quantise.sigmoid_table_c(), \
-        "regenerate: python3 -m vdtools.formats.quantise --write-sigmoid-table lib/src/dbn_sigmoid_table.h"
+        "regenerate: python3 -m vdtools.formats.quantise --write-sigmoid-table lib/src/models/dbn_sigmoid_table.h"
     got = np.array([dbn.vd_dbn_sigmoid_q8(z) for z in range(-2100, 2101)])
     np.testing.assert_array_equal(got, quantise.SIGMOID_Q8[np.clip(np.arange(-2100, 2101), -2048, 2048) + 2048])
 

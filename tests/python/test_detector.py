@@ -199,7 +199,7 @@ def test_sources_merge_dedup(vdlib):
 
 def test_exp_tables_match_c_source():
     from vdtools.bindings.clib import REPO
-    src = (REPO / "lib" / "src" / "temporal.c").read_text()
+    src = (REPO / "lib" / "src" / "detector" / "temporal.c").read_text()
     frac, ints = vdet.exp_tables()
     for v in frac + ints:
         assert f"{v}u" in src

@@ -62,7 +62,7 @@ def test_bad_arguments(vdlib):
 def test_generated_network_matches_median_c(vdlib):
     """median.c's generated blocks are exactly what the (0-1-principle checked) generators emit."""
     pair, _ = median_network.median_network(check=True)
-    src = (clib.REPO / "lib" / "src" / "median.c").read_text()
+    src = (clib.REPO / "lib" / "src" / "pixel" / "median.c").read_text()
     blocks = dict(re.findall(r"// BEGIN GENERATED (\w+)[^\n]*\n(.*?)\n\s*// END GENERATED \1", src, re.S))
     # Compared without indentation: median.c places the blocks at its own nesting depth.
     def strip(lines):

@@ -13,11 +13,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "internal/cnn_internal.h"
+#include "models/cnn/cnn_internal.h"
 #include "internal/crc32.h"
 #include "internal/requant.h"
 #if defined(VD_CNN_X86)
-#include "internal/cnn_x86.h"
+#include "models/cnn/cnn_x86.h"
 #endif
 
 void setUp(void) {}

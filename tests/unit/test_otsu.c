@@ -2,7 +2,7 @@
 // Unit tests of the exact Otsu threshold and the 192-bit ratio comparison (the histogram: test_histogram.c).
 #include "unity.h"
 #include "testutil.h"
-#include "internal/otsu_internal.h"
+#include "pixel/otsu_internal.h"
 
 #include <string.h>
 

@@ -152,7 +152,7 @@ int32_t vd_dbn_requantize(int32_t acc, int32_t mult_q31, int32_t shift);
 
 // Sigmoid of a Q8 pre-activation as a Q8 probability: z_q8 is clamped to
 // [-2048, 2048] (+-8.0) and looked up in the generated table
-// (lib/src/dbn_sigmoid_table.h): min(255, round(256 * sigmoid(z / 256))).
+// (lib/src/models/dbn_sigmoid_table.h): min(255, round(256 * sigmoid(z / 256))).
 uint8_t vd_dbn_sigmoid_q8(int32_t z_q8);
 
 #ifdef __cplusplus

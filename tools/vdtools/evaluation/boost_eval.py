@@ -206,7 +206,8 @@ def render_md(res, meta):
               f"**{sp['us_per_crop']:.0f} µs per 64×64 crop** (features + {sp['stumps']} stumps), "
               f"{sp['macs'] / 1e6:.1f} M multiply-adds, model {sp['model_bytes']} bytes, workspace "
               f"{sp['workspace_bytes']} bytes (the CNN with every tensor kept)." +
-              (f" Cortex-M7 `-Os` code added: `lib/src/boost.c` {sp['m7_text']['lib/src/boost.c']} bytes of .text "
+              (" Cortex-M7 `-Os` code added: " + ", ".join(f"`{f}` {n}" for f, n in sp["m7_text"].items()) +
+               " bytes of .text "
                f"(arm-none-eabi-gcc; the CONV5X5 op adds 100 bytes to `cnn.c` and the verifier switch 372 bytes to "
                f"the detector, measured against the previous commit's objects). "
                if sp.get("m7_text") else "") +
@@ -297,7 +298,7 @@ def train_time_md(tt, sp=None):
 M7_FLAGS = ["-mcpu=cortex-m7", "-mthumb", "-mfloat-abi=soft", "-Os", "-std=c99", "-ffunction-sections", "-DNDEBUG"]
 
 
-def m7_text(files=("lib/src/boost.c",)):
+def m7_text(files=("lib/src/models/boost.c",)):
     """.text bytes of lib sources compiled for Cortex-M7 -Os (arm-none-eabi-gcc), or None without it."""
     import shutil
     import subprocess

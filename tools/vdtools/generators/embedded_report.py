@@ -417,7 +417,7 @@ def main():
         if budget is not None and depth > budget:
             problems.append(f"{fn}: worst-case stack {depth} B > budget {budget} B")
     for fn, budget in STACK_BUDGET.items():
-        if fn not in frame and (REPO / "lib" / "src" / "detector.c").exists():
+        if fn not in frame and (REPO / "lib" / "src" / "detector" / "detector.c").exists():
             problems.append(f"{fn}: not found in the call graph")
     if dynamic:
         problems.append("functions with dynamic stack (VLA/alloca): " + ", ".join(sorted(dynamic)))

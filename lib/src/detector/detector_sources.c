@@ -18,7 +18,7 @@
 
 #include "vd/otsu.h"
 #include "vd/suppress.h"
-#include "internal/detector_internal.h"
+#include "detector/detector_internal.h"
 #include "internal/vd_internal.h"
 
 // The 8-bit hot threshold: constant, or max(floor, p-th percentile) of the

@@ -21,7 +21,7 @@
 
 #include "vd/otsu.h"
 #include "internal/vd_internal.h"
-#include "internal/otsu_internal.h"
+#include "pixel/otsu_internal.h"
 
 // Number of significant bits of v (0 for 0).
 static uint32_t bit_length(uint64_t v)

@@ -30,7 +30,7 @@
 #include "internal/crc32.h"
 #include "internal/requant.h"
 #include "internal/vd_internal.h"
-#include "dbn_sigmoid_table.h"
+#include "models/dbn_sigmoid_table.h"
 
 #include <string.h>
 

@@ -40,7 +40,7 @@
 #include <string.h>
 
 #include "vd/resample.h"
-#include "internal/detector_internal.h"
+#include "detector/detector_internal.h"
 #include "internal/vd_internal.h"
 
 void vd_det_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh)

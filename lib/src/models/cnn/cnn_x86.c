@@ -24,7 +24,7 @@
 //    of even and odd lanes by vpmuludq, + k (- dk), per-lane vpsrlvq. Same
 //    integer operations, so the same result.
 // Bounds: as the portable kernels; stack ~3.5 KiB (constants of one tile of 64 channels).
-#include "internal/cnn_x86.h"
+#include "models/cnn/cnn_x86.h"
 #include "internal/blob_internal.h"
 
 #include <immintrin.h>

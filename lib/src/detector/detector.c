@@ -39,7 +39,7 @@
 #include <string.h>
 
 #include "vd/suppress.h"
-#include "internal/detector_internal.h"
+#include "detector/detector_internal.h"
 #include "internal/vd_internal.h"
 
 const vd_detector_stats_t *vd_detector_last_stats(const vd_detector_t *det)

@@ -49,13 +49,13 @@
 // wrong bound could never be undefined behaviour).
 #include "vd/cnn.h"
 
-#include "internal/cnn_internal.h"
+#include "models/cnn/cnn_internal.h"
 #include "internal/blob_internal.h"
 #include "internal/crc32.h"
 #include "internal/requant.h"
 #include "internal/vd_internal.h"
 #if defined(VD_CNN_X86)
-#include "internal/cnn_x86.h"
+#include "models/cnn/cnn_x86.h"
 #endif
 
 #include <string.h>

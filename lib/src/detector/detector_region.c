@@ -20,7 +20,7 @@
 #include <string.h>
 
 #include "vd/resample.h"
-#include "internal/detector_internal.h"
+#include "detector/detector_internal.h"
 #include "internal/vd_internal.h"
 
 // Builds the region plane in the overlay's crop buffer when needed (16-bit

@@ -16,8 +16,8 @@
 // of stack, cnn.h) when the source is on; no allocation.
 #include <string.h>
 
-#include "internal/cnn_internal.h"
-#include "internal/detector_internal.h"
+#include "models/cnn/cnn_internal.h"
+#include "detector/detector_internal.h"
 #include "internal/vd_internal.h"
 
 #define DEF_W 640u
