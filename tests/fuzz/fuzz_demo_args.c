@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Fuzz harness: vd_fir_demo's command-line parser (demo_args_parse_to, tools/demo/args.c).
+// Fuzz harness: vd_fir_demo's command-line parser (demo_args_parse_to, tools/demo/common/args.c).
 //
 // Input: the arguments, one per line (argv[0] is "vd_fir_demo"; at most 64);
 // a line "%%" ends them and the rest of the input is the text of a config
@@ -9,7 +9,7 @@
 // 0 every parsed value is in its documented range, the pointers point into
 // argv (or to the copy of --cnn-model), and the detector settings are either
 // accepted or rejected with VD_ERR_ARG by vd_detector_cfg_resolve.
-#include "demo.h"
+#include "args.h"
 #include "fuzz_common.h"
 #include "vd/detector.h"
 

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Fuzz harness: vd_fir_demo's JSON reader (tools/demo/json.c) and its --config file (tools/demo/args.c).
+// Fuzz harness: vd_fir_demo's JSON reader (tools/demo/common/json.c) and its --config file
+// (tools/demo/common/settings.c).
 //
 // Input: the JSON text. It is parsed with demo_json_parse and, when accepted,
 // the token array is checked (every token inside the text, subtrees nested,
@@ -11,7 +12,8 @@
 // result must be 0 (accepted) or -1 (error line written), never --help's 1,
 // and an accepted config must be a JSON object whose detector settings
 // vd_detector_cfg_resolve either accepts or rejects with VD_ERR_ARG.
-#include "demo.h"
+#include "args.h"
+#include "json.h"
 #include "fuzz_common.h"
 #include "vd/detector.h"
 

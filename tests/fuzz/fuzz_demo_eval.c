@@ -14,7 +14,7 @@
 // boxes, demo_gt_candidates on a small frame) and the totals must add up
 // (det = tp + fp, tp <= vehicles); the report is printed (to /dev/null) and
 // written as JSON. A failed load must leave an error message and no images.
-#include "demo.h"
+#include "eval.h"
 #include "fuzz_common.h"
 
 #include <math.h>

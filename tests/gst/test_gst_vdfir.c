@@ -19,7 +19,7 @@
 #include <gst/video/video.h>
 #include <glib/gstdio.h>
 
-#include "demo.h"
+#include "json.h"
 #include "vd_port/capture.h"
 
 #define MAX_DETS 4096

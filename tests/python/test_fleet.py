@@ -164,7 +164,7 @@ def test_settings_follow_the_demo():
     assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm", "cnn_model2": "vd_cnn2.vdm"} and dbn is None
     assert isinstance(cnn, tuple) and len(cnn) == 2
     # the demo's defaults: the pair of networks with the fused flip pass, the larger top-K (100) as
-    # candidates and the library's 32 detections (tools/demo/models.c: under 256 KiB of workspace)
+    # candidates and the library's 32 detections (tools/demo/common/models.c: under 256 KiB of workspace)
     assert fields["cnn_flip"] == 1 and fields["max_candidates"] == 100 and fields["max_detections"] == 32
     fields = fleet.resolve({"cnn-flip": "off"})[0]
     assert fields["cnn_flip"] == 0 and fields["max_candidates"] == 100 and fields["max_detections"] == 32

@@ -9,7 +9,10 @@
 // positive. TP rate = matched vehicles / all vehicles (= recall); FP rate =
 // false positives / counted detections (= 1 - precision); FPPI = false
 // positives / evaluated frames. Bounds: O(detections x boxes) per frame.
-#include "demo.h"
+#include "eval.h"
+
+#include "json.h"
+#include "out.h"
 
 #include <ctype.h>
 #include <dirent.h>
@@ -33,12 +36,6 @@ static bool name_in(const char *name, const char *const *list, size_t n)
         }
     }
     return false;
-}
-
-const char *demo_basename(const char *path)
-{
-    const char *s = strrchr(path, '/');
-    return s != NULL ? s + 1 : path;
 }
 
 double demo_iou(double ax, double ay, double aw, double ah, double bx, double by, double bw, double bh)

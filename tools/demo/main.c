@@ -11,6 +11,12 @@
 // Any capture error on recorded input (missing/truncated/undecodable file,
 // mixed sizes) ends the run with one line on stderr and exit status 1; usage
 // errors exit with 2. See docs/demo.md.
+#include "args.h"
+#include "eval.h"
+#include "json.h"
+#include "models.h"
+#include "out.h"
+#include "progress.h"
 #include "report.h"
 
 #include <errno.h>

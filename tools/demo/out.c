@@ -1,17 +1,25 @@
 // SPDX-License-Identifier: MIT
-// Atomic output files for vd_fir_demo: write to a hidden temporary name, rename() on success.
+// Atomic output files for vd_fir_demo: write to a hidden temporary name, rename() on success;
+// the directories they go to, and the file-name part of a path.
 //
 // rename() within one directory is atomic on POSIX file systems, so a reader
 // sees either no file or the complete file, and an error or a crash leaves at
 // most a hidden ".<name>.tmp.<pid>" behind (removed on the error paths).
-#include "demo.h"
+#include "out.h"
 
 #include <errno.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/types.h>
 #include <unistd.h>
+
+const char *demo_basename(const char *path)
+{
+    const char *s = strrchr(path, '/');
+    return s != NULL ? s + 1 : path;
+}
 
 vd_status_t demo_atomic_open(demo_atomic_t *a, const char *path, char *err, size_t err_len)
 {

@@ -9,7 +9,7 @@
 // log holds a bounded, deterministic number of lines. The rate is the mean since
 // the first frame; the time left is (total - done) / rate. total is 0 when unknown
 // (a camera without --frames): no percentage and no time left then.
-#include "demo.h"
+#include "progress.h"
 
 #include <string.h>
 #include <sys/ioctl.h>

@@ -15,6 +15,9 @@
 // positive), red (false positive), grey (in an ignore region).
 #include "report.h"
 
+#include "json.h"
+#include "out.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: MIT
-// vd_fir_demo --report (report.c); apart from demo.h because it needs the port's RGB canvas
-// (the fuzz harnesses compile demo.h's sources without the port).
+// vd_fir_demo --report (report.c): one self-contained HTML page of a run, with the frames that
+// have misses and false positives drawn on the port's RGB canvas.
 #ifndef VD_DEMO_REPORT_H
 #define VD_DEMO_REPORT_H
 
-#include "demo.h"
+#include "eval.h"
 #include "vd_port/writer.h"
 
 // --report DIR (report.c): DIR/index.html, self-contained (inline CSS and SVG,

@@ -3,8 +3,9 @@
 // (GRAY8, GRAY16_LE, or the luma plane of planar/semi-planar YUV), attaches one
 // GstVideoRegionOfInterestMeta ("vehicle") per detection and posts one element
 // message per frame. Options, model resolution and detector settings are
-// vd_fir_demo's own (tools/demo: args.c, models.c), so the element and the
-// demo give the same detections on the same frames. docs/gstreamer.md.
+// vd_fir_demo's own (the library vd_demo_common, tools/demo/common: args.c,
+// models.c), so the element and the demo give the same detections on the same
+// frames. docs/gstreamer.md.
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,7 +14,8 @@
 #include <gst/video/video.h>
 #include <gst/video/gstvideofilter.h>
 
-#include "demo.h"
+#include "args.h"
+#include "models.h"
 #include "vd/vd.h"
 
 #ifndef VD_DEMO_MODELS_DIR

@@ -188,7 +188,7 @@ def _switch(v):
 
 
 def resolve(settings, models_dir=None):
-    """vd_fir_demo's detector set-up (tools/demo/models.c demo_models_load and demo_detector_cfg, args.c)
+    """vd_fir_demo's detector set-up (tools/demo/common/models.c demo_models_load and demo_detector_cfg, settings.c)
     for the settings it shares with the fleet: ({cfg field: value}, CNN model bytes (a pair of them with a
     second network, cfg.cnn_model2) or None, DBN model bytes or None, description).
     settings: {name: value} with the demo's names (dashes or underscores)."""
@@ -281,7 +281,7 @@ def shard_paths(out_dir, rec, index):
 
 
 class _Runner:
-    """The C detector set up as vd_fir_demo does (tools/demo/models.c demo_detector_cfg) for the first
+    """The C detector set up as vd_fir_demo does (tools/demo/common/models.c demo_detector_cfg) for the first
     frame's size."""
 
     def __init__(self, fields, cnn, dbn, width, height):

@@ -34,7 +34,7 @@ STACK_BUDGET = {"vd_detector_run": 2048}
 # Indirect call sites resolved to the lib/ functions they reach (suffix of the .ci node title).
 # A key names a global function, or "file.c:function" for a static one.
 INDIRECT = {"vd_temporal_update": ["vd_det_probe"], "windows.c:walk": [":collect", ":rank_visit"],
-            "windows.c:rank_visit": [":window_visit"], "cnn.c:src_row": [":cnn_row"]}
+            "windows.c:rank_visit": [":window_visit"], "input.c:src_row": [":cnn_row"]}
 WORKSPACE_GOAL = 256 * 1024
 DATA = REPO.parent / "shared" / "data"
 SOFT_FLOAT = re.compile(r"^__aeabi_[fd]|^__(add|sub|mul|div|fix|float|extend|trunc)\w*[sd]f")
@@ -177,7 +177,7 @@ def _aligned(n, a=8):
 def cnn_configs(path):
     """[(label, vd_detector_cfg_t fields)] the CNN workspace of the model at path is reported for: the
     library's defaults, the fused flip pass, and vd_fir_demo's own settings for that model (the demo's rules
-    of tools/demo/models.c as fleet.resolve mirrors them: flip pass, temporal analysis on, candidates for
+    of tools/demo/common/models.c as fleet.resolve mirrors them: flip pass, temporal analysis on, candidates for
     both passes' top-K, detections the model's top-K)."""
     from vdtools.evaluation import fleet
     demo = fleet.resolve({"cnn-model": str(path)})[0]
@@ -508,7 +508,7 @@ def main():
                   "Configurations: the library's defaults (one pass, 64 candidates, 32 detections, no temporal",
                   "analysis), the fused flip pass (`cnn_flip = 1`: twice the decoded boxes in the overlay), and",
                   "`vd_fir_demo`'s own budgets (flip pass, temporal analysis with 32 tracks, candidates for both",
-                  "passes' top-K, detections the model's top-K; `tools/demo/models.c`). A network-only detector",
+                  "passes' top-K, detections the model's top-K; `tools/demo/common/models.c`). A network-only detector",
                   "has no components table and no histogram (8 192 B at the defaults; since 2026-11-25).", "",
                   "| model | parameters | MACs at 320×256 | frame | configuration | detector workspace (bytes) | ≤ 256 KiB |",
                   "|---|---:|---:|---|---|---:|---|"]

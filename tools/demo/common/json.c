@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Bounded JSON reader (flat token array, explicit stack) and writer helpers for vd_fir_demo.
+// Bounded JSON reader (flat token array, explicit stack) and writer helpers of vd_demo_common
+// (vd_fir_demo's --config and --eval files, the GStreamer element's config property).
 //
 // Algorithm: one pass over the text with a state machine and an explicit
 // stack of open containers (depth <= DEMO_JSON_MAX_DEPTH), producing tokens in
@@ -7,7 +8,7 @@
 // lookups skip whole values without recursion. Strict RFC 8259 grammar.
 // Bounds: time O(text length); memory 40 bytes per token, tokens <= text
 // length / 1 and <= DEMO_JSON_MAX_TOKENS; stack 64 entries.
-#include "demo.h"
+#include "json.h"
 
 #include <errno.h>
 #include <stdlib.h>
@@ -170,6 +171,98 @@ static size_t scan_number(const char *s, size_t len, size_t i)
     return i;
 }
 
+// '{' or '[' at text[*i]: its token pushed (an array's size counts its first element already,
+// the others at each ','), *i past it. VD_OK, or the error (doc freed).
+static vd_status_t open_container(demo_json_t *doc, size_t *i, char *err, size_t err_len)
+{
+    const char *text = doc->text;
+    const size_t len = doc->text_len;
+    const char c = text[*i];
+    vd_status_t st = push_tok(doc, c == '{' ? DEMO_JSON_OBJECT : DEMO_JSON_ARRAY, *i, err, err_len);
+    if (st != VD_OK) {
+        demo_json_free(doc);
+        return st;
+    }
+    (*i)++;
+    if (c == '[') {
+        while (*i < len && is_ws(text[*i])) {
+            (*i)++;
+        }
+        if (*i < len && text[*i] != ']') {
+            doc->tok[doc->n - 1].size = 1;
+        }
+    }
+    return VD_OK;
+}
+
+// '}' or ']' at text[*i] closing container token `top_idx`, the parser in `state` before it: the
+// container's span and the index past its subtree recorded, *i past it. VD_OK, or the error
+// (doc freed).
+static vd_status_t close_container(demo_json_t *doc, uint32_t top_idx, int state, size_t *i, char *err,
+                                   size_t err_len)
+{
+    const char c = doc->text[*i];
+    demo_json_tok_t *top = &doc->tok[top_idx];
+    bool empty_ok = state == S_AFTER || (state == S_KEY && top->size == 0 && c == '}') ||
+                    (state == S_VALUE && top->size == 0 && c == ']' && top->type == DEMO_JSON_ARRAY);
+    if (!empty_ok || (c == '}') != (top->type == DEMO_JSON_OBJECT)) {
+        return fail_at(doc, *i, "unexpected closing bracket", err, err_len);
+    }
+    top->next = doc->n;
+    top->len = *i + 1 - top->start;
+    (*i)++;
+    return VD_OK;
+}
+
+// A string, number, true, false or null at text[*i]: its token pushed, *i past it. VD_OK, or the
+// error (doc freed).
+static vd_status_t scalar(demo_json_t *doc, size_t *i, char *err, size_t err_len)
+{
+    const char *text = doc->text;
+    const size_t len = doc->text_len;
+    const char c = text[*i];
+    const char *why = "";
+    demo_json_type_t type;
+    size_t start = *i, end;
+    if (c == '"') {
+        end = scan_string(text, len, *i + 1, &why);
+        if (end == (size_t)-1) {
+            return fail_at(doc, *i, why, err, err_len);
+        }
+        type = DEMO_JSON_STRING;
+        start = *i + 1;
+        *i = end + 1;
+    } else if (c == '-' || is_digit(c)) {
+        end = scan_number(text, len, *i);
+        if (end == (size_t)-1) {
+            return fail_at(doc, *i, "bad number", err, err_len);
+        }
+        type = DEMO_JSON_NUMBER;
+        *i = end;
+    } else if (len - *i >= 4 && memcmp(text + *i, "true", 4) == 0) {
+        type = DEMO_JSON_TRUE;
+        end = *i + 4;
+        *i = end;
+    } else if (len - *i >= 5 && memcmp(text + *i, "false", 5) == 0) {
+        type = DEMO_JSON_FALSE;
+        end = *i + 5;
+        *i = end;
+    } else if (len - *i >= 4 && memcmp(text + *i, "null", 4) == 0) {
+        type = DEMO_JSON_NULL;
+        end = *i + 4;
+        *i = end;
+    } else {
+        return fail_at(doc, *i, "expected a value", err, err_len);
+    }
+    vd_status_t st = push_tok(doc, type, start, err, err_len);
+    if (st != VD_OK) {
+        demo_json_free(doc);
+        return st;
+    }
+    doc->tok[doc->n - 1].len = end - start;
+    return VD_OK;
+}
+
 vd_status_t demo_json_parse(demo_json_t *doc, const char *text, size_t len, char *err, size_t err_len)
 {
     char dummy[8];
@@ -192,7 +285,6 @@ vd_status_t demo_json_parse(demo_json_t *doc, const char *text, size_t len, char
     size_t depth = 0;
     int state = S_VALUE;
     size_t i = 0;
-    const char *why = "";
     vd_status_t st;
     // Every iteration consumes at least one byte or ends the loop, so the loop
     // runs at most len + 1 times.
@@ -217,18 +309,11 @@ vd_status_t demo_json_parse(demo_json_t *doc, const char *text, size_t len, char
             } else if (c != '"') {
                 return fail_at(doc, i, "expected a string key", err, err_len);
             } else {
-                size_t end = scan_string(text, len, i + 1, &why);
-                if (end == (size_t)-1) {
-                    return fail_at(doc, i, why, err, err_len);
-                }
-                st = push_tok(doc, DEMO_JSON_STRING, i + 1, err, err_len);
+                st = scalar(doc, &i, err, err_len);   // the key: a string
                 if (st != VD_OK) {
-                    demo_json_free(doc);
                     return st;
                 }
-                doc->tok[doc->n - 1].len = end - (i + 1);
                 doc->tok[stack[depth - 1]].size++;
-                i = end + 1;
                 state = S_COLON;
                 continue;
             }
@@ -267,16 +352,11 @@ vd_status_t demo_json_parse(demo_json_t *doc, const char *text, size_t len, char
             if (depth == 0) {
                 return fail_at(doc, i, "unexpected closing bracket", err, err_len);
             }
-            demo_json_tok_t *top = &doc->tok[stack[depth - 1]];
-            bool empty_ok = state == S_AFTER || (state == S_KEY && top->size == 0 && c == '}') ||
-                            (state == S_VALUE && top->size == 0 && c == ']' && top->type == DEMO_JSON_ARRAY);
-            if (!empty_ok || (c == '}') != (top->type == DEMO_JSON_OBJECT)) {
-                return fail_at(doc, i, "unexpected closing bracket", err, err_len);
+            st = close_container(doc, stack[depth - 1], state, &i, err, err_len);
+            if (st != VD_OK) {
+                return st;
             }
-            top->next = doc->n;
-            top->len = i + 1 - top->start;
             depth--;
-            i++;
             completed = true;
         } else {
             if (state != S_VALUE) {
@@ -288,63 +368,18 @@ vd_status_t demo_json_parse(demo_json_t *doc, const char *text, size_t len, char
                     demo_json_free(doc);
                     return VD_ERR_RANGE;
                 }
-                st = push_tok(doc, c == '{' ? DEMO_JSON_OBJECT : DEMO_JSON_ARRAY, i, err, err_len);
+                st = open_container(doc, &i, err, err_len);
                 if (st != VD_OK) {
-                    demo_json_free(doc);
                     return st;
                 }
                 stack[depth++] = doc->n - 1u;
-                i++;
                 state = c == '{' ? S_KEY : S_VALUE;
-                if (c == '[') {
-                    // count the first element when it appears (size is bumped at ',' and here)
-                    while (i < len && is_ws(text[i])) {
-                        i++;
-                    }
-                    if (i < len && text[i] != ']') {
-                        doc->tok[doc->n - 1].size = 1;
-                    }
-                }
                 continue;
             }
-            demo_json_type_t type;
-            size_t start = i, end;
-            if (c == '"') {
-                end = scan_string(text, len, i + 1, &why);
-                if (end == (size_t)-1) {
-                    return fail_at(doc, i, why, err, err_len);
-                }
-                type = DEMO_JSON_STRING;
-                start = i + 1;
-                i = end + 1;
-            } else if (c == '-' || is_digit(c)) {
-                end = scan_number(text, len, i);
-                if (end == (size_t)-1) {
-                    return fail_at(doc, i, "bad number", err, err_len);
-                }
-                type = DEMO_JSON_NUMBER;
-                i = end;
-            } else if (len - i >= 4 && memcmp(text + i, "true", 4) == 0) {
-                type = DEMO_JSON_TRUE;
-                end = i + 4;
-                i = end;
-            } else if (len - i >= 5 && memcmp(text + i, "false", 5) == 0) {
-                type = DEMO_JSON_FALSE;
-                end = i + 5;
-                i = end;
-            } else if (len - i >= 4 && memcmp(text + i, "null", 4) == 0) {
-                type = DEMO_JSON_NULL;
-                end = i + 4;
-                i = end;
-            } else {
-                return fail_at(doc, i, "expected a value", err, err_len);
-            }
-            st = push_tok(doc, type, start, err, err_len);
+            st = scalar(doc, &i, err, err_len);
             if (st != VD_OK) {
-                demo_json_free(doc);
                 return st;
             }
-            doc->tok[doc->n - 1].len = end - start;
             completed = true;
         }
         if (completed) {
