@@ -667,7 +667,7 @@ def _status_text(st):
 
 
 def markdown(bench_json, cg_json=None):
-    """Markdown tables for docs/performance.md from bench.json (and callgrind.json)."""
+    """Markdown tables for docs/results/performance-history.md from bench.json (and callgrind.json)."""
     d = json.loads(Path(bench_json).read_text())
     rows = d["table"]
     sets = [s for s in ("msrs-night", "hit-uav", "clip-u8", "clip-u16") if any(r["set"] == s for r in rows)]
