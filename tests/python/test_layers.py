@@ -1,12 +1,14 @@
 # SPDX-License-Identifier: MIT
 """tools/vdtools is layered (docs/architecture.md, "tools" rows): a module imports only from its own
-subpackage or from a lower layer, so there are no import cycles between layers and only
-vdtools.bindings knows C struct layouts and prototypes.
+subpackage or from a lower layer, and the modules of one subpackage import each other without a
+cycle, so vdtools has no import cycle at all; only vdtools.bindings knows C struct layouts and
+prototypes.
 
     bindings (0) < data, metrics (1) < formats (2) < training (3) < evaluation (4) < generators (5)
 
-Every import statement is read with ast (lazy imports inside functions included); an upward or
-sideways import fails with the importing file and line. (Issue 15 item 3.)
+Every import statement is read with ast (lazy imports inside functions included: an import moved
+into a function to dodge a cycle is still a cycle); an upward or sideways import, or a cycle inside a
+subpackage, fails with the importing files and lines. (Issue 15 item 3, issue 37 item 6.)
 """
 import ast
 from pathlib import Path
@@ -38,6 +40,61 @@ def _imports(path):
 
 def _modules():
     return sorted(p for p in PKG.rglob("*.py") if p.parent != PKG)
+
+
+def _name(path):
+    """Dotted module name of a file ("vdtools.training.cnn_train"; a package's __init__.py: the package)."""
+    parts = ("vdtools",) + path.relative_to(PKG).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _module_imports(path, known):
+    """(line, dotted name of a vdtools module or package in `known`) per import of a file: `from P import m`
+    names module P.m when that is a module, else P itself; relative imports resolved."""
+    package = _name(path) if path.name == "__init__.py" else _name(path).rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[:len(package.split(".")) - (node.level - 1)]
+                base = ".".join(up + ([base] if base else []))
+            for a in node.names:
+                target = base + "." + a.name
+                yield node.lineno, target if target in known else base
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                yield node.lineno, a.name
+
+
+def test_no_import_cycle_inside_a_subpackage():
+    """Imports between the modules of one subpackage form no cycle (between subpackages the layers
+    above rule cycles out)."""
+    paths = {_name(p): p for p in _modules()}
+    edges = {}   # module -> {imported module of the same subpackage: first line}
+    for name, path in paths.items():
+        sub = name.split(".")[1]
+        for line, target in _module_imports(path, paths):
+            if target in paths and target != name and target.split(".")[1] == sub:
+                edges.setdefault(name, {}).setdefault(target, line)
+    cycles, state = [], {}   # state: 1 = on the current path, 2 = done
+
+    def visit(m, stack):
+        state[m] = 1
+        stack.append(m)
+        for t in sorted(edges.get(m, {})):
+            if state.get(t) == 1:
+                loop = stack[stack.index(t):] + [t]
+                cycles.append(" -> ".join(f"{paths[a].relative_to(PKG)}:{edges[a][b]}"
+                                          for a, b in zip(loop, loop[1:])) + f" -> {paths[t].relative_to(PKG)}")
+            elif t not in state:
+                visit(t, stack)
+        stack.pop()
+        state[m] = 2
+
+    for m in sorted(paths):
+        if m not in state:
+            visit(m, [])
+    assert not cycles, "import cycles:\n" + "\n".join(cycles)
 
 
 def test_every_module_is_in_a_layer():

@@ -23,9 +23,10 @@ import torch
 
 from vdtools.bindings import clib
 from vdtools.data import cnn_data as CD
-from vdtools.training import cnn_train as T
 from vdtools.formats import cnn_vdm as V
 from vdtools.formats.quantise import int8_per_channel, quantize_multiplier
+from vdtools.training import cnn_net as N
+from vdtools.training.cnn_targets import NORM, STRIDE
 
 CALIB_FRAMES = 96
 # Vehicles cover few pixels, so the largest activations are theirs: the 99.99th percentile clipped them and
@@ -43,8 +44,8 @@ def load_net(ckpt):
                       arch=str(z["__arch__"]), step=int(z["__step__"]), qat=bool(z["__qat__"]))
     else:
         ck = torch.load(ckpt, weights_only=False, map_location="cpu")
-    net = T.Net(ck["arch"])
-    net.load_state_dict(T.strip_aux(ck["net"], ck["arch"]) if ck.get("aux") else ck["net"])   # --aux channels dropped
+    net = N.Net(ck["arch"])
+    net.load_state_dict(N.strip_aux(ck["net"], ck["arch"]) if ck.get("aux") else ck["net"])   # --aux channels dropped
     net.eval()
     return net, ck
 
@@ -56,7 +57,7 @@ def folded(net):
         if d["mod"] is None:
             out.append(None)
             continue
-        w, b = T.fold_bn(net.mods[d["mod"]], torch.float64)     # w: (cout, cin/groups, kh, kw)
+        w, b = N.fold_bn(net.mods[d["mod"]], torch.float64)     # w: (cout, cin/groups, kh, kw)
         out.append((w.numpy(), b.numpy()))
     return out
 
@@ -80,7 +81,7 @@ def forward_all(net, frames):
     """Every tensor of net (float, as cnn_export calibrates: half resolution, padded) per frame."""
     with torch.no_grad():
         for fr in frames:
-            yield net(T.to_input(T.pad_to(CD.half(fr.img), net.align)), return_all=True)
+            yield net(N.to_input(N.pad_to(CD.half(fr.img), net.align)), return_all=True)
 
 
 def calibrate(net, frames):
@@ -165,9 +166,9 @@ def quantise(net, ranges, thr_score=0.3, max_peaks=100, name="vd_cnn"):
     table[3] = table[4] = np.clip(np.round(v * 256), -256, 512)
     logit = math.log(thr_score / (1 - thr_score))
     thr_q = int(np.clip(math.ceil(logit / s_h + z_h), -128, 127))
-    desc = dict(input_w=320, input_h=256, input_norm=1, input_zp=-128, out_stride=T.STRIDE, out_channels=5,
+    desc = dict(input_w=320, input_h=256, input_norm=1, input_zp=-128, out_stride=STRIDE, out_channels=5,
                 score_threshold_q=thr_q, max_peaks=max_peaks, name=name, layers=layers,
-                table=table.astype(np.int32), **T.NORM)
+                table=table.astype(np.int32), **NORM)
     return desc, dict(scale=scale, zp=zp)
 
 
