@@ -85,4 +85,8 @@ if python3 -c 'import os, sys, sysconfig; sys.exit(not os.path.exists(os.path.jo
 else
   "${PIP_INSTALL[@]}" --upgrade pip >/dev/null 2>&1 || true
 fi
-"${PIP_INSTALL[@]}" -e "$(dirname "$0")[fleet,test]"
+# the "adapt" extra: PyTorch for vd-adapt, which the tests run end to end (tests/python/test_adapt.py; also
+# test_cnn_qat.py and test_cnn_prune.py run with it). From PyPI: download.pytorch.org's CPU-only index is not
+# reachable from our machines, and PyPI's Linux x86-64 torch wheel brings the CUDA libraries along (~3 GB to
+# download, ~4 GB installed; about 2 minutes on our machines, measured 2026-11-28). The tools use the CPU only.
+"${PIP_INSTALL[@]}" -e "$(dirname "$0")[fleet,test,adapt]"

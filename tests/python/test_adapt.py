@@ -1,0 +1,280 @@
+# SPDX-License-Identifier: MIT
+"""vd-adapt (tools/vdtools/adapt, docs/adapt.md): the plumbing, not the accuracy.
+
+- Every bad input gets exit status 2, one line on stderr, and neither OUT nor its work folder OUT.tmp-*:
+  these checks run before PyTorch is imported, so they need neither PyTorch nor the C library.
+- End to end on a few synthetic frames with a couple of training steps (PyTorch, the C library and
+  vd_fir_demo): labelled and unlabelled, the outputs exist and are well-formed, vd_fir_demo runs OUT/vd.json,
+  and an interrupted run resumes from its checkpoint.
+- The split and the label readers (YOLO, COCO and HIT-UAV's COCO dialect) by hand.
+"""
+import json
+import os
+import subprocess
+import sys
+
+import cv2
+import numpy as np
+import pytest
+
+from vdtools.adapt import cli
+from vdtools.adapt import inputs as I
+
+from buildpaths import REPO, run_demo
+
+W, H = 160, 128
+
+
+def _frames(folder, n=8, size=(W, H), labels=None, seed=0, skip_label=(3,)):
+    """n synthetic frames (noise + 1-2 bright rectangles) as PNG in folder, YOLO labels (class 2) in labels."""
+    rng = np.random.default_rng(seed)
+    folder.mkdir(parents=True, exist_ok=True)
+    if labels is not None:
+        labels.mkdir(parents=True, exist_ok=True)
+    w, h = size
+    for i in range(n):
+        img = rng.normal(60, 8, (h, w)).clip(0, 255).astype(np.uint8)
+        rows = []
+        for _ in range(int(rng.integers(1, 3))):
+            bw, bh = (int(v) for v in rng.integers(12, 24, 2))
+            x, y = int(rng.integers(0, w - bw)), int(rng.integers(0, h - bh))
+            img[y:y + bh, x:x + bw] = 200
+            rows.append(f"2 {(x + bw / 2) / w:.5f} {(y + bh / 2) / h:.5f} {bw / w:.5f} {bh / h:.5f}\n")
+        cv2.imwrite(str(folder / f"f{i:03d}.png"), img)
+        if labels is not None and i not in skip_label:
+            (labels / f"f{i:03d}.txt").write_text("".join(rows))
+    return folder
+
+
+def _adapt(args, capsys):
+    """vd-adapt in this process: (exit status, stderr lines)."""
+    rc = cli.main([str(a) for a in args])
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    return rc, err
+
+
+def _nothing_written(out):
+    assert not out.exists(), f"{out} was created"
+    assert not list(out.parent.glob(out.name + ".tmp-*")), "a work folder was left behind"
+    assert not list(out.parent.glob("." + out.name + ".probe-*"))
+
+
+def _bad(capsys, out, args, needle):
+    rc, err = _adapt(list(args) + ["--out", out], capsys)
+    assert rc == 2, err
+    assert len(err) == 1, err
+    assert err[0].startswith("vd-adapt: error: ") and needle in err[0], err[0]
+    _nothing_written(out)
+
+
+# ---------------------------------------------------------------- bad input (no PyTorch needed)
+
+def test_missing_and_empty_folder(tmp_path, capsys):
+    out = tmp_path / "out"
+    _bad(capsys, out, ["--images", tmp_path / "nope"], "no such folder")
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / "notes.txt").write_text("no frames here")
+    _bad(capsys, out, ["--images", tmp_path / "empty"], "no frames in it")
+
+
+def test_labels_that_match_no_frame(tmp_path, capsys):
+    imgs = _frames(tmp_path / "images")
+    lab = tmp_path / "labels"
+    lab.mkdir()
+    (lab / "other.txt").write_text("2 0.5 0.5 0.1 0.1\n")
+    out = tmp_path / "out"
+    _bad(capsys, out, ["--images", imgs, "--labels", lab], "matches a frame")
+    coco = tmp_path / "a.json"
+    coco.write_text(json.dumps(dict(images=[dict(id=1, file_name="x.png", width=W, height=H)], annotations=[],
+                                    categories=[dict(id=1, name="car")])))
+    _bad(capsys, out, ["--images", imgs, "--labels", coco], "matches a frame")
+    _bad(capsys, out, ["--images", imgs, "--labels", tmp_path / "none.json"], "no such folder or file")
+
+
+def test_mixed_frame_sizes(tmp_path, capsys):
+    imgs = _frames(tmp_path / "images", n=5)
+    _frames(tmp_path / "images2", n=1, size=(W * 2, H))
+    os.replace(tmp_path / "images2" / "f000.png", imgs / "g000.png")
+    _bad(capsys, tmp_path / "out", ["--images", imgs], "mixed frame sizes")
+
+
+def test_unknown_class_id(tmp_path, capsys):
+    imgs = _frames(tmp_path / "images", labels=tmp_path / "labels")
+    out = tmp_path / "out"
+    _bad(capsys, out, ["--images", imgs, "--labels", tmp_path / "labels", "--classes", "7"], "unknown class id 7")
+    (tmp_path / "labels" / "classes.txt").write_text("person\nbicycle\ncar\n")
+    (tmp_path / "labels" / "f000.txt").write_text("5 0.5 0.5 0.1 0.1\n")
+    _bad(capsys, out, ["--images", imgs, "--labels", tmp_path / "labels"], "unknown class id 5")
+    coco = tmp_path / "a.json"
+    coco.write_text(json.dumps(dict(images=[dict(id=1, file_name="f000.png")], categories=[dict(id=1, name="car")],
+                                    annotations=[dict(id=9, image_id=1, category_id=4, bbox=[1, 1, 9, 9])])))
+    _bad(capsys, out, ["--images", imgs, "--labels", coco], "unknown class id 4")
+
+
+def test_corrupt_image(tmp_path, capsys):
+    imgs = _frames(tmp_path / "images")
+    blob = (imgs / "f002.png").read_bytes()
+    (imgs / "f002.png").write_bytes(blob[:len(blob) // 2])
+    _bad(capsys, tmp_path / "out", ["--images", imgs], "f002.png: corrupt")
+    (imgs / "f002.png").write_bytes(blob)
+    _, enc = cv2.imencode(".jpg", np.random.default_rng(0).integers(0, 255, (H, W), np.uint8))
+    (imgs / "f009.jpg").write_bytes(enc.tobytes()[:enc.size // 2])     # truncated: OpenCV would decode it
+    _bad(capsys, tmp_path / "out", ["--images", imgs], "f009.jpg: corrupt")
+
+
+def test_unwritable_out(tmp_path, capsys):
+    imgs = _frames(tmp_path / "images")
+    (tmp_path / "file").write_text("x")
+    _bad(capsys, tmp_path / "file" / "out", ["--images", imgs], "is not an existing folder")
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "old.txt").write_text("x")
+    rc, err = _adapt(["--images", imgs, "--out", full], capsys)
+    assert rc == 2 and len(err) == 1 and "not an empty folder" in err[0]
+    assert sorted(p.name for p in full.iterdir()) == ["old.txt"]
+    if os.path.isdir("/proc/self"):     # mkdir fails there even for root
+        rc, err = _adapt(["--images", imgs, "--out", "/proc/self/vd-adapt-out"], capsys)
+        assert rc == 2 and len(err) == 1 and "cannot write" in err[0], err
+
+
+def test_too_few_labelled_frames(tmp_path, capsys):
+    out = tmp_path / "out"
+    imgs = _frames(tmp_path / "a", n=3, labels=tmp_path / "la")
+    _bad(capsys, out, ["--images", imgs, "--labels", tmp_path / "la"], "too few frames")
+    imgs = _frames(tmp_path / "b", n=8, labels=tmp_path / "lb", skip_label=range(1, 8))
+    _bad(capsys, out, ["--images", imgs, "--labels", tmp_path / "lb"], "too few labelled frames")
+
+
+def test_bad_arguments_are_one_line(tmp_path, capsys):
+    imgs = _frames(tmp_path / "images")
+    _bad(capsys, tmp_path / "out", ["--images", imgs, "--val-frac", "1.5"], "--val-frac")
+    _bad(capsys, tmp_path / "out", ["--images", imgs, "--classes", "2"], "give --labels too")
+    rc, err = _adapt(["--images", imgs], capsys)          # argparse's own error, on one line too
+    assert rc == 2 and len(err) == 1 and "--out" in err[0]
+
+
+# ---------------------------------------------------------------- split and label readers (no PyTorch)
+
+def _uf(n, with_vehicle):
+    out = []
+    for i in range(n):
+        f = I.UserFrame(f"f{i:03d}", None, np.zeros((8, 8), np.uint8))
+        if i in with_vehicle:
+            f.boxes = np.array([[1, 1, 4, 4]], np.float32)
+        out.append(f)
+    return out
+
+
+def test_split_blocks_keeps_neighbours_together_and_spreads_val():
+    frames = _uf(48, range(48))
+    assert I.split_blocks(frames, 0.25) == 3                 # ceil(48 / 16)
+    val_blocks = sorted({f.block for f in frames if f.part == "val"})
+    assert val_blocks == [2, 6, 10, 14]                      # 4 of 16 blocks, evenly spread
+    for b in range(16):                                      # a block is never cut
+        assert len({f.part for f in frames if f.block == b}) == 1
+    frames = _uf(8, {0, 1})                                  # vehicles only in the first block of two frames
+    with pytest.raises(I.InputError, match="all fall in one part"):
+        I.split_blocks(frames, 0.25)
+    frames = _uf(8, {0, 7})
+    I.split_blocks(frames, 0.25)
+    assert {f.part for f in frames if len(f.boxes)} == {"adapt", "val"}
+
+
+def test_yolo_and_coco_labels(tmp_path):
+    imgs = _frames(tmp_path / "images", n=4, labels=tmp_path / "labels", skip_label=())
+    (tmp_path / "labels" / "classes.txt").write_text("person\nbicycle\ncar\ndontcare\n")
+    (tmp_path / "labels" / "f001.txt").write_text("0 0.5 0.5 0.1 0.1\n2 0.5 0.5 0.25 0.5\n3 0.1 0.1 0.1 0.1\n")
+    frames = I.read_frames(I.list_frames(imgs))
+    info = I.read_labels(tmp_path / "labels", frames)
+    assert info["vehicle_classes"] == [2]                    # "car" by name, no --classes needed
+    np.testing.assert_allclose(frames[1].boxes, [[0.375 * W, 0.25 * H, 0.25 * W, 0.5 * H]])
+    assert len(frames[1].ignore) == 1                         # dontcare
+    doc = dict(images=[dict(id=7, filename="f002.png", width=W, height=H)],      # HIT-UAV's dialect
+               annotation=[dict(id=1, image_id=7, category_id=1, bbox=[10, 20, 30, 40]),
+                           dict(id=2, image_id=7, category_id=3, bbox=[50, 60, 10, 10]),
+                           dict(id=3, image_id=7, category_id=4, bbox=[0, 0, 5, 5])],
+               categories=[dict(id=0, name="Person"), dict(id=1, name="Car"), dict(id=3, name="OtherVehicle"),
+                           dict(id=4, name="DontCare")])
+    (tmp_path / "hit.json").write_text(json.dumps(doc))
+    frames = I.read_frames(I.list_frames(imgs))
+    info = I.read_labels(tmp_path / "hit.json", frames)
+    assert info["vehicle_classes"] == [1, 3] and info["matched"] == 1
+    np.testing.assert_allclose(frames[2].boxes, [[10, 20, 30, 40], [50, 60, 10, 10]])
+    assert len(frames[2].ignore) == 1 and frames[2].labelled and not frames[0].labelled
+
+
+def test_hit_uav_annotations_read(data_dir, tmp_path):
+    """The real HIT-UAV annotations.json (its `annotation` / `filename` dialect) on a few of its frames."""
+    src = data_dir / "hit-uav" / "frames"
+    names = sorted(p.name for p in (src / "images").iterdir())[:6]
+    imgs = tmp_path / "images"
+    imgs.mkdir()
+    for n in names:
+        os.symlink(src / "images" / n, imgs / n)
+    frames = I.read_frames(I.list_frames(imgs))
+    info = I.read_labels(src / "annotations.json", frames)
+    assert info["vehicle_classes"] == [1, 3] and info["matched"] == 6
+    doc = json.loads((src / "annotations.json").read_text())
+    ids = {im["id"]: im["filename"] for im in doc["images"]}
+    want = sum(1 for a in doc["annotation"] if ids[a["image_id"]] in names and a["category_id"] in (1, 3))
+    assert sum(len(f.boxes) for f in frames) == want
+
+
+# ---------------------------------------------------------------- end to end (PyTorch, C library, demo)
+
+def _run(args, timeout=900):
+    env = dict(os.environ, PYTHONPATH=str(REPO / "tools") + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run([sys.executable, "-m", "vdtools.adapt", *map(str, args), "--quiet", "--threads", "1"],
+                          capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def _check_outputs(out, demo, images, n_nets=2):
+    from vdtools.formats import cnn_vdm as V
+    names = ["vd_cnn", "vd_cnn2"][:n_nets]
+    for n in names:
+        desc = V.unpack((out / f"{n}.vdm").read_bytes())
+        assert desc["name"] == n
+        assert (out / f"{n}_vdm.c").is_file() and (out / f"{n}_vdm.h").is_file()
+        assert json.loads((out / f"{n}.scales.json").read_text())["adapted_by"] == "vd-adapt"
+        assert (out / "float" / f"{n}.npz").is_file()
+    assert not (out / "ckpt.pt").exists() and not list(out.parent.glob(out.name + ".tmp-*"))
+    cfg = json.loads((out / "vd.json").read_text())
+    assert cfg["cnn-model"] == str(out / "vd_cnn.vdm") and cfg["sources"] == "cnn" and 0 < cfg["cnn-thr"] < 1
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["command"].startswith("vd-adapt ") and rep["time"]["wall_s"] > 0
+    assert rep["outputs"]["demo_check"]["accepted"] is True
+    js = out.parent / "check.jsonl"
+    run_demo(demo, "--config", out / "vd.json", "--input", images, "--json", js, "--quiet", "--temporal", "off")
+    assert len(js.read_text().splitlines()) == len(list(images.glob("*.png")))
+    return rep, (out / "report.md").read_text()
+
+
+def test_end_to_end_labelled(tmp_path, vdlib, demo):
+    pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
+    imgs = _frames(tmp_path / "images", labels=tmp_path / "labels")
+    out = tmp_path / "out"
+    p = _run(["--images", imgs, "--labels", tmp_path / "labels", "--classes", "2", "--out", out, "--steps", "2",
+              "--replay", "none", "--demo", demo])
+    assert p.returncode == 0, p.stderr
+    rep, md = _check_outputs(out, demo, imgs)
+    assert rep["labelled"] and rep["training"]["steps"] == 2
+    assert rep["frames"]["adapt"] + rep["frames"]["val"] == 8 and rep["frames"]["val"] >= 2
+    for k in ("before", "after"):
+        assert 0.0 <= rep["val"][k]["ap"] <= 1.0 and rep["val"][k]["n_vehicles"] == rep["frames"]["val_vehicles"]
+    assert "AP@0.5" in md and "Time taken" in md
+
+
+def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
+    pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
+    imgs = _frames(tmp_path / "images")
+    out = tmp_path / "out"
+    args = ["--images", imgs, "--out", out, "--steps", "3", "--rounds", "2", "--replay", "none", "--demo", demo]
+    p = _run(args + ["--interrupt-after", "1"])
+    assert p.returncode == 3 and "resume" in p.stderr, p.stderr
+    assert not out.exists() and len(list(tmp_path.glob("out.tmp-*"))) == 1
+    p = _run(args)
+    assert p.returncode == 0, p.stderr
+    rep, md = _check_outputs(out, demo, imgs)
+    assert not rep["labelled"] and rep["training"]["resumed"] and rep["training"]["steps"] == 3
+    assert [r["round"] for r in rep["pseudo_labels"]] == [0, 1]
+    assert "gain is not measured" in md and "boxes per frame" in md

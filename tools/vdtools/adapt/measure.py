@@ -1,0 +1,110 @@
+# SPDX-License-Identifier: MIT
+"""vd-adapt's figures, measured through the C library as the detector computes them (cnn_eval's Int8 / Pair
+with the fused flip passes, suppression, cnn_eval.figures): AP@0.5 and TP / FP at a threshold on the user's
+val frames, and, without labels, what can be measured: boxes per frame and agreement."""
+from vdtools.evaluation import cnn_eval as CE
+from vdtools.formats import cnn_vdm as V
+from vdtools.metrics.evaluate import iou
+
+AGREE_IOU = 0.5
+
+
+def predictor(models, flip=True):
+    """The detector's CNN source for one .vdm or a pair (the second fused with the first), flip passes on."""
+    first = CE.Int8(models[0], "c", flip=flip)
+    return first if len(models) == 1 else CE.Pair(first, CE.Int8(models[1], "c", flip=flip))
+
+
+def header_threshold(models):
+    """The operating point the detector takes from the files: the (second) network's header threshold."""
+    desc = V.unpack(open(models[-1], "rb").read())
+    return CE.score_of_logit(desc, desc["score_threshold_q"]) / 32768.0
+
+
+def detections(models, frames):
+    """cnn_eval.run's [(family, frame, boxes after suppression, ground truth)], every peak."""
+    return CE.run(predictor(models), frames)
+
+
+def figures(results, thr):
+    """AP@0.5 and the counts at thr of one set of frames (labelled)."""
+    rep = CE.figures(results, sorted(set(CE.THRESHOLDS) | {thr}))
+    v = next(iter(rep.values()))
+    at = v["at"][thr]
+    return dict(ap=v["ap"], n_frames=v["n_frames"], n_vehicles=v["n_vehicles"], thr=thr, tp=at["tp"], fp=at["fp"],
+                fn=at["fn"], tp_rate=at["tp_rate"], fp_rate=at["fp_rate"])
+
+
+def choose_threshold(results):
+    """cnn_eval's operating-point rule on the user's val frames: the threshold with TP >= 70 % and FP <= 30 %
+    and the best F1, else the best F1."""
+    return CE.choose_threshold(CE.figures(results))
+
+
+def boxes_per_frame(results, thr):
+    return sum(sum(1 for _, s in dets if s >= thr) for _, _, dets, _ in results) / max(len(results), 1)
+
+
+def _agreement(a, b):
+    """2 x matched / (|a| + |b|) of two box lists, matched greedily one to one at IoU >= AGREE_IOU (1 when
+    both are empty)."""
+    if not a and not b:
+        return None
+    used, m = set(), 0
+    for x in a:
+        best = max(((iou(x, y), j) for j, y in enumerate(b) if j not in used), default=(0.0, None))
+        if best[1] is not None and best[0] >= AGREE_IOU:
+            used.add(best[1])
+            m += 1
+    return m, len(a) + len(b)
+
+
+def agreement(res_a, thr_a, res_b, thr_b):
+    """Share of boxes two result sets of the same frames have in common (F1-like, pooled over frames)."""
+    m = n = 0
+    for (_, _, da, _), (_, _, db, _) in zip(res_a, res_b):
+        r = _agreement([d[0] for d in da if d[1] >= thr_a], [d[0] for d in db if d[1] >= thr_b])
+        if r is not None:
+            m, n = m + r[0], n + r[1]
+    return 2 * m / n if n else None
+
+
+def flip_agreement(models, frames, thr):
+    """How far the networks agree with themselves: the boxes (one pass per network, fused as the pair) of each
+    frame against those of its mirror image, mirrored back; pooled 2 x matched / all at thr."""
+    import copy
+    import numpy as np
+    pred = predictor(models, flip=False)
+    mirrored = []
+    for fr in frames:
+        g = copy.copy(fr)
+        g.img = np.ascontiguousarray(fr.img[:, ::-1])
+        mirrored.append(g)
+    ra, rb = CE.run(pred, frames), CE.run(pred, mirrored)
+    w = frames[0].img.shape[1] if frames else 0
+    rb = [(f, fr, [((w - b[0] - b[2], b[1], b[2], b[3]), s) for b, s in d], g) for f, fr, d, g in rb]
+    return agreement(ra, thr, rb, thr)
+
+
+def _layers(path):
+    d = V.unpack(open(path, "rb").read())
+    return [(int(L["op"]), int(L["stride"]), int(L["cin"]), int(L["cout"])) for L in d["layers"]], int(d["max_peaks"])
+
+
+def rules(before, after, width, height):
+    """What the library's rules depend on, before and after: the layers and top-K of each file (the same
+    ones give the same multiply-adds, hence speed, and the same workspace) and the detector workspace at the
+    frame size with the demo's budgets (candidates 2 x the largest top-K with the flip pass; detections 32 with
+    a pair, else the top-K)."""
+    from vdtools.bindings import detector as D
+
+    def workspace(models):
+        k = max(_layers(m)[1] for m in models)
+        return D.workspace_size(width, height, sources="cnn", cnn_flip=1, cnn_model=str(models[0]),
+                                cnn_model2=str(models[1]) if len(models) > 1 else None, max_candidates=2 * k,
+                                max_detections=32 if len(models) > 1 else k)
+    import os
+    return dict(same_layers_and_top_k=[_layers(b) == _layers(a) for b, a in zip(before, after)],
+                workspace_bytes=dict(before=workspace(before), after=workspace(after)),
+                file_bytes=dict(before=sum(os.path.getsize(m) for m in before),
+                                after=sum(os.path.getsize(m) for m in after)))
