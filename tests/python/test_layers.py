@@ -4,7 +4,7 @@ subpackage or from a lower layer, and the modules of one subpackage import each 
 cycle, so vdtools has no import cycle at all; only vdtools.bindings knows C struct layouts and
 prototypes.
 
-    bindings (0) < data, metrics (1) < formats (2) < training (3) < evaluation (4) < generators (5)
+    bindings (0) < data, metrics (1) < formats (2) < training (3) < evaluation (4) < generators, adapt (5)
 
 Every import statement is read with ast (lazy imports inside functions included: an import moved
 into a function to dodge a cycle is still a cycle); an upward or sideways import, or a cycle inside a
@@ -14,7 +14,7 @@ import ast
 from pathlib import Path
 
 PKG = Path(__file__).resolve().parents[2] / "tools" / "vdtools"
-LAYER = {"bindings": 0, "data": 1, "metrics": 1, "formats": 2, "training": 3, "evaluation": 4, "generators": 5}
+LAYER = {"bindings": 0, "data": 1, "metrics": 1, "formats": 2, "training": 3, "evaluation": 4, "generators": 5, "adapt": 5}
 
 
 def _imports(path):
