@@ -16,9 +16,6 @@
 #include "models/cnn/cnn_internal.h"
 #include "internal/crc32.h"
 #include "internal/requant.h"
-#if defined(VD_CNN_X86)
-#include "models/cnn/cnn_x86.h"
-#endif
 
 void setUp(void) {}
 void tearDown(void) {}

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
-// Private checks shared by the .vdm loaders (dbn.c, cnn.c, boost.c): little-endian reads, the
-// common container (magic, version, header size, total size, CRC), reserved bytes, the name field
-// and array placement inside a blob. Not installed.
+// Private checks shared by the .vdm loaders (models/dbn.c, models/cnn/loader.c, models/boost.c):
+// little-endian reads, the common container (magic, version, header size, total size, CRC), reserved
+// bytes, the name field and array placement inside a blob. Not installed.
 #ifndef VD_BLOB_INTERNAL_H
 #define VD_BLOB_INTERNAL_H
 

@@ -1,12 +1,37 @@
 // SPDX-License-Identifier: MIT
-// Private constants of the CNN module (lib/src/cnn.c): workspace run record, kernel block sizes; and the
-// decode-table lookup the detector needs for its score threshold.
+// What the rooms of the CNN (lib/src/models/cnn/) share: the workspace run record, the layer chain, tensor
+// rings, the kernels' entry points and scratch queries; and the decode-table lookup the detector needs.
+//
+// The rooms, in the order a frame meets them (vd/cnn.h is the API):
+//   loader.c      .vdm version 3 in place: header, layer chain, per-channel values (vd_cnn_load);
+//                 the state check every other entry point starts with (vd_cnn_model_ok)
+//   plan.c        the workspace: items, lifetimes, first-fit offsets (vd_cnn_plan_make), its size
+//                 queries, vd_cnn_macs, vd_cnn_tensor (reads the run record back)
+//   schedule.c    the streamed executor's row schedule (VD_CNN_STREAM): ring heights, sub-steps
+//   executor.c    vd_cnn_run*: tensor 0, then each layer's rows through its kernel (whole plane or
+//                 streamed), picking a back end per layer call
+//   kernels/      one op per file, each with its scratch query: input (tensor 0), conv (CONV3X3,
+//                 CONV5X5, PW1X1), dw3x3, maxpool2, upsample2, concat; scratch.c the layout and
+//                 requantisation constants of a weighted layer. Back ends beside the portable C:
+//                 *_x86.c (CMake VD_CNN_X86; x86.h, x86.c their shared part); a CMSIS-NN back end
+//                 would sit beside them as *_cmsis.c, dispatched in executor.c the same way.
+//   decode.c      heatmap peaks, top-K, boxes; score threshold -> logit threshold
+// Private to lib/; tests include it. Types are unprefixed as in detector/detector_internal.h;
+// functions shared between rooms are vd_cnn_*.
 #ifndef VD_CNN_INTERNAL_H
 #define VD_CNN_INTERNAL_H
 
+#include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "vd/cnn.h"
+#include "internal/blob_internal.h"
+#include "internal/requant.h"
+
+#if VD_CNN_MAX_LAYERS < 1 || VD_CNN_MAX_LAYERS > 32
+#error "VD_CNN_MAX_LAYERS must be 1..32 (format version 3; tensor indices and lifetimes are bytes)"
+#endif
 
 // Workspace plan items: item 0 tensor 0, item 1 the stretch histogram, then
 // per layer l its output tensor (2 + 2l) and its scratch (3 + 2l).
@@ -39,6 +64,21 @@
 // Stretch histogram (uint32[256]) and its int8 lookup table.
 #define VD_CNN_HIST_BYTES (256u * 4u + 256u)
 
+#define VD_CNN_RUN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE)   // every flag of the _ex calls
+#define VD_CNN_INPUT_ZP (-128)   // zero point of tensor 0 (pixel - 128)
+// vd_cnn_plan_t.live of an upsample fused into the concats that read it (schedule.c).
+#define VD_CNN_LIVE_FUSED 2u
+
+// Keeps a kernel out of its caller. Inlined into the layer loop, gcc -O3
+// vectorises the pixel-block loop of gemm_block instead of the dot products
+// and the whole network runs 2.5x slower (measured, gcc 12). A hint only:
+// compilers without the attribute get plain C.
+#if defined(__GNUC__)
+#define VD_CNN_NOINLINE __attribute__((noinline))
+#else
+#define VD_CNN_NOINLINE
+#endif
+
 // The run record at the start of the workspace: the plan of the run and,
 // after a complete run, the key vd_cnn_tensor checks. Offsets are from the
 // workspace start; item lifetimes are steps (0 = input, l + 1 = layer l).
@@ -68,6 +108,193 @@ typedef struct vd_cnn_plan {
 // Bytes of the record (items start after it).
 #define VD_CNN_REC_BYTES \
     ((uint32_t)((sizeof(vd_cnn_plan_t) + VD_CNN_ITEM_ALIGN - 1u) / VD_CNN_ITEM_ALIGN * VD_CNN_ITEM_ALIGN))
+
+// ------------------------------------------------------------ bytes, ops
+
+static inline int32_t vd_cnn_rd_i32(const uint8_t *p)
+{
+    return vd_rq_u32_to_i32(vd_blob_u32(p));
+}
+
+static inline uint32_t vd_cnn_round_up(uint32_t n, uint32_t a)
+{
+    return (n + a - 1u) / a * a;
+}
+
+static inline bool vd_cnn_weighted(uint32_t op)
+{
+    return op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_DW3X3 || op == VD_CNN_OP_PW1X1 || op == VD_CNN_OP_CONV5X5;
+}
+
+// Full convolutions with a spatial kernel (taps gathered into int16 rows).
+static inline bool vd_cnn_spatial_conv(uint32_t op)
+{
+    return op == VD_CNN_OP_CONV3X3 || op == VD_CNN_OP_CONV5X5;
+}
+
+// K of the accumulator bound (multiply-adds per output value).
+static inline uint32_t vd_cnn_k_of(const vd_cnn_layer_t *L)
+{
+    switch (L->op) {
+    case VD_CNN_OP_CONV3X3:
+        return 9u * L->cin;
+    case VD_CNN_OP_DW3X3:
+        return 9u;
+    case VD_CNN_OP_PW1X1:
+        return L->cin;
+    case VD_CNN_OP_CONV5X5:
+        return 25u * L->cin;
+    default:
+        return 0u;
+    }
+}
+
+// ------------------------------------------------------------ layer chain (loader.c)
+
+// Tensor shapes implied by the layers: channels, downsample factor, zero point.
+typedef struct chain {
+    uint16_t chan[VD_CNN_MAX_TENSORS];
+    uint16_t f[VD_CNN_MAX_TENSORS];
+    int8_t zp[VD_CNN_MAX_TENSORS];
+} chain_t;
+
+// State check of a model struct (every entry point but vd_cnn_load): false
+// unless run and decode stay inside the tensors; fills c.
+bool vd_cnn_model_ok(const vd_cnn_model_t *m, chain_t *c);
+// A network input size the model takes (1..VD_CNN_MAX_SIDE, multiples of m->align).
+bool vd_cnn_size_ok(const vd_cnn_model_t *m, uint32_t width, uint32_t height);
+
+// ------------------------------------------------------------ plan (plan.c, schedule.c)
+
+static inline uint32_t vd_cnn_item_of_tensor(uint32_t t)
+{
+    return (t == 0u) ? 0u : 2u + 2u * (t - 1u);
+}
+
+// Bytes of `rows` rows of tensor t at input width `width`.
+static inline uint64_t vd_cnn_tensor_bytes(const chain_t *c, uint32_t t, uint32_t width, uint32_t rows)
+{
+    return (uint64_t)(width / c->f[t]) * (uint64_t)rows * (uint64_t)c->chan[t];
+}
+
+// The plan of a run into p (m checked by vd_cnn_model_ok, size by vd_cnn_size_ok):
+// VD_ERR_OVERFLOW if the workspace would not fit 32 bits.
+vd_status_t vd_cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+                             uint32_t flags, vd_cnn_plan_t *p);
+// Row schedule: ring heights p->rows (and p->h, p->live) of a plan.
+void vd_cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p);
+// A walk of the streamed schedule: start, then sub-steps (rows p->done .. p->req to make) until false.
+void vd_cnn_sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps);
+bool vd_cnn_sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *target);
+
+// ------------------------------------------------------------ kernels (kernels/)
+
+// Geometry of one layer's input and output tensors.
+typedef struct geom {
+    uint32_t wi, hi, ci;   // input width, height, channels
+    uint32_t wo, ho, co;   // output
+    int32_t zp_in;
+} geom_t;
+
+// A tensor in the workspace as a ring of `rows` full-width rows: row y at
+// slot y % rows. A whole plane is the ring with rows = height (slot = y).
+typedef struct ring {
+    int8_t *base;
+    size_t row;        // bytes per row (w * c)
+    uint32_t rows;     // slots, >= 1 for every tensor that is read or written
+} ring_t;
+
+static inline int8_t *vd_cnn_ring_row(const ring_t *r, uint32_t y)
+{
+    return r->base + (size_t)(y % r->rows) * r->row;
+}
+
+// Scratch of a weighted layer, as offsets from its start: int16 weights,
+// int16 rows (CONV3X3/PW1X1) or the zero-point row (DW3X3), then the
+// per-channel requantisation constants (vd_rq_ch_t).
+typedef struct scratch_layout {
+    uint32_t w16, rows, ch;
+} scratch_layout_t;
+
+// Requantisation of one layer: per-channel constants (in its scratch) and
+// the output clamp relative to the zero point.
+typedef struct rq {
+    const vd_rq_ch_t *ch;
+    int32_t zp;
+    int32_t lo;      // act_min - zp
+    int32_t hi;      // act_max - zp
+    bool general;    // some channel has shift > 0 (saturating left shift first)
+    bool relu;       // lo >= 0: the sign correction of the rounding is not needed (conv.c rq_row)
+} rq_t;
+
+// One output value from z = requantize(sum + bias): clamp, zero point.
+static inline int8_t vd_cnn_rq_out(int32_t z, int32_t zp, int32_t lo, int32_t hi)
+{
+    z = (z < lo) ? lo : z;
+    z = (z > hi) ? hi : z;
+    return (int8_t)(z + zp);
+}
+
+// kernels/scratch.c: the layout from the byte counts of the weight copy and
+// the rows (returns the total in bytes), and the constants of a weighted layer.
+uint64_t vd_cnn_scratch_pack(const vd_cnn_layer_t *L, uint32_t w_bytes, uint32_t r_bytes, scratch_layout_t *s);
+void vd_cnn_rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s, rq_t *q);
+
+// Each kernel writes output rows [y0, y1) of its layer; the input rows they
+// read must be in the input ring. The scratch queries return the bytes of
+// the layer's scratch (0: none) and fill its layout; `stream`: one scratch
+// serves every layer of a streamed run.
+uint64_t vd_cnn_conv_scratch(const vd_cnn_layer_t *L, bool stream, scratch_layout_t *s);
+void vd_cnn_conv_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+                      uint32_t y1, bool stream, uint8_t *scr);
+// conv.c's int16 rows, shared with the AVX2 back end: the ks input rows of
+// output row oy (NULL: padding row), and the rows of npix output pixels from x0.
+void vd_cnn_conv_row_ptrs(const geom_t *g, const ring_t *in, uint32_t oy, int32_t step, int32_t ks,
+                          const int8_t *rowp[5]);
+void vd_cnn_conv_gather(const geom_t *g, const int8_t *const rowp[5], int32_t ks, int32_t step, uint32_t x0,
+                        uint32_t npix, size_t kp, int16_t *rows);
+uint64_t vd_cnn_dw3x3_scratch(const vd_cnn_layer_t *L, scratch_layout_t *s);
+void vd_cnn_dw3x3_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+                       uint32_t y1, uint8_t *scr);
+void vd_cnn_maxpool2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1);
+void vd_cnn_upsample2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1);
+// ua / ub (0 or 1): operand a / b is a fused upsample and its ring the
+// upsample's source, read at row y >> 1, column x >> 1.
+void vd_cnn_concat_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, uint32_t ua, const ring_t *b,
+                        uint32_t ub, const ring_t *out, uint32_t y0, uint32_t y1);
+
+// Where the grey input rows come from (kernels/input.c): a plane (img,
+// stride) or a caller's row function writing into buf (vd_cnn_run_rows).
+typedef struct in_src {
+    const uint8_t *img;
+    uint32_t stride;
+    const vd_cnn_rows_t *rows;
+    uint8_t *buf;        // width bytes (row function only)
+} in_src_t;
+
+// The percentile stretch's lookup table from a histogram of the whole plane
+// in hist_area (VD_CNN_HIST_BYTES); NULL without a stretch.
+const int8_t *vd_cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
+                                uint8_t *hist_area);
+// Rows [y0, y1) of tensor 0: pixel - 128, or lut[pixel].
+void vd_cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, const ring_t *t0, uint32_t y0, uint32_t y1);
+
+// ------------------------------------------------------------ x86 back end (kernels/*x86*.c, CMake VD_CNN_X86)
+
+// Kernel sets by what the CPU (and OS) supports.
+#define VD_CNN_X86_NONE 0u     // portable C
+#define VD_CNN_X86_AVX2 1u     // AVX2: 256-bit, int16 vpmaddwd
+#define VD_CNN_X86_AVX512 2u   // AVX-512 F, BW, VL and VNNI: vpdpbusd / vpdpwssd
+// The best set this CPU runs (a CPU check per call, no cached global).
+uint32_t vd_cnn_x86_level(void);
+// vd_cnn_conv_rows and vd_cnn_dw3x3_rows on the set `level` (not NONE):
+// the same scratch, the same bytes.
+void vd_cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+                          uint32_t y1, bool stream, uint8_t *scr, uint32_t level);
+void vd_cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                           uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level);
+
+// ------------------------------------------------------------ decode (decode.c)
 
 // Decoded heatmap score (Q15, 0..32768) of int8 value v (-128..127) of a
 // model vd_cnn_load filled (its score table is checked there); the table

@@ -1,0 +1,26 @@
+// SPDX-License-Identifier: MIT
+// CNN kernel CONCAT: channel concatenation of two tensors (a copy op).
+//
+// Algorithm: output pixel = the a tensor's channels, then the b tensor's; same scale and zero point.
+// An operand may be a fused upsample (ua / ub = 1): its source is read at row y >> 1, column
+// x >> 1, so the upsampled tensor is never stored (schedule.c).
+// Bounds: two memcpy per output pixel; no scratch.
+#include "models/cnn/cnn_internal.h"
+
+#include <string.h>
+
+void vd_cnn_concat_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, uint32_t ua, const ring_t *b,
+                        uint32_t ub, const ring_t *out, uint32_t y0, uint32_t y1)
+{
+    const uint32_t ca = L->cin;
+    const uint32_t cb = (uint32_t)L->cout - L->cin;
+    for (uint32_t y = y0; y < y1; y++) {
+        const int8_t *ra = vd_cnn_ring_row(a, y >> ua);
+        const int8_t *rb = vd_cnn_ring_row(b, y >> ub);
+        int8_t *o = vd_cnn_ring_row(out, y);
+        for (uint32_t x = 0u; x < g->wo; x++) {
+            memcpy(o + (size_t)x * L->cout, ra + (size_t)(x >> ua) * ca, ca);
+            memcpy(o + (size_t)x * L->cout + ca, rb + (size_t)(x >> ub) * cb, cb);
+        }
+    }
+}

@@ -1,0 +1,264 @@
+// SPDX-License-Identifier: MIT
+// CNN kernel DW3X3 on x86-64 (AVX-512 VNNI, AVX2): the depthwise 3x3 of dw3x3.c on vector registers, with
+// its scratch (only the zero-point row) and its bytes.
+//
+// Algorithm: the taps are x itself (padding taps read a row of zp_in) and bias - zp_in sum w is folded
+// into the constants. AVX-512: int16 products, vpdpwssd on tap pairs interleaved per channel
+// (unpacklo/hi), 2 products + int32 per lane, exact; packs_epi32 of the lo/hi results restores the
+// channel order; 32 channels per pass. AVX2: the same with vpmaddwd, 16 channels per pass, the last
+// pass's tail read without touching bytes past the pixel's channels (tail_of).
+// Reference: dw3x3.c (tests/unit/test_cnn.c compares every tensor with it).
+// Bounds: as dw3x3.c; stack: the weights and constants of one pass.
+#include "models/cnn/kernels/x86.h"
+
+#include <string.h>
+
+// A depthwise layer's input and output as rings of full rows (row y at slot
+// y % slots; a whole plane has slots = height) and its geometry.
+typedef struct vd_cnn_x86_dw {
+    const int8_t *in;
+    size_t in_row;        // bytes per input row (wi * c_n)
+    uint32_t in_slots, wi, hi;
+    int8_t *out;
+    size_t out_row;
+    uint32_t out_slots, wo;
+    uint32_t stride;
+    size_t c_n;
+    int32_t zp_in;
+    const int8_t *zrow;   // c_n bytes of zp_in (padding taps)
+} vd_cnn_x86_dw_t;
+
+// Depthwise (both kernel sets): the 3 input rows of output row oy (NULL: padding row) ...
+static inline void dw_rows(const vd_cnn_x86_dw_t *d, uint32_t oy, const int8_t *rows[3])
+{
+    for (uint32_t ky = 0u; ky < 3u; ky++) {
+        const int32_t iy = (int32_t)oy * (int32_t)d->stride - 1 + (int32_t)ky;
+        rows[ky] = (iy >= 0 && iy < (int32_t)d->hi) ? d->in + (size_t)((uint32_t)iy % d->in_slots) * d->in_row
+                                                     : NULL;
+    }
+}
+
+// ... and the 9 tap pointers of output pixel ox; padding taps read the zero row.
+static inline void dw_taps(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], uint32_t ox, const int8_t *t[9])
+{
+    const size_t c_n = d->c_n;
+    const int32_t ix0 = (int32_t)ox * (int32_t)d->stride - 1;
+    const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)d->wi;
+    for (size_t ky = 0u; ky < 3u; ky++) {
+        const int8_t *r = rows[ky];
+        if (r == NULL) {
+            t[ky * 3u] = d->zrow;
+            t[ky * 3u + 1u] = d->zrow;
+            t[ky * 3u + 2u] = d->zrow;
+            continue;
+        }
+        const int8_t *c1 = r + (size_t)ox * (size_t)d->stride * c_n;
+        t[ky * 3u] = left ? c1 - c_n : d->zrow;
+        t[ky * 3u + 1u] = c1;
+        t[ky * 3u + 2u] = right ? c1 + c_n : d->zrow;
+    }
+}
+
+X86_INLINE __m512i dw_tap(const int8_t *t, __mmask32 m)
+{
+    return _mm512_cvtepi8_epi16(_mm256_maskz_loadu_epi8(m, t));
+}
+
+static X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
+                               uint32_t y0, uint32_t y1)
+{
+    const size_t c_n = d->c_n;
+    for (size_t c0 = 0u; c0 < c_n; c0 += 32u) {
+        const size_t nc = (c_n - c0 < 32u) ? c_n - c0 : 32u;
+        const __mmask32 m = (nc == 32u) ? (__mmask32)0xFFFFFFFFu : (__mmask32)(((uint32_t)1 << nc) - 1u);
+        // Weights [9][c_n] straight from the model; tap pairs (0,1) (2,3)
+        // (4,5) (6,7) (8,-) interleaved per channel as the activations will be.
+        __m512i wt[9];
+        __m512i wsum = _mm512_setzero_si512();
+        for (size_t i = 0u; i < 9u; i++) {
+            wt[i] = dw_tap(L->w + i * c_n + c0, m);
+            wsum = _mm512_add_epi16(wsum, wt[i]);   // |sum| <= 9 * 128: int16
+        }
+        __m512i wl[5], wh[5];
+        for (size_t i = 0u; i < 5u; i++) {
+            const __m512i wb = (i < 4u) ? wt[2u * i + 1u] : _mm512_setzero_si512();
+            wl[i] = _mm512_unpacklo_epi16(wt[2u * i], wb);
+            wh[i] = _mm512_unpackhi_epi16(wt[2u * i], wb);
+        }
+        // bias - zp_in sum w (the taps are x, padding taps zp_in), modulo 2^32.
+        int16_t ws[32];
+        _mm512_storeu_si512(ws, wsum);
+        // Lane 4 L + i of the lo / hi sums holds channel c0 + 8 L + i / + 4.
+        uint32_t map_lo[16], map_hi[16];
+        int32_t corr_lo[16], corr_hi[16];
+        for (uint32_t j = 0u; j < 16u; j++) {
+            const size_t cl = 8u * (j / 4u) + (j % 4u);
+            map_lo[j] = (uint32_t)((c0 + cl < c_n) ? c0 + cl : c0);
+            map_hi[j] = (uint32_t)((c0 + cl + 4u < c_n) ? c0 + cl + 4u : c0);
+            corr_lo[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl]);
+            corr_hi[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl + 4u]);
+        }
+        vd_cnn_x86_rqv_t cl, chv;
+        vd_cnn_x86_rqv_fill(&cl, L, map_lo, corr_lo, 16u);
+        vd_cnn_x86_rqv_fill(&chv, L, map_hi, corr_hi, 16u);
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rows[3];
+            dw_rows(d, oy, rows);
+            int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
+            for (uint32_t ox = 0u; ox < d->wo; ox++) {
+                const int8_t *t[9];
+                dw_taps(d, rows, ox, t);
+                __m512i al = _mm512_setzero_si512(), ah = _mm512_setzero_si512();
+                for (size_t i = 0u; i < 4u; i++) {
+                    const __m512i xa = dw_tap(t[2u * i] + c0, m), xb = dw_tap(t[2u * i + 1u] + c0, m);
+                    al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(xa, xb), wl[i]);
+                    ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(xa, xb), wh[i]);
+                }
+                const __m512i x8 = dw_tap(t[8] + c0, m), zero = _mm512_setzero_si512();
+                al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(x8, zero), wl[4]);
+                ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(x8, zero), wh[4]);
+                const __m512i z = _mm512_packs_epi32(rq16(al, &cl, q), rq16(ah, &chv, q));
+                _mm512_mask_cvtepi16_storeu_epi8(orow + (size_t)ox * c_n + c0, m, z);
+            }
+        }
+    }
+}
+
+// 16 int8 at p (n of them, 1..16; the rest 0) as int16, reading only
+// p[0..n) (a copy through the stack: weights, once per group).
+AVX2_INLINE __m256i tap16(const int8_t *p, size_t n)
+{
+    if (n >= 16u) {
+        return _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)p));
+    }
+    int8_t tmp[16] = {0};
+    memcpy(tmp, p, n);
+    return _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)tmp));
+}
+
+// How tap_act reads the n channels of a pass: 0 all 16 bytes; 1 the 16
+// bytes ending at p + n, moved down by shuf (the pixel has >= 16 channels,
+// so they are its own); 2 (8 <= n < 16) 8 bytes at p and the 8 ending at
+// p + n, shifted by sh bits; 3 (n < 8) through the stack. Never reads
+// outside the pixel's channels, without a store-forwarding stall.
+typedef struct tail {
+    uint32_t mode;
+    size_t n;
+    __m128i shuf, sh;
+} tail_t;
+
+AVX2_INLINE tail_t tail_of(size_t n, size_t c_n)
+{
+    tail_t t;
+    t.n = n;
+    t.mode = (n >= 16u) ? 0u : (c_n >= 16u) ? 1u : (n >= 8u) ? 2u : 3u;
+    int8_t idx[16];
+    for (size_t i = 0u; i < 16u; i++) {
+        idx[i] = (int8_t)((i < n) ? (int32_t)(i + 16u - n) : -128);   // -128: pshufb writes 0
+    }
+    t.shuf = _mm_loadu_si128((const __m128i *)(const void *)idx);
+    t.sh = _mm_cvtsi32_si128((int)(8u * (16u - n)));
+    return t;
+}
+
+AVX2_INLINE __m256i tap_act(const int8_t *p, const tail_t *t)
+{
+    __m128i v;
+    if (t->mode == 0u) {
+        v = _mm_loadu_si128((const __m128i *)(const void *)p);
+    } else if (t->mode == 1u) {
+        v = _mm_shuffle_epi8(_mm_loadu_si128((const __m128i *)(const void *)(p + t->n - 16u)), t->shuf);
+    } else if (t->mode == 2u) {
+        const __m128i lo = _mm_loadl_epi64((const __m128i *)(const void *)p);
+        const __m128i hi = _mm_srl_epi64(_mm_loadl_epi64((const __m128i *)(const void *)(p + t->n - 8u)), t->sh);
+        v = _mm_unpacklo_epi64(lo, hi);
+    } else {
+        return tap16(p, t->n);
+    }
+    return _mm256_cvtepi8_epi16(v);
+}
+
+static AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L,
+                                const vd_cnn_x86_rq_t *q, uint32_t y0, uint32_t y1)
+{
+    const size_t c_n = d->c_n;
+    for (size_t c0 = 0u; c0 < c_n; c0 += 16u) {
+        const size_t nc = (c_n - c0 < 16u) ? c_n - c0 : 16u;
+        __m256i wt[9];
+        __m256i wsum = _mm256_setzero_si256();
+        for (size_t i = 0u; i < 9u; i++) {
+            wt[i] = tap16(L->w + i * c_n + c0, nc);
+            wsum = _mm256_add_epi16(wsum, wt[i]);   // |sum| <= 9 * 128: int16
+        }
+        __m256i wl[5], wh[5];
+        for (size_t i = 0u; i < 5u; i++) {
+            const __m256i wb = (i < 4u) ? wt[2u * i + 1u] : _mm256_setzero_si256();
+            wl[i] = _mm256_unpacklo_epi16(wt[2u * i], wb);
+            wh[i] = _mm256_unpackhi_epi16(wt[2u * i], wb);
+        }
+        int16_t ws[16];
+        _mm256_storeu_si256((__m256i *)(void *)ws, wsum);
+        // Lane j of the lo sums holds channel c0 + 8 (j / 4) + j % 4, of the
+        // hi sums 4 more: one constant set, lanes 0..7 lo and 8..15 hi.
+        uint32_t map[16];
+        int32_t corr[16];
+        for (uint32_t j = 0u; j < 8u; j++) {
+            const size_t cl = 8u * (j / 4u) + (j % 4u);
+            map[j] = (uint32_t)((c0 + cl < c_n) ? c0 + cl : c0);
+            map[8u + j] = (uint32_t)((c0 + cl + 4u < c_n) ? c0 + cl + 4u : c0);
+            corr[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl]);
+            corr[8u + j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl + 4u]);
+        }
+        vd_cnn_x86_rqv_t cv;
+        vd_cnn_x86_rqv_fill(&cv, L, map, corr, 16u);
+        const tail_t tl = tail_of(nc, c_n);
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rows[3];
+            dw_rows(d, oy, rows);
+            int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
+            for (uint32_t ox = 0u; ox < d->wo; ox++) {
+                const int8_t *t[9];
+                dw_taps(d, rows, ox, t);
+                __m256i al = _mm256_setzero_si256(), ah = _mm256_setzero_si256();
+                for (size_t i = 0u; i < 4u; i++) {
+                    const __m256i xa = tap_act(t[2u * i] + c0, &tl), xb = tap_act(t[2u * i + 1u] + c0, &tl);
+                    al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(xa, xb), wl[i]));
+                    ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(xa, xb), wh[i]));
+                }
+                const __m256i x8 = tap_act(t[8] + c0, &tl), zero = _mm256_setzero_si256();
+                al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(x8, zero), wl[4]));
+                ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(x8, zero), wh[4]));
+                // packs restores the channel order per 128-bit lane; permute joins the lanes' bytes.
+                const __m256i z16 = _mm256_packs_epi32(rq8(al, &cv, 0u, q), rq8(ah, &cv, 1u, q));
+                const __m256i z8 = _mm256_permute4x64_epi64(_mm256_packs_epi16(z16, z16), 0x08);
+                const __m128i b = _mm256_castsi256_si128(z8);
+                int8_t *o = orow + (size_t)ox * c_n + c0;
+                if (nc == 16u) {
+                    _mm_storeu_si128((__m128i *)(void *)o, b);
+                } else {
+                    int8_t tmp[16];
+                    _mm_storeu_si128((__m128i *)(void *)tmp, b);
+                    memcpy(o, tmp, nc);
+                }
+            }
+        }
+    }
+}
+
+// vd_cnn_dw3x3_rows on the AVX-512 VNNI or AVX2 kernel: the scratch holds only the zero-point row.
+void vd_cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                           uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level)
+{
+    scratch_layout_t s;
+    (void)vd_cnn_dw3x3_scratch(L, &s);
+    int8_t *zr = (int8_t *)(void *)(scr + s.rows);
+    memset(zr, g->zp_in, g->co);
+    const vd_cnn_x86_dw_t d = {in->base, in->row, in->rows, g->wi, g->hi, out->base, out->row, out->rows,
+                               g->wo, L->stride, g->co, g->zp_in, zr};
+    const vd_cnn_x86_rq_t xq = vd_cnn_x86_rq_of(L);
+    if (level == VD_CNN_X86_AVX512) {
+        dw_vnni(&d, L, &xq, y0, y1);
+    } else {
+        dw_avx2(&d, L, &xq, y0, y1);
+    }
+}

@@ -1,0 +1,129 @@
+// SPDX-License-Identifier: MIT
+// The x86-64 back end's shared part (AVX-512 VNNI, AVX2): requantisation on vector lanes, target attributes.
+//
+// Included only by the x86 back end's files (kernels/*x86*.c, compiled when CMake's VD_CNN_X86 is ON):
+// the one place besides them that includes <immintrin.h> (the include rule's named exception). Functions
+// carry per-function target attributes, so the rest of the library keeps the compiler's baseline.
+// Requantisation: the one-shift form of internal/requant.h (vd_rq_z, vd_rq_z_nn, vd_rq_lshift_sat) on
+// 16 (AVX-512) or 8 (AVX2) lanes: the 64-bit product u * mult of even and odd lanes by vpmuludq,
+// + k (- dk), per-lane vpsrlvq. Same integer operations as the portable kernels, so the same bytes.
+#ifndef VD_CNN_X86_H
+#define VD_CNN_X86_H
+
+#include <immintrin.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "models/cnn/cnn_internal.h"
+
+#define X86_TARGET __attribute__((target("avx512f,avx512bw,avx512vl,avx512vnni")))
+#define X86_INLINE static inline __attribute__((always_inline)) X86_TARGET
+#define AVX2_TARGET __attribute__((target("avx2")))
+#define AVX2_INLINE static inline __attribute__((always_inline)) AVX2_TARGET
+
+// Output channels per vector (one 512-bit register of int32) and per GEMM
+// tile (four vectors).
+#define VD_CNN_X86_LANES 16u
+#define VD_CNN_X86_TILE 64u
+
+// Requantisation constants of 16 int32 lanes (any lane -> channel map):
+// the vd_rq_ch_t fields spread for the even/odd 64-bit halves of
+// _mm512_mul_epu32. bias includes the kernel's zero-point correction.
+typedef struct vd_cnn_x86_rqv {
+    int32_t bias[16];
+    uint32_t mult[16];   // Q31 multiplier
+    int32_t thr[16];
+    uint32_t dk[16];     // 0 or 2^31
+    uint32_t off[16];
+    uint32_t lsh[16];
+    uint64_t k_e[8], k_o[8];       // k of lanes 2j, 2j + 1
+    uint64_t rsh_e[8], rsh_o[8];   // s of lanes 2j, 2j + 1 (31..62)
+} vd_cnn_x86_rqv_t;
+
+// Layer-wide part of the requantisation (output clamp relative to the zero point).
+typedef struct vd_cnn_x86_rq {
+    int32_t zp, lo, hi;
+    bool general;   // some channel has lsh > 0
+    bool sign;      // the sign term is needed (not ReLU-clamped, or general)
+} vd_cnn_x86_rq_t;
+
+// Fills v for lanes 0..15: lane j takes output channel ch_of[j] of layer L
+// (its bias, mult, shift; vd_rq_prepare), n_lanes lanes valid and the
+// others copying lane 0, with corr[j] subtracted from the bias modulo 2^32
+// (corr may be NULL).
+void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const uint32_t *ch_of, const int32_t *corr,
+                         uint32_t n_lanes);
+
+// Layer-wide requantisation flags of layer L (as vd_cnn_rq_setup's).
+vd_cnn_x86_rq_t vd_cnn_x86_rq_of(const vd_cnn_layer_t *L);
+
+// z = clamp(requantize(acc + bias), lo, hi) + zp on 16 lanes, as
+// vd_cnn_rq_out(vd_rq_apply(..)) (general), vd_cnn_rq_out(vd_rq_z(..)) (sign) or
+// vd_cnn_rq_out(vd_rq_z_nn(..)) in the portable kernels.
+X86_INLINE __m512i rq16(__m512i acc, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q)
+{
+    __m512i x = _mm512_add_epi32(acc, _mm512_loadu_si512(c->bias));
+    if (q->general) {
+        // vd_rq_lshift_sat: x * 2^lsh, saturated where the shift changes the value.
+        const __m512i sh = _mm512_loadu_si512(c->lsh);
+        const __m512i t = _mm512_sllv_epi32(x, sh);
+        const __mmask16 ovf = _mm512_cmpneq_epi32_mask(_mm512_srav_epi32(t, sh), x);
+        const __m512i sat = _mm512_xor_si512(_mm512_srai_epi32(x, 31), _mm512_set1_epi32(INT32_MAX));
+        x = _mm512_mask_blend_epi32(ovf, t, sat);
+    }
+    const __m512i xu = _mm512_xor_si512(x, _mm512_set1_epi32(INT32_MIN));   // x + 2^31 as uint32
+    const __m512i mult = _mm512_loadu_si512(c->mult);
+    __m512i ve = _mm512_add_epi64(_mm512_mul_epu32(xu, mult), _mm512_loadu_si512(c->k_e));
+    __m512i vo = _mm512_add_epi64(_mm512_mul_epu32(_mm512_srli_epi64(xu, 32), _mm512_srli_epi64(mult, 32)),
+                                  _mm512_loadu_si512(c->k_o));
+    if (q->sign) {
+        // - dk where x <= thr (modulo 2^64 like the portable uint64 sum).
+        const __mmask16 neg = _mm512_cmple_epi32_mask(x, _mm512_loadu_si512(c->thr));
+        const __m512i d = _mm512_maskz_mov_epi32(neg, _mm512_loadu_si512(c->dk));
+        ve = _mm512_sub_epi64(ve, _mm512_and_si512(d, _mm512_set1_epi64(0xFFFFFFFFLL)));
+        vo = _mm512_sub_epi64(vo, _mm512_srli_epi64(d, 32));
+    }
+    ve = _mm512_srlv_epi64(ve, _mm512_loadu_si512(c->rsh_e));
+    vo = _mm512_srlv_epi64(vo, _mm512_loadu_si512(c->rsh_o));
+    __m512i z = _mm512_mask_blend_epi32((__mmask16)0xAAAAu, ve, _mm512_slli_epi64(vo, 32));
+    z = _mm512_sub_epi32(z, _mm512_loadu_si512(c->off));
+    z = _mm512_max_epi32(z, _mm512_set1_epi32(q->lo));
+    z = _mm512_min_epi32(z, _mm512_set1_epi32(q->hi));
+    return _mm512_add_epi32(z, _mm512_set1_epi32(q->zp));
+}
+
+// rq16 on lanes 8 h .. 8 h + 7 of c.
+AVX2_INLINE __m256i rq8(__m256i acc, const vd_cnn_x86_rqv_t *c, uint32_t h, const vd_cnn_x86_rq_t *q)
+{
+    __m256i x = _mm256_add_epi32(acc, _mm256_loadu_si256((const __m256i *)(const void *)(c->bias + 8u * h)));
+    if (q->general) {
+        const __m256i sh = _mm256_loadu_si256((const __m256i *)(const void *)(c->lsh + 8u * h));
+        const __m256i t = _mm256_sllv_epi32(x, sh);
+        const __m256i same = _mm256_cmpeq_epi32(_mm256_srav_epi32(t, sh), x);
+        const __m256i sat = _mm256_xor_si256(_mm256_srai_epi32(x, 31), _mm256_set1_epi32(INT32_MAX));
+        x = _mm256_blendv_epi8(sat, t, same);
+    }
+    const __m256i xu = _mm256_xor_si256(x, _mm256_set1_epi32(INT32_MIN));
+    const __m256i mult = _mm256_loadu_si256((const __m256i *)(const void *)(c->mult + 8u * h));
+    __m256i ve = _mm256_add_epi64(_mm256_mul_epu32(xu, mult),
+                                  _mm256_loadu_si256((const __m256i *)(const void *)(c->k_e + 4u * h)));
+    __m256i vo = _mm256_add_epi64(_mm256_mul_epu32(_mm256_srli_epi64(xu, 32), _mm256_srli_epi64(mult, 32)),
+                                  _mm256_loadu_si256((const __m256i *)(const void *)(c->k_o + 4u * h)));
+    if (q->sign) {
+        // d = dk where not (x > thr).
+        const __m256i gt = _mm256_cmpgt_epi32(x, _mm256_loadu_si256((const __m256i *)(const void *)(c->thr + 8u * h)));
+        const __m256i d = _mm256_andnot_si256(gt, _mm256_loadu_si256((const __m256i *)(const void *)(c->dk + 8u * h)));
+        ve = _mm256_sub_epi64(ve, _mm256_and_si256(d, _mm256_set1_epi64x(0xFFFFFFFFLL)));
+        vo = _mm256_sub_epi64(vo, _mm256_srli_epi64(d, 32));
+    }
+    ve = _mm256_srlv_epi64(ve, _mm256_loadu_si256((const __m256i *)(const void *)(c->rsh_e + 4u * h)));
+    vo = _mm256_srlv_epi64(vo, _mm256_loadu_si256((const __m256i *)(const void *)(c->rsh_o + 4u * h)));
+    __m256i z = _mm256_blend_epi32(ve, _mm256_slli_epi64(vo, 32), 0xAA);
+    z = _mm256_sub_epi32(z, _mm256_loadu_si256((const __m256i *)(const void *)(c->off + 8u * h)));
+    z = _mm256_max_epi32(z, _mm256_set1_epi32(q->lo));
+    z = _mm256_min_epi32(z, _mm256_set1_epi32(q->hi));
+    return _mm256_add_epi32(z, _mm256_set1_epi32(q->zp));
+}
+
+#endif
