@@ -265,7 +265,7 @@ typedef struct vd_detector {
     size_t dbn_ws_bytes;
     uint8_t *overlay;            // labelling scratch (run budget), reused per candidate for region buffers
     size_t overlay_bytes;
-    void *scratch;               // per-candidate state (private: internal/detector_internal.h)
+    void *scratch;               // per-candidate state (private: lib/src/detector/detector_internal.h)
     void *contrast_ws;           // contrast source workspace, in the overlay (NULL when the source is off)
     size_t contrast_ws_bytes;
     void *cnn_ws;                // CNN source (in the overlay; NULL when off): streamed vd_cnn_run_rows

@@ -19,7 +19,7 @@
 //     recovered targets appended, measured by refining the box as a candidate.
 // The stages live in detector_cnn.c (0), detector_sources.c (1-2) and detector_region.c (2-3);
 // configuration and workspace in detector_init.c; shared state in
-// internal/detector_internal.h.
+// detector/detector_internal.h.
 //
 // Bounds: time O(W*H) for threshold, labelling and the contrast/window
 // sources, the network's multiply-adds once per frame (vd_cnn_macs at the
@@ -90,6 +90,118 @@ static void recovered(const vd_detector_t *det, const vd_frame_t *f, const vd_te
     d->hot_thr = thr8;
 }
 
+// A stage's status into the run's: VD_ERR_CAPACITY is remembered in *result
+// and the run goes on (its detections are still valid); any other error is
+// returned and stops the run.
+static vd_status_t keep_capacity(vd_status_t st, vd_status_t *result)
+{
+    if (st == VD_ERR_CAPACITY) {
+        *result = VD_ERR_CAPACITY;
+        return VD_OK;
+    }
+    return st;
+}
+
+// Hot spots (steps 1-2): labelling in the overlay straight from the frame,
+// the shape rules, then each kept component refined one by one (the
+// labelling scratch is dead from then on: the overlay holds region buffers);
+// their contour boxes join the merged list behind the n_cnn CNN boxes unless
+// they duplicate one. *nc: the merged candidates so far.
+static vd_status_t hot_spots(vd_detector_t *det, const vd_frame_t *frame, size_t n_cnn, size_t *nc,
+                             vd_status_t *result, uint32_t *t0)
+{
+    vd_detector_stats_t *s = &det->stats;
+    size_t n = 0u;
+    if ((det->cfg.sources & VD_DETECTOR_SRC_HOTSPOT) != 0u) {
+        VD_TRY(keep_capacity(vd_det_hot_components(det, frame, &n, t0), result));
+    }
+    s->components = (uint32_t)n;
+    size_t kept = 0u;
+    VD_TRY(vd_components_filter(det->comps, n, &det->cfg.rules, &kept));
+    s->kept = (uint32_t)kept;
+    const size_t room = det->cfg.max_candidates - n_cnn;   // n_cnn <= max_candidates
+    if (kept > room) {
+        s->overflow_candidates += (uint32_t)(kept - room);
+        kept = room;
+        *result = VD_ERR_CAPACITY;
+    }
+    vd_det_clock_add(det, VD_DET_STAGE_COMPONENTS, t0);
+
+    const uint8_t thr8 = (uint8_t)s->hot_thr_u8;
+    for (size_t i = 0; i < n_cnn; i++) {
+        det->cand[i].hot_thr = thr8;
+    }
+    size_t m = n_cnn;
+    for (size_t i = 0; i < kept; i++) {
+        bool ok = false;
+        VD_TRY(vd_det_refine_hot(det, frame, &det->comps[i], &det->cand[m], &ok, t0));
+        if (ok && n_cnn > 0u && vd_suppress_overlaps(&det->cand[m].box, det->cand, n_cnn, det->cfg.dedup_iou_q15)) {
+            s->deduplicated++;   // the network already has this one
+            ok = false;
+        }
+        if (ok) {
+            det->cand[m].hot_thr = thr8;
+            m++;
+        }
+    }
+    s->cand_hotspot = (uint32_t)(m - n_cnn);
+    *nc = m;
+    return VD_OK;
+}
+
+// Step 3: the observer sees every merged candidate, then verification
+// compacts det->cand[0..nc) in place to the *nv kept.
+static vd_status_t verify_all(vd_detector_t *det, const vd_frame_t *frame, size_t nc, size_t *nv, uint32_t *t0)
+{
+    if (det->cfg.on_candidate != NULL) {
+        for (size_t i = 0; i < nc; i++) {
+            det->cfg.on_candidate(det->cfg.candidate_user, &det->cand[i]);
+        }
+    }
+    size_t k = 0u;
+    for (size_t i = 0; i < nc; i++) {
+        bool keep = false;
+        VD_TRY(vd_det_verify(det, frame, &det->cand[i], &keep, t0));
+        if (keep) {
+            if (k != i) {
+                det->cand[k] = det->cand[i];
+            }
+            k++;
+        }
+    }
+    *nv = k;
+    return VD_OK;
+}
+
+// Step 5: temporal analysis of the nk suppressed detections; track ids and
+// states into det->cand, recovered targets after them in det->obs; *total:
+// detections with the recovered ones.
+static vd_status_t track(vd_detector_t *det, const vd_frame_t *frame, size_t nk, size_t *total,
+                         vd_status_t *result, uint32_t *t0)
+{
+    vd_detector_stats_t *s = &det->stats;
+    for (size_t i = 0; i < nk; i++) {
+        memset(&det->obs[i], 0, sizeof(det->obs[i]));
+        det->obs[i].box = det->cand[i].box;
+        det->obs[i].complexity_q15 = det->cand[i].complexity_q15;
+    }
+    det->frame = frame;
+    size_t nobs = 0u;
+    const vd_status_t st =
+        vd_temporal_update(&det->temporal, det->obs, nk, nk + det->cfg.max_tracks, &nobs, vd_det_probe, det);
+    det->frame = NULL;
+    VD_TRY(keep_capacity(st, result));
+    s->overflow_tracks = det->temporal.stats.overflow;
+    for (size_t i = 0; i < nk; i++) {
+        det->cand[i].track_id = det->obs[i].track_id;
+        det->cand[i].state = det->obs[i].state;
+    }
+    *total = nobs;
+    s->recovered = (uint32_t)(nobs - nk);
+    vd_det_clock_add(det, VD_DET_STAGE_TEMPORAL, t0);
+    return VD_OK;
+}
+
 vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
                             size_t *count)
 {
@@ -109,122 +221,32 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
 
     // The network first: it uses the overlay, and its boxes lead the merged list.
     size_t n_cnn = 0u;
-    vd_status_t st = VD_OK;
     if ((det->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
-        st = vd_det_cnn_source(det, frame, &n_cnn);
-        if (st == VD_ERR_CAPACITY) {
-            result = VD_ERR_CAPACITY;
-        } else if (st != VD_OK) {
-            return st;
-        }
+        VD_TRY(keep_capacity(vd_det_cnn_source(det, frame, &n_cnn), &result));
         vd_det_clock_add(det, VD_DET_STAGE_CNN, &t0);
     }
-
-    // Labelling in the overlay, straight from the frame.
-    size_t n = 0u;
-    if ((det->cfg.sources & VD_DETECTOR_SRC_HOTSPOT) != 0u) {
-        st = vd_det_hot_components(det, frame, &n, &t0);
-    }
-    if (st == VD_ERR_CAPACITY) {
-        result = VD_ERR_CAPACITY;
-    } else if (st != VD_OK) {
-        return st;
-    }
-    s->components = (uint32_t)n;
-    size_t kept = 0u;
-    VD_TRY(vd_components_filter(det->comps, n, &det->cfg.rules, &kept));
-    s->kept = (uint32_t)kept;
-    const size_t room = det->cfg.max_candidates - n_cnn;   // n_cnn <= max_candidates
-    if (kept > room) {
-        s->overflow_candidates += (uint32_t)(kept - room);
-        kept = room;
-        result = VD_ERR_CAPACITY;
-    }
-    vd_det_clock_add(det, VD_DET_STAGE_COMPONENTS, &t0);
-
-    // Hot spots: refined one by one (the labelling scratch is dead from here:
-    // the overlay holds region buffers), their contour boxes join the merged
-    // list behind the CNN boxes unless they duplicate one.
-    uint8_t thr8 = (uint8_t)s->hot_thr_u8;
-    for (size_t i = 0; i < n_cnn; i++) {
-        det->cand[i].hot_thr = thr8;
-    }
-    size_t nc = n_cnn;
-    for (size_t i = 0; i < kept; i++) {
-        bool ok = false;
-        VD_TRY(vd_det_refine_hot(det, frame, &det->comps[i], &det->cand[nc], &ok, &t0));
-        if (ok && n_cnn > 0u && vd_suppress_overlaps(&det->cand[nc].box, det->cand, n_cnn, det->cfg.dedup_iou_q15)) {
-            s->deduplicated++;   // the network already has this one
-            ok = false;
-        }
-        if (ok) {
-            det->cand[nc].hot_thr = thr8;
-            nc++;
-        }
-    }
-    s->cand_hotspot = (uint32_t)(nc - n_cnn);
+    size_t nc = 0u;
+    VD_TRY(hot_spots(det, frame, n_cnn, &nc, &result, &t0));
+    const uint8_t thr8 = (uint8_t)s->hot_thr_u8;
     if ((det->cfg.sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
-        st = vd_det_contrast_source(det, frame, &nc, thr8);
-        if (st == VD_ERR_CAPACITY) {
-            result = VD_ERR_CAPACITY;
-        } else if (st != VD_OK) {
-            return st;
-        }
+        VD_TRY(keep_capacity(vd_det_contrast_source(det, frame, &nc, thr8), &result));
         vd_det_clock_add(det, VD_DET_STAGE_CONTRAST, &t0);
     }
     if ((det->cfg.sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
         VD_TRY(vd_det_window_source(det, frame, &nc, thr8));   // the overlay holds the integrals until here
         vd_det_clock_add(det, VD_DET_STAGE_WINDOWS, &t0);
     }
-    // The observer sees every merged candidate before verification (nc <= max_candidates).
-    if (det->cfg.on_candidate != NULL) {
-        for (size_t i = 0; i < nc; i++) {
-            det->cfg.on_candidate(det->cfg.candidate_user, &det->cand[i]);
-        }
-    }
-    // Verification of the merged list, compacted in place.
     size_t nv = 0u;
-    for (size_t i = 0; i < nc; i++) {
-        bool keep = false;
-        VD_TRY(vd_det_verify(det, frame, &det->cand[i], &keep, &t0));
-        if (keep) {
-            if (nv != i) {
-                det->cand[nv] = det->cand[i];
-            }
-            nv++;
-        }
-    }
+    VD_TRY(verify_all(det, frame, nc, &nv, &t0));
     size_t nk = 0u;
     VD_TRY(suppress(det, nv, &nk));
     vd_det_clock_add(det, VD_DET_STAGE_NMS, &t0);
     if (s->overflow_detections != 0u) {
         result = VD_ERR_CAPACITY;
     }
-
     size_t total = nk;
     if (det->cfg.temporal) {
-        for (size_t i = 0; i < nk; i++) {
-            memset(&det->obs[i], 0, sizeof(det->obs[i]));
-            det->obs[i].box = det->cand[i].box;
-            det->obs[i].complexity_q15 = det->cand[i].complexity_q15;
-        }
-        det->frame = frame;
-        size_t nobs = 0u;
-        st = vd_temporal_update(&det->temporal, det->obs, nk, nk + det->cfg.max_tracks, &nobs, vd_det_probe, det);
-        det->frame = NULL;
-        if (st == VD_ERR_CAPACITY) {
-            result = VD_ERR_CAPACITY;
-        } else if (st != VD_OK) {
-            return st;
-        }
-        s->overflow_tracks = det->temporal.stats.overflow;
-        for (size_t i = 0; i < nk; i++) {
-            det->cand[i].track_id = det->obs[i].track_id;
-            det->cand[i].state = det->obs[i].state;
-        }
-        total = nobs;
-        s->recovered = (uint32_t)(nobs - nk);
-        vd_det_clock_add(det, VD_DET_STAGE_TEMPORAL, &t0);
+        VD_TRY(track(det, frame, nk, &total, &result, &t0));
     }
 
     size_t w = total < cap ? total : cap;

@@ -514,30 +514,11 @@ static bool recover_search(vd_temporal_t *t, const vd_track_t *tr, vd_temporal_p
     return found;
 }
 
-vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n, size_t cap, size_t *count,
-                               vd_temporal_probe_fn probe, void *user)
+// (1)+(2) of vd_temporal_update: greedy association, best pair first; a
+// matched track takes its observation.
+static void associate(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n)
 {
-    VD_VERIFY(t != NULL && t->tracks != NULL && count != NULL, VD_ERR_ARG);
-    VD_VERIFY(n == 0u || obs != NULL, VD_ERR_ARG);
-    VD_VERIFY(n <= cap, VD_ERR_ARG);
-    *count = 0u;
-    for (size_t i = 0; i < n; i++) {
-        VD_VERIFY(obs[i].box.w > 0 && obs[i].box.h > 0, VD_ERR_ARG);
-    }
-    vd_status_t st = VD_OK;
     vd_track_t *tracks = t->tracks;
-    memset(&t->stats, 0, sizeof(t->stats));
-    for (size_t i = 0; i < n; i++) {
-        obs[i].track_id = 0u;
-        obs[i].state = VD_TRACK_NONE;
-        obs[i].similarity_q15 = 0u;
-    }
-    for (size_t k = 0; k < t->cap; k++) {
-        tracks[k].matched = 0u;
-    }
-
-    estimate_motion(t, obs, n);
-
     // (1) Greedy association, best pair first. Each round fixes one pair, so
     // at most min(tracks, n) rounds.
     size_t rounds = (n < t->cap) ? n : t->cap;
@@ -587,9 +568,17 @@ vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t 
         obs[bi].similarity_q15 = (uint16_t)best;
         t->stats.matched++;
     }
+}
 
-    // (3)+(4) Unmatched tracks: miss, delete, or recover.
-    size_t out = n;
+// (3)+(4): unmatched tracks miss, are deleted, or are recovered by a probe
+// search; a recovered track appends an observation at *out (< cap, else
+// VD_ERR_CAPACITY and the recovery is dropped).
+static vd_status_t unmatched_tracks(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t cap, size_t *out_n,
+                                    vd_temporal_probe_fn probe, void *user)
+{
+    vd_status_t st = VD_OK;
+    vd_track_t *tracks = t->tracks;
+    size_t out = *out_n;
     for (size_t k = 0; k < t->cap; k++) {
         vd_track_t *tr = &tracks[k];
         if (tr->id == 0u) {
@@ -642,8 +631,16 @@ vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t 
         out++;
         t->stats.recovered++;
     }
+    *out_n = out;
+    return st;
+}
 
-    // (5) New tracks for unmatched observations, in observation order.
+// (5): new tracks for the unmatched observations, in observation order
+// (VD_ERR_CAPACITY for those without a free slot).
+static vd_status_t new_tracks(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n)
+{
+    vd_status_t st = VD_OK;
+    vd_track_t *tracks = t->tracks;
     size_t slot = 0u;
     for (size_t i = 0; i < n; i++) {
         if (obs[i].track_id != 0u) {
@@ -674,6 +671,36 @@ vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t 
         obs[i].state = tr->state;
         t->stats.created++;
     }
+    return st;
+}
+
+vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n, size_t cap, size_t *count,
+                               vd_temporal_probe_fn probe, void *user)
+{
+    VD_VERIFY(t != NULL && t->tracks != NULL && count != NULL, VD_ERR_ARG);
+    VD_VERIFY(n == 0u || obs != NULL, VD_ERR_ARG);
+    VD_VERIFY(n <= cap, VD_ERR_ARG);
+    *count = 0u;
+    for (size_t i = 0; i < n; i++) {
+        VD_VERIFY(obs[i].box.w > 0 && obs[i].box.h > 0, VD_ERR_ARG);
+    }
+    vd_track_t *tracks = t->tracks;
+    memset(&t->stats, 0, sizeof(t->stats));
+    for (size_t i = 0; i < n; i++) {
+        obs[i].track_id = 0u;
+        obs[i].state = VD_TRACK_NONE;
+        obs[i].similarity_q15 = 0u;
+    }
+    for (size_t k = 0; k < t->cap; k++) {
+        tracks[k].matched = 0u;
+    }
+
+    estimate_motion(t, obs, n);
+    associate(t, obs, n);
+    size_t out = n;
+    const vd_status_t st_rec = unmatched_tracks(t, obs, cap, &out, probe, user);
+    const vd_status_t st_new = new_tracks(t, obs, n);
+    const vd_status_t st = (st_rec != VD_OK) ? st_rec : st_new;
     for (size_t i = 0; i < out; i++) {
         if (obs[i].state == VD_TRACK_CONFIRMED) {
             t->stats.confirmed++;

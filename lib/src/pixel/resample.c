@@ -227,16 +227,26 @@ static inline uint32_t tap_sum32(const uint32_t *v, const tap_t *t, uint32_t wm)
     return (uint32_t)t->wf * v[f] + wm * mid + (uint32_t)t->wl * v[l];
 }
 
+// The divisor of the narrow path's quotients: total's half, and either its
+// log2 (pow2: total a power of two) or its reciprocal.
+typedef struct quot {
+    uint32_t half;
+    bool pow2;
+    uint32_t sh_pow2;
+    vd_recip256_t rc;
+} quot_t;
+
 // out[i] = rounded acc[i] / total for i < n (acc[i] + half < 2^32).
-static void narrow_quot(const uint32_t *restrict acc, uint8_t *restrict out, uint32_t n, uint32_t half,
-                        const vd_recip256_t *rc, bool pow2, uint32_t sh_pow2)
+static void narrow_quot(const uint32_t *restrict acc, uint8_t *restrict out, uint32_t n, const quot_t *q)
 {
-    if (pow2) {
+    const uint32_t half = q->half;
+    if (q->pow2) {
+        const uint32_t sh_pow2 = q->sh_pow2;
         for (uint32_t i = 0u; i < n; i++) {
             out[i] = (uint8_t)((acc[i] + half) >> sh_pow2);
         }
     } else {
-        const uint32_t m = rc->m, k = rc->k;
+        const uint32_t m = q->rc.m, k = q->rc.k;
         for (uint32_t i = 0u; i < n; i++) {
             out[i] = (uint8_t)vd_recip256_div32(m, k, acc[i] + half);
         }
@@ -257,78 +267,75 @@ static void narrow_quot(const uint32_t *restrict acc, uint8_t *restrict out, uin
 // is a 16x16->32 multiply and the quotient one 32x32->64 multiply (a shift
 // when the total is a power of two, as for two growing axes of power-of-two
 // sizes: tot = 2D each), so the compiler vectorises both loops.
-static void resample_narrow(const uint8_t *base, size_t stride, uint32_t sw, uint32_t sh, uint8_t *dst,
-                            uint32_t dst_w, uint32_t dst_h, uint32_t total)
+// The narrow path, vertical first: more source rows than output rows
+// (shrinking y) and a narrow ROI (sw, dst_w <= NCHUNK).
+static void narrow_vfirst(const uint8_t *base, size_t stride, uint32_t sw, uint32_t sh, uint8_t *dst, uint32_t dst_w,
+                          uint32_t dst_h, const quot_t *qt)
 {
-    const uint32_t half = total / 2u;
-    vd_recip256_t rc;
-    (void)vd_recip256_init(total, &rc);   // total <= 2^23: never fails
-    uint32_t sh_pow2 = 0u;                // log2(total) when total is a power of two
-    while (sh_pow2 < 23u && (1u << sh_pow2) < total) {
-        sh_pow2++;
-    }
-    const bool pow2 = (1u << sh_pow2) == total;
     tap_t tx[NCHUNK];
     uint32_t acc[NCHUNK];
-    if (sh > dst_h && sw <= NCHUNK && dst_w <= NCHUNK) {
-        // Vertical first: more source rows than output rows (shrinking y)
-        // and a narrow ROI. Each output row sums its y taps per source
-        // column (vectorised), then takes its x taps of those column sums:
-        // dst_w x-tap sums per output row instead of per source row.
-        // Column sums <= tot_y * 255, x-tap sums <= total * 255 < 2^31.
-        // Output rows in pairs: the x taps' loads and loop are shared by the
-        // pair's two gathers (the costliest part here).
-        uint32_t vs[2][NCHUNK];
-        uint32_t acc1[NCHUNK];
-        tap_iter_t it;
-        tap_iter_init(&it, 0u, sw, dst_w);
-        for (uint32_t i = 0u; i < dst_w; i++) {
-            tap_next(&it, &tx[i]);
-        }
-        tap_iter_init(&it, 0u, sh, dst_h);
-        for (uint32_t oy = 0u; oy < dst_h; oy += 2u) {
-            const uint32_t nr = dst_h - oy >= 2u ? 2u : 1u;
-            for (uint32_t k = 0u; k < nr; k++) {
-                tap_t ty;
-                tap_next(&it, &ty);
-                uint32_t *v = vs[k];
-                const uint8_t *row = base + (size_t)ty.first * stride;
-                const uint32_t wf = ty.wf;
-                for (uint32_t x = 0u; x < sw; x++) {
-                    v[x] = wf * row[x];
-                }
-                for (uint32_t ky = ty.first + 1u; ky <= ty.last; ky++) {
-                    const uint32_t wy = ky == ty.last ? ty.wl : dst_h;
-                    row = base + (size_t)ky * stride;
-                    for (uint32_t x = 0u; x < sw; x++) {
-                        v[x] += wy * row[x];
-                    }
-                }
-            }
-            if (nr == 2u) {
-                const uint32_t *v0 = vs[0], *v1 = vs[1];
-                for (uint32_t i = 0u; i < dst_w; i++) {
-                    const uint32_t f = tx[i].first, l = tx[i].last;
-                    const uint32_t wf = tx[i].wf, wl = tx[i].wl;
-                    uint32_t mid0 = 0u, mid1 = 0u;
-                    for (uint32_t k = f + 1u; k < l; k++) {
-                        mid0 += v0[k];
-                        mid1 += v1[k];
-                    }
-                    acc[i] = wf * v0[f] + dst_w * mid0 + wl * v0[l];
-                    acc1[i] = wf * v1[f] + dst_w * mid1 + wl * v1[l];
-                }
-                narrow_quot(acc, dst + (size_t)oy * dst_w, dst_w, half, &rc, pow2, sh_pow2);
-                narrow_quot(acc1, dst + (size_t)(oy + 1u) * dst_w, dst_w, half, &rc, pow2, sh_pow2);
-            } else {
-                for (uint32_t i = 0u; i < dst_w; i++) {
-                    acc[i] = tap_sum32(vs[0], &tx[i], dst_w);
-                }
-                narrow_quot(acc, dst + (size_t)oy * dst_w, dst_w, half, &rc, pow2, sh_pow2);
-            }
-        }
-        return;
+    // Each output row sums its y taps per source column (vectorised), then
+    // takes its x taps of those column sums: dst_w x-tap sums per output row
+    // instead of per source row. Column sums <= tot_y * 255, x-tap sums <=
+    // total * 255 < 2^31. Output rows in pairs: the x taps' loads and loop
+    // are shared by the pair's two gathers (the costliest part here).
+    uint32_t vs[2][NCHUNK];
+    uint32_t acc1[NCHUNK];
+    tap_iter_t it;
+    tap_iter_init(&it, 0u, sw, dst_w);
+    for (uint32_t i = 0u; i < dst_w; i++) {
+        tap_next(&it, &tx[i]);
     }
+    tap_iter_init(&it, 0u, sh, dst_h);
+    for (uint32_t oy = 0u; oy < dst_h; oy += 2u) {
+        const uint32_t nr = dst_h - oy >= 2u ? 2u : 1u;
+        for (uint32_t k = 0u; k < nr; k++) {
+            tap_t ty;
+            tap_next(&it, &ty);
+            uint32_t *v = vs[k];
+            const uint8_t *row = base + (size_t)ty.first * stride;
+            const uint32_t wf = ty.wf;
+            for (uint32_t x = 0u; x < sw; x++) {
+                v[x] = wf * row[x];
+            }
+            for (uint32_t ky = ty.first + 1u; ky <= ty.last; ky++) {
+                const uint32_t wy = ky == ty.last ? ty.wl : dst_h;
+                row = base + (size_t)ky * stride;
+                for (uint32_t x = 0u; x < sw; x++) {
+                    v[x] += wy * row[x];
+                }
+            }
+        }
+        if (nr == 2u) {
+            const uint32_t *v0 = vs[0], *v1 = vs[1];
+            for (uint32_t i = 0u; i < dst_w; i++) {
+                const uint32_t f = tx[i].first, l = tx[i].last;
+                const uint32_t wf = tx[i].wf, wl = tx[i].wl;
+                uint32_t mid0 = 0u, mid1 = 0u;
+                for (uint32_t k = f + 1u; k < l; k++) {
+                    mid0 += v0[k];
+                    mid1 += v1[k];
+                }
+                acc[i] = wf * v0[f] + dst_w * mid0 + wl * v0[l];
+                acc1[i] = wf * v1[f] + dst_w * mid1 + wl * v1[l];
+            }
+            narrow_quot(acc, dst + (size_t)oy * dst_w, dst_w, qt);
+            narrow_quot(acc1, dst + (size_t)(oy + 1u) * dst_w, dst_w, qt);
+        } else {
+            for (uint32_t i = 0u; i < dst_w; i++) {
+                acc[i] = tap_sum32(vs[0], &tx[i], dst_w);
+            }
+            narrow_quot(acc, dst + (size_t)oy * dst_w, dst_w, qt);
+        }
+    }
+}
+
+// The narrow path, horizontal first (every other narrow ROI).
+static void narrow_hfirst(const uint8_t *base, size_t stride, uint32_t sw, uint32_t sh, uint8_t *dst, uint32_t dst_w,
+                          uint32_t dst_h, const quot_t *qt)
+{
+    tap_t tx[NCHUNK];
+    uint32_t acc[NCHUNK];
     // Row sums cached by source row pairs (2q, 2q+1) in two slots (q & 1):
     // an output row reads at most two consecutive pairs when its taps span
     // <= 3 rows, and rows are visited in increasing order, so every pair is
@@ -388,8 +395,26 @@ static void resample_narrow(const uint8_t *base, size_t stride, uint32_t sw, uin
                     }
                 }
             }
-            narrow_quot(acc, dst + (size_t)oy * dst_w + cx, nx, half, &rc, pow2, sh_pow2);
+            narrow_quot(acc, dst + (size_t)oy * dst_w + cx, nx, qt);
         }
+    }
+}
+
+static void resample_narrow(const uint8_t *base, size_t stride, uint32_t sw, uint32_t sh, uint8_t *dst,
+                            uint32_t dst_w, uint32_t dst_h, uint32_t total)
+{
+    quot_t q;
+    q.half = total / 2u;
+    (void)vd_recip256_init(total, &q.rc);   // total <= 2^23: never fails
+    q.sh_pow2 = 0u;                         // log2(total) when total is a power of two
+    while (q.sh_pow2 < 23u && (1u << q.sh_pow2) < total) {
+        q.sh_pow2++;
+    }
+    q.pow2 = (1u << q.sh_pow2) == total;
+    if (sh > dst_h && sw <= NCHUNK && dst_w <= NCHUNK) {
+        narrow_vfirst(base, stride, sw, sh, dst, dst_w, dst_h, &q);
+    } else {
+        narrow_hfirst(base, stride, sw, sh, dst, dst_w, dst_h, &q);
     }
 }
 

@@ -358,6 +358,87 @@ static uint32_t cc_merge_pair(cc_slot_t *s, uint32_t n, cc_span_t *a, size_t na,
     return n;
 }
 
+// Pass 2 of cc_label: box, area and coordinate sums of every label < cap
+// from the labelled runs (slots, pair k's runs at seg[k] .. seg[k + 1]).
+static void cc_accumulate(cc_slot_t *slots, const uint32_t *seg, size_t pairs, vd_component_t *out, size_t cap)
+{
+    // Labels < cap, in index order. While accumulating, out[L].box holds
+    // {min x, min y, max x, max y} in ROI coordinates,
+    // cx_q8 | cy_q8 << 32 holds sum(y), and slots[L].sum_x sum(x). Label L
+    // first appears at its root run (L <= root index), labels first appear
+    // in increasing order, and slot L was read at step L <= i before reuse.
+    // Sums: sum(x) < area * w <= 2^26 * 2^13 = 2^39 for VD_MAX_DIM 8192 (and
+    // < 2^60 for any w, h < 2^15), so uint64 cannot overflow.
+    uint32_t seen = 0u;
+    for (size_t k = 0u; k < pairs; k++) {
+        const uint32_t y_even = (uint32_t)(2u * k);
+        for (uint32_t i = seg[k]; i < seg[k + 1u]; i++) {
+            const uint32_t x0f = slots[i].run.x0f;
+            const uint32_t x0 = x0f & CC_X_MASK;
+            const uint32_t x1 = slots[i].run.x1;
+            const uint32_t lab = slots[i].run.parent;
+            if ((size_t)lab >= cap) {
+                continue;
+            }
+            const uint32_t y = y_even + ((x0f & CC_ODD_ROW) != 0u ? 1u : 0u);
+            const uint32_t len = x1 - x0 + 1u;
+            // x0 + ... + x1 = (x0 + x1) * len / 2; the product is always even.
+            const uint64_t sx = ((uint64_t)(x0 + x1) * len) >> 1;
+            vd_component_t *c = &out[lab];
+            uint64_t sy = (uint64_t)y * len;
+            if (lab == seen) {
+                seen++;
+                c->box.x = (int32_t)x0;
+                c->box.y = (int32_t)y;
+                c->box.w = (int32_t)x1;
+                c->box.h = (int32_t)y;
+                c->area = len;
+                slots[lab].sum_x = sx;
+            } else {
+                if ((int32_t)x0 < c->box.x) {
+                    c->box.x = (int32_t)x0;
+                }
+                if ((int32_t)x1 > c->box.w) {
+                    c->box.w = (int32_t)x1;
+                }
+                if ((int32_t)y < c->box.y) {
+                    c->box.y = (int32_t)y;
+                }
+                if ((int32_t)y > c->box.h) {
+                    c->box.h = (int32_t)y;
+                }
+                c->area += len;
+                slots[lab].sum_x += sx;
+                sy += (uint64_t)c->cx_q8 | ((uint64_t)c->cy_q8 << 32);
+            }
+            c->cx_q8 = (uint32_t)(sy & 0xFFFFFFFFu);
+            c->cy_q8 = (uint32_t)(sy >> 32);
+        }
+    }
+}
+
+// The n_out accumulated components as results: boxes to image coordinates,
+// centroids from the sums.
+static void cc_finish(const cc_src_t *src, const cc_slot_t *slots, vd_component_t *out, size_t n_out)
+{
+    // Centroids round-half-up in Q8: floor((512 * sum + area) / (2 * area));
+    // 512 * sum < 2^48.
+    for (size_t l = 0u; l < n_out; l++) {
+        vd_component_t *c = &out[l];
+        const uint64_t sy = (uint64_t)c->cx_q8 | ((uint64_t)c->cy_q8 << 32);
+        const uint64_t sx = slots[l].sum_x;
+        const uint64_t a2 = 2u * (uint64_t)c->area;
+        const uint64_t cx = (512u * sx + c->area) / a2;
+        const uint64_t cy = (512u * sy + c->area) / a2;
+        c->box.w = c->box.w - c->box.x + 1;
+        c->box.h = c->box.h - c->box.y + 1;
+        c->box.x += src->x;
+        c->box.y += src->y;
+        c->cx_q8 = (uint32_t)cx + ((uint32_t)src->x << 8);
+        c->cy_q8 = (uint32_t)cy + ((uint32_t)src->y << 8);
+    }
+}
+
 // The labeller shared by all entry points. `ws`/`bytes` were checked to hold
 // the fixed part of `lay` plus at least one slot; the run budget is what is
 // left, up to the worst case.
@@ -417,77 +498,10 @@ static vd_status_t cc_label(const cc_src_t *src, const cc_layout_t *lay, void *w
         slots[i].run.parent = (p == i) ? n_labels++ : slots[p].run.parent;
     }
 
-    // Pass 2: statistics of labels < cap, in index order. While accumulating,
-    // out[L].box holds {min x, min y, max x, max y} in ROI coordinates,
-    // cx_q8 | cy_q8 << 32 holds sum(y), and slots[L].sum_x sum(x). Label L
-    // first appears at its root run (L <= root index), labels first appear
-    // in increasing order, and slot L was read at step L <= i before reuse.
-    // Sums: sum(x) < area * w <= 2^26 * 2^13 = 2^39 for VD_MAX_DIM 8192 (and
-    // < 2^60 for any w, h < 2^15), so uint64 cannot overflow.
-    uint32_t seen = 0u;
-    for (size_t k = 0u; k < pairs; k++) {
-        const uint32_t y_even = (uint32_t)(2u * k);
-        for (uint32_t i = seg[k]; i < seg[k + 1u]; i++) {
-            const uint32_t x0f = slots[i].run.x0f;
-            const uint32_t x0 = x0f & CC_X_MASK;
-            const uint32_t x1 = slots[i].run.x1;
-            const uint32_t lab = slots[i].run.parent;
-            if ((size_t)lab >= cap) {
-                continue;
-            }
-            const uint32_t y = y_even + ((x0f & CC_ODD_ROW) != 0u ? 1u : 0u);
-            const uint32_t len = x1 - x0 + 1u;
-            // x0 + ... + x1 = (x0 + x1) * len / 2; the product is always even.
-            const uint64_t sx = ((uint64_t)(x0 + x1) * len) >> 1;
-            vd_component_t *c = &out[lab];
-            uint64_t sy = (uint64_t)y * len;
-            if (lab == seen) {
-                seen++;
-                c->box.x = (int32_t)x0;
-                c->box.y = (int32_t)y;
-                c->box.w = (int32_t)x1;
-                c->box.h = (int32_t)y;
-                c->area = len;
-                slots[lab].sum_x = sx;
-            } else {
-                if ((int32_t)x0 < c->box.x) {
-                    c->box.x = (int32_t)x0;
-                }
-                if ((int32_t)x1 > c->box.w) {
-                    c->box.w = (int32_t)x1;
-                }
-                if ((int32_t)y < c->box.y) {
-                    c->box.y = (int32_t)y;
-                }
-                if ((int32_t)y > c->box.h) {
-                    c->box.h = (int32_t)y;
-                }
-                c->area += len;
-                slots[lab].sum_x += sx;
-                sy += (uint64_t)c->cx_q8 | ((uint64_t)c->cy_q8 << 32);
-            }
-            c->cx_q8 = (uint32_t)(sy & 0xFFFFFFFFu);
-            c->cy_q8 = (uint32_t)(sy >> 32);
-        }
-    }
-
-    // Finish: boxes to image coordinates, centroids round-half-up in Q8:
-    // floor((512 * sum + area) / (2 * area)); 512 * sum < 2^48.
+    // Pass 2: statistics of labels < cap; then image coordinates and centroids.
+    cc_accumulate(slots, seg, pairs, out, cap);
     const size_t n_out = (size_t)n_labels < cap ? (size_t)n_labels : cap;
-    for (size_t l = 0u; l < n_out; l++) {
-        vd_component_t *c = &out[l];
-        const uint64_t sy = (uint64_t)c->cx_q8 | ((uint64_t)c->cy_q8 << 32);
-        const uint64_t sx = slots[l].sum_x;
-        const uint64_t a2 = 2u * (uint64_t)c->area;
-        const uint64_t cx = (512u * sx + c->area) / a2;
-        const uint64_t cy = (512u * sy + c->area) / a2;
-        c->box.w = c->box.w - c->box.x + 1;
-        c->box.h = c->box.h - c->box.y + 1;
-        c->box.x += src->x;
-        c->box.y += src->y;
-        c->cx_q8 = (uint32_t)cx + ((uint32_t)src->x << 8);
-        c->cy_q8 = (uint32_t)cy + ((uint32_t)src->y << 8);
-    }
+    cc_finish(src, slots, out, n_out);
     *count = n_out;
     if (stats != NULL) {
         stats->runs = n;

@@ -199,6 +199,46 @@ static void to_cv_order(vd_point_t *pts, uint8_t *chain, size_t n_pts, vd_contou
     }
 }
 
+// The mark plane p ((w + 2) x (h + 2), stride w + 2): the mask's nonzero
+// pixels as MARK_FG inside a zero border.
+static void mark_plane(const vd_view_u8_t *mask, uint8_t *p)
+{
+    const size_t w = mask->width;
+    const size_t h = mask->height;
+    const size_t pw = w + 2u;
+    memset(p, 0, pw);
+    memset(p + (h + 1u) * pw, 0, pw);
+    for (size_t y = 0; y < h; y++) {
+        const uint8_t *src = mask->data + y * mask->stride;
+        uint8_t *row = p + (y + 1u) * pw;
+        row[0] = 0u;
+        row[w + 1u] = 0u;
+        mark_row(src, row + 1u, w);
+    }
+}
+
+// A tracer on the mark plane p (stride pw, need bytes) writing into the
+// caller's point and chain arrays (cap points).
+static void tracer_init(tracer_t *t, uint8_t *p, size_t pw, size_t need, vd_point_t *points, uint8_t *chain,
+                        size_t cap)
+{
+    const ptrdiff_t st = (ptrdiff_t)pw;
+    t->plane = p;
+    t->delta[0] = 1;
+    t->delta[1] = 1 - st;
+    t->delta[2] = -st;
+    t->delta[3] = -st - 1;
+    t->delta[4] = -1;
+    t->delta[5] = st - 1;
+    t->delta[6] = st;
+    t->delta[7] = st + 1;
+    t->max_steps = 4u * need;   // need = (w+2)(h+2) < 2^27: no overflow
+    t->points = points;
+    t->chain = chain;
+    t->cap = cap;
+    t->used = 0u;
+}
+
 vd_status_t vd_contour_find_external(const vd_view_u8_t *mask, void *ws, size_t bytes,
                                       vd_point_t *points, uint8_t *chain, size_t points_cap,
                                       vd_contour_t *contours, size_t contours_cap,
@@ -222,34 +262,9 @@ vd_status_t vd_contour_find_external(const vd_view_u8_t *mask, void *ws, size_t 
 
     // 1. Mark plane with a zero border, nonzero -> 1.
     uint8_t *p = (uint8_t *)ws;
-    memset(p, 0, pw);
-    memset(p + (h + 1u) * pw, 0, pw);
-    for (size_t y = 0; y < h; y++) {
-        const uint8_t *src = mask->data + y * mask->stride;
-        uint8_t *row = p + (y + 1u) * pw;
-        row[0] = 0u;
-        row[w + 1u] = 0u;
-        mark_row(src, row + 1u, w);
-    }
-
+    mark_plane(mask, p);
     tracer_t t;
-    t.plane = p;
-    {
-        const ptrdiff_t st = (ptrdiff_t)pw;
-        t.delta[0] = 1;
-        t.delta[1] = 1 - st;
-        t.delta[2] = -st;
-        t.delta[3] = -st - 1;
-        t.delta[4] = -1;
-        t.delta[5] = st - 1;
-        t.delta[6] = st;
-        t.delta[7] = st + 1;
-    }
-    t.max_steps = 4u * need;   // need = (w+2)(h+2) < 2^27: no overflow
-    t.points = points;
-    t.chain = chain;
-    t.cap = points_cap;
-    t.used = 0u;
+    tracer_init(&t, p, pw, need, points, chain, points_cap);
 
     vd_status_t st = VD_OK;
     size_t nc = 0u;

@@ -201,6 +201,72 @@ static void cmap_init(cmap_t *m, const vd_view_u8_t *src, uint32_t r, uint8_t po
     area_recips_init(&m->rt, r, m->rt_ny);
 }
 
+// box[j] = acc + dif[0] + .. + dif[j-1] for j < nc (the running box sums of
+// one chunk, modulo 2^32). Two forms of the same sums, chosen by what each
+// compiler makes fast (both exact): gcc vectorises the recurrence of
+// distance 4 (the box four to the left plus a window of four differences:
+// 194 against 219 us per 640x480 frame for the form below, gcc 12 -O3,
+// 64-pixel chunks); clang 14 does not vectorise it and then runs it as a
+// store-to-load chain (366 us), while its scalar four-at-a-time running sum
+// takes 209 us.
+static inline void box_sums(const uint32_t *dif, uint32_t nc, uint32_t acc, uint32_t *box)
+{
+#if defined(__clang__)
+    uint32_t j = 0;
+    for (; j + 4u <= nc; j += 4u) {
+        const uint32_t p1 = dif[j], p2 = p1 + dif[j + 1u], p3 = p2 + dif[j + 2u], p4 = p3 + dif[j + 3u];
+        box[j] = acc;
+        box[j + 1u] = acc + p1;
+        box[j + 2u] = acc + p2;
+        box[j + 3u] = acc + p3;
+        acc += p4;
+    }
+    for (; j < nc; j++) {
+        box[j] = acc;
+        acc += dif[j];
+    }
+#else
+    const uint32_t n4 = nc < 4u ? nc : 4u;
+    for (uint32_t j = 0; j < n4; j++) {
+        box[j] = acc;
+        acc += dif[j];
+    }
+    for (uint32_t j = 4u; j < nc; j++) {
+        box[j] = box[j - 4u] + ((dif[j - 4u] + dif[j - 3u]) + (dif[j - 2u] + dif[j - 1u]));
+    }
+#endif
+}
+
+// Slides the column sums of map row m->y down (row y + r + 1 enters, row
+// y - r leaves) and moves to the next row.
+static void cmap_slide(cmap_t *m)
+{
+    const vd_view_u8_t *src = m->src;
+    const uint32_t w = src->width;
+    const uint32_t h = src->height;
+    const uint32_t r = m->r;
+    const uint32_t y = m->y;
+    uint16_t *col = m->col;
+    const bool enter = y + r + 1u < h;
+    const bool leave = y >= r;
+    const uint8_t *add = enter ? src->data + (size_t)(y + r + 1u) * src->stride : src->data;
+    const uint8_t *sub = leave ? src->data + (size_t)(y - r) * src->stride : src->data;
+    if (enter && leave) {
+        for (uint32_t i = 0; i < w; i++) {
+            col[i] = (uint16_t)(col[i] + add[i] - sub[i]);
+        }
+    } else if (enter) {
+        for (uint32_t i = 0; i < w; i++) {
+            col[i] = (uint16_t)(col[i] + add[i]);
+        }
+    } else if (leave) {
+        for (uint32_t i = 0; i < w; i++) {
+            col[i] = (uint16_t)(col[i] - sub[i]);
+        }
+    }
+    m->y = y + 1u;
+}
+
 // Writes map row m->y to drow (w bytes) and moves to the next row; called
 // once per row, m->y < height.
 static void cmap_row(cmap_t *m, uint8_t *restrict drow)
@@ -259,39 +325,7 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
         for (uint32_t j = 0; j < nc; j++) {
             dif[j] = (uint32_t)in[j] - out[j];   // wraps when negative; the sums are exact mod 2^32
         }
-        // box[j] = sum + half + dif[0] + .. + dif[j-1]. Two forms of the
-        // same sums, chosen by what each compiler makes fast (both exact):
-        // gcc vectorises the recurrence of distance 4 (the box four to the
-        // left plus a window of four differences: 194 against 219 us per
-        // 640x480 frame for the form below, gcc 12 -O3, 64-pixel chunks);
-        // clang 14 does not vectorise it and then runs it as a
-        // store-to-load chain (366 us), while its scalar four-at-a-time
-        // running sum takes 209 us.
-        uint32_t acc = sum + half;
-#if defined(__clang__)
-        uint32_t j = 0;
-        for (; j + 4u <= nc; j += 4u) {
-            const uint32_t p1 = dif[j], p2 = p1 + dif[j + 1u], p3 = p2 + dif[j + 2u], p4 = p3 + dif[j + 3u];
-            box[j] = acc;
-            box[j + 1u] = acc + p1;
-            box[j + 2u] = acc + p2;
-            box[j + 3u] = acc + p3;
-            acc += p4;
-        }
-        for (; j < nc; j++) {
-            box[j] = acc;
-            acc += dif[j];
-        }
-#else
-        const uint32_t n4 = nc < 4u ? nc : 4u;
-        for (uint32_t j = 0; j < n4; j++) {
-            box[j] = acc;
-            acc += dif[j];
-        }
-        for (uint32_t j = 4u; j < nc; j++) {
-            box[j] = box[j - 4u] + ((dif[j - 4u] + dif[j - 3u]) + (dif[j - 2u] + dif[j - 1u]));
-        }
-#endif
+        box_sums(dif, nc, sum + half, box);
         sum = box[nc - 1u] + dif[nc - 1u] - half;
         contrast_chunk(box, srow + x, drow + x, nc, rt->in.m, rt->in.k, polarity);
         x += nc;
@@ -317,25 +351,7 @@ static void cmap_row(cmap_t *m, uint8_t *restrict drow)
             sum -= col[x - r];
         }
     }
-    // Slide the column sums down: row y + r + 1 enters, row y - r leaves.
-    const bool enter = y + r + 1u < h;
-    const bool leave = y >= r;
-    const uint8_t *add = enter ? src->data + (size_t)(y + r + 1u) * src->stride : src->data;
-    const uint8_t *sub = leave ? src->data + (size_t)(y - r) * src->stride : src->data;
-    if (enter && leave) {
-        for (uint32_t i = 0; i < w; i++) {
-            col[i] = (uint16_t)(col[i] + add[i] - sub[i]);
-        }
-    } else if (enter) {
-        for (uint32_t i = 0; i < w; i++) {
-            col[i] = (uint16_t)(col[i] + add[i]);
-        }
-    } else if (leave) {
-        for (uint32_t i = 0; i < w; i++) {
-            col[i] = (uint16_t)(col[i] - sub[i]);
-        }
-    }
-    m->y = y + 1u;
+    cmap_slide(m);
 }
 
 vd_status_t vd_contrast_map_u8(const vd_view_u8_t *src, uint32_t radius, uint8_t polarity, void *ws, size_t bytes,

@@ -284,6 +284,45 @@ static bool cfg_ok(const vd_refine_cfg_t *c)
            c->window >= 3u && c->window <= VD_REFINE_MAX_WINDOW && (c->window & 1u) == 1u;
 }
 
+// Steps 4-5 at edge pixel (x, y) of the filtered plane fdata (w x h): the
+// eq. (1) threshold of its window (side 2 half + 1, clipped to the plane)
+// rewrites the mask there when the window splits into two levels (returns
+// true). hist is all zero on entry and on return.
+static bool local_window(const uint8_t *fdata, uint32_t w, uint32_t h, uint32_t x, uint32_t y, uint32_t half,
+                         uint32_t *hist, vd_image_u8_t *mask)
+{
+    const uint32_t x0 = x > half ? x - half : 0u;
+    const uint32_t y0 = y > half ? y - half : 0u;
+    const uint32_t x1 = x + half < w ? x + half : w - 1u;
+    const uint32_t y1 = y + half < h ? y + half : h - 1u;
+    // Window histogram + a bitmap of its occupied levels, so that
+    // eq. (1) visits only those (<= window^2), not all 256 levels.
+    uint32_t present[8] = {0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u};
+    uint32_t wsum = 0u;
+    for (uint32_t yy = y0; yy <= y1; yy++) {
+        const uint8_t *f = fdata + (size_t)yy * w;
+        for (uint32_t xx = x0; xx <= x1; xx++) {
+            const uint32_t v = f[xx];
+            hist[v]++;
+            present[v >> 5] |= 1u << (v & 31u);
+            wsum += v;
+        }
+    }
+    uint8_t tl = 0u;
+    const bool split = maxdist_levels(hist, present, (x1 - x0 + 1u) * (y1 - y0 + 1u), wsum, &tl);
+    for (uint32_t yy = y0; yy <= y1; yy++) {
+        const uint8_t *f = fdata + (size_t)yy * w;
+        uint8_t *m = mask->data + (size_t)yy * mask->stride;
+        for (uint32_t xx = x0; xx <= x1; xx++) {
+            hist[f[xx]] = 0u;   // clears only the bins used
+            if (split) {
+                m[xx] = f[xx] > tl ? 255u : 0u;
+            }
+        }
+    }
+    return split;
+}
+
 vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, const vd_refine_cfg_t *cfg,
                              void *ws, size_t bytes, vd_image_u8_t *mask, vd_refine_stats_t *stats)
 {
@@ -358,36 +397,7 @@ vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, cons
             if (!selected) {
                 continue;
             }
-            const uint32_t x0 = x > half ? x - half : 0u;
-            const uint32_t y0 = y > half ? y - half : 0u;
-            const uint32_t x1 = x + half < w ? x + half : w - 1u;
-            const uint32_t y1 = y + half < h ? y + half : h - 1u;
-            // Window histogram + a bitmap of its occupied levels, so that
-            // eq. (1) visits only those (<= window^2), not all 256 levels.
-            uint32_t present[8] = {0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u};
-            uint32_t wsum = 0u;
-            for (uint32_t yy = y0; yy <= y1; yy++) {
-                const uint8_t *f = fdata + (size_t)yy * w;
-                for (uint32_t xx = x0; xx <= x1; xx++) {
-                    const uint32_t v = f[xx];
-                    hist[v]++;
-                    present[v >> 5] |= 1u << (v & 31u);
-                    wsum += v;
-                }
-            }
-            uint8_t tl = 0u;
-            const bool split = maxdist_levels(hist, present, (x1 - x0 + 1u) * (y1 - y0 + 1u), wsum, &tl);
-            for (uint32_t yy = y0; yy <= y1; yy++) {
-                const uint8_t *f = fdata + (size_t)yy * w;
-                uint8_t *m = mask->data + (size_t)yy * mask->stride;
-                for (uint32_t xx = x0; xx <= x1; xx++) {
-                    hist[f[xx]] = 0u;   // clears only the bins used
-                    if (split) {
-                        m[xx] = f[xx] > tl ? 255u : 0u;
-                    }
-                }
-            }
-            n_windows += split ? 1u : 0u;
+            n_windows += local_window(fdata, w, h, x, y, half, hist, mask) ? 1u : 0u;
         }
     }
 

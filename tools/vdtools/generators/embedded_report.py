@@ -33,7 +33,8 @@ REPO = Path(__file__).resolve().parents[3]
 STACK_BUDGET = {"vd_detector_run": 2048}
 # Indirect call sites resolved to the lib/ functions they reach (suffix of the .ci node title).
 # A key names a global function, or "file.c:function" for a static one.
-INDIRECT = {"vd_temporal_update": ["vd_det_probe"], "windows.c:walk": [":collect", ":rank_visit"],
+INDIRECT = {"vd_temporal_update": ["vd_det_probe"], "temporal.c:unmatched_tracks": ["vd_det_probe"],
+            "temporal.c:recover_search": ["vd_det_probe"], "windows.c:walk": [":collect", ":rank_visit"],
             "windows.c:rank_visit": [":window_visit"], "input.c:src_row": [":cnn_row"]}
 WORKSPACE_GOAL = 256 * 1024
 DATA = REPO.parent / "shared" / "data"
@@ -322,7 +323,7 @@ def firmware_section(fw, cnn_rows):
               f"delivers frames into RAM). RAM = {' + '.join(s for s in FW_RAM)}: the detector workspace",
               f"`vd_detector_workspace_size()` = {m7['workspace_bytes']} B in a {m7['workspace_reserved']} B static",
               f"buffer, {sz['.bss']} B of `.bss` (detector object, loaded model, detection array), a",
-              f"{m7['stack_size']} B stack. MinSizeRel is `-Os`; Release is `-O3` (and `cnn.c` at `-O3`, VD_CNN_O3).", "",
+              f"{m7['stack_size']} B stack. MinSizeRel is `-Os`; Release is `-O3` (and `lib/src/models/cnn/` at `-O3`, VD_CNN_O3).", "",
               "Stack high-water mark: the reset handler paints the stack with 0xA5A5A5A5 and the firmware",
               "finds the deepest overwritten word after the last frame (the whole run: model load,",
               "detector init, every frame, the output formatting, the SysTick interrupt).", "",

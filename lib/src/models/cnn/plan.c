@@ -163,7 +163,6 @@ vd_status_t vd_cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t
     return VD_OK;
 }
 
-
 vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
                                      size_t *bytes)
 {
