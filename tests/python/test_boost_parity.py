@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""Boosted-stump verifier (paper 003, lib/src/boost.c): C == the integer reference
+"""Boosted-stump verifier (paper 003, lib/src/models/boost.c): C == the integer reference
 (tools/vdtools/formats/boost_vdm.py) on random models and, for the committed models/vd_boost.vdm, on every
 64x64 crop of the test split (the data set builder's test rows cut at 64x64)."""
 import os

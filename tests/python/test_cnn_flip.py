@@ -29,7 +29,7 @@ def test_clip_boxes_mirror_rule():
                                                               ((46, 0, 4, 40), 1)]
 
 
-# Hand-worked fusion (lib/src/detector_cnn.c fuse_boxes; the C side: tests/unit/test_detector_cnn.c).
+# Hand-worked fusion (lib/src/detector/detector_cnn.c fuse_boxes; the C side: tests/unit/test_detector_cnn.c).
 A = [((10, 10, 20, 20), 30000),      # a0: b0 and b1 overlap it 16 x 20 each: IoU 320 / 480 = 21845, a tie -> b0
      ((100, 10, 21, 20), 20000),     # a1: b2, inter 20 x 19 = 380, union 460: 27069
      ((50, 50, 10, 10), 23999),      # a2: b3 (IoU 80 / 120 = 21845), taken before a3 (whose IoU with it is 1)

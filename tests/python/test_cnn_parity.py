@@ -27,7 +27,7 @@ def cnn(vdlib):
     try:
         return vd_cnn.lib()
     except AttributeError as e:
-        pytest.skip(f"{clib.lib_path()} has no CNN module ({e}): build lib/src/cnn.c first")
+        pytest.skip(f"{clib.lib_path()} has no CNN module ({e}): build lib/src/models/cnn/ first")
 
 
 def _first_diff(c_ts, r_ts, desc):

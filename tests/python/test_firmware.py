@@ -78,6 +78,6 @@ def test_firmware_matches_demo(qemu, toolchain, tmp_path):
 def test_firmware_corrupted_model(qemu):
     bdir = build_firmware("cortex-m7")
     r = run_qemu(qemu, "cortex-m7", bdir / "vd_fw_badmodel.elf")
-    # vd_status_str(VD_ERR_MODEL) is "invalid model" (lib/src/status.c); exit 2 = reported error, 3 = fault.
+    # vd_status_str(VD_ERR_MODEL) is "invalid model" (lib/src/core/status.c); exit 2 = reported error, 3 = fault.
     assert r.returncode == 2, r.stderr[-2000:]
     assert r.stderr == "vd_fw: vd_cnn_load: invalid model\n"

@@ -5,8 +5,8 @@ recursively, so files may move between folders of lib/src without touching this 
 - an angle-bracket include names one of the standard headers that docs/architecture.md lists in its
   sentence "`lib/` includes only `<stdint.h> ...`" (read from the document, so the two cannot drift);
   the one named exception: x86 back-end files (a path below lib/ with the word "x86" in a folder or file
-  name, as lib/src/cnn_x86.c) may include <immintrin.h>, and CMSIS-NN back-end files (the word "cmsis")
-  CMSIS-NN's own headers;
+  name, as lib/src/models/cnn/kernels/conv_x86.c) may include <immintrin.h>, and CMSIS-NN back-end files
+  (the word "cmsis") CMSIS-NN's own headers;
 - a quoted include resolves to a file of lib/ (the including file's folder, lib/include, lib/src or
   any other folder of lib/),
   except the user configuration hook of vd/config.h ("vd_user_config.h", VD_USER_CONFIG_FILE): nothing

@@ -9,7 +9,7 @@
 
 Configuration keywords are the fields of vd_detector_cfg_t (0 = the paper's default);
 thr_mode also accepts "constant" / "adaptive", and temporal=True enables temporal.h.
-`exp_tables()` regenerates the exp() tables of lib/src/temporal.c.
+`exp_tables()` regenerates the exp() tables of lib/src/detector/temporal.c.
 """
 import ctypes as C
 import math
@@ -314,7 +314,7 @@ def detect(frame, model=None, **cfg):
 
 
 def exp_tables():
-    """The two Q30 tables of lib/src/temporal.c: round(2^30 exp(-k/128)), k=0..128, and
+    """The two Q30 tables of lib/src/detector/temporal.c: round(2^30 exp(-k/128)), k=0..128, and
     round(2^30 exp(-n)), n=0..16 (Python round: half to even; no value is a tie)."""
     frac = [round(math.exp(-k / 128) * 2 ** 30) for k in range(129)]
     ints = [round(math.exp(-n) * 2 ** 30) for n in range(17)]

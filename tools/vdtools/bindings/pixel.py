@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
 """ctypes bindings of the pixel modules (threshold.h, otsu.h, median.h): numpy in, numpy out.
 
-The generator of the 5x5 median selection network of lib/src/median.c is
+The generator of the 5x5 median selection network of lib/src/pixel/median.c is
 vdtools.generators.median_network."""
 import ctypes as C
 

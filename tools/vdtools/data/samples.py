@@ -28,7 +28,7 @@ def clip_rect(rect, width, height):
 
 def _axis_weights(s, d):
     """Dense (d, s) int64 weight matrix and its row total for one axis, as in
-    lib/src/resample.c (area average if s >= d, else bilinear, exact)."""
+    lib/src/pixel/resample.c (area average if s >= d, else bilinear, exact)."""
     m = np.zeros((d, s), dtype=np.int64)
     if s >= d:
         for i in range(d):

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""The C detector's CNN source (lib/src/detector_cnn.c, vd_detector_cfg_t.cnn_*) in Python, integer for
+"""The C detector's CNN source (lib/src/detector/detector_cnn.c, vd_detector_cfg_t.cnn_*) in Python, integer for
 integer: what `vd_fir_demo --sources cnn --temporal off` reports for an 8-bit frame.
 
 Pipeline: vdtools.evaluation.cnn_eval.net_input (half resolution, edge padding to the model's alignment) ->

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: MIT
 """The numpy integer reference of the int8 CNN (docs/model-format.md "CNN kind", docs/fixed-point.md "cnn"): input normalisation, the six
 layer ops with TFLite requantisation, and the fixed-point decoding. vd_cnn_run / vd_cnn_decode
-(lib/src/cnn.c) must equal it bit for bit (tests/python/test_cnn_parity.py).
+(lib/src/models/cnn/) must equal it bit for bit (tests/python/test_cnn_parity.py).
 
     x = preprocess(img_u8, desc)            # int8 [h, w, 1]
     ts = forward(desc, x)                   # [x, t1, ..., tL], int8 [H, W, C] each; ts[-1] is the head

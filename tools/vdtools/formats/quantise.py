@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
 """Quantisation of a float DBN (.npz from training) to the integer network that
-lib/src/dbn.c runs, and the integer numpy reference that reproduces the C
+lib/src/models/dbn.c runs, and the integer numpy reference that reproduces the C
 bit for bit.
 
 Float model (.npz; this docstring is its contract): mode ("grey"|"shape"),

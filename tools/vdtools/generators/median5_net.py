@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""Generator of the 5x5 median's shared-pair selection network in lib/src/median.c.
+"""Generator of the 5x5 median's shared-pair selection network in lib/src/pixel/median.c.
 
 median.c's 5x5 path works on outputs in pairs (x, x+1), x even, which share
 the columns x+1 .. x+4. For one row of sorted 5-pixel columns it tables the

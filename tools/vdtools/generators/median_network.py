@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: MIT
-"""Generator of the 5x5 median selection network used in lib/src/median.c (`median_network()`), with its
+"""Generator of the 5x5 median selection network used in lib/src/pixel/median.c (`median_network()`), with its
 exhaustive 0-1-principle check; vdtools.generators.median5_net builds the shared-pair block on it."""
 import itertools
 
 
 # ---------------------------------------------------------------------------
-# Generator of the 5x5 median selection network in lib/src/median.c.
+# Generator of the 5x5 median selection network in lib/src/pixel/median.c.
 # A network is built symbolically from min/max nodes with constant folding
 # (+inf padding) and common-subexpression sharing; only nodes that reach the
 # wanted output are emitted. Correctness: a min/max circuit selects the k-th
