@@ -43,9 +43,29 @@ def measure(model, model2, frames, shifts=SHIFTS, thr=None):
     return thr, out
 
 
+def render(reports):
+    """A markdown table of reports {label: measure()'s JSON}: one row per camera change, per report the
+    drone / road AP@0.5 (and TP / FP at its threshold)."""
+    labels = list(reports)
+    shifts = [s for s in SHIFTS if all(s in r["shifts"] for r in reports.values())]
+    head = "| change | " + " | ".join(f"{k}: drone AP, TP/FP | {k}: road AP, TP/FP" for k in labels) + " |"
+    rows = [head, "|---|" + "---:|" * (2 * len(labels))]
+    for s in shifts:
+        cells = []
+        for k in labels:
+            for fam in ("hit", "msrs"):
+                v = reports[k]["shifts"][s].get(fam)
+                cells.append("–" if v is None else
+                             f"{100 * v['ap']:.1f}, {100 * v['tp_rate']:.0f} / {100 * v['fp_rate']:.0f} %")
+        rows.append(f"| {s} | " + " | ".join(cells) + " |")
+    return "\n".join(rows)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--model", required=True)
+    ap.add_argument("--render", nargs="+", metavar="LABEL=JSON", help="print the markdown table of reports "
+                    "written by --out, and nothing else")
+    ap.add_argument("--model")
     ap.add_argument("--model2", help="the pair's second network")
     ap.add_argument("--split", default="val", choices=("val", "test"))
     ap.add_argument("--thr", type=float, help="score threshold (default: the header's, as the detector)")
@@ -53,6 +73,11 @@ def main(argv=None):
     ap.add_argument("--data", default=str(clib.REPO.parent / "shared" / "data"))
     ap.add_argument("--out", help="JSON report")
     a = ap.parse_args(argv)
+    if a.render:
+        print(render({k: json.loads(Path(v).read_text()) for k, v in (r.split("=", 1) for r in a.render)}))
+        return
+    if not a.model:
+        ap.error("--model is required (or --render)")
     frames = CD.load_frames(a.data, splits=(a.split,))
     thr, res = measure(a.model, a.model2, frames, a.shift or SHIFTS, a.thr)
     if a.out:

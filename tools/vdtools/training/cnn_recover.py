@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from vdtools.formats import cnn_vdm as V
+from vdtools.training import cnn_export as E
+from vdtools.training.cnn_net import Net
 
 
 def recover(desc, scales):
@@ -77,8 +79,6 @@ def main(argv=None):
     ap.add_argument("--scales", help="the export's scales file (default: beside the model)")
     ap.add_argument("--out", required=True, help="float weights (.npz, as cnn_export --float-out writes them)")
     a = ap.parse_args(argv)
-    from vdtools.training import cnn_export as E
-    from vdtools.training.cnn_train import Net
     model = Path(a.model)
     scales = json.loads(Path(a.scales or model.with_suffix(".scales.json")).read_text())
     desc = V.unpack(model.read_bytes())
