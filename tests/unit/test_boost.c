@@ -21,7 +21,7 @@
 
 #include "vd/boost.h"
 #include "vd/detector.h"
-#include "internal/crc32.h"
+#include "core/crc32.h"
 
 void setUp(void) {}
 void tearDown(void) {}

@@ -14,8 +14,8 @@
 #include <string.h>
 
 #include "models/cnn/cnn_internal.h"
-#include "internal/crc32.h"
-#include "internal/requant.h"
+#include "core/crc32.h"
+#include "models/requant.h"
 
 void setUp(void) {}
 void tearDown(void) {}

@@ -6,7 +6,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "internal/crc32.h"
+#include "core/crc32.h"
 #include "../data/dbn_golden.h"
 
 void setUp(void) {}

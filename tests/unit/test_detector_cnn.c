@@ -20,7 +20,7 @@
 
 #include "vd/detector.h"
 #include "vd/resample.h"
-#include "internal/crc32.h"
+#include "core/crc32.h"
 #include "../data/dbn_golden.h"
 
 void setUp(void) {}

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "testutil.h"
 #include "unity.h"
-#include "internal/crc32.h"
+#include "core/crc32.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -5,7 +5,7 @@
 // (64 bytes of flash instead of 1 KiB for the byte-wise table; two lookups per
 // byte). Reference: ISO/IEC 3309 / IEEE 802.3 CRC-32, identical to zlib's
 // crc32() and Python's zlib.crc32. Bounds: time O(n), stack a few words.
-#include "internal/crc32.h"
+#include "core/crc32.h"
 
 // crc_table[i] = CRC of the 4-bit value i (reflected), i.e. i processed for 4 bits.
 static const uint32_t crc_nibble_table[16] = {

@@ -17,7 +17,7 @@ static inline int64_t vd_shr_floor_i64(int64_t x, uint32_t n)
 }
 
 // floor(x / 2^n) for any int32 x and 0 <= n <= 31: as vd_shr_floor_i64 (the
-// gemmlowp RoundingDivideByPOT of internal/requant.h rounds on top of it).
+// gemmlowp RoundingDivideByPOT of models/requant.h rounds on top of it).
 static inline int32_t vd_shr_floor_i32(int32_t x, uint32_t n)
 {
     return (x >= 0) ? (x >> n) : ~((~x) >> n);

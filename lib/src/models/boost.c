@@ -11,13 +11,13 @@
 // n_stumps compares; no heap, no float.
 #include "vd/boost.h"
 
-#include "internal/blob_internal.h"
-#include "internal/crc32.h"
+#include "models/blob_internal.h"
+#include "core/crc32.h"
 #include "internal/vd_internal.h"
 
 #include <string.h>
 
-// Bytes 0..15: the container (magic, version, sizes; internal/blob_internal.h checks it).
+// Bytes 0..15: the container (magic, version, sizes; models/blob_internal.h checks it).
 #define H_CRC 12u
 #define H_KIND 16u
 #define H_N_MAPS 17u

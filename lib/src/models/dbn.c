@@ -5,7 +5,7 @@
 // paper 001 section 4 / paper 000 section 3). Per output unit o:
 //   acc  = bias[o] + sum_i w[o][i] * a[i]        int8 x uint8 -> int32
 //   z_q8 = vd_dbn_requantize(acc, mult[o], shift[o])   (TFLite requantise,
-//          lib/src/internal/requant.h, shared with the CNN)
+//          lib/src/models/requant.h, shared with the CNN)
 //   a'   = sigmoid_table[clamp(z_q8, -2048, 2048) + 2048]  (uint8, Q8)
 // The last layer has one unit: its activation is the score.
 // Input normalisation (format version 2, header field input_norm): with
@@ -26,15 +26,15 @@
 // 4*VD_DBN_MAX_LAYERS pairs (256 bytes for 8 layers); classify a few words.
 #include "vd/dbn.h"
 
-#include "internal/blob_internal.h"
-#include "internal/crc32.h"
-#include "internal/requant.h"
+#include "models/blob_internal.h"
+#include "core/crc32.h"
+#include "models/requant.h"
 #include "internal/vd_internal.h"
 #include "models/dbn_sigmoid_table.h"
 
 #include <string.h>
 
-// Bytes 0..15: the container (magic, version, sizes; internal/blob_internal.h checks it).
+// Bytes 0..15: the container (magic, version, sizes; models/blob_internal.h checks it).
 #define HDR_CRC 12u
 #define HDR_INPUT_W 16u
 #define HDR_INPUT_H 18u

@@ -26,8 +26,8 @@
 #include <stdint.h>
 
 #include "vd/cnn.h"
-#include "internal/blob_internal.h"
-#include "internal/requant.h"
+#include "models/blob_internal.h"
+#include "models/requant.h"
 
 #if VD_CNN_MAX_LAYERS < 1 || VD_CNN_MAX_LAYERS > 32
 #error "VD_CNN_MAX_LAYERS must be 1..32 (format version 3; tensor indices and lifetimes are bytes)"

@@ -8,7 +8,7 @@
 // 1x1, 2x2 max-pool, x2 nearest upsample, channel concat, 5x5 convolution (padding 2, stride 1/2; op 7,
 // paper 003's feature network). Weighted ops compute
 //   out = clamp(zp_out + requantize(bias + sum w * (x - zp_in)), act_min, act_max)
-// with TFLite's double-rounding requantisation (internal/requant.h, folded into one 64-bit floor shift
+// with TFLite's double-rounding requantisation (models/requant.h, folded into one 64-bit floor shift
 // per value). The plan (plan.c) is made into the workspace's run record first; whole plane, the layers
 // run in order; streamed (VD_CNN_STREAM), the row schedule (schedule.c) says which rows of which tensor
 // to make at each sub-step, so the same kernels work on ring-buffer rows and the head is bit-identical.

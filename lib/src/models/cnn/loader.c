@@ -2,7 +2,7 @@
 // CNN loader: in-place validation of a .vdm version-3 blob (vd_cnn_load), the layer chain's rules, and the
 // state check every other entry point of the CNN starts with.
 //
-// Algorithm: the container first (magic, version, sizes, CRC; internal/blob_internal.h), then the
+// Algorithm: the container first (magic, version, sizes, CRC; models/blob_internal.h), then the
 // header fields, then every layer entry: its fields, the chain rules (chain_step: a layer reads
 // earlier tensors whose channels, downsample factor and zero point fit its op; copies keep scale and
 // zero point), its arrays inside the blob, and per channel the multiplier, shift and bias bound. All
@@ -18,13 +18,13 @@
 #include "vd/cnn.h"
 
 #include "models/cnn/cnn_internal.h"
-#include "internal/blob_internal.h"
+#include "models/blob_internal.h"
 #include "internal/vd_internal.h"
 
 #include <string.h>
 
 // Header fields.
-// Bytes 0..15: the container (magic, version, sizes; internal/blob_internal.h checks it).
+// Bytes 0..15: the container (magic, version, sizes; models/blob_internal.h checks it).
 #define H_CRC 12u
 #define H_KIND 16u
 #define H_NORM 17u

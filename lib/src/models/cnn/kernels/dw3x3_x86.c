@@ -59,6 +59,25 @@ static inline void dw_taps(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3]
     }
 }
 
+// The channels and bias corrections of the lanes of a pass from channel c0:
+// after unpacklo/hi of tap pairs, lane j (< n) of the lo sums holds channel
+// c0 + 8 (j / 4) + j % 4 and of the hi sums that + 4 (a lane past c_n takes
+// channel c0; its result is not stored). corr = zp_in sum w of the lane's
+// channel, modulo 2^32 (ws: the pass's int16 weight sums): the taps are x,
+// padding taps zp_in, so bias - zp_in sum w replaces x - zp_in.
+static void dw_lanes(const vd_cnn_x86_dw_t *d, size_t c0, const int16_t *ws, uint32_t n, uint32_t *map_lo,
+                     int32_t *corr_lo, uint32_t *map_hi, int32_t *corr_hi)
+{
+    const size_t c_n = d->c_n;
+    for (uint32_t j = 0u; j < n; j++) {
+        const size_t cl = 8u * (j / 4u) + (j % 4u);
+        map_lo[j] = (uint32_t)((c0 + cl < c_n) ? c0 + cl : c0);
+        map_hi[j] = (uint32_t)((c0 + cl + 4u < c_n) ? c0 + cl + 4u : c0);
+        corr_lo[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl]);
+        corr_hi[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl + 4u]);
+    }
+}
+
 X86_INLINE __m512i dw_tap(const int8_t *t, __mmask32 m)
 {
     return _mm512_cvtepi8_epi16(_mm256_maskz_loadu_epi8(m, t));
@@ -88,16 +107,9 @@ static X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L
         // bias - zp_in sum w (the taps are x, padding taps zp_in), modulo 2^32.
         int16_t ws[32];
         _mm512_storeu_si512(ws, wsum);
-        // Lane 4 L + i of the lo / hi sums holds channel c0 + 8 L + i / + 4.
         uint32_t map_lo[16], map_hi[16];
         int32_t corr_lo[16], corr_hi[16];
-        for (uint32_t j = 0u; j < 16u; j++) {
-            const size_t cl = 8u * (j / 4u) + (j % 4u);
-            map_lo[j] = (uint32_t)((c0 + cl < c_n) ? c0 + cl : c0);
-            map_hi[j] = (uint32_t)((c0 + cl + 4u < c_n) ? c0 + cl + 4u : c0);
-            corr_lo[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl]);
-            corr_hi[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl + 4u]);
-        }
+        dw_lanes(d, c0, ws, 16u, map_lo, corr_lo, map_hi, corr_hi);
         vd_cnn_x86_rqv_t cl, chv;
         vd_cnn_x86_rqv_fill(&cl, L, map_lo, corr_lo, 16u);
         vd_cnn_x86_rqv_fill(&chv, L, map_hi, corr_hi, 16u);
@@ -198,17 +210,10 @@ static AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *
         }
         int16_t ws[16];
         _mm256_storeu_si256((__m256i *)(void *)ws, wsum);
-        // Lane j of the lo sums holds channel c0 + 8 (j / 4) + j % 4, of the
-        // hi sums 4 more: one constant set, lanes 0..7 lo and 8..15 hi.
+        // One constant set: lanes 0..7 the lo sums', 8..15 the hi sums'.
         uint32_t map[16];
         int32_t corr[16];
-        for (uint32_t j = 0u; j < 8u; j++) {
-            const size_t cl = 8u * (j / 4u) + (j % 4u);
-            map[j] = (uint32_t)((c0 + cl < c_n) ? c0 + cl : c0);
-            map[8u + j] = (uint32_t)((c0 + cl + 4u < c_n) ? c0 + cl + 4u : c0);
-            corr[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl]);
-            corr[8u + j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl + 4u]);
-        }
+        dw_lanes(d, c0, ws, 8u, map, corr, map + 8, corr + 8);
         vd_cnn_x86_rqv_t cv;
         vd_cnn_x86_rqv_fill(&cv, L, map, corr, 16u);
         const tail_t tl = tail_of(nc, c_n);

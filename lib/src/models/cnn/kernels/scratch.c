@@ -4,7 +4,7 @@
 //
 // Algorithm: a weighted layer's scratch holds, each piece at a multiple of VD_CNN_ITEM_ALIGN, its
 // kernel's int16 weight copy, its int16 rows (CONV / PW) or zero-point row (DW3X3), then one vd_rq_ch_t
-// per output channel: the TFLite double-rounding requantisation of internal/requant.h prepared once per
+// per output channel: the TFLite double-rounding requantisation of models/requant.h prepared once per
 // layer call (vd_rq_prepare), so the kernels' inner loops read loop-invariant constants. Each kernel's
 // scratch query (conv.c, dw3x3.c) gives the byte counts of its first two pieces.
 // Bounds: O(cout) per layer call; cin, cout <= 1024 keep every size below 2^26.

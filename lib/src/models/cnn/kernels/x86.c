@@ -7,7 +7,7 @@
 // fields spread for the even/odd 64-bit halves of vpmuludq.
 // Bounds: O(16) per vector of constants; O(cout) per layer for vd_cnn_x86_rq_of.
 #include "models/cnn/kernels/x86.h"
-#include "internal/blob_internal.h"
+#include "models/blob_internal.h"
 
 uint32_t vd_cnn_x86_level(void)
 {

@@ -4,7 +4,7 @@
 // Included only by the x86 back end's files (kernels/*x86*.c, compiled when CMake's VD_CNN_X86 is ON):
 // the one place besides them that includes <immintrin.h> (the include rule's named exception). Functions
 // carry per-function target attributes, so the rest of the library keeps the compiler's baseline.
-// Requantisation: the one-shift form of internal/requant.h (vd_rq_z, vd_rq_z_nn, vd_rq_lshift_sat) on
+// Requantisation: the one-shift form of models/requant.h (vd_rq_z, vd_rq_z_nn, vd_rq_lshift_sat) on
 // 16 (AVX-512) or 8 (AVX2) lanes: the 64-bit product u * mult of even and odd lanes by vpmuludq,
 // + k (- dk), per-lane vpsrlvq. Same integer operations as the portable kernels, so the same bytes.
 #ifndef VD_CNN_X86_H

@@ -9,7 +9,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "crc32.h"
+#include "core/crc32.h"
 #include "vd/status.h"
 
 // The container every .vdm kind starts with (docs/model-format.md): "VDMF", format version,
