@@ -236,9 +236,11 @@ static inline int8_t vd_cnn_rq_out(int32_t z, int32_t zp, int32_t lo, int32_t hi
 }
 
 // kernels/scratch.c: the layout from the byte counts of the weight copy and
-// the rows (returns the total in bytes), and the constants of a weighted layer.
+// the rows (returns the total in bytes), and the constants of a weighted layer
+// (returned by value: a kernel's own copy, which none of its int8 stores can
+// alias, so its loops keep the fields in registers).
 uint64_t vd_cnn_scratch_pack(const vd_cnn_layer_t *L, uint32_t w_bytes, uint32_t r_bytes, scratch_layout_t *s);
-void vd_cnn_rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s, rq_t *q);
+rq_t vd_cnn_rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s);
 
 // Each kernel writes output rows [y0, y1) of its layer; the input rows they
 // read must be in the input ring. The scratch queries return the bytes of

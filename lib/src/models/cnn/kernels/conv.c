@@ -187,8 +187,7 @@ void vd_cnn_conv_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
 {
     scratch_layout_t s;
     (void)vd_cnn_conv_scratch(L, stream, &s);
-    rq_t q;
-    vd_cnn_rq_setup(L, scr, &s, &q);
+    const rq_t q = vd_cnn_rq_setup(L, scr, &s);
     const size_t k = vd_cnn_k_of(L);
     const size_t kp = vd_cnn_round_up((uint32_t)k, VD_CNN_KCHUNK);
     int16_t *w16 = (int16_t *)(void *)(scr + s.w16);

@@ -106,9 +106,9 @@ X86_INLINE void gemm_nv(const uint8_t *rows, size_t rstride, uint32_t flip, size
     }
 }
 
-static X86_TARGET void gemm_vnni(const uint8_t *rows, size_t rstride, bool flip, size_t k4, const int8_t *wp,
-                                 size_t n_o, const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride,
-                                int8_t *out, uint32_t npix)
+X86_KERNEL X86_TARGET void gemm_vnni(const uint8_t *rows, size_t rstride, bool flip, size_t k4, const int8_t *wp,
+                                     size_t n_o, const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride,
+                                     int8_t *out, uint32_t npix)
 {
     const uint32_t f = flip ? 0x80808080u : 0u;
     switch ((n_o + 15u) / 16u) {
@@ -127,7 +127,7 @@ static X86_TARGET void gemm_vnni(const uint8_t *rows, size_t rstride, bool flip,
     }
 }
 
-static X86_TARGET void pack_vnni(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum)
+X86_KERNEL X86_TARGET void pack_vnni(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum)
 {
     const size_t k4 = (k + 3u) / 4u * 4u;
     const size_t full = k / 4u;   // groups of 4 weights inside the channel
@@ -189,7 +189,7 @@ AVX2_INLINE __m256i lane_mask8(size_t rem)
     return _mm256_cmpgt_epi32(_mm256_set1_epi32(r), idx);
 }
 
-static AVX2_TARGET void pack_avx2(const int8_t *w, size_t k, size_t n_o, int16_t *wp)
+X86_KERNEL AVX2_TARGET void pack_avx2(const int8_t *w, size_t k, size_t n_o, int16_t *wp)
 {
     const size_t k2 = (k + 1u) / 2u * 2u;
     const size_t full = k / 4u;
@@ -221,9 +221,9 @@ static AVX2_TARGET void pack_avx2(const int8_t *w, size_t k, size_t n_o, int16_t
     }
 }
 
-static AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
-                                  const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
-                                   uint32_t npix)
+X86_KERNEL AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                                      const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                                      uint32_t npix)
 {
     const size_t ng = (k + 1u) / 2u;
     const size_t row = n_o * 2u;

@@ -82,8 +82,7 @@ void vd_cnn_dw3x3_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *i
 {
     scratch_layout_t s;
     (void)vd_cnn_dw3x3_scratch(L, &s);
-    rq_t q;
-    vd_cnn_rq_setup(L, scr, &s, &q);
+    const rq_t q = vd_cnn_rq_setup(L, scr, &s);
     const size_t c_n = g->co;
     const size_t cp = vd_cnn_round_up((uint32_t)c_n, VD_CNN_DWB);
     int16_t *w16 = (int16_t *)(void *)(scr + s.w16);

@@ -83,8 +83,8 @@ X86_INLINE __m512i dw_tap(const int8_t *t, __mmask32 m)
     return _mm512_cvtepi8_epi16(_mm256_maskz_loadu_epi8(m, t));
 }
 
-static X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
-                               uint32_t y0, uint32_t y1)
+X86_KERNEL X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
+                                   uint32_t y0, uint32_t y1)
 {
     const size_t c_n = d->c_n;
     for (size_t c0 = 0u; c0 < c_n; c0 += 32u) {
@@ -190,8 +190,8 @@ AVX2_INLINE __m256i tap_act(const int8_t *p, const tail_t *t)
     return _mm256_cvtepi8_epi16(v);
 }
 
-static AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L,
-                                const vd_cnn_x86_rq_t *q, uint32_t y0, uint32_t y1)
+X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
+                                    uint32_t y0, uint32_t y1)
 {
     const size_t c_n = d->c_n;
     for (size_t c0 = 0u; c0 < c_n; c0 += 16u) {

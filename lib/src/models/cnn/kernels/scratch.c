@@ -20,21 +20,23 @@ uint64_t vd_cnn_scratch_pack(const vd_cnn_layer_t *L, uint32_t w_bytes, uint32_t
     return (uint64_t)s->ch + vd_cnn_round_up((uint32_t)(L->cout * sizeof(vd_rq_ch_t)), VD_CNN_ITEM_ALIGN);
 }
 
-// Fills the scratch constants of a weighted layer and the view q on them.
-void vd_cnn_rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s, rq_t *q)
+// Fills the scratch constants of a weighted layer; returns the view on them.
+rq_t vd_cnn_rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s)
 {
     vd_rq_ch_t *ch = (vd_rq_ch_t *)(void *)(scr + s->ch);
     for (uint32_t o = 0u; o < L->cout; o++) {
         vd_rq_prepare(vd_cnn_rd_i32(L->mult + 4u * (size_t)o), L->shift[o], vd_cnn_rd_i32(L->bias + 4u * (size_t)o),
                       &ch[o]);
     }
-    q->ch = ch;
-    q->general = false;
+    rq_t q;
+    q.ch = ch;
+    q.general = false;
     for (uint32_t o = 0u; o < L->cout; o++) {
-        q->general = q->general || ch[o].lsh != 0u;
+        q.general = q.general || ch[o].lsh != 0u;
     }
-    q->zp = L->out_zp;
-    q->lo = L->act_min - L->out_zp;
-    q->hi = L->act_max - L->out_zp;
-    q->relu = q->lo >= 0;
+    q.zp = L->out_zp;
+    q.lo = L->act_min - L->out_zp;
+    q.hi = L->act_max - L->out_zp;
+    q.relu = q.lo >= 0;
+    return q;
 }
