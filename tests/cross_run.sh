@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: MIT
 # Cross builds of vd (issue: embedded readiness): the library for Cortex-M7/M4/M0+
-# (-Werror, MinSizeRel), and the unit tests for armhf and aarch64 run under
-# qemu-user. Then the embedded budget checks (tools/vdtools/generators/embedded_report.py --check).
+# (-Werror, MinSizeRel; M7/M4 with the CMSIS-NN back end where ../shared/vendor/cmsis-nn is), the unit
+# tests for armhf and aarch64 run under qemu-user, the CNN's unit tests on Cortex-M7 code with the
+# CMSIS-NN back end under qemu-user. Then the embedded budget checks
+# (tools/vdtools/generators/embedded_report.py --check).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
@@ -18,6 +20,13 @@ for t in armhf aarch64; do
   cmake --build "build-$t" -j "$jobs" >/dev/null
   ctest --test-dir "build-$t" --output-on-failure -j "$jobs" -L unit
 done
+# The CNN's unit tests on Cortex-M7 code with the CMSIS-NN back end (../shared/vendor/cmsis-nn): compiled
+# -mcpu=cortex-m7 as for the firmware, run under qemu-user (tools/toolchains/cortex-m7-qemu.cmake says how).
+echo "== cortex-m7 code, CMSIS-NN back end: CNN unit tests under qemu-user"
+cmake -S . -B build-cortex-m7-qemu -G Ninja -DCMAKE_TOOLCHAIN_FILE=tools/toolchains/cortex-m7-qemu.cmake \
+  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVD_BUILD_TOOLS=OFF -DVD_BUILD_PORT=OFF -DVD_CNN_CMSIS=ON >/dev/null
+cmake --build build-cortex-m7-qemu -j "$jobs" --target test_cnn test_detector_cnn test_boost >/dev/null
+ctest --test-dir build-cortex-m7-qemu --output-on-failure -j "$jobs" -R '^test_(cnn|detector_cnn|boost)$'
 if [ -f tools/vdtools/generators/embedded_report.py ]; then
   PYTHONPATH=tools${PYTHONPATH:+:$PYTHONPATH} python3 -m vdtools.generators.embedded_report --check
 fi

@@ -5,8 +5,15 @@ and its JSON Lines must equal, byte for byte, what vd_fir_demo prints on the hos
 for the same frames, model and settings. A build whose model array has one byte
 inverted must print the vd_status_str() text of VD_ERR_MODEL and exit 2, not fault.
 
+Where ../shared/vendor/cmsis-nn is present (it is in CI) both boards' builds have the CMSIS-NN back end
+(CMake VD_CNN_CMSIS, on by default for Cortex-M with the DSP extension), so the byte-for-byte check covers
+it; vd_fw_cnn_layers.elf then compares every output row of every weighted layer of the model, portable
+kernels and CMSIS-NN, with the network's own tensors on the board.
+
 Skipped only when qemu-system-arm is absent (tools/setup.sh installs it). The
-firmware builds into <repo>/build-fw-m7 and build-fw-m4 (~30 s each the first time)."""
+firmware builds into <repo>/build-fw-m7 and build-fw-m4 (~30 s each the first time; $VD_FW_BUILD_PREFIX
+changes build-fw)."""
+import os
 import re
 import shutil
 import subprocess
@@ -18,9 +25,12 @@ from buildpaths import build_dir
 # This checkout (vdtools may be installed from another one).
 REPO = Path(__file__).resolve().parents[2]
 
+# Build directories <repo>/<prefix>-m7, -m4 ($VD_FW_BUILD_PREFIX, default build-fw: a run beside another
+# one in the same checkout can take its own).
+PREFIX = os.environ.get("VD_FW_BUILD_PREFIX", "build-fw")
 BOARDS = {  # toolchain file -> QEMU machine and CPU
-    "cortex-m7": ("mps2-an500", "cortex-m7", "build-fw-m7"),
-    "cortex-m4": ("mps2-an386", "cortex-m4", "build-fw-m4"),
+    "cortex-m7": ("mps2-an500", "cortex-m7", f"{PREFIX}-m7"),
+    "cortex-m4": ("mps2-an386", "cortex-m4", f"{PREFIX}-m4"),
 }
 QEMU_TIMEOUT = 120  # seconds; one run takes about 1 s
 
@@ -73,6 +83,27 @@ def test_firmware_matches_demo(qemu, toolchain, tmp_path):
     # The workspace fits its static buffer, the stack its 16 KiB with room to spare.
     assert int(meas["workspace_bytes"]) <= int(meas["workspace_reserved"])
     assert 0 < int(meas["stack_used"]) < int(meas["stack_size"]) // 2
+
+
+CMSIS_NN = REPO.parent / "shared" / "vendor" / "cmsis-nn"
+
+
+def cmsis_on(bdir):
+    """Whether the firmware build in bdir compiled the CMSIS-NN back end (its CMake cache)."""
+    return "VD_CNN_CMSIS:BOOL=ON" in (bdir / "CMakeCache.txt").read_text()
+
+
+@pytest.mark.parametrize("toolchain", sorted(BOARDS))
+def test_firmware_cnn_layers_bit_exact(qemu, toolchain):
+    bdir = build_firmware(toolchain)
+    # The back end is on wherever CMSIS-NN is at hand, so the JSON check above covers it too.
+    assert cmsis_on(bdir) == (CMSIS_NN / "Include" / "arm_nnfunctions.h").is_file()
+    r = run_qemu(qemu, toolchain, bdir / "vd_fw_cnn_layers.elf")
+    assert r.returncode == 0, r.stderr[-2000:]
+    layers = [dict(re.findall(r"(\w+) (\d+)", ln)) for ln in r.stderr.splitlines() if ln.startswith("# vd_fw_layer ")]
+    summary = dict(re.findall(r"(\w+) (\d+)", next(ln for ln in r.stderr.splitlines() if ln.startswith("# vd_fw_layers"))))
+    assert len(layers) >= 10 and all(d["bad_rows"] == "0" for d in layers)
+    assert summary["cmsis"] == ("1" if cmsis_on(bdir) else "0") and summary["bad_rows"] == "0"
 
 
 def test_firmware_corrupted_model(qemu):

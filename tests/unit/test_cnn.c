@@ -2089,8 +2089,8 @@ static void test_stream_committed_models_match_whole_plane(void)
 
 // Pushes a random weighted layer to the limits (mode bits): 1 weights
 // -128 / 127 only (else half of them), 2 the output zero point -128 or 127,
-// 4 multipliers 2^30 / 2^31 - 1, 8 shifts -31 / -1 / 0 / 1 / 7, 16 biases
-// at the loader's bound +-(INT32_MAX - K * 128 * 255).
+// 4 multipliers 2^30 / 2^31 - 1, 8 shifts -31 / -1 / 0 / 1 / 7 (else 32:
+// shifts -30 / -1 / 0), 16 biases at the loader's bound +-(INT32_MAX - K * 128 * 255).
 static void push_extremes(tl_t *L, uint32_t *st, uint32_t mode)
 {
     int8_t *w = g_wpool + (L->w - g_wpool);
@@ -2114,12 +2114,15 @@ static void push_extremes(tl_t *L, uint32_t *st, uint32_t mode)
                        : (L->op == VD_CNN_OP_CONV5X5) ? 25u * L->cin : 9u * L->cin;
     const int32_t bmax = (int32_t)(INT32_MAX - (int64_t)k * 128 * 255);
     static const int8_t shifts[5] = {-31, -1, 0, 1, 7};
+    static const int8_t shifts_nonpos[3] = {-30, -1, 0};
     for (uint32_t o = 0u; o < L->cout; o++) {
         if ((mode & 4u) != 0u) {
             mult[o] = (tu_rand(st) & 1u) ? INT32_MAX : 0x40000000;
         }
         if ((mode & 8u) != 0u) {
             shift[o] = shifts[tu_rand(st) % 5u];
+        } else if ((mode & 32u) != 0u) {
+            shift[o] = shifts_nonpos[tu_rand(st) % 3u];
         }
         if ((mode & 16u) != 0u && (tu_rand(st) & 1u) != 0u) {
             bias[o] = (tu_rand(st) & 1u) ? bmax : -bmax;
@@ -2169,15 +2172,16 @@ static void awkward_model(tm_t *d, uint32_t arch, uint32_t seed, uint32_t mode)
 }
 
 // The awkward models with extreme values against the naive reference
-// (every build: the portable kernels, or the x86 ones where they run).
+// (every build: the portable kernels, or the x86 or CMSIS-NN ones where they
+// run; mode 32's shifts are ones CMSIS-NN takes).
 static void test_awkward_models_match_naive_reference(void)
 {
     static uint8_t img[132 * 36];
-    static const uint32_t modes[3] = {0u, 1u | 2u | 4u | 8u | 16u, 8u | 16u};
+    static const uint32_t modes[4] = {0u, 1u | 2u | 4u | 8u | 16u, 8u | 16u, 1u | 2u | 4u | 16u | 32u};
     static const uint32_t sizes[2][2][2] = {{{4, 4}, {132, 36}}, {{8, 8}, {56, 16}}};
     uint32_t checked = 0u;
     for (uint32_t arch = 0u; arch < 2u; arch++) {
-        for (uint32_t mi = 0u; mi < 3u; mi++) {
+        for (uint32_t mi = 0u; mi < 4u; mi++) {
             tm_t d;
             awkward_model(&d, arch, 5u + mi, modes[mi]);
             for (uint32_t si = 0u; si < 2u; si++) {
@@ -2198,12 +2202,12 @@ static void test_awkward_models_match_naive_reference(void)
     TEST_ASSERT_TRUE(checked > 100000u);
 }
 
-#if defined(VD_CNN_X86)
+#if defined(VD_CNN_X86) || defined(VD_CNN_CMSIS)
 // Every tensor of m on img (w x h): flags fl (with VD_CNN_KEEP_TENSORS)
 // against fl | VD_CNN_PORTABLE, byte for byte; same workspace size; and the
 // shared-memory head (fl without KEEP) likewise. Returns the bytes compared.
-static uint32_t x86_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h, uint32_t fl,
-                          const char *what)
+static uint32_t backend_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h, uint32_t fl,
+                              const char *what)
 {
     uint32_t compared = 0u;
     for (uint32_t keep = 0u; keep < 2u; keep++) {
@@ -2211,7 +2215,7 @@ static uint32_t x86_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t 
         size_t fast_b = 0u, port_b = 0u;
         TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(m, w, h, f, &fast_b));
         TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(m, w, h, f | VD_CNN_PORTABLE, &port_b));
-        TEST_ASSERT_EQUAL_UINT64_MESSAGE(port_b, fast_b, what);
+        TEST_ASSERT_TRUE_MESSAGE(port_b == fast_b, what);   // (Unity has no 64-bit compare on 32-bit targets)
         uint8_t *a = tu_guarded_alloc(0, fast_b);
         uint8_t *b = tu_guarded_alloc(1, port_b);
         memset(a, 0x5A, fast_b);
@@ -2240,30 +2244,14 @@ static uint32_t x86_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t 
     }
     return compared;
 }
-#endif
-
-static void x86_skip_unless_available(void)
-{
-#if !defined(VD_CNN_X86)
-    TEST_IGNORE_MESSAGE("x86 kernels not built (CMake VD_CNN_X86=OFF): nothing to compare");
-#else
-    const uint32_t level = vd_cnn_x86_level();
-    if (level == VD_CNN_X86_NONE) {
-        TEST_IGNORE_MESSAGE("x86 kernels built, but this CPU lacks AVX2 and AVX-512 VNNI: portable path only, "
-                            "not compared");
-    }
-    printf("x86 kernels compared with the portable ones: %s\n",
-           (level == VD_CNN_X86_AVX512) ? "AVX-512 VNNI" : "AVX2");
-#endif
-}
 
 // Random models of every op (architectures 0-2 of the tests above) and the
-// awkward ones with extreme values: every tensor of the x86 kernels equals
-// the portable kernels' (VD_CNN_PORTABLE), whole plane and streamed.
-static void test_x86_kernels_match_portable_random(void)
+// awkward ones with extreme values, whole plane and streamed, through
+// backend_check; returns the bytes compared. Mode 32 keeps every shift <= 0
+// (and >= -30), the layers the CMSIS-NN back end takes (kernels/cmsis.h),
+// so its extremes run there rather than on the portable kernels.
+static uint32_t backend_random_models(void)
 {
-    x86_skip_unless_available();
-#if defined(VD_CNN_X86)
     static uint8_t img[264 * 40];
     uint32_t compared = 0u;
     tm_t d;
@@ -2284,15 +2272,16 @@ static void test_x86_kernels_match_portable_random(void)
                 char msg[64];
                 snprintf(msg, sizeof msg, "arch %u seed %u %ux%u", (unsigned)arch, (unsigned)seed, (unsigned)w,
                          (unsigned)h);
-                compared += x86_check(&g_m, img, w, h, 0u, msg);
-                compared += x86_check(&g_m, img, w, h, VD_CNN_STREAM, msg);
+                compared += backend_check(&g_m, img, w, h, 0u, msg);
+                compared += backend_check(&g_m, img, w, h, VD_CNN_STREAM, msg);
             }
         }
     }
-    static const uint32_t modes[6] = {0u, 1u, 2u | 16u, 4u | 8u, 1u | 2u | 4u | 8u | 16u, 8u | 16u};
+    static const uint32_t modes[7] = {0u, 1u, 2u | 16u, 4u | 8u, 1u | 2u | 4u | 8u | 16u, 8u | 16u,
+                                      1u | 2u | 4u | 16u | 32u};
     for (uint32_t arch = 0u; arch < 2u; arch++) {
         static const uint32_t sizes[2][3][2] = {{{4, 4}, {28, 20}, {132, 36}}, {{8, 8}, {56, 16}, {264, 24}}};
-        for (uint32_t mi = 0u; mi < 6u; mi++) {
+        for (uint32_t mi = 0u; mi < 7u; mi++) {
             for (uint32_t seed = 0u; seed < 3u; seed++) {
                 awkward_model(&d, arch, seed + 10u * mi, modes[mi]);
                 TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &g_m));
@@ -2303,22 +2292,18 @@ static void test_x86_kernels_match_portable_random(void)
                     char msg[64];
                     snprintf(msg, sizeof msg, "awkward %u mode %u seed %u %ux%u", (unsigned)arch,
                              (unsigned)modes[mi], (unsigned)seed, (unsigned)w, (unsigned)h);
-                    compared += x86_check(&g_m, img, w, h, 0u, msg);
-                    compared += x86_check(&g_m, img, w, h, VD_CNN_STREAM, msg);
+                    compared += backend_check(&g_m, img, w, h, 0u, msg);
+                    compared += backend_check(&g_m, img, w, h, VD_CNN_STREAM, msg);
                 }
             }
         }
     }
-    TEST_ASSERT_TRUE(compared > 1000000u);
-#endif
+    return compared;
 }
 
-// The committed networks at several input sizes, whole plane and streamed:
-// every tensor of the x86 kernels equals the portable kernels'.
-static void test_x86_kernels_match_portable_committed(void)
+// The committed networks at several input sizes, whole plane and streamed, through backend_check.
+static void backend_committed_models(void)
 {
-    x86_skip_unless_available();
-#if defined(VD_CNN_X86)
     static const char *const paths[2] = {VD_SOURCE_DIR "/models/vd_cnn.vdm", VD_SOURCE_DIR "/models/vd_cnn_compact.vdm"};
     static const uint32_t sizes[4][2] = {{320, 256}, {100, 60}, {33, 17}, {8, 8}};
     static uint8_t img[320 * 256];
@@ -2336,11 +2321,73 @@ static void test_x86_kernels_match_portable_committed(void)
             warm_frame(img, w, h, 7u + si * 13u + mi, si + 1u);
             char msg[96];
             snprintf(msg, sizeof msg, "%s %ux%u", m.name, (unsigned)w, (unsigned)h);
-            (void)x86_check(&m, img, w, h, 0u, msg);
-            (void)x86_check(&m, img, w, h, VD_CNN_STREAM, msg);
+            (void)backend_check(&m, img, w, h, 0u, msg);
+            (void)backend_check(&m, img, w, h, VD_CNN_STREAM, msg);
         }
     }
     TEST_ASSERT_TRUE(loaded == 2u);
+}
+#endif
+
+static void x86_skip_unless_available(void)
+{
+#if !defined(VD_CNN_X86)
+    TEST_IGNORE_MESSAGE("x86 kernels not built (CMake VD_CNN_X86=OFF): nothing to compare");
+#else
+    const uint32_t level = vd_cnn_x86_level();
+    if (level == VD_CNN_X86_NONE) {
+        TEST_IGNORE_MESSAGE("x86 kernels built, but this CPU lacks AVX2 and AVX-512 VNNI: portable path only, "
+                            "not compared");
+    }
+    printf("x86 kernels compared with the portable ones: %s\n",
+           (level == VD_CNN_X86_AVX512) ? "AVX-512 VNNI" : "AVX2");
+#endif
+}
+
+// Random models of every op and the awkward ones with extreme values: every
+// tensor of the x86 kernels equals the portable kernels' (VD_CNN_PORTABLE),
+// whole plane and streamed.
+static void test_x86_kernels_match_portable_random(void)
+{
+    x86_skip_unless_available();
+#if defined(VD_CNN_X86)
+    TEST_ASSERT_TRUE(backend_random_models() > 1000000u);
+#endif
+}
+
+// The committed networks at several input sizes, whole plane and streamed:
+// every tensor of the x86 kernels equals the portable kernels'.
+static void test_x86_kernels_match_portable_committed(void)
+{
+    x86_skip_unless_available();
+#if defined(VD_CNN_X86)
+    backend_committed_models();
+#endif
+}
+
+static void cmsis_skip_unless_built(void)
+{
+#if !defined(VD_CNN_CMSIS)
+    TEST_IGNORE_MESSAGE("CMSIS-NN kernels not built (CMake VD_CNN_CMSIS=OFF, a Cortex-M build option): nothing "
+                        "to compare");
+#endif
+}
+
+// The same models through the CMSIS-NN back end (Cortex-M builds; tests/cross_run.sh runs this test
+// compiled for a Cortex-M7 under qemu-arm): every tensor equals the portable kernels'.
+static void test_cmsis_kernels_match_portable_random(void)
+{
+    cmsis_skip_unless_built();
+#if defined(VD_CNN_CMSIS)
+    TEST_ASSERT_TRUE(backend_random_models() > 1000000u);
+#endif
+}
+
+static void test_cmsis_kernels_match_portable_committed(void)
+{
+    cmsis_skip_unless_built();
+#if defined(VD_CNN_CMSIS)
+    backend_committed_models();
 #endif
 }
 
@@ -2372,6 +2419,8 @@ int main(void)
     RUN_TEST(test_awkward_models_match_naive_reference);
     RUN_TEST(test_x86_kernels_match_portable_random);
     RUN_TEST(test_x86_kernels_match_portable_committed);
+    RUN_TEST(test_cmsis_kernels_match_portable_random);
+    RUN_TEST(test_cmsis_kernels_match_portable_committed);
     RUN_TEST(test_structural_corruptions_rejected);
     RUN_TEST(test_every_bit_flip_and_truncation_rejected);
     return UNITY_END();

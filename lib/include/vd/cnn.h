@@ -75,10 +75,11 @@ extern "C" {
 // vd_cnn_workspace_size_ex / vd_cnn_run_ex / vd_cnn_run_rows flag: run the
 // portable C kernels even where the library was built with the optional
 // x86-64 kernels (CMake option VD_CNN_X86: AVX-512 VNNI or AVX2, chosen at
-// run time by a CPU check) and the CPU has them. Both give the same bytes on every
+// run time by a CPU check) and the CPU has them, or with the CMSIS-NN
+// kernels for Cortex-M (CMake option VD_CNN_CMSIS). Both give the same bytes on every
 // tensor (tests/unit/test_cnn.c); the flag exists for that parity test and
-// for timing. No effect on the workspace size; ignored where the x86
-// kernels are not built.
+// for timing. No effect on the workspace size; ignored where neither back
+// end is built.
 #define VD_CNN_PORTABLE 4u
 
 // Layer ops (field `op` of a layer entry).

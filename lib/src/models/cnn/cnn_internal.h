@@ -13,8 +13,8 @@
 //   kernels/      one op per file, each with its scratch query: input (tensor 0), conv (CONV3X3,
 //                 CONV5X5, PW1X1), dw3x3, maxpool2, upsample2, concat; scratch.c the layout and
 //                 requantisation constants of a weighted layer. Back ends beside the portable C:
-//                 *_x86.c (CMake VD_CNN_X86; x86.h, x86.c their shared part); a CMSIS-NN back end
-//                 would sit beside them as *_cmsis.c, dispatched in executor.c the same way.
+//                 *_x86.c (CMake VD_CNN_X86; x86.h, x86.c their shared part) and *_cmsis.c (CMake
+//                 VD_CNN_CMSIS: CMSIS-NN on Cortex-M; cmsis.h, cmsis.c), dispatched in executor.c.
 //   decode.c      heatmap peaks, top-K, boxes; score threshold -> logit threshold
 // Private to lib/; tests include it. Types are unprefixed as in detector/detector_internal.h;
 // functions shared between rooms are vd_cnn_*.
@@ -295,6 +295,17 @@ void vd_cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t
                           uint32_t y1, bool stream, uint8_t *scr, uint32_t level);
 void vd_cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                            uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level);
+
+// ------------------------------------------------------------ CMSIS-NN back end (kernels/*cmsis*.c, CMake VD_CNN_CMSIS)
+
+// vd_cnn_conv_rows and vd_cnn_dw3x3_rows on CMSIS-NN's kernels, with the layer's scratch (the same item
+// as the portable kernels', scr_bytes long: the portable layout's size, or more when streamed) and the
+// same bytes. False (nothing written) when the layer is not one CMSIS-NN computes bit-exactly (a channel
+// with shift > 0 or < -30): the caller runs the portable kernel.
+bool vd_cnn_conv_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                            uint32_t y0, uint32_t y1, bool stream, uint8_t *scr);
+bool vd_cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                             uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t scr_bytes);
 
 // ------------------------------------------------------------ decode (decode.c)
 

@@ -13,8 +13,9 @@
 // run in order; streamed (VD_CNN_STREAM), the row schedule (schedule.c) says which rows of which tensor
 // to make at each sub-step, so the same kernels work on ring-buffer rows and the head is bit-identical.
 // Back ends: per layer call, the x86 kernels (CMake VD_CNN_X86: AVX-512 VNNI or AVX2, by a CPU check
-// unless VD_CNN_PORTABLE) take over CONV / PW / DW with the same scratch and the same bytes; other ops
-// and other hosts run the portable kernels. A CMSIS-NN back end would be picked here the same way.
+// unless VD_CNN_PORTABLE) take over CONV / PW / DW with the same scratch and the same bytes, and on
+// Cortex-M the CMSIS-NN kernels (CMake VD_CNN_CMSIS, unless VD_CNN_PORTABLE) likewise for the layers they
+// compute bit-exactly; other ops and other hosts run the portable kernels.
 // Reference: TFLite/CMSIS-NN int8 quantisation; the numpy integer reference
 // tools/vdtools/formats/cnn_ref.py (bit-exact); arithmetic docs/fixed-point.md ("cnn").
 // Bounds: vd_cnn_macs() multiply-adds, one requantisation per output value, O(width * height) for the
@@ -71,9 +72,14 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     const ring_t in = ring_of(base, p, c, L->in);
     const ring_t o = ring_of(base, p, c, l + 1u);
     // The streamed plan has one scratch for all layers (item 3), refilled per call.
-    uint8_t *scr = base + p->off[((p->flags & VD_CNN_STREAM) != 0u) ? 3u : 3u + 2u * l];
+    const uint32_t scr_item = ((p->flags & VD_CNN_STREAM) != 0u) ? 3u : 3u + 2u * l;
+    uint8_t *scr = base + p->off[scr_item];
 #if defined(VD_CNN_X86)
     const uint32_t level = x86_level(p->flags);
+#endif
+#if defined(VD_CNN_CMSIS)
+    // CMSIS-NN takes the layers it computes bit-exactly unless the caller asked for the portable kernels.
+    const bool cmsis = (p->flags & VD_CNN_PORTABLE) == 0u;
 #endif
     switch (L->op) {
     case VD_CNN_OP_CONV3X3:
@@ -85,12 +91,22 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
             break;
         }
 #endif
+#if defined(VD_CNN_CMSIS)
+        if (cmsis && vd_cnn_conv_rows_cmsis(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr)) {
+            break;
+        }
+#endif
         vd_cnn_conv_rows(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr);
         break;
     case VD_CNN_OP_DW3X3:
 #if defined(VD_CNN_X86)
         if (level != VD_CNN_X86_NONE) {
             vd_cnn_dw3x3_rows_x86(L, &g, &in, &o, y0, y1, scr, level);
+            break;
+        }
+#endif
+#if defined(VD_CNN_CMSIS)
+        if (cmsis && vd_cnn_dw3x3_rows_cmsis(L, &g, &in, &o, y0, y1, scr, p->len[scr_item])) {
             break;
         }
 #endif
