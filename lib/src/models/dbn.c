@@ -103,7 +103,12 @@ uint8_t vd_dbn_sigmoid_q8(int32_t z_q8)
     } else if (z_q8 > VD_DBN_SIGMOID_IN_MAX) {
         z_q8 = VD_DBN_SIGMOID_IN_MAX;
     }
-    return vd_dbn_sigmoid_q8_table[z_q8 + VD_DBN_SIGMOID_IN_MAX];
+    if (z_q8 <= 0) {
+        return vd_dbn_sigmoid_q8_table[z_q8 + VD_DBN_SIGMOID_IN_MAX];
+    }
+    // The table holds z <= 0 (2 KiB of flash less); the rest by the identity the generator checks.
+    const uint32_t mirror = 256u - vd_dbn_sigmoid_q8_table[VD_DBN_SIGMOID_IN_MAX - z_q8];
+    return (uint8_t)((mirror > 255u) ? 255u : mirror);
 }
 
 // ------------------------------------------------------------------ loader
