@@ -276,5 +276,5 @@ def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
     assert p.returncode == 0, p.stderr
     rep, md = _check_outputs(out, demo, imgs)
     assert not rep["labelled"] and rep["training"]["resumed"] and rep["training"]["steps"] == 3
-    assert [r["round"] for r in rep["pseudo_labels"]] == [0, 1]
+    assert [r["round"] for r in rep["pseudo_labels"]["rounds"]] == [0, 1]
     assert "gain is not measured" in md and "boxes per frame" in md

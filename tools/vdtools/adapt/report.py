@@ -1,0 +1,75 @@
+# SPDX-License-Identifier: MIT
+"""vd-adapt's report.md, from the report dict that report.json holds."""
+from pathlib import Path
+
+
+def _pct(v):
+    return "–" if v is None else f"{100 * v:.1f}"
+
+
+def report_md(r):
+    f, t = r["frames"], r["training"]
+    lines = ["# vd-adapt report", "", f"Command: `{r['command']}`", "",
+             f"Time taken: {r['time']['wall_s'] / 60:.1f} min wall ("
+             + (f"budget {r['time']['minutes_asked']:g} min" if not t["steps_asked"] else f"{t['steps_asked']} steps asked")
+             + "; " + ", ".join(f"{k} {v:.0f} s" for k, v in r["time"]["parts_s"].items())
+             + f"; {r['time']['this_run_cpu_s'] / 60:.1f} CPU minutes in this run)"
+             + (", resumed from a checkpoint" if t["resumed"] else "") + ".", "",
+             f"Frames: {f['count']} of {f['size'][0]}×{f['size'][1]}, in blocks of {f['block']} by file name: "
+             f"{f['adapt']} to adapt on, {f['val']} to measure on (val; blocks {f['val_blocks']})."]
+    if r["labelled"]:
+        lab = r["labels"]
+        lines += [f"Labels: {lab['kind']}, {lab['matched']} frames labelled (the others have no vehicles), vehicle "
+                  f"classes {lab['vehicle_classes']}; {f['adapt_vehicles']} vehicles to adapt on, "
+                  f"{f['val_vehicles']} to measure on.", ""]
+    else:
+        lines += ["Labels: none (self-training on pseudo-labels of the networks themselves).", ""]
+    lines += [f"Networks: {', '.join(r['archs'])} from {', '.join(Path(b).name for b in r['base'])}; "
+              f"quantisation-aware fine-tuning, {t['steps']} steps of batch {t['batch']} (lr {t['lr']:g}, "
+              f"{t['threads']} threads)" + (f", {t['rounds']} self-training rounds" if not r["labelled"] else "")
+              + "; training frames of ../shared/data mixed in: "
+              + (", ".join(f"{k} {v} frames" for k, v in r["replay"]["families"].items()) or "none")
+              + f" (crop shares {', '.join(f'{k} {v:.2f}' for k, v in r['replay']['shares'].items())}).", ""]
+    if r["labelled"]:
+        b, bv, a = r["val"]["before"], r["val"]["before_at_val_choice"], r["val"]["after"]
+        lines += ["## Before / after on your val frames (the C library, fused flip passes)", "",
+                  f"{b['n_frames']} frames, {b['n_vehicles']} vehicles. TP / FP rates: TP / vehicles and "
+                  "FP / detections at the threshold.", "",
+                  "| networks | AP@0.5 | threshold | TP | FP | TP rate | FP rate |", "|---|---:|---:|---:|---:|---:|---:|",
+                  f"| before, its own threshold | {_pct(b['ap'])} | {b['thr']:.3f} | {b['tp']} | {b['fp']} | "
+                  f"{_pct(b['tp_rate'])} % | {_pct(b['fp_rate'])} % |",
+                  f"| before, threshold chosen on val | {_pct(bv['ap'])} | {bv['thr']:.3f} | {bv['tp']} | {bv['fp']} | "
+                  f"{_pct(bv['tp_rate'])} % | {_pct(bv['fp_rate'])} % |",
+                  f"| **after** (threshold chosen on val) | **{_pct(a['ap'])}** | {a['thr']:.3f} | {a['tp']} | {a['fp']} | "
+                  f"{_pct(a['tp_rate'])} % | {_pct(a['fp_rate'])} % |", "",
+                  "The val part chose the threshold, so its after figures lean optimistic; with few val vehicles "
+                  "they are noisy too. Measure on frames of other scenes before you rely on them."]
+    else:
+        v, ps = r["val"], r["pseudo_labels"]
+        lines += ["## What can be measured without labels", "",
+                  "**Without labels the gain is not measured**: these figures say how the output changed, not "
+                  "whether it got better.", "",
+                  "| on the val frames | before | after |", "|---|---:|---:|",
+                  f"| boxes per frame at the threshold ({r['threshold']['after']:.3f}) | "
+                  f"{v['boxes_per_frame']['before']:.2f} | {v['boxes_per_frame']['after']:.2f} |",
+                  f"| flip agreement (boxes found on the frame and on its mirror image) | "
+                  f"{_pct(v['flip_agreement']['before'])} % | {_pct(v['flip_agreement']['after'])} % |", "",
+                  f"Boxes in common before / after: {_pct(v['before_after_agreement'])} %. Pseudo-labels per round "
+                  f"(score >= {ps['hi']}; {ps['lo']}..{ps['hi']} ignored): "
+                  + "; ".join(f"round {p['round']}: {p['vehicles']} vehicles in {p['frames_with_vehicles']} frames, "
+                              f"{p['ignore']} ignored" for p in ps["rounds"]) + "."]
+    dc, ru = r["outputs"]["demo_check"], r["rules"]
+    lines += ["", f"Library rules: the adapted files have the same layers and top-K as before "
+              f"({'yes' if all(ru['same_layers_and_top_k']) else 'NO'}), so the same multiply-adds; detector "
+              f"workspace at {f['size'][0]}×{f['size'][1]} with the flip pass {ru['workspace_bytes']['after']} B "
+              f"(before {ru['workspace_bytes']['before']} B); model files {ru['file_bytes']['after']} B.",
+              "", "## Outputs", "",
+              "- " + ", ".join(f"`{m}`" for m in r["outputs"]["models"]) + ": the adapted int8 networks (header "
+              f"threshold {r['threshold']['after']:.3f}); `NAME_vdm.c` / `NAME_vdm.h`: the same bytes as firmware "
+              "arrays; `NAME.scales.json`: the export's scales; `float/NAME.npz`: the float weights (to adapt again: "
+              "`--base`)" + ("; `before/`: the base networks as quantised here, the before figures' files"
+                              if r["before_quantised_here"] else "") + ".",
+              "- `vd.json`: `vd_fir_demo --config OUT/vd.json --input FRAMES` (or the GStreamer element's `config` "
+              "property) runs them" + (f"; checked with {dc['demo']} on {dc['frame']}" if dc else
+                                        "; vd_fir_demo was not found, so it was not run here") + ".", ""]
+    return "\n".join(lines)
