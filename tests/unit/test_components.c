@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: MIT
 // Unit tests of components.h: hand-worked masks, a naive flood-fill reference
-// on random masks, the thresholding labellers against the mask labeller, run
+// on random masks, the thresholding labellers against the mask labeller, the
+// streamed row-pair labeller against the whole-frame one, run
 // budgets, capacity, workspace contracts and rules (box expansion: test_rect.c).
 #include "unity.h"
 #include "testutil.h"
+#include "regions/components_internal.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -647,6 +649,70 @@ static void test_thr_random_vs_mask(void)
     TEST_ASSERT_EQUAL_INT(12 * 12, cases);
 }
 
+// The streamed row-pair labeller (components_internal.h, contrast.c's) gives
+// vd_components_label_thr_u8's result on the whole frame: same components in
+// the same order, the first cap of them, every component counted; restart
+// starts over; the workspace is checked.
+static void check_stream_case(uint32_t w, uint32_t h, uint8_t thr, size_t cap)
+{
+    static vd_component_t ref[MAXC];
+    vd_view_u8_t v = {g_plane8, w, h, w};
+    size_t bytes = 0, n_ref = 0;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_components_workspace_size(w, h, &bytes));
+    void *ws = tu_guarded_alloc(0, bytes);
+    vd_components_stats_t st;
+    const vd_status_t s_ref = vd_components_label_thr_u8(&v, NULL, thr, ws, bytes, ref, cap, &n_ref, &st);
+    tu_guarded_free(0);
+    TEST_ASSERT_TRUE(s_ref == VD_OK || s_ref == VD_ERR_CAPACITY);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_stream_workspace_size(w, &bytes));
+    ws = tu_guarded_alloc(1, bytes);
+    vd_cc_stream_t cs;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cc_stream_init(&cs, w, ws, bytes - 1u, g_out, cap));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_stream_init(&cs, w, ws, bytes, g_out, cap));
+    for (int pass = 0; pass < 2; pass++) { // the second after a half frame and a restart
+        if (pass == 1) {
+            for (uint32_t y = 0; y < h / 2u; y += 2u) {
+                vd_cc_stream_pair(&cs, g_plane8 + (size_t)y * w, y + 1u < h ? g_plane8 + (size_t)(y + 1u) * w : NULL,
+                                  y, (uint8_t)(thr ^ 0x55u));
+            }
+            vd_cc_stream_restart(&cs);
+        }
+        for (uint32_t y = 0; y < h; y += 2u) {
+            vd_cc_stream_pair(&cs, g_plane8 + (size_t)y * w, y + 1u < h ? g_plane8 + (size_t)(y + 1u) * w : NULL, y,
+                              thr);
+        }
+        const size_t n = vd_cc_stream_finish(&cs);
+        tu_guard_check(1);
+        TEST_ASSERT_EQUAL_size_t(n_ref, n);
+        TEST_ASSERT_EQUAL_UINT32(st.labels, cs.labels);
+        assert_same_comps(ref, g_out, n);
+    }
+    tu_guarded_free(1);
+}
+
+static void test_stream_vs_whole_frame(void)
+{
+    static const uint32_t sizes[][2] = {{1, 1}, {1, 9}, {3, 1}, {7, 3}, {9, 7}, {17, 16}, {33, 31}, {131, 21},
+                                        {160, 64}};
+    uint32_t seed = 7;
+    for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
+        for (int rep = 0; rep < 8; rep++) {
+            const uint32_t w = sizes[s][0], h = sizes[s][1];
+            const uint8_t t = (uint8_t)(rep == 0 ? 0u : rep == 1 ? 255u : 1u + (tu_rand(&seed) % 254u));
+            for (uint32_t y = 0; y < h; y++) {
+                for (uint32_t x = 0; x < w; x++) {
+                    const uint32_t r = tu_rand(&seed);
+                    // noise near the threshold, or combs (components that join late)
+                    g_plane8[y * w + x] = (rep & 2) != 0 ? (uint8_t)(t + (int)((r >> 8) % 5u) - 2)
+                                                         : (uint8_t)(((x % 4u) == 0u || y == h - 1u) ? t : t - 1u);
+                }
+            }
+            static const size_t caps[] = {0u, 1u, 3u, MAXC};
+            check_stream_case(w, h, t, caps[(size_t)rep % 4u]);
+        }
+    }
+}
+
 // Every 8-bit value against every threshold, in every lane of the 64-bit word.
 static void test_thr_u8_every_value_and_threshold(void)
 {
@@ -932,6 +998,7 @@ int main(void)
     RUN_TEST(test_workspace_size_runs);
     RUN_TEST(test_thr_random_vs_mask);
     RUN_TEST(test_thr_u8_every_value_and_threshold);
+    RUN_TEST(test_stream_vs_whole_frame);
     RUN_TEST(test_thr_run_budget);
     RUN_TEST(test_thr_workspace_contract);
     RUN_TEST(test_thr_bad_arguments);

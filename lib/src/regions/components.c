@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// 8-connected component labelling over runs, shape rules (box expansion: rect.c).
+// 8-connected component labelling over runs: whole frame, or streamed a row
+// pair at a time (components_internal.h); shape rules in component_rules.c.
 //
 // Algorithm: rows are taken in pairs (ROI rows 2k, 2k+1). Each row is
 // run-length encoded straight from its source (a 0/nonzero mask, or an 8- or
@@ -32,6 +33,7 @@
 #include <string.h>
 
 #include "internal/vd_internal.h"
+#include "regions/components_internal.h"
 
 #if VD_MAX_DIM > 32767u
 #error "components.c packs x into 15 bits: VD_MAX_DIM must be below 32768"
@@ -512,6 +514,213 @@ static vd_status_t cc_label(const cc_src_t *src, const cc_layout_t *lay, void *w
     return ((size_t)n_labels > cap || rows < h) ? VD_ERR_CAPACITY : VD_OK;
 }
 
+// Streaming labeller (components_internal.h). Nodes are the runs of the
+// current pair (m .. n, merged by x0 as above) after the open components of
+// the pairs before (0 .. m, renumbered after every pair in index order). A
+// node's key ((y / 2) << 15 | x0 of its first run) never decreases with its
+// index, so cc_unite_rows' smallest-index root is the component's first run
+// in the whole-frame run order and its key orders the components as the
+// labels of cc_label. A component no run of the pair's second row reaches
+// is complete: it goes to out[], kept sorted by key and truncated to cap.
+typedef struct cc_rec {
+    uint64_t sx, sy; // sums of x and y: < area * 2^15 < 2^45
+    uint32_t area;
+    uint32_t key;    // (row pair << 15) | x0 of the first run
+    uint16_t x0, x1, y0, y1;
+} cc_rec_t;
+
+// Slices: three run rows of ceil(w/2) runs (the most one row has), then per
+// node (<= 3 ceil(w/2): the open components, each owning a run of the row
+// above, plus the pair's runs) a slot and a record.
+static size_t cc_stream_slices(uint32_t w, size_t *spans, size_t *nodes)
+{
+    const size_t hw = ((size_t)w + 1u) / 2u;
+    size_t t = 0u;
+    *spans = hw * sizeof(cc_span_t);
+    *nodes = 3u * hw;
+    // VD_MAX_DIM < 2^15 keeps every term far below size_t's range.
+    for (int i = 0; i < 3; i++) {
+        (void)vd_size_add_slice(&t, *spans);
+    }
+    (void)vd_size_add_slice(&t, *nodes * sizeof(cc_slot_t));
+    (void)vd_size_add_slice(&t, *nodes * sizeof(cc_rec_t));
+    return t;
+}
+
+vd_status_t vd_cc_stream_workspace_size(uint32_t max_width, size_t *bytes)
+{
+    VD_VERIFY(bytes != NULL && max_width >= 1u && max_width <= VD_MAX_DIM, VD_ERR_ARG);
+    size_t spans, nodes;
+    *bytes = cc_stream_slices(max_width, &spans, &nodes);
+    return VD_OK;
+}
+
+vd_status_t vd_cc_stream_init(vd_cc_stream_t *s, uint32_t width, void *ws, size_t bytes, vd_component_t *out,
+                              size_t cap)
+{
+    VD_VERIFY(s != NULL && width >= 1u && width <= VD_MAX_DIM && (out != NULL || cap == 0u), VD_ERR_ARG);
+    size_t spans, nodes;
+    VD_VERIFY(bytes >= cc_stream_slices(width, &spans, &nodes), VD_ERR_WORKSPACE);
+    vd_arena_t a;
+    VD_TRY(vd_arena_init(&a, ws, bytes));
+    s->up = (cc_span_t *)vd_arena_take(&a, spans);
+    s->a = (cc_span_t *)vd_arena_take(&a, spans);
+    s->b = (cc_span_t *)vd_arena_take(&a, spans);
+    s->node = (cc_slot_t *)vd_arena_take(&a, nodes * sizeof(cc_slot_t));
+    s->rec = (cc_rec_t *)vd_arena_take(&a, nodes * sizeof(cc_rec_t));
+    VD_ASSERT(s->rec != NULL);
+    s->w = width;
+    s->out = out;
+    s->cap = cap;
+    vd_cc_stream_restart(s);
+    return VD_OK;
+}
+
+void vd_cc_stream_restart(vd_cc_stream_t *s)
+{
+    s->nup = 0u;
+    s->m = 0u;
+    s->labels = 0u;
+    s->n = 0u;
+}
+
+// Order of a waiting out[] entry: its key, kept in box.w's upper bits until
+// the end (box.w < 2^15, x0 < 2^15) with the row pair box.y / 2.
+static inline uint32_t cc_key_of(const vd_component_t *c)
+{
+    return (((uint32_t)c->box.y >> 1) << 15) | ((uint32_t)c->box.w >> 16);
+}
+
+// A complete component: counted, and inserted into out[] by key when among
+// the cap smallest keys so far (then out[] drops its last entry if full).
+static void cc_emit(vd_cc_stream_t *s, const cc_rec_t *q)
+{
+    s->labels++;
+    if (s->cap == 0u) {
+        return;
+    }
+    vd_component_t *out = s->out;
+    size_t n = s->n;
+    if (n == s->cap) {
+        if (q->key > cc_key_of(&out[n - 1u])) {
+            return;
+        }
+        n--; // the last entry leaves for this one
+    }
+    size_t j = n;
+    while (j > 0u && cc_key_of(&out[j - 1u]) > q->key) { // usually 0 or 1 step: keys close in order
+        out[j] = out[j - 1u];
+        j--;
+    }
+    vd_component_t *c = &out[j];
+    c->box.x = (int32_t)q->x0;
+    c->box.y = (int32_t)q->y0;
+    c->box.w = (int32_t)(((uint32_t)q->x1 - q->x0 + 1u) | ((q->key & 0x7FFFu) << 16));
+    c->box.h = (int32_t)((uint32_t)q->y1 - q->y0 + 1u);
+    c->area = q->area;
+    // Round-half-up in Q8 as cc_finish.
+    const uint64_t a2 = 2u * (uint64_t)q->area;
+    c->cx_q8 = (uint32_t)((512u * q->sx + q->area) / a2);
+    c->cy_q8 = (uint32_t)((512u * q->sy + q->area) / a2);
+    s->n = n + 1u;
+}
+
+// Node i's statistics into its root's (root < i: already made); its open
+// mark (slot's x1, free once the record is made) cleared.
+static inline void cc_fold(vd_cc_stream_t *s, uint32_t i)
+{
+    cc_slot_t *nd = s->node;
+    nd[i].run.x1 = 0u;
+    if (nd[i].run.parent != i) {
+        cc_rec_t *d = &s->rec[cc_find(nd, i)];
+        const cc_rec_t *q = &s->rec[i];
+        d->sx += q->sx;
+        d->sy += q->sy;
+        d->area += q->area;
+        d->x0 = q->x0 < d->x0 ? q->x0 : d->x0;
+        d->x1 = q->x1 > d->x1 ? q->x1 : d->x1;
+        d->y0 = q->y0 < d->y0 ? q->y0 : d->y0;
+        d->y1 = q->y1 > d->y1 ? q->y1 : d->y1;
+    }
+}
+
+void vd_cc_stream_pair(vd_cc_stream_t *s, const uint8_t *ra, const uint8_t *rb, uint32_t y, uint8_t thr)
+{
+    cc_slot_t *nd = s->node;
+    const size_t na = cc_runs_thr_u8(ra, s->w, thr, s->a);
+    const size_t nb = (rb != NULL) ? cc_runs_thr_u8(rb, s->w, thr, s->b) : 0u;
+    uint32_t px = 0u;
+    const uint32_t m0 = s->m;
+    const uint32_t n = cc_merge_pair(nd, m0, s->a, na, s->b, nb, &px);
+    cc_unite_rows(nd, s->up, s->nup, s->a, na);
+    cc_unite_rows(nd, s->a, na, s->b, nb);
+    // Statistics to the roots; roots of the second row's runs stay open.
+    for (uint32_t i = 0u; i < m0; i++) {
+        cc_fold(s, i);
+    }
+    const uint32_t pair_key = (y >> 1) << 15;
+    for (uint32_t i = m0; i < n; i++) {
+        const uint32_t x0 = nd[i].run.x0f & CC_X_MASK;
+        const uint32_t x1 = nd[i].run.x1;
+        const uint32_t row = y + ((nd[i].run.x0f & CC_ODD_ROW) != 0u ? 1u : 0u);
+        const uint32_t len = x1 - x0 + 1u;
+        cc_rec_t *q = &s->rec[i];
+        q->sx = ((uint64_t)(x0 + x1) * len) >> 1; // x0 + ... + x1: the product is even
+        q->sy = (uint64_t)row * len;
+        q->area = len;
+        q->key = pair_key | x0;
+        q->x0 = (uint16_t)x0;
+        q->x1 = (uint16_t)x1;
+        q->y0 = (uint16_t)row;
+        q->y1 = (uint16_t)row;
+        cc_fold(s, i);
+    }
+    for (size_t j = 0u; j < nb; j++) {
+        const uint32_t r = cc_find(nd, s->b[j].idx);
+        s->b[j].idx = r;
+        nd[r].run.x1 = 1u;
+    }
+    // Open roots renumbered 0.. in place (the new number never exceeds the
+    // old, so no unread record is overwritten); complete ones emitted. The
+    // mark of an open root becomes 1 + its new number (< 3 * 2^14).
+    uint32_t m = 0u;
+    for (uint32_t i = 0u; i < n; i++) {
+        if (nd[i].run.parent != i) {
+            continue;
+        }
+        if (nd[i].run.x1 == 0u) {
+            cc_emit(s, &s->rec[i]);
+            continue;
+        }
+        nd[i].run.x1 = (uint16_t)(m + 1u);
+        if (m != i) {
+            s->rec[m] = s->rec[i];
+        }
+        nd[m].run.parent = m;
+        m++;
+    }
+    for (size_t j = 0u; j < nb; j++) {
+        s->b[j].idx = nd[s->b[j].idx].run.x1 - 1u;
+    }
+    s->m = m;
+    cc_span_t *t = s->up; // the second row is the next pair's row above
+    s->up = s->b;
+    s->b = t;
+    s->nup = nb;
+}
+
+size_t vd_cc_stream_finish(vd_cc_stream_t *s)
+{
+    for (uint32_t i = 0u; i < s->m; i++) { // the components open at the last row are complete
+        cc_emit(s, &s->rec[i]);
+    }
+    s->m = 0u;
+    for (size_t i = 0u; i < s->n; i++) {
+        s->out[i].box.w = (int32_t)((uint32_t)s->out[i].box.w & 0xFFFFu); // the key bits go
+    }
+    return s->n;
+}
+
 // Common argument checks; fills the source geometry and the layout.
 static vd_status_t cc_prepare(uint32_t img_w, uint32_t img_h, const vd_rect_t *roi, void *ws, size_t bytes,
                               size_t min_runs_worst, const vd_component_t *out, size_t cap, cc_src_t *src,
@@ -580,65 +789,4 @@ vd_status_t vd_components_label_thr_u16(const vd_view_u16_t *src, const vd_rect_
     s.kind = CC_SRC_THR_U16;
     s.thr = thr;
     return cc_label(&s, &lay, ws, bytes, out, cap, count, stats);
-}
-
-void vd_components_rules_default(vd_components_rules_t *rules)
-{
-    if (rules == NULL) {
-        return;
-    }
-    rules->aspect_min_q8 = 77u;  // 0.3 * 256 = 76.8
-    rules->aspect_max_q8 = 384u; // 1.5 * 256
-    rules->min_area = 120u;
-    rules->max_area = 0u;
-}
-
-// The consistency that vd_components_rules_resolve and vd_components_filter demand.
-static vd_status_t rules_check(const vd_components_rules_t *rules)
-{
-    VD_VERIFY(rules->aspect_min_q8 <= rules->aspect_max_q8, VD_ERR_ARG);
-    VD_VERIFY(rules->max_area == 0u || rules->min_area <= rules->max_area, VD_ERR_ARG);
-    return VD_OK;
-}
-
-vd_status_t vd_components_rules_resolve(vd_components_rules_t *rules)
-{
-    VD_VERIFY(rules != NULL, VD_ERR_ARG);
-    if (rules->aspect_min_q8 == 0u && rules->aspect_max_q8 == 0u && rules->min_area == 0u && rules->max_area == 0u) {
-        vd_components_rules_default(rules);
-    }
-    return rules_check(rules);
-}
-
-// round-half-up(256 * h / w) for w, h >= 1; 512 * h < 2^41 in uint64.
-static uint64_t cc_aspect_q8(const vd_rect_t *b)
-{
-    const uint64_t w = (uint64_t)b->w;
-    return (512u * (uint64_t)b->h + w) / (2u * w);
-}
-
-vd_status_t vd_components_filter(vd_component_t *comps, size_t n, const vd_components_rules_t *rules, size_t *kept)
-{
-    VD_VERIFY(kept != NULL, VD_ERR_ARG);
-    *kept = 0u;
-    VD_VERIFY(rules != NULL && (comps != NULL || n == 0u), VD_ERR_ARG);
-    VD_TRY(rules_check(rules));
-    for (size_t i = 0u; i < n; i++) { // validate all before touching any
-        VD_VERIFY(comps[i].box.w > 0 && comps[i].box.h > 0, VD_ERR_ARG);
-    }
-    size_t k = 0u;
-    for (size_t i = 0u; i < n; i++) {
-        const uint64_t asp = cc_aspect_q8(&comps[i].box);
-        const uint32_t area = comps[i].area;
-        bool ok = asp >= rules->aspect_min_q8 && asp <= rules->aspect_max_q8 && area >= rules->min_area &&
-                  (rules->max_area == 0u || area <= rules->max_area);
-        if (ok) {
-            if (k != i) {
-                comps[k] = comps[i];
-            }
-            k++;
-        }
-    }
-    *kept = k;
-    return VD_OK;
 }

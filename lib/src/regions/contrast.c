@@ -10,8 +10,9 @@
 // labelling and shape rules as the hot-spot candidates of paper 001.
 // Candidates are made in strips of one row pair (issue 11: no frame-sized
 // buffer): the running sums read the frame itself, so a strip needs only its
-// two map rows; a streaming run labeller (below) gives the components and
-// order of vd_components_label on the whole thresholded map.
+// two map rows; components.c's streaming row-pair labeller
+// (components_internal.h) gives the components and order of
+// vd_components_label on the whole thresholded map.
 // Not in the papers: the issue-7 answer to cold parked vehicles, which a
 // hot-spot threshold cannot see.
 //
@@ -38,6 +39,7 @@
 
 #include "internal/recip_internal.h"
 #include "internal/vd_internal.h"
+#include "regions/components_internal.h"
 
 #if VD_MAX_DIM > 32767u
 #error "contrast.c keeps x, y in uint16 and x0 in a 15-bit key field: VD_MAX_DIM must be below 32768"
@@ -380,70 +382,25 @@ vd_status_t vd_contrast_map_u8(const vd_view_u8_t *src, uint32_t radius, uint8_t
     return VD_OK;
 }
 
-// Streaming labeller of the thresholded map, one row pair at a time.
-// The same components and order as vd_components_label on the whole mask
-// (components.c): 8-connected runs united in a union-find forest whose root
-// is the component's first run in components.c's run order (row pair, then
-// x0), so the root's key ((y / 2) << 15 | x0 of that run) orders the
-// components as the labels 1..n of the whole-frame labeller. Unlike it, only
-// the components still open (touching the pair's second row) are kept between
-// pairs: nodes [0, m) are those, renumbered after every pair; a component
-// that no run of the second row reaches is complete and goes to out[], kept
-// sorted by key and truncated to cap, so out[] ends as the first cap
-// components of the whole-frame order.
-typedef struct lab_span {
-    uint16_t x0, x1;   // inclusive
-    uint32_t node;
-} lab_span_t;
-
-// Statistics of a node's part of a component (32 bytes).
-typedef struct lab_rec {
-    uint64_t sx, sy;   // sums of x and y: < area * 2^15 < 2^45
-    uint32_t area;
-    uint32_t key;      // (row pair << 15) | x0 of the first run
-    uint16_t x0, x1, y0, y1;
-} lab_rec_t;
-
-typedef struct lab {
-    lab_span_t *up, *a, *b;   // runs of the row above the pair and of its two rows
-    uint32_t *parent;         // union-find forest of the pair's nodes
-    uint32_t *mark;           // 1 + new number of an open root, 0 = complete
-    lab_rec_t *rec;
-    size_t nup;
-    uint32_t m;               // open components: nodes [0, m)
-    uint32_t labels;          // complete components so far (all, not only those in out)
-    vd_component_t *out;
-    size_t cap, n;
-} lab_t;
-
 // Slices of the candidate workspace for frames w wide: column sums, two map
-// rows (the strip), three run rows of ceil(w/2) runs (the most one row has),
-// and per node (<= 3 ceil(w/2): the open components, which each own a run of
-// the row above, plus the pair's runs) its parent, mark and statistics; the
+// rows (the strip), the streaming labeller's (components_internal.h), and the
 // histogram of the percentile threshold last.
 typedef struct cand_layout {
-    size_t col, rows, spans, nodes, hist, total;
+    size_t col, rows, label, hist, total;
 } cand_layout_t;
 
 static vd_status_t cand_layout(uint32_t w, uint32_t h, cand_layout_t *l)
 {
     VD_VERIFY(w >= 1u && w <= VD_MAX_DIM && h >= 1u && h <= VD_MAX_DIM, VD_ERR_ARG);
-    const size_t hw = ((size_t)w + 1u) / 2u;
     l->col = (size_t)w * sizeof(uint16_t);
     l->rows = 2u * (size_t)w;
-    l->spans = hw * sizeof(lab_span_t);
-    l->nodes = 3u * hw;
+    VD_TRY(vd_cc_stream_workspace_size(w, &l->label));
     l->hist = 256u * sizeof(uint32_t);
     size_t t = 0u;
     // VD_MAX_DIM < 2^15 keeps every term far below size_t's range.
     (void)vd_size_add_slice(&t, l->col);
     (void)vd_size_add_slice(&t, l->rows);
-    for (int i = 0; i < 3; i++) {
-        (void)vd_size_add_slice(&t, l->spans);
-    }
-    (void)vd_size_add_slice(&t, l->nodes * sizeof(uint32_t));
-    (void)vd_size_add_slice(&t, l->nodes * sizeof(uint32_t));
-    (void)vd_size_add_slice(&t, l->nodes * sizeof(lab_rec_t));
+    (void)vd_size_add_slice(&t, l->label);
     (void)vd_size_add_slice(&t, l->hist);
     l->total = t;
     return VD_OK;
@@ -457,227 +414,6 @@ vd_status_t vd_contrast_workspace_size(uint32_t max_width, uint32_t max_height, 
     VD_TRY(cand_layout(max_width, max_height, &l));
     *bytes = l.total;
     return VD_OK;
-}
-
-// Per byte lane of v: top bit set iff lane >= the lane of tb (components.c's
-// test, which lets the run encoder skip background 8 pixels at a time).
-static inline uint64_t lanes_ge(uint64_t v, uint64_t tb)
-{
-    const uint64_t hi = UINT64_C(0x8080808080808080);
-    const uint64_t lo = UINT64_C(0x7F7F7F7F7F7F7F7F);
-    const uint64_t ge_low = ((v | hi) - (tb & lo)) & hi;
-    return ((v & ~tb) | (~(v ^ tb) & ge_low)) & hi;
-}
-
-// Runs of the pixels >= t of one map row into sp (at most ceil(w/2));
-// every loop advances x, so <= w steps.
-static size_t lab_runs(const uint8_t *p, uint32_t w, uint8_t t, lab_span_t *sp)
-{
-    const uint64_t tb = (uint64_t)t * UINT64_C(0x0101010101010101);
-    size_t n = 0u;
-    uint32_t x = 0u;
-    while (x < w) {
-        while (x + 8u <= w) {   // background: no byte >= t (most of a contrast map)
-            uint64_t v;
-            memcpy(&v, p + x, sizeof v);
-            if (lanes_ge(v, tb) != 0u) {
-                break;
-            }
-            x += 8u;
-        }
-        while (x < w && p[x] < t) {
-            x++;
-        }
-        if (x >= w) {
-            break;
-        }
-        const uint32_t start = x;
-        while (x < w && p[x] >= t) {
-            x++;
-        }
-        sp[n].x0 = (uint16_t)start;
-        sp[n].x1 = (uint16_t)(x - 1u);
-        n++;
-    }
-    return n;
-}
-
-// Node order: key, then index (two runs of a pair with the same x0 touch, so
-// equal keys only meet inside one component). Links always go to a smaller
-// node in this order, so every find walk ends, within the pair's node count.
-static inline bool lab_before(const lab_t *L, uint32_t i, uint32_t j)
-{
-    return L->rec[i].key < L->rec[j].key || (L->rec[i].key == L->rec[j].key && i < j);
-}
-
-static inline uint32_t lab_find(uint32_t *parent, uint32_t i)
-{
-    while (parent[i] != i) {   // path halving, no recursion
-        const uint32_t g = parent[parent[i]];
-        parent[i] = g;
-        i = g;
-    }
-    return i;
-}
-
-// Unites each run of row dn with the runs of the row above that it touches in
-// 8-connectivity (a.x0 <= b.x1 + 1 and b.x0 <= a.x1 + 1): components.c's
-// two-pointer sweep, O(nu + nd) pairs.
-static void lab_unite(lab_t *L, const lab_span_t *up, size_t nu, const lab_span_t *dn, size_t nd)
-{
-    uint32_t *parent = L->parent;
-    size_t j = 0u;
-    for (size_t i = 0u; i < nd; i++) {
-        const uint32_t lo = dn[i].x0;
-        const uint32_t hi = (uint32_t)dn[i].x1 + 1u;
-        while (j < nu && (uint32_t)up[j].x1 + 1u < lo) {
-            j++;
-        }
-        if (j >= nu || up[j].x0 > hi) {
-            continue;
-        }
-        uint32_t r = lab_find(parent, dn[i].node);
-        for (size_t k = j; k < nu && up[k].x0 <= hi; k++) {
-            const uint32_t ru = lab_find(parent, up[k].node);
-            if (ru == r) {
-                continue;
-            }
-            if (lab_before(L, ru, r)) {
-                parent[r] = ru;
-                r = ru;
-            } else {
-                parent[ru] = r;
-            }
-        }
-    }
-}
-
-// Order of a waiting out[] entry: its key, kept in box.w's upper bits until
-// the end (box.w < 2^15, x0 < 2^15) with the row pair box.y / 2.
-static inline uint32_t lab_key_of(const vd_component_t *c)
-{
-    return (((uint32_t)c->box.y >> 1) << 15) | ((uint32_t)c->box.w >> 16);
-}
-
-// A complete component: counted, and inserted into out[] by key when among
-// the cap smallest keys so far (then out[] drops its last entry if full).
-static void lab_emit(lab_t *L, const lab_rec_t *q)
-{
-    L->labels++;
-    if (L->cap == 0u) {
-        return;
-    }
-    vd_component_t *out = L->out;
-    size_t n = L->n;
-    if (n == L->cap) {
-        if (q->key > lab_key_of(&out[n - 1u])) {
-            return;
-        }
-        n--;   // the last entry leaves for this one
-    }
-    size_t j = n;
-    while (j > 0u && lab_key_of(&out[j - 1u]) > q->key) {   // usually 0 or 1 step: keys close in order
-        out[j] = out[j - 1u];
-        j--;
-    }
-    vd_component_t *c = &out[j];
-    c->box.x = (int32_t)q->x0;
-    c->box.y = (int32_t)q->y0;
-    c->box.w = (int32_t)(((uint32_t)q->x1 - q->x0 + 1u) | ((q->key & 0x7FFFu) << 16));
-    c->box.h = (int32_t)((uint32_t)q->y1 - q->y0 + 1u);
-    c->area = q->area;
-    // Round-half-up in Q8 as components.c: floor((512 * sum + area) / (2 * area)).
-    const uint64_t a2 = 2u * (uint64_t)q->area;
-    c->cx_q8 = (uint32_t)((512u * q->sx + q->area) / a2);
-    c->cy_q8 = (uint32_t)((512u * q->sy + q->area) / a2);
-    L->n = n + 1u;
-}
-
-static void lab_rec_merge(lab_rec_t *d, const lab_rec_t *s)
-{
-    d->sx += s->sx;
-    d->sy += s->sy;
-    d->area += s->area;
-    d->x0 = s->x0 < d->x0 ? s->x0 : d->x0;
-    d->x1 = s->x1 > d->x1 ? s->x1 : d->x1;
-    d->y0 = s->y0 < d->y0 ? s->y0 : d->y0;
-    d->y1 = s->y1 > d->y1 ? s->y1 : d->y1;
-}
-
-// One row pair: rows y (ra) and y + 1 (rb, NULL past the frame) of the map.
-static void lab_pair(lab_t *L, const uint8_t *ra, const uint8_t *rb, uint32_t w, uint32_t y, uint8_t thr)
-{
-    const size_t na = lab_runs(ra, w, thr, L->a);
-    const size_t nb = (rb != NULL) ? lab_runs(rb, w, thr, L->b) : 0u;
-    // The pair's runs become nodes m.. merged by x0 (components.c's run order).
-    uint32_t n = L->m;
-    size_t ia = 0u;
-    size_t ib = 0u;
-    const uint32_t pair_key = (y >> 1) << 15;
-    while (ia < na || ib < nb) {
-        lab_span_t *s;
-        uint32_t row;
-        if (ib == nb || (ia < na && L->a[ia].x0 <= L->b[ib].x0)) {
-            s = &L->a[ia++];
-            row = y;
-        } else {
-            s = &L->b[ib++];
-            row = y + 1u;
-        }
-        const uint32_t len = (uint32_t)s->x1 - s->x0 + 1u;
-        lab_rec_t *q = &L->rec[n];
-        q->sx = ((uint64_t)((uint32_t)s->x0 + s->x1) * len) >> 1;   // x0 + ... + x1: the product is even
-        q->sy = (uint64_t)row * len;
-        q->area = len;
-        q->key = pair_key | s->x0;
-        q->x0 = s->x0;
-        q->x1 = s->x1;
-        q->y0 = (uint16_t)row;
-        q->y1 = (uint16_t)row;
-        L->parent[n] = n;
-        s->node = n;
-        n++;
-    }
-    lab_unite(L, L->up, L->nup, L->a, na);
-    lab_unite(L, L->a, na, L->b, nb);
-    // Statistics to the roots; roots of the second row's runs stay open.
-    for (uint32_t i = 0u; i < n; i++) {
-        L->mark[i] = 0u;
-        if (L->parent[i] != i) {
-            lab_rec_merge(&L->rec[lab_find(L->parent, i)], &L->rec[i]);
-        }
-    }
-    for (size_t j = 0u; j < nb; j++) {
-        const uint32_t r = lab_find(L->parent, L->b[j].node);
-        L->b[j].node = r;
-        L->mark[r] = 1u;
-    }
-    // Open roots renumbered 0.. in place (the new number never exceeds the
-    // old, so no unread record is overwritten); complete ones emitted.
-    uint32_t m = 0u;
-    for (uint32_t i = 0u; i < n; i++) {
-        if (L->parent[i] != i) {
-            continue;
-        }
-        if (L->mark[i] == 0u) {
-            lab_emit(L, &L->rec[i]);
-            continue;
-        }
-        L->mark[i] = m + 1u;
-        if (m != i) {
-            L->rec[m] = L->rec[i];
-        }
-        L->parent[m] = m;
-        m++;
-    }
-    for (size_t j = 0u; j < nb; j++) {
-        L->b[j].node = L->mark[L->b[j].node] - 1u;
-    }
-    L->m = m;
-    lab_span_t *t = L->up;   // the second row is the next pair's row above
-    L->up = L->b;
-    L->b = t;
-    L->nup = nb;
 }
 
 vd_status_t vd_contrast_cfg_resolve(vd_contrast_cfg_t *c)
@@ -717,18 +453,11 @@ vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cf
     uint16_t *col = (uint16_t *)vd_arena_take(&a, lay.col);
     uint8_t *ra = (uint8_t *)vd_arena_take(&a, lay.rows);
     uint8_t *rb = ra + w;
-    lab_t L;
-    memset(&L, 0, sizeof(L));
-    L.up = (lab_span_t *)vd_arena_take(&a, lay.spans);
-    L.a = (lab_span_t *)vd_arena_take(&a, lay.spans);
-    L.b = (lab_span_t *)vd_arena_take(&a, lay.spans);
-    L.parent = (uint32_t *)vd_arena_take(&a, lay.nodes * sizeof(uint32_t));
-    L.mark = (uint32_t *)vd_arena_take(&a, lay.nodes * sizeof(uint32_t));
-    L.rec = (lab_rec_t *)vd_arena_take(&a, lay.nodes * sizeof(lab_rec_t));
+    void *lws = vd_arena_take(&a, lay.label);
     uint32_t *hist = (uint32_t *)vd_arena_take(&a, lay.hist);
-    VD_ASSERT(hist != NULL);
-    L.out = out;
-    L.cap = cap;
+    VD_ASSERT(lws != NULL && hist != NULL);
+    vd_cc_stream_t L;
+    VD_TRY(vd_cc_stream_init(&L, w, lws, lay.label, out, cap));
 
     cmap_t m;
     uint32_t thr = c.thr_u8;
@@ -752,17 +481,14 @@ vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cf
                     hist[rb[x]]++;
                 }
             }
-            lab_pair(&L, ra, two ? rb : NULL, w, y, (uint8_t)thr);
+            vd_cc_stream_pair(&L, ra, two ? rb : NULL, y, (uint8_t)thr);
         }
         // max(thr_u8, p-th percentile of the map), as the detector's adaptive threshold.
         uint8_t t = 0u;
         VD_TRY(vd_threshold_percentile_u8(hist, c.permille, (uint8_t)thr, &t));
         labelled = (t == thr);
         if (!labelled) {
-            L.m = 0u;   // start again: nothing open, nothing emitted
-            L.nup = 0u;
-            L.labels = 0u;
-            L.n = 0u;
+            vd_cc_stream_restart(&L);   // start again: nothing open, nothing emitted
         }
         thr = t;
     }
@@ -778,17 +504,12 @@ vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cf
             if (two) {
                 cmap_row(&m, rb);
             }
-            lab_pair(&L, ra, two ? rb : NULL, w, y, (uint8_t)thr);
+            vd_cc_stream_pair(&L, ra, two ? rb : NULL, y, (uint8_t)thr);
         }
     }
-    for (uint32_t i = 0; i < L.m; i++) {   // the components open at the last row are complete
-        lab_emit(&L, &L.rec[i]);
-    }
-    for (size_t i = 0; i < L.n; i++) {
-        out[i].box.w = (int32_t)((uint32_t)out[i].box.w & 0xFFFFu);   // the key bits go
-    }
+    const size_t n = vd_cc_stream_finish(&L);
     size_t kept = 0u;
-    VD_TRY(vd_components_filter(out, L.n, &c.rules, &kept));
+    VD_TRY(vd_components_filter(out, n, &c.rules, &kept));
     *count = kept;
     // As vd_components_label: more components than cap is a capacity error.
     return ((size_t)L.labels > cap) ? VD_ERR_CAPACITY : VD_OK;
