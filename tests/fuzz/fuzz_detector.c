@@ -190,7 +190,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FZ_FIELD(24, max_region_h, (uint16_t)(fz_u8(&r) % 80u));
     FZ_FIELD(25, max_tracks, (uint16_t)(fz_u16(&r) % 1100u));
     FZ_FIELD(26, temporal_cfg.confirm_frames, fz_u8(&r));
-    FZ_FIELD(27, reserved0, fz_u8(&r));
+    FZ_FIELD(27, win_min_std_u8, fz_u8(&r));
     FZ_FIELD(28, max_runs, (uint32_t)fz_u16(&r));
     FZ_FIELD(29, cnn_flip, (uint8_t)(fz_u8(&r) % 4u));
 #undef FZ_FIELD

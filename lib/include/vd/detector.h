@@ -62,148 +62,77 @@ enum {
     VD_DET_STAGE_COUNT
 };
 
-// Settings. A zeroed struct (or vd_detector_cfg_default()) gives the paper's
-// values; every field documents its zero meaning and range. Out-of-range
-// values make vd_detector_workspace_size()/vd_detector_init() return VD_ERR_ARG.
+// Settings, grouped by concern. A zeroed struct (or vd_detector_cfg_default())
+// gives the paper's values; each field gives its zero meaning and range, and
+// docs/architecture.md "Detector settings" explains the CNN, verifier and
+// merge rules. Out-of-range values make vd_detector_workspace_size() /
+// vd_detector_init() return VD_ERR_ARG. Field order may change between 0.x
+// minor versions (docs/changelog.md): set fields by name after
+// vd_detector_cfg_default() or a zeroed struct.
 typedef struct vd_detector_cfg {
-    uint32_t max_width;          // largest frame width, 1..VD_MAX_DIM; 0 = 640 (sizes the workspace)
+    // Frame size (sizes the workspace).
+    uint32_t max_width;          // largest frame width, 1..VD_MAX_DIM; 0 = 640
     uint32_t max_height;         // largest frame height, 1..VD_MAX_DIM; 0 = 512
-    uint32_t max_runs;           // labelling run budget (8 B each, components.h), >= 1; 0 = 24576, 2.4x the
-                                 // most runs measured on real frames (docs/embedded.md); above the budget
-                                 // the lower rows are not labelled (stats.overflow_runs, VD_ERR_CAPACITY)
+
+    // Candidate sources and their merge.
+    uint8_t sources;             // VD_DETECTOR_SRC_* bit set, 0..15; 0 = VD_DETECTOR_SRC_HOTSPOT (paper)
+    uint16_t dedup_iou_q15;      // merge: drop a candidate with IoU > this to a listed box, 1..32768; 0 = 22938 (0.7)
+    // Hot spots: threshold (8-bit and 16-bit frames), rules, expansion, refinement.
     uint8_t thr_mode;            // VD_DETECTOR_THR_CONSTANT (0, paper) or VD_DETECTOR_THR_ADAPTIVE
     uint8_t hot_thr_u8;          // 8-bit constant threshold, hot = pixel >= thr; 0 = 150 (paper, ~30 C)
     uint8_t adaptive_floor_u8;   // adaptive mode: lowest threshold; 0 = 96
-    uint8_t reserved0;
     uint16_t adaptive_permille;  // adaptive mode: percentile p in 1/1000, 1..1000; 0 = 990 (p99)
-    uint16_t reserved1;
     int32_t hot_thr_ck;          // 16-bit frames: threshold in centi-kelvin, > 0; 0 = 30315 (30.00 C)
-    vd_calib_t calib;            // raw -> centi-kelvin; gain_q16 0 = {65536, offset_ck} (TLinear 0.01 K);
-                                 // gain_q16 must be > 0
+    vd_calib_t calib;            // raw -> centi-kelvin, gain_q16 > 0; gain_q16 0 = {65536, offset_ck} (TLinear)
     int32_t grey_lo_ck;          // 16-bit frames: temperature mapped to grey 0; 0 = hot_thr_ck - 3000
-    int32_t grey_hi_ck;          // temperature mapped to grey 255; 0 = hot_thr_ck + 2100, so the
-                                 // threshold maps to grey 150 as in the paper; lo < hi required
-    vd_components_rules_t rules;         // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
+    int32_t grey_hi_ck;          // temperature mapped to grey 255, > grey_lo_ck; 0 = hot_thr_ck + 2100 (grey 150)
+    vd_components_rules_t rules; // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
     uint16_t expand_w_q8;        // candidate expansion, Q8, 256..2048; 0 = 384 (1.5x, paper)
     uint16_t expand_h_q8;        // 0 = 512 (2x, paper)
     uint8_t median_ksize;        // refine median: 0 = 3 (paper), 1 = none, 3 or 5
     uint8_t edge_step;           // refine: every n-th edge point, 1..255; 0 = 5 (paper)
     uint8_t window;              // refine: local window, odd 3..VD_REFINE_MAX_WINDOW; 0 = 5 (paper)
-    uint8_t score_thr_q8;        // DBN: kept when score_q8 >= this, 1..255; 0 = 128 (p >= 0.5)
-    uint16_t nms_iou_q15;        // suppress a box whose IoU with a better one is > this, 1..32768; 0 = 16384 (0.5)
-    uint16_t max_components;     // components labelled per frame, 1..65535; 0 = 256
-    uint16_t max_candidates;     // candidates verified per frame, all sources together (the one per-frame
-                                 //   budget: CNN boxes first, then hot spots, then contrast, windows fill the
-                                 //   rest), 1..4096; 0 = 64
-    uint16_t max_detections;     // detections kept after NMS, 1..max_candidates; 0 = 32
-    uint16_t max_region_w;       // refine region bound, 1..max_width; 0 = min(176, max_width);
-    uint16_t max_region_h;       //   larger regions are box-averaged by k (flag DECIMATED); 0 = min(176, max_height)
-                                 //   (7 bytes of workspace per region pixel: 176 x 176 = 212 KiB)
-    uint16_t max_tracks;         // temporal track table, 1..1024; 0 = 32 (only with temporal)
-    bool temporal;               // run temporal analysis (temporal.h) inside vd_detector_run
-    vd_temporal_cfg_t temporal_cfg;  // zero = defaults of temporal.h
-    // Candidate sources (issue 7). Order of the merged candidate list: CNN
-    // boxes, then hot spots, then contrast, then windows; a candidate whose
-    // box has IoU > dedup_iou with a box already in the list is dropped before
-    // verification (CNN boxes are never dropped among themselves: overlap
-    // suppression handles them). max_candidates is the one per-frame budget
-    // of all sources together.
-    uint8_t sources;             // VD_DETECTOR_SRC_* bit set, 0..15; 0 = VD_DETECTOR_SRC_HOTSPOT (paper)
-    uint8_t win_min_std_u8;      // window pre-filter: a window is kept when the standard deviation of the
-                                 //   4x4-cell means under it is >= this (grey levels), 1..255; 0 = 4
-    uint16_t dedup_iou_q15;      // merge: 1..32768; 0 = 22938 (0.7, as docs/results/candidates.md)
-    vd_contrast_cfg_t contrast;  // contrast source settings; zero = contrast.h defaults (8-bit frames only)
-    vd_windows_cfg_t windows;    // window source: bands, aspects, stride, scales, ground model (windows.h);
-                                 //   frame_w/frame_h: ignored (each frame's size); max_windows is ignored
-                                 //   (windows are streamed, never stored: the budget is max_candidates)
-    // Optional clock for per-stage times (no OS calls in lib/): returns a
-    // free-running microsecond counter (wrap-around is handled); NULL = no timing.
-    uint32_t (*clock_us)(void *user);
-    void *clock_user;
-    // Optional candidate observer (candidate recall, issue 7); NULL = off.
-    // Called once per merged candidate (all sources, after the dedup merge),
-    // in list order, just before verification: cand->box is the box the
-    // verifier samples, cand->candidate the region, cand->source set, score
-    // not yet filled. At most max_candidates calls per vd_detector_run; none
-    // when the run fails before the merge. The pointer is valid only during
-    // the call; the observer must not call back into this detector.
-    void (*on_candidate)(void *user, const vd_detection_t *cand);
-    void *candidate_user;
-    // CNN source (issue 10; VD_DETECTOR_SRC_CNN). Appended here so the fields
-    // above keep their offsets. The network sees the frame at half resolution:
-    // 8-bit frames as the exact 2x2 box average rounded half up,
-    // (a + b + c + d + 2) >> 2 (vd_resample_box_u8); 16-bit frames as the
-    // rounded 2x2 mean of the raw values through the grey map of
-    // grey_lo_ck..grey_hi_ck (vd_resample_box_u16, as 16-bit refine regions).
-    // The plane is floor(W/2) x floor(H/2), padded to multiples of the model's
-    // alignment by repeating its last column and row; decoded boxes (scaled by
-    // 2, top max_peaks of the header) are clipped to the frame (empty ones
-    // dropped) and become candidates with box = candidate = the decoded box,
-    // score_q8 = min(255, (score_q15 + 64) >> 7) (Q15 -> Q8 rounded half up;
-    // 1.0 saturates at 255). Frames under 2 x 2 pixels give no CNN boxes.
-    const vd_cnn_model_t *cnn_model;  // loaded by vd_cnn_load; required when the source is on (else
-                                      //   VD_ERR_ARG), ignored otherwise; must outlive the detector
-    uint16_t cnn_score_thr_q15;  // boxes whose score_q15 < this are dropped (vd_cnn_thr_from_score; with
-                                 //   cnn_flip the fused scores), 1..32768; 0 = the model header's threshold
-                                 //   (its logit; as a score, that logit's); above the model's top score: no boxes
-    uint8_t cnn_rescore;         // 0: CNN boxes skip the DBN (score = CNN score); 1: the DBN scores them as it
-                                 //   scores windows (whole box) and keeps them when score >= score_thr; their
-                                 //   score is then the DBN's. 1 needs a DBN model (else VD_ERR_ARG)
-    uint8_t cnn_flip;            // 0: one pass (default); 1: horizontal-flip test-time augmentation, the
-                                 //   fused flip pass: pass A on the plane and pass B on the mirrored plane
-                                 //   (x -> floor(W/2) - 1 - x, then padded as usual), both decoded at the
-                                 //   logit threshold of the score max(1, 2T - 32768) where T is the Q15 score
-                                 //   threshold (cnn_score_thr_q15, or the score of the header's logit
-                                 //   threshold); B's boxes mirrored back ([x, x + w) -> [2 floor(W/2) - x - w,
-                                 //   2 floor(W/2) - x)); both sets clipped to the frame (empty ones dropped).
-                                 //   In A's decode order each A box takes the unused B box of largest IoU
-                                 //   (vd_rect_iou_q15) >= VD_CNN_FLIP_IOU_Q15, ties to the first in B's
-                                 //   order: corners x0 = (a.x0 + b.x0) >> 1, y0 likewise, x1 = (a.x1 + b.x1 +
-                                 //   1) >> 1, y1 likewise (x1 = x + w, exclusive), score (sa + sb + 1) >> 1;
-                                 //   an A box without a match keeps its box with score (sa + 1) >> 1; then
-                                 //   every unused B box in order, score (sb + 1) >> 1. Fused boxes with
-                                 //   score < T are dropped, the rest are the CNN candidates in that order.
-                                 //   About twice the network's time plus at most max_peaks^2 IoUs; max_peaks
-                                 //   more decoded boxes in the workspace (vd_detector_workspace_size).
-                                 //   Other values: VD_ERR_ARG
-    // Verifier (issue 12). Appended so the fields above keep their offsets.
-    // VD_DETECTOR_VERIFIER_DBN (0): the DBN `model` of vd_detector_init scores
-    // candidates (32x32 sample, score_thr_q8). VD_DETECTOR_VERIFIER_BOOST: the
-    // boosted CNN-feature stumps of paper 003 (boost.h) score every candidate
-    // the DBN would (hot spots, contrast, windows, re-scored CNN boxes) on a
-    // crop_w x crop_h sample of the same box; kept when score >= the model's
-    // threshold + boost_thr_offset; score_q8 = clamp(128 + floor(128 (score -
-    // threshold) / score_span), 0, 255) (boost.h: score_span bounds |score|),
-    // so score_q8 >= 128 exactly when score >= the model's threshold and the
-    // NMS order follows the boosted score; a negative offset keeps lower
-    // scores too (for precision-recall curves). The DBN `model` may then be NULL.
+    // Contrast and window sources.
+    vd_contrast_cfg_t contrast;  // contrast source (8-bit frames only); zero = contrast.h defaults
+    uint8_t win_min_std_u8;      // window pre-filter: std of the 4x4-cell means >= this, 1..255; 0 = 4
+    vd_windows_cfg_t windows;    // window source (windows.h); frame_w/frame_h and max_windows ignored
+
+    // CNN source (VD_DETECTOR_SRC_CNN).
+    const vd_cnn_model_t *cnn_model;   // vd_cnn_load'ed; required with the source, must outlive the detector
+    const vd_cnn_model_t *cnn_model2;  // second network fused with the first (ensemble); NULL = none
+    uint16_t cnn_score_thr_q15;  // drop boxes with score_q15 < this, 1..32768; 0 = the deciding header's threshold
+    uint8_t cnn_rescore;         // 0: CNN boxes skip the verifier; 1: verified as windows (needs a DBN model)
+    uint8_t cnn_flip;            // 0: one pass; 1: fused horizontal-flip pass (twice the network's time)
+
+    // Verifier.
     uint8_t verifier;            // VD_DETECTOR_VERIFIER_*, 0..1; 0 = DBN
-    uint8_t reserved3[3];        // 0
-    const vd_boost_model_t *boost_model;  // loaded by vd_boost_load; required with VERIFIER_BOOST
-    int32_t boost_thr_offset;    // added to the model's threshold, -2^24..2^24; 0 = the model's
-    // A second network (appended so the fields above keep their offsets): two
-    // networks' boxes fused, an ensemble. NULL (default): cnn_model alone.
-    // Otherwise (loaded by vd_cnn_load, must outlive the detector; ignored
-    // without the CNN source) each network runs its passes on the same
-    // half-resolution plane (each padded to its own alignment): one pass, or
-    // with cnn_flip its two passes fused as above but without a threshold
-    // (nothing dropped), in place; then the first network's boxes (A) and the
-    // second's (B) are fused by the cnn_flip rule (match IoU >=
-    // VD_CNN_FLIP_IOU_Q15, corners and scores averaged, an unmatched box at
-    // half its score) and boxes with score < T are dropped. T is
-    // cnn_score_thr_q15, or the score of cnn_model2's header threshold (the
-    // pair's operating point travels with the second network; cnn_model's
-    // header threshold is that of the first network alone). Every
-    // pass decodes, through its own network's score table, at the logit of
-    // the score max(1, P T - (P - 1) 32768), P = 2 (4 with cnn_flip) being
-    // the passes averaged into a final score. The workspace holds the larger
-    // network's and both networks' boxes (vd_detector_workspace_size).
-    const vd_cnn_model_t *cnn_model2;
+    uint8_t score_thr_q8;        // DBN: kept when score_q8 >= this, 1..255; 0 = 128 (p >= 0.5)
+    const vd_boost_model_t *boost_model;  // vd_boost_load'ed; required with VD_DETECTOR_VERIFIER_BOOST
+    int32_t boost_thr_offset;    // boosted verifier: added to the model's threshold, -2^24..2^24; 0 = none
+
+    // Suppression and temporal analysis.
+    uint16_t nms_iou_q15;        // suppress a box whose IoU with a better one is > this, 1..32768; 0 = 16384 (0.5)
+    bool temporal;               // run temporal analysis (temporal.h) inside vd_detector_run
+    uint16_t max_tracks;         // temporal track table, 1..1024; 0 = 32
+    vd_temporal_cfg_t temporal_cfg;  // zero = temporal.h defaults
+
+    // Budgets (overflows: stats.overflow_*, VD_ERR_CAPACITY).
+    uint32_t max_runs;           // labelling runs (8 B each), >= 1; 0 = 24576 (2.4x the most measured)
+    uint16_t max_components;     // components labelled per frame, 1..65535; 0 = 256
+    uint16_t max_candidates;     // candidates verified per frame, all sources together, 1..4096; 0 = 64
+    uint16_t max_detections;     // detections kept after NMS, 1..max_candidates; 0 = 32
+    uint16_t max_region_w;       // refine region (7 B/px), 1..max_width; 0 = min(176, max_width); larger: decimated
+    uint16_t max_region_h;       // 1..max_height; 0 = min(176, max_height)
+
+    // Observers (NULL = off).
+    uint32_t (*clock_us)(void *user);  // free-running microsecond clock for stats.time_us (wraps)
+    void *clock_user;
+    void (*on_candidate)(void *user, const vd_detection_t *cand);  // each merged candidate before verification
+    void *candidate_user;
 } vd_detector_cfg_t;
 
-// cfg.cnn_flip: the IoU (Q15, rounded down as vd_rect_iou_q15) at or above
-// which a box of the mirrored pass can be fused with one of the normal pass
-// (9830 = 0.3 rounded down).
+// cfg.cnn_flip / cfg.cnn_model2: boxes of two passes are fused when their
+// IoU (Q15, rounded down as vd_rect_iou_q15) is at least this (0.3).
 #define VD_CNN_FLIP_IOU_Q15 9830u
 
 // Values of vd_detector_cfg_t.verifier.
@@ -353,36 +282,9 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
                              void *ws, size_t bytes);
 
 // Runs the pipeline on one frame (VD_PIX_U8 or VD_PIX_U16, at most
-// max_width x max_height):
-//   hot-spot threshold -> 8-connected components of the pixels >= threshold,
-//   labelled straight from the frame with a run budget (max_runs; when a
-//   frame has more runs, the rows below the budget are not labelled and the
-//   components touching the last labelled row are dropped: stats.overflow_runs,
-//   VD_ERR_CAPACITY, the rest of the frame is still processed) -> rules -> expansion
-//   -> per candidate: region plane (8-bit frame itself; 16-bit frames mapped
-//      linearly grey_lo_ck..grey_hi_ck -> 0..255; box-averaged by k if the region
-//      exceeds max_region_*) -> vd_refine_region -> largest external contour
-//      (by box area, then length) gives box and length -> 32x32 sample in the
-//      model's input mode (grey: the region plane under the contour box; shape:
-//      vd_refine_region re-run on the contour box, as tools/vdtools/data/samples.py
-//      makes training samples) -> DBN score >= score_thr
-//   [sources beyond hot spots, cfg.sources: the refined hot-spot boxes start
-//    one merged list; contrast components (8-bit frames only; 16-bit frames
-//    skip this source) and then the best pre-filtered windows are appended
-//    unless a box in the list overlaps them by IoU > dedup_iou, up to
-//    max_candidates in all (windows beyond the budget are dropped by design,
-//    not a capacity error); each is sampled as its whole box (no refinement)
-//    and scored by the same DBN]
-//   [CNN source (first, cfg.cnn_model): half-resolution plane (cfg comment) ->
-//    vd_cnn_run -> vd_cnn_decode (threshold from cnn_score_thr_q15, top
-//    max_peaks, frame 2 nw x 2 nh) -> boxes clipped to the frame (cnn_flip:
-//    the same on the mirrored plane, boxes mirrored back, the two sets fused
-//    as the cfg comment says) start the
-//    merged list (beyond max_candidates: stats.overflow_candidates,
-//    VD_ERR_CAPACITY); hot spots and the other sources are then merged behind
-//    them with the dedup rule; CNN boxes skip the DBN unless cnn_rescore]
-//   -> overlap suppression (best score first, stable) -> temporal analysis
-//      (if enabled: ids, states, recovered targets appended).
+// max_width x max_height): the CNN source, hot spots, contrast and windows
+// merged into one candidate list, verification, overlap suppression, temporal
+// analysis; docs/architecture.md "Detector" gives each step and its budget.
 //   out, cap  caller array; detections best score first, recovered last.
 //   count     out: detections written.
 // Returns VD_OK; VD_ERR_ARG for NULL det/frame/count, out NULL with cap > 0,
@@ -392,10 +294,7 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 // candidates, runs, contour buffers, max_detections, cap, track table): everything
 // written is valid and the stats say which budget; other statuses of the
 // stages are passed on (then *count = 0).
-// Stack: own frame 112 bytes (Cortex-M7 -Os); worst case including the stages
-// 1 092 bytes, through the CNN source (vd_cnn_run's kernels); without it
-// vd_refine_region -> vd_median5_u8, also via the temporal recovery probe
-// (tools/vdtools/generators/embedded_report.py, docs/embedded.md).
+// Stack: no recursion; the worst case per target is generated in docs/embedded.md.
 vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
                             size_t *count);
 

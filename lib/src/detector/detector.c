@@ -29,11 +29,10 @@
 // O(region) for refine and contour and the DBN's multiply-adds; NMS
 // O(max_candidates^2); temporal as temporal.h with at most 289 refine probes
 // per missed confirmed track.
-// Stack: vd_detector_run's own frame about 112 bytes (Cortex-M7 -Os;
-// per-candidate state is in the workspace), plus the deepest stage below it
-// (the boosted verifier -> vd_cnn_run_ex's kernels, 1 556 bytes in all;
-// the CNN source -> vd_cnn_run_rows; refine -> median; docs/embedded.md);
-// no recursion.
+// Stack: vd_detector_run's own frame (per-candidate state is in the
+// workspace) plus the deepest stage below it (the boosted verifier ->
+// vd_cnn_run_ex's kernels, the CNN source -> vd_cnn_run_rows, refine ->
+// median); no recursion; the figures are generated in docs/embedded.md.
 #include "vd/detector.h"
 
 #include <string.h>

@@ -58,22 +58,25 @@ CANDIDATE_FN = C.CFUNCTYPE(None, C.c_void_p, C.POINTER(Detection))
 
 
 class DetectorCfg(C.Structure):
-    _fields_ = [("max_width", C.c_uint32), ("max_height", C.c_uint32), ("max_runs", C.c_uint32),
+    # vd_detector_cfg_t in header order (field order may change between 0.x minor versions).
+    _fields_ = [("max_width", C.c_uint32), ("max_height", C.c_uint32),
+                ("sources", C.c_uint8), ("dedup_iou_q15", C.c_uint16),
                 ("thr_mode", C.c_uint8), ("hot_thr_u8", C.c_uint8), ("adaptive_floor_u8", C.c_uint8),
-                ("reserved0", C.c_uint8), ("adaptive_permille", C.c_uint16), ("reserved1", C.c_uint16),
-                ("hot_thr_ck", C.c_int32), ("calib", Calib), ("grey_lo_ck", C.c_int32), ("grey_hi_ck", C.c_int32),
-                ("rules", CcRules), ("expand_w_q8", C.c_uint16), ("expand_h_q8", C.c_uint16),
-                ("median_ksize", C.c_uint8), ("edge_step", C.c_uint8), ("window", C.c_uint8),
-                ("score_thr_q8", C.c_uint8), ("nms_iou_q15", C.c_uint16), ("max_components", C.c_uint16),
-                ("max_candidates", C.c_uint16), ("max_detections", C.c_uint16), ("max_region_w", C.c_uint16),
-                ("max_region_h", C.c_uint16), ("max_tracks", C.c_uint16), ("temporal", C.c_bool),
-                ("temporal_cfg", TemporalCfg), ("sources", C.c_uint8), ("win_min_std_u8", C.c_uint8),
-                ("dedup_iou_q15", C.c_uint16), ("contrast", ContrastCfg), ("windows", WindowsCfg),
+                ("adaptive_permille", C.c_uint16), ("hot_thr_ck", C.c_int32), ("calib", Calib),
+                ("grey_lo_ck", C.c_int32), ("grey_hi_ck", C.c_int32), ("rules", CcRules),
+                ("expand_w_q8", C.c_uint16), ("expand_h_q8", C.c_uint16), ("median_ksize", C.c_uint8),
+                ("edge_step", C.c_uint8), ("window", C.c_uint8),
+                ("contrast", ContrastCfg), ("win_min_std_u8", C.c_uint8), ("windows", WindowsCfg),
+                ("cnn_model", C.c_void_p), ("cnn_model2", C.c_void_p), ("cnn_score_thr_q15", C.c_uint16),
+                ("cnn_rescore", C.c_uint8), ("cnn_flip", C.c_uint8),
+                ("verifier", C.c_uint8), ("score_thr_q8", C.c_uint8), ("boost_model", C.c_void_p),
+                ("boost_thr_offset", C.c_int32),
+                ("nms_iou_q15", C.c_uint16), ("temporal", C.c_bool), ("max_tracks", C.c_uint16),
+                ("temporal_cfg", TemporalCfg),
+                ("max_runs", C.c_uint32), ("max_components", C.c_uint16), ("max_candidates", C.c_uint16),
+                ("max_detections", C.c_uint16), ("max_region_w", C.c_uint16), ("max_region_h", C.c_uint16),
                 ("clock_us", CLOCK_FN), ("clock_user", C.c_void_p),
-                ("on_candidate", CANDIDATE_FN), ("candidate_user", C.c_void_p),
-                ("cnn_model", C.c_void_p), ("cnn_score_thr_q15", C.c_uint16), ("cnn_rescore", C.c_uint8),
-                ("cnn_flip", C.c_uint8), ("verifier", C.c_uint8), ("reserved3", C.c_uint8 * 3),
-                ("boost_model", C.c_void_p), ("boost_thr_offset", C.c_int32), ("cnn_model2", C.c_void_p)]
+                ("on_candidate", CANDIDATE_FN), ("candidate_user", C.c_void_p)]
 
 
 STAT_FIELDS = ("hot_thr_u8", "hot_thr_raw", "hot_pixels", "components", "kept", "refined", "verified",
@@ -129,7 +132,7 @@ def _struct_dict(s):
         if isinstance(v, C.Structure):
             v = _struct_dict(v)
         elif name in ("clock_us", "clock_user", "on_candidate", "candidate_user", "cnn_model", "boost_model",
-                      "reserved3", "cnn_model2"):
+                      "cnn_model2"):
             continue
         out[name] = v
     return out
