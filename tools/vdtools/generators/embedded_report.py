@@ -10,7 +10,14 @@ frames of ../shared/data (what the detector's run budget max_runs must hold).
     python3 -m vdtools.generators.embedded_report --check    # exit 1 if a budget is broken
 
 The workspace figures come from a host build of the shared library in
-build-report-host (or $VD_LIB when set), through tools/vdtools.
+build-report-host (or $VD_LIB when set), through tools/vdtools. Build directories are
+<repo>/build-report-* ($VD_REPORT_BUILD_PREFIX replaces build-report, for a run beside another).
+
+The Cortex-M0+ size is the whole library's (every source, -Os) as `size` counts it (.text + .rodata of
+every object), and what an M0+ image links of it (--gc-sections) for a few sets of entry points. With
+--firmware (or --write) the firmware of tools/firmware runs on both emulated boards, -Os and -O3, with
+vd's portable CNN kernels and with the CMSIS-NN back end (issue 36), and vd_fw_cnn_layers.elf gives the
+instructions of every weighted layer with both.
 
 Stack depth comes from GCC's -fstack-usage / -fcallgraph-info=su: each
 function's own frame plus the deepest path through its callees (lib/ has no
@@ -22,6 +29,7 @@ detector's clock_us, a probe passed to vd_temporal_update directly), listed in
 the report and counted as 0 bytes.
 """
 import argparse
+import os
 import re
 import shutil
 import subprocess
@@ -30,6 +38,9 @@ from collections import defaultdict
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[3]
+PREFIX = os.environ.get("VD_REPORT_BUILD_PREFIX", "build-report")
+CMSIS_NN = REPO.parent / "shared" / "vendor" / "cmsis-nn"
+M0_TEXT_BUDGET = 64 * 1024   # issue 36: the whole library on a Cortex-M0+, -Os, .text + .rodata
 STACK_BUDGET = {"vd_detector_run": 2048}
 # Indirect call sites resolved to the lib/ functions they reach (suffix of the .ci node title).
 # A key names a global function, or "file.c:function" for a static one.
@@ -46,13 +57,66 @@ def run(cmd, **kw):
     return subprocess.run(cmd, check=True, capture_output=True, text=True, **kw).stdout
 
 
-def build(name, toolchain, extra_flags=""):
-    bdir = REPO / f"build-report-{name}"
+def build(name, toolchain, extra_flags="", cmake_args=()):
+    bdir = REPO / f"{PREFIX}-{name}"
+    # CMAKE_C_FLAGS adds to the toolchain file's CMAKE_C_FLAGS_INIT only on a first configure: pass both.
+    init = re.search(r'CMAKE_C_FLAGS_INIT "([^"]*)"',
+                     (REPO / "tools" / "toolchains" / (toolchain + ".cmake")).read_text())[1]
     run(["cmake", "-S", str(REPO), "-B", str(bdir), "-G", "Ninja",
          f"-DCMAKE_TOOLCHAIN_FILE={REPO / 'tools' / 'toolchains' / (toolchain + '.cmake')}",
-         "-DCMAKE_BUILD_TYPE=MinSizeRel", f"-DCMAKE_C_FLAGS={extra_flags}"])
+         "-DCMAKE_BUILD_TYPE=MinSizeRel", f"-DCMAKE_C_FLAGS={init} {extra_flags}".rstrip(), *cmake_args])
     run(["cmake", "--build", str(bdir), "--target", "vd", "--clean-first"])
     return bdir
+
+
+def size_text(bdir):
+    """(size's text = .text + .rodata, .text) bytes of every object of libvd.a in bdir."""
+    tot = [0, 0]
+    for obj in objects(bdir):
+        t, r, _d, _b = section_sizes(obj)
+        tot[0] += t + r
+        tot[1] += t
+    return tuple(tot)
+
+
+# Entry points an M0+ image keeps, for the linked sizes (None: every public function).
+FW_CALLS = ["vd_cnn_load", "vd_detector_cfg_default", "vd_detector_workspace_size", "vd_detector_init",
+            "vd_detector_run", "vd_detector_last_stats", "vd_detection_source_name", "vd_detection_state_name",
+            "vd_status_str"]
+M0_LINKS = [("every public function", None),
+            ("tools/firmware's calls (detector, CNN source)", FW_CALLS),
+            ("the CNN alone (`vd_cnn_*`)", "vd_cnn_")]
+
+
+def linked_size(bdir, keep):
+    """(.text, .rodata) bytes of libvd.a in bdir that an M0+ image linking the functions `keep` (a list, a
+    name prefix, or None for every public function) carries: -Os objects, --gc-sections, from its map."""
+    lib = bdir / "libvd.a"
+    defined = {ln.split()[-1] for ln in run(["arm-none-eabi-nm", "-g", "--defined-only", str(lib)]).splitlines()
+               if " T " in ln}
+    if keep is None:
+        names = sorted(public_functions() & defined)
+    elif isinstance(keep, str):
+        names = sorted(n for n in public_functions() & defined if n.startswith(keep))
+    else:
+        names = sorted(set(keep) & defined)
+    src = bdir / "m0_keep.c"
+    src.write_text("".join(f"extern void {n}(void);\n" for n in names)
+                   + "void (*const vd_keep[])(void) = {" + ", ".join(names) + "};\n"
+                   + "void vd_keep_entry(void);\nvoid vd_keep_entry(void)\n{\n    for (;;) {\n    }\n}\n")
+    cpu = ["-mcpu=cortex-m0plus", "-mthumb", "-mfloat-abi=soft"]
+    run(["arm-none-eabi-gcc", *cpu, "-Os", "-ffunction-sections", "-fdata-sections", "-c", str(src),
+         "-o", str(bdir / "m0_keep.o")])
+    mapf = bdir / "m0_keep.map"
+    run(["arm-none-eabi-gcc", *cpu, "-nostartfiles", "--specs=nano.specs", "-Wl,--gc-sections",
+         "-Wl,-e,vd_keep_entry", "-Wl,-u,vd_keep", f"-Wl,-Map={mapf}", str(bdir / "m0_keep.o"), str(lib),
+         "-o", str(bdir / "m0_keep.elf")])
+    memory_map = mapf.read_text().split("Linker script and memory map", 1)[1]
+    tot = {"text": 0, "rodata": 0}
+    for m in re.finditer(r"^ \.(text|rodata)\S*\s*(?:\n\s+)?0x[0-9a-f]+\s+0x([0-9a-f]+)\s+(\S+)", memory_map, re.M):
+        if "libvd.a(" in m.group(3):
+            tot[m.group(1)] += int(m.group(2), 16)
+    return tot["text"], tot["rodata"]
 
 
 def objects(bdir):
@@ -249,32 +313,52 @@ FW_FLASH = (".text", ".vd_model", ".vd_frames", ".ARM.exidx", ".data")
 FW_RAM = (".data", ".bss", ".vd_workspace", ".stack")
 
 
-def firmware(toolchain, build_type):
-    """Builds tools/firmware for `toolchain` and runs it under qemu-system-arm -icount shift=0.
-    Returns a dict of measurements, or None without qemu-system-arm."""
+def qemu_run(qemu, toolchain, elf):
+    """stderr (QEMU's semihosting console) of elf on toolchain's board under -icount shift=0: the virtual
+    clock advances 1 ns per executed instruction, so SysTick counts instructions (the firmware's
+    calibration loop gives the ratio)."""
+    machine, _ = FW_BOARDS[toolchain]
+    r = subprocess.run([qemu, "-icount", "shift=0", "-M", machine, "-cpu", toolchain, "-nographic", "-semihosting",
+                        "-kernel", str(elf)], capture_output=True, text=True, timeout=900, stdin=subprocess.DEVNULL)
+    if r.returncode != 0:
+        raise RuntimeError(f"{elf.name} exited {r.returncode}: {r.stderr[-500:]}")
+    return r.stderr
+
+
+def firmware(toolchain, build_type, cmsis):
+    """Builds tools/firmware for `toolchain` with the CMSIS-NN back end on or off and runs it (and, with the
+    back end, vd_fw_cnn_layers.elf) under qemu-system-arm -icount shift=0. Returns a dict of
+    measurements, or None without qemu-system-arm (or, for cmsis, without ../shared/vendor/cmsis-nn)."""
     qemu = shutil.which("qemu-system-arm")
     if qemu is None:
         print("note: qemu-system-arm not found: firmware figures not measured", file=sys.stderr)
         return None
-    bdir = REPO / f"build-report-fw-{toolchain}-{build_type.lower()}"
+    if cmsis and not (CMSIS_NN / "Include" / "arm_nnfunctions.h").is_file():
+        print(f"note: no CMSIS-NN at {CMSIS_NN}: CMSIS-NN figures not measured", file=sys.stderr)
+        return None
+    backend = "cmsis" if cmsis else "portable"
+    bdir = REPO / f"{PREFIX}-fw-{toolchain}-{build_type.lower()}-{backend}"
     run(["cmake", "-S", str(REPO / "tools" / "firmware"), "-B", str(bdir), "-G", "Ninja",
          f"-DCMAKE_TOOLCHAIN_FILE={REPO / 'tools' / 'toolchains' / (toolchain + '.cmake')}",
-         f"-DCMAKE_BUILD_TYPE={build_type}"])
+         f"-DCMAKE_BUILD_TYPE={build_type}", f"-DVD_CNN_CMSIS={'ON' if cmsis else 'OFF'}"])
     run(["cmake", "--build", str(bdir), "-j", "2"])
     elf = bdir / "vd_fw.elf"
     machine, _ = FW_BOARDS[toolchain]
-    # -icount shift=0: the virtual clock advances 1 ns per instruction, so SysTick
-    # counts instructions (the firmware's calibration loop gives the ratio).
-    r = subprocess.run([qemu, "-icount", "shift=0", "-M", machine, "-cpu", toolchain, "-nographic", "-semihosting",
-                        "-kernel", str(elf)], capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
-    if r.returncode != 0:
-        raise RuntimeError(f"firmware exited {r.returncode}: {r.stderr[-500:]}")
-    out = r.stderr  # QEMU's semihosting console
+    out = qemu_run(qemu, toolchain, elf)
     frames = [(int(c), int(u)) for c, u in re.findall(r"^# vd_fw frame \d+ systick_cycles (\d+) cnn_stage_us (\d+)$",
                                                         out, re.M)]
     cal = re.search(r"^# vd_fw calib_insns (\d+) systick_cycles (\d+)$", out, re.M)
     meas = dict((k, int(v)) for k, v in re.findall(r"(\w+) (\d+)", re.search(r"^# vd_fw workspace.*$", out, re.M)[0]))
     insn_per_tick = int(cal[1]) / int(cal[2])
+    layers, layer_sum = [], None
+    if cmsis:   # per layer, portable and CMSIS-NN kernels of one binary (the same calibration)
+        lo = qemu_run(qemu, toolchain, bdir / "vd_fw_cnn_layers.elf")
+        for ln in lo.splitlines():
+            d = {k: int(v) for k, v in re.findall(r"(\w+) (\d+)", ln)}
+            if ln.startswith("# vd_fw_layer "):
+                layers.append(d)
+            elif ln.startswith("# vd_fw_layers"):
+                layer_sum = d
     sizes = {}
     for line in run(["arm-none-eabi-size", "-A", str(elf)]).splitlines():
         f = line.split()
@@ -286,44 +370,70 @@ def firmware(toolchain, build_type):
         if re.match(r"^\.(vd_model|vd_frames|vd_workspace|stack)\s", line):
             excerpt.append(line.rstrip())
             excerpt += [ln.rstrip() for ln in mapped[i + 1:i + 6] if re.match(r"^ \.vd_\w+\s+0x|^\s+0x\w+\s+__stack", ln)]
-    return {"toolchain": toolchain, "build_type": build_type, "machine": machine,
+    return {"toolchain": toolchain, "build_type": build_type, "machine": machine, "cmsis": cmsis,
             "gcc": run(["arm-none-eabi-gcc", "-dumpversion"]).strip(),
             "lines": [ln for ln in out.splitlines() if not ln.startswith("#")],
             "insns": [round(c * insn_per_tick) for c, _ in frames], "cnn_us": [u for _, u in frames],
             "insn_per_tick": insn_per_tick, "calib": (int(cal[1]), int(cal[2])), "sizes": sizes,
             "flash": sum(sizes.get(s, 0) for s in FW_FLASH), "ram": sum(sizes.get(s, 0) for s in FW_RAM),
-            "map": excerpt, **meas}
+            "map": excerpt, "layers": layers, "layer_sum": layer_sum, **meas}
 
 
-def firmware_section(fw, cnn_rows):
-    """Markdown lines of the firmware measurements (list of firmware() dicts, M7 -Os first)."""
+OP_NAMES = {1: "conv 3×3", 2: "depthwise 3×3", 3: "pointwise", 5: "upsample", 6: "concat", 7: "conv 5×5"}
+BAR_PER_MAC = 2.0       # issue 36: CNN stage instructions per MAC with CMSIS-NN (M7, Release)
+BAR_FRAME_MS = 60.0     # issue 36: estimated frame time on a 480 MHz Cortex-M7
+CLOCK_HZ = 480e6
+
+
+def _cnn_insns(d):
+    """The CNN stage's instructions per frame (the first frame: the stage does not vary with the frame)."""
+    return d["cnn_us"][0] * 1000
+
+
+def firmware_section(fw, cnn_rows, problems):
+    """Markdown lines of the firmware measurements (list of firmware() dicts, M7 -Os portable first);
+    appends broken budgets to problems."""
     m7 = fw[0]
     sz = m7["sizes"]
     nframes = len(m7["insns"])
-    macs = next((m for name, _, m, _frame, _cfg, _ in cnn_rows if name == "vd_cnn_compact"), None)
-    lines = ["", "## Firmware on an emulated board (tools/firmware, issue 16)", "",
+    macs = next((d["layer_sum"]["macs"] for d in fw if d["layer_sum"]), None) or \
+        next((m for name, _, m, _frame, _cfg, _ in cnn_rows if name == "vd_cnn_compact"), None)
+    lines = ["", "## Firmware on an emulated board (tools/firmware, issues 16 and 36)", "",
              "The firmware example runs from reset on QEMU's Arm MPS2 boards (`mps2-an500` Cortex-M7,",
              "`mps2-an386` Cortex-M4): `models/vd_cnn_compact.vdm` as a `const` array in flash, the first",
              f"{nframes} frames of the bundled HIT-UAV clip (640×512, 8-bit) in flash, `vd_detector_run` with",
              "vd_fir_demo's settings, detections over semihosting (`tests/python/test_firmware.py` checks them",
-             "byte for byte against vd_fir_demo). Measured by",
+             "byte for byte against vd_fir_demo, with the CMSIS-NN back end on). Measured by",
              "`python3 -m vdtools.generators.embedded_report --firmware` (arm-none-eabi-gcc " + m7["gcc"] + ", newlib-nano for",
-             "`memcpy`/`memset`/`memmove` only).", "",
-             "| board | build | flash (B) | RAM (B) | stack high-water (B) | instructions per frame | of which CNN stage |",
-             "|---|---|---:|---:|---:|---:|---:|"]
+             "`memcpy`/`memset`/`memmove` only), each board and build with vd's portable CNN kernels",
+             "(`-DVD_CNN_CMSIS=OFF`) and with the CMSIS-NN back end (`-DVD_CNN_CMSIS=ON`, the default for",
+             "Cortex-M4/M7 where `../shared/vendor/cmsis-nn` is; docs/architecture.md, \"CMSIS-NN CNN kernels\").", "",
+             "| board | build | CNN kernels | flash (B) | RAM (B) | stack high-water (B) | instructions per frame "
+             "| of which CNN stage | per MAC | CNN stage on a 480 MHz M7 (estimate) |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for d in fw:
         ins = d["insns"]
-        lines.append(f"| `{d['machine']}` ({FW_BOARDS[d['toolchain']][1]}) | {d['build_type']} | {d['flash']} | "
+        cnn = _cnn_insns(d)
+        per_mac = f"{cnn / macs:.2f}" if macs else "–"
+        est = f"{cnn / CLOCK_HZ * 1e3:.0f} ms" if d["toolchain"] == "cortex-m7" else "–"
+        lines.append(f"| `{d['machine']}` ({FW_BOARDS[d['toolchain']][1]}) | {d['build_type']} | "
+                     f"{'CMSIS-NN' if d['cmsis'] else 'portable'} | {d['flash']} | "
                      f"{d['ram']} | {d['stack_used']} of {d['stack_size']} | "
                      f"{min(ins) / 1e6:.1f} M – {max(ins) / 1e6:.1f} M | "
-                     f"{min(d['cnn_us']) / 1e3:.1f} M – {max(d['cnn_us']) / 1e3:.1f} M |")
+                     f"{min(d['cnn_us']) / 1e3:.1f} M – {max(d['cnn_us']) / 1e3:.1f} M | {per_mac} | {est} |")
     lines += ["",
               f"Flash = {' + '.join(s for s in FW_FLASH)}: code and constants {sz['.text']} B (libvd and the",
-              f"firmware), model {sz['.vd_model']} B, frames {sz['.vd_frames']} B (test input only: a camera",
+              f"firmware, `{m7['machine']}` {m7['build_type']} {'CMSIS-NN' if m7['cmsis'] else 'portable'}), model "
+              f"{sz['.vd_model']} B, frames {sz['.vd_frames']} B (test input only: a camera",
               f"delivers frames into RAM). RAM = {' + '.join(s for s in FW_RAM)}: the detector workspace",
               f"`vd_detector_workspace_size()` = {m7['workspace_bytes']} B in a {m7['workspace_reserved']} B static",
               f"buffer, {sz['.bss']} B of `.bss` (detector object, loaded model, detection array), a",
-              f"{m7['stack_size']} B stack. MinSizeRel is `-Os`; Release is `-O3` (and `lib/src/models/cnn/` at `-O3`, VD_CNN_O3).", "",
+              f"{m7['stack_size']} B stack; the CMSIS-NN back end works in the portable kernels' scratch, so",
+              "the workspace is the same with it. MinSizeRel is `-Os`; Release is `-O3` (and `lib/src/models/cnn/`",
+              "and the CMSIS-NN files at `-O3`, VD_CNN_O3). \"Per MAC\" is the CNN stage's instructions over the",
+              f"network's {macs / 1e6:.1f} M multiply-adds (320×256 input); the estimate divides instructions by"
+              if macs else "network's multiply-adds; the estimate divides instructions by",
+              "480 MHz (one instruction per cycle: no pipeline, cache or wait-state effects, no dual issue).", "",
               "Stack high-water mark: the reset handler paints the stack with 0xA5A5A5A5 and the firmware",
               "finds the deepest overwritten word after the last frame (the whole run: model load,",
               "detector init, every frame, the output formatting, the SysTick interrupt).", "",
@@ -336,17 +446,124 @@ def firmware_section(fw, cnn_rows):
               f"{m7['insn_per_tick']:.2f} instructions (resolution ±40 instructions). These are instructions an",
               "emulator executed: no pipeline, caches, wait states or dual issue; a real part's cycles differ.",
               "\"Of which CNN stage\" is `vd_detector_stats_t.time_us[VD_DET_STAGE_CNN]` through the detector's",
-              "clock callback (1 µs = 1 000 instructions here); ranges are over the frames; the rest of",
-              "`vd_detector_run` (merge, overlap suppression, temporal analysis) varies with the detections."]
-    if macs:
-        best = min(d["insns"][0] for d in fw if d["toolchain"] == "cortex-m7")
-        lines += ["",
-                  f"For scale: the compact network does {macs / 1e6:.1f} M multiply-adds per 640×512 frame",
-                  f"(320×256 input). vd's portable C kernels execute {best / macs:.1f} instructions per MAC",
-                  "(Cortex-M7, Release, whole frame). Published int8 kernels with the DSP extension",
-                  "(CMSIS-NN-class) reach 0.5–0.9 MAC/cycle on a Cortex-M7; at 480 MHz that would be",
-                  f"{macs / (0.9 * 480e6) * 1e3:.0f}–{macs / (0.5 * 480e6) * 1e3:.0f} ms per frame for this",
-                  "network — an estimate from published throughput, not a measurement of vd."]
+              "clock callback (1 µs = 1 000 instructions here): the network input rows, the network, the",
+              "decoding; ranges are over the frames; the rest of `vd_detector_run` (merge, overlap",
+              "suppression, temporal analysis) varies with the detections."]
+    lines += layers_section(fw, problems)
+    ref = next((d for d in fw if d["toolchain"] == "cortex-m7" and d["build_type"] == "Release" and d["cmsis"]), None)
+    port = next((d for d in fw if d["toolchain"] == "cortex-m7" and d["build_type"] == "Release" and not d["cmsis"]),
+                None)
+    if ref and macs:
+        cnn = _cnn_insns(ref)
+        per_mac = cnn / macs
+        ms = cnn / CLOCK_HZ * 1e3
+        worst = max((ly["stream_cmsis"] / ly["stream_portable"] for ly in ref["layers"]), default=0.0)
+        lines += ["", "### Issue 36's bars (CNN stage, `mps2-an500` Cortex-M7, Release, CMSIS-NN)", "",
+                  f"- ≤ {BAR_PER_MAC:.1f} instructions per MAC (≤ {BAR_PER_MAC * macs / 1e6:.1f} M per frame): "
+                  f"{per_mac:.2f} ({cnn / 1e6:.1f} M) — "
+                  + ("**met**" if per_mac <= BAR_PER_MAC else
+                     f"**not met**, {per_mac / BAR_PER_MAC:.1f}× the bar"
+                     + (f" (portable kernels: {_cnn_insns(port) / macs:.2f}, {_cnn_insns(port) / 1e6:.1f} M; "
+                        f"CMSIS-NN saves {1 - cnn / _cnn_insns(port):.0%})" if port else "")) + ";",
+                  f"- ≤ 1.0× the portable kernels' instructions on every layer it maps: worst layer {worst:.2f}× — "
+                  + ("**met**" if worst <= 1.0 else "**not met**") + ";",
+                  f"- estimated frame time on a 480 MHz Cortex-M7 ≤ {BAR_FRAME_MS:.0f} ms: {ms:.0f} ms — "
+                  + ("**met**" if ms <= BAR_FRAME_MS else f"**not met**, {ms / BAR_FRAME_MS:.1f}× the bar") + ";",
+                  "- byte-equal output on both boards with the back end on, in CI: **met** (test_firmware.py; the",
+                  "  CNN unit tests on Cortex-M7 code under qemu-arm in tests/cross_run.sh).",
+                  "", "Why the per-MAC bar is out of reach with CMSIS-NN's kernels on this network: they spend",
+                  "about 20 instructions per output value on the requantisation, offset, clamp and store",
+                  "(`arm_nn_requantize` in C: a 64-bit multiply-add and the rounding shift, compiled by gcc; its",
+                  "inline-assembly variant `CMSIS_NN_USE_REQUANTIZE_INLINE_ASSEMBLY` does not assemble with gcc 12),",
+                  "and the compact network's layers are small: 9 multiply-adds per output value in the 3×3 and",
+                  "depthwise layers, 8–64 in the pointwise ones. " + requant_note(ref["layers"], macs),
+                  "The depthwise layers run at 8–9 instructions per MAC in `arm_depthwise_conv_3x3_s8` (four",
+                  "channels per step, the nine taps' loads and sign extensions around four `SMLABB`/`SMLATT`);",
+                  "`arm_depthwise_conv_s8_opt` measured 12–18. The 0.5–0.9 MAC per cycle quoted for CMSIS-NN on a",
+                  "Cortex-M7 counts cycles of a dual-issue core on larger layers, not emulated instructions."]
+    return lines
+
+
+def requant_note(layers, macs):
+    """A sentence: output values of the weighted layers and the instructions ~20 per value cost."""
+    outs = sum(ly["wo"] * ly["ho"] * ly["cout"] for ly in layers)
+    return (f"The network's weighted layers write {outs / 1e6:.2f} M output values per frame: at ~20 instructions "
+            f"each that is ~{20 * outs / 1e6:.0f} M instructions before any multiply-add, against a budget of "
+            f"{BAR_PER_MAC * macs / 1e6:.1f} M for everything.")
+
+
+def layers_section(fw, problems):
+    """Per-layer kernel instructions, portable against CMSIS-NN (vd_fw_cnn_layers.elf), Cortex-M7 Release."""
+    ref = next((d for d in fw if d["toolchain"] == "cortex-m7" and d["build_type"] == "Release" and d["layers"]), None)
+    if ref is None:
+        return []
+    k = ref["insn_per_tick"]
+    lines = ["", "### CNN kernels per layer (`mps2-an500` Cortex-M7, Release)", "",
+             "`vd_fw_cnn_layers.elf` (tools/firmware/cnn_layers.c) runs the model once whole plane on the first",
+             "frame, then every weighted layer again from its input tensor, one output row per call on rings as",
+             "tall as the detector's streamed plan makes them (the calls `vd_detector_run` makes), with the",
+             "portable kernel and with CMSIS-NN, and compares every output row with the network's own tensor",
+             "(`bad_rows`: 0 on every layer, both boards; tests/python/test_firmware.py checks it). Instructions",
+             "of the kernel calls only (the row copies that stand in for the producing layers are not counted).", "",
+             "| layer | op | channels | output | MACs | portable (instructions) | CMSIS-NN | CMSIS-NN / portable "
+             "| CMSIS-NN per MAC |", "|---:|---|---|---|---:|---:|---:|---:|---:|"]
+    for ly in ref["layers"]:
+        po, cm = ly["stream_portable"] * k, ly["stream_cmsis"] * k
+        op = OP_NAMES.get(ly["op"], str(ly["op"])) + (" /2" if ly["stride"] == 2 else "")
+        lines.append(f"| {ly['index']} | {op} | {ly['cin']} → {ly['cout']} | {ly['wo']}×{ly['ho']} | "
+                     f"{ly['macs'] / 1e6:.2f} M | {po / 1e6:.2f} M | {cm / 1e6:.2f} M | {cm / po:.2f} | "
+                     f"{cm / ly['macs']:.2f} |")
+        if cm > po:
+            problems.append(f"CMSIS-NN layer {ly['index']}: {cm / po:.2f}x the portable kernel's instructions")
+    s = ref["layer_sum"]
+    lines.append(f"| **all** | | | | **{s['macs'] / 1e6:.2f} M** | **{s['stream_portable'] * k / 1e6:.1f} M** | "
+                 f"**{s['stream_cmsis'] * k / 1e6:.1f} M** | **{s['stream_cmsis'] / s['stream_portable']:.2f}** | "
+                 f"**{s['stream_cmsis'] * k / s['macs']:.2f}** |")
+    lines += ["", "Whole plane (one call per layer): portable "
+              f"{s['plane_portable'] * k / 1e6:.1f} M, CMSIS-NN {s['plane_cmsis'] * k / 1e6:.1f} M. Other boards "
+              "and builds (all layers, streamed calls):"]
+    for d in fw:
+        if d["layer_sum"] and d is not ref:
+            t = d["layer_sum"]
+            kk = d["insn_per_tick"]
+            lines.append(f"`{d['machine']}` {d['build_type']}: portable {t['stream_portable'] * kk / 1e6:.1f} M, "
+                         f"CMSIS-NN {t['stream_cmsis'] * kk / 1e6:.1f} M "
+                         f"({t['stream_cmsis'] / t['stream_portable']:.2f}×);")
+    for d in fw:
+        if d["layer_sum"] and d["layer_sum"]["bad_rows"] != 0:
+            problems.append(f"vd_fw_cnn_layers on {d['machine']} {d['build_type']}: {d['layer_sum']['bad_rows']} rows differ")
+    return lines
+
+
+def m0_section(m0_sum, m0_links, m0_cmsis):
+    """Markdown lines of the Cortex-M0+ sizes: the whole library and what images link of it."""
+    lines = ["", "## The whole library on a Cortex-M0+ (`-Os`, issue 36)", "",
+             "Every source of `lib/` compiled for a Cortex-M0+ (`tools/toolchains/cortex-m0plus.cmake`, MinSizeRel),",
+             "counted as `arm-none-eabi-size` counts `text` (.text + .rodata of every object of libvd.a), and",
+             "what an M0+ image links of it with `-ffunction-sections` and `--gc-sections` for a set of entry",
+             "points (libvd's input sections in the image's map; the C library's helpers not counted). Goal:",
+             f"whole library ≤ 64 KiB ({M0_TEXT_BUDGET} B): "
+             + ("**met**" if m0_sum[0] <= M0_TEXT_BUDGET else "**not met**")
+             + f" ({M0_TEXT_BUDGET - m0_sum[0]:+d} B). Before issue 36: 65 829 B (the CNN in one file), 66 325 B",
+             "after the CNN and long functions were split (more call sites); the DBN's sigmoid table now holds",
+             "its z ≤ 0 half (−2 048 B, `lib/src/models/dbn.c`).", "",
+             "| configuration | CNN kernels | .text + .rodata (B) | .text (B) |", "|---|---|---:|---:|",
+             f"| whole library (every object) | portable | {m0_sum[0]} | {m0_sum[1]} |"]
+    for label, (t, r) in m0_links:
+        lines.append(f"| linked: {label} | portable | {t + r} | {t} |")
+    if m0_cmsis:
+        (c_all, c_text), c_links = m0_cmsis
+        lines.append(f"| whole library (every object) | CMSIS-NN (forced: `-DVD_CNN_CMSIS=ON`) | {c_all} | {c_text} |")
+        for label, (t, r) in c_links:
+            lines.append(f"| linked: {label} | CMSIS-NN (forced) | {t + r} | {t} |")
+    whole = m0_links[0][1]
+    lines += ["", f"The linker drops {m0_sum[0] - sum(whole)} B of the whole library when every public function is kept:",
+              "no dead code is left, one kernel per file or not. What a firmware that uses the detector with the",
+              "CNN source only still carries (the hot-spot labelling, region refinement, median, DBN, contrast and",
+              "window sources) is reached from `vd_detector_run` itself: the sources are chosen at run time",
+              "(`cfg.sources`), so the linker cannot tell them dead. The CMSIS-NN back end is off by default on",
+              "the M0+ (no DSP extension: CMSIS-NN's plain-C loops, no faster than vd's) and adds the sizes above",
+              "when forced."]
     return lines
 
 
@@ -436,6 +653,14 @@ def main():
         problems.append("Cortex-M0+ build references soft-float helpers: " + ", ".join(soft))
     if heap:
         problems.append("Cortex-M0+ build references the heap: " + ", ".join(heap))
+    m0_sum = size_text(m0)
+    if m0_sum[0] > M0_TEXT_BUDGET:
+        problems.append(f"Cortex-M0+ whole library {m0_sum[0]} B (.text + .rodata) > {M0_TEXT_BUDGET} B")
+    m0_links = [(label, linked_size(m0, keep)) for label, keep in M0_LINKS]
+    m0_cmsis = None   # the back end forced on (off by default without DSP): --write only, one more build
+    if args.write and (CMSIS_NN / "Include" / "arm_nnfunctions.h").is_file():
+        m0c = build("m0plus-cmsis", "cortex-m0plus", cmake_args=["-DVD_CNN_CMSIS=ON"])
+        m0_cmsis = (size_text(m0c), [(label, linked_size(m0c, keep)) for label, keep in M0_LINKS])
 
     ws, ws_parts = detector_workspace()
     if ws is not None and ws > WORKSPACE_GOAL:
@@ -472,6 +697,7 @@ def main():
                       + ", ".join(f"`{n}` {b} B" for n, b in big) + "."]
     lines += ["", "Indirect calls resolved: " + ", ".join(f"{k} → {', '.join(v)}" for k, v in INDIRECT.items())
               + "; user callbacks not counted (from " + (", ".join(user_cb) or "none") + ")."]
+    lines += m0_section(m0_sum, m0_links, m0_cmsis)
     lines += ["", "## Checks", "",
               f"- Cortex-M0+ (no FPU) soft-float helpers referenced: {', '.join(soft) if soft else 'none'}",
               f"- heap functions referenced: {', '.join(heap) if heap else 'none'}",
@@ -530,9 +756,10 @@ def main():
         allmax = max(max(v) for v in runs.values())
         lines += ["", f"Largest count of all: {allmax} runs, {24576 / allmax:.1f}× below the default budget."]
     if args.firmware or args.write:
-        fw = [d for d in (firmware(tc, bt) for tc in FW_BOARDS for bt in ("MinSizeRel", "Release")) if d]
+        fw = [d for d in (firmware(tc, bt, cm) for tc in FW_BOARDS for bt in ("MinSizeRel", "Release")
+                          for cm in (False, True)) if d]
         if fw:
-            lines += firmware_section(fw, cnn_rows)
+            lines += firmware_section(fw, cnn_rows, problems)
             if any(d["stack_used"] > d["stack_size"] // 2 for d in fw):
                 problems.append("firmware stack high-water mark above half of its 16 KiB stack")
     lines += ["", "Problems: " + ("; ".join(problems) if problems else "none"), ""]
