@@ -92,3 +92,22 @@ def test_false_positives_are_sorted_by_how_they_meet_the_vehicles():
     assert got["msrs"]["road_user"] == 1 and got["msrs"]["background"] == 0
     fr = SimpleNamespace(others=np.array([[205, 205, 4, 8, 0]], np.float32))
     assert cnn_eval.fp_kinds([("msrs", fr, dets, gts)], 0.3)["msrs"]["road_user"] == 1
+
+
+def test_perturb_rescale_moves_boxes_with_the_frame():
+    """down50 (the cameras proxy's small cars) halves the frame by area averaging and every box with it;
+    the pixel changes keep size and boxes."""
+    from types import SimpleNamespace
+    from vdtools.evaluation import cnn_eval as E
+    img = np.arange(64 * 80, dtype=np.int64).reshape(64, 80).astype(np.uint8)
+    fr = SimpleNamespace(img=img, boxes=np.array([[8, 4, 20, 10]], np.float32), ignore=np.array([[0, 0, 4, 2]], np.float32),
+                         others=np.array([[2, 2, 6, 6, 0]], np.float32))
+    g = E.perturb([fr], "down50")[0]
+    assert g.img.shape == (32, 40) and g.img[0, 0] == (0 + 1 + 80 + 81 + 2) // 4
+    np.testing.assert_allclose(g.boxes, [[4, 2, 10, 5]])
+    np.testing.assert_allclose(g.ignore, [[0, 0, 2, 1]])
+    np.testing.assert_allclose(g.others, [[1, 1, 3, 3, 0]])
+    assert fr.others[0, 0] == 2            # the input frame is not changed
+    for name in ("equalize", "clahe", "bright", "sharpen"):
+        h = E.perturb([fr], name)[0]
+        assert h.img.shape == img.shape and h.img.dtype == np.uint8 and h.boxes is fr.boxes

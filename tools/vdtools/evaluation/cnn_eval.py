@@ -25,6 +25,7 @@ import json
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from vdtools.bindings import clib
@@ -42,13 +43,13 @@ PERTURB = {
     "gamma0.6": lambda a, r: 255.0 * (a / 255.0) ** 0.6,
     "gamma1.6": lambda a, r: 255.0 * (a / 255.0) ** 1.6,
     "lowcontrast": lambda a, r: 0.6 * a + 50.0,
-    "blur1.5": lambda a, r: __import__("cv2").GaussianBlur(a, (7, 7), 1.5),
+    "blur1.5": lambda a, r: cv2.GaussianBlur(a, (7, 7), 1.5),
     "noise6": lambda a, r: a + r.normal(0, 6.0, a.shape),
     # harder changes, closer to a real other camera (docs/results/cameras.md): a global histogram
     # equalisation and a local one (CLAHE) as other AGC curves, a brighter curve with its top clipped (a
     # sunny day), and denoise + sharpen (another camera's image processing)
-    "equalize": lambda a, r: _cv2().equalizeHist(a.astype(np.uint8)),
-    "clahe": lambda a, r: _cv2().createCLAHE(clipLimit=3.0, tileGridSize=(8, 8)).apply(a.astype(np.uint8)),
+    "equalize": lambda a, r: cv2.equalizeHist(a.astype(np.uint8)),
+    "clahe": lambda a, r: cv2.createCLAHE(clipLimit=3.0, tileGridSize=(8, 8)).apply(a.astype(np.uint8)),
     "bright": lambda a, r: 255.0 * np.minimum(1.0, 1.15 * (a / 255.0) ** 0.5),
     "sharpen": lambda a, r: _sharpen(a),
 }
@@ -56,14 +57,8 @@ PERTURB = {
 RESCALE = {"down50": 0.5}
 
 
-def _cv2():
-    import cv2
-    return cv2
-
-
 def _sharpen(a):
     """Edge-preserving denoise, then an unsharp mask of amount 1 (sigma 1): a sharper, denoised picture."""
-    cv2 = _cv2()
     d = cv2.bilateralFilter(a.astype(np.uint8), 5, 30.0, 3.0).astype(np.float64)
     return d + 1.0 * (d - cv2.GaussianBlur(d, (0, 0), 1.0))
 
@@ -77,7 +72,7 @@ def perturb(frames, name):
         if name in RESCALE:
             f = RESCALE[name]
             h, w = fr.img.shape
-            g.img = _cv2().resize(fr.img, (int(round(w * f)), int(round(h * f))), interpolation=_cv2().INTER_AREA)
+            g.img = cv2.resize(fr.img, (int(round(w * f)), int(round(h * f))), interpolation=cv2.INTER_AREA)
             g.boxes, g.ignore = fr.boxes * f, fr.ignore * f
             g.others = fr.others.copy()
             g.others[:, :4] *= f

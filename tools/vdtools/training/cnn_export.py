@@ -36,14 +36,19 @@ CALIB_PCT = 99.999
 OPS = {"conv": V.CONV3X3, "dw": V.DW3X3, "pw": V.PW1X1, "head": V.PW1X1, "up": V.UPSAMPLE2, "cat": V.CONCAT}
 
 
-def load_net(ckpt):
-    """A training checkpoint (.pt) or the float weights kept beside a shipped model (.npz, save_float)."""
+def read_ckpt(ckpt):
+    """{net: state dict, arch, step, qat, ...} of a training checkpoint (.pt) or of the float weights kept
+    beside a shipped model (.npz, save_float)."""
     if str(ckpt).endswith(".npz"):
         with np.load(ckpt) as z:
-            ck = dict(net={k: torch.from_numpy(z[k]) for k in z.files if not k.startswith("__")},
-                      arch=str(z["__arch__"]), step=int(z["__step__"]), qat=bool(z["__qat__"]))
-    else:
-        ck = torch.load(ckpt, weights_only=False, map_location="cpu")
+            return dict(net={k: torch.from_numpy(z[k]) for k in z.files if not k.startswith("__")},
+                        arch=str(z["__arch__"]), step=int(z["__step__"]), qat=bool(z["__qat__"]))
+    return torch.load(ckpt, weights_only=False, map_location="cpu")
+
+
+def load_net(ckpt):
+    """The network of read_ckpt(ckpt), in eval mode, with its checkpoint dict."""
+    ck = read_ckpt(ckpt)
     net = N.Net(ck["arch"])
     net.load_state_dict(N.strip_aux(ck["net"], ck["arch"]) if ck.get("aux") else ck["net"])   # --aux channels dropped
     net.eval()

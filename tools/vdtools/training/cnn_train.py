@@ -294,12 +294,8 @@ def main(argv=None):
           f"{len({f.group for f in by_fam.get('msrs', [])})} MSRS scene groups), val {len(val)}", flush=True)
     n_aux = AUX_CLASSES if a.aux else 0
     net = Net(a.arch, n_aux)
-    if a.init:
-        if str(a.init).endswith(".npz"):     # the float weights kept beside a shipped model (models/float)
-            with np.load(a.init) as z:
-                load_weights(net, {k: torch.from_numpy(z[k]) for k in z.files if not k.startswith("__")})
-        else:
-            load_weights(net, torch.load(a.init, weights_only=False, map_location="cpu")["net"])
+    if a.init:     # a checkpoint, or the float weights kept beside a shipped model (models/float)
+        load_weights(net, E.read_ckpt(a.init)["net"])
     teachers = []
     if a.teacher:
         teachers = [E.load_net(t)[0] for t in a.teacher]     # eval mode; they draw no random numbers
