@@ -71,7 +71,7 @@ for el in multifilesrc pngdec pngenc jpegdec; do
 done
 
 # Python tools (tools/pyproject.toml lists them): numpy, scikit-learn, scikit-image,
-# opencv-python-headless (oracle + benchmark peer), matplotlib (figures), tqdm, pillow; extras fleet (Dask) and test (pytest);
+# opencv-python-headless (oracle + benchmark peer), matplotlib (figures), tqdm, pillow, motmetrics (tracking metrics); extras fleet (Dask) and test (pytest);
 # the "fleet" extra: dask[distributed] for vdtools.evaluation.fleet and its fault tests (tests/python/test_fleet.py).
 # Debian's own python3 is "externally managed" (PEP 668): pip refuses to install into it
 # unless told --break-system-packages. That installs into /usr/local as root, ~/.local

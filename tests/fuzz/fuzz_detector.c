@@ -129,7 +129,7 @@ static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask, int has_model
         c->nms_iou_q15 > 32768u || cand > 4096u || (c->max_detections && c->max_detections > cand) ||
         c->max_region_w > c->max_width || c->max_region_h > c->max_height ||
         (c->temporal && c->max_tracks > 1024u) || c->sources > 0x0Fu || c->cnn_score_thr_q15 > 32768u ||
-        c->cnn_rescore > 1u || c->cnn_flip > 1u || ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_model == NULL) ||
+        c->cnn_rescore > 1u || c->cnn_flip > 1u || (c->temporal_cfg.flags & ~0x1Fu) != 0u || ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_model == NULL) ||
         ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_rescore && !has_model)) {
         return -1;
     }
@@ -193,6 +193,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FZ_FIELD(27, win_min_std_u8, fz_u8(&r));
     FZ_FIELD(28, max_runs, (uint32_t)fz_u16(&r));
     FZ_FIELD(29, cnn_flip, (uint8_t)(fz_u8(&r) % 4u));
+    FZ_FIELD(30, temporal_cfg.flags, (uint8_t)(fz_u8(&r) % 0x30u));   // incl. VD_TEMPORAL_SCORES and invalid bits
+    FZ_FIELD(31, temporal_cfg.coast_frames, fz_u8(&r));
 #undef FZ_FIELD
     if (flags & 64u) {
         const uint8_t cb = fz_u8(&r);

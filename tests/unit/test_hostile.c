@@ -520,6 +520,8 @@ static void hostile_frames_then_good_frame(bool temporal)
 {
     vd_detector_cfg_t cfg = det_cfg();
     cfg.temporal = temporal;
+    cfg.temporal_cfg.flags = VD_TEMPORAL_SCORES;   // track scores and coasting predicted boxes (issue 38)
+    cfg.temporal_cfg.coast_frames = 2u;
     size_t wsb = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&cfg, NULL, &wsb));
     TEST_ASSERT_TRUE(wsb <= sizeof(g_ws));

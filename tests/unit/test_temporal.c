@@ -676,18 +676,173 @@ static void test_cfg_resolve(void)
     z.max_motion = 4097u;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
     memset(&z, 0, sizeof(z));
-    z.flags = 0x10u;
+    z.flags = 0x20u;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
     memset(&z, 0, sizeof(z));
-    z.reserved = 1u;
+    z.reserved2 = 1u;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    // track scores: every Q15 field <= 32768, confirm_lo <= confirm_hi
+    memset(&z, 0, sizeof(z));
+    z.score_alpha_q15 = 32769u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.miss_decay_q15 = 40000u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.confirm_hi_q15 = 1000u;
+    z.confirm_lo_q15 = 1001u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(&z));
+    memset(&z, 0, sizeof(z));
+    z.confirm_hi_q15 = 1000u;   // lo left 0: the default 11469 would exceed hi, so lo = hi
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_cfg_resolve(&z));
+    TEST_ASSERT_EQUAL_UINT(1000u, z.confirm_lo_q15);
+    memset(&z, 0, sizeof(z));
+    z.flags = VD_TEMPORAL_SCORES;
+    z.coast_frames = 255u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_cfg_resolve(&z));
+    TEST_ASSERT_EQUAL_UINT(16384u, z.score_alpha_q15);
+    TEST_ASSERT_EQUAL_UINT(13763u, z.confirm_hi_q15);
+    TEST_ASSERT_EQUAL_UINT(11469u, z.confirm_lo_q15);
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_temporal_cfg_resolve(NULL));
+}
+
+// Track-aware scores (VD_TEMPORAL_SCORES), defaults: alpha 0.5, weight 0.5, gain 3277, penalty 3277,
+// hi 13763, lo 11469, decay 22938. Hand-worked, in the module's integer arithmetic:
+//   s(100) = (100 * 32768 + 127) / 255 = 12850; new: T = (12850 * 29491 + 16384) >> 15 = 11565 < hi: new;
+//   out = q8((16384 * 12850 + 16384 >> 15) + (16384 * 11565 + 16384 >> 15)) = q8(6425 + 5783 = 12208)
+//       = (12208 * 255 + 16384) >> 15 = 95.
+//   frame 2: target 12850 + 3277 = 16127, T = 11565 + (16384 * 4562 + 16384 >> 15 = 2281) = 13846 >= hi:
+//   confirmed, out q8(6425 + 6923) = 104; frame 3: T = 13846 + 1141 = 14987, out 108;
+//   a miss: T = (14987 * 22938 + 16384) >> 15 = 10491 < lo: no longer confirmed.
+static void scores_init(vd_temporal_t *t, vd_track_t *tracks, size_t cap, uint8_t coast)
+{
+    vd_temporal_cfg_t cfg;
+    memset(&cfg, 0, sizeof(cfg));
+    cfg.flags = VD_TEMPORAL_SCORES;
+    cfg.coast_frames = coast;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_init(t, &cfg, tracks, cap));
+}
+
+static void test_track_scores_hand_worked(void)
+{
+    vd_track_t tracks[4];
+    vd_temporal_t t;
+    scores_init(&t, tracks, 4u, 0u);
+    static const uint8_t out_q8[3] = {95u, 104u, 108u};
+    static const uint8_t state[3] = {VD_TRACK_NEW, VD_TRACK_CONFIRMED, VD_TRACK_CONFIRMED};
+    static const uint16_t tr_q15[3] = {11565u, 13846u, 14987u};
+    for (int f = 0; f < 3; f++) {
+        vd_temporal_obs_t o[2];
+        o[0] = mk_obs(100, 100, 40, 30, 0u);
+        o[0].score_q8 = 100u;
+        size_t n = 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1u, 2u, &n, NULL, NULL));
+        TEST_ASSERT_EQUAL_size_t(1u, n);
+        TEST_ASSERT_EQUAL_UINT32(1u, o[0].track_id);
+        TEST_ASSERT_EQUAL_UINT8(out_q8[f], o[0].score_q8);
+        TEST_ASSERT_EQUAL_UINT8(state[f], o[0].state);
+        TEST_ASSERT_EQUAL_UINT16(tr_q15[f], tracks[0].score_q15);
+    }
+    // a miss: decayed below confirm_lo, no longer confirmed, nothing output (coast_frames 0)
+    vd_temporal_obs_t o[1];
+    size_t n = 9u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0u, 1u, &n, NULL, NULL));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    TEST_ASSERT_EQUAL_UINT16(10491u, tracks[0].score_q15);
+    TEST_ASSERT_EQUAL_UINT8(0u, tracks[0].confirmed);
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NEW, tracks[0].state);
+}
+
+// A confident track coasts: s(200) = 25700, new T = 23130 (confirmed at once, out 190); matched again
+// T = 23130 + (16384 * (28977 - 23130) + 16384 >> 15 = 2924) = 26054, out 201; then misses: T = 18238
+// (recovered at the predicted box, score (18238 * 255 + 16384) >> 15 = 142), 12767 (99, still >= lo),
+// 8937 < lo: unconfirmed, no box; with coast_frames 2 the third miss would not be output anyway.
+static void test_track_scores_coast_decays(void)
+{
+    vd_track_t tracks[2];
+    vd_temporal_t t;
+    scores_init(&t, tracks, 2u, 2u);
+    vd_temporal_obs_t o[3];
+    size_t n = 0u;
+    o[0] = mk_obs(200, 100, 40, 30, 0u);
+    o[0].score_q8 = 200u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1u, 3u, &n, NULL, NULL));
+    TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, o[0].state);
+    TEST_ASSERT_EQUAL_UINT8(190u, o[0].score_q8);
+    o[0] = mk_obs(200, 100, 40, 30, 0u);
+    o[0].score_q8 = 200u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1u, 3u, &n, NULL, NULL));
+    TEST_ASSERT_EQUAL_UINT8(201u, o[0].score_q8);
+    static const uint8_t rec_q8[2] = {142u, 99u};
+    for (int k = 0; k < 2; k++) {
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0u, 3u, &n, NULL, NULL));
+        TEST_ASSERT_EQUAL_size_t(1u, n);
+        TEST_ASSERT_EQUAL_UINT8(VD_TRACK_RECOVERED, o[0].state);
+        TEST_ASSERT_EQUAL_UINT32(1u, o[0].track_id);
+        TEST_ASSERT_EQUAL_UINT8(rec_q8[k], o[0].score_q8);
+        TEST_ASSERT_EQUAL_INT32(200, o[0].box.x);   // no motion measured: the prediction is the last box
+        TEST_ASSERT_EQUAL_INT32(40, o[0].box.w);
+    }
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 0u, 3u, &n, NULL, NULL));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    TEST_ASSERT_EQUAL_UINT16(8937u, tracks[0].score_q15);
+    TEST_ASSERT_EQUAL_UINT8(0u, tracks[0].confirmed);
+    // a coasting box that does not fit in cap is dropped with VD_ERR_CAPACITY (the track still exists)
+    vd_track_t tr2[1];
+    scores_init(&t, tr2, 1u, 1u);
+    o[0] = mk_obs(10, 10, 20, 20, 0u);
+    o[0].score_q8 = 255u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1u, 1u, &n, NULL, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_temporal_update(&t, o, 0u, 0u, &n, NULL, NULL));
+    TEST_ASSERT_EQUAL_size_t(0u, n);
+    TEST_ASSERT_EQUAL_UINT32(1u, vd_temporal_last_stats(&t)->overflow);
+}
+
+// Scores at the extremes stay in range, and without the flag the scores pass through untouched.
+static void test_track_scores_extremes_and_off(void)
+{
+    vd_track_t tracks[3];
+    vd_temporal_t t;
+    scores_init(&t, tracks, 3u, 255u);
+    for (int f = 0; f < 300; f++) {
+        vd_temporal_obs_t o[6];
+        o[0] = mk_obs(10 + f % 3, 10, 30, 30, 0u);
+        o[0].score_q8 = 255u;
+        o[1] = mk_obs(300, 200 + f % 5, 30, 30, 0u);
+        o[1].score_q8 = 0u;
+        size_t n = 0u;
+        size_t no = (f % 7 == 3) ? 0u : 2u;   // some frames miss both
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, no, 6u, &n, NULL, NULL));
+        for (size_t i = 0; i < n; i++) {
+            TEST_ASSERT_TRUE(o[i].state != VD_TRACK_NONE);
+        }
+        if (no == 2u) {
+            TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, o[0].state);
+            TEST_ASSERT_TRUE(o[0].score_q8 >= 229u);   // (1 - 0.5) * 1 + 0.5 * T, T >= 0.9 * 1 after a new start
+            TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NEW, o[1].state);
+            TEST_ASSERT_TRUE(o[1].score_q8 <= 13u);    // 0.5 * 0 + 0.5 * min(1, 0 + 0.1) at most
+        }
+        for (size_t k = 0; k < 3u; k++) {
+            TEST_ASSERT_TRUE(tracks[k].score_q15 <= 32768u);
+        }
+    }
+    paper_init(&t, tracks, 3u);
+    vd_temporal_obs_t o[2];
+    o[0] = mk_obs(10, 10, 30, 30, 0u);
+    o[0].score_q8 = 77u;
+    size_t n = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_temporal_update(&t, o, 1u, 2u, &n, NULL, NULL));
+    TEST_ASSERT_EQUAL_UINT8(77u, o[0].score_q8);
+    TEST_ASSERT_EQUAL_UINT16(0u, tracks[0].score_q15);
 }
 
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_exp_table_accuracy);
+    RUN_TEST(test_track_scores_hand_worked);
+    RUN_TEST(test_track_scores_coast_decays);
+    RUN_TEST(test_track_scores_extremes_and_off);
     RUN_TEST(test_complexity);
     RUN_TEST(test_similarity_hand_worked);
     RUN_TEST(test_similarity_vs_reference_random);

@@ -32,7 +32,9 @@ typedef struct vd_detection {
     uint32_t track_id;           // temporal track (0 = none / temporal off)
     uint16_t complexity_q15;     // edge pixels of the refined region / its pixels (temporal.h)
     uint8_t score_q8;            // DBN p(vehicle) in Q8 (0..255); 255 without a model; 0 for recovered;
-                                 //   CNN boxes: the network's score (detector.h cnn_rescore)
+                                 //   CNN boxes: the network's score (detector.h cnn_rescore); with track
+                                 //   scores (temporal.h VD_TEMPORAL_SCORES) fused with the track's score,
+                                 //   recovered: the track's decayed score
     uint8_t source;              // VD_SOURCE_HOTSPOT / _WINDOW / _CONTRAST / _CNN
     uint8_t state;               // vd_track_state_t (VD_TRACK_NONE when temporal is off)
     uint8_t flags;               // VD_DET_FLAG_*

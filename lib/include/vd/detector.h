@@ -114,7 +114,9 @@ typedef struct vd_detector_cfg {
     uint16_t nms_iou_q15;        // suppress a box whose IoU with a better one is > this, 1..32768; 0 = 16384 (0.5)
     bool temporal;               // run temporal analysis (temporal.h) inside vd_detector_run
     uint16_t max_tracks;         // temporal track table, 1..1024; 0 = 32
-    vd_temporal_cfg_t temporal_cfg;  // zero = temporal.h defaults
+    vd_temporal_cfg_t temporal_cfg;  // zero = temporal.h defaults; VD_TEMPORAL_SCORES (track-aware scores, the demo's
+                                     //   default) is dropped without a DBN model and without the CNN source
+                                     //   (no scores to fuse); unverified detections keep their score
 
     // Budgets (overflows: stats.overflow_*, VD_ERR_CAPACITY).
     uint32_t max_runs;           // labelling runs (8 B each), >= 1; 0 = 24576 (2.4x the most measured)

@@ -42,6 +42,8 @@ typedef enum vd_track_state {
 #define VD_TEMPORAL_NO_MOTION     0x02u  // flags: no global motion, no velocities (paper 000)
 #define VD_TEMPORAL_NO_GLOBAL     0x04u  // flags: velocities only, no global motion estimate
 #define VD_TEMPORAL_RECOVER_NO_C  0x08u  // flags: also search for tracks whose complexity is 0 (see recovery)
+#define VD_TEMPORAL_SCORES        0x10u  // flags: track-aware scores (below): obs score_q8 in, fused score out;
+                                         //   confirmed by the track score with hysteresis (not by hits alone)
 // Global motion: at most this many matched-last-frame tracks and leading
 // observations vote (bounds the O(N^4) vote to 16^4 comparisons).
 #define VD_TEMPORAL_MOTION_VOTERS 16u
@@ -63,8 +65,21 @@ typedef struct vd_temporal_cfg {
     uint16_t max_motion;       // px per frame, 1..4096, default 128: larger displacements never vote for
                                // the global motion, and velocities are clamped to it
     uint8_t flags;             // VD_TEMPORAL_*, default 0 (relative sigmas, global motion, velocities,
-                               // no recovery of tracks without complexity)
-    uint8_t reserved;
+                               // no recovery of tracks without complexity, no track scores)
+    uint8_t coast_frames;      // VD_TEMPORAL_SCORES: a confirmed track missed for up to this many frames (and not
+                               //   recovered by the probe search) is output at its predicted box as RECOVERED
+                               //   with its decayed track score, 0..255, default 0 (none; measured in
+                               //   docs/results/temporal.md: predicted boxes added false positives, no vehicle)
+    // Track-aware scores (VD_TEMPORAL_SCORES; unused otherwise), all Q15 of 1.0, 1..32768 (0 = default):
+    uint16_t score_alpha_q15;  // EWMA weight of a new observation in the track score, default 16384 (0.5)
+    uint16_t score_weight_q15; // weight of the track score in the output score, default 16384 (0.5)
+    uint16_t score_gain_q15;   // persistence gain: a matched observation pulls the track score towards
+                               //   min(1, score + gain), default 3277 (0.1)
+    uint16_t new_penalty_q15;  // a new track starts at score * (1 - penalty), default 3277 (0.1)
+    uint16_t confirm_hi_q15;   // confirmed when the track score reaches this, default 13763 (0.42)
+    uint16_t confirm_lo_q15;   // ... and stays confirmed until it falls below this (<= hi), default 11469 (0.35)
+    uint16_t miss_decay_q15;   // track score factor per missed frame, default 22938 (0.7)
+    uint16_t reserved2;
 } vd_temporal_cfg_t;
 
 // One track slot. id 0 marks a free slot. Caller-owned storage (see init).
@@ -79,7 +94,7 @@ typedef struct vd_track {
     uint8_t state;             // vd_track_state_t at the last update
     uint8_t matched;           // internal: matched during the current update
     uint8_t moving;            // 1 once a velocity was measured (two matched boxes)
-    uint8_t reserved[2];
+    uint16_t score_q15;        // VD_TEMPORAL_SCORES: track score (EWMA of its observations' scores), Q15
     uint32_t age;              // frames since creation (saturating)
     int16_t vx_q4;             // own velocity (beyond the global motion), Q4 px per frame
     int16_t vy_q4;
@@ -93,7 +108,9 @@ typedef struct vd_temporal_obs {
     uint16_t similarity_q15;   // out: S to the matched track (0 for a new track)
     uint32_t track_id;         // out: 0 if no track slot was free
     uint8_t state;             // out: vd_track_state_t
-    uint8_t reserved[3];
+    uint8_t score_q8;          // VD_TEMPORAL_SCORES: in the detection's score (Q8, 0..255), out the fused score
+                               //   (recovered: the track's decayed score); unchanged without the flag
+    uint8_t reserved[2];
 } vd_temporal_obs_t;
 
 // Per-update counts.
@@ -167,6 +184,14 @@ void vd_temporal_reset(vd_temporal_t *t);
 // offsets of search_step up to search_radius around it (same size), best S
 // >= recover_thr wins; (4) other unmatched tracks age and are deleted after
 // max_misses misses; (5) unmatched observations start new tracks in free slots.
+// With VD_TEMPORAL_SCORES each track keeps a score T (Q15) and each output
+// box's score fuses its own: (2) a match moves T by score_alpha towards
+// min(1, s + score_gain); (5) a new track starts at T = s * (1 - new_penalty);
+// (3) a miss multiplies T by miss_decay; the output score is (1 - w) * s + w * T
+// (w = score_weight, s the detection's score in Q15 = score_q8 * 32768 / 255);
+// a track is confirmed when T >= confirm_hi and loses it when T < confirm_lo
+// (hysteresis); a recovered box (probe search or coasting, coast_frames)
+// carries T. docs/architecture.md "Temporal analysis" has the state machine.
 // Recovery needs a complexity: for a track without one (0) S_C only reaches
 // 1 on an edge-free probe, i.e. it would "recover" empty background.
 // Returns VD_OK; VD_ERR_ARG for NULL t/obs(with n>0)/count or n > cap or a

@@ -16,7 +16,9 @@
 //  4. stable sort by score and greedy overlap suppression (suppress.h), the
 //     first max_detections;
 //  5. temporal analysis when enabled (temporal.h): track ids and states, and
-//     recovered targets appended, measured by refining the box as a candidate.
+//     recovered targets appended, measured by refining the box as a candidate;
+//     with VD_TEMPORAL_SCORES each score fused with its track's (the order
+//     stays the detector's, by its own score).
 // The stages live in detector_cnn.c (0), detector_sources.c (1-2) and detector_region.c (2-3);
 // configuration and workspace in detector_init.c; shared state in
 // detector/detector_internal.h.
@@ -62,7 +64,8 @@ VD_DET_NOINLINE static vd_status_t suppress(vd_detector_t *det, size_t n, size_t
     return VD_OK;
 }
 
-// A target recovered by temporal analysis, as a detection (score 0).
+// A target recovered by temporal analysis, as a detection (score 0, or with VD_TEMPORAL_SCORES its track's
+// decayed score).
 static void recovered(const vd_detector_t *det, const vd_frame_t *f, const vd_temporal_obs_t *o, uint8_t thr8,
                       vd_detection_t *d)
 {
@@ -80,6 +83,7 @@ static void recovered(const vd_detector_t *det, const vd_frame_t *f, const vd_te
     (void)vd_rect_expand(&d->box, det->cfg.expand_w_q8, det->cfg.expand_h_q8, f->width, f->height, &d->candidate);
     d->track_id = o->track_id;
     d->complexity_q15 = o->complexity_q15;
+    d->score_q8 = o->score_q8;
     // Recovery measures like a hot spot; a CNN-only detector labels it as its one source.
     const uint8_t src = det->cfg.sources;
     d->source = ((src & VD_DETECTOR_SRC_HOTSPOT) == 0u && (src & VD_DETECTOR_SRC_CNN) != 0u) ? (uint8_t)VD_SOURCE_CNN
@@ -183,6 +187,7 @@ static vd_status_t track(vd_detector_t *det, const vd_frame_t *frame, size_t nk,
         memset(&det->obs[i], 0, sizeof(det->obs[i]));
         det->obs[i].box = det->cand[i].box;
         det->obs[i].complexity_q15 = det->cand[i].complexity_q15;
+        det->obs[i].score_q8 = det->cand[i].score_q8;
     }
     det->frame = frame;
     size_t nobs = 0u;
@@ -194,6 +199,9 @@ static vd_status_t track(vd_detector_t *det, const vd_frame_t *frame, size_t nk,
     for (size_t i = 0; i < nk; i++) {
         det->cand[i].track_id = det->obs[i].track_id;
         det->cand[i].state = det->obs[i].state;
+        if ((det->cand[i].flags & VD_DET_FLAG_UNVERIFIED) == 0u) {
+            det->cand[i].score_q8 = det->obs[i].score_q8;   // fused with the track's (VD_TEMPORAL_SCORES), else as was
+        }
     }
     *total = nobs;
     s->recovered = (uint32_t)(nobs - nk);

@@ -472,6 +472,11 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         return VD_ERR_ARG;   // unreachable after vd_detector_cfg_resolve; kept as a guard
     }
     if (c.temporal) {
+        // Track scores need scores: without a DBN model and without the CNN source every detection is
+        // unverified (255), so temporal analysis keeps paper 000's confirmation after confirm_frames.
+        if (model == NULL && (c.sources & VD_DETECTOR_SRC_CNN) == 0u) {
+            c.temporal_cfg.flags = (uint8_t)(c.temporal_cfg.flags & ~VD_TEMPORAL_SCORES);
+        }
         VD_TRY(vd_temporal_init(&det->temporal, &c.temporal_cfg, det->tracks, c.max_tracks));
     }
     return VD_OK;

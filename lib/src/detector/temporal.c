@@ -44,13 +44,15 @@
 
 #include <string.h>
 
+#include "detector/temporal_internal.h"
 #include "internal/vd_internal.h"
 
 #define VD_TEMPORAL_MAX_CAP 65535u
 #define VD_TEMPORAL_EXP_MAX_Q16 (16u << 16)
 #define VD_TEMPORAL_MAX_SEARCH_STEPS 8u
 #define VD_TEMPORAL_FLAGS_ALL \
-    (VD_TEMPORAL_FIXED_SIGMA | VD_TEMPORAL_NO_MOTION | VD_TEMPORAL_NO_GLOBAL | VD_TEMPORAL_RECOVER_NO_C)
+    (VD_TEMPORAL_FIXED_SIGMA | VD_TEMPORAL_NO_MOTION | VD_TEMPORAL_NO_GLOBAL | VD_TEMPORAL_RECOVER_NO_C | \
+     VD_TEMPORAL_SCORES)
 #define VD_TEMPORAL_MAX_SIDE (1 << 20)   // mean box side clamp: rel * side stays < 2^31 in Q8
 
 // round(2^30 * exp(-k / 128)), k = 0..128. Values computed by
@@ -134,7 +136,16 @@ void vd_temporal_cfg_default(vd_temporal_cfg_t *cfg)
     cfg->sigma_rel_q8 = 384u;   // 1.5: fewest id switches on the HIT-UAV flight (vdtools.evaluation.temporal_eval)
     cfg->max_motion = 128u;
     cfg->flags = 0u;
-    cfg->reserved = 0u;
+    cfg->coast_frames = 0u;
+    // Track scores: chosen on the train/val sequences of HIT-UAV (docs/results/temporal.md).
+    cfg->score_alpha_q15 = 16384u;   // 0.5
+    cfg->score_weight_q15 = 16384u;  // 0.5
+    cfg->score_gain_q15 = 3277u;     // 0.1
+    cfg->new_penalty_q15 = 3277u;    // 0.1
+    cfg->confirm_hi_q15 = 13763u;    // 0.42
+    cfg->confirm_lo_q15 = 11469u;    // 0.35
+    cfg->miss_decay_q15 = 22938u;    // 0.7
+    cfg->reserved2 = 0u;
 }
 
 static uint64_t inv_square_q32(uint32_t s)
@@ -161,12 +172,23 @@ vd_status_t vd_temporal_cfg_resolve(vd_temporal_cfg_t *c)
     if (c->search_step == 0u) { c->search_step = d.search_step; }
     if (c->sigma_rel_q8 == 0u) { c->sigma_rel_q8 = d.sigma_rel_q8; }
     if (c->max_motion == 0u) { c->max_motion = d.max_motion; }
+    if (c->score_alpha_q15 == 0u) { c->score_alpha_q15 = d.score_alpha_q15; }
+    if (c->score_weight_q15 == 0u) { c->score_weight_q15 = d.score_weight_q15; }
+    if (c->score_gain_q15 == 0u) { c->score_gain_q15 = d.score_gain_q15; }
+    if (c->new_penalty_q15 == 0u) { c->new_penalty_q15 = d.new_penalty_q15; }
+    if (c->confirm_hi_q15 == 0u) { c->confirm_hi_q15 = d.confirm_hi_q15; }
+    if (c->confirm_lo_q15 == 0u) { c->confirm_lo_q15 = (d.confirm_lo_q15 <= c->confirm_hi_q15) ? d.confirm_lo_q15 : c->confirm_hi_q15; }
+    if (c->miss_decay_q15 == 0u) { c->miss_decay_q15 = d.miss_decay_q15; }
     VD_VERIFY(c->sigma_x <= 4096u && c->sigma_y <= 4096u && c->sigma_w <= 4096u && c->sigma_h <= 4096u, VD_ERR_ARG);
     VD_VERIFY(c->weight_c_q15 <= 32768u && c->match_thr_q15 <= 32768u && c->recover_thr_q15 <= 32768u, VD_ERR_ARG);
     VD_VERIFY(c->search_radius <= 64u && c->search_step <= 64u, VD_ERR_ARG);
     VD_VERIFY(c->search_radius / c->search_step <= VD_TEMPORAL_MAX_SEARCH_STEPS, VD_ERR_ARG);
     VD_VERIFY(c->sigma_rel_q8 <= 1024u && c->max_motion <= 4096u, VD_ERR_ARG);
-    VD_VERIFY((c->flags & ~VD_TEMPORAL_FLAGS_ALL) == 0u && c->reserved == 0u, VD_ERR_ARG);
+    VD_VERIFY((c->flags & ~VD_TEMPORAL_FLAGS_ALL) == 0u && c->reserved2 == 0u, VD_ERR_ARG);
+    VD_VERIFY(c->score_alpha_q15 <= 32768u && c->score_weight_q15 <= 32768u && c->score_gain_q15 <= 32768u &&
+                  c->new_penalty_q15 <= 32768u && c->confirm_hi_q15 <= 32768u && c->miss_decay_q15 <= 32768u,
+              VD_ERR_ARG);
+    VD_VERIFY(c->confirm_lo_q15 <= c->confirm_hi_q15, VD_ERR_ARG);
     return VD_OK;
 }
 
@@ -480,6 +502,12 @@ static uint8_t sat_inc_u8(uint8_t v)
     return (uint8_t)(v < 255u ? v + 1u : 255u);
 }
 
+// Track-aware scores (VD_TEMPORAL_SCORES): temporal_score.c.
+static bool scores_on(const vd_temporal_t *t)
+{
+    return (t->cfg.flags & VD_TEMPORAL_SCORES) != 0u;
+}
+
 // Best-similarity region around a missed confirmed track (its box has
 // already coasted to the prediction); true if one reaches recover_thr
 // (box/complexity/similarity returned).
@@ -559,7 +587,9 @@ static void associate(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n)
         tr->similarity_q15 = (uint16_t)best;
         tr->hits = sat_inc_u8(tr->hits);
         tr->misses = 0u;
-        if (tr->hits >= t->cfg.confirm_frames) {
+        if (scores_on(t)) {
+            obs[bi].score_q8 = vd_tscore_match(&t->cfg, tr, obs[bi].score_q8);
+        } else if (tr->hits >= t->cfg.confirm_frames) {
             tr->confirmed = 1u;
         }
         tr->state = tr->confirmed ? (uint8_t)VD_TRACK_CONFIRMED : (uint8_t)VD_TRACK_NEW;
@@ -600,18 +630,27 @@ static vd_status_t unmatched_tracks(vd_temporal_t *t, vd_temporal_obs_t *obs, si
             t->stats.deleted++;
             continue;
         }
-        tr->state = tr->confirmed ? (uint8_t)VD_TRACK_CONFIRMED : (uint8_t)VD_TRACK_NEW;
-        if (!tr->confirmed || probe == NULL) {
-            continue;
+        if (scores_on(t)) {
+            vd_tscore_miss(&t->cfg, tr);   // decays; below confirm_lo no longer confirmed
         }
-        if (tr->complexity_q15 == 0u && (t->cfg.flags & VD_TEMPORAL_RECOVER_NO_C) == 0u) {
-            continue;   // no complexity (CNN): S_C = 1 only on an edge-free probe, i.e. background
+        tr->state = tr->confirmed ? (uint8_t)VD_TRACK_CONFIRMED : (uint8_t)VD_TRACK_NEW;
+        if (!tr->confirmed) {
+            continue;
         }
         vd_rect_t box = tr->box;
-        uint16_t c = 0u;
+        uint16_t c = tr->complexity_q15;
         uint32_t s = 0u;
-        if (!recover_search(t, tr, probe, user, &box, &c, &s)) {
+        bool searchable = probe != NULL &&
+                          (tr->complexity_q15 != 0u || (t->cfg.flags & VD_TEMPORAL_RECOVER_NO_C) != 0u);
+        // no complexity (CNN): S_C = 1 only on an edge-free probe, i.e. background: no search
+        bool found = searchable && recover_search(t, tr, probe, user, &box, &c, &s);
+        if (!found && !(scores_on(t) && tr->misses <= t->cfg.coast_frames)) {
             continue;
+        }
+        if (!found) {
+            box = tr->box;   // coasting: the predicted box, as last measured
+            c = tr->complexity_q15;
+            s = 0u;
         }
         if (out >= cap) {
             t->stats.overflow++;
@@ -628,6 +667,7 @@ static vd_status_t unmatched_tracks(vd_temporal_t *t, vd_temporal_obs_t *obs, si
         obs[out].similarity_q15 = (uint16_t)s;
         obs[out].track_id = tr->id;
         obs[out].state = VD_TRACK_RECOVERED;
+        obs[out].score_q8 = scores_on(t) ? vd_tscore_q8(tr->score_q15) : 0u;
         out++;
         t->stats.recovered++;
     }
@@ -663,7 +703,9 @@ static vd_status_t new_tracks(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n
         tr->complexity_q15 = obs[i].complexity_q15;
         tr->hits = 1u;
         tr->matched = 1u;
-        if (tr->hits >= t->cfg.confirm_frames) {
+        if (scores_on(t)) {
+            obs[i].score_q8 = vd_tscore_new(&t->cfg, tr, obs[i].score_q8);
+        } else if (tr->hits >= t->cfg.confirm_frames) {
             tr->confirmed = 1u;
         }
         tr->state = tr->confirmed ? (uint8_t)VD_TRACK_CONFIRMED : (uint8_t)VD_TRACK_NEW;

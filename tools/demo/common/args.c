@@ -100,6 +100,7 @@ static void set_defaults(demo_opts_t *o)
     o->scores = true;
     vd_detector_cfg_default(&o->cfg);
     o->cfg.temporal = true;
+    o->cfg.temporal_cfg.flags |= VD_TEMPORAL_SCORES;   // track-aware scores (docs/results/temporal.md)
     o->cfg.cnn_flip = 1u;   // the shipped operating point (docs/results/detector.md): fused flip pass at the header's threshold
 }
 

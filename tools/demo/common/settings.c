@@ -468,6 +468,14 @@ static const setting_t k_settings[] = {
      "temporal: predict tracks by the frame's global motion and their velocity (on, "
      "default), velocity only, or not at all (off, the paper's)",
      ENUM_BITS(temporal_cfg.flags, VD_TEMPORAL_NO_MOTION | VD_TEMPORAL_NO_GLOBAL, k_track_motions)},
+    {"track-scores", "on|off",
+     "temporal: track-aware scores (each box's score fused with its track's, confirmed by the track score "
+     "with hysteresis; default on, off = paper 000's confirmation after 3 frames)",
+     SWITCH(U8, temporal_cfg.flags, VD_TEMPORAL_SCORES)},
+    {"track-coast", "N",
+     "temporal, track scores: output a confirmed track missed for up to N frames at its predicted box as "
+     "recovered, with its decaying score, 0..255 (default 0)",
+     INT(U8, temporal_cfg.coast_frames, 0, 255)},
     {"track-recover-unmeasured", "on|off",
      "temporal: also run recovery for tracks without a complexity (CNN "
      "detections; default off: it finds edge-free background)",

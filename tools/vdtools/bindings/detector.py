@@ -43,7 +43,13 @@ class TemporalCfg(C.Structure):
                 ("sigma_h", C.c_uint16), ("weight_c_q15", C.c_uint16), ("match_thr_q15", C.c_uint16),
                 ("recover_thr_q15", C.c_uint16), ("confirm_frames", C.c_uint8), ("max_misses", C.c_uint8),
                 ("search_radius", C.c_uint8), ("search_step", C.c_uint8), ("sigma_rel_q8", C.c_uint16),
-                ("max_motion", C.c_uint16), ("flags", C.c_uint8), ("reserved", C.c_uint8)]
+                ("max_motion", C.c_uint16), ("flags", C.c_uint8), ("coast_frames", C.c_uint8),
+                ("score_alpha_q15", C.c_uint16), ("score_weight_q15", C.c_uint16), ("score_gain_q15", C.c_uint16),
+                ("new_penalty_q15", C.c_uint16), ("confirm_hi_q15", C.c_uint16), ("confirm_lo_q15", C.c_uint16),
+                ("miss_decay_q15", C.c_uint16), ("reserved2", C.c_uint16)]
+
+
+TEMPORAL_SCORES = 0x10   # vd/temporal.h VD_TEMPORAL_SCORES
 
 
 class Detection(C.Structure):
@@ -226,7 +232,11 @@ def cfg_from_default(fields, cnn_model=None, cnn_model2=None):
     cfg = DetectorCfg()
     _lib().vd_detector_cfg_default(C.byref(cfg))
     for k, v in fields.items():
-        setattr(cfg, k, v)
+        if "." in k:   # a nested field, e.g. "temporal_cfg.flags"
+            outer, inner = k.split(".", 1)
+            setattr(getattr(cfg, outer), inner, v)
+        else:
+            setattr(cfg, k, v)
     return cfg, _attach_cnn(cfg, cnn_model, cnn_model2)
 
 

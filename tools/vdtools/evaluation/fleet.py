@@ -42,7 +42,7 @@ IMAGE_EXTS = (".pgm", ".png", ".jpg", ".jpeg")
 STAGES = ("threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "contrast", "windows",
           "cnn", "total")
 SRC_HOTSPOT, SRC_CONTRAST, SRC_WINDOW, SRC_CNN, SRC_ALL = 0x01, 0x02, 0x04, 0x08, 0x07
-VERSION = 1   # of the shard files; part of every shard's key
+VERSION = 2   # of the shard files (2: tracking metrics); part of every shard's key
 
 
 class FleetError(RuntimeError):
@@ -158,7 +158,7 @@ def plan(recs, shard_frames=256):
 # ------------------------------------------------------------------ detector settings (as vd_fir_demo)
 
 SETTINGS = ("sources", "cnn-model", "cnn-model2", "model", "temporal", "cnn-thr", "cnn-flip", "thr-mode", "hot-thr",
-            "max-candidates", "max-detections", "max-tracks")
+            "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast")
 
 
 def _vdm_version(blob):
@@ -187,6 +187,11 @@ def _switch(v):
     raise FleetError(f"bad switch value {v!r}")
 
 
+def vdet_scores_flag():
+    from vdtools.bindings import detector as vdet
+    return vdet.TEMPORAL_SCORES
+
+
 def resolve(settings, models_dir=None):
     """vd_fir_demo's detector set-up (tools/demo/common/models.c demo_models_load and demo_detector_cfg, settings.c)
     for the settings it shares with the fleet: ({cfg field: value}, CNN model bytes (a pair of them with a
@@ -199,6 +204,10 @@ def resolve(settings, models_dir=None):
                          f"(supported: {', '.join(SETTINGS)})")
     models_dir = Path(models_dir or clib.REPO / "models")
     fields = {"temporal": _switch(s.get("temporal", True)), "cnn_flip": int(_switch(s.get("cnn-flip", True)))}
+    # temporal_cfg: the demo's track-aware scores (default on) and coasting (default 0)
+    fields["temporal_cfg.flags"] = vdet_scores_flag() if _switch(s.get("track-scores", True)) else 0
+    if "track-coast" in s:
+        fields["temporal_cfg.coast_frames"] = int(s["track-coast"])
     if "thr-mode" in s:
         fields["thr_mode"] = {"constant": 0, "adaptive": 1}[s["thr-mode"]]
     if "hot-thr" in s:
@@ -407,7 +416,9 @@ def run_shard(spec, models, on_frame=None):
     by_name = {Path(p).name: p for p in spec["files"]}   # frame name -> file, for the mined crops' references
     runner = None
     stage_us = [0] * len(STAGES)
-    acc = dict(frames=0, frames_annotated=0, detections=0, vehicles=0, tp=0, fp=0, ignored=0, hot=0, hot_tp=0)
+    acc = dict(frames=0, frames_annotated=0, detections=0, vehicles=0, tp=0, fp=0, ignored=0, hot=0, hot_tp=0,
+               confirmed_tp=0, confirmed_fp=0)
+    mot_frames = []   # (vehicles, ignore boxes, detections) per annotated frame: tracking metrics of the shard
     ap_flags, names, mined = [], [], []
     t_det = 0.0
     try:
@@ -443,6 +454,11 @@ def run_shard(spec, models, on_frame=None):
                     acc["hot"] += sum(hot)
                     acc["hot_tp"] += sum(1 for k, h in zip(veh, hot) if h and k in matched)
                     ap_flags += [[s, t] for s, t in flags if t is not None]
+                    cflags, _ = match_flags([p for p, d in zip(pairs, dets) if d["state"] == "confirmed"], boxes)
+                    acc["confirmed_tp"] += sum(1 for _, t in cflags if t == 1)
+                    acc["confirmed_fp"] += sum(1 for _, t in cflags if t == 0)
+                    mot_frames.append(([tuple(g[:4]) for g in boxes if g[4]], [tuple(g[:4]) for g in boxes if g[5]],
+                                       [dict(box=d["box"], track=d["track"], state=d["state"]) for d in dets]))
                     if mine_tmp is not None:
                         kinds = [("fp", pairs[order[j]][0], pairs[order[j]][1])
                                  for j, (_, t) in enumerate(flags) if t == 0]
@@ -467,7 +483,13 @@ def run_shard(spec, models, on_frame=None):
             worker = get_worker().address
         except (ImportError, ValueError):
             pass
+        mot = mot_conf = None
+        if mot_frames:   # tracking metrics (py-motmetrics): the tracker starts afresh at each shard
+            from vdtools.metrics import tracking as T
+            mot = T.sequence_counts(mot_frames)
+            mot_conf = T.sequence_counts(mot_frames, lambda d: d["state"] == "confirmed")
         metrics = dict(key=spec["key"], rec=spec["rec"], index=spec["index"], meta=rec.get("meta", {}),
+                       mot=mot, mot_confirmed=mot_conf,
                        names=names, worker=worker, pid=os.getpid(), wall_s=time.perf_counter() - t_start,
                        cpu_s=time.process_time() - cpu_start,
                        detector_s=t_det, stage_us=dict(zip(STAGES, stage_us)), ap_flags=ap_flags,
@@ -641,12 +663,26 @@ def _ap(flags, n_pos):
 
 
 def _group_figures(ms):
-    tot = {k: sum(m[k] for m in ms) for k in ("frames_annotated", "vehicles", "tp", "fp", "ignored", "hot", "hot_tp")}
+    from vdtools.metrics import tracking as T
+    tot = {k: sum(m.get(k, 0) for m in ms)
+           for k in ("frames_annotated", "vehicles", "tp", "fp", "ignored", "hot", "hot_tp", "confirmed_tp",
+                     "confirmed_fp")}
+    mot, mot_c = {}, {}
+    for m in ms:
+        mot = T.add_counts(mot, m.get("mot") or {})
+        mot_c = T.add_counts(mot_c, m.get("mot_confirmed") or {})
+    ms_mot = T.scores(mot) if mot.get("num_objects") else dict(mota=None, idf1=None, id_switches=0)
+    ms_mot_c = T.scores(mot_c) if mot_c.get("num_objects") else dict(mota=None, idf1=None, id_switches=0)
     det = tot["tp"] + tot["fp"]
     cold = tot["vehicles"] - tot["hot"]
     r = lambda a, b: a / b if b else None
     ap = _ap([f for m in ms for f in m["ap_flags"]], tot["vehicles"])[0]
+    cdet = tot["confirmed_tp"] + tot["confirmed_fp"]
     return dict(tot, ap50=None if ap != ap else ap, tp_rate=r(tot["tp"], tot["vehicles"]), fp_rate=r(tot["fp"], det),
+                confirmed_tp_rate=r(tot["confirmed_tp"], tot["vehicles"]), confirmed_fp_rate=r(tot["confirmed_fp"], cdet),
+                mota=ms_mot["mota"], idf1=ms_mot["idf1"], id_switches=ms_mot["id_switches"],
+                confirmed_mota=ms_mot_c["mota"], confirmed_idf1=ms_mot_c["idf1"],
+                confirmed_id_switches=ms_mot_c["id_switches"],
                 fppi=r(tot["fp"], tot["frames_annotated"]), hot_tp_rate=r(tot["hot_tp"], tot["hot"]),
                 cold_tp_rate=r(tot["tp"] - tot["hot_tp"], cold), cold=cold)
 
@@ -688,6 +724,10 @@ def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=Non
             for v in vals:
                 acc[f"{key}={v}"] = _group_figures([m for m in gt_ms if str(m["meta"].get(key)) == v])
         report["accuracy"] = acc
+        # per recording: AP, TP/FP and the tracking metrics of each (the tracker reset per shard; with
+        # --shard-frames 0 per recording)
+        report["recordings_accuracy"] = {rid: _group_figures([m for m in gt_ms if m["rec"] == rid])
+                                         for rid in dict.fromkeys(m["rec"] for m in gt_ms)}
     if mine_dir:
         report["mined"] = _merge_mined(recs, shards, mine_dir)
     _atomic_write(Path(out_dir) / "report.json", json.dumps(report, indent=1))
@@ -738,7 +778,17 @@ def format_summary(r):
         ap = "n/a" if a["ap50"] is None else f"{100 * a['ap50']:.1f}"
         lines.append(f"  [{g}] {a['frames_annotated']} frames, {a['vehicles']} vehicles: AP@0.5 {ap}  "
                      f"TP rate {pct(a['tp_rate'])}  FP rate {pct(a['fp_rate'])}  "
-                     f"(hot {pct(a['hot_tp_rate'])} of {a['hot']}, cold {pct(a['cold_tp_rate'])} of {a['cold']})")
+                     f"(hot {pct(a['hot_tp_rate'])} of {a['hot']}, cold {pct(a['cold_tp_rate'])} of {a['cold']}); "
+                     f"MOTA {pct(a.get('mota'))} IDF1 {pct(a.get('idf1'))} ID switches {a.get('id_switches')}; "
+                     f"confirmed TP {pct(a.get('confirmed_tp_rate'))} FP {pct(a.get('confirmed_fp_rate'))}")
+    recs_acc = r.get("recordings_accuracy", {})
+    if recs_acc:
+        lines.append("  per recording: AP@0.5 | TP / FP | MOTA | IDF1 | ID switches")
+        for g, a in recs_acc.items():
+            ap = "n/a" if a["ap50"] is None else f"{100 * a['ap50']:.1f}"
+            lines.append(f"    {g}: {a['frames_annotated']} frames, {a['vehicles']} vehicles: {ap} | "
+                         f"{pct(a['tp_rate'])} / {pct(a['fp_rate'])} | {pct(a.get('mota'))} | {pct(a.get('idf1'))} | "
+                         f"{a.get('id_switches')}")
     if "mined" in r:
         m = r["mined"]
         lines.append(f"  mined {m['crops']} crops ({m['fp']} false positives, {m['miss']} misses)")
