@@ -45,6 +45,7 @@ def _first_diff(c_ts, r_ts, desc):
 
 CASES = [  # seed, input_norm, out_channels, out_stride
     (1, 0, 5, 4), (2, 1, 5, 4), (3, 0, 3, 4), (4, 1, 3, 4), (5, 0, 5, 8), (6, 1, 5, 8), (7, 1, 5, 4), (8, 0, 5, 4),
+    (9, 2, 5, 4), (10, 2, 3, 8),
 ]
 
 
@@ -228,7 +229,7 @@ def test_loader_agrees_with_unpack_on_corrupted_blobs(cnn):
     disagree = []
     tried = accepted = 0
     for seed in range(6):
-        d = R.random_model(rng, input_norm=seed % 2, out_channels=3 if seed == 3 else 5)
+        d = R.random_model(rng, input_norm=seed % 3, out_channels=3 if seed == 3 else 5)
         blob = V.pack(d)
         assert vd_cnn.c_load(blob) == 0
         fields = _field_offsets(blob)

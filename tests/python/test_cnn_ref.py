@@ -87,6 +87,21 @@ def test_preprocess_none_is_pixel_minus_128():
     np.testing.assert_array_equal(x[:, :, 0], [[-128, -127, -1], [0, 126, 127]])
 
 
+def test_equalise_hand_worked():
+    img = np.array([[10, 10, 10, 10], [10, 10, 20, 20], [20, 20, 30, 200]], np.uint8)
+    # n = 12; level 10: below 0, count 6 -> (6 * 255 + 12) // 24 = 64; level 20: below 6, count 4 ->
+    # (16 * 255 + 12) // 24 = 170; level 30: below 10, count 1 -> (21 * 255 + 12) // 24 = 223;
+    # level 200: below 11, count 1 -> (23 * 255 + 12) // 24 = 244; minus 128
+    x = R.preprocess(img, dict(input_norm=2))[:, :, 0]
+    np.testing.assert_array_equal(x, [[-64, -64, -64, -64], [-64, -64, 42, 42], [42, 42, 95, 116]])
+    # a strictly increasing tone curve (a brighter camera) leaves the input unchanged
+    curve = np.round(255 * (np.arange(256) / 255.0) ** 0.5).astype(np.uint8)
+    assert np.all(np.diff(curve[[10, 20, 30, 200]].astype(int)) > 0)
+    np.testing.assert_array_equal(R.preprocess(curve[img], dict(input_norm=2)), R.preprocess(img, dict(input_norm=2)))
+    # one grey level: its mid-rank, 128 -> 0
+    np.testing.assert_array_equal(R.preprocess(np.full((3, 5), 77, np.uint8), dict(input_norm=2)), 0)
+
+
 def test_stretch_hand_worked():
     img = np.arange(16, dtype=np.uint8).reshape(4, 4)
     # n = 16: lo threshold 16*100//1000 = 1 -> lo = 1 (cum(0) = 1, cum(1) = 2); hi threshold 14 -> hi = 14
@@ -602,7 +617,8 @@ def _mutants():
         ("input_w 4097", hdr(input_w=4097), "input_w"),
         ("input_zp", hdr(input_zp=0), "input_zp"),
         ("norm fields with norm 0", hdr(norm_min_range=5), "norm_min_range"),
-        ("input_norm 2", hdr(input_norm=2), "input_norm"),
+        ("input_norm 3", hdr(input_norm=3), "input_norm"),
+        ("norm fields with norm 2", hdr(input_norm=2, norm_min_range=5), "norm_min_range"),
         ("lo >= hi", hdr(input_norm=1, norm_lo_permille=500, norm_hi_permille=500, norm_min_range=4), "norm_hi"),
         ("hi > 1000", hdr(input_norm=1, norm_lo_permille=5, norm_hi_permille=1001, norm_min_range=4), "norm_hi"),
         ("min_range 0", hdr(input_norm=1, norm_lo_permille=5, norm_hi_permille=995, norm_min_range=0), "norm_min"),

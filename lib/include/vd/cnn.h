@@ -96,7 +96,8 @@ typedef enum vd_cnn_op {
 // Input normalisation (header input_norm).
 typedef enum vd_cnn_norm {
     VD_CNN_NORM_NONE = 0,       // q = pixel - 128
-    VD_CNN_NORM_PERCENTILE = 1  // per-frame percentile stretch (docs/fixed-point.md "cnn")
+    VD_CNN_NORM_PERCENTILE = 1, // per-frame percentile stretch (docs/fixed-point.md "cnn")
+    VD_CNN_NORM_EQUALISE = 2    // per-frame histogram equalisation (mid-rank; docs/fixed-point.md "cnn")
 } vd_cnn_norm_t;
 
 // One layer, pointing into the blob. Layer i reads tensor `in` (and `in2`

@@ -332,7 +332,7 @@ class Float:
     def _peaks(self, img, mirror=False):
         """decode_float's boxes (half-resolution plane, float) of the frame or its mirror."""
         with self.torch.no_grad():
-            o = self.net(self.T.to_input(net_input(img, self.net.align, mirror=mirror)))
+            o = self.net(self.T.to_input(net_input(img, self.net.align, mirror=mirror), self.net.norm))
         return self.T.decode_float(o, 0.02)
 
     def boxes_q15(self, img, frame_w, frame_h):
@@ -361,7 +361,7 @@ class FloatEnsemble(Float):
     def _peaks(self, img, mirror=False):
         torch = self.torch
         with torch.no_grad():
-            p, box = self.T.mean_maps([n(self.T.to_input(net_input(img, n.align, mirror=mirror))) for n in self.nets])
+            p, box = self.T.mean_maps([n(self.T.to_input(net_input(img, n.align, mirror=mirror), n.norm)) for n in self.nets])
             o = torch.cat([torch.logit(p.clamp(1e-6, 1 - 1e-6))[:, None], box], 1)
         return self.T.decode_float(o, 0.02)
 

@@ -41,10 +41,20 @@ def stretch_bounds(img_u8, lo_permille, hi_permille, min_range):
     return lo, hi, max(hi - lo, int(min_range))
 
 
+def equalise_lut(img_u8):
+    """The input_norm 2 table of a uint8 plane of n pixels: grey level v -> the mid-rank of its pixels,
+    (255 (2 below(v) + count(v)) + n) // (2 n) in 0..255 (below(v): pixels darker than v)."""
+    a = np.asarray(img_u8)
+    n = a.size
+    h = np.bincount(a.ravel(), minlength=256).astype(np.int64)
+    below = np.cumsum(h) - h
+    return ((2 * below + h) * 255 + n) // (2 * n)
+
+
 def preprocess(img_u8, desc):
     """int8 [h, w, 1] network input of a uint8 plane [h, w] (any strides) per desc's input_norm:
     0: q = pixel - 128; 1: percentile stretch p' = 0 if pixel <= lo else min(255, ((pixel - lo) * 510 + r)
-    // (2 r)), q = p' - 128."""
+    // (2 r)), q = p' - 128; 2: histogram equalisation p' = equalise_lut(plane)[pixel], q = p' - 128."""
     a = np.asarray(img_u8)
     if a.dtype != np.uint8 or a.ndim != 2:
         raise ValueError("preprocess: a 2-D uint8 plane expected")
@@ -52,6 +62,8 @@ def preprocess(img_u8, desc):
     if int(desc["input_norm"]) == 1:
         lo, _hi, r = stretch_bounds(a, desc["norm_lo_permille"], desc["norm_hi_permille"], desc["norm_min_range"])
         p = np.where(p <= lo, 0, np.minimum(255, ((p - lo) * 510 + r) // (2 * r)))
+    elif int(desc["input_norm"]) == 2:
+        p = equalise_lut(a)[p]
     return (p - 128).astype(np.int8)[:, :, None]
 
 
@@ -376,9 +388,9 @@ def random_model(rng, out_channels=5, input_norm=0, width=(8, 12, 16, 12), out_s
         plan[-1:] = [dict(op=CONV3X3, stride=2, **{"in": 10}, cin=c4, cout=c4),
                      dict(op=PW1X1, stride=1, **{"in": 11}, cin=c4, cout=out_channels, act="none")]
     desc = {"input_w": input_w, "input_h": input_h, "input_norm": int(input_norm),
-            "norm_lo_permille": int(rng.integers(0, 50)) if input_norm else 0,
-            "norm_hi_permille": int(rng.integers(950, 1001)) if input_norm else 0,
-            "norm_min_range": int(rng.integers(1, 64)) if input_norm else 0,
+            "norm_lo_permille": int(rng.integers(0, 50)) if input_norm == 1 else 0,
+            "norm_hi_permille": int(rng.integers(950, 1001)) if input_norm == 1 else 0,
+            "norm_min_range": int(rng.integers(1, 64)) if input_norm == 1 else 0,
             "input_zp": -128, "out_stride": int(out_stride), "out_channels": int(out_channels),
             "score_threshold_q": 0, "max_peaks": int(rng.integers(16, 200)), "name": name, "layers": []}
     a = 16 if out_stride == 8 else 8

@@ -5,8 +5,9 @@ write it as a const C array for flash, and run it through the C library (vd_cnn_
 
 A description ("desc") is a plain dict:
     input_w, input_h            nominal network input size (multiples of the model's alignment A)
-    input_norm                  0 none (q = pixel - 128), 1 per-frame percentile stretch
-    norm_lo_permille, norm_hi_permille, norm_min_range   (all 0 when input_norm is 0)
+    input_norm                  0 none (q = pixel - 128), 1 per-frame percentile stretch,
+                                2 per-frame histogram equalisation
+    norm_lo_permille, norm_hi_permille, norm_min_range   (all 0 unless input_norm is 1)
     input_zp                    -128
     out_stride                  4 or 8 (the downsample factor of the head tensor)
     out_channels                3 or 5 (channels of the head tensor)
@@ -139,7 +140,7 @@ def validate(desc):
     if not isinstance(desc, dict):
         raise ValueError("desc must be a dict")
     out = {}
-    norm = out["input_norm"] = _int(desc, "input_norm", 0, 1)
+    norm = out["input_norm"] = _int(desc, "input_norm", 0, 2)
     if norm == 1:
         lo = out["norm_lo_permille"] = _int(desc, "norm_lo_permille", 0, 999)
         out["norm_hi_permille"] = _int(desc, "norm_hi_permille", lo + 1, 1000)

@@ -26,7 +26,7 @@ from vdtools.data import cnn_data as CD
 from vdtools.formats import cnn_vdm as V
 from vdtools.formats.quantise import int8_per_channel, quantize_multiplier
 from vdtools.training import cnn_net as N
-from vdtools.training.cnn_targets import NORM, STRIDE
+from vdtools.training.cnn_targets import NORM, NORM_CODE, STRIDE
 
 CALIB_FRAMES = 96
 # Vehicles cover few pixels, so the largest activations are theirs: the 99.99th percentile clipped them and
@@ -42,14 +42,17 @@ def read_ckpt(ckpt):
     if str(ckpt).endswith(".npz"):
         with np.load(ckpt) as z:
             return dict(net={k: torch.from_numpy(z[k]) for k in z.files if not k.startswith("__")},
-                        arch=str(z["__arch__"]), step=int(z["__step__"]), qat=bool(z["__qat__"]))
-    return torch.load(ckpt, weights_only=False, map_location="cpu")
+                        arch=str(z["__arch__"]), step=int(z["__step__"]), qat=bool(z["__qat__"]),
+                        norm=str(z["__norm__"]) if "__norm__" in z.files else "stretch")
+    ck = torch.load(ckpt, weights_only=False, map_location="cpu")
+    ck.setdefault("norm", "stretch")      # checkpoints before cnn_train --norm
+    return ck
 
 
 def load_net(ckpt):
     """The network of read_ckpt(ckpt), in eval mode, with its checkpoint dict."""
     ck = read_ckpt(ckpt)
-    net = N.Net(ck["arch"])
+    net = N.Net(ck["arch"], norm=ck["norm"])
     net.load_state_dict(N.strip_aux(ck["net"], ck["arch"]) if ck.get("aux") else ck["net"])   # --aux channels dropped
     net.eval()
     return net, ck
@@ -73,7 +76,8 @@ def save_float(net, ck, path):
     tests/python/test_cnn_float.py checks that they quantise to the shipped int8 weights."""
     arrays = {k: v.detach().cpu().numpy() for k, v in net.state_dict().items()}
     np.savez_compressed(path, __arch__=np.array(ck["arch"]), __step__=np.array(int(ck.get("step") or 0)),
-                        __qat__=np.array(bool(ck.get("qat"))), **arrays)
+                        __qat__=np.array(bool(ck.get("qat"))), __norm__=np.array(ck.get("norm", "stretch")),
+                        **arrays)
 
 
 def calibration_frames(frames, n=CALIB_FRAMES):
@@ -86,7 +90,7 @@ def forward_all(net, frames):
     """Every tensor of net (float, as cnn_export calibrates: half resolution, padded) per frame."""
     with torch.no_grad():
         for fr in frames:
-            yield net(N.to_input(N.pad_to(CD.half(fr.img), net.align)), return_all=True)
+            yield net(N.to_input(N.pad_to(CD.half(fr.img), net.align), net.norm), return_all=True)
 
 
 def calibrate(net, frames):
@@ -171,9 +175,11 @@ def quantise(net, ranges, thr_score=0.3, max_peaks=100, name="vd_cnn"):
     table[3] = table[4] = np.clip(np.round(v * 256), -256, 512)
     logit = math.log(thr_score / (1 - thr_score))
     thr_q = int(np.clip(math.ceil(logit / s_h + z_h), -128, 127))
-    desc = dict(input_w=320, input_h=256, input_norm=1, input_zp=-128, out_stride=STRIDE, out_channels=5,
+    norm = dict(input_norm=1, **NORM) if net.norm == "stretch" else dict(
+        input_norm=NORM_CODE[net.norm], norm_lo_permille=0, norm_hi_permille=0, norm_min_range=0)
+    desc = dict(input_w=320, input_h=256, input_zp=-128, out_stride=STRIDE, out_channels=5,
                 score_threshold_q=thr_q, max_peaks=max_peaks, name=name, layers=layers,
-                table=table.astype(np.int32), **NORM)
+                table=table.astype(np.int32), **norm)
     return desc, dict(scale=scale, zp=zp)
 
 

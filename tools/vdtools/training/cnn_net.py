@@ -15,7 +15,7 @@ import torch.nn as nn
 import torch.nn.functional as F
 
 from vdtools.data import cnn_data as CD
-from vdtools.training.cnn_targets import stretch
+from vdtools.training.cnn_targets import normalise
 
 HEAD = 5                    # the exported head: heatmap logit, log w, log h, x / y offset
 
@@ -111,9 +111,11 @@ def fold_bn(seq, dtype=None):
 class Net(nn.Module):
     """Executes an ARCHS list; `self.spec` is the layer list the exporter turns into .vdm layers."""
 
-    def __init__(self, arch, aux=0):
-        """aux: extra head channels after the HEAD exported ones (cnn_train --aux), dropped by the export."""
+    def __init__(self, arch, aux=0, norm="stretch"):
+        """aux: extra head channels after the HEAD exported ones (cnn_train --aux), dropped by the export.
+        norm: the input normalisation the network was trained with (cnn_targets.NORMS), kept with its weights."""
         super().__init__()
+        self.norm = norm
         self.spec = []          # dicts: op, stride, in, in2, cin, cout, module index
         self.mods = nn.ModuleList()
         chans = [1]             # channels of tensor t
@@ -247,8 +249,10 @@ def macs(net, w, h):
     return total
 
 
-def to_input(img_half):
-    return torch.from_numpy(stretch(img_half)[None, None].astype(np.float32) / 255.0)
+def to_input(img_half, norm="stretch"):
+    """The network's float input (1, 1, h, w) in [0, 1] of a uint8 half-resolution plane, through the input
+    normalisation `norm` (cnn_targets.NORMS; a Net's own is net.norm)."""
+    return torch.from_numpy(normalise(img_half, norm)[None, None].astype(np.float32) / 255.0)
 
 
 pad_to = CD.pad_to

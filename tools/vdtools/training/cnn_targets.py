@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 
 from vdtools.data import cnn_data as CD
+from vdtools.formats import cnn_ref
 from vdtools.metrics.evaluate import iou
 
 STRIDE = 4
@@ -35,6 +36,23 @@ def stretch(img, lo_pm=NORM["norm_lo_permille"], hi_pm=NORM["norm_hi_permille"],
     p = img.astype(np.int64) - lo
     out = np.where(p <= 0, 0, np.minimum(255, (p * 510 + r) // (2 * r)))
     return out.astype(np.uint8)
+
+
+def equalise(img):
+    """The .vdm input_norm 2 histogram equalisation (integer; the C module and cnn_ref do the same): each grey
+    level goes to the mid-rank of its pixels, round(255 * (2 * below + at) / (2 n)). Any strictly increasing
+    tone curve of the camera leaves the result unchanged, which the percentile stretch (gain and offset only)
+    does not: the other camera of docs/results/cameras.md differs from ours mostly in its AGC curve."""
+    return cnn_ref.equalise_lut(img).astype(np.uint8)[img]
+
+
+NORMS = {"stretch": stretch, "equalise": equalise}      # cnn_train --norm; the .vdm input_norm 1 and 2
+NORM_CODE = {"stretch": 1, "equalise": 2}
+
+
+def normalise(img, norm="stretch"):
+    """img through the network's input normalisation (NORMS)."""
+    return NORMS[norm](img)
 
 
 # ---------------------------------------------------------------- augmentation and targets
@@ -136,7 +154,7 @@ def paste(img, boxes, ign, donors, rng, n_max=PASTE_MAX, tries=PASTE_TRIES, keep
 
 
 def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, paste_p=0.0, others=False,
-           invert_p=0.0, inv_rng=None, camera_p=0.0, small_p=0.0, cam_rng=None):
+           invert_p=0.0, inv_rng=None, camera_p=0.0, small_p=0.0, cam_rng=None, norm="stretch"):
     """One training crop: (stretched uint8 crop, boxes (N,4) in crop pixels, ignore boxes). cut_ignore: the
     split_cut rule for vehicles the crop cuts (cnn_train --cut-ignore); off, every vehicle whose centre is in
     the crop is a positive clipped to it and the others are background (the shipped models' recipe).
@@ -146,7 +164,8 @@ def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, past
     the frame's polarity is inverted (255 - v, before the photometric changes; cnn_train --invert), drawn
     from inv_rng so that rng's crops stay those of a run without it. camera_p: probability of camera_shift
     (cnn_train --camera), small_p: probability that the rescale is drawn from SMALL_SCALE (--small), both
-    drawn from cam_rng, so that rng's draws stay those of a run without them."""
+    drawn from cam_rng, so that rng's draws stay those of a run without them. norm: the network's input
+    normalisation (NORMS), on the whole half-resolution frame as in the detector."""
     img = CD.half(fr.img)
     boxes = fr.boxes * 0.5
     ign = fr.ignore * 0.5
@@ -160,7 +179,7 @@ def sample(fr, rng, crop=CROP, augment=True, cut_ignore=False, donors=None, past
         img = camera_shift(img, cam_rng)
     if augment:
         img = photometric(img, rng)
-    img = stretch(img)
+    img = normalise(img, norm)
     s = rng.uniform(SCALE[0], SCALE[1]) if augment else 1.0
     if augment and small_p > 0 and cam_rng.random() < small_p:
         s = cam_rng.uniform(SMALL_SCALE[0], SMALL_SCALE[1])

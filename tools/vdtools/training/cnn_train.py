@@ -37,7 +37,7 @@ from vdtools.metrics.evaluate import average_precision
 from vdtools.training import cnn_export as E
 from vdtools.training.cnn_net import (ARCHS, HEAD, Net, fold_bn, load_weights, macs, pad_to,  # noqa: F401
                                       strip_aux, to_input)    # fold_bn, strip_aux: T.* elsewhere
-from vdtools.training.cnn_targets import CROP, STRIDE, aux_targets, frame_weights, sample, targets
+from vdtools.training.cnn_targets import CROP, NORMS, STRIDE, aux_targets, frame_weights, sample, targets
 
 SIZE_WEIGHT = 1.0           # L1 of log sizes + offsets, against the focal heatmap loss
 AUX_CLASSES = 2             # cnn_train --aux: person and bicycle heatmaps after the exported channels
@@ -63,14 +63,14 @@ def refresh_bn(avg_net, frames_by_fam, crop=CROP):
     QAT, whose batch norm is frozen and folded (update_bn would reset statistics no forward refills)."""
     from torch.optim.swa_utils import update_bn
     rng = np.random.default_rng(12345)
-    update_bn([batch(frames_by_fam, rng, 16, crop)[0] for _ in range(BN_BATCHES)], avg_net)
+    update_bn([batch(frames_by_fam, rng, 16, crop, norm=avg_net.module.norm)[0] for _ in range(BN_BATCHES)], avg_net)
 
 
 FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a batch
 
 
 def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donors=None, weights=None, aux=0,
-          invert_p=0.0, inv_rng=None, camera_p=0.0, small_p=0.0, cam_rng=None):
+          invert_p=0.0, inv_rng=None, camera_p=0.0, small_p=0.0, cam_rng=None, norm="stretch"):
     """(x, heatmap, mask, size/offset targets, their mask[, aux heatmaps with aux > 0]) of n crops."""
     xs, hms, ms, regs, regms, auxs = [], [], [], [], [], []
     fams = sorted(frames_by_fam)
@@ -82,7 +82,7 @@ def batch(frames_by_fam, rng, n, crop=CROP, cut_ignore=False, paste_p=0.0, donor
         img, b, ig, *oth = sample(lst[k], rng, crop, cut_ignore=cut_ignore,
                                   donors=(donors or {}).get(fam), paste_p=paste_p, others=aux > 0,
                                   invert_p=invert_p, inv_rng=inv_rng, camera_p=camera_p, small_p=small_p,
-                                  cam_rng=cam_rng)
+                                  cam_rng=cam_rng, norm=norm)
         hm, m, reg, regm = targets(b, ig, crop)
         if aux:
             auxs.append(aux_targets(oth[0], crop, aux))
@@ -203,7 +203,7 @@ def evaluate(net, frames, thr=0.05):
     per = {}
     for fr in frames:
         img = pad_to(CD.half(fr.img), net.align)
-        out = net(to_input(img))
+        out = net(to_input(img, net.norm))
         dets = [((x * 2, y * 2, w * 2, h * 2), s) for x, y, w, h, s in nms(decode_float(out, thr))]
         per.setdefault(CD.family(fr), []).append((dets, gts_of(fr)))
     net.train()
@@ -254,6 +254,10 @@ def main(argv=None):
                     "texture per training frame (cnn_targets.camera_shift; docs/results/cameras.md)")
     ap.add_argument("--small", type=float, default=0.0, help="probability that a training frame is shrunk by "
                     "0.3-0.6 instead of 0.6-1.4 (small cars, as a wider lens or a higher mount shows them)")
+    ap.add_argument("--norm", choices=sorted(NORMS), help="input normalisation (cnn_targets.NORMS; the .vdm "
+                    "input_norm): stretch (percentile, every model before 2026-11-28) or equalise (histogram "
+                    "equalisation: any monotone tone curve of a camera gives the same input); default: --init's, "
+                    "else stretch")
     ap.add_argument("--aux", action="store_true", help="also learn person and bicycle heatmaps in extra head "
                     "channels (AUX_WEIGHT of their focal loss) that the export drops (0 extra cost at run time)")
     ap.add_argument("--teacher", action="append", default=[], help="distillation (repeatable): a float "
@@ -293,9 +297,10 @@ def main(argv=None):
     print(f"train {len(train)} frames ({ {k: len(v) for k, v in by_fam.items()} }; "
           f"{len({f.group for f in by_fam.get('msrs', [])})} MSRS scene groups), val {len(val)}", flush=True)
     n_aux = AUX_CLASSES if a.aux else 0
-    net = Net(a.arch, n_aux)
+    init = E.read_ckpt(a.init) if a.init else None
+    net = Net(a.arch, n_aux, norm=a.norm or (init["norm"] if init else "stretch"))
     if a.init:     # a checkpoint, or the float weights kept beside a shipped model (models/float)
-        load_weights(net, E.read_ckpt(a.init)["net"])
+        load_weights(net, init["net"])
     teachers = []
     if a.teacher:
         teachers = [E.load_net(t)[0] for t in a.teacher]     # eval mode; they draw no random numbers
@@ -346,7 +351,8 @@ def main(argv=None):
 
     def save_eval(aps, name):
         """A checkpoint of the network evaluated (`ev`), as cnn_export.load_net reads it."""
-        torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat, aux=n_aux), out / name)
+        torch.save(dict(net=ev.state_dict(), arch=a.arch, step=step, val_ap=aps, qat=a.qat, aux=n_aux,
+                        norm=net.norm), out / name)
 
     def progress():
         """Share of the budget used: steps with --steps, else wall time."""
@@ -364,7 +370,7 @@ def main(argv=None):
         for g in opt.param_groups:
             g["lr"] = lr
         x, hm, m, reg, regm, *aux_hm = batch(by_fam, rng, a.batch, a.crop, a.cut_ignore, a.paste, donors, weights,
-                                             n_aux, a.invert, inv_rng, a.camera, a.small, cam_rng)
+                                             n_aux, a.invert, inv_rng, a.camera, a.small, cam_rng, net.norm)
         o = net(x)
         loss, hl, sl = loss_fn(o, hm, m, reg, regm, a.giou, aux_hm[0] if aux_hm else None)
         if teachers:
@@ -392,7 +398,7 @@ def main(argv=None):
                     save_eval(aps, f"best_{fam}.pt")
         if step % 250 == 0:
             torch.save(dict(net=net.state_dict(), opt=opt.state_dict(), step=step, t_used=time.time() - t0,
-                            log=log, arch=a.arch, aux=n_aux, **({"ema": ema.state_dict()} if ema is not None else {})),
+                            log=log, arch=a.arch, aux=n_aux, norm=net.norm, **({"ema": ema.state_dict()} if ema is not None else {})),
                        out / "last.pt")
     # the loop's last step is normally evaluated already (its time budget ran out there)
     aps = log[-1]["val_ap"] if log and log[-1]["step"] == step else evaluate_now()

@@ -280,7 +280,7 @@ static vd_status_t header_read(const uint8_t *b, uint32_t total, header_t *h)
     h->dec_off = vd_blob_u32(b + H_DECODE);
     h->max_peaks = vd_blob_u16(b + H_MAX_PEAKS);
     VD_VERIFY(b[H_KIND] == VD_CNN_KIND, VD_ERR_MODEL);
-    if (h->norm == VD_CNN_NORM_NONE) {
+    if (h->norm == VD_CNN_NORM_NONE || h->norm == VD_CNN_NORM_EQUALISE) {
         VD_VERIFY(h->lo == 0u && h->hi == 0u && h->min_range == 0u, VD_ERR_MODEL);
     } else {
         VD_VERIFY(h->norm == VD_CNN_NORM_PERCENTILE && h->lo < h->hi && h->hi <= 1000u && h->min_range >= 1u &&
@@ -422,7 +422,7 @@ bool vd_cnn_model_ok(const vd_cnn_model_t *m, chain_t *c)
     uint32_t align = 0u;
     if (m->blob == NULL || m->decode_table == NULL || m->n_layers < 1u || m->n_layers > VD_CNN_MAX_LAYERS ||
         (m->out_channels != 3u && m->out_channels != 5u) || (m->out_stride != 4u && m->out_stride != 8u) ||
-        m->input_norm > VD_CNN_NORM_PERCENTILE || m->input_zp != VD_CNN_INPUT_ZP) {
+        m->input_norm > VD_CNN_NORM_EQUALISE || m->input_zp != VD_CNN_INPUT_ZP) {
         return false;
     }
     if (m->input_norm == VD_CNN_NORM_PERCENTILE &&

@@ -68,7 +68,7 @@ static vd_status_t items_size(const vd_cnn_model_t *m, const chain_t *c, uint32_
             first = 0u;
             last = keep ? n : last_read[0];
         } else if (i == 1u) {
-            len = (m->input_norm == VD_CNN_NORM_PERCENTILE) ? VD_CNN_HIST_BYTES : 0u;
+            len = (m->input_norm != VD_CNN_NORM_NONE) ? VD_CNN_HIST_BYTES : 0u;
             len += stream ? vd_cnn_round_up(width, VD_CNN_ITEM_ALIGN) : 0u;   // row buffer of vd_cnn_run_rows
             first = 0u;
             last = 0u;

@@ -1,10 +1,12 @@
 // SPDX-License-Identifier: MIT
-// CNN input op: tensor 0 from the grey frame (pixel - 128, or the model's per-frame percentile stretch),
-// read from a plane or a caller's row function.
+// CNN input op: tensor 0 from the grey frame (pixel - 128, or the model's per-frame percentile stretch or
+// histogram equalisation), read from a plane or a caller's row function.
 //
-// Algorithm: without a stretch q = pixel - 128. With VD_CNN_NORM_PERCENTILE, a histogram of the whole
-// plane gives the lo / hi permille grey levels and a 256-entry table maps pixel -> int8 (256 divisions
-// per frame, none per pixel), the range floored at the model's norm_min_range.
+// Algorithm: without normalisation q = pixel - 128. Otherwise a histogram of the whole plane gives a
+// 256-entry table pixel -> int8 (256 divisions per frame, none per pixel): VD_CNN_NORM_PERCENTILE maps the
+// lo / hi permille grey levels to 0 / 255, the range floored at the model's norm_min_range;
+// VD_CNN_NORM_EQUALISE maps each level to the mid-rank of its pixels, (255 (2 below + count) + n) / (2 n),
+// which any strictly increasing tone curve of the camera leaves unchanged.
 // Reference: tools/vdtools/formats/cnn_ref.py (the same table, bit-exact).
 // Bounds: one pass over the plane for the histogram, one per row of tensor 0; scratch: the histogram
 // and table (VD_CNN_HIST_BYTES, plan item 1).
@@ -24,7 +26,7 @@ static const uint8_t *src_row(const in_src_t *s, uint32_t y)
 const int8_t *vd_cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
                                 uint8_t *hist_area)
 {
-    if (m->input_norm != VD_CNN_NORM_PERCENTILE) {
+    if (m->input_norm != VD_CNN_NORM_PERCENTILE && m->input_norm != VD_CNN_NORM_EQUALISE) {
         return NULL;
     }
     uint32_t *hist = (uint32_t *)(void *)hist_area;
@@ -37,6 +39,16 @@ const int8_t *vd_cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, ui
         }
     }
     const uint64_t n = (uint64_t)w * h;
+    if (m->input_norm == VD_CNN_NORM_EQUALISE) {
+        // (2 below + count) <= 2 n <= 2^25 (sides <= 4096), times 255: 64-bit; the quotient is <= 255.
+        uint64_t below = 0u;
+        for (uint32_t v = 0u; v < 256u; v++) {
+            const uint64_t p = ((2u * below + hist[v]) * 255u + n) / (2u * n);
+            lut[v] = (int8_t)((int32_t)p - 128);
+            below += hist[v];
+        }
+        return lut;
+    }
     const uint64_t t_lo = n * m->norm_lo_permille / 1000u;
     const uint64_t t_hi = n * m->norm_hi_permille / 1000u;
     uint64_t cum = 0u;
