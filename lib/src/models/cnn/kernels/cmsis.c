@@ -26,3 +26,36 @@ bool vd_cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q_
     }
     return true;
 }
+
+#if defined(VD_CNN_DSP)
+// The DSP kernels' constants replace the portable ones in the same scratch piece (cmsis.h).
+typedef char vd_cnn_dsp_q_fits[(sizeof(vd_rq_ch_t) >= sizeof(vd_cnn_dsp_ch_t) + 4u) ? 1 : -1];
+
+bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_dsp_q_t *q)
+{
+    vd_cnn_dsp_ch_t *ch = (vd_cnn_dsp_ch_t *)(void *)area;
+    q->ch = ch;
+    q->bias = (int32_t *)(void *)(ch + L->cout);
+    for (uint32_t o = 0u; o < L->cout; o++) {
+        const int32_t sh = L->shift[o];
+        if (sh > -1 || sh < VD_RQ_SHIFT_MIN) {
+            return false;
+        }
+        vd_rq_ch_t c;
+        const int32_t mult = vd_cnn_rd_i32(L->mult + 4u * (size_t)o);
+        vd_rq_prepare(mult, sh, vd_cnn_rd_i32(L->bias + 4u * (size_t)o), &c);
+        ch[o].k2 = c.k + ((uint64_t)(uint32_t)mult << 31) + ((uint64_t)1 << 63);
+        ch[o].mult = mult;
+        ch[o].sh = (uint32_t)c.rsh - 32u;
+        ch[o].thr = c.thr;
+        ch[o].pad = 0;
+        q->bias[o] = c.bias;
+    }
+    q->zp = L->out_zp;
+    q->lo = L->act_min - L->out_zp;
+    q->hi = L->act_max - L->out_zp;
+    q->relu = q->lo >= 0;
+    q->sat8 = q->lo == 0 && q->hi == 255;
+    return true;
+}
+#endif

@@ -52,4 +52,67 @@ static inline uint32_t vd_cnn_cmsis_q_bytes(const vd_cnn_layer_t *L)
 // written) when a channel's shift is outside [VD_CNN_CMSIS_SHIFT_MIN, 0].
 bool vd_cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q_t *q);
 
+
+// ------------------------------------------------------------------------------------------------------------
+// vd's own Armv7E-M DSP kernels in the back end (dw3x3_cmsis.c, conv_cmsis.c): where CMSIS-NN's kernels spend
+// most of their instructions on the compact network's small shapes (per-call and per-pixel set-up, 9 or
+// 8..64 multiply-adds per output value against ~15 instructions of requantisation per value), the same
+// SXTB16 / SMLAD / SMLABB arithmetic with the weights widened once per call and a shorter requantisation.
+#if defined(ARM_MATH_DSP) && defined(__ARM_FEATURE_SAT) && defined(__GNUC__)
+#include <arm_acle.h>
+#define VD_CNN_DSP 1
+
+// One output channel's requantisation in the DSP kernels' form: models/requant.h's one-shift form
+// vd_rq_z (ReLU layers: vd_rq_z_nn) as one signed multiply-accumulate (SMLAL) and one arithmetic shift of
+// its high word. With x the int32 sum (bias included), vd computes v = (x + 2^31) mult + k (mod 2^64) and
+// z = (v >> rsh) - 2^(63 - rsh); here k2 = k + 2^31 mult + 2^63, so x mult + k2 = v + 2^63 (mod 2^64),
+// whose high word read as int32 is hi(v) - 2^31 exactly, and for rsh = 32 + sh (sh 0..31)
+// floor((hi(v) - 2^31) / 2^sh) = (hi(v) >> sh) - 2^(31 - sh) = z. Only for channels with shift <= -1
+// (rsh >= 32) and no left shift: vd_cnn_dsp_q_fill refuses other layers.
+typedef struct vd_cnn_dsp_ch {
+    uint64_t k2;     // k + 2^31 mult + 2^63 (mod 2^64)
+    int32_t mult;    // Q31 multiplier
+    uint32_t sh;     // rsh - 32
+    int32_t thr;     // vd_rq_ch_t's thr: x <= thr takes k2 - 2^31 (the rounding's sign term; not for ReLU)
+    int32_t pad;
+} vd_cnn_dsp_ch_t;
+
+typedef struct vd_cnn_dsp_q {
+    const vd_cnn_dsp_ch_t *ch;
+    int32_t *bias;   // per channel (kernels fold - zp_in sum w into it)
+    int32_t zp, lo, hi;
+    bool relu;       // lo >= 0: no sign term (models/requant.h vd_rq_z_nn)
+    bool sat8;       // lo == 0 and hi == 255 (so zp = -128 = act_min, act_max = 127): one USAT clamps
+} vd_cnn_dsp_q_t;
+
+// Bytes of the constants (28 per output channel): they take the place of the portable kernels'
+// vd_rq_ch_t constants in the layer's scratch, which are larger.
+static inline uint32_t vd_cnn_dsp_q_bytes(const vd_cnn_layer_t *L)
+{
+    return vd_cnn_round_up((uint32_t)(L->cout * (sizeof(vd_cnn_dsp_ch_t) + 4u)), VD_CNN_ITEM_ALIGN);
+}
+
+// The constants of layer L at area (8-byte aligned, vd_cnn_dsp_q_bytes long); false (area partly
+// written) when a channel's shift is outside [VD_RQ_SHIFT_MIN, -1].
+bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_dsp_q_t *q);
+
+// The output byte of sum acc (bias included) of channel c; relu and sat8 are the layer's (constants at
+// the call sites, so each kernel has one loop per case).
+static inline int8_t vd_cnn_dsp_out(int32_t acc, const vd_cnn_dsp_ch_t *c, const vd_cnn_dsp_q_t *q, bool relu,
+                                    bool sat8)
+{
+    uint64_t k = c->k2;
+    if (!relu && acc <= c->thr) {
+        k -= (uint64_t)1 << 31;
+    }
+    const uint64_t v = (uint64_t)((int64_t)acc * c->mult) + k;
+    // gcc's >> of a negative int is arithmetic (this code is gcc/clang on Arm only): one ASR.
+    const int32_t z = (int32_t)(uint32_t)(v >> 32) >> c->sh;
+    if (sat8) {
+        return (int8_t)((int32_t)__usat(z, 8) - 128);   // zp is -128 (hi = act_max - zp = 255)
+    }
+    return vd_cnn_rq_out(z, q->zp, q->lo, q->hi);
+}
+#endif
+
 #endif

@@ -61,9 +61,129 @@ static void run_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const vd_cnn_cms
                                     vd_cnn_ring_row(out, a));
 }
 
+#if defined(VD_CNN_DSP)
+// The DSP kernel (cmsis.h): one output pixel, four channels per step. Per tap: one word of four input
+// bytes, SXTB16 (channels 0, 2) and SXTB16 ROR 8 (1, 3), the two widened weight words (wx: per group of
+// four channels and tap k, (w0 | w2 << 16) and (w1 | w3 << 16)), SMLABB / SMLATT into four sums started
+// at the bias (which holds - zp_in sum w: padding taps read zrow, zp_in bytes, and add zero).
+static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const int8_t *w, const vd_cnn_dsp_q_t *q,
+                             size_t cn, int8_t *o, bool relu, bool sat8)
+{
+    size_t c = 0u;
+    for (; c + 4u <= cn; c += 4u, wx += 18) {
+        int32_t a0 = q->bias[c], a1 = q->bias[c + 1u], a2 = q->bias[c + 2u], a3 = q->bias[c + 3u];
+        for (size_t k = 0u; k < 9u; k++) {
+            uint32_t x;
+            memcpy(&x, t[k] + c, 4u);
+            const int32_t x02 = (int32_t)SXTB16(x);
+            const int32_t x13 = (int32_t)SXTB16_RORn(x, 8u);
+            const int32_t w02 = (int32_t)wx[2u * k], w13 = (int32_t)wx[2u * k + 1u];
+            a0 = __smlabb(x02, w02, a0);
+            a2 = __smlatt(x02, w02, a2);
+            a1 = __smlabb(x13, w13, a1);
+            a3 = __smlatt(x13, w13, a3);
+        }
+        o[c] = vd_cnn_dsp_out(a0, &q->ch[c], q, relu, sat8);
+        o[c + 1u] = vd_cnn_dsp_out(a1, &q->ch[c + 1u], q, relu, sat8);
+        o[c + 2u] = vd_cnn_dsp_out(a2, &q->ch[c + 2u], q, relu, sat8);
+        o[c + 3u] = vd_cnn_dsp_out(a3, &q->ch[c + 3u], q, relu, sat8);
+    }
+    for (; c < cn; c++) {   // channels beyond a multiple of four: the plain sums
+        int32_t a = q->bias[c];
+        for (size_t k = 0u; k < 9u; k++) {
+            a += (int32_t)t[k][c] * (int32_t)w[k * cn + c];
+        }
+        o[c] = vd_cnn_dsp_out(a, &q->ch[c], q, relu, sat8);
+    }
+}
+
+// Output rows [y0, y1) with the DSP kernel (the tap pointers as dw3x3.c's).
+static void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+                     uint32_t y1, const uint32_t *wx, const int8_t *zrow, const vd_cnn_dsp_q_t *q)
+{
+    const size_t c_n = g->co;
+    const int32_t step = L->stride;
+    const size_t pstep = (size_t)step * c_n;
+    for (uint32_t oy = y0; oy < y1; oy++) {
+        const int8_t *rowp[3];
+        for (int32_t ky = 0; ky < 3; ky++) {
+            const int32_t iy = (int32_t)oy * step - 1 + ky;
+            rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? vd_cnn_ring_row(in, (uint32_t)iy) : NULL;
+        }
+        int8_t *orow = vd_cnn_ring_row(out, oy);
+        for (uint32_t ox = 0u; ox < g->wo; ox++) {
+            const int8_t *t[9];
+            const int32_t ix0 = (int32_t)ox * step - 1;
+            const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)g->wi;
+            for (int32_t ky = 0; ky < 3; ky++) {
+                const int8_t *r = rowp[ky];
+                if (r == NULL) {
+                    t[ky * 3] = zrow;
+                    t[ky * 3 + 1] = zrow;
+                    t[ky * 3 + 2] = zrow;
+                    continue;
+                }
+                const int8_t *c1 = r + (size_t)ox * pstep;
+                t[ky * 3] = left ? c1 - c_n : zrow;
+                t[ky * 3 + 1] = c1;
+                t[ky * 3 + 2] = right ? c1 + c_n : zrow;
+            }
+            int8_t *o = orow + (size_t)ox * c_n;
+            if (q->relu && q->sat8) {
+                dsp_pixel(t, wx, L->w, q, c_n, o, true, true);
+            } else if (q->relu) {
+                dsp_pixel(t, wx, L->w, q, c_n, o, true, false);
+            } else {
+                dsp_pixel(t, wx, L->w, q, c_n, o, false, false);
+            }
+        }
+    }
+}
+
+// The DSP kernel's scratch: widened weights in dw3x3.c's int16 weight piece (18 bytes per channel either
+// way), zrow in its row piece, the constants in its constants piece. False when a channel's shift is
+// outside the DSP requantisation's range (cmsis.h).
+static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+                      uint32_t y1, uint8_t *scr)
+{
+    scratch_layout_t s;
+    (void)vd_cnn_dw3x3_scratch(L, &s);
+    vd_cnn_dsp_q_t q;
+    if (!vd_cnn_dsp_q_fill(L, scr + s.ch, &q)) {
+        return false;
+    }
+    const size_t c_n = g->co;
+    uint32_t *wx = (uint32_t *)(void *)(scr + s.w16);
+    int8_t *zrow = (int8_t *)(void *)(scr + s.rows);
+    for (size_t c = 0u; c < c_n; c++) {
+        int32_t wsum = 0;
+        for (size_t k = 0u; k < 9u; k++) {
+            wsum += L->w[k * c_n + c];
+        }
+        q.bias[c] = vd_rq_u32_to_i32((uint32_t)q.bias[c] - (uint32_t)(g->zp_in * wsum));
+        zrow[c] = (int8_t)g->zp_in;
+    }
+    for (size_t c = 0u; c + 4u <= c_n; c += 4u) {
+        uint32_t *d = wx + (c / 4u) * 18u;
+        for (size_t k = 0u; k < 9u; k++) {
+            const int8_t *wk = L->w + k * c_n + c;
+            d[2u * k] = (uint32_t)(uint16_t)(int16_t)wk[0] | ((uint32_t)(uint16_t)(int16_t)wk[2] << 16);
+            d[2u * k + 1u] = (uint32_t)(uint16_t)(int16_t)wk[1] | ((uint32_t)(uint16_t)(int16_t)wk[3] << 16);
+        }
+    }
+    dsp_rows(L, g, in, out, y0, y1, wx, zrow, &q);
+    return true;
+}
+#endif
+
 bool vd_cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                              uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t scr_bytes)
 {
+#if defined(VD_CNN_DSP)
+    if (dsp_layer(L, g, in, out, y0, y1, scr)) {
+        return true;
+    }
+#endif
     scratch_layout_t s;
     (void)vd_cnn_dw3x3_scratch(L, &s);
     vd_cnn_cmsis_q_t q;
