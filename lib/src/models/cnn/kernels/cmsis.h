@@ -58,7 +58,10 @@ bool vd_cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q_
 // most of their instructions on the compact network's small shapes (per-call and per-pixel set-up, 9 or
 // 8..64 multiply-adds per output value against ~15 instructions of requantisation per value), the same
 // SXTB16 / SMLAD / SMLABB arithmetic with the weights widened once per call and a shorter requantisation.
-#if defined(ARM_MATH_DSP) && defined(__ARM_FEATURE_SAT) && defined(__GNUC__)
+// Not in -Os builds: there gcc neither unrolls the tap loops nor specialises the inlined requantisation
+// per layer kind, and the kernels took more instructions than CMSIS-NN's (95.7 M against 82.1 M per
+// frame on the Cortex-M7 MinSizeRel firmware), so -Os keeps CMSIS-NN's kernels and their smaller code.
+#if defined(ARM_MATH_DSP) && defined(__ARM_FEATURE_SAT) && defined(__GNUC__) && !defined(__OPTIMIZE_SIZE__)
 #include <arm_acle.h>
 #define VD_CNN_DSP 1
 
