@@ -10,6 +10,8 @@
 // without the CNN bit, values above the documented set included), cnn_rescore (0..3) and
 // whether the network's score threshold is fuzzed (a u16, 0 = the model's, > 32768 invalid);
 // mask bit 29 fuzzes cnn_flip (0..3: the fused flip pass, and invalid values).
+// Mask bits 30 and 31 fuzz temporal_cfg.flags (VD_TEMPORAL_SCORES, invalid bits) and coast_frames;
+// the seed u8_cnn_track_scores runs the track scores on the CNN's boxes.
 // Checks: the size
 // query and init agree; a frame inside the configured maximum gives VD_OK or
 // VD_ERR_CAPACITY with every box inside the frame; a bad frame gives its

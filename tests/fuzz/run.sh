@@ -5,8 +5,9 @@
 # corpus. Prints executions and seconds per fuzzer; fails on any finding (the crashing input is left
 # in $FUZZ_OUT/<target>/ — copy it to tests/fuzz/regressions/<target>/ so CTest replays it).
 #
-# Environment: FUZZ_SECONDS (per fuzzer, default 60), FUZZ_TARGETS (default: every harness built),
-# FUZZ_BUILD_DIR (default build-fuzz), FUZZ_OUT (default $FUZZ_BUILD_DIR/fuzz-out), FUZZ_JOBS (build -j, default 2).
+# Environment: FUZZ_SECONDS (per fuzzer, default 60), FUZZ_TARGETS (default: every harness built;
+# names with or without the fuzz_ prefix, e.g. "detector cnn"; none built is an error), FUZZ_BUILD_DIR
+# (default build-fuzz), FUZZ_OUT (default $FUZZ_BUILD_DIR/fuzz-out), FUZZ_JOBS (build -j, default 2).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 secs=${FUZZ_SECONDS:-60}
@@ -17,9 +18,11 @@ flags="-g -O1 -fno-omit-frame-pointer -fsanitize=fuzzer-no-link,address,undefine
 
 cmake -S . -B "$bdir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=clang -DVD_FUZZ=ON \
   -DVD_BUILD_TOOLS=OFF -DCMAKE_C_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" >/dev/null
-targets=${FUZZ_TARGETS:-$(cd tests/fuzz && ls fuzz_*.c | sed 's/^fuzz_\(.*\)\.c$/\1/' | tr '\n' ' ')}
+harnesses=$(cd tests/fuzz && ls fuzz_*.c | sed 's/^fuzz_\(.*\)\.c$/\1/' | tr '\n' ' ')
+targets=${FUZZ_TARGETS:-$harnesses}
 built=()
 for t in $targets; do
+  t=${t#fuzz_}   # FUZZ_TARGETS may name a harness with or without its fuzz_ prefix
   # (no grep -q: with pipefail, an early grep exit would fail the pipeline)
   if ninja -C "$bdir" -t targets all 2>/dev/null | grep "^fuzz_$t:" >/dev/null; then
     built+=("$t")
@@ -27,6 +30,11 @@ for t in $targets; do
     echo "fuzz: no target fuzz_$t in this configuration (module missing?) - skipped"
   fi
 done
+if [ ${#built[@]} -eq 0 ]; then
+  # (else cmake --build --target gets no name and prints only its usage)
+  echo "fuzz: none of the targets ($targets) is built in $bdir; the harnesses are: $harnesses"
+  exit 1
+fi
 if ! cmake --build "$bdir" -j "$jobs" --target "${built[@]/#/fuzz_}" >"$bdir/fuzz-build.log" 2>&1; then
   tail -30 "$bdir/fuzz-build.log"
   echo "fuzz: build failed"
