@@ -287,3 +287,16 @@ def test_json_readers_survive_hostile_files(demo, clip_dir, tmp_path):
             p = run(demo, "--input", clip_dir / "u8", "--model", "none", "--frames", 2, "--quiet", *args, check=False)
             assert p.returncode in (0, 1, 2), (i, args, p.returncode, p.stderr[-500:])
             assert len(p.stderr.strip().splitlines()) <= 1, (i, p.stderr[-500:])
+
+
+def test_help_options_in_demo_doc(demo):
+    """Every option `vd_fir_demo --help` lists has a place in docs/demo.md (the DESIGN.md contract: `--help`
+    lists all; the doc's option tables follow it, e.g. issue 38's --track-scores and --track-coast)."""
+    import re
+    import subprocess
+    out = subprocess.run([str(demo), "--help"], capture_output=True, text=True, check=True).stdout
+    opts = sorted(set(re.findall(r"^\s+--([a-z0-9][a-z0-9-]*)", out, flags=re.M)))
+    assert "track-scores" in opts and "track-coast" in opts
+    doc = (REPO / "docs" / "demo.md").read_text()
+    missing = [o for o in opts if not re.search(r"(--|`)" + re.escape(o) + r"\b", doc)]
+    assert not missing, f"options of --help missing in docs/demo.md: {missing}"
