@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: MIT
 # Cross builds of vd (issue: embedded readiness): the library for Cortex-M7/M4/M0+
-# (-Werror, MinSizeRel; M7/M4 with the CMSIS-NN back end where ../shared/vendor/cmsis-nn is), the unit
+# (-Werror, MinSizeRel; M7/M4 with the CMSIS-NN back end where ../shared/vendor/cmsis-nn is; the names
+# each libvd.a defines checked by tests/check_lib_symbols.py), the unit
 # tests for armhf and aarch64 run under qemu-user, the CNN's unit tests on Cortex-M7 code with the
 # CMSIS-NN back end under qemu-user. Then the embedded budget checks
 # (tools/vdtools/generators/embedded_report.py --check).
@@ -12,6 +13,9 @@ for t in cortex-m7 cortex-m4 cortex-m0plus; do
   echo "== $t: libvd.a"
   cmake -S . -B "build-$t" -G Ninja -DCMAKE_TOOLCHAIN_FILE="tools/toolchains/$t.cmake" -DCMAKE_BUILD_TYPE=MinSizeRel >/dev/null
   cmake --build "build-$t" -j "$jobs" >/dev/null
+  # Only public and vd__ names, CMSIS-NN's included (docs/architecture.md, "Names").
+  python3 tests/check_lib_symbols.py lib/include/vd "$(sed -n 's/^CMAKE_NM:[A-Z]*=//p' "build-$t/CMakeCache.txt")" \
+    "build-$t/libvd.a"
 done
 for t in armhf aarch64; do
   echo "== $t: unit tests under qemu-user"

@@ -2334,7 +2334,7 @@ static void x86_skip_unless_available(void)
 #if !defined(VD_CNN_X86)
     TEST_IGNORE_MESSAGE("x86 kernels not built (CMake VD_CNN_X86=OFF): nothing to compare");
 #else
-    const uint32_t level = vd_cnn_x86_level();
+    const uint32_t level = vd__cnn_x86_level();
     if (level == VD_CNN_X86_NONE) {
         TEST_IGNORE_MESSAGE("x86 kernels built, but this CPU lacks AVX2 and AVX-512 VNNI: portable path only, "
                             "not compared");

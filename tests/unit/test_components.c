@@ -664,24 +664,24 @@ static void check_stream_case(uint32_t w, uint32_t h, uint8_t thr, size_t cap)
     const vd_status_t s_ref = vd_components_label_thr_u8(&v, NULL, thr, ws, bytes, ref, cap, &n_ref, &st);
     tu_guarded_free(0);
     TEST_ASSERT_TRUE(s_ref == VD_OK || s_ref == VD_ERR_CAPACITY);
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_stream_workspace_size(w, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd__components_stream_workspace_size(w, &bytes));
     ws = tu_guarded_alloc(1, bytes);
-    vd_cc_stream_t cs;
-    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cc_stream_init(&cs, w, ws, bytes - 1u, g_out, cap));
-    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cc_stream_init(&cs, w, ws, bytes, g_out, cap));
+    vd__components_stream_t cs;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd__components_stream_init(&cs, w, ws, bytes - 1u, g_out, cap));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd__components_stream_init(&cs, w, ws, bytes, g_out, cap));
     for (int pass = 0; pass < 2; pass++) { // the second after a half frame and a restart
         if (pass == 1) {
             for (uint32_t y = 0; y < h / 2u; y += 2u) {
-                vd_cc_stream_pair(&cs, g_plane8 + (size_t)y * w, y + 1u < h ? g_plane8 + (size_t)(y + 1u) * w : NULL,
+                vd__components_stream_pair(&cs, g_plane8 + (size_t)y * w, y + 1u < h ? g_plane8 + (size_t)(y + 1u) * w : NULL,
                                   y, (uint8_t)(thr ^ 0x55u));
             }
-            vd_cc_stream_restart(&cs);
+            vd__components_stream_restart(&cs);
         }
         for (uint32_t y = 0; y < h; y += 2u) {
-            vd_cc_stream_pair(&cs, g_plane8 + (size_t)y * w, y + 1u < h ? g_plane8 + (size_t)(y + 1u) * w : NULL, y,
+            vd__components_stream_pair(&cs, g_plane8 + (size_t)y * w, y + 1u < h ? g_plane8 + (size_t)(y + 1u) * w : NULL, y,
                               thr);
         }
-        const size_t n = vd_cc_stream_finish(&cs);
+        const size_t n = vd__components_stream_finish(&cs);
         tu_guard_check(1);
         TEST_ASSERT_EQUAL_size_t(n_ref, n);
         TEST_ASSERT_EQUAL_UINT32(st.labels, cs.labels);

@@ -41,7 +41,7 @@ static void wr_i32(uint8_t *p, int32_t v)
 static void fix_crc(uint8_t *b)
 {
     uint32_t total = (uint32_t)b[8] | ((uint32_t)b[9] << 8) | ((uint32_t)b[10] << 16) | ((uint32_t)b[11] << 24);
-    wr_u32(b + 12, vd_crc32(0u, b + 16, total - 16u));
+    wr_u32(b + 12, vd__crc32(0u, b + 16, total - 16u));
 }
 
 // The hand-worked model: 2x2 grey input, 4 -> 2 -> 1.
@@ -104,11 +104,11 @@ static vd_status_t load_hand(vd_dbn_model_t *m)
 
 static void test_crc32_check_value(void)
 {
-    TEST_ASSERT_EQUAL_HEX32(0xCBF43926u, vd_crc32(0u, "123456789", 9));
+    TEST_ASSERT_EQUAL_HEX32(0xCBF43926u, vd__crc32(0u, "123456789", 9));
     // In pieces gives the same result.
-    uint32_t c = vd_crc32(0u, "1234", 4);
-    TEST_ASSERT_EQUAL_HEX32(0xCBF43926u, vd_crc32(c, "56789", 5));
-    TEST_ASSERT_EQUAL_HEX32(0u, vd_crc32(0u, "", 0));
+    uint32_t c = vd__crc32(0u, "1234", 4);
+    TEST_ASSERT_EQUAL_HEX32(0xCBF43926u, vd__crc32(c, "56789", 5));
+    TEST_ASSERT_EQUAL_HEX32(0u, vd__crc32(0u, "", 0));
 }
 
 static void test_sigmoid_table_ends(void)

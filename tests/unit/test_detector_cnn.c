@@ -130,7 +130,7 @@ static void net_load_into(const net_t *n, uint8_t *b, vd_cnn_model_t *m)
     if (n->score_one) {
         tu_wr32(b + dec + 4u * 255u, 32768u);
     }
-    tu_wr32(b + 12, vd_crc32(0u, b + 16, total - 16u));
+    tu_wr32(b + 12, vd__crc32(0u, b + 16, total - 16u));
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(m, b, total));
     TEST_ASSERT_EQUAL_UINT32(4u, m->align);
 }

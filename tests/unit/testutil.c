@@ -102,5 +102,5 @@ uint32_t tu_rd32(const uint8_t *p)
 void tu_vdm_fix_crc(uint8_t *blob)
 {
     const uint32_t total = tu_rd32(blob + 8);
-    tu_wr32(blob + 12, vd_crc32(0u, blob + 16, total - 16u));
+    tu_wr32(blob + 12, vd__crc32(0u, blob + 16, total - 16u));
 }

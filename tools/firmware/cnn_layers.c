@@ -55,8 +55,8 @@ static void kernel(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, c
 #if defined(VD_CNN_CMSIS)
     if (cmsis) {
         const bool done = (L->op == VD_CNN_OP_DW3X3)
-                              ? vd_cnn_dw3x3_rows_cmsis(L, g, in, out, y0, y1, scr, scr_bytes)
-                              : vd_cnn_conv_rows_cmsis(L, g, in, out, y0, y1, stream, scr);
+                              ? vd__cnn_dw3x3_rows_cmsis(L, g, in, out, y0, y1, scr, scr_bytes)
+                              : vd__cnn_conv_rows_cmsis(L, g, in, out, y0, y1, stream, scr);
         if (done) {
             return;
         }
@@ -66,9 +66,9 @@ static void kernel(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, c
     (void)scr_bytes;
 #endif
     if (L->op == VD_CNN_OP_DW3X3) {
-        vd_cnn_dw3x3_rows(L, g, in, out, y0, y1, scr);
+        vd__cnn_dw3x3_rows(L, g, in, out, y0, y1, scr);
     } else {
-        vd_cnn_conv_rows(L, g, in, out, y0, y1, stream, scr);
+        vd__cnn_conv_rows(L, g, in, out, y0, y1, stream, scr);
     }
 }
 
@@ -143,7 +143,7 @@ int main(void)
         return fail("whole-plane run");
     }
     chain_t c;
-    if (!vd_cnn_model_ok(&cnn, &c) || vd_cnn_plan_make(&cnn, &c, w, h, VD_CNN_STREAM, &plan) != VD_OK) {
+    if (!vd__cnn_model_ok(&cnn, &c) || vd__cnn_plan_make(&cnn, &c, w, h, VD_CNN_STREAM, &plan) != VD_OK) {
         return fail("streamed plan");
     }
     const uint32_t stream_scr = plan.len[3];
@@ -161,8 +161,8 @@ int main(void)
         }
         const geom_t g = {ti.w, ti.h, ti.c, to.w, to.h, to.c, ti.zp};
         scratch_layout_t sl;
-        const uint32_t plane_scr = (uint32_t)((L->op == VD_CNN_OP_DW3X3) ? vd_cnn_dw3x3_scratch(L, &sl)
-                                                                         : vd_cnn_conv_scratch(L, false, &sl));
+        const uint32_t plane_scr = (uint32_t)((L->op == VD_CNN_OP_DW3X3) ? vd__cnn_dw3x3_scratch(L, &sl)
+                                                                         : vd__cnn_conv_scratch(L, false, &sl));
         const size_t mark = used;
         const uint32_t rin_rows = (plan.rows[L->in] != 0u) ? plan.rows[L->in] : g.hi;   // 0: never stored
         uint8_t *scr = take(&used, (stream_scr > plane_scr) ? stream_scr : plane_scr);

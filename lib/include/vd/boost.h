@@ -66,30 +66,30 @@ typedef struct vd_boost_model {
 // wrong in the blob (including every reason vd_cnn_load rejects the CNN).
 // Time O(total_size); stack: own frame 280 bytes (Cortex-M7 -Os, -fstack-usage)
 // plus vd_cnn_load's.
-vd_status_t vd_boost_load(vd_boost_model_t *m, const void *blob, size_t bytes);
+VD_API vd_status_t vd_boost_load(vd_boost_model_t *m, const void *blob, size_t bytes);
 
 // Workspace bytes of one score: the CNN at crop_w x crop_h with every tensor
 // kept (VD_CNN_KEEP_TENSORS, the selected maps are read after the run).
-vd_status_t vd_boost_workspace_size(const vd_boost_model_t *m, size_t *bytes);
+VD_API vd_status_t vd_boost_workspace_size(const vd_boost_model_t *m, size_t *bytes);
 
 // Score of one crop_w x crop_h uint8 crop (row stride stride_bytes).
 // Returns VD_OK; VD_ERR_ARG for NULL pointers or stride_bytes < crop_w;
 // VD_ERR_STATE if m is not loaded; VD_ERR_WORKSPACE for a short/misaligned ws.
 // Time: the CNN (vd_cnn_macs at the crop size) + n_stumps compares. Stack:
 // own frames 160 + 112 bytes (Cortex-M7 -Os) plus vd_cnn_run_ex's or vd_cnn_tensor's.
-vd_status_t vd_boost_score(const vd_boost_model_t *m, const uint8_t *crop, uint32_t stride_bytes, void *ws,
+VD_API vd_status_t vd_boost_score(const vd_boost_model_t *m, const uint8_t *crop, uint32_t stride_bytes, void *ws,
                            size_t bytes, int32_t *score);
 
 // The feature vector (the selected maps concatenated, raster order) of one
 // crop, for parity tests and training. capacity >= m->n_features.
-vd_status_t vd_boost_features(const vd_boost_model_t *m, const uint8_t *crop, uint32_t stride_bytes, void *ws,
+VD_API vd_status_t vd_boost_features(const vd_boost_model_t *m, const uint8_t *crop, uint32_t stride_bytes, void *ws,
                               size_t bytes, int8_t *features, size_t capacity);
 
 // The model's accept threshold and feature count (bindings without the struct layout).
-vd_status_t vd_boost_threshold(const vd_boost_model_t *m, int32_t *threshold, uint32_t *n_features);
+VD_API vd_status_t vd_boost_threshold(const vd_boost_model_t *m, int32_t *threshold, uint32_t *n_features);
 
 // sizeof(vd_boost_model_t), for bindings.
-size_t vd_boost_model_bytes(void);
+VD_API size_t vd_boost_model_bytes(void);
 
 #ifdef __cplusplus
 }

@@ -31,14 +31,18 @@ typedef struct vd_calib {
 // Temperature of one raw value: *ck = offset_ck + round-half-up(raw * gain_q16 / 65536).
 // Returns VD_OK; VD_ERR_ARG for NULL pointers or a negative gain; VD_ERR_RANGE
 // if the temperature does not fit an int32 (then *ck is unchanged).
-vd_status_t vd_calib_ck_from_raw(const vd_calib_t *cal, uint16_t raw, int32_t *ck);
+VD_API vd_status_t vd_calib_ck_from_raw(const vd_calib_t *cal, uint16_t raw, int32_t *ck);
 
 // Smallest raw value whose temperature (above) is >= ck: with a non-negative
 // gain the temperature never falls as raw rises, so `raw >= *raw_out` is
 // exactly `temperature >= ck`. Computed in closed form (no search).
 // Returns VD_OK; VD_ERR_ARG for NULL pointers or a negative gain; VD_ERR_RANGE
 // if no raw value in 0..65535 reaches ck (then *raw is unchanged).
-vd_status_t vd_calib_raw_from_ck(const vd_calib_t *cal, int32_t ck, uint16_t *raw);
+VD_API vd_status_t vd_calib_raw_from_ck(const vd_calib_t *cal, int32_t ck, uint16_t *raw);
+
+// As vd_calib_raw_from_ck for a temperature in centi-degrees Celsius
+// (3000 = 30.00 degC): ck = centi_c + VD_CALIB_CK_PER_0C. Same statuses.
+VD_API vd_status_t vd_calib_raw_from_centi_celsius(const vd_calib_t *cal, int32_t centi_c, uint16_t *raw);
 
 // Linear map of temperatures to 8-bit grey, for the planes that refinement,
 // the window pre-filter and the network need from a 16-bit frame (a fixed
@@ -58,11 +62,11 @@ typedef struct vd_calib_grey {
 
 // Sets up `map` for vd_calib_grey_u8 (copies *cal).
 // Returns VD_OK; VD_ERR_ARG for NULL pointers, a negative gain or lo_ck >= hi_ck.
-vd_status_t vd_calib_grey_init(vd_calib_grey_t *map, const vd_calib_t *cal, int32_t lo_ck, int32_t hi_ck);
+VD_API vd_status_t vd_calib_grey_init(vd_calib_grey_t *map, const vd_calib_t *cal, int32_t lo_ck, int32_t hi_ck);
 
 // Grey level 0..255 of one raw value through an initialised map (above).
 // O(1), no checks: `map` must come from vd_calib_grey_init.
-uint8_t vd_calib_grey_u8(const vd_calib_grey_t *map, uint16_t raw);
+VD_API uint8_t vd_calib_grey_u8(const vd_calib_grey_t *map, uint16_t raw);
 
 #ifdef __cplusplus
 }

@@ -181,7 +181,7 @@ typedef struct vd_cnn_box {
 // Time O(total_size) (CRC + one pass over per-channel arrays and the decode
 // table) plus O(arrays^2) overlap checks. Stack (Cortex-M7 -Os, own frame
 // plus deepest call): ~420 bytes.
-vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes);
+VD_API vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes);
 
 // Workspace bytes vd_cnn_run() needs for input size width x height: the input
 // tensor, every activation, the stretch histogram and per-layer scratch
@@ -194,11 +194,11 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes);
 // VD_ERR_OVERFLOW if the total does not fit 32 bits.
 // Time O(n_layers^2), streamed plus O((height + head height) n_layers^2) for
 // the ring sizing; stack ~1.5 KiB (the plan; an init-time call).
-vd_status_t vd_cnn_workspace_size(const vd_cnn_model_t *m, uint32_t width, uint32_t height, size_t *bytes);
+VD_API vd_status_t vd_cnn_workspace_size(const vd_cnn_model_t *m, uint32_t width, uint32_t height, size_t *bytes);
 
 // As vd_cnn_workspace_size, with flags (0, VD_CNN_KEEP_TENSORS, VD_CNN_STREAM
 // or both). VD_ERR_ARG also for any other flag bit.
-vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
+VD_API vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
                                      size_t *bytes);
 
 // Runs the network on one grey plane.
@@ -215,12 +215,12 @@ vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, ui
 // Time: vd_cnn_macs() multiply-adds plus one requantisation per output value;
 // stack ~1.1 KiB on Cortex-M7 -Os (the plan lives in the workspace's run
 // record, not on the stack).
-vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
+VD_API vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
                        uint32_t stride_bytes, void *ws, size_t bytes, vd_cnn_output_t *out);
 
 // As vd_cnn_run, with flags (0, VD_CNN_KEEP_TENSORS, VD_CNN_STREAM or both;
 // the workspace must be sized by vd_cnn_workspace_size_ex with the same flags).
-vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
+VD_API vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,
                           uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out);
 
 // A source of network input rows for vd_cnn_run_rows: row(ctx, y, dst)
@@ -239,7 +239,7 @@ typedef struct vd_cnn_rows {
 // and holds no input plane). flags must include VD_CNN_STREAM.
 // Returns as vd_cnn_run_ex; VD_ERR_ARG also for NULL rows / rows->row or
 // flags without VD_CNN_STREAM.
-vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, uint32_t width, uint32_t height,
+VD_API vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, uint32_t width, uint32_t height,
                             uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out);
 
 // Tensor `index` (0 = preprocessed input, i+1 = output of layer i) of the
@@ -252,7 +252,7 @@ vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, 
 // at this size, or the tensor was overwritten; VD_ERR_WORKSPACE for a short ws.
 // The plan is read back from the run record in ws (bounds-checked against
 // bytes). Stack ~320 bytes.
-vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes, uint32_t width, uint32_t height,
+VD_API vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes, uint32_t width, uint32_t height,
                           uint32_t index, vd_cnn_output_t *t);
 
 // Decodes the head tensor into boxes in frame coordinates.
@@ -272,7 +272,7 @@ vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes,
 // design); VD_ERR_ARG for NULL m/out/count (or boxes with capacity > 0),
 // out not matching m, thr_q or frame size out of range; VD_ERR_STATE if m is
 // not loaded. Time O(Wo*Ho*(1 + K)) worst case; no workspace; stack a few words.
-vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, int32_t thr_q, uint32_t max_peaks,
+VD_API vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, int32_t thr_q, uint32_t max_peaks,
                           uint32_t frame_w, uint32_t frame_h, vd_cnn_box_t *boxes, size_t capacity, size_t *count);
 
 // The int8 heatmap threshold of a score threshold: the smallest logit v in
@@ -286,12 +286,12 @@ vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, i
 // VD_ERR_STATE if m is not loaded; VD_ERR_RANGE when even logit 127 scores
 // below score_q15 (no box can pass).
 // Time O(n_layers) (model check) + 8 table reads (binary search); stack a few words.
-vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, int32_t *thr_q);
+VD_API vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, int32_t *thr_q);
 
 // Multiply-adds of one run at width x height (CONV3X3 9*cin*cout, DW3X3 9*c,
 // PW1X1 cin*cout, CONV5X5 25*cin*cout per output pixel).
 // Returns VD_OK; VD_ERR_ARG / VD_ERR_STATE as vd_cnn_workspace_size.
-vd_status_t vd_cnn_macs(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint64_t *macs);
+VD_API vd_status_t vd_cnn_macs(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint64_t *macs);
 
 #ifdef __cplusplus
 }

@@ -41,7 +41,7 @@ typedef struct vd_component {
 //   bytes  out: required size in bytes.
 // Returns VD_OK; VD_ERR_ARG if bytes is NULL or a dimension is 0 or above
 // VD_MAX_DIM; VD_ERR_OVERFLOW if the size does not fit size_t.
-vd_status_t vd_components_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
+VD_API vd_status_t vd_components_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
 
 // Labels the 8-connected components of `mask` inside `roi` (pixels outside
 // the ROI are ignored, as if the ROI were the whole image).
@@ -68,7 +68,7 @@ vd_status_t vd_components_workspace_size(uint32_t max_width, uint32_t max_height
 // *count = 0 (when count is not NULL).
 // Time O(roi.w * roi.h + runs * alpha) with near-constant union-find cost;
 // stack O(1).
-vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, void *ws, size_t bytes,
+VD_API vd_status_t vd_components_label(const vd_view_u8_t *mask, const vd_rect_t *roi, void *ws, size_t bytes,
                                 vd_component_t *out, size_t cap, size_t *count);
 
 // What a thresholding labeller saw (vd_components_label_thr_u8/_u16).
@@ -98,7 +98,7 @@ typedef struct vd_components_stats {
 //   bytes     out: required size in bytes.
 // Returns VD_OK; VD_ERR_ARG if bytes is NULL, max_runs is 0 or a dimension is 0
 // or above VD_MAX_DIM; VD_ERR_OVERFLOW if the size does not fit size_t.
-vd_status_t vd_components_workspace_size_runs(uint32_t max_width, uint32_t max_height, uint32_t max_runs,
+VD_API vd_status_t vd_components_workspace_size_runs(uint32_t max_width, uint32_t max_height, uint32_t max_runs,
                                               size_t *bytes);
 
 // Labels the 8-connected components of the pixels >= thr of an 8-bit plane
@@ -128,7 +128,7 @@ vd_status_t vd_components_workspace_size_runs(uint32_t max_width, uint32_t max_h
 // workspace. On any error other than VD_ERR_CAPACITY, *count = 0.
 // Time O(roi.w * roi.h) (8 pixels per 64-bit word over uniform stretches) plus
 // near-linear union-find over the runs; stack O(1).
-vd_status_t vd_components_label_thr_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t thr, void *ws,
+VD_API vd_status_t vd_components_label_thr_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t thr, void *ws,
                                        size_t bytes, vd_component_t *out, size_t cap, size_t *count,
                                        vd_components_stats_t *stats);
 
@@ -136,7 +136,7 @@ vd_status_t vd_components_label_thr_u8(const vd_view_u8_t *src, const vd_rect_t 
 // foreground is pixel >= thr (raw units; vd_calib_raw_from_ck gives the raw
 // value of a temperature). src must pass vd_view_u16_check (even stride,
 // aligned data), else VD_ERR_ARG. 4 pixels per 64-bit word.
-vd_status_t vd_components_label_thr_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint16_t thr, void *ws,
+VD_API vd_status_t vd_components_label_thr_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint16_t thr, void *ws,
                                         size_t bytes, vd_component_t *out, size_t cap, size_t *count,
                                         vd_components_stats_t *stats);
 
@@ -157,13 +157,13 @@ typedef struct vd_components_rules {
 
 // Fills *rules with the paper's values: aspect 77..384 (0.3..1.5), min_area 120,
 // max_area 0 (no limit). Does nothing if rules is NULL.
-void vd_components_rules_default(vd_components_rules_t *rules);
+VD_API void vd_components_rules_default(vd_components_rules_t *rules);
 
 // Resolves rules in place: all four fields 0 take vd_components_rules_default's
 // values (any other combination is kept as given), then the rules are checked.
 // Returns VD_OK; VD_ERR_ARG for NULL rules, aspect_min_q8 > aspect_max_q8, or
 // max_area != 0 with min_area > max_area.
-vd_status_t vd_components_rules_resolve(vd_components_rules_t *rules);
+VD_API vd_status_t vd_components_rules_resolve(vd_components_rules_t *rules);
 
 // Keeps the components that pass `rules`, compacting comps[0..n) in place and
 // preserving their order (stable).
@@ -174,7 +174,7 @@ vd_status_t vd_components_rules_resolve(vd_components_rules_t *rules);
 // Returns VD_OK; VD_ERR_ARG for NULL rules/kept, NULL comps with n > 0,
 // inconsistent rules or a component with w or h <= 0 (nothing is modified
 // then and *kept = 0).
-vd_status_t vd_components_filter(vd_component_t *comps, size_t n, const vd_components_rules_t *rules, size_t *kept);
+VD_API vd_status_t vd_components_filter(vd_component_t *comps, size_t n, const vd_components_rules_t *rules, size_t *kept);
 
 #ifdef __cplusplus
 }

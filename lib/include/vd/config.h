@@ -35,4 +35,16 @@
 #define VD_WORKSPACE_ALIGN 8u
 #endif
 
+// Marks every public function of lib/include/vd. The library is compiled with -fvisibility=hidden
+// (gcc, clang), so a shared build (libvd.so) exports these functions and nothing else; internal
+// cross-file functions carry the prefix vd__ (docs/architecture.md, "Names"). Firmware may define it
+// first, e.g. empty, or __declspec(dllexport) / dllimport for a Windows DLL.
+#ifndef VD_API
+#if defined(__GNUC__)
+#define VD_API __attribute__((visibility("default")))
+#else
+#define VD_API
+#endif
+#endif
+
 #endif

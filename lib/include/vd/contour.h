@@ -35,7 +35,7 @@ typedef struct vd_contour {
 // follower). Pure function of its arguments.
 // Returns VD_OK; VD_ERR_ARG if bytes is NULL or a dimension is 0 or above
 // VD_MAX_DIM.
-vd_status_t vd_contour_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
+VD_API vd_status_t vd_contour_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
 
 // Traces the outermost borders of the 8-connected foreground (nonzero) regions
 // of `mask`; holes, and regions inside holes, are not reported. The mask is
@@ -63,7 +63,7 @@ vd_status_t vd_contour_workspace_size(uint32_t max_width, uint32_t max_height, s
 // order, i.e. the LAST ones of cv2's list) are written, each whole and in
 // cv2's relative order, and the counts say how many;
 // VD_ERR_STATE if a border trace exceeds its bound (an internal bug).
-vd_status_t vd_contour_find_external(const vd_view_u8_t *mask, void *ws, size_t bytes,
+VD_API vd_status_t vd_contour_find_external(const vd_view_u8_t *mask, void *ws, size_t bytes,
                                       vd_point_t *points, uint8_t *chain, size_t points_cap,
                                       vd_contour_t *contours, size_t contours_cap,
                                       size_t *n_contours, size_t *n_points);

@@ -45,12 +45,12 @@ typedef struct vd_contrast_cfg {
 // where a configuration is accepted (the detector's init), not per frame.
 // Returns VD_OK; VD_ERR_ARG for NULL cfg, radius > VD_CONTRAST_MAX_RADIUS,
 // polarity or thr_mode unknown, permille > 1000, or rules rejected.
-vd_status_t vd_contrast_cfg_resolve(vd_contrast_cfg_t *cfg);
+VD_API vd_status_t vd_contrast_cfg_resolve(vd_contrast_cfg_t *cfg);
 
 // Workspace of vd_contrast_map_u8 for frames up to max_width wide: column sums,
 // 4 * max_width bytes. Returns VD_OK; VD_ERR_ARG for NULL bytes or a width of 0
 // or above VD_MAX_DIM.
-vd_status_t vd_contrast_map_workspace_size(uint32_t max_width, size_t *bytes);
+VD_API vd_status_t vd_contrast_map_workspace_size(uint32_t max_width, size_t *bytes);
 
 // Local-contrast map of the whole frame:
 //   mean(x, y) = round-half-up(sum / n) over the (2r+1)^2 box around (x, y)
@@ -65,7 +65,7 @@ vd_status_t vd_contrast_map_workspace_size(uint32_t max_width, size_t *bytes);
 // Returns VD_OK; VD_ERR_ARG for NULL or invalid views, size mismatch, radius or
 // polarity out of range; VD_ERR_WORKSPACE for a NULL, misaligned or short workspace.
 // Time O(W*H) independent of r (running column and row sums); stack O(1).
-vd_status_t vd_contrast_map_u8(const vd_view_u8_t *src, uint32_t radius, uint8_t polarity, void *ws, size_t bytes,
+VD_API vd_status_t vd_contrast_map_u8(const vd_view_u8_t *src, uint32_t radius, uint8_t polarity, void *ws, size_t bytes,
                                vd_image_u8_t *dst);
 
 // Workspace of vd_contrast_candidates for frames up to max_width x max_height.
@@ -76,7 +76,7 @@ vd_status_t vd_contrast_map_u8(const vd_view_u8_t *src, uint32_t radius, uint8_t
 // column. 640 wide: 49 664 bytes (the whole-frame map and labelling it
 // replaced took 1 650 696 at 640 x 512).
 // Returns VD_OK; VD_ERR_ARG for NULL bytes or a dimension 0 or above VD_MAX_DIM.
-vd_status_t vd_contrast_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
+VD_API vd_status_t vd_contrast_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
 
 // Contrast candidates of one 8-bit frame: contrast map -> threshold (fixed or
 // percentile, pixel kept when contrast >= thr) -> 8-connected components
@@ -98,7 +98,7 @@ vd_status_t vd_contrast_workspace_size(uint32_t max_width, uint32_t max_height, 
 // Returns VD_OK; VD_ERR_CAPACITY as above (outputs valid); VD_ERR_ARG for NULL
 // src/count, out NULL with cap > 0, an invalid view or cfg value out of range;
 // VD_ERR_WORKSPACE for a NULL, misaligned or short workspace (then *count = 0).
-vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cfg_t *cfg, void *ws, size_t bytes,
+VD_API vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cfg_t *cfg, void *ws, size_t bytes,
                                    vd_component_t *out, size_t cap, size_t *count, uint8_t *thr_used);
 
 #ifdef __cplusplus

@@ -105,7 +105,7 @@ typedef struct vd_dbn_model {
 // or overlapping, size overflow, multipliers/shifts out of range, a bias that
 // could overflow the int32 accumulator, nonzero reserved fields.
 // Time O(total_size) (CRC + one pass over per-unit arrays); stack < 1 KiB.
-vd_status_t vd_dbn_load(vd_dbn_model_t *m, const void *blob, size_t bytes);
+VD_API vd_status_t vd_dbn_load(vd_dbn_model_t *m, const void *blob, size_t bytes);
 
 // Workspace bytes vd_dbn_classify() needs for model m (two activation
 // buffers of max_units bytes, plus input_w * input_h bytes for the stretched
@@ -113,7 +113,7 @@ vd_status_t vd_dbn_load(vd_dbn_model_t *m, const void *blob, size_t bytes);
 // VD_WORKSPACE_ALIGN).
 // Returns VD_OK; VD_ERR_ARG for NULL m or bytes; VD_ERR_STATE if m was not
 // filled by vd_dbn_load().
-vd_status_t vd_dbn_workspace_size(const vd_dbn_model_t *m, size_t *bytes);
+VD_API vd_status_t vd_dbn_workspace_size(const vd_dbn_model_t *m, size_t *bytes);
 
 // Scores one sample.
 // m:        a loaded model (read only).
@@ -129,7 +129,7 @@ vd_status_t vd_dbn_workspace_size(const vd_dbn_model_t *m, size_t *bytes);
 // Time: sum over layers of in*out multiply-adds (1024-576-256-64-1: 753k)
 // plus, for MINMAX, 2 passes and input_w*input_h divisions;
 // stack < 128 bytes.
-vd_status_t vd_dbn_classify(const vd_dbn_model_t *m, const uint8_t *input, void *ws, size_t bytes,
+VD_API vd_status_t vd_dbn_classify(const vd_dbn_model_t *m, const uint8_t *input, void *ws, size_t bytes,
                             uint8_t *score_q8);
 
 // Min-max contrast stretch of one sample (the VD_DBN_NORM_MINMAX step):
@@ -139,7 +139,7 @@ vd_status_t vd_dbn_classify(const vd_dbn_model_t *m, const uint8_t *input, void 
 // in, out: n bytes each (may be the same buffer); n >= 1; min_range 1..255.
 // Returns VD_OK; VD_ERR_ARG for NULL in/out, n == 0 or min_range out of range.
 // Time O(n), one 32-bit division per byte; stack a few words.
-vd_status_t vd_dbn_stretch_u8(const uint8_t *in, uint32_t n, uint32_t min_range, uint8_t *out);
+VD_API vd_status_t vd_dbn_stretch_u8(const uint8_t *in, uint32_t n, uint32_t min_range, uint8_t *out);
 
 // The requantisation step, exposed for tests and for other integer layers:
 // TFLite MultiplyByQuantizedMultiplier (gemmlowp SaturatingRoundingDoublingHighMul
@@ -148,12 +148,12 @@ vd_status_t vd_dbn_stretch_u8(const uint8_t *in, uint32_t n, uint32_t min_range,
 // CMSIS_NN_USE_SINGLE_ROUNDING). Returns round(acc * mult_q31 * 2^(shift-31)).
 // shift must be in -31..7 and mult_q31 >= 0 (VD_ASSERT). Where shift > 0 and
 // acc << shift leaves int32 (undefined in TFLite) the shifted value saturates.
-int32_t vd_dbn_requantize(int32_t acc, int32_t mult_q31, int32_t shift);
+VD_API int32_t vd_dbn_requantize(int32_t acc, int32_t mult_q31, int32_t shift);
 
 // Sigmoid of a Q8 pre-activation as a Q8 probability: z_q8 is clamped to
 // [-2048, 2048] (+-8.0) and looked up in the generated table
 // (lib/src/models/dbn_sigmoid_table.h): min(255, round(256 * sigmoid(z / 256))).
-uint8_t vd_dbn_sigmoid_q8(int32_t z_q8);
+VD_API uint8_t vd_dbn_sigmoid_q8(int32_t z_q8);
 
 #ifdef __cplusplus
 }

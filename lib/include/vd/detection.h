@@ -44,10 +44,10 @@ typedef struct vd_detection {
 
 // The names of DESIGN.md's JSON Lines contract, for writers of detections (demo, GStreamer
 // element, firmware): "hotspot", "window", "contrast", "cnn" for VD_SOURCE_*, "unknown" otherwise.
-const char *vd_detection_source_name(uint8_t source);
+VD_API const char *vd_detection_source_name(uint8_t source);
 // "confirmed", "recovered", and "new" for VD_TRACK_NEW and VD_TRACK_NONE (temporal analysis off:
 // every detection is new to the caller); "unknown" for other values.
-const char *vd_detection_state_name(uint8_t state);
+VD_API const char *vd_detection_state_name(uint8_t state);
 
 #ifdef __cplusplus
 }

@@ -225,7 +225,7 @@ typedef struct vd_detector {
 } vd_detector_t;
 
 // Fills *cfg with the explicit defaults (same result as a zeroed cfg).
-void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
+VD_API void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
 
 // Resolves cfg in place, as vd_detector_workspace_size and vd_detector_init
 // do with their copy: zero fields take the defaults documented above (rules,
@@ -235,7 +235,7 @@ void vd_detector_cfg_default(vd_detector_cfg_t *cfg);
 // (each frame resolves its own copy). vd_detector_cfg_default() is a zeroed
 // cfg resolved.
 // Returns VD_OK; VD_ERR_ARG for NULL cfg or a value out of range.
-vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
+VD_API vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 
 // Workspace bytes for `cfg` (NULL = defaults) and the model's input size and
 // mode: a pure function of both (model NULL = no DBN scratch). Layout in
@@ -269,7 +269,7 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *cfg);
 // input above VD_CNN_MAX_SIDE (or twice it above VD_MAX_DIM); VD_ERR_MODEL
 // for a model not filled by vd_dbn_load or a cnn_model not filled by
 // vd_cnn_load; VD_ERR_OVERFLOW if the size does not fit size_t.
-vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model, size_t *bytes);
+VD_API vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model, size_t *bytes);
 
 // Initialises `det`: validates and copies cfg (NULL = defaults), resolves the
 // 16-bit threshold with the calibration, and carves `ws` once.
@@ -280,7 +280,7 @@ vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_db
 // Returns VD_OK; VD_ERR_ARG for NULL det or a cfg out of range;
 // VD_ERR_MODEL as vd_detector_workspace_size; VD_ERR_WORKSPACE for a NULL,
 // misaligned or short workspace.
-vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model,
+VD_API vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, const vd_dbn_model_t *model,
                              void *ws, size_t bytes);
 
 // Runs the pipeline on one frame (VD_PIX_U8 or VD_PIX_U16, at most
@@ -297,11 +297,11 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
 // written is valid and the stats say which budget; other statuses of the
 // stages are passed on (then *count = 0).
 // Stack: no recursion; the worst case per target is generated in docs/embedded.md.
-vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
+VD_API vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
                             size_t *count);
 
 // Counts and times of the last run (NULL for a NULL det).
-const vd_detector_stats_t *vd_detector_last_stats(const vd_detector_t *det);
+VD_API const vd_detector_stats_t *vd_detector_last_stats(const vd_detector_t *det);
 
 #ifdef __cplusplus
 }

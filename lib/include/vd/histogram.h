@@ -18,7 +18,7 @@ extern "C" {
 // hist: caller-owned array of 256 counters.
 // Returns VD_OK; VD_ERR_ARG for NULL pointers, an invalid view or a ROI
 // outside src (hist unchanged); VD_ERR_OVERFLOW if the view's extent overflows.
-vd_status_t vd_histogram_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint32_t hist[256]);
+VD_API vd_status_t vd_histogram_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint32_t hist[256]);
 
 #ifdef __cplusplus
 }

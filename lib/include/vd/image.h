@@ -62,17 +62,17 @@ typedef struct vd_image_u8 {
 
 // Checks a view: data non-null, 1 <= width, height <= VD_MAX_DIM,
 // stride >= width (bytes per pixel accounted). Returns VD_OK or VD_ERR_ARG.
-vd_status_t vd_view_u8_check(const vd_view_u8_t *v);
-vd_status_t vd_view_u16_check(const vd_view_u16_t *v);   // also VD_ERR_ARG for odd stride or misaligned data
-vd_status_t vd_image_u8_check(const vd_image_u8_t *img);
+VD_API vd_status_t vd_view_u8_check(const vd_view_u8_t *v);
+VD_API vd_status_t vd_view_u16_check(const vd_view_u16_t *v);   // also VD_ERR_ARG for odd stride or misaligned data
+VD_API vd_status_t vd_image_u8_check(const vd_image_u8_t *img);
 
 // Checks a frame as above for its format; VD_ERR_FORMAT for an unknown format.
-vd_status_t vd_frame_check(const vd_frame_t *f);
+VD_API vd_status_t vd_frame_check(const vd_frame_t *f);
 
 // Views of a frame's plane. VD_ERR_FORMAT if the frame is not of that format,
 // VD_ERR_ARG if it fails vd_frame_check.
-vd_status_t vd_frame_view_u8(const vd_frame_t *f, vd_view_u8_t *out);
-vd_status_t vd_frame_view_u16(const vd_frame_t *f, vd_view_u16_t *out);
+VD_API vd_status_t vd_frame_view_u8(const vd_frame_t *f, vd_view_u8_t *out);
+VD_API vd_status_t vd_frame_view_u16(const vd_frame_t *f, vd_view_u16_t *out);
 
 // Read-only view of a writable image (no check; the image must be valid).
 static inline vd_view_u8_t vd_image_u8_view(const vd_image_u8_t *img)

@@ -21,8 +21,8 @@ extern "C" {
 // Cortex-M7 -Os, docs/embedded.md).
 // Returns VD_OK; VD_ERR_ARG for NULL/invalid views, a ROI outside src or a
 // dst of another size; VD_ERR_OVERFLOW if a view's extent overflows size_t.
-vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_image_u8_t *dst);
-vd_status_t vd_median5_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_image_u8_t *dst);
+VD_API vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_image_u8_t *dst);
+VD_API vd_status_t vd_median5_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_image_u8_t *dst);
 
 #ifdef __cplusplus
 }

@@ -31,11 +31,11 @@ extern "C" {
 // hist: 256 counts, their sum 1 .. VD_OTSU_MAX_COUNT.
 // Returns VD_OK; VD_ERR_ARG for NULL pointers or an all-zero histogram;
 // VD_ERR_RANGE if the counts sum to more than VD_OTSU_MAX_COUNT (*thr unchanged).
-vd_status_t vd_otsu_from_hist(const uint32_t hist[256], uint8_t *thr);
+VD_API vd_status_t vd_otsu_from_hist(const uint32_t hist[256], uint8_t *thr);
 
 // vd_histogram_u8 + vd_otsu_from_hist over src's region (1 KiB histogram on
 // the stack). Same statuses as the two.
-vd_status_t vd_otsu_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t *thr);
+VD_API vd_status_t vd_otsu_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t *thr);
 
 #ifdef __cplusplus
 }

@@ -31,14 +31,14 @@ typedef struct vd_point {
 // Resolves an optional region of interest: roi == NULL means the whole
 // width x height plane. VD_ERR_ARG if roi has w or h <= 0 or does not lie
 // entirely inside [0, width) x [0, height). On success *out is the region.
-vd_status_t vd_rect_roi_resolve(const vd_rect_t *roi, uint32_t width, uint32_t height, vd_rect_t *out);
+VD_API vd_status_t vd_rect_roi_resolve(const vd_rect_t *roi, uint32_t width, uint32_t height, vd_rect_t *out);
 
 // Clips r to [0,width) x [0,height); false if nothing is left.
-bool vd_rect_clip(vd_rect_t *r, uint32_t width, uint32_t height);
+VD_API bool vd_rect_clip(vd_rect_t *r, uint32_t width, uint32_t height);
 
 // Intersection over union as a Q15 fraction (0..32768), rounded down.
 // Boxes with no area give 0.
-uint32_t vd_rect_iou_q15(const vd_rect_t *a, const vd_rect_t *b);
+VD_API uint32_t vd_rect_iou_q15(const vd_rect_t *a, const vd_rect_t *b);
 
 // Paper scales for vd_rect_expand: 1.5x horizontally, 2x vertically.
 #define VD_RECT_EXPAND_W_Q8 384u
@@ -57,7 +57,7 @@ uint32_t vd_rect_iou_q15(const vd_rect_t *a, const vd_rect_t *b);
 // 384/512 gives {8, 5, 15, 20}.
 // Returns VD_OK; VD_ERR_ARG for NULL pointers, w or h <= 0, a zero scale, a
 // frame size out of range, or an expanded box that misses the frame entirely.
-vd_status_t vd_rect_expand(const vd_rect_t *in, uint16_t wscale_q8, uint16_t hscale_q8, uint32_t frame_w,
+VD_API vd_status_t vd_rect_expand(const vd_rect_t *in, uint16_t wscale_q8, uint16_t hscale_q8, uint32_t frame_w,
                            uint32_t frame_h, vd_rect_t *out);
 
 #ifdef __cplusplus

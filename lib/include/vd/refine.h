@@ -29,7 +29,7 @@ typedef struct vd_refine_cfg {
 } vd_refine_cfg_t;
 
 // Fills *cfg with the paper's settings (3, 5, 5). cfg must not be NULL.
-void vd_refine_cfg_default(vd_refine_cfg_t *cfg);
+VD_API void vd_refine_cfg_default(vd_refine_cfg_t *cfg);
 
 // What vd_refine_region did (for tests, tuning and logs).
 typedef struct vd_refine_stats {
@@ -49,13 +49,13 @@ typedef struct vd_refine_stats {
 // Returns VD_OK; VD_ERR_ARG for NULL pointers; VD_ERR_RANGE if n is 0 or
 // above VD_REFINE_MAXDIST_MAX_COUNT, or fewer than two grey levels occur (no split
 // exists; vd_refine_region then keeps its previous decision).
-vd_status_t vd_refine_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr);
+VD_API vd_status_t vd_refine_maxdist_from_hist(const uint32_t hist[256], uint8_t *thr);
 
 // Workspace of vd_refine_fill_holes_u8 for masks up to max_width x max_height:
 // 4 * max_width * max_height bytes (a stack of pixel indices; each pixel is pushed at
 // most once). Returns VD_OK; VD_ERR_ARG for a NULL pointer or a dimension 0
 // or above VD_MAX_DIM.
-vd_status_t vd_refine_fill_holes_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
+VD_API vd_status_t vd_refine_fill_holes_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
 
 // Fills the holes of a mask in place: background pixels not 4-connected to
 // the mask's outer border become foreground (so foreground is 8-connected,
@@ -64,7 +64,7 @@ vd_status_t vd_refine_fill_holes_workspace_size(uint32_t max_width, uint32_t max
 //   ws     workspace of vd_refine_fill_holes_workspace_size(mask->width, mask->height) bytes.
 // Returns VD_OK; VD_ERR_ARG for a bad image; VD_ERR_WORKSPACE for a NULL,
 // misaligned or short workspace (mask untouched then).
-vd_status_t vd_refine_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes);
+VD_API vd_status_t vd_refine_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes);
 
 // Edge image: dst = 255 where the mask pixel is foreground (nonzero) and at
 // least one of its 4 neighbours is background, else 0. The ROI is treated as
@@ -73,7 +73,7 @@ vd_status_t vd_refine_fill_holes_u8(vd_image_u8_t *mask, void *ws, size_t bytes)
 //   mask  read-only; roi NULL = whole mask, else inside it.
 //   dst   roi-sized (width == roi.w, height == roi.h); must not alias mask.
 // Returns VD_OK; VD_ERR_ARG for bad views, a bad ROI or a wrong dst size.
-vd_status_t vd_refine_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, vd_image_u8_t *dst);
+VD_API vd_status_t vd_refine_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, vd_image_u8_t *dst);
 
 // Workspace of vd_refine_region for ROIs up to max_width x max_height: the filtered
 // region (w*h bytes, rounded up to the alignment: P) and a region of
@@ -82,7 +82,7 @@ vd_status_t vd_refine_edges_u8(const vd_view_u8_t *mask, const vd_rect_t *roi, v
 // alignment from w*h >= 342 on; smaller ROIs need up to 1 KiB more.
 // Returns VD_OK; VD_ERR_ARG for a NULL pointer or a dimension 0 or above
 // VD_MAX_DIM; VD_ERR_OVERFLOW if the size does not fit size_t.
-vd_status_t vd_refine_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
+VD_API vd_status_t vd_refine_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
 
 // Segments one candidate area (paper 001 §3, steps 2-5; step 1, the expansion,
 // is vd_rect_expand in rect.h):
@@ -101,7 +101,7 @@ vd_status_t vd_refine_workspace_size(uint32_t max_width, uint32_t max_height, si
 //   stats  may be NULL.
 // Returns VD_OK; VD_ERR_ARG for bad views, ROI, cfg or mask size;
 // VD_ERR_WORKSPACE for a NULL, misaligned or short workspace.
-vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, const vd_refine_cfg_t *cfg,
+VD_API vd_status_t vd_refine_region(const vd_view_u8_t *src, const vd_rect_t *roi, const vd_refine_cfg_t *cfg,
                              void *ws, size_t bytes, vd_image_u8_t *mask, vd_refine_stats_t *stats);
 
 #ifdef __cplusplus

@@ -41,7 +41,7 @@ extern "C" {
 // inside the view, or a zero/too large dst size.
 // Time O(roi area + dst_w*dst_h) for shrinking, O(dst_w*dst_h) for growing;
 // stack < 256 bytes; no workspace.
-vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t *dst,
+VD_API vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t *dst,
                            uint32_t dst_w, uint32_t dst_h);
 
 // Box average by integer factors (decimation):
@@ -59,14 +59,14 @@ vd_status_t vd_resample_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_
 // Returns VD_OK; VD_ERR_ARG for NULL pointers, invalid views, a ROI outside
 // src, a factor out of range or a dst of another size.
 // Time O(roi area); stack < 100 bytes; no workspace.
-vd_status_t vd_resample_box_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint32_t kx, uint32_t ky,
+VD_API vd_status_t vd_resample_box_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint32_t kx, uint32_t ky,
                                vd_image_u8_t *dst);
 
 // The same for a 16-bit plane: each rounded block mean (0..65535) is mapped
 // to grey through `grey` (vd_calib_grey_u8, calib.h), which must come
 // from vd_calib_grey_init. Other arguments, statuses and bounds as
 // vd_resample_box_u8 (VD_ERR_ARG also for a NULL grey).
-vd_status_t vd_resample_box_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint32_t kx, uint32_t ky,
+VD_API vd_status_t vd_resample_box_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint32_t kx, uint32_t ky,
                                 const vd_calib_grey_t *grey, vd_image_u8_t *dst);
 
 #ifdef __cplusplus

@@ -3,6 +3,8 @@
 #ifndef VD_STATUS_H
 #define VD_STATUS_H
 
+#include "vd/config.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -27,7 +29,7 @@ typedef enum vd_status {
 
 // Returns a static, NUL-terminated English text for `st`; never NULL
 // ("unknown status" for values not listed above).
-const char *vd_status_str(vd_status_t st);
+VD_API const char *vd_status_str(vd_status_t st);
 
 #ifdef __cplusplus
 }

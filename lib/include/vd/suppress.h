@@ -36,13 +36,13 @@ typedef struct vd_suppress_stats {
 // Returns VD_OK; VD_ERR_ARG for NULL kept, or NULL d with n > 0 (then *kept = 0).
 // Time O(n^2) (insertion sort, then IoU against the kept ones); stack: one
 // vd_detection_t plus a few words; no workspace.
-vd_status_t vd_suppress_nms(vd_detection_t *d, size_t n, uint32_t iou_q15, size_t max_keep, size_t *kept,
+VD_API vd_status_t vd_suppress_nms(vd_detection_t *d, size_t n, uint32_t iou_q15, size_t max_keep, size_t *kept,
                             vd_suppress_stats_t *stats);
 
 // True when `box` overlaps one of list[0..n) by IoU > iou_q15 (the detector
 // drops such a candidate before verification). False for a NULL box or list.
 // Time O(n).
-bool vd_suppress_overlaps(const vd_rect_t *box, const vd_detection_t *list, size_t n, uint32_t iou_q15);
+VD_API bool vd_suppress_overlaps(const vd_rect_t *box, const vd_detection_t *list, size_t n, uint32_t iou_q15);
 
 #ifdef __cplusplus
 }

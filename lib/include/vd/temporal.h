@@ -150,21 +150,21 @@ typedef struct vd_temporal {
 } vd_temporal_t;
 
 // Fills *cfg with the defaults listed in vd_temporal_cfg_t (same as a zeroed cfg).
-void vd_temporal_cfg_default(vd_temporal_cfg_t *cfg);
+VD_API void vd_temporal_cfg_default(vd_temporal_cfg_t *cfg);
 
 // Resolves cfg in place: zero fields take the defaults above, then every
 // field is checked against its documented range (and search_radius /
 // search_step <= 8). Returns VD_OK; VD_ERR_ARG for NULL cfg or a field out of range.
-vd_status_t vd_temporal_cfg_resolve(vd_temporal_cfg_t *cfg);
+VD_API vd_status_t vd_temporal_cfg_resolve(vd_temporal_cfg_t *cfg);
 
 // Initialises `t` over caller storage `tracks[cap]` (cap 1..65535), which
 // must outlive `t`; all slots are cleared. `cfg` may be NULL (defaults); it
 // is copied and resolved (vd_temporal_cfg_resolve). Returns VD_ERR_ARG for
 // NULL t/tracks, cap 0 or > 65535, or a cfg field out of its documented range.
-vd_status_t vd_temporal_init(vd_temporal_t *t, const vd_temporal_cfg_t *cfg, vd_track_t *tracks, size_t cap);
+VD_API vd_status_t vd_temporal_init(vd_temporal_t *t, const vd_temporal_cfg_t *cfg, vd_track_t *tracks, size_t cap);
 
 // Forgets every track and the last stats (ids keep increasing). t NULL: no-op.
-void vd_temporal_reset(vd_temporal_t *t);
+VD_API void vd_temporal_reset(vd_temporal_t *t);
 
 // Processes one frame's detections.
 //   obs[0..n): this frame's detections (box, complexity in; id, state,
@@ -198,25 +198,25 @@ void vd_temporal_reset(vd_temporal_t *t);
 // box with w or h <= 0; VD_ERR_CAPACITY when the track table was full for an
 // observation (its track_id = 0, state NONE) or recoveries did not fit in
 // cap (dropped; the track still counts a miss) — everything else is valid.
-vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n, size_t cap, size_t *count,
+VD_API vd_status_t vd_temporal_update(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n, size_t cap, size_t *count,
                                vd_temporal_probe_fn probe, void *user);
 
 // Counts of the last update (valid until the next update).
-const vd_temporal_stats_t *vd_temporal_last_stats(const vd_temporal_t *t);
+VD_API const vd_temporal_stats_t *vd_temporal_last_stats(const vd_temporal_t *t);
 
 // Similarity S of (a, ca) and (b, cb) under t's configuration, Q15 (0..32768).
-uint32_t vd_temporal_similarity_q15(const vd_temporal_t *t, const vd_rect_t *a, uint16_t ca_q15,
+VD_API uint32_t vd_temporal_similarity_q15(const vd_temporal_t *t, const vd_rect_t *a, uint16_t ca_q15,
                                     const vd_rect_t *b, uint16_t cb_q15);
 
 // Complexity = edge_pixels / pixels in Q15, rounded, clamped to 32768;
 // 0 when pixels is 0.
-uint16_t vd_temporal_complexity_q15(uint32_t edge_pixels, uint32_t pixels);
+VD_API uint16_t vd_temporal_complexity_q15(uint32_t edge_pixels, uint32_t pixels);
 
 // exp(-x) for x >= 0 in Q16, result in Q15 (0..32768). Table of exp(-k/128)
 // with linear interpolation times a table of exp(-n): |error| <= 1 LSB
 // (checked against exp() for every x step in tests/unit/test_temporal.c).
 // x >= 16.0 gives 0 (exp(-16) * 32768 < 0.004).
-uint32_t vd_temporal_exp_neg_q15(uint32_t x_q16);
+VD_API uint32_t vd_temporal_exp_neg_q15(uint32_t x_q16);
 
 #ifdef __cplusplus
 }

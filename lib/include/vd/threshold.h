@@ -22,16 +22,12 @@ extern "C" {
 // each pixel is read before it is written).
 // Returns VD_OK; VD_ERR_ARG for NULL/invalid views, a ROI outside src or a dst
 // of another size; VD_ERR_OVERFLOW if a view's extent overflows size_t.
-vd_status_t vd_threshold_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t thr, vd_image_u8_t *dst);
+VD_API vd_status_t vd_threshold_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint8_t thr, vd_image_u8_t *dst);
 
 // Same for a 16-bit raw plane: dst = src >= thr_raw ? 255 : 0.
 // src: 16-bit view, even stride, 2-byte aligned data. Other arguments and
 // statuses as vd_threshold_u8.
-vd_status_t vd_threshold_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint16_t thr_raw, vd_image_u8_t *dst);
-
-// As vd_calib_raw_from_ck for a temperature in centi-degrees Celsius
-// (3000 = 30.00 degC): ck = centi_c + 27315. Same statuses.
-vd_status_t vd_calib_raw_from_centi_celsius(const vd_calib_t *cal, int32_t centi_c, uint16_t *raw);
+VD_API vd_status_t vd_threshold_u16(const vd_view_u16_t *src, const vd_rect_t *roi, uint16_t thr_raw, vd_image_u8_t *dst);
 
 // Radiometric hot-spot mask: dst = temperature(src) >= thr_ck ? 255 : 0,
 // evaluated as one raw comparison (vd_calib_raw_from_ck). A threshold hotter
@@ -40,7 +36,7 @@ vd_status_t vd_calib_raw_from_centi_celsius(const vd_calib_t *cal, int32_t centi
 // Other arguments as vd_threshold_u16. Returns VD_OK; VD_ERR_ARG for NULL
 // pointers, a negative gain, invalid views, a ROI outside src or a dst of
 // another size; VD_ERR_OVERFLOW as vd_threshold_u16.
-vd_status_t vd_threshold_u16_ck(const vd_view_u16_t *src, const vd_rect_t *roi, const vd_calib_t *cal,
+VD_API vd_status_t vd_threshold_u16_ck(const vd_view_u16_t *src, const vd_rect_t *roi, const vd_calib_t *cal,
                                 int32_t thr_ck, vd_image_u8_t *dst);
 
 // Percentile threshold of a histogram: the smallest level t such that at
@@ -51,7 +47,7 @@ vd_status_t vd_threshold_u16_ck(const vd_view_u16_t *src, const vd_rect_t *roi, 
 //   hist      256 counts (any total, uint64 arithmetic).
 //   permille  0..1000 (0 gives t = 0, so *thr = floor_u8).
 // Returns VD_OK; VD_ERR_ARG for NULL pointers or permille > 1000.
-vd_status_t vd_threshold_percentile_u8(const uint32_t hist[256], uint32_t permille, uint8_t floor_u8, uint8_t *thr);
+VD_API vd_status_t vd_threshold_percentile_u8(const uint32_t hist[256], uint32_t permille, uint8_t floor_u8, uint8_t *thr);
 
 #ifdef __cplusplus
 }

@@ -88,7 +88,7 @@ typedef struct vd_windows_cfg {
 // Returns VD_OK; VD_ERR_ARG for NULL cfg or any value out of range (frame size,
 // band with min_h > max_h or y_min > y_max, too many scales, aspect, stride,
 // tolerance, horizon, budget).
-vd_status_t vd_windows_resolve(vd_windows_cfg_t *cfg);
+VD_API vd_status_t vd_windows_resolve(vd_windows_cfg_t *cfg);
 
 // Writes the windows of one frame in a fixed order: by height (smallest
 // first), then aspect (cfg order), then row y, then column x (raster). For a
@@ -108,12 +108,12 @@ vd_status_t vd_windows_resolve(vd_windows_cfg_t *cfg);
 // vd_windows_resolve (then *count = 0).
 // Time O(windows + heights * aspects * (rows + columns)); stack < 256 bytes;
 // no workspace.
-vd_status_t vd_windows_generate(const vd_windows_cfg_t *cfg, vd_rect_t *out, size_t cap, size_t *count);
+VD_API vd_status_t vd_windows_generate(const vd_windows_cfg_t *cfg, vd_rect_t *out, size_t cap, size_t *count);
 
 // Number of windows vd_windows_generate would produce without any cap (so a
 // caller can size its buffer or choose a stride). Same errors as
 // vd_windows_resolve (VD_ERR_ARG also for NULL total).
-vd_status_t vd_windows_count(const vd_windows_cfg_t *cfg, uint32_t *total);
+VD_API vd_status_t vd_windows_count(const vd_windows_cfg_t *cfg, uint32_t *total);
 
 // Called once per window, in vd_windows_generate's order; must not keep `win`.
 typedef void (*vd_windows_visit_fn)(void *ctx, const vd_rect_t *win);
@@ -138,7 +138,7 @@ typedef struct vd_windows_prefilter {
 // (166 152 bytes at 640 x 512).
 // Returns VD_OK; VD_ERR_ARG for NULL bytes, a dimension 0 or above
 // VD_MAX_DIM, or a cell grid above VD_WINDOWS_MAX_CELLS.
-vd_status_t vd_windows_prefilter_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
+VD_API vd_status_t vd_windows_prefilter_workspace_size(uint32_t max_width, uint32_t max_height, size_t *bytes);
 
 // Builds the pre-filter of one frame in `ws`: the cell means g (rounded, as
 // vd_resample_box_u8 with k = 4; a 16-bit frame's means mapped to grey by
@@ -152,7 +152,7 @@ vd_status_t vd_windows_prefilter_workspace_size(uint32_t max_width, uint32_t max
 // frame, or a cell grid above VD_WINDOWS_MAX_CELLS; VD_ERR_FORMAT or VD_ERR_ARG
 // for a frame failing vd_frame_check; VD_ERR_WORKSPACE for a NULL, misaligned
 // or short workspace. Time O(W*H); stack < 200 bytes.
-vd_status_t vd_windows_prefilter_init(vd_windows_prefilter_t *pf, const vd_frame_t *frame,
+VD_API vd_status_t vd_windows_prefilter_init(vd_windows_prefilter_t *pf, const vd_frame_t *frame,
                                       const vd_calib_grey_t *grey, void *ws, size_t bytes);
 
 // Pre-filter level of a window: floor(standard deviation) of the cell means
@@ -163,7 +163,7 @@ vd_status_t vd_windows_prefilter_init(vd_windows_prefilter_t *pf, const vd_frame
 // one cell cx1 - 1 (cell 0 if cx1 is 0). 0 when the frame is narrower or
 // lower than one cell. O(1): `win` is not checked (a box of the frame the
 // pre-filter was built from; a box outside it gives some level, safely).
-uint32_t vd_windows_prefilter_level(const vd_windows_prefilter_t *pf, const vd_rect_t *win);
+VD_API uint32_t vd_windows_prefilter_level(const vd_windows_prefilter_t *pf, const vd_rect_t *win);
 
 // Counts of vd_windows_rank.
 typedef struct vd_windows_rank_stats {
@@ -189,7 +189,7 @@ typedef struct vd_windows_rank_stats {
 // Returns VD_OK; VD_ERR_ARG for NULL cfg/pf/hist, a NULL visit with room > 0,
 // or a cfg rejected by vd_windows_resolve. Time O(windows) twice; stack: a
 // resolved copy of cfg plus ~100 bytes, plus the visitor's.
-vd_status_t vd_windows_rank(const vd_windows_cfg_t *cfg, const vd_windows_prefilter_t *pf, uint8_t min_std,
+VD_API vd_status_t vd_windows_rank(const vd_windows_cfg_t *cfg, const vd_windows_prefilter_t *pf, uint8_t min_std,
                             size_t room, uint32_t hist[256], vd_windows_visit_fn visit, void *ctx,
                             vd_windows_rank_stats_t *stats);
 

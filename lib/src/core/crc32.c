@@ -15,7 +15,7 @@ static const uint32_t crc_nibble_table[16] = {
     0x9B64C2B0u, 0x86D3D2D4u, 0xA00AE278u, 0xBDBDF21Cu,
 };
 
-uint32_t vd_crc32(uint32_t crc, const void *p, size_t n)
+uint32_t vd__crc32(uint32_t crc, const void *p, size_t n)
 {
     const uint8_t *b = (const uint8_t *)p;
     uint32_t c = ~crc;

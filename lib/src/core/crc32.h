@@ -9,7 +9,7 @@
 // Continues a CRC-32 over n bytes at p. Start with crc = 0 for a new message;
 // the result of one call can be passed to the next for a message in pieces.
 // Reflected polynomial 0xEDB88320, initial value and final XOR 0xFFFFFFFF
-// (handled inside, so vd_crc32(0, "123456789", 9) == 0xCBF43926).
-uint32_t vd_crc32(uint32_t crc, const void *p, size_t n);
+// (handled inside, so vd__crc32(0, "123456789", 9) == 0xCBF43926).
+uint32_t vd__crc32(uint32_t crc, const void *p, size_t n);
 
 #endif

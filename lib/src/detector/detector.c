@@ -116,7 +116,7 @@ static vd_status_t hot_spots(vd_detector_t *det, const vd_frame_t *frame, size_t
     vd_detector_stats_t *s = &det->stats;
     size_t n = 0u;
     if ((det->cfg.sources & VD_DETECTOR_SRC_HOTSPOT) != 0u) {
-        VD_TRY(keep_capacity(vd_det_hot_components(det, frame, &n, t0), result));
+        VD_TRY(keep_capacity(vd__detector_hot_components(det, frame, &n, t0), result));
     }
     s->components = (uint32_t)n;
     size_t kept = 0u;
@@ -128,7 +128,7 @@ static vd_status_t hot_spots(vd_detector_t *det, const vd_frame_t *frame, size_t
         kept = room;
         *result = VD_ERR_CAPACITY;
     }
-    vd_det_clock_add(det, VD_DET_STAGE_COMPONENTS, t0);
+    vd__detector_clock_add(det, VD_DET_STAGE_COMPONENTS, t0);
 
     const uint8_t thr8 = (uint8_t)s->hot_thr_u8;
     for (size_t i = 0; i < n_cnn; i++) {
@@ -137,7 +137,7 @@ static vd_status_t hot_spots(vd_detector_t *det, const vd_frame_t *frame, size_t
     size_t m = n_cnn;
     for (size_t i = 0; i < kept; i++) {
         bool ok = false;
-        VD_TRY(vd_det_refine_hot(det, frame, &det->comps[i], &det->cand[m], &ok, t0));
+        VD_TRY(vd__detector_refine_hot(det, frame, &det->comps[i], &det->cand[m], &ok, t0));
         if (ok && n_cnn > 0u && vd_suppress_overlaps(&det->cand[m].box, det->cand, n_cnn, det->cfg.dedup_iou_q15)) {
             s->deduplicated++;   // the network already has this one
             ok = false;
@@ -164,7 +164,7 @@ static vd_status_t verify_all(vd_detector_t *det, const vd_frame_t *frame, size_
     size_t k = 0u;
     for (size_t i = 0; i < nc; i++) {
         bool keep = false;
-        VD_TRY(vd_det_verify(det, frame, &det->cand[i], &keep, t0));
+        VD_TRY(vd__detector_verify(det, frame, &det->cand[i], &keep, t0));
         if (keep) {
             if (k != i) {
                 det->cand[k] = det->cand[i];
@@ -192,7 +192,7 @@ static vd_status_t track(vd_detector_t *det, const vd_frame_t *frame, size_t nk,
     det->frame = frame;
     size_t nobs = 0u;
     const vd_status_t st =
-        vd_temporal_update(&det->temporal, det->obs, nk, nk + det->cfg.max_tracks, &nobs, vd_det_probe, det);
+        vd_temporal_update(&det->temporal, det->obs, nk, nk + det->cfg.max_tracks, &nobs, vd__detector_probe, det);
     det->frame = NULL;
     VD_TRY(keep_capacity(st, result));
     s->overflow_tracks = det->temporal.stats.overflow;
@@ -205,7 +205,7 @@ static vd_status_t track(vd_detector_t *det, const vd_frame_t *frame, size_t nk,
     }
     *total = nobs;
     s->recovered = (uint32_t)(nobs - nk);
-    vd_det_clock_add(det, VD_DET_STAGE_TEMPORAL, t0);
+    vd__detector_clock_add(det, VD_DET_STAGE_TEMPORAL, t0);
     return VD_OK;
 }
 
@@ -229,25 +229,25 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     // The network first: it uses the overlay, and its boxes lead the merged list.
     size_t n_cnn = 0u;
     if ((det->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
-        VD_TRY(keep_capacity(vd_det_cnn_source(det, frame, &n_cnn), &result));
-        vd_det_clock_add(det, VD_DET_STAGE_CNN, &t0);
+        VD_TRY(keep_capacity(vd__detector_cnn_source(det, frame, &n_cnn), &result));
+        vd__detector_clock_add(det, VD_DET_STAGE_CNN, &t0);
     }
     size_t nc = 0u;
     VD_TRY(hot_spots(det, frame, n_cnn, &nc, &result, &t0));
     const uint8_t thr8 = (uint8_t)s->hot_thr_u8;
     if ((det->cfg.sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
-        VD_TRY(keep_capacity(vd_det_contrast_source(det, frame, &nc, thr8), &result));
-        vd_det_clock_add(det, VD_DET_STAGE_CONTRAST, &t0);
+        VD_TRY(keep_capacity(vd__detector_contrast_source(det, frame, &nc, thr8), &result));
+        vd__detector_clock_add(det, VD_DET_STAGE_CONTRAST, &t0);
     }
     if ((det->cfg.sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
-        VD_TRY(vd_det_window_source(det, frame, &nc, thr8));   // the overlay holds the integrals until here
-        vd_det_clock_add(det, VD_DET_STAGE_WINDOWS, &t0);
+        VD_TRY(vd__detector_window_source(det, frame, &nc, thr8));   // the overlay holds the integrals until here
+        vd__detector_clock_add(det, VD_DET_STAGE_WINDOWS, &t0);
     }
     size_t nv = 0u;
     VD_TRY(verify_all(det, frame, nc, &nv, &t0));
     size_t nk = 0u;
     VD_TRY(suppress(det, nv, &nk));
-    vd_det_clock_add(det, VD_DET_STAGE_NMS, &t0);
+    vd__detector_clock_add(det, VD_DET_STAGE_NMS, &t0);
     if (s->overflow_detections != 0u) {
         result = VD_ERR_CAPACITY;
     }

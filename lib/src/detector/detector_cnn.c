@@ -43,7 +43,7 @@
 #include "detector/detector_internal.h"
 #include "internal/vd_internal.h"
 
-void vd_det_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh)
+void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh)
 {
     const uint32_t a = m->align;   // >= 1 for a loaded model
     const uint32_t hw = w / 2u;
@@ -258,7 +258,7 @@ static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_
     }
     uint32_t nw = 0u;
     uint32_t nh = 0u;
-    vd_det_cnn_input_size(m, f->width, f->height, &nw, &nh);
+    vd__detector_cnn_input_size(m, f->width, f->height, &nw, &nh);
     const uint32_t passes = (det->cfg.cnn_flip != 0u) ? 2u : 1u;
     size_t kept[2] = {0u, 0u};
     VD_TRY(run_passes(det, m, thr_q, r, nw, nh, f, boxes, k, passes, kept));
@@ -266,7 +266,7 @@ static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_
     return VD_OK;
 }
 
-vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n)
+vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n)
 {
     if (det->cnn_never && (det->cfg.cnn_model2 == NULL || det->cnn2_never)) {
         return VD_OK;
@@ -274,7 +274,7 @@ vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n
     const vd_cnn_model_t *m = det->cfg.cnn_model;
     uint32_t nw = 0u;
     uint32_t nh = 0u;
-    vd_det_cnn_input_size(m, f->width, f->height, &nw, &nh);
+    vd__detector_cnn_input_size(m, f->width, f->height, &nw, &nh);
     if (nw == 0u || nh == 0u) {
         return VD_OK;   // a frame under 2 x 2 pixels has no half-resolution plane
     }

@@ -179,7 +179,7 @@ static vd_status_t plan_net(const vd_detector_cfg_t *c, const vd_cnn_model_t *m,
     VD_TRY(st);
     uint32_t nw = 0u;
     uint32_t nh = 0u;
-    vd_det_cnn_input_size(m, c->max_width, c->max_height, &nw, &nh);
+    vd__detector_cnn_input_size(m, c->max_width, c->max_height, &nw, &nh);
     if (nw == 0u || nh == 0u) {
         *no_plane = true;   // no half-resolution pixel in any frame
         return VD_OK;
@@ -219,7 +219,7 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     // keeps the threshold of that network alone.
     const vd_cnn_model_t *mt = (m2 != NULL) ? m2 : m;
     l->cnn_thr_q = m->score_threshold_q;
-    l->cnn_thr_score_q15 = vd_cnn_score_of_logit(mt, mt->score_threshold_q);
+    l->cnn_thr_score_q15 = vd__cnn_score_of_logit(mt, mt->score_threshold_q);
     const uint32_t passes = (c->cnn_flip != 0u ? 2u : 1u) * (m2 != NULL ? 2u : 1u);
     if (c->cnn_score_thr_q15 != 0u) {
         l->cnn_thr_score_q15 = c->cnn_score_thr_q15;

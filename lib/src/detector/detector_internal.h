@@ -60,7 +60,7 @@ typedef struct cand_ctx {
 } cand_ctx_t;
 
 // Adds the time since *t0 to a stage (cfg.clock_us; nothing without it).
-static inline void vd_det_clock_add(vd_detector_t *det, int stage, uint32_t *t0)
+static inline void vd__detector_clock_add(vd_detector_t *det, int stage, uint32_t *t0)
 {
     if (det->cfg.clock_us == NULL) {
         return;
@@ -73,11 +73,11 @@ static inline void vd_det_clock_add(vd_detector_t *det, int stage, uint32_t *t0)
 // detector_sources.c. Each appends to det->cand[0..*n) within max_candidates.
 // Hot-spot components of the frame into det->comps (*n of them; stats: threshold,
 // hot pixels, runs, overflows). Returns VD_OK or VD_ERR_CAPACITY (components or runs).
-vd_status_t vd_det_hot_components(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint32_t *t0);
+vd_status_t vd__detector_hot_components(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint32_t *t0);
 // Contrast components merged into the list (8-bit frames). VD_OK or VD_ERR_CAPACITY.
-vd_status_t vd_det_contrast_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8);
+vd_status_t vd__detector_contrast_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8);
 // The best pre-filtered windows merged into the room left (never a capacity error).
-vd_status_t vd_det_window_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8);
+vd_status_t vd__detector_window_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8);
 
 // detector_cnn.c. The network's boxes appended to det->cand[*n..) (the list is
 // empty when it runs: CNN boxes come first; with cfg.cnn_flip the two passes'
@@ -85,23 +85,23 @@ vd_status_t vd_det_window_source(vd_detector_t *det, const vd_frame_t *f, size_t
 // workspace, decoded boxes), so it must run before the hot-spot labelling.
 // Returns VD_OK, VD_ERR_CAPACITY (boxes beyond max_candidates, counted in
 // stats.overflow_candidates) or a vd_cnn_* / resample status.
-vd_status_t vd_det_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n);
+vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n);
 // Network input size for a frame of w x h: floor(w / 2), floor(h / 2) rounded
 // up to the model's alignment (0 x 0 when either half is 0).
-void vd_det_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh);
+void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh);
 
 // detector_region.c.
 // Hot-spot candidate: expands the component, refines the region and traces
 // its contour; *ok = false when the region has no contour. Fills d's box,
 // candidate region, contour length, complexity and flags (not the score).
-vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
+vd_status_t vd__detector_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
                               vd_detection_t *d, bool *ok, uint32_t *t0);
 // Samples and scores one merged candidate (any source); *keep = score >= score_thr
 // (always true without a model: score 255, flag UNVERIFIED; and for CNN boxes
 // without cnn_rescore, which keep the network's score).
-vd_status_t vd_det_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d, bool *keep, uint32_t *t0);
+vd_status_t vd__detector_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d, bool *keep, uint32_t *t0);
 // Temporal recovery probe (vd_temporal_probe_fn, user = the detector): the
 // complexity of `box` expanded and refined as a candidate, in det->frame.
-vd_status_t vd_det_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15);
+vd_status_t vd__detector_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15);
 
 #endif

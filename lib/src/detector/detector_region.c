@@ -85,7 +85,7 @@ static uint16_t region_complexity(const vd_refine_stats_t *rs, const region_plan
     return vd_temporal_complexity_q15(rs->edge_points, area);
 }
 
-vd_status_t vd_det_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15)
+vd_status_t vd__detector_probe(void *user, const vd_rect_t *box, uint16_t *complexity_q15)
 {
     vd_detector_t *det = (vd_detector_t *)user;
     const vd_frame_t *f = det->frame;
@@ -110,7 +110,7 @@ static size_t largest_contour(const vd_contour_t *c, size_t n)
     return best;
 }
 
-vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
+vd_status_t vd__detector_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_component_t *comp,
                               vd_detection_t *d, bool *ok, uint32_t *t0)
 {
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
@@ -126,7 +126,7 @@ vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_
         d->flags |= VD_DET_FLAG_DECIMATED;
         det->stats.decimated++;
     }
-    vd_det_clock_add(det, VD_DET_STAGE_REFINE, t0);
+    vd__detector_clock_add(det, VD_DET_STAGE_REFINE, t0);
 
     x->mv = vd_image_u8_view(&x->m);
     size_t nc = 0u;
@@ -139,7 +139,7 @@ vd_status_t vd_det_refine_hot(vd_detector_t *det, const vd_frame_t *f, const vd_
     } else if (st != VD_OK) {
         return st;
     }
-    vd_det_clock_add(det, VD_DET_STAGE_CONTOUR, t0);
+    vd__detector_clock_add(det, VD_DET_STAGE_CONTOUR, t0);
     if (nc == 0u) {
         return VD_OK;
     }
@@ -166,10 +166,10 @@ static vd_status_t verify_boost(vd_detector_t *det, const vd_view_u8_t *view, co
 {
     const vd_boost_model_t *bm = det->cfg.boost_model;
     VD_TRY(vd_resample_u8(view, vb, det->sample, bm->crop_w, bm->crop_h));
-    vd_det_clock_add(det, VD_DET_STAGE_SAMPLE, t0);
+    vd__detector_clock_add(det, VD_DET_STAGE_SAMPLE, t0);
     int32_t s = 0;
     VD_TRY(vd_boost_score(bm, det->sample, bm->crop_w, det->dbn_ws, det->dbn_ws_bytes, &s));
-    vd_det_clock_add(det, VD_DET_STAGE_DBN, t0);
+    vd__detector_clock_add(det, VD_DET_STAGE_DBN, t0);
     // Floor division, so score_q8 >= 128 exactly when score >= the model's threshold.
     const int64_t num = ((int64_t)s - bm->threshold) * 128;
     const int64_t span = bm->score_span;
@@ -188,7 +188,7 @@ static vd_status_t verify_boost(vd_detector_t *det, const vd_view_u8_t *view, co
 // contour box inside the refined region, windows, contrast and re-scored CNN
 // candidates (candidate == box) as the whole box; other CNN boxes keep the
 // network's score.
-vd_status_t vd_det_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d, bool *keep, uint32_t *t0)
+vd_status_t vd__detector_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_t *d, bool *keep, uint32_t *t0)
 {
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     *keep = false;
@@ -232,10 +232,10 @@ vd_status_t vd_det_verify(vd_detector_t *det, const vd_frame_t *f, vd_detection_
         x->mv = vd_image_u8_view(&x->m);
         VD_TRY(vd_resample_u8(&x->mv, NULL, det->sample, det->in_w, det->in_h));
     }
-    vd_det_clock_add(det, VD_DET_STAGE_SAMPLE, t0);
+    vd__detector_clock_add(det, VD_DET_STAGE_SAMPLE, t0);
     uint8_t score = 0u;
     VD_TRY(vd_dbn_classify(det->model, det->sample, det->dbn_ws, det->dbn_ws_bytes, &score));
-    vd_det_clock_add(det, VD_DET_STAGE_DBN, t0);
+    vd__detector_clock_add(det, VD_DET_STAGE_DBN, t0);
     d->score_q8 = score;
     if (score < det->cfg.score_thr_q8) {
         return VD_OK;

@@ -41,7 +41,7 @@ static uint32_t threshold_u8(vd_detector_t *det, const vd_view_u8_t *v)
 // Hot-spot components straight from the frame (no mask: the labeller
 // compares with the threshold as it run-length encodes), with the run budget
 // of the overlay. Sets the threshold, hot pixel, run and overflow stats.
-vd_status_t vd_det_hot_components(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint32_t *t0)
+vd_status_t vd__detector_hot_components(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint32_t *t0)
 {
     vd_detector_stats_t *s = &det->stats;
     vd_components_stats_t *cs = &((cand_ctx_t *)det->scratch)->cs;
@@ -53,14 +53,14 @@ vd_status_t vd_det_hot_components(vd_detector_t *det, const vd_frame_t *f, size_
         VD_TRY(vd_frame_view_u8(f, &v));
         const uint32_t thr = threshold_u8(det, &v);
         s->hot_thr_u8 = thr;
-        vd_det_clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
+        vd__detector_clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
         st = vd_components_label_thr_u8(&v, NULL, (uint8_t)thr, det->overlay, det->cc_ws_bytes, det->comps,
                                         det->cfg.max_components, n, cs);
     } else {
         vd_view_u16_t v16;
         VD_TRY(vd_frame_view_u16(f, &v16));
         s->hot_thr_raw = det->raw_thr;
-        vd_det_clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
+        vd__detector_clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
         if (det->raw_never_hot) {
             return VD_OK;
         }
@@ -112,7 +112,7 @@ static bool merge_box(vd_detector_t *det, size_t *n, const vd_rect_t *box, uint8
 // the rules, into det->comps (free after the hot-spot stage), merged as is.
 // Its workspace is the overlay, free between the hot-spot refinement and the
 // window source.
-vd_status_t vd_det_contrast_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
+vd_status_t vd__detector_contrast_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
 {
     if (f->format != VD_PIX_U8) {
         return VD_OK;   // no whole-frame 8-bit plane of radiometric frames (documented in detector.h)
@@ -160,7 +160,7 @@ static void window_visit(void *ctx, const vd_rect_t *b)
 // Window source: pre-filter by cell-mean deviation, rank by it, and merge the
 // best windows into the room left of max_candidates (windows.h; windows
 // beyond it are dropped by design: not a capacity error).
-vd_status_t vd_det_window_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
+vd_status_t vd__detector_window_source(vd_detector_t *det, const vd_frame_t *f, size_t *n, uint8_t thr8)
 {
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     x->wc = det->cfg.windows;

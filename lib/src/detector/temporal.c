@@ -588,7 +588,7 @@ static void associate(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n)
         tr->hits = sat_inc_u8(tr->hits);
         tr->misses = 0u;
         if (scores_on(t)) {
-            obs[bi].score_q8 = vd_tscore_match(&t->cfg, tr, obs[bi].score_q8);
+            obs[bi].score_q8 = vd__temporal_score_match(&t->cfg, tr, obs[bi].score_q8);
         } else if (tr->hits >= t->cfg.confirm_frames) {
             tr->confirmed = 1u;
         }
@@ -631,7 +631,7 @@ static vd_status_t unmatched_tracks(vd_temporal_t *t, vd_temporal_obs_t *obs, si
             continue;
         }
         if (scores_on(t)) {
-            vd_tscore_miss(&t->cfg, tr);   // decays; below confirm_lo no longer confirmed
+            vd__temporal_score_miss(&t->cfg, tr);   // decays; below confirm_lo no longer confirmed
         }
         tr->state = tr->confirmed ? (uint8_t)VD_TRACK_CONFIRMED : (uint8_t)VD_TRACK_NEW;
         if (!tr->confirmed) {
@@ -667,7 +667,7 @@ static vd_status_t unmatched_tracks(vd_temporal_t *t, vd_temporal_obs_t *obs, si
         obs[out].similarity_q15 = (uint16_t)s;
         obs[out].track_id = tr->id;
         obs[out].state = VD_TRACK_RECOVERED;
-        obs[out].score_q8 = scores_on(t) ? vd_tscore_q8(tr->score_q15) : 0u;
+        obs[out].score_q8 = scores_on(t) ? vd__temporal_score_q8(tr->score_q15) : 0u;
         out++;
         t->stats.recovered++;
     }
@@ -704,7 +704,7 @@ static vd_status_t new_tracks(vd_temporal_t *t, vd_temporal_obs_t *obs, size_t n
         tr->hits = 1u;
         tr->matched = 1u;
         if (scores_on(t)) {
-            obs[i].score_q8 = vd_tscore_new(&t->cfg, tr, obs[i].score_q8);
+            obs[i].score_q8 = vd__temporal_score_new(&t->cfg, tr, obs[i].score_q8);
         } else if (tr->hits >= t->cfg.confirm_frames) {
             tr->confirmed = 1u;
         }

@@ -25,7 +25,7 @@ static uint32_t q15_of_q8(uint8_t s)
 }
 
 // Q15 -> Q8 (0..255), rounded, saturated.
-uint8_t vd_tscore_q8(uint32_t s)
+uint8_t vd__temporal_score_q8(uint32_t s)
 {
     uint32_t v = (s * 255u + 16384u) >> 15;
     return (uint8_t)(v > 255u ? 255u : v);
@@ -50,7 +50,7 @@ static void confirm_by_score(const vd_temporal_cfg_t *c, vd_track_t *tr)
 static uint8_t fused_q8(const vd_temporal_cfg_t *c, uint32_t s_q15, uint32_t tr_q15)
 {
     uint32_t w = c->score_weight_q15;
-    return vd_tscore_q8(mul_q15(32768u - w, s_q15) + mul_q15(w, tr_q15));
+    return vd__temporal_score_q8(mul_q15(32768u - w, s_q15) + mul_q15(w, tr_q15));
 }
 
 // A matched observation of score s: T += alpha (min(1, s + gain) - T).
@@ -66,7 +66,7 @@ static void score_match(const vd_temporal_cfg_t *c, vd_track_t *tr, uint32_t s_q
     tr->score_q15 = (uint16_t)(v > 32768u ? 32768u : v);
 }
 
-uint8_t vd_tscore_new(const vd_temporal_cfg_t *c, vd_track_t *tr, uint8_t s_q8)
+uint8_t vd__temporal_score_new(const vd_temporal_cfg_t *c, vd_track_t *tr, uint8_t s_q8)
 {
     const uint32_t s = q15_of_q8(s_q8);
     tr->score_q15 = (uint16_t)mul_q15(s, 32768u - c->new_penalty_q15);
@@ -74,7 +74,7 @@ uint8_t vd_tscore_new(const vd_temporal_cfg_t *c, vd_track_t *tr, uint8_t s_q8)
     return fused_q8(c, s, tr->score_q15);
 }
 
-uint8_t vd_tscore_match(const vd_temporal_cfg_t *c, vd_track_t *tr, uint8_t s_q8)
+uint8_t vd__temporal_score_match(const vd_temporal_cfg_t *c, vd_track_t *tr, uint8_t s_q8)
 {
     const uint32_t s = q15_of_q8(s_q8);
     score_match(c, tr, s);
@@ -82,7 +82,7 @@ uint8_t vd_tscore_match(const vd_temporal_cfg_t *c, vd_track_t *tr, uint8_t s_q8
     return fused_q8(c, s, tr->score_q15);
 }
 
-void vd_tscore_miss(const vd_temporal_cfg_t *c, vd_track_t *tr)
+void vd__temporal_score_miss(const vd_temporal_cfg_t *c, vd_track_t *tr)
 {
     tr->score_q15 = (uint16_t)mul_q15(tr->score_q15, c->miss_decay_q15);
     if (tr->score_q15 < c->confirm_lo_q15) {

@@ -47,7 +47,7 @@ static inline vd_status_t vd_blob_container(const uint8_t *b, size_t bytes, uint
     }
     const uint32_t t = vd_blob_u32(b + VD_BLOB_H_TOTAL);
     if (t < header_size || (size_t)t > bytes || (t % 4u) != 0u ||
-        vd_crc32(0u, b + VD_BLOB_H_BODY, (size_t)t - VD_BLOB_H_BODY) != vd_blob_u32(b + VD_BLOB_H_CRC)) {
+        vd__crc32(0u, b + VD_BLOB_H_BODY, (size_t)t - VD_BLOB_H_BODY) != vd_blob_u32(b + VD_BLOB_H_CRC)) {
         return VD_ERR_MODEL;
     }
     *version = v;

@@ -547,7 +547,7 @@ static size_t cc_stream_slices(uint32_t w, size_t *spans, size_t *nodes)
     return t;
 }
 
-vd_status_t vd_cc_stream_workspace_size(uint32_t max_width, size_t *bytes)
+vd_status_t vd__components_stream_workspace_size(uint32_t max_width, size_t *bytes)
 {
     VD_VERIFY(bytes != NULL && max_width >= 1u && max_width <= VD_MAX_DIM, VD_ERR_ARG);
     size_t spans, nodes;
@@ -555,7 +555,7 @@ vd_status_t vd_cc_stream_workspace_size(uint32_t max_width, size_t *bytes)
     return VD_OK;
 }
 
-vd_status_t vd_cc_stream_init(vd_cc_stream_t *s, uint32_t width, void *ws, size_t bytes, vd_component_t *out,
+vd_status_t vd__components_stream_init(vd__components_stream_t *s, uint32_t width, void *ws, size_t bytes, vd_component_t *out,
                               size_t cap)
 {
     VD_VERIFY(s != NULL && width >= 1u && width <= VD_MAX_DIM && (out != NULL || cap == 0u), VD_ERR_ARG);
@@ -572,11 +572,11 @@ vd_status_t vd_cc_stream_init(vd_cc_stream_t *s, uint32_t width, void *ws, size_
     s->w = width;
     s->out = out;
     s->cap = cap;
-    vd_cc_stream_restart(s);
+    vd__components_stream_restart(s);
     return VD_OK;
 }
 
-void vd_cc_stream_restart(vd_cc_stream_t *s)
+void vd__components_stream_restart(vd__components_stream_t *s)
 {
     s->nup = 0u;
     s->m = 0u;
@@ -593,7 +593,7 @@ static inline uint32_t cc_key_of(const vd_component_t *c)
 
 // A complete component: counted, and inserted into out[] by key when among
 // the cap smallest keys so far (then out[] drops its last entry if full).
-static void cc_emit(vd_cc_stream_t *s, const cc_rec_t *q)
+static void cc_emit(vd__components_stream_t *s, const cc_rec_t *q)
 {
     s->labels++;
     if (s->cap == 0u) {
@@ -627,7 +627,7 @@ static void cc_emit(vd_cc_stream_t *s, const cc_rec_t *q)
 
 // Node i's statistics into its root's (root < i: already made); its open
 // mark (slot's x1, free once the record is made) cleared.
-static inline void cc_fold(vd_cc_stream_t *s, uint32_t i)
+static inline void cc_fold(vd__components_stream_t *s, uint32_t i)
 {
     cc_slot_t *nd = s->node;
     nd[i].run.x1 = 0u;
@@ -644,7 +644,7 @@ static inline void cc_fold(vd_cc_stream_t *s, uint32_t i)
     }
 }
 
-void vd_cc_stream_pair(vd_cc_stream_t *s, const uint8_t *ra, const uint8_t *rb, uint32_t y, uint8_t thr)
+void vd__components_stream_pair(vd__components_stream_t *s, const uint8_t *ra, const uint8_t *rb, uint32_t y, uint8_t thr)
 {
     cc_slot_t *nd = s->node;
     const size_t na = cc_runs_thr_u8(ra, s->w, thr, s->a);
@@ -709,7 +709,7 @@ void vd_cc_stream_pair(vd_cc_stream_t *s, const uint8_t *ra, const uint8_t *rb, 
     s->nup = nb;
 }
 
-size_t vd_cc_stream_finish(vd_cc_stream_t *s)
+size_t vd__components_stream_finish(vd__components_stream_t *s)
 {
     for (uint32_t i = 0u; i < s->m; i++) { // the components open at the last row are complete
         cc_emit(s, &s->rec[i]);

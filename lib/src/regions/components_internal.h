@@ -8,7 +8,7 @@
 // whole-frame labeller), out[] holding the first `cap` of them, and `labels`
 // counting all. Only the components still open (touching the pair's second
 // row) are kept between pairs, so the workspace grows with the width only.
-// Bounds: workspace as vd_cc_stream_workspace_size (24 * ceil(w/2) for the
+// Bounds: workspace as vd__components_stream_workspace_size (24 * ceil(w/2) for the
 // run rows plus 40 per node, 3 * ceil(w/2) nodes); time O(w) per pair for
 // the runs plus near-linear union-find, and per complete component an
 // insertion into out[] (O(1) when components complete in order, O(cap) worst).
@@ -24,7 +24,7 @@ struct cc_span;
 union cc_slot;
 struct cc_rec;
 
-typedef struct vd_cc_stream {
+typedef struct vd__components_stream {
     struct cc_span *up, *a, *b; // runs of the row above the pair and of its two rows
     union cc_slot *node;        // per node: union-find parent, then the open mark
     struct cc_rec *rec;         // per node: statistics of its part of a component
@@ -34,26 +34,26 @@ typedef struct vd_cc_stream {
     uint32_t labels;            // complete components so far (all, not only those in out)
     vd_component_t *out;
     size_t cap, n;              // out[]'s capacity and entries
-} vd_cc_stream_t;
+} vd__components_stream_t;
 
 // Workspace bytes of the streaming labeller for rows of up to max_width pixels.
-vd_status_t vd_cc_stream_workspace_size(uint32_t max_width, size_t *bytes);
+vd_status_t vd__components_stream_workspace_size(uint32_t max_width, size_t *bytes);
 
 // Carves ws (VD_WORKSPACE_ALIGN-aligned, >= the size for width) and starts an
 // empty labelling that fills out[0 .. cap).
-vd_status_t vd_cc_stream_init(vd_cc_stream_t *s, uint32_t width, void *ws, size_t bytes, vd_component_t *out,
+vd_status_t vd__components_stream_init(vd__components_stream_t *s, uint32_t width, void *ws, size_t bytes, vd_component_t *out,
                               size_t cap);
 
 // Forgets every pair labelled so far (out[] and labels start again).
-void vd_cc_stream_restart(vd_cc_stream_t *s);
+void vd__components_stream_restart(vd__components_stream_t *s);
 
 // Labels rows y (ra) and y + 1 (rb; NULL past the frame's last row) of the
 // mask pixel >= thr; y is even and pairs come in order from y = 0.
-void vd_cc_stream_pair(vd_cc_stream_t *s, const uint8_t *ra, const uint8_t *rb, uint32_t y, uint8_t thr);
+void vd__components_stream_pair(vd__components_stream_t *s, const uint8_t *ra, const uint8_t *rb, uint32_t y, uint8_t thr);
 
 // Ends the frame: the components still open are complete. Returns the number
 // of entries in out[] (image coordinates of the rows given, as
 // vd_components_label); s->labels then counts every component.
-size_t vd_cc_stream_finish(vd_cc_stream_t *s);
+size_t vd__components_stream_finish(vd__components_stream_t *s);
 
 #endif

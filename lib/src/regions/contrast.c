@@ -394,7 +394,7 @@ static vd_status_t cand_layout(uint32_t w, uint32_t h, cand_layout_t *l)
     VD_VERIFY(w >= 1u && w <= VD_MAX_DIM && h >= 1u && h <= VD_MAX_DIM, VD_ERR_ARG);
     l->col = (size_t)w * sizeof(uint16_t);
     l->rows = 2u * (size_t)w;
-    VD_TRY(vd_cc_stream_workspace_size(w, &l->label));
+    VD_TRY(vd__components_stream_workspace_size(w, &l->label));
     l->hist = 256u * sizeof(uint32_t);
     size_t t = 0u;
     // VD_MAX_DIM < 2^15 keeps every term far below size_t's range.
@@ -456,8 +456,8 @@ vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cf
     void *lws = vd_arena_take(&a, lay.label);
     uint32_t *hist = (uint32_t *)vd_arena_take(&a, lay.hist);
     VD_ASSERT(lws != NULL && hist != NULL);
-    vd_cc_stream_t L;
-    VD_TRY(vd_cc_stream_init(&L, w, lws, lay.label, out, cap));
+    vd__components_stream_t L;
+    VD_TRY(vd__components_stream_init(&L, w, lws, lay.label, out, cap));
 
     cmap_t m;
     uint32_t thr = c.thr_u8;
@@ -481,14 +481,14 @@ vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cf
                     hist[rb[x]]++;
                 }
             }
-            vd_cc_stream_pair(&L, ra, two ? rb : NULL, y, (uint8_t)thr);
+            vd__components_stream_pair(&L, ra, two ? rb : NULL, y, (uint8_t)thr);
         }
         // max(thr_u8, p-th percentile of the map), as the detector's adaptive threshold.
         uint8_t t = 0u;
         VD_TRY(vd_threshold_percentile_u8(hist, c.permille, (uint8_t)thr, &t));
         labelled = (t == thr);
         if (!labelled) {
-            vd_cc_stream_restart(&L);   // start again: nothing open, nothing emitted
+            vd__components_stream_restart(&L);   // start again: nothing open, nothing emitted
         }
         thr = t;
     }
@@ -504,10 +504,10 @@ vd_status_t vd_contrast_candidates(const vd_view_u8_t *src, const vd_contrast_cf
             if (two) {
                 cmap_row(&m, rb);
             }
-            vd_cc_stream_pair(&L, ra, two ? rb : NULL, y, (uint8_t)thr);
+            vd__components_stream_pair(&L, ra, two ? rb : NULL, y, (uint8_t)thr);
         }
     }
-    const size_t n = vd_cc_stream_finish(&L);
+    const size_t n = vd__components_stream_finish(&L);
     size_t kept = 0u;
     VD_TRY(vd_components_filter(out, n, &c.rules, &kept));
     *count = kept;

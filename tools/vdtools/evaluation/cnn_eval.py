@@ -129,7 +129,7 @@ def iou_q15(a, b):
 
 
 def score_of_logit(desc, q):
-    """The decoded heatmap score (Q15) of int8 value q: the model's score table (vd_cnn_score_of_logit)."""
+    """The decoded heatmap score (Q15) of int8 value q: the model's score table (vd__cnn_score_of_logit)."""
     return int(desc["table"][0][int(q) + 128])
 
 

@@ -44,8 +44,8 @@ M0_TEXT_BUDGET = 64 * 1024   # issue 36: the whole library on a Cortex-M0+, -Os,
 STACK_BUDGET = {"vd_detector_run": 2048}
 # Indirect call sites resolved to the lib/ functions they reach (suffix of the .ci node title).
 # A key names a global function, or "file.c:function" for a static one.
-INDIRECT = {"vd_temporal_update": ["vd_det_probe"], "temporal.c:unmatched_tracks": ["vd_det_probe"],
-            "temporal.c:recover_search": ["vd_det_probe"], "windows.c:walk": [":collect", ":rank_visit"],
+INDIRECT = {"vd_temporal_update": ["vd__detector_probe"], "temporal.c:unmatched_tracks": ["vd__detector_probe"],
+            "temporal.c:recover_search": ["vd__detector_probe"], "windows.c:walk": [":collect", ":rank_visit"],
             "windows.c:rank_visit": [":window_visit"], "input.c:src_row": [":cnn_row"]}
 WORKSPACE_GOAL = 256 * 1024
 DATA = REPO.parent / "shared" / "data"

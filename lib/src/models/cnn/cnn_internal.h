@@ -4,8 +4,8 @@
 //
 // The rooms, in the order a frame meets them (vd/cnn.h is the API):
 //   loader.c      .vdm version 3 in place: header, layer chain, per-channel values (vd_cnn_load);
-//                 the state check every other entry point starts with (vd_cnn_model_ok)
-//   plan.c        the workspace: items, lifetimes, first-fit offsets (vd_cnn_plan_make), its size
+//                 the state check every other entry point starts with (vd__cnn_model_ok)
+//   plan.c        the workspace: items, lifetimes, first-fit offsets (vd__cnn_plan_make), its size
 //                 queries, vd_cnn_macs, vd_cnn_tensor (reads the run record back)
 //   schedule.c    the streamed executor's row schedule (VD_CNN_STREAM): ring heights, sub-steps
 //   executor.c    vd_cnn_run*: tensor 0, then each layer's rows through its kernel (whole plane or
@@ -160,9 +160,9 @@ typedef struct chain {
 
 // State check of a model struct (every entry point but vd_cnn_load): false
 // unless run and decode stay inside the tensors; fills c.
-bool vd_cnn_model_ok(const vd_cnn_model_t *m, chain_t *c);
+bool vd__cnn_model_ok(const vd_cnn_model_t *m, chain_t *c);
 // A network input size the model takes (1..VD_CNN_MAX_SIDE, multiples of m->align).
-bool vd_cnn_size_ok(const vd_cnn_model_t *m, uint32_t width, uint32_t height);
+bool vd__cnn_size_ok(const vd_cnn_model_t *m, uint32_t width, uint32_t height);
 
 // ------------------------------------------------------------ plan (plan.c, schedule.c)
 
@@ -177,15 +177,15 @@ static inline uint64_t vd_cnn_tensor_bytes(const chain_t *c, uint32_t t, uint32_
     return (uint64_t)(width / c->f[t]) * (uint64_t)rows * (uint64_t)c->chan[t];
 }
 
-// The plan of a run into p (m checked by vd_cnn_model_ok, size by vd_cnn_size_ok):
+// The plan of a run into p (m checked by vd__cnn_model_ok, size by vd__cnn_size_ok):
 // VD_ERR_OVERFLOW if the workspace would not fit 32 bits.
-vd_status_t vd_cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
                              uint32_t flags, vd_cnn_plan_t *p);
 // Row schedule: ring heights p->rows (and p->h, p->live) of a plan.
-void vd_cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p);
+void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p);
 // A walk of the streamed schedule: start, then sub-steps (rows p->done .. p->req to make) until false.
-void vd_cnn_sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps);
-bool vd_cnn_sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *target);
+void vd__cnn_sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps);
+bool vd__cnn_sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *target);
 
 // ------------------------------------------------------------ kernels (kernels/)
 
@@ -239,30 +239,30 @@ static inline int8_t vd_cnn_rq_out(int32_t z, int32_t zp, int32_t lo, int32_t hi
 // the rows (returns the total in bytes), and the constants of a weighted layer
 // (returned by value: a kernel's own copy, which none of its int8 stores can
 // alias, so its loops keep the fields in registers).
-uint64_t vd_cnn_scratch_pack(const vd_cnn_layer_t *L, uint32_t w_bytes, uint32_t r_bytes, scratch_layout_t *s);
-rq_t vd_cnn_rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s);
+uint64_t vd__cnn_scratch_pack(const vd_cnn_layer_t *L, uint32_t w_bytes, uint32_t r_bytes, scratch_layout_t *s);
+rq_t vd__cnn_rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s);
 
 // Each kernel writes output rows [y0, y1) of its layer; the input rows they
 // read must be in the input ring. The scratch queries return the bytes of
 // the layer's scratch (0: none) and fill its layout; `stream`: one scratch
 // serves every layer of a streamed run.
-uint64_t vd_cnn_conv_scratch(const vd_cnn_layer_t *L, bool stream, scratch_layout_t *s);
-void vd_cnn_conv_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+uint64_t vd__cnn_conv_scratch(const vd_cnn_layer_t *L, bool stream, scratch_layout_t *s);
+void vd__cnn_conv_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
                       uint32_t y1, bool stream, uint8_t *scr);
 // conv.c's int16 rows, shared with the AVX2 back end: the ks input rows of
 // output row oy (NULL: padding row), and the rows of npix output pixels from x0.
-void vd_cnn_conv_row_ptrs(const geom_t *g, const ring_t *in, uint32_t oy, int32_t step, int32_t ks,
+void vd__cnn_conv_row_ptrs(const geom_t *g, const ring_t *in, uint32_t oy, int32_t step, int32_t ks,
                           const int8_t *rowp[5]);
-void vd_cnn_conv_gather(const geom_t *g, const int8_t *const rowp[5], int32_t ks, int32_t step, uint32_t x0,
+void vd__cnn_conv_gather(const geom_t *g, const int8_t *const rowp[5], int32_t ks, int32_t step, uint32_t x0,
                         uint32_t npix, size_t kp, int16_t *rows);
-uint64_t vd_cnn_dw3x3_scratch(const vd_cnn_layer_t *L, scratch_layout_t *s);
-void vd_cnn_dw3x3_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+uint64_t vd__cnn_dw3x3_scratch(const vd_cnn_layer_t *L, scratch_layout_t *s);
+void vd__cnn_dw3x3_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
                        uint32_t y1, uint8_t *scr);
-void vd_cnn_maxpool2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1);
-void vd_cnn_upsample2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1);
+void vd__cnn_maxpool2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1);
+void vd__cnn_upsample2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1);
 // ua / ub (0 or 1): operand a / b is a fused upsample and its ring the
 // upsample's source, read at row y >> 1, column x >> 1.
-void vd_cnn_concat_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, uint32_t ua, const ring_t *b,
+void vd__cnn_concat_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, uint32_t ua, const ring_t *b,
                         uint32_t ub, const ring_t *out, uint32_t y0, uint32_t y1);
 
 // Where the grey input rows come from (kernels/input.c): a plane (img,
@@ -276,10 +276,10 @@ typedef struct in_src {
 
 // The percentile stretch's lookup table from a histogram of the whole plane
 // in hist_area (VD_CNN_HIST_BYTES); NULL without a stretch.
-const int8_t *vd_cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
+const int8_t *vd__cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
                                 uint8_t *hist_area);
 // Rows [y0, y1) of tensor 0: pixel - 128, or lut[pixel].
-void vd_cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, const ring_t *t0, uint32_t y0, uint32_t y1);
+void vd__cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, const ring_t *t0, uint32_t y0, uint32_t y1);
 
 // ------------------------------------------------------------ x86 back end (kernels/*x86*.c, CMake VD_CNN_X86)
 
@@ -288,23 +288,23 @@ void vd_cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, const
 #define VD_CNN_X86_AVX2 1u     // AVX2: 256-bit, int16 vpmaddwd
 #define VD_CNN_X86_AVX512 2u   // AVX-512 F, BW, VL and VNNI: vpdpbusd / vpdpwssd
 // The best set this CPU runs (a CPU check per call, no cached global).
-uint32_t vd_cnn_x86_level(void);
-// vd_cnn_conv_rows and vd_cnn_dw3x3_rows on the set `level` (not NONE):
+uint32_t vd__cnn_x86_level(void);
+// vd__cnn_conv_rows and vd__cnn_dw3x3_rows on the set `level` (not NONE):
 // the same scratch, the same bytes.
-void vd_cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
                           uint32_t y1, bool stream, uint8_t *scr, uint32_t level);
-void vd_cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                            uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level);
 
 // ------------------------------------------------------------ CMSIS-NN back end (kernels/*cmsis*.c, CMake VD_CNN_CMSIS)
 
-// vd_cnn_conv_rows and vd_cnn_dw3x3_rows on CMSIS-NN's kernels, with the layer's scratch (the same item
+// vd__cnn_conv_rows and vd__cnn_dw3x3_rows on CMSIS-NN's kernels, with the layer's scratch (the same item
 // as the portable kernels', scr_bytes long: the portable layout's size, or more when streamed) and the
 // same bytes. False (nothing written) when the layer is not one CMSIS-NN computes bit-exactly (a channel
 // with shift > 0 or < -30): the caller runs the portable kernel.
-bool vd_cnn_conv_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+bool vd__cnn_conv_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                             uint32_t y0, uint32_t y1, bool stream, uint8_t *scr);
-bool vd_cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+bool vd__cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                              uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t scr_bytes);
 
 // ------------------------------------------------------------ decode (decode.c)
@@ -312,6 +312,6 @@ bool vd_cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const rin
 // Decoded heatmap score (Q15, 0..32768) of int8 value v (-128..127) of a
 // model vd_cnn_load filled (its score table is checked there); the table
 // vd_cnn_thr_from_score searches.
-uint32_t vd_cnn_score_of_logit(const vd_cnn_model_t *m, int32_t v);
+uint32_t vd__cnn_score_of_logit(const vd_cnn_model_t *m, int32_t v);
 
 #endif

@@ -21,7 +21,7 @@ static int32_t table_at(const vd_cnn_model_t *m, uint32_t ch, int32_t v)
     return vd_cnn_rd_i32(m->decode_table + 4u * (ch * 256u + (uint32_t)(v + 128)));
 }
 
-uint32_t vd_cnn_score_of_logit(const vd_cnn_model_t *m, int32_t v)
+uint32_t vd__cnn_score_of_logit(const vd_cnn_model_t *m, int32_t v)
 {
     return (uint32_t)table_at(m, 0u, v);
 }
@@ -68,7 +68,7 @@ vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, i
 {
     VD_VERIFY(m != NULL && out != NULL && count != NULL && (boxes != NULL || capacity == 0u), VD_ERR_ARG);
     chain_t c;
-    VD_VERIFY(vd_cnn_model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
     const uint32_t s = m->out_stride;
     VD_VERIFY(out->data != NULL && out->c == m->out_channels && out->stride == s && out->w >= 1u &&
                   out->h >= 1u && out->w <= VD_CNN_MAX_SIDE / s && out->h <= VD_CNN_MAX_SIDE / s,
@@ -144,7 +144,7 @@ vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, i
 {
     VD_VERIFY(m != NULL && thr_q != NULL && score_q15 <= (uint32_t)VD_CNN_SCORE_ONE_Q15, VD_ERR_ARG);
     chain_t c;
-    VD_VERIFY(vd_cnn_model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
     // Lower bound in the non-decreasing score table (the loader checked the order).
     int32_t lo = -128;
     int32_t hi = 128;   // one past 127: "no logit reaches it"

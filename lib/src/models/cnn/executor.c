@@ -52,7 +52,7 @@ typedef struct run_io {
 #if defined(VD_CNN_X86)
 static uint32_t x86_level(uint32_t flags)
 {
-    return ((flags & VD_CNN_PORTABLE) != 0u) ? VD_CNN_X86_NONE : vd_cnn_x86_level();
+    return ((flags & VD_CNN_PORTABLE) != 0u) ? VD_CNN_X86_NONE : vd__cnn_x86_level();
 }
 #endif
 
@@ -87,36 +87,36 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     case VD_CNN_OP_PW1X1:
 #if defined(VD_CNN_X86)
         if (level != VD_CNN_X86_NONE) {
-            vd_cnn_conv_rows_x86(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr, level);
+            vd__cnn_conv_rows_x86(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr, level);
             break;
         }
 #endif
 #if defined(VD_CNN_CMSIS)
-        if (cmsis && vd_cnn_conv_rows_cmsis(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr)) {
+        if (cmsis && vd__cnn_conv_rows_cmsis(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr)) {
             break;
         }
 #endif
-        vd_cnn_conv_rows(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr);
+        vd__cnn_conv_rows(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr);
         break;
     case VD_CNN_OP_DW3X3:
 #if defined(VD_CNN_X86)
         if (level != VD_CNN_X86_NONE) {
-            vd_cnn_dw3x3_rows_x86(L, &g, &in, &o, y0, y1, scr, level);
+            vd__cnn_dw3x3_rows_x86(L, &g, &in, &o, y0, y1, scr, level);
             break;
         }
 #endif
 #if defined(VD_CNN_CMSIS)
-        if (cmsis && vd_cnn_dw3x3_rows_cmsis(L, &g, &in, &o, y0, y1, scr, p->len[scr_item])) {
+        if (cmsis && vd__cnn_dw3x3_rows_cmsis(L, &g, &in, &o, y0, y1, scr, p->len[scr_item])) {
             break;
         }
 #endif
-        vd_cnn_dw3x3_rows(L, &g, &in, &o, y0, y1, scr);
+        vd__cnn_dw3x3_rows(L, &g, &in, &o, y0, y1, scr);
         break;
     case VD_CNN_OP_MAXPOOL2:
-        vd_cnn_maxpool2_rows(&g, &in, &o, y0, y1);
+        vd__cnn_maxpool2_rows(&g, &in, &o, y0, y1);
         break;
     case VD_CNN_OP_UPSAMPLE2: {
-        vd_cnn_upsample2_rows(&g, &in, &o, y0, y1);
+        vd__cnn_upsample2_rows(&g, &in, &o, y0, y1);
         break;
     }
     default: {
@@ -125,7 +125,7 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
         // A fused upsample's source: the input of the layer that makes it.
         const ring_t a = ring_of(base, p, c, (ua != 0u) ? m->layers[L->in - 1u].in : L->in);
         const ring_t b = ring_of(base, p, c, (ub != 0u) ? m->layers[L->in2 - 1u].in : L->in2);
-        vd_cnn_concat_rows(L, &g, &a, ua, &b, ub, &o, y0, y1);
+        vd__cnn_concat_rows(L, &g, &a, ua, &b, ub, &o, y0, y1);
         break;
     }
     }
@@ -136,7 +136,7 @@ static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_i
 {
     if (t == 0u) {
         const ring_t t0 = ring_of(io->base, p, io->c, 0u);
-        vd_cnn_input_rows(io->src, p->width, io->lut, &t0, p->done[0], p->req[0]);
+        vd__cnn_input_rows(io->src, p->width, io->lut, &t0, p->done[0], p->req[0]);
     } else if (p->live[t] != VD_CNN_LIVE_FUSED) {   // a fused upsample is read through by its concats
         layer_rows(m, io->c, p, io->base, t - 1u, p->done[t], p->req[t]);
     }
@@ -149,32 +149,32 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
 {
     VD_VERIFY(m != NULL && out != NULL && (flags & ~VD_CNN_RUN_FLAGS) == 0u, VD_ERR_ARG);
     chain_t c;
-    VD_VERIFY(vd_cnn_model_ok(m, &c), VD_ERR_STATE);
-    VD_VERIFY(vd_cnn_size_ok(m, width, height) && (rows != NULL || stride_bytes >= width), VD_ERR_ARG);
+    VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(vd__cnn_size_ok(m, width, height) && (rows != NULL || stride_bytes >= width), VD_ERR_ARG);
     VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
     uint8_t *base = (uint8_t *)ws;
     vd_cnn_plan_t *p = (vd_cnn_plan_t *)ws;
     p->magic = 0u;
-    VD_TRY(vd_cnn_plan_make(m, &c, width, height, flags, p));
+    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags, p));
     VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
 
     // Streamed, item 1 ends with a row buffer for a row function.
     uint8_t *buf = (rows != NULL) ? base + p->off[1] + p->len[1] - vd_cnn_round_up(width, VD_CNN_ITEM_ALIGN) : NULL;
     const in_src_t src = {img, stride_bytes, rows, buf};
-    const int8_t *lut = vd_cnn_norm_table(m, &src, width, height, base + p->off[1]);
+    const int8_t *lut = vd__cnn_norm_table(m, &src, width, height, base + p->off[1]);
     const ring_t t0 = ring_of(base, p, &c, 0u);
     const uint32_t n = m->n_layers;
     if ((flags & VD_CNN_STREAM) == 0u) {
-        vd_cnn_input_rows(&src, width, lut, &t0, 0u, height);
+        vd__cnn_input_rows(&src, width, lut, &t0, 0u, height);
         for (uint32_t l = 0u; l < n; l++) {
             layer_rows(m, &c, p, base, l, 0u, height / c.f[l + 1u]);
         }
     } else {
         const run_io_t io = {&src, lut, base, &c};
         uint32_t target, max_steps;
-        vd_cnn_sched_start(p, &target, &max_steps);
-        for (uint32_t k = 0u; k < max_steps && vd_cnn_sched_next(m, p, &target); k++) {
+        vd__cnn_sched_start(p, &target, &max_steps);
+        for (uint32_t k = 0u; k < max_steps && vd__cnn_sched_next(m, p, &target); k++) {
             for (uint32_t t = 0u; t <= n; t++) {
                 if (p->req[t] > p->done[t]) {
                     produce(m, p, &io, t);

@@ -417,7 +417,7 @@ vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes)
 // State check of a model struct: cheap, and enough that run and decode stay
 // inside the tensors whatever the struct holds (the array pointers into the
 // blob are trusted, as vd_cnn_load set them).
-bool vd_cnn_model_ok(const vd_cnn_model_t *m, chain_t *c)
+bool vd__cnn_model_ok(const vd_cnn_model_t *m, chain_t *c)
 {
     uint32_t align = 0u;
     if (m->blob == NULL || m->decode_table == NULL || m->n_layers < 1u || m->n_layers > VD_CNN_MAX_LAYERS ||
@@ -433,7 +433,7 @@ bool vd_cnn_model_ok(const vd_cnn_model_t *m, chain_t *c)
     return chain_make(m, c, &align) && align == m->align;
 }
 
-bool vd_cnn_size_ok(const vd_cnn_model_t *m, uint32_t width, uint32_t height)
+bool vd__cnn_size_ok(const vd_cnn_model_t *m, uint32_t width, uint32_t height)
 {
     return width >= 1u && width <= VD_CNN_MAX_SIDE && height >= 1u && height <= VD_CNN_MAX_SIDE &&
            width % m->align == 0u && height % m->align == 0u;

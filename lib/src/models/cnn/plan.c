@@ -25,10 +25,10 @@
 static uint64_t scratch_of(const vd_cnn_layer_t *L, bool stream, scratch_layout_t *s)
 {
     if (L->op == VD_CNN_OP_DW3X3) {
-        return vd_cnn_dw3x3_scratch(L, s);   // no chunks: the same layout either way
+        return vd__cnn_dw3x3_scratch(L, s);   // no chunks: the same layout either way
     }
     if (vd_cnn_spatial_conv(L->op) || L->op == VD_CNN_OP_PW1X1) {
-        return vd_cnn_conv_scratch(L, stream, s);
+        return vd__cnn_conv_scratch(L, stream, s);
     }
     memset(s, 0, sizeof *s);
     return 0u;
@@ -142,10 +142,10 @@ static vd_status_t items_place(vd_cnn_plan_t *p, uint64_t *end_out)
 
 // The plan of a run: ring heights (the row schedule), items, offsets; the
 // key vd_cnn_tensor checks after the run.
-vd_status_t vd_cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
                              uint32_t flags, vd_cnn_plan_t *p)
 {
-    vd_cnn_sched_rows(m, c, height, flags, p);
+    vd__cnn_sched_rows(m, c, height, flags, p);
     VD_TRY(items_size(m, c, width, flags, p));
     uint64_t end;
     VD_TRY(items_place(p, &end));
@@ -168,10 +168,10 @@ vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, ui
 {
     VD_VERIFY(m != NULL && bytes != NULL && (flags & ~VD_CNN_RUN_FLAGS) == 0u, VD_ERR_ARG);
     chain_t c;
-    VD_VERIFY(vd_cnn_model_ok(m, &c), VD_ERR_STATE);
-    VD_VERIFY(vd_cnn_size_ok(m, width, height), VD_ERR_ARG);
+    VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(vd__cnn_size_ok(m, width, height), VD_ERR_ARG);
     vd_cnn_plan_t p;
-    VD_TRY(vd_cnn_plan_make(m, &c, width, height, flags, &p));
+    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags, &p));
     *bytes = p.total;
     return VD_OK;
 }
@@ -185,8 +185,8 @@ vd_status_t vd_cnn_macs(const vd_cnn_model_t *m, uint32_t width, uint32_t height
 {
     VD_VERIFY(m != NULL && macs != NULL, VD_ERR_ARG);
     chain_t c;
-    VD_VERIFY(vd_cnn_model_ok(m, &c), VD_ERR_STATE);
-    VD_VERIFY(vd_cnn_size_ok(m, width, height), VD_ERR_ARG);
+    VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(vd__cnn_size_ok(m, width, height), VD_ERR_ARG);
     uint64_t sum = 0u;
     for (uint32_t l = 0u; l < m->n_layers; l++) {
         const vd_cnn_layer_t *L = &m->layers[l];
@@ -203,8 +203,8 @@ vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t bytes,
 {
     VD_VERIFY(m != NULL && t != NULL, VD_ERR_ARG);
     chain_t c;
-    VD_VERIFY(vd_cnn_model_ok(m, &c), VD_ERR_STATE);
-    VD_VERIFY(vd_cnn_size_ok(m, width, height) && index <= m->n_layers, VD_ERR_ARG);
+    VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(vd__cnn_size_ok(m, width, height) && index <= m->n_layers, VD_ERR_ARG);
     VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
     const vd_cnn_plan_t *p = (const vd_cnn_plan_t *)ws;

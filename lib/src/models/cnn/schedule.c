@@ -13,7 +13,7 @@
 // encoder tensor would hold tens of rows); push alone would finish every
 // decoder tensor in one batch when the last input row arrives. Together a
 // tensor holds its consumers' kernel rows plus what a skip must bridge.
-// The plan runs the same walk without computing (vd_cnn_sched_next) and keeps per
+// The plan runs the same walk without computing (vd__cnn_sched_next) and keeps per
 // tensor the largest span from the oldest row a live consumer will still
 // read to the newest row written: that is the ring height.
 // Tensors the head does not depend on are never computed.
@@ -205,7 +205,7 @@ static uint32_t sched_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, ui
 // need (sched_push), so a walk takes at most H0 + Hn + 1 calls. The plan
 // (ring sizing) and the run iterate the same way, so they make the same
 // rows in the same order.
-bool vd_cnn_sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *target)
+bool vd__cnn_sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *target)
 {
     const uint32_t n = m->n_layers;
     if (p->done[n] >= *target) {
@@ -219,7 +219,7 @@ bool vd_cnn_sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *targ
     return true;
 }
 
-void vd_cnn_sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps)
+void vd__cnn_sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps)
 {
     memset(p->done, 0, sizeof p->done);
     memset(p->req, 0, sizeof p->req);
@@ -230,7 +230,7 @@ void vd_cnn_sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps)
 // p->rows: ring heights. Whole plane: every tensor's height. Streamed: the
 // walk above; the head (read by vd_cnn_decode) stays whole, and with
 // VD_CNN_KEEP_TENSORS every computed tensor does.
-void vd_cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p)
+void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
     sched_init(m, c, height, flags, p);
@@ -245,8 +245,8 @@ void vd_cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t heigh
     // Ring heights: per tensor the largest span from the oldest row a live
     // consumer still reads to the newest row made.
     uint32_t target, max_steps;
-    vd_cnn_sched_start(p, &target, &max_steps);
-    for (uint32_t k = 0u; k < max_steps && vd_cnn_sched_next(m, p, &target); k++) {
+    vd__cnn_sched_start(p, &target, &max_steps);
+    for (uint32_t k = 0u; k < max_steps && vd__cnn_sched_next(m, p, &target); k++) {
         for (uint32_t t = 0u; t <= n; t++) {
             if (p->req[t] > p->done[t]) {
                 const uint32_t span = p->req[t] - sched_oldest(m, p, t);

@@ -10,7 +10,7 @@
 // The arrays replace the portable constants in the same scratch piece (cmsis.h).
 typedef char vd_cnn_cmsis_q_fits[(sizeof(vd_rq_ch_t) >= 12u) ? 1 : -1];
 
-bool vd_cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q_t *q)
+bool vd__cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q_t *q)
 {
     q->mult = (int32_t *)(void *)area;
     q->shift = q->mult + L->cout;

@@ -50,7 +50,7 @@ static inline uint32_t vd_cnn_cmsis_q_bytes(const vd_cnn_layer_t *L)
 
 // The arrays of layer L at area (4-byte aligned, vd_cnn_cmsis_q_bytes long); false (area partly
 // written) when a channel's shift is outside [VD_CNN_CMSIS_SHIFT_MIN, 0].
-bool vd_cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q_t *q);
+bool vd__cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q_t *q);
 
 
 // ------------------------------------------------------------------------------------------------------------

@@ -9,7 +9,7 @@
 
 #include <string.h>
 
-void vd_cnn_concat_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, uint32_t ua, const ring_t *b,
+void vd__cnn_concat_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, uint32_t ua, const ring_t *b,
                         uint32_t ub, const ring_t *out, uint32_t y0, uint32_t y1)
 {
     const uint32_t ca = L->cin;

@@ -27,10 +27,10 @@ static uint32_t chunk_of(const vd_cnn_layer_t *L, bool stream)
     return (stream && L->cout > VD_CNN_STREAM_COUT) ? VD_CNN_STREAM_COUT : L->cout;
 }
 
-uint64_t vd_cnn_conv_scratch(const vd_cnn_layer_t *L, bool stream, scratch_layout_t *s)
+uint64_t vd__cnn_conv_scratch(const vd_cnn_layer_t *L, bool stream, scratch_layout_t *s)
 {
     const uint32_t kp = vd_cnn_round_up(vd_cnn_k_of(L), VD_CNN_KCHUNK);
-    return vd_cnn_scratch_pack(L, 2u * chunk_of(L, stream) * kp, 2u * VD_CNN_NPIX * kp, s);
+    return vd__cnn_scratch_pack(L, 2u * chunk_of(L, stream) * kp, 2u * VD_CNN_NPIX * kp, s);
 }
 
 // VD_CNN_NPIX values of one channel. With the channel's constants in locals
@@ -166,13 +166,13 @@ static inline void conv_gather(const geom_t *g, const int8_t *const rowp[5], int
 
 // The two helpers above for the AVX2 back end (conv_x86.c), whose GEMM reads the
 // same int16 rows; static inline above, so this file's loop compiles as if alone.
-void vd_cnn_conv_row_ptrs(const geom_t *g, const ring_t *in, uint32_t oy, int32_t step, int32_t ks,
+void vd__cnn_conv_row_ptrs(const geom_t *g, const ring_t *in, uint32_t oy, int32_t step, int32_t ks,
                           const int8_t *rowp[5])
 {
     conv_row_ptrs(g, in, oy, step, ks, rowp);
 }
 
-void vd_cnn_conv_gather(const geom_t *g, const int8_t *const rowp[5], int32_t ks, int32_t step, uint32_t x0,
+void vd__cnn_conv_gather(const geom_t *g, const int8_t *const rowp[5], int32_t ks, int32_t step, uint32_t x0,
                         uint32_t npix, size_t kp, int16_t *rows)
 {
     conv_gather(g, rowp, ks, step, x0, npix, kp, rows);
@@ -182,12 +182,12 @@ void vd_cnn_conv_gather(const geom_t *g, const int8_t *const rowp[5], int32_t ks
 // they read (y * stride - pad .. + pad, clamped) must be in the input ring.
 // Output channels in chunks of chunk_of(L, stream) (one chunk unless
 // streamed): per chunk the int16 weights, then every pixel block.
-void vd_cnn_conv_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+void vd__cnn_conv_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                       uint32_t y0, uint32_t y1, bool stream, uint8_t *scr)
 {
     scratch_layout_t s;
-    (void)vd_cnn_conv_scratch(L, stream, &s);
-    const rq_t q = vd_cnn_rq_setup(L, scr, &s);
+    (void)vd__cnn_conv_scratch(L, stream, &s);
+    const rq_t q = vd__cnn_rq_setup(L, scr, &s);
     const size_t k = vd_cnn_k_of(L);
     const size_t kp = vd_cnn_round_up((uint32_t)k, VD_CNN_KCHUNK);
     int16_t *w16 = (int16_t *)(void *)(scr + s.w16);

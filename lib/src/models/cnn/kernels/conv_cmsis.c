@@ -213,7 +213,7 @@ static inline void dsp_one_rows(const geom_t *g, const ring_t *in, const ring_t 
     const size_t co = g->co;
     for (uint32_t oy = y0; oy < y1; oy++) {
         const int8_t *rowp[5];
-        vd_cnn_conv_row_ptrs(g, in, oy, step, 3, rowp);
+        vd__cnn_conv_row_ptrs(g, in, oy, step, 3, rowp);
         const bool full = rowp[0] != NULL && rowp[1] != NULL && rowp[2] != NULL;
         int8_t *o = vd_cnn_ring_row(out, oy);
         for (uint32_t ox = 0u; ox < g->wo; ox++, o += co) {
@@ -244,7 +244,7 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
         return false;
     }
     scratch_layout_t s;
-    (void)vd_cnn_conv_scratch(L, stream, &s);
+    (void)vd__cnn_conv_scratch(L, stream, &s);
     const size_t kw = one ? 12u : L->cin;   // K': bytes per widened pixel
     const size_t co = g->co;
     if ((size_t)(s.rows - s.w16) < 2u * kw * co || (size_t)(s.ch - s.rows) < 2u * kw) {
@@ -313,7 +313,7 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
 }
 #endif
 
-bool vd_cnn_conv_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+bool vd__cnn_conv_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                             uint32_t y0, uint32_t y1, bool stream, uint8_t *scr)
 {
 #if defined(VD_CNN_DSP)
@@ -322,9 +322,9 @@ bool vd_cnn_conv_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring
     }
 #endif
     scratch_layout_t s;
-    (void)vd_cnn_conv_scratch(L, stream, &s);   // conv.c's layout: the patches take its weights and rows
+    (void)vd__cnn_conv_scratch(L, stream, &s);   // conv.c's layout: the patches take its weights and rows
     vd_cnn_cmsis_q_t q;
-    if (!vd_cnn_cmsis_q_fill(L, scr + s.ch, &q)) {
+    if (!vd__cnn_cmsis_q_fill(L, scr + s.ch, &q)) {
         return false;
     }
     const int32_t k = (int32_t)vd_cnn_k_of(L);
@@ -347,7 +347,7 @@ bool vd_cnn_conv_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring
     int8_t *patch = (int8_t *)(void *)scr;
     for (uint32_t oy = y0; oy < y1; oy++) {
         const int8_t *rowp[5];
-        vd_cnn_conv_row_ptrs(g, in, oy, step, ks, rowp);
+        vd__cnn_conv_row_ptrs(g, in, oy, step, ks, rowp);
         int8_t *orow = vd_cnn_ring_row(out, oy);
         for (uint32_t x0 = 0u; x0 < g->wo; x0 += nb) {
             const uint32_t n = (g->wo - x0 < nb) ? g->wo - x0 : nb;

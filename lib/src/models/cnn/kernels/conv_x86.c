@@ -286,7 +286,7 @@ static void tile_consts(const vd_cnn_layer_t *L, size_t o0, size_t n_o, const in
         for (size_t j = 0u; j < n_l; j++) {
             ch_of[j] = (uint32_t)(o0 + v * 16u + j);
         }
-        vd_cnn_x86_rqv_fill(&cv[v], L, ch_of, (corr != NULL) ? corr + v * 16u : NULL, (uint32_t)n_l);
+        vd__cnn_x86_rqv_fill(&cv[v], L, ch_of, (corr != NULL) ? corr + v * 16u : NULL, (uint32_t)n_l);
     }
 }
 
@@ -337,7 +337,7 @@ static void gather_u8(const geom_t *g, const int8_t *const rowp[5], int32_t ks, 
     }
 }
 
-// vd_cnn_conv_rows on the AVX2 GEMM: the portable int16 rows (x - zp_in, padding
+// vd__cnn_conv_rows on the AVX2 GEMM: the portable int16 rows (x - zp_in, padding
 // 0) and, per tile of <= 64 output channels, int16 weight pairs
 // [k2 / 2][n][2] (2 n k2 <= the int16 copy's 2 chunk kp bytes).
 static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
@@ -348,7 +348,7 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
     int16_t *wp = (int16_t *)(void *)(scr + s->w16);
     int16_t *rows = (int16_t *)(void *)(scr + s->rows);
     memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
-    const vd_cnn_x86_rq_t xq = vd_cnn_x86_rq_of(L);
+    const vd_cnn_x86_rq_t xq = vd__cnn_x86_rq_of(L);
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
@@ -359,28 +359,28 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
         tile_consts(L, o0, n_o, NULL, cv);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rowp[5];
-            vd_cnn_conv_row_ptrs(g, in, oy, step, ks, rowp);
+            vd__cnn_conv_row_ptrs(g, in, oy, step, ks, rowp);
             int8_t *orow = vd_cnn_ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
-                vd_cnn_conv_gather(g, rowp, ks, step, x0, npix, kp, rows);
+                vd__cnn_conv_gather(g, rowp, ks, step, x0, npix, kp, rows);
                 gemm_avx2(rows, kp, k, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }
     }
 }
 
-// vd_cnn_conv_rows on the AVX-512 VNNI GEMM (gemm_vnni), same scratch:
+// vd__cnn_conv_rows on the AVX-512 VNNI GEMM (gemm_vnni), same scratch:
 // per tile of <= 64 output channels the int8 weights packed [k4 / 4][n][4]
 // (n k4 <= the int16 copy's 2 chunk kp bytes), per block of 16 pixels the
 // rows as unsigned bytes x + 128, k4 apart (16 k4 <= the int16 rows' bytes);
 // padding taps are zp_in + 128 and the bias loses (zp_in + 128) sum w, so
 // the int32 sums equal the portable ones modulo 2^32 (above).
-void vd_cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
                           uint32_t y1, bool stream, uint8_t *scr, uint32_t level)
 {
     scratch_layout_t sl;
-    (void)vd_cnn_conv_scratch(L, stream, &sl);
+    (void)vd__cnn_conv_scratch(L, stream, &sl);
     const scratch_layout_t *s = &sl;
     if (level != VD_CNN_X86_AVX512) {
         conv_rows_avx2(L, g, in, out, y0, y1, scr, s);
@@ -391,7 +391,7 @@ void vd_cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t
     int8_t *wp = (int8_t *)(void *)(scr + s->w16);
     uint8_t *rows = scr + s->rows;
     memset(rows, 0, (size_t)VD_CNN_NPIX * k4);   // the k..k4 tails stay 0 (their weights are 0 too)
-    const vd_cnn_x86_rq_t xq = vd_cnn_x86_rq_of(L);
+    const vd_cnn_x86_rq_t xq = vd__cnn_x86_rq_of(L);
     const size_t ci = g->ci;
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
@@ -409,7 +409,7 @@ void vd_cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t
         tile_consts(L, o0, n_o, corr, cv);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rowp[5];
-            vd_cnn_conv_row_ptrs(g, in, oy, step, ks, rowp);
+            vd__cnn_conv_row_ptrs(g, in, oy, step, ks, rowp);
             int8_t *orow = vd_cnn_ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;

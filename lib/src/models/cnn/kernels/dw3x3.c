@@ -13,10 +13,10 @@
 
 #include <string.h>
 
-uint64_t vd_cnn_dw3x3_scratch(const vd_cnn_layer_t *L, scratch_layout_t *s)
+uint64_t vd__cnn_dw3x3_scratch(const vd_cnn_layer_t *L, scratch_layout_t *s)
 {
     const uint32_t cp = vd_cnn_round_up(L->cout, VD_CNN_DWB);
-    return vd_cnn_scratch_pack(L, 2u * 9u * cp, cp, s);
+    return vd__cnn_scratch_pack(L, 2u * 9u * cp, cp, s);
 }
 
 // Depthwise sums of n channels from c0 (16 or 8 at two call sites, so the
@@ -77,12 +77,12 @@ static inline void dw_store(const int32_t *acc, size_t n, size_t c0, const rq_t 
 }
 
 // Output rows [y0, y1) of a DW3X3 layer (input rows y * stride - 1 .. + 1 in the ring).
-void vd_cnn_dw3x3_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+void vd__cnn_dw3x3_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
                        uint32_t y1, uint8_t *scr)
 {
     scratch_layout_t s;
-    (void)vd_cnn_dw3x3_scratch(L, &s);
-    const rq_t q = vd_cnn_rq_setup(L, scr, &s);
+    (void)vd__cnn_dw3x3_scratch(L, &s);
+    const rq_t q = vd__cnn_rq_setup(L, scr, &s);
     const size_t c_n = g->co;
     const size_t cp = vd_cnn_round_up((uint32_t)c_n, VD_CNN_DWB);
     int16_t *w16 = (int16_t *)(void *)(scr + s.w16);

@@ -147,7 +147,7 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
                       uint32_t y1, uint8_t *scr)
 {
     scratch_layout_t s;
-    (void)vd_cnn_dw3x3_scratch(L, &s);
+    (void)vd__cnn_dw3x3_scratch(L, &s);
     vd_cnn_dsp_q_t q;
     if (!vd_cnn_dsp_q_fill(L, scr + s.ch, &q)) {
         return false;
@@ -176,7 +176,7 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
 }
 #endif
 
-bool vd_cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+bool vd__cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                              uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t scr_bytes)
 {
 #if defined(VD_CNN_DSP)
@@ -185,9 +185,9 @@ bool vd_cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const rin
     }
 #endif
     scratch_layout_t s;
-    (void)vd_cnn_dw3x3_scratch(L, &s);
+    (void)vd__cnn_dw3x3_scratch(L, &s);
     vd_cnn_cmsis_q_t q;
-    if (!vd_cnn_cmsis_q_fill(L, scr + s.ch, &q)) {
+    if (!vd__cnn_cmsis_q_fill(L, scr + s.ch, &q)) {
         return false;
     }
     // Room for three input rows behind the arrays (streamed: the shared scratch may be larger).
@@ -220,8 +220,8 @@ bool vd_cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const rin
             run_cmsis(L, g, &q, plane, lo, hi, out, a, b);
         } else {
             // The portable kernel refills the scratch with its own layout: the arrays again after it.
-            vd_cnn_dw3x3_rows(L, g, in, out, a, b, scr);
-            (void)vd_cnn_cmsis_q_fill(L, scr + s.ch, &q);
+            vd__cnn_dw3x3_rows(L, g, in, out, a, b, scr);
+            (void)vd__cnn_cmsis_q_fill(L, scr + s.ch, &q);
         }
         a = b;
     }

@@ -111,8 +111,8 @@ X86_KERNEL X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_
         int32_t corr_lo[16], corr_hi[16];
         dw_lanes(d, c0, ws, 16u, map_lo, corr_lo, map_hi, corr_hi);
         vd_cnn_x86_rqv_t cl, chv;
-        vd_cnn_x86_rqv_fill(&cl, L, map_lo, corr_lo, 16u);
-        vd_cnn_x86_rqv_fill(&chv, L, map_hi, corr_hi, 16u);
+        vd__cnn_x86_rqv_fill(&cl, L, map_lo, corr_lo, 16u);
+        vd__cnn_x86_rqv_fill(&chv, L, map_hi, corr_hi, 16u);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
             dw_rows(d, oy, rows);
@@ -215,7 +215,7 @@ X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer
         int32_t corr[16];
         dw_lanes(d, c0, ws, 8u, map, corr, map + 8, corr + 8);
         vd_cnn_x86_rqv_t cv;
-        vd_cnn_x86_rqv_fill(&cv, L, map, corr, 16u);
+        vd__cnn_x86_rqv_fill(&cv, L, map, corr, 16u);
         const tail_t tl = tail_of(nc, c_n);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
@@ -250,17 +250,17 @@ X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer
     }
 }
 
-// vd_cnn_dw3x3_rows on the AVX-512 VNNI or AVX2 kernel: the scratch holds only the zero-point row.
-void vd_cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+// vd__cnn_dw3x3_rows on the AVX-512 VNNI or AVX2 kernel: the scratch holds only the zero-point row.
+void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                            uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level)
 {
     scratch_layout_t s;
-    (void)vd_cnn_dw3x3_scratch(L, &s);
+    (void)vd__cnn_dw3x3_scratch(L, &s);
     int8_t *zr = (int8_t *)(void *)(scr + s.rows);
     memset(zr, g->zp_in, g->co);
     const vd_cnn_x86_dw_t d = {in->base, in->row, in->rows, g->wi, g->hi, out->base, out->row, out->rows,
                                g->wo, L->stride, g->co, g->zp_in, zr};
-    const vd_cnn_x86_rq_t xq = vd_cnn_x86_rq_of(L);
+    const vd_cnn_x86_rq_t xq = vd__cnn_x86_rq_of(L);
     if (level == VD_CNN_X86_AVX512) {
         dw_vnni(&d, L, &xq, y0, y1);
     } else {

@@ -23,7 +23,7 @@ static const uint8_t *src_row(const in_src_t *s, uint32_t y)
     return s->buf;
 }
 
-const int8_t *vd_cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
+const int8_t *vd__cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
                                 uint8_t *hist_area)
 {
     if (m->input_norm != VD_CNN_NORM_PERCENTILE && m->input_norm != VD_CNN_NORM_EQUALISE) {
@@ -78,7 +78,7 @@ const int8_t *vd_cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, ui
     return lut;
 }
 
-void vd_cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, const ring_t *t0, uint32_t y0, uint32_t y1)
+void vd__cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, const ring_t *t0, uint32_t y0, uint32_t y1)
 {
     for (uint32_t y = y0; y < y1; y++) {
         const uint8_t *row = src_row(src, y);

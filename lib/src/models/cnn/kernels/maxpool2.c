@@ -6,7 +6,7 @@
 // Bounds: 3 compares per output value; no scratch.
 #include "models/cnn/cnn_internal.h"
 
-void vd_cnn_maxpool2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1)
+void vd__cnn_maxpool2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1)
 {
     const uint32_t c_n = g->co;
     for (uint32_t y = y0; y < y1; y++) {

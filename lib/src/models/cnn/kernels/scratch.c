@@ -10,7 +10,7 @@
 // Bounds: O(cout) per layer call; cin, cout <= 1024 keep every size below 2^26.
 #include "models/cnn/cnn_internal.h"
 
-uint64_t vd_cnn_scratch_pack(const vd_cnn_layer_t *L, uint32_t w_bytes, uint32_t r_bytes, scratch_layout_t *s)
+uint64_t vd__cnn_scratch_pack(const vd_cnn_layer_t *L, uint32_t w_bytes, uint32_t r_bytes, scratch_layout_t *s)
 {
     // Each piece starts at a multiple of VD_CNN_ITEM_ALIGN; cin, cout <= 1024
     // keep every size below 2^26.
@@ -21,7 +21,7 @@ uint64_t vd_cnn_scratch_pack(const vd_cnn_layer_t *L, uint32_t w_bytes, uint32_t
 }
 
 // Fills the scratch constants of a weighted layer; returns the view on them.
-rq_t vd_cnn_rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s)
+rq_t vd__cnn_rq_setup(const vd_cnn_layer_t *L, uint8_t *scr, const scratch_layout_t *s)
 {
     vd_rq_ch_t *ch = (vd_rq_ch_t *)(void *)(scr + s->ch);
     for (uint32_t o = 0u; o < L->cout; o++) {

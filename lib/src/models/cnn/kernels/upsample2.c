@@ -9,7 +9,7 @@
 
 #include <string.h>
 
-void vd_cnn_upsample2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1)
+void vd__cnn_upsample2_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1)
 {
     const uint32_t c_n = g->co;
     for (uint32_t y = y0; y < y1; y++) {

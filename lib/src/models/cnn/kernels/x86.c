@@ -1,15 +1,15 @@
 // SPDX-License-Identifier: MIT
 // The x86-64 back end's shared part: which kernel set this CPU runs, requantisation constants as vectors.
 //
-// Algorithm: vd_cnn_x86_level asks the CPU (__builtin_cpu_supports) per call: AVX-512 F/BW/VL/VNNI, else
+// Algorithm: vd__cnn_x86_level asks the CPU (__builtin_cpu_supports) per call: AVX-512 F/BW/VL/VNNI, else
 // AVX2, else none (the portable kernels); no cached global, so two detectors never interfere and a
 // binary built here runs on any x86-64 CPU. The constants of 16 lanes are vd_rq_prepare's per-channel
 // fields spread for the even/odd 64-bit halves of vpmuludq.
-// Bounds: O(16) per vector of constants; O(cout) per layer for vd_cnn_x86_rq_of.
+// Bounds: O(16) per vector of constants; O(cout) per layer for vd__cnn_x86_rq_of.
 #include "models/cnn/kernels/x86.h"
 #include "models/blob_internal.h"
 
-uint32_t vd_cnn_x86_level(void)
+uint32_t vd__cnn_x86_level(void)
 {
     __builtin_cpu_init();
     uint32_t level = VD_CNN_X86_NONE;
@@ -27,7 +27,7 @@ uint32_t vd_cnn_x86_level(void)
     return level;
 }
 
-void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const uint32_t *ch_of, const int32_t *corr,
+void vd__cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const uint32_t *ch_of, const int32_t *corr,
                          uint32_t n_lanes)
 {
     for (uint32_t j = 0u; j < 16u; j++) {
@@ -53,7 +53,7 @@ void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const uin
     }
 }
 
-vd_cnn_x86_rq_t vd_cnn_x86_rq_of(const vd_cnn_layer_t *L)
+vd_cnn_x86_rq_t vd__cnn_x86_rq_of(const vd_cnn_layer_t *L)
 {
     vd_cnn_x86_rq_t q;
     q.zp = L->out_zp;

@@ -61,11 +61,11 @@ typedef struct vd_cnn_x86_rq {
 // (its bias, mult, shift; vd_rq_prepare), n_lanes lanes valid and the
 // others copying lane 0, with corr[j] subtracted from the bias modulo 2^32
 // (corr may be NULL).
-void vd_cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const uint32_t *ch_of, const int32_t *corr,
+void vd__cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const uint32_t *ch_of, const int32_t *corr,
                          uint32_t n_lanes);
 
-// Layer-wide requantisation flags of layer L (as vd_cnn_rq_setup's).
-vd_cnn_x86_rq_t vd_cnn_x86_rq_of(const vd_cnn_layer_t *L);
+// Layer-wide requantisation flags of layer L (as vd__cnn_rq_setup's).
+vd_cnn_x86_rq_t vd__cnn_x86_rq_of(const vd_cnn_layer_t *L);
 
 // z = clamp(requantize(acc + bias), lo, hi) + zp on 16 lanes, as
 // vd_cnn_rq_out(vd_rq_apply(..)) (general), vd_cnn_rq_out(vd_rq_z(..)) (sign) or
