@@ -99,11 +99,11 @@ static void check_run(vd_status_t st, const vd_detection_t *out, size_t count, s
     for (size_t i = 0u; i < count; i++) {
         const vd_detection_t *d = &out[i];
         FZ_CHECK(rect_inside(&d->box, w, h));
-        if (!(d->flags & VD_DET_FLAG_RECOVERED)) {
+        if (!(d->flags & VD_DETECTION_FLAG_RECOVERED)) {
             FZ_CHECK(rect_inside(&d->candidate, w, h));
-            FZ_CHECK(d->source >= VD_SOURCE_HOTSPOT && d->source <= VD_SOURCE_CNN);
-            if (!has_model && d->source != VD_SOURCE_CNN) {
-                FZ_CHECK(d->score_q8 == 255u && (d->flags & VD_DET_FLAG_UNVERIFIED));
+            FZ_CHECK(d->source >= VD_DETECTION_SOURCE_HOTSPOT && d->source <= VD_DETECTION_SOURCE_CNN);
+            if (!has_model && d->source != VD_DETECTION_SOURCE_CNN) {
+                FZ_CHECK(d->score_q8 == 255u && (d->flags & VD_DETECTION_FLAG_UNVERIFIED));
             }
         }
         FZ_CHECK(d->complexity_q15 <= 32768u);

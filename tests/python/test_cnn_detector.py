@@ -400,7 +400,7 @@ def test_ctypes_mirror_matches_c_layout(tmp_path):
             lines.append(f'  printf("%zu\\n", offsetof({cname}, {fname}));')
             want.append((cname, fname, getattr(cls, fname).offset))
     lines.append('  printf("%zu\\n", sizeof(vd_detector_t));')
-    lines.append('  printf("%d\\n", (int)VD_DET_STAGE_COUNT);')
+    lines.append('  printf("%d\\n", (int)VD_DETECTOR_STAGE_COUNT);')
     lines.append("  return 0; }")
     (tmp_path / "layout.c").write_text("\n".join(lines) + "\n")
     exe = tmp_path / "layout"

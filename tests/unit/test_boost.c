@@ -646,9 +646,9 @@ static void test_detector_uses_boost_threshold_and_offset(void)
     // Threshold 500: 500 >= 500, kept; score_q8 = 128 + 0.
     TEST_ASSERT_EQUAL_size_t(1u, detect(500, 0, out, &s));
     TEST_ASSERT_EQUAL_UINT32(1u, s->verified);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_HOTSPOT, out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_HOTSPOT, out[0].source);
     TEST_ASSERT_EQUAL_UINT8(128u, out[0].score_q8);
-    TEST_ASSERT_TRUE((out[0].flags & VD_DET_FLAG_UNVERIFIED) == 0u);
+    TEST_ASSERT_TRUE((out[0].flags & VD_DETECTION_FLAG_UNVERIFIED) == 0u);
     // Threshold 501: 500 < 501, rejected.
     TEST_ASSERT_EQUAL_size_t(0u, detect(501, 0, out, &s));
     TEST_ASSERT_EQUAL_UINT32(0u, s->verified);

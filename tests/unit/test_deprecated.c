@@ -48,10 +48,35 @@ static void test_old_code_still_compiles(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_dbn_workspace_size(&m, &ws));   // not loaded
 }
 
+static void test_issue37_constants_are_the_new_ones(void)
+{
+    // detection.h and detector.h constants renamed to their header's prefix (issue 37).
+    vd_detection_t d;
+    memset(&d, 0, sizeof d);
+    d.source = VD_SOURCE_CNN;
+    d.flags = VD_DET_FLAG_RECOVERED | VD_DET_FLAG_UNVERIFIED;
+    TEST_ASSERT_EQUAL_STRING("cnn", vd_detection_source_name(d.source));
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_FLAG_RECOVERED | VD_DETECTION_FLAG_UNVERIFIED, d.flags);
+    TEST_ASSERT_EQUAL_UINT32(VD_DETECTION_SOURCE_HOTSPOT, VD_SOURCE_HOTSPOT);
+    TEST_ASSERT_EQUAL_UINT32(VD_DETECTION_SOURCE_WINDOW, VD_SOURCE_WINDOW);
+    TEST_ASSERT_EQUAL_UINT32(VD_DETECTION_SOURCE_CONTRAST, VD_SOURCE_CONTRAST);
+    TEST_ASSERT_EQUAL_UINT32(VD_DETECTION_FLAG_DECIMATED, VD_DET_FLAG_DECIMATED);
+    TEST_ASSERT_EQUAL_UINT32(VD_DETECTION_FLAG_CONTOUR_TRUNC, VD_DET_FLAG_CONTOUR_TRUNC);
+    vd_detector_stats_t st;
+    memset(&st, 0, sizeof st);
+    st.time_us[VD_DET_STAGE_CNN] = 7u;
+    TEST_ASSERT_EQUAL_UINT32(7u, st.time_us[VD_DETECTOR_STAGE_CNN]);
+    TEST_ASSERT_EQUAL_INT(VD_DETECTOR_STAGE_THRESHOLD, VD_DET_STAGE_THRESHOLD);
+    TEST_ASSERT_EQUAL_INT(VD_DETECTOR_STAGE_TOTAL, VD_DET_STAGE_TOTAL);
+    TEST_ASSERT_EQUAL_INT(VD_DETECTOR_STAGE_COUNT, VD_DET_STAGE_COUNT);
+    TEST_ASSERT_EQUAL_UINT32(9830u, VD_CNN_FLIP_IOU_Q15);
+}
+
 int main(void)
 {
     UNITY_BEGIN();
     RUN_TEST(test_function_aliases_are_the_new_functions);
     RUN_TEST(test_old_code_still_compiles);
+    RUN_TEST(test_issue37_constants_are_the_new_ones);
     return UNITY_END();
 }

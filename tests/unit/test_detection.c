@@ -11,10 +11,10 @@ void tearDown(void) {}
 
 static void test_source_names(void)
 {
-    TEST_ASSERT_EQUAL_STRING("hotspot", vd_detection_source_name(VD_SOURCE_HOTSPOT));
-    TEST_ASSERT_EQUAL_STRING("window", vd_detection_source_name(VD_SOURCE_WINDOW));
-    TEST_ASSERT_EQUAL_STRING("contrast", vd_detection_source_name(VD_SOURCE_CONTRAST));
-    TEST_ASSERT_EQUAL_STRING("cnn", vd_detection_source_name(VD_SOURCE_CNN));
+    TEST_ASSERT_EQUAL_STRING("hotspot", vd_detection_source_name(VD_DETECTION_SOURCE_HOTSPOT));
+    TEST_ASSERT_EQUAL_STRING("window", vd_detection_source_name(VD_DETECTION_SOURCE_WINDOW));
+    TEST_ASSERT_EQUAL_STRING("contrast", vd_detection_source_name(VD_DETECTION_SOURCE_CONTRAST));
+    TEST_ASSERT_EQUAL_STRING("cnn", vd_detection_source_name(VD_DETECTION_SOURCE_CNN));
     TEST_ASSERT_EQUAL_STRING("unknown", vd_detection_source_name(0u));
     TEST_ASSERT_EQUAL_STRING("unknown", vd_detection_source_name(5u));
     TEST_ASSERT_EQUAL_STRING("unknown", vd_detection_source_name(255u));

@@ -161,8 +161,8 @@ static void test_car_kept_lamp_and_pole_rejected(void)
     // max-distance windows at the hot tyres carve the two bottom corners a little.
     TEST_ASSERT_TRUE(out[0].contour_length >= 80u && out[0].contour_length <= 96u);
     TEST_ASSERT_EQUAL_UINT8(255u, out[0].score_q8);
-    TEST_ASSERT_TRUE((out[0].flags & VD_DET_FLAG_UNVERIFIED) != 0u);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_HOTSPOT, out[0].source);
+    TEST_ASSERT_TRUE((out[0].flags & VD_DETECTION_FLAG_UNVERIFIED) != 0u);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_HOTSPOT, out[0].source);
     TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NONE, out[0].state);
     // Candidate region: 30 x 20 expanded 1.5 x / 2 x about the centre.
     TEST_ASSERT_EQUAL_INT32(13, out[0].candidate.x);
@@ -508,7 +508,7 @@ static void test_decimated_region(void)
     size_t n = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, out, 4, &n));
     TEST_ASSERT_EQUAL_size_t(1u, n);
-    TEST_ASSERT_TRUE((out[0].flags & VD_DET_FLAG_DECIMATED) != 0u);
+    TEST_ASSERT_TRUE((out[0].flags & VD_DETECTION_FLAG_DECIMATED) != 0u);
     TEST_ASSERT_EQUAL_UINT32(1u, g_det.stats.decimated);
     TEST_ASSERT_INT_WITHIN(3, 20, out[0].box.x);
     TEST_ASSERT_INT_WITHIN(3, 30, out[0].box.y);
@@ -537,14 +537,14 @@ static void test_clock_callback_times_stages(void)
     size_t n = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, out, 4, &n));
     const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
-    TEST_ASSERT_EQUAL_UINT32(7u, s->time_us[VD_DET_STAGE_THRESHOLD]);
-    TEST_ASSERT_EQUAL_UINT32(7u, s->time_us[VD_DET_STAGE_REFINE]);
-    TEST_ASSERT_EQUAL_UINT32(7u, s->time_us[VD_DET_STAGE_CONTOUR]);
+    TEST_ASSERT_EQUAL_UINT32(7u, s->time_us[VD_DETECTOR_STAGE_THRESHOLD]);
+    TEST_ASSERT_EQUAL_UINT32(7u, s->time_us[VD_DETECTOR_STAGE_REFINE]);
+    TEST_ASSERT_EQUAL_UINT32(7u, s->time_us[VD_DETECTOR_STAGE_CONTOUR]);
     uint32_t sum = 0u;
-    for (int i = 0; i < VD_DET_STAGE_TOTAL; i++) {
+    for (int i = 0; i < VD_DETECTOR_STAGE_TOTAL; i++) {
         sum += s->time_us[i];
     }
-    TEST_ASSERT_TRUE(s->time_us[VD_DET_STAGE_TOTAL] >= sum);
+    TEST_ASSERT_TRUE(s->time_us[VD_DETECTOR_STAGE_TOTAL] >= sum);
 }
 
 static void test_temporal_confirm_and_recover(void)
@@ -576,7 +576,7 @@ static void test_temporal_confirm_and_recover(void)
     TEST_ASSERT_EQUAL_UINT32(0u, g_det.stats.verified);
     TEST_ASSERT_EQUAL_size_t(1u, n);
     TEST_ASSERT_EQUAL_UINT8(VD_TRACK_RECOVERED, out[0].state);
-    TEST_ASSERT_TRUE((out[0].flags & VD_DET_FLAG_RECOVERED) != 0u);
+    TEST_ASSERT_TRUE((out[0].flags & VD_DETECTION_FLAG_RECOVERED) != 0u);
     TEST_ASSERT_EQUAL_UINT32(id, out[0].track_id);
     TEST_ASSERT_EQUAL_UINT32(1u, g_det.stats.recovered);
     // S_C is equal at every offset that contains the whole car, so S_S keeps
@@ -648,8 +648,8 @@ static void test_windows_stream_equals_generator(void)
     TEST_ASSERT_EQUAL_size_t(nw, n);
     for (size_t i = 0; i < n; i++) {
         TEST_ASSERT_EQUAL_MEMORY(&g_win[i], &g_out[i].box, sizeof(vd_rect_t));
-        TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_WINDOW, g_out[i].source);
-        TEST_ASSERT_EQUAL_UINT8(VD_DET_FLAG_UNVERIFIED, g_out[i].flags);
+        TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_WINDOW, g_out[i].source);
+        TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_FLAG_UNVERIFIED, g_out[i].flags);
     }
 }
 
@@ -778,7 +778,7 @@ static void test_sources_merge_dedup_and_tags(void)
     for (size_t i = 0; i < n; i++) {
         TEST_ASSERT_TRUE(g_out[i].source >= 1u && g_out[i].source <= 3u);
         by_src[g_out[i].source]++;
-        if (g_out[i].source == VD_SOURCE_CONTRAST && g_out[i].box.x >= 95 && g_out[i].box.x <= 105) {
+        if (g_out[i].source == VD_DETECTION_SOURCE_CONTRAST && g_out[i].box.x >= 95 && g_out[i].box.x <= 105) {
             cold_found = true;
         }
         for (size_t j = 0; j < i; j++) {
@@ -786,11 +786,11 @@ static void test_sources_merge_dedup_and_tags(void)
         }
     }
     TEST_ASSERT_TRUE(cold_found);
-    TEST_ASSERT_EQUAL_UINT32(s->cand_hotspot, by_src[VD_SOURCE_HOTSPOT]);
-    TEST_ASSERT_EQUAL_UINT32(s->cand_contrast, by_src[VD_SOURCE_CONTRAST]);
-    TEST_ASSERT_EQUAL_UINT32(s->cand_window, by_src[VD_SOURCE_WINDOW]);
+    TEST_ASSERT_EQUAL_UINT32(s->cand_hotspot, by_src[VD_DETECTION_SOURCE_HOTSPOT]);
+    TEST_ASSERT_EQUAL_UINT32(s->cand_contrast, by_src[VD_DETECTION_SOURCE_CONTRAST]);
+    TEST_ASSERT_EQUAL_UINT32(s->cand_window, by_src[VD_DETECTION_SOURCE_WINDOW]);
     // The hot spot comes first and keeps its refined box (the car).
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_HOTSPOT, g_out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_HOTSPOT, g_out[0].source);
     TEST_ASSERT_INT_WITHIN(3, 20, g_out[0].box.x);
 
     // Budget: windows only fill the room left, and are never a capacity error.
@@ -811,7 +811,7 @@ static void test_sources_merge_dedup_and_tags(void)
     TEST_ASSERT_EQUAL_UINT32(0u, s->components);
     TEST_ASSERT_EQUAL_UINT32(0u, s->cand_hotspot);
     for (size_t i = 0; i < n; i++) {
-        TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CONTRAST, g_out[i].source);
+        TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CONTRAST, g_out[i].source);
     }
 }
 
@@ -915,7 +915,7 @@ static void test_contrast_strips_in_overlay(void)
     TEST_ASSERT_EQUAL_size_t(n_ref, n);
     for (size_t i = 0; i < n; i++) {
         TEST_ASSERT_EQUAL_MEMORY(&ref[i].box, &g_out[i].box, sizeof(vd_rect_t));
-        TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CONTRAST, g_out[i].source);
+        TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CONTRAST, g_out[i].source);
     }
 }
 

@@ -218,7 +218,7 @@ static void test_box_position_score_source(void)
     expect_box(d, 20, 12, 16, 16, 201u);
     TEST_ASSERT_EQUAL_INT32(d->box.x, d->candidate.x);
     TEST_ASSERT_EQUAL_INT32(d->box.w, d->candidate.w);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, d->source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CNN, d->source);
     TEST_ASSERT_EQUAL_UINT8(0u, d->flags);   // not UNVERIFIED: the network scored it
     TEST_ASSERT_EQUAL_UINT8(VD_TRACK_NONE, d->state);
     const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
@@ -393,7 +393,7 @@ static void test_u16_frame(void)
     vd_frame_t f = {g_px16, 64u, 48u, MW * 2u, VD_PIX_U16, 0, 0};
     TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
     expect_box(&g_out[0], 20, 12, 16, 16, 201u);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CNN, g_out[0].source);
 }
 
 // ctx: the configuration, or NULL for the network + hot spots with temporal analysis.
@@ -552,12 +552,12 @@ static void test_merge_with_hotspots(void)
     memset(&g_log, 0, sizeof g_log);
     TEST_ASSERT_EQUAL_size_t(2u, run_ok(&f));
     TEST_ASSERT_EQUAL_size_t(2u, g_log.n);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_log.source[0]);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_HOTSPOT, g_log.source[1]);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CNN, g_log.source[0]);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_HOTSPOT, g_log.source[1]);
     // After suppression: the unverified hot spot (255) first, the CNN box (250).
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_HOTSPOT, g_out[0].source);
-    TEST_ASSERT_EQUAL_UINT8(VD_DET_FLAG_UNVERIFIED, g_out[0].flags);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[1].source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_HOTSPOT, g_out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_FLAG_UNVERIFIED, g_out[0].flags);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CNN, g_out[1].source);
     expect_box(&g_out[1], 76, 4, 16, 16, 250u);
     const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
     TEST_ASSERT_EQUAL_UINT32(1u, s->cand_cnn);
@@ -568,7 +568,7 @@ static void test_merge_with_hotspots(void)
     c.dedup_iou_q15 = 1u;
     init_or_fail(&c, NULL);
     TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CNN, g_out[0].source);
     s = vd_detector_last_stats(&g_det);
     TEST_ASSERT_EQUAL_UINT32(1u, s->refined);
     TEST_ASSERT_EQUAL_UINT32(0u, s->cand_hotspot);
@@ -582,7 +582,7 @@ static void test_merge_with_hotspots(void)
     size_t nd = 0u;
     TEST_ASSERT_EQUAL_INT(VD_ERR_CAPACITY, vd_detector_run(&g_det, &f, g_out, 64u, &nd));
     TEST_ASSERT_EQUAL_size_t(1u, nd);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CNN, g_out[0].source);
     TEST_ASSERT_EQUAL_UINT32(1u, vd_detector_last_stats(&g_det)->overflow_candidates);
     // CNN boxes beyond the budget: the best is kept, the other counted.
     two_spots();
@@ -626,7 +626,7 @@ static void test_rescore_with_dbn(void)
     init_or_fail(&c, &dbn);
     TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
     expect_box(&g_out[0], 20, 12, 16, 16, want);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, g_out[0].source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CNN, g_out[0].source);
     TEST_ASSERT_EQUAL_UINT8(0u, g_out[0].flags);
     // The DBN must accept it.
     if (want < 255u) {
@@ -680,7 +680,7 @@ static void expect_cand(const vd_detection_t *d, int32_t x, int32_t y, int32_t w
 {
     expect_box(d, x, y, w, h, score);
     TEST_ASSERT_EQUAL_MEMORY(&d->box, &d->candidate, sizeof d->box);
-    TEST_ASSERT_EQUAL_UINT8(VD_SOURCE_CNN, d->source);
+    TEST_ASSERT_EQUAL_UINT8(VD_DETECTION_SOURCE_CNN, d->source);
     TEST_ASSERT_EQUAL_UINT8(0u, d->flags);
 }
 
@@ -805,7 +805,7 @@ static void test_flip_fusion_two_scores(void)
     TEST_ASSERT_EQUAL_UINT32(2u, s.cand_cnn);
 }
 
-// The IoU bound VD_CNN_FLIP_IOU_Q15 = 9830 is inclusive.
+// The IoU bound VD_DETECTOR_CNN_FLIP_IOU_Q15 = 9830 is inclusive.
 //   At it: frame 50 x 48, width 13 (logit -115), d = 1 (logit -56): cell c is
 //   [8c + 1 - 6.5, 8c + 1 + 6.5) rounded half up = [8c - 5, 8c + 8). A spot
 //   (200) at p = 9: A cell 2 [11, 24); B cell (24 - 9) >> 2 = 3 [19, 32) ->
@@ -832,7 +832,7 @@ static void test_flip_iou_bound(void)
     TEST_ASSERT_EQUAL_size_t(1u, g_rec_a.n);
     expect_cand(&g_rec_a.c[0], 14, 12, 14, 16, 200u);
     const vd_rect_t a = {11, 12, 13, 16}, b = {18, 12, 13, 16};
-    TEST_ASSERT_EQUAL_UINT32(VD_CNN_FLIP_IOU_Q15, vd_rect_iou_q15(&a, &b));
+    TEST_ASSERT_EQUAL_UINT32(VD_DETECTOR_CNN_FLIP_IOU_Q15, vd_rect_iou_q15(&a, &b));
     n.size_w = 22 - 128;
     n.off_x = 19;
     net_load(&n);
@@ -1229,9 +1229,9 @@ static void test_clock_and_temporal(void)
         TEST_ASSERT_EQUAL_size_t(2u, run_ok(&f));
     }
     const vd_detector_stats_t *s = vd_detector_last_stats(&g_det);
-    TEST_ASSERT_EQUAL_UINT32(3u, s->time_us[VD_DET_STAGE_CNN]);
-    TEST_ASSERT_EQUAL_UINT32(0u, s->time_us[VD_DET_STAGE_THRESHOLD]);
-    TEST_ASSERT_TRUE(s->time_us[VD_DET_STAGE_TOTAL] >= s->time_us[VD_DET_STAGE_CNN]);
+    TEST_ASSERT_EQUAL_UINT32(3u, s->time_us[VD_DETECTOR_STAGE_CNN]);
+    TEST_ASSERT_EQUAL_UINT32(0u, s->time_us[VD_DETECTOR_STAGE_THRESHOLD]);
+    TEST_ASSERT_TRUE(s->time_us[VD_DETECTOR_STAGE_TOTAL] >= s->time_us[VD_DETECTOR_STAGE_CNN]);
     // Still boxes: tracked and confirmed like any detection.
     TEST_ASSERT_EQUAL_UINT8(VD_TRACK_CONFIRMED, g_out[0].state);
     TEST_ASSERT_TRUE(g_out[0].track_id != 0u);

@@ -38,7 +38,7 @@
 #endif
 #define MAX_DEVICE_RETRIES 5
 
-static const char *const k_stage_names[VD_DET_STAGE_COUNT] = {
+static const char *const k_stage_names[VD_DETECTOR_STAGE_COUNT] = {
     "threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "contrast", "windows",
     "cnn", "total"};
 
@@ -66,7 +66,7 @@ typedef struct run {
     char **staged;
     size_t n_staged, cap_staged;
     vd_rgb_t canvas;
-    uint32_t *times[VD_DET_STAGE_COUNT + 1];   // + wall time per frame (I/O included)
+    uint32_t *times[VD_DETECTOR_STAGE_COUNT + 1];   // + wall time per frame (I/O included)
     size_t n_times, cap_times;
     uint64_t frames, detections, capacity_warnings;
     uint32_t width, height;
@@ -426,7 +426,7 @@ static vd_status_t record_times(run_t *r, const vd_detector_stats_t *s, uint32_t
 {
     if (r->n_times == r->cap_times) {
         size_t nc = r->cap_times ? r->cap_times * 2 : 256;
-        for (int k = 0; k <= VD_DET_STAGE_COUNT; k++) {
+        for (int k = 0; k <= VD_DETECTOR_STAGE_COUNT; k++) {
             uint32_t *p = realloc(r->times[k], nc * sizeof *p);
             if (p == NULL) {
                 snprintf(r->err, sizeof r->err, "out of memory");
@@ -436,10 +436,10 @@ static vd_status_t record_times(run_t *r, const vd_detector_stats_t *s, uint32_t
         }
         r->cap_times = nc;
     }
-    for (int k = 0; k < VD_DET_STAGE_COUNT; k++) {
+    for (int k = 0; k < VD_DETECTOR_STAGE_COUNT; k++) {
         r->times[k][r->n_times] = s->time_us[k];
     }
-    r->times[VD_DET_STAGE_COUNT][r->n_times] = wall_us;
+    r->times[VD_DETECTOR_STAGE_COUNT][r->n_times] = wall_us;
     r->n_times++;
     return VD_OK;
 }
@@ -497,17 +497,17 @@ static vd_status_t evaluate_frame(run_t *r, const char *name, const vd_frame_t *
 
 static void summary(run_t *r)
 {
-    double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
-    double wall_total = sum_us(r->times[VD_DET_STAGE_COUNT], r->n_times);
+    double det_total = sum_us(r->times[VD_DETECTOR_STAGE_TOTAL], r->n_times);
+    double wall_total = sum_us(r->times[VD_DETECTOR_STAGE_COUNT], r->n_times);
     printf("vd_fir_demo: %llu frames, %llu detections; %.1f fps (detector), %.1f fps (with I/O and outputs)\n",
            (unsigned long long)r->frames, (unsigned long long)r->detections,
            det_total > 0 ? (double)r->frames * 1e6 / det_total : 0.0,
            wall_total > 0 ? (double)r->frames * 1e6 / wall_total : 0.0);
     if (r->n_times > 0) {
         printf("median time per frame (ms):");
-        for (int k = 0; k < VD_DET_STAGE_COUNT; k++) {
+        for (int k = 0; k < VD_DETECTOR_STAGE_COUNT; k++) {
             printf(" %s %.2f%s", k_stage_names[k], median_us(r->times[k], r->n_times) / 1000.0,
-                   k + 1 < VD_DET_STAGE_COUNT ? "," : "\n");
+                   k + 1 < VD_DETECTOR_STAGE_COUNT ? "," : "\n");
         }
     }
     if (r->capacity_warnings > 0) {
@@ -519,15 +519,15 @@ static void summary(run_t *r)
 // --report: index.html from the run's figures (the same as summary() prints).
 static vd_status_t write_report(run_t *r)
 {
-    double med[VD_DET_STAGE_COUNT], mean[VD_DET_STAGE_COUNT];
-    const char *names[VD_DET_STAGE_COUNT];
-    for (int k = 0; k < VD_DET_STAGE_COUNT; k++) {
+    double med[VD_DETECTOR_STAGE_COUNT], mean[VD_DETECTOR_STAGE_COUNT];
+    const char *names[VD_DETECTOR_STAGE_COUNT];
+    for (int k = 0; k < VD_DETECTOR_STAGE_COUNT; k++) {
         names[k] = k_stage_names[k];
         mean[k] = r->n_times ? sum_us(r->times[k], r->n_times) / (double)r->n_times / 1000.0 : 0.0;
         med[k] = median_us(r->times[k], r->n_times) / 1000.0;
     }
-    const double det_total = sum_us(r->times[VD_DET_STAGE_TOTAL], r->n_times);
-    const double wall_total = sum_us(r->times[VD_DET_STAGE_COUNT], r->n_times);
+    const double det_total = sum_us(r->times[VD_DETECTOR_STAGE_TOTAL], r->n_times);
+    const double wall_total = sum_us(r->times[VD_DETECTOR_STAGE_COUNT], r->n_times);
     char src[64], models[13000];
     sources_text(r->o.cfg.sources, src, sizeof src);
     snprintf(models, sizeof models, "%s%s%s%s%s%s%s", r->m.have_cnn ? "CNN " : "", r->m.have_cnn ? r->m.cnn_path : "",
@@ -550,7 +550,7 @@ static vd_status_t write_report(run_t *r)
     in.u16 = r->format == VD_PIX_U16;
     in.fps_detector = det_total > 0 ? (double)r->frames * 1e6 / det_total : 0.0;
     in.fps_wall = wall_total > 0 ? (double)r->frames * 1e6 / wall_total : 0.0;
-    in.n_stages = VD_DET_STAGE_COUNT;
+    in.n_stages = VD_DETECTOR_STAGE_COUNT;
     in.stage_names = names;
     in.stage_median_ms = med;
     in.stage_mean_ms = mean;
@@ -578,7 +578,7 @@ static void cleanup(run_t *r)
         free(r->staged[i]);
     }
     free(r->staged);
-    for (int k = 0; k <= VD_DET_STAGE_COUNT; k++) {
+    for (int k = 0; k <= VD_DETECTOR_STAGE_COUNT; k++) {
         free(r->times[k]);
     }
 }

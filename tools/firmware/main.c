@@ -205,7 +205,7 @@ int main(void)
         uint64_t t1 = fw_ticks();
         if (i < 8u) {
             cycles[i] = t1 - t0;
-            cnn_us[i] = vd_detector_last_stats(&det)->time_us[VD_DET_STAGE_CNN];
+            cnn_us[i] = vd_detector_last_stats(&det)->time_us[VD_DETECTOR_STAGE_CNN];
         }
         if (st != VD_OK && st != VD_ERR_CAPACITY) {
             return fail(f->name, st);  // VD_ERR_CAPACITY: results valid, as the demo treats it

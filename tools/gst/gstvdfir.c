@@ -315,7 +315,7 @@ static GstFlowReturn gst_vdfir_transform_frame_ip(GstVideoFilter *vf, GstVideoFr
     GstStructure *ms = gst_structure_new("vdfir", "seq", G_TYPE_UINT64, self->seq, "pts", G_TYPE_UINT64,
                                          (guint64)GST_BUFFER_PTS(buf), "width", G_TYPE_UINT, self->width, "height",
                                          G_TYPE_UINT, self->height, "time-us", G_TYPE_UINT,
-                                         (guint)stats->time_us[VD_DET_STAGE_TOTAL], NULL);
+                                         (guint)stats->time_us[VD_DETECTOR_STAGE_TOTAL], NULL);
     gst_structure_take_value(ms, "detections", &list);
     gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), ms));
     if (self->draw) {

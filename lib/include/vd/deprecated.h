@@ -12,6 +12,8 @@
 #include "vd/refine.h"
 #include "vd/calib.h"
 #include "vd/dbn.h"
+#include "vd/detection.h"
+#include "vd/detector.h"
 
 // contour.h: the header's prefix is vd_contour_.
 #define vd_contours_workspace_size vd_contour_workspace_size
@@ -44,6 +46,32 @@
 
 // dbn.h: the DBN model type carries its module's prefix, like vd_cnn_model_t.
 #define vd_model_t vd_dbn_model_t
+
+// detection.h: its constants carry its prefix (issue 37).
+#define VD_SOURCE_HOTSPOT VD_DETECTION_SOURCE_HOTSPOT
+#define VD_SOURCE_WINDOW VD_DETECTION_SOURCE_WINDOW
+#define VD_SOURCE_CONTRAST VD_DETECTION_SOURCE_CONTRAST
+#define VD_SOURCE_CNN VD_DETECTION_SOURCE_CNN
+#define VD_DET_FLAG_UNVERIFIED VD_DETECTION_FLAG_UNVERIFIED
+#define VD_DET_FLAG_DECIMATED VD_DETECTION_FLAG_DECIMATED
+#define VD_DET_FLAG_CONTOUR_TRUNC VD_DETECTION_FLAG_CONTOUR_TRUNC
+#define VD_DET_FLAG_RECOVERED VD_DETECTION_FLAG_RECOVERED
+
+// detector.h: the stage indices and the fusion IoU carry its prefix (issue 37).
+#define VD_DET_STAGE_THRESHOLD VD_DETECTOR_STAGE_THRESHOLD
+#define VD_DET_STAGE_COMPONENTS VD_DETECTOR_STAGE_COMPONENTS
+#define VD_DET_STAGE_REFINE VD_DETECTOR_STAGE_REFINE
+#define VD_DET_STAGE_CONTOUR VD_DETECTOR_STAGE_CONTOUR
+#define VD_DET_STAGE_SAMPLE VD_DETECTOR_STAGE_SAMPLE
+#define VD_DET_STAGE_DBN VD_DETECTOR_STAGE_DBN
+#define VD_DET_STAGE_NMS VD_DETECTOR_STAGE_NMS
+#define VD_DET_STAGE_TEMPORAL VD_DETECTOR_STAGE_TEMPORAL
+#define VD_DET_STAGE_CONTRAST VD_DETECTOR_STAGE_CONTRAST
+#define VD_DET_STAGE_WINDOWS VD_DETECTOR_STAGE_WINDOWS
+#define VD_DET_STAGE_CNN VD_DETECTOR_STAGE_CNN
+#define VD_DET_STAGE_TOTAL VD_DETECTOR_STAGE_TOTAL
+#define VD_DET_STAGE_COUNT VD_DETECTOR_STAGE_COUNT
+#define VD_CNN_FLIP_IOU_Q15 VD_DETECTOR_CNN_FLIP_IOU_Q15
 
 #endif
 #endif

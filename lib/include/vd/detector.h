@@ -47,19 +47,19 @@ extern "C" {
 
 // Stages timed through cfg.clock_us (index into vd_detector_stats_t.time_us).
 enum {
-    VD_DET_STAGE_THRESHOLD = 0,  // histogram/percentile + hot mask
-    VD_DET_STAGE_COMPONENTS,     // labelling + rules + expansion
-    VD_DET_STAGE_REFINE,         // region plane (crop/map/decimate) + vd_refine_region
-    VD_DET_STAGE_CONTOUR,        // vd_contour_find_external
-    VD_DET_STAGE_SAMPLE,         // 32x32 sample (and the shape-mode refine)
-    VD_DET_STAGE_DBN,            // vd_dbn_classify
-    VD_DET_STAGE_NMS,            // sort + overlap suppression
-    VD_DET_STAGE_TEMPORAL,       // vd_temporal_update incl. recovery probes
-    VD_DET_STAGE_CONTRAST,       // contrast source: map, threshold, labelling, merge
-    VD_DET_STAGE_WINDOWS,        // window source: cell integral image, pre-filter, ranking, merge
-    VD_DET_STAGE_CNN,            // CNN source: half-resolution input, vd_cnn_run, vd_cnn_decode, merge
-    VD_DET_STAGE_TOTAL,          // (indices before CNN keep their values; TOTAL and COUNT moved up by one)
-    VD_DET_STAGE_COUNT
+    VD_DETECTOR_STAGE_THRESHOLD = 0,  // histogram/percentile + hot mask
+    VD_DETECTOR_STAGE_COMPONENTS,     // labelling + rules + expansion
+    VD_DETECTOR_STAGE_REFINE,         // region plane (crop/map/decimate) + vd_refine_region
+    VD_DETECTOR_STAGE_CONTOUR,        // vd_contour_find_external
+    VD_DETECTOR_STAGE_SAMPLE,         // 32x32 sample (and the shape-mode refine)
+    VD_DETECTOR_STAGE_DBN,            // vd_dbn_classify
+    VD_DETECTOR_STAGE_NMS,            // sort + overlap suppression
+    VD_DETECTOR_STAGE_TEMPORAL,       // vd_temporal_update incl. recovery probes
+    VD_DETECTOR_STAGE_CONTRAST,       // contrast source: map, threshold, labelling, merge
+    VD_DETECTOR_STAGE_WINDOWS,        // window source: cell integral image, pre-filter, ranking, merge
+    VD_DETECTOR_STAGE_CNN,            // CNN source: half-resolution input, vd_cnn_run, vd_cnn_decode, merge
+    VD_DETECTOR_STAGE_TOTAL,          // (indices before CNN keep their values; TOTAL and COUNT moved up by one)
+    VD_DETECTOR_STAGE_COUNT
 };
 
 // Settings, grouped by concern. A zeroed struct (or vd_detector_cfg_default())
@@ -135,7 +135,7 @@ typedef struct vd_detector_cfg {
 
 // cfg.cnn_flip / cfg.cnn_model2: boxes of two passes are fused when their
 // IoU (Q15, rounded down as vd_rect_iou_q15) is at least this (0.3).
-#define VD_CNN_FLIP_IOU_Q15 9830u
+#define VD_DETECTOR_CNN_FLIP_IOU_Q15 9830u
 
 // Values of vd_detector_cfg_t.verifier.
 #define VD_DETECTOR_VERIFIER_DBN 0u
@@ -174,7 +174,7 @@ typedef struct vd_detector_stats {
                                    //   threshold, before clipping and fusion)
     uint32_t cand_cnn;             // CNN boxes merged (clipped to the frame, within max_candidates; with
                                    //   cnn_flip the fused boxes >= the score threshold)
-    uint32_t time_us[VD_DET_STAGE_COUNT];  // per stage, 0 without clock_us
+    uint32_t time_us[VD_DETECTOR_STAGE_COUNT];  // per stage, 0 without clock_us
 } vd_detector_stats_t;
 
 // Detector object. Complete so the caller can own it; fields are private.
@@ -274,7 +274,7 @@ VD_API vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, cons
 // Initialises `det`: validates and copies cfg (NULL = defaults), resolves the
 // 16-bit threshold with the calibration, and carves `ws` once.
 //   model  a loaded DBN model, or NULL: every refined candidate passes with score
-//          255 and VD_DET_FLAG_UNVERIFIED (useful before a model exists; CNN
+//          255 and VD_DETECTION_FLAG_UNVERIFIED (useful before a model exists; CNN
 //          boxes keep the network's score unless cnn_rescore, which needs it).
 //   ws     VD_WORKSPACE_ALIGN-aligned, >= vd_detector_workspace_size(cfg, model).
 // Returns VD_OK; VD_ERR_ARG for NULL det or a cfg out of range;

@@ -8,10 +8,10 @@
 const char *vd_detection_source_name(uint8_t source)
 {
     switch (source) {
-    case VD_SOURCE_HOTSPOT: return "hotspot";
-    case VD_SOURCE_WINDOW: return "window";
-    case VD_SOURCE_CONTRAST: return "contrast";
-    case VD_SOURCE_CNN: return "cnn";
+    case VD_DETECTION_SOURCE_HOTSPOT: return "hotspot";
+    case VD_DETECTION_SOURCE_WINDOW: return "window";
+    case VD_DETECTION_SOURCE_CONTRAST: return "contrast";
+    case VD_DETECTION_SOURCE_CNN: return "cnn";
     default: return "unknown";
     }
 }

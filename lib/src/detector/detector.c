@@ -86,10 +86,10 @@ static void recovered(const vd_detector_t *det, const vd_frame_t *f, const vd_te
     d->score_q8 = o->score_q8;
     // Recovery measures like a hot spot; a CNN-only detector labels it as its one source.
     const uint8_t src = det->cfg.sources;
-    d->source = ((src & VD_DETECTOR_SRC_HOTSPOT) == 0u && (src & VD_DETECTOR_SRC_CNN) != 0u) ? (uint8_t)VD_SOURCE_CNN
-                                                                                            : (uint8_t)VD_SOURCE_HOTSPOT;
+    const bool cnn_only = (src & VD_DETECTOR_SRC_HOTSPOT) == 0u && (src & VD_DETECTOR_SRC_CNN) != 0u;
+    d->source = cnn_only ? (uint8_t)VD_DETECTION_SOURCE_CNN : (uint8_t)VD_DETECTION_SOURCE_HOTSPOT;
     d->state = VD_TRACK_RECOVERED;
-    d->flags = VD_DET_FLAG_RECOVERED;
+    d->flags = VD_DETECTION_FLAG_RECOVERED;
     d->hot_thr = thr8;
 }
 
@@ -128,7 +128,7 @@ static vd_status_t hot_spots(vd_detector_t *det, const vd_frame_t *frame, size_t
         kept = room;
         *result = VD_ERR_CAPACITY;
     }
-    vd__detector_clock_add(det, VD_DET_STAGE_COMPONENTS, t0);
+    vd__detector_clock_add(det, VD_DETECTOR_STAGE_COMPONENTS, t0);
 
     const uint8_t thr8 = (uint8_t)s->hot_thr_u8;
     for (size_t i = 0; i < n_cnn; i++) {
@@ -199,13 +199,13 @@ static vd_status_t track(vd_detector_t *det, const vd_frame_t *frame, size_t nk,
     for (size_t i = 0; i < nk; i++) {
         det->cand[i].track_id = det->obs[i].track_id;
         det->cand[i].state = det->obs[i].state;
-        if ((det->cand[i].flags & VD_DET_FLAG_UNVERIFIED) == 0u) {
+        if ((det->cand[i].flags & VD_DETECTION_FLAG_UNVERIFIED) == 0u) {
             det->cand[i].score_q8 = det->obs[i].score_q8;   // fused with the track's (VD_TEMPORAL_SCORES), else as was
         }
     }
     *total = nobs;
     s->recovered = (uint32_t)(nobs - nk);
-    vd__detector_clock_add(det, VD_DET_STAGE_TEMPORAL, t0);
+    vd__detector_clock_add(det, VD_DETECTOR_STAGE_TEMPORAL, t0);
     return VD_OK;
 }
 
@@ -230,24 +230,24 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     size_t n_cnn = 0u;
     if ((det->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
         VD_TRY(keep_capacity(vd__detector_cnn_source(det, frame, &n_cnn), &result));
-        vd__detector_clock_add(det, VD_DET_STAGE_CNN, &t0);
+        vd__detector_clock_add(det, VD_DETECTOR_STAGE_CNN, &t0);
     }
     size_t nc = 0u;
     VD_TRY(hot_spots(det, frame, n_cnn, &nc, &result, &t0));
     const uint8_t thr8 = (uint8_t)s->hot_thr_u8;
     if ((det->cfg.sources & VD_DETECTOR_SRC_CONTRAST) != 0u) {
         VD_TRY(keep_capacity(vd__detector_contrast_source(det, frame, &nc, thr8), &result));
-        vd__detector_clock_add(det, VD_DET_STAGE_CONTRAST, &t0);
+        vd__detector_clock_add(det, VD_DETECTOR_STAGE_CONTRAST, &t0);
     }
     if ((det->cfg.sources & VD_DETECTOR_SRC_WINDOW) != 0u) {
         VD_TRY(vd__detector_window_source(det, frame, &nc, thr8));   // the overlay holds the integrals until here
-        vd__detector_clock_add(det, VD_DET_STAGE_WINDOWS, &t0);
+        vd__detector_clock_add(det, VD_DETECTOR_STAGE_WINDOWS, &t0);
     }
     size_t nv = 0u;
     VD_TRY(verify_all(det, frame, nc, &nv, &t0));
     size_t nk = 0u;
     VD_TRY(suppress(det, nv, &nk));
-    vd__detector_clock_add(det, VD_DET_STAGE_NMS, &t0);
+    vd__detector_clock_add(det, VD_DETECTOR_STAGE_NMS, &t0);
     if (s->overflow_detections != 0u) {
         result = VD_ERR_CAPACITY;
     }
@@ -271,7 +271,7 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     s->detections = (uint32_t)w;
     *count = w;
     if (det->cfg.clock_us != NULL) {
-        s->time_us[VD_DET_STAGE_TOTAL] = clock_now(det) - t_start;
+        s->time_us[VD_DETECTOR_STAGE_TOTAL] = clock_now(det) - t_start;
     }
     return result;
 }

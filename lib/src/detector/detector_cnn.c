@@ -17,7 +17,7 @@
 // threshold in Q15 (a fused score is the mean of two, so a box below T can
 // end above it); B's boxes are mirrored back about x = floor(W/2) in frame
 // pixels, both sets clipped, then matched greedily in A's decode order (the
-// unused B box of largest IoU >= VD_CNN_FLIP_IOU_Q15, ties to the first):
+// unused B box of largest IoU >= VD_DETECTOR_CNN_FLIP_IOU_Q15, ties to the first):
 // a matched pair averages its corners and scores, an unmatched box keeps its
 // corners and half its score (the other pass voted 0), and fused boxes below
 // T are dropped
@@ -151,14 +151,14 @@ static void push_box(vd_detector_t *det, const vd_rect_t *box, uint32_t score_q1
     d->box = *box;
     d->candidate = *box;
     d->score_q8 = score_q8_of(score_q15);
-    d->source = (uint8_t)VD_SOURCE_CNN;
+    d->source = (uint8_t)VD_DETECTION_SOURCE_CNN;
     (*n)++;
     det->stats.cand_cnn++;
 }
 
 // Two box sets fused (cfg.cnn_flip's rule; also the two networks of
 // cfg.cnn_model2): a[0..na) and b[0..nb) in decode order. For each a[i] in
-// turn, the unused b[j] with the largest IoU >= VD_CNN_FLIP_IOU_Q15 (ties:
+// turn, the unused b[j] with the largest IoU >= VD_DETECTOR_CNN_FLIP_IOU_Q15 (ties:
 // lowest j) is its match: corners averaged (left/top rounded down,
 // right/bottom rounded up, so the box stays non-empty and inside the frame),
 // score (sa + sb + 1) >> 1; unmatched a[i] keep their box with score
@@ -180,7 +180,7 @@ static size_t fuse_boxes(vd_detector_t *det, vd_cnn_box_t *a, size_t na, vd_cnn_
         uint32_t best_iou = 0u;
         for (size_t j = 0u; j < nb; j++) {
             const uint32_t iou = (b[j].rect.w != 0) ? vd_rect_iou_q15(&a[i].rect, &b[j].rect) : 0u;
-            if (iou >= VD_CNN_FLIP_IOU_Q15 && iou > best_iou) {   // strict: ties keep the lowest j
+            if (iou >= VD_DETECTOR_CNN_FLIP_IOU_Q15 && iou > best_iou) {   // strict: ties keep the lowest j
                 best = j;
                 best_iou = iou;
             }

@@ -123,10 +123,10 @@ vd_status_t vd__detector_refine_hot(vd_detector_t *det, const vd_frame_t *f, con
     VD_TRY(refine_region(det, f, x));
     const region_plane_t *p = &x->p;
     if (p->kx > 1u || p->ky > 1u) {
-        d->flags |= VD_DET_FLAG_DECIMATED;
+        d->flags |= VD_DETECTION_FLAG_DECIMATED;
         det->stats.decimated++;
     }
-    vd__detector_clock_add(det, VD_DET_STAGE_REFINE, t0);
+    vd__detector_clock_add(det, VD_DETECTOR_STAGE_REFINE, t0);
 
     x->mv = vd_image_u8_view(&x->m);
     size_t nc = 0u;
@@ -134,12 +134,12 @@ vd_status_t vd__detector_refine_hot(vd_detector_t *det, const vd_frame_t *f, con
     vd_status_t st = vd_contour_find_external(&x->mv, x->b.contour_ws, det->contour_ws_bytes, x->b.points, NULL,
                                                det->points_cap, x->b.contours, det->contours_cap, &nc, &np);
     if (st == VD_ERR_CAPACITY) {
-        d->flags |= VD_DET_FLAG_CONTOUR_TRUNC;
+        d->flags |= VD_DETECTION_FLAG_CONTOUR_TRUNC;
         det->stats.overflow_contours++;
     } else if (st != VD_OK) {
         return st;
     }
-    vd__detector_clock_add(det, VD_DET_STAGE_CONTOUR, t0);
+    vd__detector_clock_add(det, VD_DETECTOR_STAGE_CONTOUR, t0);
     if (nc == 0u) {
         return VD_OK;
     }
@@ -154,7 +154,7 @@ vd_status_t vd__detector_refine_hot(vd_detector_t *det, const vd_frame_t *f, con
     d->candidate = x->region;
     d->contour_length = c->length * kmax;
     d->complexity_q15 = region_complexity(&x->rs, p);
-    d->source = (uint8_t)VD_SOURCE_HOTSPOT;
+    d->source = (uint8_t)VD_DETECTION_SOURCE_HOTSPOT;
     *ok = true;
     return VD_OK;
 }
@@ -166,10 +166,10 @@ static vd_status_t verify_boost(vd_detector_t *det, const vd_view_u8_t *view, co
 {
     const vd_boost_model_t *bm = det->cfg.boost_model;
     VD_TRY(vd_resample_u8(view, vb, det->sample, bm->crop_w, bm->crop_h));
-    vd__detector_clock_add(det, VD_DET_STAGE_SAMPLE, t0);
+    vd__detector_clock_add(det, VD_DETECTOR_STAGE_SAMPLE, t0);
     int32_t s = 0;
     VD_TRY(vd_boost_score(bm, det->sample, bm->crop_w, det->dbn_ws, det->dbn_ws_bytes, &s));
-    vd__detector_clock_add(det, VD_DET_STAGE_DBN, t0);
+    vd__detector_clock_add(det, VD_DETECTOR_STAGE_DBN, t0);
     // Floor division, so score_q8 >= 128 exactly when score >= the model's threshold.
     const int64_t num = ((int64_t)s - bm->threshold) * 128;
     const int64_t span = bm->score_span;
@@ -192,7 +192,7 @@ vd_status_t vd__detector_verify(vd_detector_t *det, const vd_frame_t *f, vd_dete
 {
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     *keep = false;
-    if (d->source == VD_SOURCE_CNN && det->cfg.cnn_rescore == 0u) {
+    if (d->source == VD_DETECTION_SOURCE_CNN && det->cfg.cnn_rescore == 0u) {
         det->stats.verified++;   // scored by the network already
         *keep = true;
         return VD_OK;
@@ -200,15 +200,15 @@ vd_status_t vd__detector_verify(vd_detector_t *det, const vd_frame_t *f, vd_dete
     const bool boost = det->cfg.verifier == VD_DETECTOR_VERIFIER_BOOST;
     if (!boost && det->model == NULL) {
         d->score_q8 = 255u;
-        d->flags |= VD_DET_FLAG_UNVERIFIED;
+        d->flags |= VD_DETECTION_FLAG_UNVERIFIED;
         det->stats.verified++;
         *keep = true;
         return VD_OK;
     }
     const region_plane_t *p = &x->p;
     VD_TRY(make_plane(det, f, &d->candidate, x->b.crop, &x->p));
-    if (d->source != VD_SOURCE_HOTSPOT && (p->kx > 1u || p->ky > 1u)) {
-        d->flags |= VD_DET_FLAG_DECIMATED;
+    if (d->source != VD_DETECTION_SOURCE_HOTSPOT && (p->kx > 1u || p->ky > 1u)) {
+        d->flags |= VD_DETECTION_FLAG_DECIMATED;
     }
     // The box in plane coordinates (exact: a hot-spot box is region + k * contour box).
     x->vb.x = p->roi.x + (d->box.x - d->candidate.x) / (int32_t)p->kx;
@@ -232,10 +232,10 @@ vd_status_t vd__detector_verify(vd_detector_t *det, const vd_frame_t *f, vd_dete
         x->mv = vd_image_u8_view(&x->m);
         VD_TRY(vd_resample_u8(&x->mv, NULL, det->sample, det->in_w, det->in_h));
     }
-    vd__detector_clock_add(det, VD_DET_STAGE_SAMPLE, t0);
+    vd__detector_clock_add(det, VD_DETECTOR_STAGE_SAMPLE, t0);
     uint8_t score = 0u;
     VD_TRY(vd_dbn_classify(det->model, det->sample, det->dbn_ws, det->dbn_ws_bytes, &score));
-    vd__detector_clock_add(det, VD_DET_STAGE_DBN, t0);
+    vd__detector_clock_add(det, VD_DETECTOR_STAGE_DBN, t0);
     d->score_q8 = score;
     if (score < det->cfg.score_thr_q8) {
         return VD_OK;

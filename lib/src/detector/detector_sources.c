@@ -53,14 +53,14 @@ vd_status_t vd__detector_hot_components(vd_detector_t *det, const vd_frame_t *f,
         VD_TRY(vd_frame_view_u8(f, &v));
         const uint32_t thr = threshold_u8(det, &v);
         s->hot_thr_u8 = thr;
-        vd__detector_clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
+        vd__detector_clock_add(det, VD_DETECTOR_STAGE_THRESHOLD, t0);
         st = vd_components_label_thr_u8(&v, NULL, (uint8_t)thr, det->overlay, det->cc_ws_bytes, det->comps,
                                         det->cfg.max_components, n, cs);
     } else {
         vd_view_u16_t v16;
         VD_TRY(vd_frame_view_u16(f, &v16));
         s->hot_thr_raw = det->raw_thr;
-        vd__detector_clock_add(det, VD_DET_STAGE_THRESHOLD, t0);
+        vd__detector_clock_add(det, VD_DETECTOR_STAGE_THRESHOLD, t0);
         if (det->raw_never_hot) {
             return VD_OK;
         }
@@ -134,7 +134,7 @@ vd_status_t vd__detector_contrast_source(vd_detector_t *det, const vd_frame_t *f
             det->stats.overflow_candidates += (uint32_t)(nc - i);
             return VD_ERR_CAPACITY;
         }
-        if (merge_box(det, n, &det->comps[i].box, (uint8_t)VD_SOURCE_CONTRAST, thr8)) {
+        if (merge_box(det, n, &det->comps[i].box, (uint8_t)VD_DETECTION_SOURCE_CONTRAST, thr8)) {
             det->stats.cand_contrast++;
         }
     }
@@ -152,7 +152,7 @@ static void window_visit(void *ctx, const vd_rect_t *b)
 {
     win_merge_t *m = (win_merge_t *)ctx;
     vd_detector_t *det = m->det;
-    if (*m->n < det->cfg.max_candidates && merge_box(det, m->n, b, (uint8_t)VD_SOURCE_WINDOW, m->thr8)) {
+    if (*m->n < det->cfg.max_candidates && merge_box(det, m->n, b, (uint8_t)VD_DETECTION_SOURCE_WINDOW, m->thr8)) {
         det->stats.cand_window++;
     }
 }

@@ -101,7 +101,7 @@ def net_input(img, align=16, mirror=False):
 
 
 SCORE_ONE_Q15 = 32768
-FLIP_IOU_Q15 = 9830   # VD_CNN_FLIP_IOU_Q15 (detector.h): 0.3 in Q15, rounded down
+FLIP_IOU_Q15 = 9830   # VD_DETECTOR_CNN_FLIP_IOU_Q15 (detector.h): 0.3 in Q15, rounded down
 
 
 def thr_from_score(desc, score_q15):

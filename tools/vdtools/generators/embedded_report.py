@@ -448,7 +448,7 @@ def firmware_section(fw, cnn_rows, problems):
               f"of {m7['calib'][0]} instructions gives {m7['calib'][1]} SysTick counts, so one count is",
               f"{m7['insn_per_tick']:.2f} instructions (resolution ±40 instructions). These are instructions an",
               "emulator executed: no pipeline, caches, wait states or dual issue; a real part's cycles differ.",
-              "\"Of which CNN stage\" is `vd_detector_stats_t.time_us[VD_DET_STAGE_CNN]` through the detector's",
+              "\"Of which CNN stage\" is `vd_detector_stats_t.time_us[VD_DETECTOR_STAGE_CNN]` through the detector's",
               "clock callback (1 µs = 1 000 instructions here): the network input rows, the network, the",
               "decoding; ranges are over the frames; the rest of `vd_detector_run` (merge, overlap",
               "suppression, temporal analysis) varies with the detections."]
