@@ -154,7 +154,7 @@ void UnityAssertEqualIntArray(const void *expected, const void *actual, size_t n
 {
     const unsigned char *e = (const unsigned char *)expected;
     const unsigned char *a = (const unsigned char *)actual;
-    if (len == 0u || num == 0u) {   // as real Unity: a zero-length comparison is a test bug
+    if (elem == 0u || num == 0u) {   // as real Unity: a zero-length comparison is a test bug
         fail_line(line, "You Asked Me To Compare Nothing, Which Was Pointless.", msg);
     }
     if (e == NULL || a == NULL) {

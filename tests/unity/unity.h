@@ -50,6 +50,7 @@ void UnityAssertEqualIntArray(const void *expected, const void *actual, size_t n
 #define TEST_ASSERT_NOT_NULL(p) TEST_ASSERT_MESSAGE((p) != NULL, "Expected Non-NULL")
 #define TEST_ASSERT_NULL_MESSAGE(p, m) TEST_ASSERT_MESSAGE((p) == NULL, (m))
 #define TEST_ASSERT_NOT_NULL_MESSAGE(p, m) TEST_ASSERT_MESSAGE((p) != NULL, (m))
+#define TEST_ASSERT_EQUAL_PTR(e, a) TEST_ASSERT_MESSAGE((const void *)(e) == (const void *)(a), "Expected Pointer Equal")
 
 #define UNITY_EQ_S(e, a, m) UnityAssertEqualNumber((int64_t)(e), (int64_t)(a), (m), __LINE__, 0)
 #define UNITY_EQ_U(e, a, m) UnityAssertEqualNumber((int64_t)(e), (int64_t)(a), (m), __LINE__, 1)
@@ -105,6 +106,7 @@ void UnityAssertEqualIntArray(const void *expected, const void *actual, size_t n
 #define TEST_ASSERT_EQUAL_INT16_ARRAY(e, a, n) UnityAssertEqualIntArray((e), (a), (size_t)(n), 2u, 1, NULL, __LINE__)
 #define TEST_ASSERT_EQUAL_INT32_ARRAY(e, a, n) UnityAssertEqualIntArray((e), (a), (size_t)(n), 4u, 1, NULL, __LINE__)
 #define TEST_ASSERT_EQUAL_INT_ARRAY(e, a, n) UnityAssertEqualIntArray((e), (a), (size_t)(n), sizeof(int), 1, NULL, __LINE__)
+#define TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(e, a, n, m) UnityAssertEqualIntArray((e), (a), (size_t)(n), 1u, 1, (m), __LINE__)
 
 #ifdef __cplusplus
 }
