@@ -29,7 +29,7 @@ INCLUDE = re.compile(r'^\s*#\s*include\s*(?:<([^>]+)>|"([^"]+)"|(\w+))', re.M)
 BACKENDS = {   # word in a path below lib/ -> the extra angle-bracket headers its files may include
     "x86": {"immintrin.h"},
     "cmsis": {"arm_nnfunctions.h", "arm_nnsupportfunctions.h", "arm_nn_types.h", "arm_nn_math_types.h",
-              "arm_math_types.h"},
+              "arm_math_types.h", "arm_acle.h"},   # arm_acle.h: the DSP intrinsics of vd's own M-profile kernels
 }
 USER_CONFIG = {"vd_user_config.h", "VD_USER_CONFIG_FILE"}   # vd/config.h's hook for firmware settings
 

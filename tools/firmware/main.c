@@ -6,7 +6,7 @@
 // (3: a fault, startup.c).
 //
 // The settings are vd_fir_demo's for a CNN model: zero config (the paper's
-// defaults), temporal analysis on, source cnn, max_candidates and
+// defaults), temporal analysis on with track-aware scores, source cnn, max_candidates and
 // max_detections = the model's top-K, max_width/height = the frame size.
 // After the JSON lines, one "# vd_fw ..." line per frame and one summary
 // line report SysTick cycles (whole vd_detector_run), the CNN stage's time
@@ -165,6 +165,7 @@ int main(void)
     vd_detector_cfg_t cfg;
     vd_detector_cfg_default(&cfg);
     cfg.temporal = true;
+    cfg.temporal_cfg.flags |= VD_TEMPORAL_SCORES;   // as the demo's default (docs/results/temporal.md)
     cfg.sources = VD_DETECTOR_SRC_CNN;
     cfg.cnn_model = &cnn;
     cfg.max_candidates = cnn.max_peaks;
