@@ -63,7 +63,8 @@ def refresh_bn(avg_net, frames_by_fam, crop=CROP):
     QAT, whose batch norm is frozen and folded (update_bn would reset statistics no forward refills)."""
     from torch.optim.swa_utils import update_bn
     rng = np.random.default_rng(12345)
-    update_bn([batch(frames_by_fam, rng, 16, crop, norm=avg_net.module.norm)[0] for _ in range(BN_BATCHES)], avg_net)
+    norm = getattr(avg_net, "module", avg_net).norm     # an AveragedModel, or a Net itself
+    update_bn([batch(frames_by_fam, rng, 16, crop, norm=norm)[0] for _ in range(BN_BATCHES)], avg_net)
 
 
 FAMILY_SHARE = {"msrs": 0.45, "hit": 0.40, "synth": 0.15}   # of the crops in a batch
