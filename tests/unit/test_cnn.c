@@ -1678,7 +1678,7 @@ static void test_structural_corruptions_rejected(void)
     vd_cnn_model_t m;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_load(&m, b, total));
     TEST_ASSERT_EQUAL_STRING("hostile", m.name);
-    TEST_ASSERT_EQUAL_INT8(-7, m.score_threshold_q);
+    TEST_ASSERT_EQUAL_INT8(-7, m.score_threshold_i8);
     TEST_ASSERT_EQUAL_UINT16(50u, m.max_peaks);
     TEST_ASSERT_EQUAL_UINT32(4u, m.align);
     TEST_ASSERT_EQUAL_UINT32(8u, m.n_layers);

@@ -70,6 +70,11 @@ static void test_issue37_constants_are_the_new_ones(void)
     TEST_ASSERT_EQUAL_INT(VD_DETECTOR_STAGE_TOTAL, VD_DET_STAGE_TOTAL);
     TEST_ASSERT_EQUAL_INT(VD_DETECTOR_STAGE_COUNT, VD_DET_STAGE_COUNT);
     TEST_ASSERT_EQUAL_UINT32(9830u, VD_CNN_FLIP_IOU_Q15);
+    // cnn.h: the header threshold, an int8 code and not a Q format, is score_threshold_i8.
+    vd_cnn_model_t m;
+    memset(&m, 0, sizeof m);
+    m.score_threshold_q = -7;
+    TEST_ASSERT_EQUAL_INT8(-7, m.score_threshold_i8);
 }
 
 int main(void)

@@ -55,7 +55,7 @@ extern "C" {
 #define VD_CNN_OFFSET_MIN_Q8 (-256)
 #define VD_CNN_OFFSET_MAX_Q8 512
 
-// vd_cnn_decode thr_q: use the header's score_threshold_q.
+// vd_cnn_decode thr_i8: use the header's score_threshold_i8.
 #define VD_CNN_THR_DEFAULT INT32_MIN
 
 // vd_cnn_workspace_size_ex / vd_cnn_run_ex flag: give every tensor its own
@@ -137,7 +137,7 @@ typedef struct vd_cnn_model {
     uint16_t norm_min_range;
     int8_t input_zp;          // -128
     uint8_t out_stride;       // 4 or 8: network input pixels per head cell
-    int8_t score_threshold_q; // default heatmap threshold (int8 logit)
+    int8_t score_threshold_i8; // default heatmap threshold: an int8 code of the head (its logit quantised), not a Q format
     uint16_t max_peaks;       // default top-K, 1..1024
     uint32_t align;           // A: run sizes must be multiples of it (largest tensor downsample factor)
     char name[17];            // model name, NUL-terminated
@@ -257,36 +257,36 @@ VD_API vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t
 
 // Decodes the head tensor into boxes in frame coordinates.
 // out:       the head from vd_cnn_run (c == out_channels, stride == out_stride).
-// thr_q:     int8 heatmap threshold -128..127, or VD_CNN_THR_DEFAULT (header's).
+// thr_i8:    int8 heatmap threshold -128..127, or VD_CNN_THR_DEFAULT (header's).
 // max_peaks: top-K, 0 = header's.
 // frame_w/h: frame size the boxes are scaled to, 1..VD_MAX_DIM (the network
 //            input is out->w * out_stride x out->h * out_stride).
 // boxes:     capacity entries (may be NULL when capacity is 0); K =
 //            min(max_peaks, capacity) best peaks, by logit descending, then
 //            raster order. *count receives the number written.
-// Peaks: heatmap (channel 0) >= thr_q, > the 4 neighbours before in raster
+// Peaks: heatmap (channel 0) >= thr_i8, > the 4 neighbours before in raster
 // order, >= the 4 after (outside the grid ignored). Box: centre
 // (x + offset) * out_stride, size from the decode table, rounded half up to
 // frame pixels and clamped (docs/fixed-point.md "cnn").
 // Returns VD_OK (fewer peaks than K is not an error: top-K drops the rest by
 // design); VD_ERR_ARG for NULL m/out/count (or boxes with capacity > 0),
-// out not matching m, thr_q or frame size out of range; VD_ERR_STATE if m is
+// out not matching m, thr_i8 or frame size out of range; VD_ERR_STATE if m is
 // not loaded. Time O(Wo*Ho*(1 + K)) worst case; no workspace; stack a few words.
-VD_API vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, int32_t thr_q, uint32_t max_peaks,
+VD_API vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, int32_t thr_i8, uint32_t max_peaks,
                           uint32_t frame_w, uint32_t frame_h, vd_cnn_box_t *boxes, size_t capacity, size_t *count);
 
 // The int8 heatmap threshold of a score threshold: the smallest logit v in
 // -128..127 whose decoded score (decode table channel 0) is >= score_q15.
 // The loader checks that the score table never decreases, so for vd_cnn_decode
-// "logit >= *thr_q" is exactly "box score_q15 >= score_q15": a probability
-// threshold becomes a thr_q without changing which peaks top-K sees.
+// "logit >= *thr_i8" is exactly "box score_q15 >= score_q15": a probability
+// threshold becomes a thr_i8 without changing which peaks top-K sees.
 //   score_q15  0..32768 (32768 = 1.0; 0 gives -128, every peak).
-//   thr_q      out: -128..127; written only on VD_OK.
-// Returns VD_OK; VD_ERR_ARG for NULL m/thr_q or score_q15 > 32768;
+//   thr_i8     out: -128..127; written only on VD_OK.
+// Returns VD_OK; VD_ERR_ARG for NULL m/thr_i8 or score_q15 > 32768;
 // VD_ERR_STATE if m is not loaded; VD_ERR_RANGE when even logit 127 scores
 // below score_q15 (no box can pass).
 // Time O(n_layers) (model check) + 8 table reads (binary search); stack a few words.
-VD_API vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, int32_t *thr_q);
+VD_API vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, int32_t *thr_i8);
 
 // Multiply-adds of one run at width x height (CONV3X3 9*cin*cout, DW3X3 9*c,
 // PW1X1 cin*cout, CONV5X5 25*cin*cout per output pixel).

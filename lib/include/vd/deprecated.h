@@ -15,6 +15,9 @@
 #include "vd/detection.h"
 #include "vd/detector.h"
 
+// cnn.h: `_qN` names only Q formats; the header's heatmap threshold is an int8 code of the head.
+#define score_threshold_q score_threshold_i8
+
 // contour.h: the header's prefix is vd_contour_.
 #define vd_contours_workspace_size vd_contour_workspace_size
 #define vd_contours_find_external vd_contour_find_external

@@ -206,10 +206,10 @@ typedef struct vd_detector {
                                  //   [0, max_peaks), pass B in [max_peaks, 2 max_peaks)); cfg.cnn_model2's
                                  //   follow, laid out the same way with its own max_peaks
     size_t cnn_boxes_cap;
-    int32_t cnn_thr_q;           // int8 heatmap threshold of the decode: the logit of T, or of
+    int32_t cnn_thr_i8;          // int8 heatmap threshold of the decode: the logit of T, or of
                                  //   max(1, 2T - 32768) with cnn_flip (of max(1, P T - (P - 1) 32768) with
                                  //   cnn_model2)
-    int32_t cnn2_thr_q;          // cfg.cnn_model2's decode threshold (its own logit of the same score)
+    int32_t cnn2_thr_i8;         // cfg.cnn_model2's decode threshold (its own logit of the same score)
     bool cnn2_never;             // no logit of cfg.cnn_model2 reaches its decode score: it adds no box
     uint32_t cnn_thr_score_q15;  // T: cnn_score_thr_q15, or the header threshold's score (cnn_flip drops
                                  //   fused boxes below it)

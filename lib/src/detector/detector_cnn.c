@@ -226,9 +226,9 @@ static size_t fuse_boxes(vd_detector_t *det, vd_cnn_box_t *a, size_t na, vd_cnn_
 
 // One network's passes on the frame's plane (r: its row maker, r->nw that
 // network's padded width): pass 0 on the plane into boxes[0, k), with
-// cnn_flip pass 1 on its mirror into [k, 2k), decoded at thr_q; the passes
+// cnn_flip pass 1 on its mirror into [k, 2k), decoded at thr_i8; the passes
 // share the network workspace. *kept: the clipped boxes of each pass.
-static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32_t thr_q, cnn_rows_ctx_t *r,
+static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32_t thr_i8, cnn_rows_ctx_t *r,
                               uint32_t nw, uint32_t nh, const vd_frame_t *f, vd_cnn_box_t *boxes, size_t k,
                               uint32_t passes, size_t kept[2])
 {
@@ -240,7 +240,7 @@ static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32
         VD_TRY(vd_cnn_run_rows(m, &rows, nw, nh, VD_CNN_STREAM, det->cnn_ws, det->cnn_ws_bytes, &head));
         VD_TRY(r->st);
         size_t nb = 0u;
-        VD_TRY(vd_cnn_decode(m, &head, thr_q, 0u, 2u * nw, 2u * nh, boxes + (size_t)p * k, k, &nb));
+        VD_TRY(vd_cnn_decode(m, &head, thr_i8, 0u, 2u * nw, 2u * nh, boxes + (size_t)p * k, k, &nb));
         det->stats.cnn_boxes += (uint32_t)nb;
         kept[p] = clip_boxes(boxes + (size_t)p * k, nb, r->flip, r->hw, f);
     }
@@ -249,7 +249,7 @@ static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32
 
 // The boxes of one network of a cfg.cnn_model2 pair at boxes[0..): its passes
 // (two fused in place, without a threshold, with cnn_flip); *count of them.
-static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_t thr_q, bool never,
+static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_t thr_i8, bool never,
                              cnn_rows_ctx_t *r, const vd_frame_t *f, vd_cnn_box_t *boxes, size_t k, size_t *count)
 {
     *count = 0u;
@@ -261,7 +261,7 @@ static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_
     vd__detector_cnn_input_size(m, f->width, f->height, &nw, &nh);
     const uint32_t passes = (det->cfg.cnn_flip != 0u) ? 2u : 1u;
     size_t kept[2] = {0u, 0u};
-    VD_TRY(run_passes(det, m, thr_q, r, nw, nh, f, boxes, k, passes, kept));
+    VD_TRY(run_passes(det, m, thr_i8, r, nw, nh, f, boxes, k, passes, kept));
     *count = (passes == 2u) ? fuse_boxes(det, boxes, kept[0], boxes + k, kept[1], boxes, NULL) : kept[0];
     return VD_OK;
 }
@@ -298,16 +298,16 @@ vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, siz
         vd_cnn_box_t *b2 = det->cnn_boxes + (size_t)m->max_peaks * passes;
         size_t n1 = 0u;
         size_t n2 = 0u;
-        VD_TRY(net_boxes(det, m, det->cnn_thr_q, det->cnn_never, &r, f, det->cnn_boxes, m->max_peaks, &n1));
-        VD_TRY(net_boxes(det, m2, det->cnn2_thr_q, det->cnn2_never, &r, f, b2, m2->max_peaks, &n2));
+        VD_TRY(net_boxes(det, m, det->cnn_thr_i8, det->cnn_never, &r, f, det->cnn_boxes, m->max_peaks, &n1));
+        VD_TRY(net_boxes(det, m2, det->cnn2_thr_i8, det->cnn2_never, &r, f, b2, m2->max_peaks, &n2));
         (void)fuse_boxes(det, det->cnn_boxes, n1, b2, n2, NULL, n);
         return (det->stats.overflow_candidates != 0u) ? VD_ERR_CAPACITY : VD_OK;
     }
     // Pass 0 on the plane into boxes [0, K); with cnn_flip pass 1 on its
-    // mirror into [K, 2K), both decoded at det->cnn_thr_q.
+    // mirror into [K, 2K), both decoded at det->cnn_thr_i8.
     const size_t k = det->cnn_boxes_cap / passes;
     size_t kept[2] = {0u, 0u};
-    VD_TRY(run_passes(det, m, det->cnn_thr_q, &r, nw, nh, f, det->cnn_boxes, k, passes, kept));
+    VD_TRY(run_passes(det, m, det->cnn_thr_i8, &r, nw, nh, f, det->cnn_boxes, k, passes, kept));
     if (passes == 2u) {
         (void)fuse_boxes(det, det->cnn_boxes, kept[0], det->cnn_boxes + k, kept[1], NULL, n);
     } else {

@@ -152,7 +152,7 @@ typedef struct layout {
     size_t contrast, integral;
     size_t cnn_ws, cnn_boxes;
     size_t points_cap, contours_cap, cnn_boxes_cap;
-    int32_t cnn_thr_q, cnn2_thr_q;
+    int32_t cnn_thr_i8, cnn2_thr_i8;
     uint32_t cnn_thr_score_q15;
     bool cnn_never, cnn2_never;
 } layout_t;
@@ -218,14 +218,14 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     // threshold: it is chosen for the pair, and the first network's header
     // keeps the threshold of that network alone.
     const vd_cnn_model_t *mt = (m2 != NULL) ? m2 : m;
-    l->cnn_thr_q = m->score_threshold_q;
-    l->cnn_thr_score_q15 = vd__cnn_score_of_logit(mt, mt->score_threshold_q);
+    l->cnn_thr_i8 = m->score_threshold_i8;
+    l->cnn_thr_score_q15 = vd__cnn_score_of_logit(mt, mt->score_threshold_i8);
     const uint32_t passes = (c->cnn_flip != 0u ? 2u : 1u) * (m2 != NULL ? 2u : 1u);
     if (c->cnn_score_thr_q15 != 0u) {
         l->cnn_thr_score_q15 = c->cnn_score_thr_q15;
         // No logit scores that high: nothing to run for (a fused score is at
         // most the larger of the networks' top scores).
-        VD_TRY(decode_thr(m, c->cnn_score_thr_q15, &l->cnn_thr_q, &l->cnn_never));
+        VD_TRY(decode_thr(m, c->cnn_score_thr_q15, &l->cnn_thr_i8, &l->cnn_never));
         if (m2 != NULL) {
             int32_t q2 = 0;
             VD_TRY(decode_thr(m2, c->cnn_score_thr_q15, &q2, &l->cnn2_never));
@@ -238,9 +238,9 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
         const uint32_t sub = (passes - 1u) * (uint32_t)VD_CNN_SCORE_ONE_Q15;
         const uint32_t lo = (pt > sub) ? pt - sub : 1u;
         // lo <= T, so this fails only when no logit scores lo or more.
-        VD_TRY(decode_thr(m, lo, &l->cnn_thr_q, &l->cnn_never));
+        VD_TRY(decode_thr(m, lo, &l->cnn_thr_i8, &l->cnn_never));
         if (m2 != NULL) {
-            VD_TRY(decode_thr(m2, lo, &l->cnn2_thr_q, &l->cnn2_never));
+            VD_TRY(decode_thr(m2, lo, &l->cnn2_thr_i8, &l->cnn2_never));
         }
     }
     if (no_plane) {
@@ -440,10 +440,10 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         det->cnn_boxes_cap = l.cnn_boxes_cap;
         VD_ASSERT(det->cnn_boxes != NULL);
     }
-    det->cnn_thr_q = l.cnn_thr_q;
+    det->cnn_thr_i8 = l.cnn_thr_i8;
     det->cnn_thr_score_q15 = l.cnn_thr_score_q15;
     det->cnn_never = l.cnn_never;
-    det->cnn2_thr_q = l.cnn2_thr_q;
+    det->cnn2_thr_i8 = l.cnn2_thr_i8;
     det->cnn2_never = l.cnn2_never;
     cand_ctx_t *x = (cand_ctx_t *)det->scratch;
     memset(x, 0, sizeof(*x));

@@ -28,7 +28,7 @@ class CnnModel(C.Structure):
                 ("input_norm", C.c_uint8), ("out_channels", C.c_uint8), ("input_w", C.c_uint16),
                 ("input_h", C.c_uint16), ("norm_lo_permille", C.c_uint16), ("norm_hi_permille", C.c_uint16),
                 ("norm_min_range", C.c_uint16), ("input_zp", C.c_int8), ("out_stride", C.c_uint8),
-                ("score_threshold_q", C.c_int8), ("max_peaks", C.c_uint16), ("align", C.c_uint32),
+                ("score_threshold_i8", C.c_int8), ("max_peaks", C.c_uint16), ("align", C.c_uint32),
                 ("name", C.c_char * 17), ("n_layers", C.c_uint32), ("layers", CnnLayer * MAX_LAYERS),
                 ("decode_table", C.c_void_p)]
 

@@ -63,7 +63,7 @@ static bool is_peak(const int8_t *hm, uint32_t w, uint32_t h, uint32_t c_n, uint
     return true;
 }
 
-vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, int32_t thr_q, uint32_t max_peaks,
+vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, int32_t thr_i8, uint32_t max_peaks,
                           uint32_t frame_w, uint32_t frame_h, vd_cnn_box_t *boxes, size_t capacity, size_t *count)
 {
     VD_VERIFY(m != NULL && out != NULL && count != NULL && (boxes != NULL || capacity == 0u), VD_ERR_ARG);
@@ -74,10 +74,10 @@ vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, i
                   out->h >= 1u && out->w <= VD_CNN_MAX_SIDE / s && out->h <= VD_CNN_MAX_SIDE / s,
               VD_ERR_ARG);
     VD_VERIFY(frame_w >= 1u && frame_w <= VD_MAX_DIM && frame_h >= 1u && frame_h <= VD_MAX_DIM, VD_ERR_ARG);
-    int32_t thr = m->score_threshold_q;
-    if (thr_q != VD_CNN_THR_DEFAULT) {
-        VD_VERIFY(thr_q >= -128 && thr_q <= 127, VD_ERR_ARG);
-        thr = thr_q;
+    int32_t thr = m->score_threshold_i8;
+    if (thr_i8 != VD_CNN_THR_DEFAULT) {
+        VD_VERIFY(thr_i8 >= -128 && thr_i8 <= 127, VD_ERR_ARG);
+        thr = thr_i8;
     }
     uint32_t k_max = (max_peaks == 0u) ? m->max_peaks : max_peaks;
     const size_t k = ((size_t)k_max < capacity) ? (size_t)k_max : capacity;
@@ -140,9 +140,9 @@ vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, i
     return VD_OK;
 }
 
-vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, int32_t *thr_q)
+vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, int32_t *thr_i8)
 {
-    VD_VERIFY(m != NULL && thr_q != NULL && score_q15 <= (uint32_t)VD_CNN_SCORE_ONE_Q15, VD_ERR_ARG);
+    VD_VERIFY(m != NULL && thr_i8 != NULL && score_q15 <= (uint32_t)VD_CNN_SCORE_ONE_Q15, VD_ERR_ARG);
     chain_t c;
     VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
     // Lower bound in the non-decreasing score table (the loader checked the order).
@@ -157,6 +157,6 @@ vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score_q15, i
         }
     }
     VD_VERIFY(lo <= 127, VD_ERR_RANGE);
-    *thr_q = lo;
+    *thr_i8 = lo;
     return VD_OK;
 }

@@ -379,7 +379,7 @@ static void model_fill(vd_cnn_model_t *m, const uint8_t *b, uint32_t total, cons
     m->norm_min_range = (uint16_t)h->min_range;
     m->input_zp = VD_CNN_INPUT_ZP;
     m->out_stride = (uint8_t)h->out_stride;
-    m->score_threshold_q = u8_to_i8(b[H_THR]);
+    m->score_threshold_i8 = u8_to_i8(b[H_THR]);
     m->max_peaks = (uint16_t)h->max_peaks;
     m->align = align;
     memcpy(m->name, b + H_NAME, H_NAME_LEN);
