@@ -209,6 +209,39 @@ static inline int8_t *vd_cnn_ring_row(const ring_t *r, uint32_t y)
     return r->base + (size_t)(y % r->rows) * r->row;
 }
 
+// Depthwise 3x3 taps, shared by the portable kernel (dw3x3.c) and the DSP one (dw3x3_cmsis.c):
+// the three input rows of output row oy (NULL above / below the tensor), then per output pixel ox
+// the nine tap pointers into them (channel-interleaved rows; zrow, the zero-point row, stands for
+// padding), so that only the column tests remain per pixel.
+static inline void vd_cnn_dw3x3_rows(const ring_t *in, uint32_t hi, uint32_t oy, int32_t step,
+                                     const int8_t *rowp[3])
+{
+    for (int32_t ky = 0; ky < 3; ky++) {
+        const int32_t iy = (int32_t)oy * step - 1 + ky;
+        rowp[ky] = (iy >= 0 && iy < (int32_t)hi) ? vd_cnn_ring_row(in, (uint32_t)iy) : NULL;
+    }
+}
+
+static inline void vd_cnn_dw3x3_taps(const int8_t *const rowp[3], uint32_t ox, int32_t step, size_t c_n,
+                                     uint32_t wi, const int8_t *zrow, const int8_t *t[9])
+{
+    const int32_t ix0 = (int32_t)ox * step - 1;
+    const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)wi;
+    for (int32_t ky = 0; ky < 3; ky++) {
+        const int8_t *r = rowp[ky];
+        if (r == NULL) {
+            t[ky * 3] = zrow;
+            t[ky * 3 + 1] = zrow;
+            t[ky * 3 + 2] = zrow;
+            continue;
+        }
+        const int8_t *c1 = r + (size_t)ox * (size_t)step * c_n;   // column ix0 + 1 (always inside)
+        t[ky * 3] = left ? c1 - c_n : zrow;
+        t[ky * 3 + 1] = c1;
+        t[ky * 3 + 2] = right ? c1 + c_n : zrow;
+    }
+}
+
 // Scratch of a weighted layer, as offsets from its start: int16 weights,
 // int16 rows (CONV3X3/PW1X1) or the zero-point row (DW3X3), then the
 // per-channel requantisation constants (vd_rq_ch_t).

@@ -97,37 +97,19 @@ static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const
     }
 }
 
-// Output rows [y0, y1) with the DSP kernel (the tap pointers as dw3x3.c's).
+// Output rows [y0, y1) with the DSP kernel (the tap pointers of vd_cnn_dw3x3_taps, as dw3x3.c).
 static void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
                      uint32_t y1, const uint32_t *wx, const int8_t *zrow, const vd_cnn_dsp_q_t *q)
 {
     const size_t c_n = g->co;
     const int32_t step = L->stride;
-    const size_t pstep = (size_t)step * c_n;
     for (uint32_t oy = y0; oy < y1; oy++) {
         const int8_t *rowp[3];
-        for (int32_t ky = 0; ky < 3; ky++) {
-            const int32_t iy = (int32_t)oy * step - 1 + ky;
-            rowp[ky] = (iy >= 0 && iy < (int32_t)g->hi) ? vd_cnn_ring_row(in, (uint32_t)iy) : NULL;
-        }
+        vd_cnn_dw3x3_rows(in, g->hi, oy, step, rowp);
         int8_t *orow = vd_cnn_ring_row(out, oy);
         for (uint32_t ox = 0u; ox < g->wo; ox++) {
             const int8_t *t[9];
-            const int32_t ix0 = (int32_t)ox * step - 1;
-            const bool left = ix0 >= 0, right = ix0 + 2 < (int32_t)g->wi;
-            for (int32_t ky = 0; ky < 3; ky++) {
-                const int8_t *r = rowp[ky];
-                if (r == NULL) {
-                    t[ky * 3] = zrow;
-                    t[ky * 3 + 1] = zrow;
-                    t[ky * 3 + 2] = zrow;
-                    continue;
-                }
-                const int8_t *c1 = r + (size_t)ox * pstep;
-                t[ky * 3] = left ? c1 - c_n : zrow;
-                t[ky * 3 + 1] = c1;
-                t[ky * 3 + 2] = right ? c1 + c_n : zrow;
-            }
+            vd_cnn_dw3x3_taps(rowp, ox, step, c_n, g->wi, zrow, t);
             int8_t *o = orow + (size_t)ox * c_n;
             if (q->relu && q->sat8) {
                 dsp_pixel(t, wx, L->w, q, c_n, o, true, true);
