@@ -3,9 +3,10 @@
 """The names vd's libraries define (issue 37 item 5; the rule is in docs/architecture.md, "Names").
 
 - libvd.a: every global symbol it defines (`nm -g --defined-only`) is a function declared in a public
-  header (lib/include/vd/*.h), or carries the internal prefix `vd__` (a function that files of lib/src
-  share, declared in a header of lib/src; CMSIS-NN's functions are compiled under it too). Nothing else:
-  no other `vd_` name, no name outside vd's.
+  header (lib/include/vd/*.h). The build prelinks the archive and makes its hidden symbols local (the
+  functions that files of lib/src share, named `vd__*`, and CMSIS-NN's, compiled under that prefix), so
+  none of them shows. With --allow-internal (an archive built with VD_PRELINK=OFF) `vd__*` names are
+  allowed too; nothing else is.
 - libvd.so (when given): the symbols it exports (`nm -D --defined-only`) are exactly the functions the
   public headers declare: none missing (a declaration without VD_API would be hidden), none more (no
   `vd__` name, no helper that forgot `static`).
@@ -15,7 +16,7 @@ pointer typedefs and `static inline` definitions. Before reading the real header
 check runs on a fake header and fake symbol lists with one violation of each kind, and fails unless it
 reports exactly those: a pattern that stopped matching cannot pass silently.
 
-usage: check_lib_symbols.py HEADER_DIR NM LIBVD_A [LIBVD_SO]
+usage: check_lib_symbols.py [--allow-internal] HEADER_DIR NM LIBVD_A [LIBVD_SO]
 """
 import re
 import subprocess
@@ -77,9 +78,11 @@ def nm_defined(nm, lib, dynamic=False):
     return syms
 
 
-def static_problems(syms, public):
-    return sorted(f"{s} ({t}): neither declared in lib/include/vd nor {INTERNAL}-prefixed"
-                  for s, t in syms.items() if s not in public and not s.startswith(INTERNAL))
+def static_problems(syms, public, allow_internal=False):
+    why = f"neither declared in lib/include/vd nor {INTERNAL}-prefixed" if allow_internal else \
+        "not declared in lib/include/vd"
+    return sorted(f"{s} ({t}): {why}" for s, t in syms.items()
+                  if s not in public and not (allow_internal and s.startswith(INTERNAL)))
 
 
 def shared_problems(syms, public):
@@ -111,9 +114,13 @@ VD_API const char *vd_two(void);
     got = declared(fake)
     if got != {"vd_one", "vd_two"}:
         return f"header parser: expected vd_one, vd_two, got {sorted(got)}"
-    st = static_problems({"vd_one": "T", "vd__helper": "T", "vd_helper": "T", "arm_nn_x": "T"}, got)
+    fake_a = {"vd_one": "T", "vd__helper": "T", "vd_helper": "T", "arm_nn_x": "T"}
+    st = static_problems(fake_a, got, allow_internal=True)
     if len(st) != 2 or not st[0].startswith("arm_nn_x") or not st[1].startswith("vd_helper"):
-        return f"libvd.a check: expected arm_nn_x and vd_helper, got {st}"
+        return f"libvd.a check (--allow-internal): expected arm_nn_x and vd_helper, got {st}"
+    st = static_problems(fake_a, got)
+    if [x.split()[0] for x in st] != ["arm_nn_x", "vd__helper", "vd_helper"]:
+        return f"libvd.a check: expected arm_nn_x, vd__helper and vd_helper, got {st}"
     sh = shared_problems({"vd_one": "T", "vd__helper": "T", "_init": "T"}, got)
     if len(sh) != 2 or not sh[0].startswith("vd__helper") or not sh[1].startswith("vd_two"):
         return f"libvd.so check: expected vd__helper (exported) and vd_two (missing), got {sh}"
@@ -121,6 +128,8 @@ VD_API const char *vd_two(void);
 
 
 def main(argv):
+    allow_internal = "--allow-internal" in argv[1:]
+    argv = [a for a in argv if a != "--allow-internal"]
     if len(argv) not in (4, 5):
         print(__doc__.strip().splitlines()[-1])
         return 2
@@ -137,7 +146,7 @@ def main(argv):
         return 2
     rc = 0
     syms = nm_defined(nm, lib_a)
-    bad = static_problems(syms, public)
+    bad = static_problems(syms, public, allow_internal)
     if bad:
         print(f"{lib_a} defines names outside the rule:\n  " + "\n  ".join(bad))
         rc = 1

@@ -109,6 +109,17 @@ static void test_crc32_check_value(void)
     uint32_t c = vd__crc32(0u, "1234", 4);
     TEST_ASSERT_EQUAL_HEX32(0xCBF43926u, vd__crc32(c, "56789", 5));
     TEST_ASSERT_EQUAL_HEX32(0u, vd__crc32(0u, "", 0));
+    // The table-driven CRC against testutil's bit-by-bit one on every byte value and length 0..512.
+    uint8_t buf[512];
+    uint32_t s = 12345u;
+    for (size_t i = 0u; i < sizeof buf; i++) {
+        s = s * 1103515245u + 12345u;
+        buf[i] = (uint8_t)(i < 256u ? i : (s >> 16));
+    }
+    TEST_ASSERT_EQUAL_HEX32(0xCBF43926u, tu_crc32((const uint8_t *)"123456789", 9));
+    for (size_t n = 0u; n <= sizeof buf; n += 7u) {
+        TEST_ASSERT_EQUAL_HEX32(tu_crc32(buf, n), vd__crc32(0u, buf, n));
+    }
 }
 
 static void test_sigmoid_table_ends(void)

@@ -38,6 +38,8 @@ const char *tu_data_dir(void);
 void tu_wr16(uint8_t *p, uint32_t v);
 void tu_wr32(uint8_t *p, uint32_t v);
 uint32_t tu_rd32(const uint8_t *p);
+/* CRC-32 (IEEE) of n bytes, computed bit by bit (tu_crc32("123456789", 9) == 0xCBF43926). */
+uint32_t tu_crc32(const uint8_t *p, size_t n);
 void tu_vdm_fix_crc(uint8_t *blob);
 
 #endif

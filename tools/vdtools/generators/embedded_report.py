@@ -120,8 +120,8 @@ def linked_size(bdir, keep):
 
 
 def objects(bdir):
-    return sorted((bdir / "CMakeFiles" / "vd.dir").rglob("*.obj")) + \
-        sorted((bdir / "CMakeFiles" / "vd.dir").rglob("*.o"))
+    return sorted((bdir / "CMakeFiles" / "vd_objects.dir").rglob("*.obj")) + \
+        sorted((bdir / "CMakeFiles" / "vd_objects.dir").rglob("*.o"))
 
 
 def module_of(obj):
@@ -146,7 +146,7 @@ def section_sizes(obj):
 def parse_callgraph(bdir):
     """Own frame size and callees per function from the .ci (VCG) files."""
     frame, edges, dynamic = {}, defaultdict(set), set()
-    for ci in (bdir / "CMakeFiles" / "vd.dir").rglob("*.ci"):
+    for ci in (bdir / "CMakeFiles" / "vd_objects.dir").rglob("*.ci"):
         text = ci.read_text()
         for m in re.finditer(r'node: \{ title: "([^"]+)" label: "([^"]*)"', text):
             title, label = m.group(1), m.group(2)
