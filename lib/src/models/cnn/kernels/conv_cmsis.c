@@ -83,61 +83,72 @@ static uint32_t run_end(const ring_t *a, const ring_t *b, uint32_t y, uint32_t y
 
 #if defined(VD_CNN_DSP)
 // The DSP kernel (cmsis.h) of pointwise layers (K = cin a multiple of 4) and 3x3 layers with one input
-// channel (K = 9, each tap row as a word of four bytes whose fourth weight is 0: K' = 12). Per output
-// pixel its K' input bytes widened once into xs, words j: SXTB16 of input word j/2 (values 0, 2 of
-// it) for even j, SXTB16 ROR 8 (values 1, 3) for odd j; the weights widened once per call in the same
-// pairs, per group of four output channels interleaved [k word][channel][2], then per group SMLAD into
-// four sums started at the bias (which holds - zp_in sum w: padding taps read zp_in and add zero).
+// channel. Pointwise: per output pixel its K input bytes widened once into xs, words j: SXTB16 of input
+// word j/2 (values 0, 2 of it) for even j, SXTB16 ROR 8 (values 1, 3) for odd j; the weights widened
+// once per call in the same pairs, per group of four output channels interleaved [k word pair][channel]
+// [2] (one LDRD per channel and pair), then per group SMLAD into four sums from 0 (the bias and
+// - zp_in sum w are in the requantisation constants: padding taps read zp_in and add zero).
+static inline uint64_t dsp_ld2(const uint32_t *p)
+{
+    uint64_t v;
+    memcpy(&v, p, 8u);
+    return v;
+}
+
+static inline uint32_t dsp_lo(uint64_t v)
+{
+    return (uint32_t)v;
+}
+
+static inline uint32_t dsp_hi(uint64_t v)
+{
+    return (uint32_t)(v >> 32);
+}
+
 static inline void dsp_px(const uint32_t *xs, const uint32_t *wq, size_t nw, const vd_cnn_dsp_q_t *q, size_t cn,
-                          int8_t *o, bool relu, bool sat8)
+                          int8_t *o, bool relu)
 {
     size_t c = 0u;
+    const uint32_t *xe = xs + nw;
     for (; c + 4u <= cn; c += 4u) {
-        int32_t a0 = q->bias[c], a1 = q->bias[c + 1u], a2 = q->bias[c + 2u], a3 = q->bias[c + 3u];
-        for (size_t j = 0u; j < nw; j += 2u, wq += 8) {
-            const uint32_t xa = xs[j], xb = xs[j + 1u];
-            a0 = (int32_t)SMLAD(xa, wq[0], (uint32_t)a0);
-            a0 = (int32_t)SMLAD(xb, wq[1], (uint32_t)a0);
-            a1 = (int32_t)SMLAD(xa, wq[2], (uint32_t)a1);
-            a1 = (int32_t)SMLAD(xb, wq[3], (uint32_t)a1);
-            a2 = (int32_t)SMLAD(xa, wq[4], (uint32_t)a2);
-            a2 = (int32_t)SMLAD(xb, wq[5], (uint32_t)a2);
-            a3 = (int32_t)SMLAD(xa, wq[6], (uint32_t)a3);
-            a3 = (int32_t)SMLAD(xb, wq[7], (uint32_t)a3);
-        }
-        o[c] = vd_cnn_dsp_out(a0, &q->ch[c], q, relu, sat8);
-        o[c + 1u] = vd_cnn_dsp_out(a1, &q->ch[c + 1u], q, relu, sat8);
-        o[c + 2u] = vd_cnn_dsp_out(a2, &q->ch[c + 2u], q, relu, sat8);
-        o[c + 3u] = vd_cnn_dsp_out(a3, &q->ch[c + 3u], q, relu, sat8);
+        uint32_t a0 = 0u, a1 = 0u, a2 = 0u, a3 = 0u;
+        const uint32_t *x = xs;
+        uint32_t xa, xb, w0, w1;
+        // Per two words (four input values): LDRD of the input, four LDRD of the weights, eight SMLAD.
+        // In assembly: gcc 12 loads all eight weight words first and spills them.
+        __asm__("1:\n\t"
+                "ldrd %[xa], %[xb], [%[x]], #8\n\t"
+                "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                "smlad %[a0], %[xa], %[w0], %[a0]\n\t"
+                "smlad %[a0], %[xb], %[w1], %[a0]\n\t"
+                "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                "smlad %[a1], %[xa], %[w0], %[a1]\n\t"
+                "smlad %[a1], %[xb], %[w1], %[a1]\n\t"
+                "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                "smlad %[a2], %[xa], %[w0], %[a2]\n\t"
+                "smlad %[a2], %[xb], %[w1], %[a2]\n\t"
+                "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                "smlad %[a3], %[xa], %[w0], %[a3]\n\t"
+                "smlad %[a3], %[xb], %[w1], %[a3]\n\t"
+                "cmp %[x], %[xe]\n\t"
+                "bne 1b"
+                : [a0] "+r"(a0), [a1] "+r"(a1), [a2] "+r"(a2), [a3] "+r"(a3), [x] "+r"(x), [w] "+r"(wq),
+                  [xa] "=&r"(xa), [xb] "=&r"(xb), [w0] "=&r"(w0), [w1] "=&r"(w1)
+                : [xe] "r"(xe)
+                : "cc", "memory");
+        const vd_cnn_dsp_ch_t *ch = q->ch + c;
+        o[c] = vd_cnn_dsp_out((int32_t)a0, &ch[0], relu ? 0 : q->thr[c], relu);
+        o[c + 1u] = vd_cnn_dsp_out((int32_t)a1, &ch[1], relu ? 0 : q->thr[c + 1u], relu);
+        o[c + 2u] = vd_cnn_dsp_out((int32_t)a2, &ch[2], relu ? 0 : q->thr[c + 2u], relu);
+        o[c + 3u] = vd_cnn_dsp_out((int32_t)a3, &ch[3], relu ? 0 : q->thr[c + 3u], relu);
     }
     for (; c < cn; c++) {   // channels beyond a multiple of four: [k word][2] each
-        int32_t a = q->bias[c];
+        uint32_t a = 0u;
         for (size_t j = 0u; j < nw; j++, wq++) {
-            a = (int32_t)SMLAD(xs[j], wq[0], (uint32_t)a);
+            a = SMLAD(xs[j], wq[0], a);
         }
-        o[c] = vd_cnn_dsp_out(a, &q->ch[c], q, relu, sat8);
+        o[c] = vd_cnn_dsp_out((int32_t)a, &q->ch[c], relu ? 0 : q->thr[c], relu);
     }
-}
-
-static inline void dsp_px_any(const uint32_t *xs, const uint32_t *wq, size_t nw, const vd_cnn_dsp_q_t *q, size_t cn,
-                              int8_t *o)
-{
-    if (q->relu && q->sat8) {
-        dsp_px(xs, wq, nw, q, cn, o, true, true);
-    } else if (q->relu) {
-        dsp_px(xs, wq, nw, q, cn, o, true, false);
-    } else {
-        dsp_px(xs, wq, nw, q, cn, o, false, false);
-    }
-}
-
-// Weight k (0 .. K'-1, in the widened order's byte positions) of output channel o.
-static int32_t dsp_w(const vd_cnn_layer_t *L, size_t o, size_t k, bool one)
-{
-    if (!one) {
-        return L->w[o * L->cin + k];
-    }
-    return ((k & 3u) == 3u) ? 0 : L->w[o * 9u + (k >> 2) * 3u + (k & 3u)];
 }
 
 static uint32_t dsp_pair(int32_t lo, int32_t hi)
@@ -162,51 +173,32 @@ static uint32_t dsp_tap_word(const int8_t *r, int32_t ix0, int32_t wi, int8_t zp
     return x;
 }
 
-static inline void dsp_widen(uint32_t x, uint32_t *xs)
-{
-    xs[0] = SXTB16(x);
-    xs[1] = SXTB16_RORn(x, 8u);
-}
-
-// One-channel 3x3 layers: a pixel's three tap-row words widened in registers, every channel from them.
+// One-channel 3x3 layers: a pixel's three tap-row words t0..t2 (taps x0..x2 of a row and a fourth byte)
+// widened in registers to five words of 16-bit pairs, nine taps and one zero weight: SXTB16 of each
+// (x0, x2), and the x1 values of rows 0 and 1 packed into one word (PKHBT) beside row 2's (x1, x3); per
+// channel five weight words [ (w00, w02) (w10, w12) (w20, w22) (w01, w11) (w21, 0) ] and a pad word,
+// five SMLAD.
 static inline void dsp_one_px(const uint32_t t[3], const uint32_t *wq, const vd_cnn_dsp_q_t *q, size_t cn, int8_t *o,
-                              bool relu, bool sat8)
+                              bool relu)
 {
-    const uint32_t x0 = SXTB16(t[0]), x1 = SXTB16_RORn(t[0], 8u);
-    const uint32_t x2 = SXTB16(t[1]), x3 = SXTB16_RORn(t[1], 8u);
-    const uint32_t x4 = SXTB16(t[2]), x5 = SXTB16_RORn(t[2], 8u);
-    size_t c = 0u;
-    for (; c + 4u <= cn; c += 4u, wq += 24) {
-        int32_t a[4];
-        for (size_t i = 0u; i < 4u; i++) {
-            uint32_t v = (uint32_t)q->bias[c + i];
-            v = SMLAD(x0, wq[2u * i], v);
-            v = SMLAD(x1, wq[2u * i + 1u], v);
-            v = SMLAD(x2, wq[8u + 2u * i], v);
-            v = SMLAD(x3, wq[9u + 2u * i], v);
-            v = SMLAD(x4, wq[16u + 2u * i], v);
-            v = SMLAD(x5, wq[17u + 2u * i], v);
-            a[i] = (int32_t)v;
-        }
-        for (size_t i = 0u; i < 4u; i++) {
-            o[c + i] = vd_cnn_dsp_out(a[i], &q->ch[c + i], q, relu, sat8);
-        }
-    }
-    for (; c < cn; c++, wq += 6) {
-        uint32_t v = (uint32_t)q->bias[c];
-        v = SMLAD(x0, wq[0], v);
-        v = SMLAD(x1, wq[1], v);
-        v = SMLAD(x2, wq[2], v);
-        v = SMLAD(x3, wq[3], v);
+    const uint32_t x0 = SXTB16(t[0]), x1 = SXTB16(t[1]), x2 = SXTB16(t[2]);
+    const uint32_t y0 = SXTB16_RORn(t[0], 8u), y1 = SXTB16_RORn(t[1], 8u);
+    const uint32_t x3 = (y0 & 0xFFFFu) | (y1 << 16), x4 = SXTB16_RORn(t[2], 8u);
+    const vd_cnn_dsp_ch_t *ch = q->ch;
+    for (size_t c = 0u; c < cn; c++, wq += 6) {
+        const uint64_t w01 = dsp_ld2(wq), w23 = dsp_ld2(wq + 2);
+        uint32_t v = (uint32_t)__smuad((int32_t)x0, (int32_t)dsp_lo(w01));
+        v = SMLAD(x1, dsp_hi(w01), v);
+        v = SMLAD(x2, dsp_lo(w23), v);
+        v = SMLAD(x3, dsp_hi(w23), v);
         v = SMLAD(x4, wq[4], v);
-        v = SMLAD(x5, wq[5], v);
-        o[c] = vd_cnn_dsp_out((int32_t)v, &q->ch[c], q, relu, sat8);
+        o[c] = vd_cnn_dsp_out((int32_t)v, &ch[c], relu ? 0 : q->thr[c], relu);
     }
 }
 
-// Output rows [y0, y1) of a one-channel 3x3 layer (relu, sat8 constants at the call site).
+// Output rows [y0, y1) of a one-channel 3x3 layer (relu a constant at the call site).
 static inline void dsp_one_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1,
-                                int32_t step, const uint32_t *wq, const vd_cnn_dsp_q_t *q, bool relu, bool sat8)
+                                int32_t step, const uint32_t *wq, const vd_cnn_dsp_q_t *q, bool relu)
 {
     const int8_t zp = (int8_t)g->zp_in;
     const int32_t wi = (int32_t)g->wi;
@@ -228,13 +220,37 @@ static inline void dsp_one_rows(const geom_t *g, const ring_t *in, const ring_t 
                     t[ky] = dsp_tap_word(rowp[ky], ix0, wi, zp);
                 }
             }
-            dsp_one_px(t, wq, q, co, o, relu, sat8);
+            dsp_one_px(t, wq, q, co, o, relu);
         }
     }
 }
 
+// Pointwise rows [y0, y1) (relu a constant at the call site).
+static inline void dsp_pw_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1,
+                               size_t kw, uint32_t *xs, const uint32_t *wq, const vd_cnn_dsp_q_t *q, bool relu)
+{
+    const size_t co = g->co;
+    const size_t nw = kw / 2u;   // widened words per pixel
+    for (uint32_t y = y0; y < y1;) {   // stride 1 (loader.c): output pixel i reads input pixel i
+        const uint32_t e = run_end(in, out, y, y1);
+        const int8_t *src = vd_cnn_ring_row(in, y);
+        int8_t *dst = vd_cnn_ring_row(out, y);
+        const size_t npix = (size_t)g->wo * (e - y);
+        for (size_t i = 0u; i < npix; i++, src += kw, dst += co) {
+            for (size_t j = 0u; j < nw; j += 2u) {
+                uint32_t x;
+                memcpy(&x, src + 2u * j, 4u);
+                xs[j] = SXTB16(x);
+                xs[j + 1u] = SXTB16_RORn(x, 8u);
+            }
+            dsp_px(xs, wq, nw, q, co, dst, relu);
+        }
+        y = e;
+    }
+}
+
 // Pointwise (cin % 4 == 0) and one-channel 3x3 layers; false when the layer is neither, its weights do
-// not fit conv.c's weight piece, or a channel's shift is outside the DSP requantisation's range.
+// not fit conv.c's weight piece, or it is outside the DSP requantisation's range (cmsis.h).
 static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
                       uint32_t y1, bool stream, uint8_t *scr)
 {
@@ -245,69 +261,59 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
     }
     scratch_layout_t s;
     (void)vd__cnn_conv_scratch(L, stream, &s);
-    const size_t kw = one ? 12u : L->cin;   // K': bytes per widened pixel
+    const size_t kw = one ? 12u : L->cin;   // bytes per widened pixel (one: 6 words per channel)
     const size_t co = g->co;
     if ((size_t)(s.rows - s.w16) < 2u * kw * co || (size_t)(s.ch - s.rows) < 2u * kw) {
         return false;
     }
     vd_cnn_dsp_q_t q;
-    if (!vd_cnn_dsp_q_fill(L, scr + s.ch, &q)) {
+    if (!vd_cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, &q)) {
         return false;
     }
     uint32_t *wq = (uint32_t *)(void *)(scr + s.w16);
-    uint32_t *xs = (uint32_t *)(void *)(scr + s.rows);
-    const size_t nw = kw / 2u;   // widened words per pixel
-    // Widened weights: groups of four channels [word j][channel][pair], then single channels [word j].
     uint32_t *d = wq;
-    for (size_t o = 0u; o < co; o++) {
-        int32_t wsum = 0;
-        for (size_t k = 0u; k < kw; k++) {
-            wsum += dsp_w(L, o, k, one);
+    if (one) {   // per channel [ (w00, w02) (w10, w12) (w20, w22) (w01, w11) (w21, 0) 0 ] (dsp_one_px)
+        for (size_t o = 0u; o < co; o++) {
+            const int8_t *w = L->w + o * 9u;
+            *d++ = dsp_pair(w[0], w[2]);
+            *d++ = dsp_pair(w[3], w[5]);
+            *d++ = dsp_pair(w[6], w[8]);
+            *d++ = dsp_pair(w[1], w[4]);
+            *d++ = dsp_pair(w[7], 0);
+            *d++ = 0u;
         }
-        q.bias[o] = vd_rq_u32_to_i32((uint32_t)q.bias[o] - (uint32_t)(g->zp_in * wsum));
+        const int32_t step = L->stride;
+        if (q.relu) {
+            dsp_one_rows(g, in, out, y0, y1, step, wq, &q, true);
+        } else {
+            dsp_one_rows(g, in, out, y0, y1, step, wq, &q, false);
+        }
+        return true;
     }
+    // Widened weights: groups of four channels [word pair][channel][2], then single channels [word].
+    const size_t cin = L->cin;
     size_t o = 0u;
     for (; o + 4u <= co; o += 4u) {
-        for (size_t j = 0u; j < nw; j += 2u) {
-            const size_t k = 2u * j;   // input bytes k .. k + 3
+        for (size_t k = 0u; k < cin; k += 4u) {   // input bytes k .. k + 3
             for (size_t c = 0u; c < 4u; c++) {
-                *d++ = dsp_pair(dsp_w(L, o + c, k, one), dsp_w(L, o + c, k + 2u, one));
-                *d++ = dsp_pair(dsp_w(L, o + c, k + 1u, one), dsp_w(L, o + c, k + 3u, one));
+                const int8_t *w = L->w + (o + c) * cin + k;
+                *d++ = dsp_pair(w[0], w[2]);
+                *d++ = dsp_pair(w[1], w[3]);
             }
         }
     }
     for (; o < co; o++) {
-        for (size_t j = 0u; j < nw; j += 2u) {
-            const size_t k = 2u * j;
-            *d++ = dsp_pair(dsp_w(L, o, k, one), dsp_w(L, o, k + 2u, one));
-            *d++ = dsp_pair(dsp_w(L, o, k + 1u, one), dsp_w(L, o, k + 3u, one));
+        for (size_t k = 0u; k < cin; k += 4u) {
+            const int8_t *w = L->w + o * cin + k;
+            *d++ = dsp_pair(w[0], w[2]);
+            *d++ = dsp_pair(w[1], w[3]);
         }
     }
-    if (pw) {   // stride 1 (loader.c): output pixel i reads input pixel i
-        for (uint32_t y = y0; y < y1;) {
-            const uint32_t e = run_end(in, out, y, y1);
-            const int8_t *src = vd_cnn_ring_row(in, y);
-            int8_t *dst = vd_cnn_ring_row(out, y);
-            const size_t npix = (size_t)g->wo * (e - y);
-            for (size_t i = 0u; i < npix; i++, src += kw, dst += co) {
-                for (size_t j = 0u; j < nw; j += 2u) {
-                    uint32_t x;
-                    memcpy(&x, src + 2u * j, 4u);
-                    dsp_widen(x, xs + j);
-                }
-                dsp_px_any(xs, wq, nw, &q, co, dst);
-            }
-            y = e;
-        }
-        return true;
-    }
-    const int32_t step = L->stride;
-    if (q.relu && q.sat8) {
-        dsp_one_rows(g, in, out, y0, y1, step, wq, &q, true, true);
-    } else if (q.relu) {
-        dsp_one_rows(g, in, out, y0, y1, step, wq, &q, true, false);
+    uint32_t *xs = (uint32_t *)(void *)(scr + s.rows);
+    if (q.relu) {
+        dsp_pw_rows(g, in, out, y0, y1, kw, xs, wq, &q, true);
     } else {
-        dsp_one_rows(g, in, out, y0, y1, step, wq, &q, false, false);
+        dsp_pw_rows(g, in, out, y0, y1, kw, xs, wq, &q, false);
     }
     return true;
 }

@@ -64,85 +64,127 @@ static void run_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const vd_cnn_cms
 #if defined(VD_CNN_DSP)
 // The DSP kernel (cmsis.h): one output pixel, four channels per step. Per tap: one word of four input
 // bytes, SXTB16 (channels 0, 2) and SXTB16 ROR 8 (1, 3), the two widened weight words (wx: per group of
-// four channels and tap k, (w0 | w2 << 16) and (w1 | w3 << 16)), SMLABB / SMLATT into four sums started
-// at the bias (which holds - zp_in sum w: padding taps read zrow, zp_in bytes, and add zero).
-static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const int8_t *w, const vd_cnn_dsp_q_t *q,
-                             size_t cn, int8_t *o, bool relu, bool sat8)
+// four channels and tap k, (w0 | w2 << 16) and (w1 | w3 << 16)), SMLABB / SMLATT into four sums from 0
+// (the bias and - zp_in sum w are in the requantisation constants: padding taps read zrow, zp_in bytes,
+// and add zero).
+static inline void dsp_tap(uint32_t x, const uint32_t *w, int32_t a[4])
 {
-    size_t c = 0u;
-    for (; c + 4u <= cn; c += 4u, wx += 18) {
-        int32_t a0 = q->bias[c], a1 = q->bias[c + 1u], a2 = q->bias[c + 2u], a3 = q->bias[c + 3u];
-        for (size_t k = 0u; k < 9u; k++) {
-            uint32_t x;
-            memcpy(&x, t[k] + c, 4u);
-            const int32_t x02 = (int32_t)SXTB16(x);
-            const int32_t x13 = (int32_t)SXTB16_RORn(x, 8u);
-            const int32_t w02 = (int32_t)wx[2u * k], w13 = (int32_t)wx[2u * k + 1u];
-            a0 = __smlabb(x02, w02, a0);
-            a2 = __smlatt(x02, w02, a2);
-            a1 = __smlabb(x13, w13, a1);
-            a3 = __smlatt(x13, w13, a3);
-        }
-        o[c] = vd_cnn_dsp_out(a0, &q->ch[c], q, relu, sat8);
-        o[c + 1u] = vd_cnn_dsp_out(a1, &q->ch[c + 1u], q, relu, sat8);
-        o[c + 2u] = vd_cnn_dsp_out(a2, &q->ch[c + 2u], q, relu, sat8);
-        o[c + 3u] = vd_cnn_dsp_out(a3, &q->ch[c + 3u], q, relu, sat8);
+    const int32_t x02 = (int32_t)SXTB16(x), x13 = (int32_t)SXTB16_RORn(x, 8u);
+    const int32_t w02 = (int32_t)w[0], w13 = (int32_t)w[1];
+    a[0] = __smlabb(x02, w02, a[0]);
+    a[2] = __smlatt(x02, w02, a[2]);
+    a[1] = __smlabb(x13, w13, a[1]);
+    a[3] = __smlatt(x13, w13, a[3]);
+}
+
+static inline uint32_t dsp_ld(const int8_t *p)
+{
+    uint32_t x;
+    memcpy(&x, p, 4u);
+    return x;
+}
+
+static inline void dsp_store(const int32_t a[4], const vd_cnn_dsp_q_t *q, size_t c, int8_t *o, bool relu)
+{
+    for (size_t i = 0u; i < 4u; i++) {
+        o[c + i] = vd_cnn_dsp_out(a[i], &q->ch[c + i], relu ? 0 : q->thr[c + i], relu);
     }
-    for (; c < cn; c++) {   // channels beyond a multiple of four: the plain sums
-        int32_t a = q->bias[c];
+}
+
+// Channels beyond a multiple of four: the plain sums.
+static inline void dsp_rest(const int8_t *const t[9], const int8_t *w, const vd_cnn_dsp_q_t *q, size_t c, size_t cn,
+                            int8_t *o, bool relu)
+{
+    for (; c < cn; c++) {
+        int32_t a = 0;
         for (size_t k = 0u; k < 9u; k++) {
             a += (int32_t)t[k][c] * (int32_t)w[k * cn + c];
         }
-        o[c] = vd_cnn_dsp_out(a, &q->ch[c], q, relu, sat8);
+        o[c] = vd_cnn_dsp_out(a, &q->ch[c], relu ? 0 : q->thr[c], relu);
+    }
+}
+
+// A pixel from its nine tap pointers (padding columns or rows: zrow).
+static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const int8_t *w, const vd_cnn_dsp_q_t *q,
+                             size_t cn, int8_t *o, bool relu)
+{
+    size_t c = 0u;
+    for (; c + 4u <= cn; c += 4u, wx += 18) {
+        int32_t a[4] = {0, 0, 0, 0};
+        for (size_t k = 0u; k < 9u; k++) {
+            dsp_tap(dsp_ld(t[k] + c), wx + 2u * k, a);
+        }
+        dsp_store(a, q, c, o, relu);
+    }
+    dsp_rest(t, w, q, c, cn, o, relu);
+}
+
+// A pixel whose nine taps are all inside: row pointers r0..r2 at its left tap column, the columns cn
+// bytes apart (no tap pointer array: one load per tap and group).
+static inline void dsp_pixel_in(const int8_t *r0, const int8_t *r1, const int8_t *r2, const uint32_t *wx,
+                                const vd_cnn_dsp_q_t *q, size_t cn, int8_t *o, bool relu)
+{
+    const size_t cn2 = 2u * cn;
+    size_t c = 0u;
+    for (; c + 4u <= cn; c += 4u, wx += 18, r0 += 4, r1 += 4, r2 += 4) {
+        int32_t a[4] = {0, 0, 0, 0};
+        dsp_tap(dsp_ld(r0), wx, a);
+        dsp_tap(dsp_ld(r0 + cn), wx + 2, a);
+        dsp_tap(dsp_ld(r0 + cn2), wx + 4, a);
+        dsp_tap(dsp_ld(r1), wx + 6, a);
+        dsp_tap(dsp_ld(r1 + cn), wx + 8, a);
+        dsp_tap(dsp_ld(r1 + cn2), wx + 10, a);
+        dsp_tap(dsp_ld(r2), wx + 12, a);
+        dsp_tap(dsp_ld(r2 + cn), wx + 14, a);
+        dsp_tap(dsp_ld(r2 + cn2), wx + 16, a);
+        dsp_store(a, q, c, o, relu);
     }
 }
 
 // Output rows [y0, y1) with the DSP kernel (the tap pointers of vd_cnn_dw3x3_taps, as dw3x3.c).
-static void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
-                     uint32_t y1, const uint32_t *wx, const int8_t *zrow, const vd_cnn_dsp_q_t *q)
+static inline void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                            uint32_t y0, uint32_t y1, const uint32_t *wx, const int8_t *zrow, const vd_cnn_dsp_q_t *q,
+                            bool relu)
 {
     const size_t c_n = g->co;
     const int32_t step = L->stride;
+    const bool fast = (c_n % 4u) == 0u;
     for (uint32_t oy = y0; oy < y1; oy++) {
         const int8_t *rowp[3];
         vd_cnn_dw3x3_rows(in, g->hi, oy, step, rowp);
         int8_t *orow = vd_cnn_ring_row(out, oy);
+        const bool rows = fast && rowp[0] != NULL && rowp[1] != NULL && rowp[2] != NULL;
         for (uint32_t ox = 0u; ox < g->wo; ox++) {
+            int8_t *o = orow + (size_t)ox * c_n;
+            const int32_t ix0 = (int32_t)ox * step - 1;
+            if (rows && ix0 >= 0 && ix0 + 2 < (int32_t)g->wi) {
+                const size_t at = (size_t)ix0 * c_n;
+                dsp_pixel_in(rowp[0] + at, rowp[1] + at, rowp[2] + at, wx, q, c_n, o, relu);
+                continue;
+            }
             const int8_t *t[9];
             vd_cnn_dw3x3_taps(rowp, ox, step, c_n, g->wi, zrow, t);
-            int8_t *o = orow + (size_t)ox * c_n;
-            if (q->relu && q->sat8) {
-                dsp_pixel(t, wx, L->w, q, c_n, o, true, true);
-            } else if (q->relu) {
-                dsp_pixel(t, wx, L->w, q, c_n, o, true, false);
-            } else {
-                dsp_pixel(t, wx, L->w, q, c_n, o, false, false);
-            }
+            dsp_pixel(t, wx, L->w, q, c_n, o, relu);
         }
     }
 }
 
 // The DSP kernel's scratch: widened weights in dw3x3.c's int16 weight piece (18 bytes per channel either
-// way), zrow in its row piece, the constants in its constants piece. False when a channel's shift is
-// outside the DSP requantisation's range (cmsis.h).
+// way), zrow in its row piece, the constants in its constants piece. False when the layer is outside
+// the DSP requantisation's range (cmsis.h).
 static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
                       uint32_t y1, uint8_t *scr)
 {
     scratch_layout_t s;
     (void)vd__cnn_dw3x3_scratch(L, &s);
     vd_cnn_dsp_q_t q;
-    if (!vd_cnn_dsp_q_fill(L, scr + s.ch, &q)) {
+    if (!vd_cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, &q)) {
         return false;
     }
     const size_t c_n = g->co;
     uint32_t *wx = (uint32_t *)(void *)(scr + s.w16);
     int8_t *zrow = (int8_t *)(void *)(scr + s.rows);
     for (size_t c = 0u; c < c_n; c++) {
-        int32_t wsum = 0;
-        for (size_t k = 0u; k < 9u; k++) {
-            wsum += L->w[k * c_n + c];
-        }
-        q.bias[c] = vd_rq_u32_to_i32((uint32_t)q.bias[c] - (uint32_t)(g->zp_in * wsum));
         zrow[c] = (int8_t)g->zp_in;
     }
     for (size_t c = 0u; c + 4u <= c_n; c += 4u) {
@@ -153,7 +195,11 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
             d[2u * k + 1u] = (uint32_t)(uint16_t)(int16_t)wk[1] | ((uint32_t)(uint16_t)(int16_t)wk[3] << 16);
         }
     }
-    dsp_rows(L, g, in, out, y0, y1, wx, zrow, &q);
+    if (q.relu) {
+        dsp_rows(L, g, in, out, y0, y1, wx, zrow, &q, true);
+    } else {
+        dsp_rows(L, g, in, out, y0, y1, wx, zrow, &q, false);
+    }
     return true;
 }
 #endif
