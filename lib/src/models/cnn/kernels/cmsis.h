@@ -125,6 +125,27 @@ static inline int8_t vd_cnn_dsp_out(int32_t s, const vd_cnn_dsp_ch_t *c, int32_t
             : "r"(s), "r"(c->mult), "r"(c->sh));
     return (int8_t)r;
 }
+
+// vd_cnn_dsp_out of four consecutive channels of a ReLU layer (the sums a[0..3] of channels ch[0..3]) into
+// o[0..3]: per value LDRD of k, LDRD of mult and sh, SMLAL, ASR, SSAT, STRB (in C gcc 12 recomputes the
+// constants' addresses and loads them in three).
+static inline void vd_cnn_dsp_out4_relu(int32_t a0, int32_t a1, int32_t a2, int32_t a3, const vd_cnn_dsp_ch_t *ch,
+                                        int8_t *o)
+{
+    uint32_t lo, hi, m, sh;
+#define VD_DSP_RQ(a, i)                                                                                         \
+    "ldrd %[lo], %[hi], [%[ch]], #8\n\t"                                                                     \
+    "ldrd %[m], %[sh], [%[ch]], #8\n\t"                                                                      \
+    "smlal %[lo], %[hi], %[" a "], %[m]\n\t"                                                                 \
+    "asr %[hi], %[hi], %[sh]\n\t"                                                                            \
+    "ssat %[hi], #8, %[hi]\n\t"                                                                              \
+    "strb %[hi], [%[o], #" i "]\n\t"
+    __asm__ __volatile__(VD_DSP_RQ("a0", "0") VD_DSP_RQ("a1", "1") VD_DSP_RQ("a2", "2") VD_DSP_RQ("a3", "3")
+            : [lo] "=&r"(lo), [hi] "=&r"(hi), [m] "=&r"(m), [sh] "=&r"(sh), [ch] "+r"(ch)
+            : [a0] "r"(a0), [a1] "r"(a1), [a2] "r"(a2), [a3] "r"(a3), [o] "r"(o)
+            : "memory");
+#undef VD_DSP_RQ
+}
 #endif
 
 #endif

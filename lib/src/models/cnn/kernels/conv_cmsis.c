@@ -137,6 +137,10 @@ static inline void dsp_px(const uint32_t *xs, const uint32_t *wq, size_t nw, con
                 : [xe] "r"(xe)
                 : "cc", "memory");
         const vd_cnn_dsp_ch_t *ch = q->ch + c;
+        if (relu) {
+            vd_cnn_dsp_out4_relu((int32_t)a0, (int32_t)a1, (int32_t)a2, (int32_t)a3, ch, o + c);
+            continue;
+        }
         o[c] = vd_cnn_dsp_out((int32_t)a0, &ch[0], relu ? 0 : q->thr[c], relu);
         o[c + 1u] = vd_cnn_dsp_out((int32_t)a1, &ch[1], relu ? 0 : q->thr[c + 1u], relu);
         o[c + 2u] = vd_cnn_dsp_out((int32_t)a2, &ch[2], relu ? 0 : q->thr[c + 2u], relu);

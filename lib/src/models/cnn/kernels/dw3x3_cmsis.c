@@ -86,6 +86,10 @@ static inline uint32_t dsp_ld(const int8_t *p)
 
 static inline void dsp_store(const int32_t a[4], const vd_cnn_dsp_q_t *q, size_t c, int8_t *o, bool relu)
 {
+    if (relu) {
+        vd_cnn_dsp_out4_relu(a[0], a[1], a[2], a[3], q->ch + c, o + c);
+        return;
+    }
     for (size_t i = 0u; i < 4u; i++) {
         o[c + i] = vd_cnn_dsp_out(a[i], &q->ch[c + i], relu ? 0 : q->thr[c + i], relu);
     }
@@ -120,26 +124,50 @@ static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const
 }
 
 // A pixel whose nine taps are all inside: row pointers r0..r2 at its left tap column, the columns cn
-// bytes apart (no tap pointer array: one load per tap and group).
+// bytes apart; per group of four channels the nine taps in assembly (one LDR per tap, an ADD for the
+// third column; gcc 12 keeps nine tap pointers on the stack instead: two more instructions per tap).
+#define VD_DSP_TAP(first, addr)                                                                                \
+    addr "\n\t"                                                                                              \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                      \
+    "sxtb16 %[y], %[x]\n\t"                                                                                  \
+    "sxtb16 %[x], %[x], ror #8\n\t" first
+#define VD_DSP_MUL                                                                                              \
+    "smulbb %[a0], %[y], %[w0]\n\t"                                                                          \
+    "smultt %[a2], %[y], %[w0]\n\t"                                                                          \
+    "smulbb %[a1], %[x], %[w1]\n\t"                                                                          \
+    "smultt %[a3], %[x], %[w1]\n\t"
+#define VD_DSP_MLA                                                                                              \
+    "smlabb %[a0], %[y], %[w0], %[a0]\n\t"                                                                   \
+    "smlatt %[a2], %[y], %[w0], %[a2]\n\t"                                                                   \
+    "smlabb %[a1], %[x], %[w1], %[a1]\n\t"                                                                   \
+    "smlatt %[a3], %[x], %[w1], %[a3]\n\t"
+#define VD_DSP_ROW(r)                                                                                           \
+    VD_DSP_TAP(VD_DSP_MLA, "ldr %[x], [%[" r "]]")                                                           \
+    VD_DSP_TAP(VD_DSP_MLA, "ldr %[x], [%[" r "], %[cn]]")                                                    \
+    VD_DSP_TAP(VD_DSP_MLA, "add %[x], %[" r "], %[cn]\n\tldr %[x], [%[x], %[cn]]")
+
 static inline void dsp_pixel_in(const int8_t *r0, const int8_t *r1, const int8_t *r2, const uint32_t *wx,
                                 const vd_cnn_dsp_q_t *q, size_t cn, int8_t *o, bool relu)
 {
-    const size_t cn2 = 2u * cn;
-    size_t c = 0u;
-    for (; c + 4u <= cn; c += 4u, wx += 18, r0 += 4, r1 += 4, r2 += 4) {
-        int32_t a[4] = {0, 0, 0, 0};
-        dsp_tap(dsp_ld(r0), wx, a);
-        dsp_tap(dsp_ld(r0 + cn), wx + 2, a);
-        dsp_tap(dsp_ld(r0 + cn2), wx + 4, a);
-        dsp_tap(dsp_ld(r1), wx + 6, a);
-        dsp_tap(dsp_ld(r1 + cn), wx + 8, a);
-        dsp_tap(dsp_ld(r1 + cn2), wx + 10, a);
-        dsp_tap(dsp_ld(r2), wx + 12, a);
-        dsp_tap(dsp_ld(r2 + cn), wx + 14, a);
-        dsp_tap(dsp_ld(r2 + cn2), wx + 16, a);
+    for (size_t c = 0u; c + 4u <= cn; c += 4u, r0 += 4, r1 += 4, r2 += 4) {
+        int32_t a0, a1, a2, a3;
+        uint32_t x, y, w0, w1;
+        __asm__(VD_DSP_TAP(VD_DSP_MUL, "ldr %[x], [%[r0]]")
+                VD_DSP_TAP(VD_DSP_MLA, "ldr %[x], [%[r0], %[cn]]")
+                VD_DSP_TAP(VD_DSP_MLA, "add %[x], %[r0], %[cn]\n\tldr %[x], [%[x], %[cn]]")
+                VD_DSP_ROW("r1") VD_DSP_ROW("r2")
+                : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [x] "=&r"(x), [y] "=&r"(y),
+                  [w0] "=&r"(w0), [w1] "=&r"(w1), [w] "+r"(wx)
+                : [r0] "r"(r0), [r1] "r"(r1), [r2] "r"(r2), [cn] "r"(cn)
+                : "memory");
+        const int32_t a[4] = {a0, a1, a2, a3};
         dsp_store(a, q, c, o, relu);
     }
 }
+#undef VD_DSP_ROW
+#undef VD_DSP_MLA
+#undef VD_DSP_MUL
+#undef VD_DSP_TAP
 
 // Output rows [y0, y1) with the DSP kernel (the tap pointers of vd_cnn_dw3x3_taps, as dw3x3.c).
 static inline void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
