@@ -297,20 +297,24 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
     // Widened weights: groups of four channels [word pair][channel][2], then single channels [word].
     const size_t cin = L->cin;
     size_t o = 0u;
+    // (The pair (w0, w2) of weight bytes w0..w3 is SXTB16 of their word, (w1, w3) SXTB16 ROR 8: four
+    // instructions per four weights, once per call, and calls are one output row when streamed.)
     for (; o + 4u <= co; o += 4u) {
         for (size_t k = 0u; k < cin; k += 4u) {   // input bytes k .. k + 3
-            for (size_t c = 0u; c < 4u; c++) {
-                const int8_t *w = L->w + (o + c) * cin + k;
-                *d++ = dsp_pair(w[0], w[2]);
-                *d++ = dsp_pair(w[1], w[3]);
+            for (size_t c = 0u; c < 4u; c++, d += 2) {
+                uint32_t x;
+                memcpy(&x, L->w + (o + c) * cin + k, 4u);
+                d[0] = SXTB16(x);
+                d[1] = SXTB16_RORn(x, 8u);
             }
         }
     }
     for (; o < co; o++) {
-        for (size_t k = 0u; k < cin; k += 4u) {
-            const int8_t *w = L->w + o * cin + k;
-            *d++ = dsp_pair(w[0], w[2]);
-            *d++ = dsp_pair(w[1], w[3]);
+        for (size_t k = 0u; k < cin; k += 4u, d += 2) {
+            uint32_t x;
+            memcpy(&x, L->w + o * cin + k, 4u);
+            d[0] = SXTB16(x);
+            d[1] = SXTB16_RORn(x, 8u);
         }
     }
     uint32_t *xs = (uint32_t *)(void *)(scr + s.rows);

@@ -217,10 +217,11 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
     }
     for (size_t c = 0u; c + 4u <= c_n; c += 4u) {
         uint32_t *d = wx + (c / 4u) * 18u;
-        for (size_t k = 0u; k < 9u; k++) {
-            const int8_t *wk = L->w + k * c_n + c;
-            d[2u * k] = (uint32_t)(uint16_t)(int16_t)wk[0] | ((uint32_t)(uint16_t)(int16_t)wk[2] << 16);
-            d[2u * k + 1u] = (uint32_t)(uint16_t)(int16_t)wk[1] | ((uint32_t)(uint16_t)(int16_t)wk[3] << 16);
+        for (size_t k = 0u; k < 9u; k++) {   // (w0, w2) is SXTB16 of the word w0..w3, (w1, w3) ROR 8
+            uint32_t x;
+            memcpy(&x, L->w + k * c_n + c, 4u);
+            d[2u * k] = SXTB16(x);
+            d[2u * k + 1u] = SXTB16_RORn(x, 8u);
         }
     }
     if (q.relu) {
