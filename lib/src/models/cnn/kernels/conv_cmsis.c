@@ -182,6 +182,28 @@ static uint32_t dsp_tap_word(const int8_t *r, int32_t ix0, int32_t wi, int8_t zp
 // (x0, x2), and the x1 values of rows 0 and 1 packed into one word (PKHBT) beside row 2's (x1, x3); per
 // channel five weight words [ (w00, w02) (w10, w12) (w20, w22) (w01, w11) (w21, 0) ] and a pad word,
 // five SMLAD.
+// One channel's sum: its five weight words (at *w, advanced by 6 words) against x0..x4. In assembly:
+// gcc 12 keeps x0..x4 on the stack and reloads them per channel.
+static inline int32_t dsp_one_dot(const uint32_t **w, uint32_t x0, uint32_t x1, uint32_t x2, uint32_t x3, uint32_t x4)
+{
+    int32_t a;
+    uint32_t w0, w1;
+    const uint32_t *p = *w;
+    __asm__("ldrd %[w0], %[w1], [%[p]], #8\n\t"
+            "smuad %[a], %[x0], %[w0]\n\t"
+            "smlad %[a], %[x1], %[w1], %[a]\n\t"
+            "ldrd %[w0], %[w1], [%[p]], #8\n\t"
+            "smlad %[a], %[x2], %[w0], %[a]\n\t"
+            "smlad %[a], %[x3], %[w1], %[a]\n\t"
+            "ldr %[w0], [%[p]], #8\n\t"
+            "smlad %[a], %[x4], %[w0], %[a]"
+            : [a] "=&r"(a), [w0] "=&r"(w0), [w1] "=&r"(w1), [p] "+r"(p)
+            : [x0] "r"(x0), [x1] "r"(x1), [x2] "r"(x2), [x3] "r"(x3), [x4] "r"(x4)
+            : "memory");
+    *w = p;
+    return a;
+}
+
 static inline void dsp_one_px(const uint32_t t[3], const uint32_t *wq, const vd_cnn_dsp_q_t *q, size_t cn, int8_t *o,
                               bool relu)
 {
@@ -189,14 +211,19 @@ static inline void dsp_one_px(const uint32_t t[3], const uint32_t *wq, const vd_
     const uint32_t y0 = SXTB16_RORn(t[0], 8u), y1 = SXTB16_RORn(t[1], 8u);
     const uint32_t x3 = (y0 & 0xFFFFu) | (y1 << 16), x4 = SXTB16_RORn(t[2], 8u);
     const vd_cnn_dsp_ch_t *ch = q->ch;
-    for (size_t c = 0u; c < cn; c++, wq += 6) {
-        const uint64_t w01 = dsp_ld2(wq), w23 = dsp_ld2(wq + 2);
-        uint32_t v = (uint32_t)__smuad((int32_t)x0, (int32_t)dsp_lo(w01));
-        v = SMLAD(x1, dsp_hi(w01), v);
-        v = SMLAD(x2, dsp_lo(w23), v);
-        v = SMLAD(x3, dsp_hi(w23), v);
-        v = SMLAD(x4, wq[4], v);
-        o[c] = vd_cnn_dsp_out((int32_t)v, &ch[c], relu ? 0 : q->thr[c], relu);
+    size_t c = 0u;
+    if (relu) {
+        for (; c + 4u <= cn; c += 4u) {
+            const int32_t a0 = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
+            const int32_t a1 = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
+            const int32_t a2 = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
+            const int32_t a3 = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
+            vd_cnn_dsp_out4_relu(a0, a1, a2, a3, ch + c, o + c);
+        }
+    }
+    for (; c < cn; c++) {
+        const int32_t a = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
+        o[c] = vd_cnn_dsp_out(a, &ch[c], relu ? 0 : q->thr[c], relu);
     }
 }
 
