@@ -62,21 +62,14 @@ static void run_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const vd_cnn_cms
 }
 
 #if defined(VD_CNN_DSP)
-// The DSP kernel (cmsis.h): one output pixel, four channels per step. Per tap: one word of four input
-// bytes, SXTB16 (channels 0, 2) and SXTB16 ROR 8 (1, 3), the two widened weight words (wx: per group of
-// four channels and tap k, (w0 | w2 << 16) and (w1 | w3 << 16)), SMLABB / SMLATT into four sums from 0
-// (the bias and - zp_in sum w are in the requantisation constants: padding taps read zrow, zp_in bytes,
-// and add zero).
-static inline void dsp_tap(uint32_t x, const uint32_t *w, int32_t a[4])
-{
-    const int32_t x02 = (int32_t)SXTB16(x), x13 = (int32_t)SXTB16_RORn(x, 8u);
-    const int32_t w02 = (int32_t)w[0], w13 = (int32_t)w[1];
-    a[0] = __smlabb(x02, w02, a[0]);
-    a[2] = __smlatt(x02, w02, a[2]);
-    a[1] = __smlabb(x13, w13, a[1]);
-    a[3] = __smlatt(x13, w13, a[3]);
-}
-
+// The DSP kernel (cmsis.h): one output pixel, four channels per step, the nine taps as four pairs (k,
+// k + 1) and tap 8. Per pair: the two taps' input words x = (a0 a1 a2 a3), x' = (b0 b1 b2 b3), PKHBT
+// (a0 a1 b0 b1) and PKHTB (a2 a3 b2 b3), whose SXTB16 and SXTB16 ROR 8 are the 16-bit pairs (a_c, b_c)
+// of channels 0..3, each one SMLAD with the channel's weight pair (w_k, w_k+1); tap 8 SXTB16 (channels
+// 0, 2), ROR 8 (1, 3) and SMLABB / SMLATT. wx per group of four channels: for pair p four words (channel
+// c: w[2p][c] | w[2p + 1][c] << 16), then tap 8's (w0 | w2 << 16), (w1 | w3 << 16): 18 words. The sums
+// start at 0 (the bias and - zp_in sum w are in the requantisation constants: padding taps read zrow,
+// zp_in bytes, and add zero).
 static inline uint32_t dsp_ld(const int8_t *p)
 {
     uint32_t x;
@@ -91,7 +84,7 @@ static inline void dsp_store(const int32_t a[4], const vd_cnn_dsp_q_t *q, size_t
         return;
     }
     for (size_t i = 0u; i < 4u; i++) {
-        o[c + i] = vd_cnn_dsp_out(a[i], &q->ch[c + i], relu ? 0 : q->thr[c + i], relu);
+        o[c + i] = vd_cnn_dsp_out(a[i], &q->ch[c + i], q->thr[c + i], relu);
     }
 }
 
@@ -108,66 +101,77 @@ static inline void dsp_rest(const int8_t *const t[9], const int8_t *w, const vd_
     }
 }
 
-// A pixel from its nine tap pointers (padding columns or rows: zrow).
+// A pixel from its nine tap pointers (padding columns or rows: zrow), in C.
 static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const int8_t *w, const vd_cnn_dsp_q_t *q,
                              size_t cn, int8_t *o, bool relu)
 {
     size_t c = 0u;
     for (; c + 4u <= cn; c += 4u, wx += 18) {
-        int32_t a[4] = {0, 0, 0, 0};
-        for (size_t k = 0u; k < 9u; k++) {
-            dsp_tap(dsp_ld(t[k] + c), wx + 2u * k, a);
+        uint32_t a[4] = {0u, 0u, 0u, 0u};
+        for (size_t p = 0u; p < 4u; p++) {
+            const uint32_t x = dsp_ld(t[2u * p] + c), x2 = dsp_ld(t[2u * p + 1u] + c);
+            const uint32_t lo = (x & 0xFFFFu) | (x2 << 16), hi = (x2 & 0xFFFF0000u) | (x >> 16);
+            const uint32_t *wp = wx + 4u * p;
+            a[0] = SMLAD(SXTB16(lo), wp[0], a[0]);
+            a[1] = SMLAD(SXTB16_RORn(lo, 8u), wp[1], a[1]);
+            a[2] = SMLAD(SXTB16(hi), wp[2], a[2]);
+            a[3] = SMLAD(SXTB16_RORn(hi, 8u), wp[3], a[3]);
         }
-        dsp_store(a, q, c, o, relu);
+        const uint32_t x = dsp_ld(t[8] + c);
+        const int32_t x02 = (int32_t)SXTB16(x), x13 = (int32_t)SXTB16_RORn(x, 8u);
+        const int32_t s[4] = {__smlabb(x02, (int32_t)wx[16], (int32_t)a[0]), __smlabb(x13, (int32_t)wx[17], (int32_t)a[1]),
+                              __smlatt(x02, (int32_t)wx[16], (int32_t)a[2]), __smlatt(x13, (int32_t)wx[17], (int32_t)a[3])};
+        dsp_store(s, q, c, o, relu);
     }
     dsp_rest(t, w, q, c, cn, o, relu);
 }
 
 // A pixel whose nine taps are all inside: row pointers r0..r2 at its left tap column, the columns cn
-// bytes apart; per group of four channels the nine taps in assembly (one LDR per tap, an ADD for the
-// third column; gcc 12 keeps nine tap pointers on the stack instead: two more instructions per tap).
-#define VD_DSP_TAP(first, addr)                                                                                \
-    addr "\n\t"                                                                                              \
-    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                      \
-    "sxtb16 %[y], %[x]\n\t"                                                                                  \
-    "sxtb16 %[x], %[x], ror #8\n\t" first
-#define VD_DSP_MUL                                                                                              \
-    "smulbb %[a0], %[y], %[w0]\n\t"                                                                          \
-    "smultt %[a2], %[y], %[w0]\n\t"                                                                          \
-    "smulbb %[a1], %[x], %[w1]\n\t"                                                                          \
-    "smultt %[a3], %[x], %[w1]\n\t"
-#define VD_DSP_MLA                                                                                              \
-    "smlabb %[a0], %[y], %[w0], %[a0]\n\t"                                                                   \
-    "smlatt %[a2], %[y], %[w0], %[a2]\n\t"                                                                   \
-    "smlabb %[a1], %[x], %[w1], %[a1]\n\t"                                                                   \
-    "smlatt %[a3], %[x], %[w1], %[a3]\n\t"
-#define VD_DSP_ROW(r)                                                                                           \
-    VD_DSP_TAP(VD_DSP_MLA, "ldr %[x], [%[" r "]]")                                                           \
-    VD_DSP_TAP(VD_DSP_MLA, "ldr %[x], [%[" r "], %[cn]]")                                                    \
-    VD_DSP_TAP(VD_DSP_MLA, "add %[x], %[" r "], %[cn]\n\tldr %[x], [%[x], %[cn]]")
+// bytes apart; per group of four channels the taps in assembly (14 instructions per pair of taps, an
+// ADD for each third column; in C gcc 12 keeps the tap pointers on the stack: two more per tap).
+#define VD_DSP_PAIR(ld, mul)                                                                                    \
+    ld "pkhbt %[y], %[x], %[z], lsl #16\n\t"                                                                  \
+    "pkhtb %[z], %[z], %[x], asr #16\n\t"                                                                     \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "sxtb16 %[x], %[y]\n\t"                                                                                   \
+    "sxtb16 %[y], %[y], ror #8\n\t" mul("a0", "x", "w0") mul("a1", "y", "w1")                                 \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "sxtb16 %[x], %[z]\n\t"                                                                                   \
+    "sxtb16 %[y], %[z], ror #8\n\t" mul("a2", "x", "w0") mul("a3", "y", "w1")
+#define VD_DSP_SMUAD(a, x, w) "smuad %[" a "], %[" x "], %[" w "]\n\t"
+#define VD_DSP_SMLAD(a, x, w) "smlad %[" a "], %[" x "], %[" w "], %[" a "]\n\t"
 
 static inline void dsp_pixel_in(const int8_t *r0, const int8_t *r1, const int8_t *r2, const uint32_t *wx,
                                 const vd_cnn_dsp_q_t *q, size_t cn, int8_t *o, bool relu)
 {
     for (size_t c = 0u; c + 4u <= cn; c += 4u, r0 += 4, r1 += 4, r2 += 4) {
         int32_t a0, a1, a2, a3;
-        uint32_t x, y, w0, w1;
-        __asm__(VD_DSP_TAP(VD_DSP_MUL, "ldr %[x], [%[r0]]")
-                VD_DSP_TAP(VD_DSP_MLA, "ldr %[x], [%[r0], %[cn]]")
-                VD_DSP_TAP(VD_DSP_MLA, "add %[x], %[r0], %[cn]\n\tldr %[x], [%[x], %[cn]]")
-                VD_DSP_ROW("r1") VD_DSP_ROW("r2")
+        uint32_t x, y, z, w0, w1;
+        __asm__(VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)
+                VD_DSP_PAIR("add %[x], %[r0], %[cn]\n\tldr %[x], [%[x], %[cn]]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
+                VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tadd %[z], %[r1], %[cn]\n\tldr %[z], [%[z], %[cn]]\n\t",
+                            VD_DSP_SMLAD)
+                VD_DSP_PAIR("ldr %[x], [%[r2]]\n\tldr %[z], [%[r2], %[cn]]\n\t", VD_DSP_SMLAD)
+                "add %[x], %[r2], %[cn]\n\t"
+                "ldr %[x], [%[x], %[cn]]\n\t"
+                "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                "sxtb16 %[y], %[x]\n\t"
+                "sxtb16 %[x], %[x], ror #8\n\t"
+                "smlabb %[a0], %[y], %[w0], %[a0]\n\t"
+                "smlatt %[a2], %[y], %[w0], %[a2]\n\t"
+                "smlabb %[a1], %[x], %[w1], %[a1]\n\t"
+                "smlatt %[a3], %[x], %[w1], %[a3]"
                 : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [x] "=&r"(x), [y] "=&r"(y),
-                  [w0] "=&r"(w0), [w1] "=&r"(w1), [w] "+r"(wx)
+                  [z] "=&r"(z), [w0] "=&r"(w0), [w1] "=&r"(w1), [w] "+r"(wx)
                 : [r0] "r"(r0), [r1] "r"(r1), [r2] "r"(r2), [cn] "r"(cn)
                 : "memory");
         const int32_t a[4] = {a0, a1, a2, a3};
         dsp_store(a, q, c, o, relu);
     }
 }
-#undef VD_DSP_ROW
-#undef VD_DSP_MLA
-#undef VD_DSP_MUL
-#undef VD_DSP_TAP
+#undef VD_DSP_SMLAD
+#undef VD_DSP_SMUAD
+#undef VD_DSP_PAIR
 
 // Output rows [y0, y1) with the DSP kernel (the tap pointers of vd_cnn_dw3x3_taps, as dw3x3.c).
 static inline void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
@@ -217,12 +221,17 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
     }
     for (size_t c = 0u; c + 4u <= c_n; c += 4u) {
         uint32_t *d = wx + (c / 4u) * 18u;
-        for (size_t k = 0u; k < 9u; k++) {   // (w0, w2) is SXTB16 of the word w0..w3, (w1, w3) ROR 8
-            uint32_t x;
-            memcpy(&x, L->w + k * c_n + c, 4u);
-            d[2u * k] = SXTB16(x);
-            d[2u * k + 1u] = SXTB16_RORn(x, 8u);
+        const int8_t *w = L->w + c;
+        for (size_t p = 0u; p < 4u; p++, d += 4) {   // (w[2p][c], w[2p + 1][c]) per channel c
+            for (size_t i = 0u; i < 4u; i++) {
+                d[i] = (uint32_t)(uint16_t)(int16_t)w[2u * p * c_n + i] |
+                       ((uint32_t)(uint16_t)(int16_t)w[(2u * p + 1u) * c_n + i] << 16);
+            }
         }
+        uint32_t x;   // tap 8: (w0, w2) is SXTB16 of the word w0..w3, (w1, w3) ROR 8
+        memcpy(&x, w + 8u * c_n, 4u);
+        d[0] = SXTB16(x);
+        d[1] = SXTB16_RORn(x, 8u);
     }
     if (q.relu) {
         dsp_rows(L, g, in, out, y0, y1, wx, zrow, &q, true);
