@@ -126,9 +126,11 @@ static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const
     dsp_rest(t, w, q, c, cn, o, relu);
 }
 
-// A pixel whose nine taps are all inside: row pointers r0..r2 at its left tap column, the columns cn
-// bytes apart; per group of four channels the taps in assembly (14 instructions per pair of taps, an
-// ADD for each third column; in C gcc 12 keeps the tap pointers on the stack: two more per tap).
+// Group c (four channels) of n consecutive pixels whose nine taps are all inside: row pointers r0..r2
+// at the first pixel's left tap column (+ c), the columns cn bytes apart, the pixels adv bytes apart;
+// wg the group's weights. The taps in assembly (14 instructions per pair of taps, an ADD for each third
+// column; in C gcc 12 keeps the tap pointers on the stack: two more per tap). Group-major (a run of
+// pixels per group) so that the per-pixel set-up is three pointer additions.
 #define VD_DSP_PAIR(ld, mul)                                                                                    \
     ld "pkhbt %[y], %[x], %[z], lsl #16\n\t"                                                                  \
     "pkhtb %[z], %[z], %[x], asr #16\n\t"                                                                     \
@@ -141,10 +143,11 @@ static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const
 #define VD_DSP_SMUAD(a, x, w) "smuad %[" a "], %[" x "], %[" w "]\n\t"
 #define VD_DSP_SMLAD(a, x, w) "smlad %[" a "], %[" x "], %[" w "], %[" a "]\n\t"
 
-static inline void dsp_pixel_in(const int8_t *r0, const int8_t *r1, const int8_t *r2, const uint32_t *wx,
-                                const vd_cnn_dsp_q_t *q, size_t cn, int8_t *o, bool relu)
+static inline void dsp_run_in(const int8_t *r0, const int8_t *r1, const int8_t *r2, size_t n, size_t adv,
+                              const uint32_t *wg, const vd_cnn_dsp_q_t *q, size_t c, size_t cn, int8_t *o, bool relu)
 {
-    for (size_t c = 0u; c + 4u <= cn; c += 4u, r0 += 4, r1 += 4, r2 += 4) {
+    for (size_t i = 0u; i < n; i++, r0 += adv, r1 += adv, r2 += adv, o += cn) {
+        const uint32_t *wx = wg;
         int32_t a0, a1, a2, a3;
         uint32_t x, y, z, w0, w1;
         __asm__(VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)
@@ -169,6 +172,60 @@ static inline void dsp_pixel_in(const int8_t *r0, const int8_t *r1, const int8_t
         dsp_store(a, q, c, o, relu);
     }
 }
+// dsp_run_in of a ReLU layer with the pixel loop and the requantisation (cmsis.h's vd_cnn_dsp_out4_relu)
+// in the same assembly block: the 14 registers hold the sums, the taps' temporaries and the row
+// pointers, and the rest (weights, constants, output pointer, pixel count) is read from the stack once
+// per pixel instead of gcc's spills around the block (~25 instructions per pixel and group). n >= 1.
+static inline void dsp_run_in_relu(const int8_t *r0, const int8_t *r1, const int8_t *r2, size_t n, size_t adv,
+                                   const uint32_t *wg, const vd_cnn_dsp_ch_t *ch, size_t cn, int8_t *o)
+{
+    int32_t a0, a1, a2, a3;
+    uint32_t x, y, z, w0, w1;
+    const uint32_t *wx;
+#define VD_DSP_RQ(a, i)                                                                                         \
+    "ldrd %[y], %[z], [%[x]], #8\n\t"                                                                         \
+    "ldrd %[w0], %[w1], [%[x]], #8\n\t"                                                                       \
+    "smlal %[y], %[z], %[" a "], %[w0]\n\t"                                                                   \
+    "asr %[z], %[z], %[w1]\n\t"                                                                               \
+    "ssat %[z], #8, %[z]\n\t"                                                                                 \
+    "strb %[z], [%[w], #" i "]\n\t"
+    __asm__ __volatile__(
+        "1:\n\t"
+        "ldr %[w], %[wgm]\n\t"
+        VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)
+        VD_DSP_PAIR("add %[x], %[r0], %[cn]\n\tldr %[x], [%[x], %[cn]]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
+        VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tadd %[z], %[r1], %[cn]\n\tldr %[z], [%[z], %[cn]]\n\t",
+                    VD_DSP_SMLAD)
+        VD_DSP_PAIR("ldr %[x], [%[r2]]\n\tldr %[z], [%[r2], %[cn]]\n\t", VD_DSP_SMLAD)
+        "add %[x], %[r2], %[cn]\n\t"
+        "ldr %[x], [%[x], %[cn]]\n\t"
+        "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+        "sxtb16 %[y], %[x]\n\t"
+        "sxtb16 %[x], %[x], ror #8\n\t"
+        "smlabb %[a0], %[y], %[w0], %[a0]\n\t"
+        "smlatt %[a2], %[y], %[w0], %[a2]\n\t"
+        "smlabb %[a1], %[x], %[w1], %[a1]\n\t"
+        "smlatt %[a3], %[x], %[w1], %[a3]\n\t"
+        "ldr %[x], %[chm]\n\t"
+        "ldr %[w], %[om]\n\t"
+        VD_DSP_RQ("a0", "0") VD_DSP_RQ("a1", "1") VD_DSP_RQ("a2", "2") VD_DSP_RQ("a3", "3")
+        "add %[w], %[w], %[cn]\n\t"
+        "str %[w], %[om]\n\t"
+        "ldr %[x], %[advm]\n\t"
+        "add %[r0], %[r0], %[x]\n\t"
+        "add %[r1], %[r1], %[x]\n\t"
+        "add %[r2], %[r2], %[x]\n\t"
+        "ldr %[x], %[nm]\n\t"
+        "subs %[x], %[x], #1\n\t"
+        "str %[x], %[nm]\n\t"
+        "bne 1b"
+        : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [x] "=&r"(x), [y] "=&r"(y), [z] "=&r"(z),
+          [w0] "=&r"(w0), [w1] "=&r"(w1), [w] "=&r"(wx), [r0] "+r"(r0), [r1] "+r"(r1), [r2] "+r"(r2), [om] "+m"(o),
+          [nm] "+m"(n)
+        : [cn] "r"(cn), [wgm] "m"(wg), [chm] "m"(ch), [advm] "m"(adv)
+        : "cc", "memory");
+#undef VD_DSP_RQ
+}
 #undef VD_DSP_SMLAD
 #undef VD_DSP_SMUAD
 #undef VD_DSP_PAIR
@@ -186,17 +243,32 @@ static inline void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring
         vd_cnn_dw3x3_rows(in, g->hi, oy, step, rowp);
         int8_t *orow = vd_cnn_ring_row(out, oy);
         const bool rows = fast && rowp[0] != NULL && rowp[1] != NULL && rowp[2] != NULL;
+        // Interior pixels [xa, xb): all three columns inside (ix0 = ox step - 1 >= 0, ix0 + 2 < wi).
+        const uint32_t xa = 1u;
+        uint32_t xb = ((uint32_t)g->wi - 2u) / (uint32_t)step + 1u;
+        xb = (xb < g->wo) ? xb : g->wo;
+        if (rows && g->wi >= 3u && xb > xa) {
+            const size_t at = ((size_t)xa * (size_t)step - 1u) * c_n;
+            for (size_t c = 0u; c < c_n; c += 4u) {
+                if (relu) {
+                    dsp_run_in_relu(rowp[0] + at + c, rowp[1] + at + c, rowp[2] + at + c, xb - xa, (size_t)step * c_n,
+                                    wx + (c / 4u) * 18u, q->ch + c, c_n, orow + (size_t)xa * c_n + c);
+                    continue;
+                }
+                dsp_run_in(rowp[0] + at + c, rowp[1] + at + c, rowp[2] + at + c, xb - xa, (size_t)step * c_n,
+                           wx + (c / 4u) * 18u, q, c, c_n, orow + (size_t)xa * c_n, relu);
+            }
+        } else {
+            xb = 0u;   // every pixel below
+        }
         for (uint32_t ox = 0u; ox < g->wo; ox++) {
-            int8_t *o = orow + (size_t)ox * c_n;
-            const int32_t ix0 = (int32_t)ox * step - 1;
-            if (rows && ix0 >= 0 && ix0 + 2 < (int32_t)g->wi) {
-                const size_t at = (size_t)ix0 * c_n;
-                dsp_pixel_in(rowp[0] + at, rowp[1] + at, rowp[2] + at, wx, q, c_n, o, relu);
+            if (ox == xa && xb > xa) {
+                ox = xb - 1u;
                 continue;
             }
             const int8_t *t[9];
             vd_cnn_dw3x3_taps(rowp, ox, step, c_n, g->wi, zrow, t);
-            dsp_pixel(t, wx, L->w, q, c_n, o, relu);
+            dsp_pixel(t, wx, L->w, q, c_n, orow + (size_t)ox * c_n, relu);
         }
     }
 }
