@@ -266,6 +266,7 @@ static inline void dsp_pw_run_relu(const int8_t *src, size_t n, size_t nw, uint3
                                    const vd_cnn_dsp_ch_t *ch0, size_t groups, int8_t *o)
 {
     const uint32_t *xe = xs + nw;
+    const size_t odd = (nw / 2u) % 2u == 0u;   // after the first step of four values, an odd count left
     size_t gc = 0u;
     int32_t a0, a1, a2, a3;
     uint32_t xa, xb, w0, w1, *x;
@@ -274,6 +275,10 @@ static inline void dsp_pw_run_relu(const int8_t *src, size_t n, size_t nw, uint3
 #define VD_DSP_PW(a)                                                                                            \
     "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
     "smlad %[" a "], %[xa], %[w0], %[" a "]\n\t"                                                              \
+    "smlad %[" a "], %[xb], %[w1], %[" a "]\n\t"
+#define VD_DSP_PW0(a)                                                                                           \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "smuad %[" a "], %[xa], %[w0]\n\t"                                                                        \
     "smlad %[" a "], %[xb], %[w1], %[" a "]\n\t"
 #define VD_DSP_RQ(a)                                                                                            \
     "ldrd %[xa], %[xb], [%[ch]], #8\n\t"                                                                      \
@@ -300,15 +305,23 @@ static inline void dsp_pw_run_relu(const int8_t *src, size_t n, size_t nw, uint3
         "str %[xa], %[gcm]\n\t"
         "2:\n\t"
         "ldr %[x], %[xsm]\n\t"
-        "mov %[a0], #0\n\t"
-        "mov %[a1], #0\n\t"
-        "mov %[a2], #0\n\t"
-        "mov %[a3], #0\n\t"
-        "1:\n\t"
+        "ldrd %[xa], %[xb], [%[x]], #8\n\t"   // the first four values start the sums (SMUAD)
+        VD_DSP_PW0("a0") VD_DSP_PW0("a1") VD_DSP_PW0("a2") VD_DSP_PW0("a3")
+        "ldr %[xa], %[oddm]\n\t"               // nw / 2 odd: one more step of four values first
+        "cbz %[xa], 5f\n\t"
+        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
+        VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
+        "5:\n\t"
+        "cmp %[x], %[xe]\n\t"
+        "beq 6f\n\t"
+        "1:\n\t"                               // then eight values per iteration
+        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
+        VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
         "ldrd %[xa], %[xb], [%[x]], #8\n\t"
         VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
         "cmp %[x], %[xe]\n\t"
         "bne 1b\n\t"
+        "6:\n\t"
         VD_DSP_RQ("a0") VD_DSP_RQ("a1") VD_DSP_RQ("a2") VD_DSP_RQ("a3")
         "ldr %[xa], %[gcm]\n\t"
         "subs %[xa], %[xa], #1\n\t"
@@ -321,9 +334,10 @@ static inline void dsp_pw_run_relu(const int8_t *src, size_t n, size_t nw, uint3
         : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [xa] "=&r"(xa), [xb] "=&r"(xb),
           [w0] "=&r"(w0), [w1] "=&r"(w1), [x] "=&r"(x), [w] "=&r"(w), [ch] "=&r"(ch), [o] "+r"(o),
           [srcm] "+m"(src), [nm] "+m"(n), [gcm] "+m"(gc)
-        : [xe] "r"(xe), [xsm] "m"(xs), [wqm] "m"(wq), [chm] "m"(ch0), [gm] "m"(groups)
+        : [xe] "r"(xe), [xsm] "m"(xs), [wqm] "m"(wq), [chm] "m"(ch0), [gm] "m"(groups), [oddm] "m"(odd)
         : "cc", "memory");
 #undef VD_DSP_RQ
+#undef VD_DSP_PW0
 #undef VD_DSP_PW
 }
 
