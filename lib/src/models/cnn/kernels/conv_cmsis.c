@@ -211,20 +211,108 @@ static inline void dsp_one_px(const uint32_t t[3], const uint32_t *wq, const vd_
     const uint32_t y0 = SXTB16_RORn(t[0], 8u), y1 = SXTB16_RORn(t[1], 8u);
     const uint32_t x3 = (y0 & 0xFFFFu) | (y1 << 16), x4 = SXTB16_RORn(t[2], 8u);
     const vd_cnn_dsp_ch_t *ch = q->ch;
-    size_t c = 0u;
-    if (relu) {
-        for (; c + 4u <= cn; c += 4u) {
-            const int32_t a0 = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
-            const int32_t a1 = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
-            const int32_t a2 = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
-            const int32_t a3 = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
-            vd_cnn_dsp_out4_relu(a0, a1, a2, a3, ch + c, o + c);
-        }
+    if (relu && cn > 0u) {
+        // Every channel in one assembly block: five SMLAD, then the requantisation (cmsis.h's
+        // vd_cnn_dsp_out4_relu) of the channel, x0..x4 kept in registers (13 in all; the end on the stack).
+        const int8_t *oe = o + cn;
+        int32_t a;
+        uint32_t w0, w1, t0, t1;
+        __asm__ __volatile__("1:\n\t"
+                             "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                             "smuad %[a], %[x0], %[w0]\n\t"
+                             "smlad %[a], %[x1], %[w1], %[a]\n\t"
+                             "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                             "smlad %[a], %[x2], %[w0], %[a]\n\t"
+                             "smlad %[a], %[x3], %[w1], %[a]\n\t"
+                             "ldr %[w0], [%[w]], #8\n\t"
+                             "smlad %[a], %[x4], %[w0], %[a]\n\t"
+                             "ldrd %[t0], %[t1], [%[ch]], #8\n\t"
+                             "ldrd %[w0], %[w1], [%[ch]], #8\n\t"
+                             "smlal %[t0], %[t1], %[a], %[w0]\n\t"
+                             "asr %[t1], %[t1], %[w1]\n\t"
+                             "ssat %[t1], #8, %[t1]\n\t"
+                             "strb %[t1], [%[o]], #1\n\t"
+                             "ldr %[t0], %[oe]\n\t"
+                             "cmp %[o], %[t0]\n\t"
+                             "bne 1b"
+                             : [a] "=&r"(a), [w0] "=&r"(w0), [w1] "=&r"(w1), [t0] "=&r"(t0), [t1] "=&r"(t1),
+                               [w] "+r"(wq), [ch] "+r"(ch), [o] "+r"(o)
+                             : [x0] "r"(x0), [x1] "r"(x1), [x2] "r"(x2), [x3] "r"(x3), [x4] "r"(x4), [oe] "m"(oe)
+                             : "cc", "memory");
+        return;
     }
-    for (; c < cn; c++) {
+    for (size_t c = 0u; c < cn; c++) {
         const int32_t a = dsp_one_dot(&wq, x0, x1, x2, x3, x4);
         o[c] = vd_cnn_dsp_out(a, &ch[c], relu ? 0 : q->thr[c], relu);
     }
+}
+
+// n >= 1 interior pixels of a ReLU one-channel 3x3 layer in one assembly block: per pixel the three
+// tap-row words from the row pointers (on the stack, advanced by step), dsp_one_px's widening, then
+// every channel as in dsp_one_px (13 registers; gcc's code around a block per pixel cost ~35
+// instructions more per pixel).
+static inline void dsp_one_run_relu(const int8_t *r0, const int8_t *r1, const int8_t *r2, size_t step, size_t n,
+                                    const uint32_t *wq, const vd_cnn_dsp_ch_t *ch0, size_t cn, int8_t *o)
+{
+    const int8_t *oe = o;
+    uint32_t x0, x1, x2, x3, x4, w0, w1, t0, t1;
+    int32_t a;
+    const uint32_t *w;
+    const vd_cnn_dsp_ch_t *ch;
+    __asm__ __volatile__("2:\n\t"
+                         "ldr %[t0], %[r0m]\n\t"
+                         "ldr %[t1], %[r1m]\n\t"
+                         "ldr %[w0], %[r2m]\n\t"
+                         "ldr %[x0], [%[t0]]\n\t"
+                         "ldr %[x1], [%[t1]]\n\t"
+                         "ldr %[x2], [%[w0]]\n\t"
+                         "ldr %[w1], %[stepm]\n\t"
+                         "add %[t0], %[t0], %[w1]\n\t"
+                         "str %[t0], %[r0m]\n\t"
+                         "add %[t1], %[t1], %[w1]\n\t"
+                         "str %[t1], %[r1m]\n\t"
+                         "add %[w0], %[w0], %[w1]\n\t"
+                         "str %[w0], %[r2m]\n\t"
+                         "sxtb16 %[t0], %[x0], ror #8\n\t"
+                         "sxtb16 %[t1], %[x1], ror #8\n\t"
+                         "pkhbt %[x3], %[t0], %[t1], lsl #16\n\t"
+                         "sxtb16 %[x4], %[x2], ror #8\n\t"
+                         "sxtb16 %[x0], %[x0]\n\t"
+                         "sxtb16 %[x1], %[x1]\n\t"
+                         "sxtb16 %[x2], %[x2]\n\t"
+                         "ldr %[w], %[wqm]\n\t"
+                         "ldr %[ch], %[chm]\n\t"
+                         "ldr %[t0], %[cnm]\n\t"
+                         "add %[t0], %[o], %[t0]\n\t"
+                         "str %[t0], %[oem]\n\t"
+                         "1:\n\t"
+                         "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                         "smuad %[a], %[x0], %[w0]\n\t"
+                         "smlad %[a], %[x1], %[w1], %[a]\n\t"
+                         "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                         "smlad %[a], %[x2], %[w0], %[a]\n\t"
+                         "smlad %[a], %[x3], %[w1], %[a]\n\t"
+                         "ldr %[w0], [%[w]], #8\n\t"
+                         "smlad %[a], %[x4], %[w0], %[a]\n\t"
+                         "ldrd %[t0], %[t1], [%[ch]], #8\n\t"
+                         "ldrd %[w0], %[w1], [%[ch]], #8\n\t"
+                         "smlal %[t0], %[t1], %[a], %[w0]\n\t"
+                         "asr %[t1], %[t1], %[w1]\n\t"
+                         "ssat %[t1], #8, %[t1]\n\t"
+                         "strb %[t1], [%[o]], #1\n\t"
+                         "ldr %[t0], %[oem]\n\t"
+                         "cmp %[o], %[t0]\n\t"
+                         "bne 1b\n\t"
+                         "ldr %[t0], %[nm]\n\t"
+                         "subs %[t0], %[t0], #1\n\t"
+                         "str %[t0], %[nm]\n\t"
+                         "bne 2b"
+                         : [x0] "=&r"(x0), [x1] "=&r"(x1), [x2] "=&r"(x2), [x3] "=&r"(x3), [x4] "=&r"(x4),
+                           [a] "=&r"(a), [w0] "=&r"(w0), [w1] "=&r"(w1), [t0] "=&r"(t0), [t1] "=&r"(t1), [w] "=&r"(w),
+                           [ch] "=&r"(ch), [o] "+r"(o), [r0m] "+m"(r0), [r1m] "+m"(r1), [r2m] "+m"(r2), [nm] "+m"(n),
+                           [oem] "+m"(oe)
+                         : [stepm] "m"(step), [wqm] "m"(wq), [chm] "m"(ch0), [cnm] "m"(cn)
+                         : "cc", "memory");
 }
 
 // Output rows [y0, y1) of a one-channel 3x3 layer (relu a constant at the call site).
@@ -234,6 +322,9 @@ static inline void dsp_one_rows(const geom_t *g, const ring_t *in, const ring_t 
     const int8_t zp = (int8_t)g->zp_in;
     const int32_t wi = (int32_t)g->wi;
     const size_t co = g->co;
+    // Interior pixels [1, xb): ix0 = ox step - 1 >= 0 and the word's four bytes inside (ix0 + 4 <= wi).
+    uint32_t xb = (wi >= 3) ? (uint32_t)(wi - 3) / (uint32_t)step + 1u : 0u;
+    xb = (xb < g->wo) ? xb : g->wo;
     for (uint32_t oy = y0; oy < y1; oy++) {
         const int8_t *rowp[5];
         vd__cnn_conv_row_ptrs(g, in, oy, step, 3, rowp);
@@ -241,6 +332,12 @@ static inline void dsp_one_rows(const geom_t *g, const ring_t *in, const ring_t 
         int8_t *o = vd_cnn_ring_row(out, oy);
         for (uint32_t ox = 0u; ox < g->wo; ox++, o += co) {
             const int32_t ix0 = (int32_t)ox * step - 1;
+            if (relu && full && ox == 1u && xb > 1u && co > 0u) {
+                dsp_one_run_relu(rowp[0] + ix0, rowp[1] + ix0, rowp[2] + ix0, (size_t)step, xb - 1u, wq, q->ch, co, o);
+                o += (size_t)(xb - 2u) * co;
+                ox = xb - 1u;
+                continue;
+            }
             uint32_t t[3];
             if (full && ix0 >= 0 && ix0 + 4 <= wi) {
                 memcpy(&t[0], rowp[0] + ix0, 4u);
@@ -308,7 +405,8 @@ static inline void dsp_pw_run_relu(const int8_t *src, size_t n, size_t nw, uint3
         "ldrd %[xa], %[xb], [%[x]], #8\n\t"   // the first four values start the sums (SMUAD)
         VD_DSP_PW0("a0") VD_DSP_PW0("a1") VD_DSP_PW0("a2") VD_DSP_PW0("a3")
         "ldr %[xa], %[oddm]\n\t"               // nw / 2 odd: one more step of four values first
-        "cbz %[xa], 5f\n\t"
+        "cmp %[xa], #0\n\t"                     // (not CBZ: low registers only)
+        "beq 5f\n\t"
         "ldrd %[xa], %[xb], [%[x]], #8\n\t"
         VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
         "5:\n\t"
