@@ -2328,6 +2328,7 @@ static void backend_committed_models(void)
     TEST_ASSERT_TRUE(loaded == 2u);
 }
 
+#if defined(VD_CNN_CMSIS)
 // A random layer as the shipped networks' (and so the CMSIS-NN back end's DSP kernels', kernels/cmsis.h)
 // are: clamp [-128, 127], zero point -128 (ReLU) or zp, every shift in -12..-5.
 static tl_t dsp_weighted(uint32_t *st, uint8_t op, uint8_t stride, uint8_t in, uint16_t cin, uint16_t cout, int8_t zp)
@@ -2386,6 +2387,7 @@ static uint32_t backend_dsp_models(void)
     }
     return compared;
 }
+#endif
 #endif
 
 static void x86_skip_unless_available(void)
