@@ -59,7 +59,7 @@ static int32_t wsum_of(const vd_cnn_layer_t *L, uint32_t o)
     return s;
 }
 
-bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, vd_cnn_dsp_q_t *q)
+bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, bool sums, vd_cnn_dsp_q_t *q)
 {
     if (L->act_min != -128 || L->act_max != 127) {
         return false;
@@ -77,8 +77,9 @@ bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, vd
         const uint32_t e = (uint32_t)-sh;   // the right shift, 1..24
         const int32_t mult = vd_cnn_rd_i32(L->mult + 4u * (size_t)o);
         // b' = bias - zp_in sum w: exact in int32 (the loader's bias bound leaves room for K 128 255).
+        const int32_t ws = sums ? q->thr[o] : wsum_of(L, o);   // (thr[o] written below, after this read)
         const int32_t b = vd_rq_u32_to_i32((uint32_t)vd_cnn_rd_i32(L->bias + 4u * (size_t)o) -
-                                           (uint32_t)zp_in * (uint32_t)wsum_of(L, o));
+                                           (uint32_t)zp_in * (uint32_t)ws);
         // cmsis.h's sum k2 + b' mult + zp 2^(32 + sh) with models/requant.h's k (vd_rq_prepare: 2^63 -
         // 2^31 mult + 2^30 + 2^(e + 30)) and k2 = k + 2^31 mult + 2^63, sh = e - 1: the 2^63 terms and the
         // 2^31 mult terms cancel (mod 2^64), leaving b' mult + 2^30 + (2 zp + 1) 2^(e - 1) 2^31, where

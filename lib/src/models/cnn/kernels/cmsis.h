@@ -110,8 +110,16 @@ static inline uint32_t vd_cnn_dsp_q_bytes(const vd_cnn_layer_t *L)
 
 // The constants of layer L (input zero point zp_in) at area (8-byte aligned, vd_cnn_dsp_q_bytes long);
 // false (area partly written) when a channel's shift is outside [VD_CNN_DSP_SHIFT_MIN, -1] or the clamp
-// is not [-128, 127].
-bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, vd_cnn_dsp_q_t *q);
+// is not [-128, 127]. sums: the caller has put each channel's weight sum at vd_cnn_dsp_q_sums(L, area)
+// (a kernel that reads every weight anyway, once per call); else they are summed here.
+bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, bool sums, vd_cnn_dsp_q_t *q);
+
+// Where vd_cnn_dsp_q_fill takes the weight sums from (its thr array, written channel by channel after
+// the channel's sum is read).
+static inline int32_t *vd_cnn_dsp_q_sums(const vd_cnn_layer_t *L, uint8_t *area)
+{
+    return (int32_t *)(void *)(area + sizeof(vd_cnn_dsp_ch_t) * L->cout);
+}
 
 // The output byte of channel c from its sum of products s (no bias); relu is the layer's (a constant at
 // the call sites, so each kernel has one loop per case).

@@ -486,12 +486,12 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
         return false;
     }
     vd_cnn_dsp_q_t q;
-    if (!vd_cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, &q)) {
-        return false;
-    }
     uint32_t *wq = (uint32_t *)(void *)(scr + s.w16);
     uint32_t *d = wq;
-    if (one) {   // per channel [ (w00, w02) (w10, w12) (w20, w22) (w01, w11) (w21, 0) 0 ] (dsp_one_px)
+    if (one) {
+        if (!vd_cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, false, &q)) {
+            return false;
+        }   // per channel [ (w00, w02) (w10, w12) (w20, w22) (w01, w11) (w21, 0) 0 ] (dsp_one_px)
         for (size_t o = 0u; o < co; o++) {
             const int8_t *w = L->w + o * 9u;
             *d++ = dsp_pair(w[0], w[2]);
@@ -510,27 +510,40 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
         return true;
     }
     // Widened weights: groups of four channels [word pair][channel][2], then single channels [word].
-    const size_t cin = L->cin;
-    size_t o = 0u;
     // (The pair (w0, w2) of weight bytes w0..w3 is SXTB16 of their word, (w1, w3) SXTB16 ROR 8: four
-    // instructions per four weights, once per call, and calls are one output row when streamed.)
+    // instructions per four weights, once per call, and calls are one output row when streamed; the
+    // weight sums for vd_cnn_dsp_q_fill on the way, two SMLAD with (1, 1) per four weights.)
+    const size_t cin = L->cin;
+    int32_t *sums = vd_cnn_dsp_q_sums(L, scr + s.ch);
+    size_t o = 0u;
     for (; o + 4u <= co; o += 4u) {
+        uint32_t a[4] = {0u, 0u, 0u, 0u};   // |sum| <= K 128 < 2^31
         for (size_t k = 0u; k < cin; k += 4u) {   // input bytes k .. k + 3
             for (size_t c = 0u; c < 4u; c++, d += 2) {
                 uint32_t x;
                 memcpy(&x, L->w + (o + c) * cin + k, 4u);
                 d[0] = SXTB16(x);
                 d[1] = SXTB16_RORn(x, 8u);
+                a[c] = SMLAD(d[0], 0x00010001u, SMLAD(d[1], 0x00010001u, a[c]));
             }
+        }
+        for (size_t c = 0u; c < 4u; c++) {
+            sums[o + c] = (int32_t)a[c];
         }
     }
     for (; o < co; o++) {
+        uint32_t a = 0u;
         for (size_t k = 0u; k < cin; k += 4u, d += 2) {
             uint32_t x;
             memcpy(&x, L->w + o * cin + k, 4u);
             d[0] = SXTB16(x);
             d[1] = SXTB16_RORn(x, 8u);
+            a = SMLAD(d[0], 0x00010001u, SMLAD(d[1], 0x00010001u, a));
         }
+        sums[o] = (int32_t)a;
+    }
+    if (!vd_cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, true, &q)) {
+        return false;
     }
     uint32_t *xs = (uint32_t *)(void *)(scr + s.rows);
     if (q.relu) {
