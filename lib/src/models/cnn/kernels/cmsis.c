@@ -59,7 +59,7 @@ static int32_t wsum_of(const vd_cnn_layer_t *L, uint32_t o)
     return s;
 }
 
-bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, bool sums, vd_cnn_dsp_q_t *q)
+bool vd__cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, bool sums, vd_cnn_dsp_q_t *q)
 {
     if (L->act_min != -128 || L->act_max != 127) {
         return false;

@@ -86,7 +86,7 @@ bool vd__cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q
 //    (|zp| <= 128) in int32 for e <= 24 (VD_CNN_DSP_SHIFT_MIN);
 //  * the sign term of vd_rq_z (not for ReLU layers, act_min >= zp: vd_rq_z_nn): x <= thr takes the
 //    constant - 2^31, tested as s <= thr - b' (clamped to int32: |s| < 2^31).
-// vd_cnn_dsp_q_fill refuses other layers (shift outside [-24, -1], a clamp other than the int8 range).
+// vd__cnn_dsp_q_fill refuses other layers (shift outside [-24, -1], a clamp other than the int8 range).
 #define VD_CNN_DSP_SHIFT_MIN (-24)
 
 typedef struct vd_cnn_dsp_ch {
@@ -112,9 +112,9 @@ static inline uint32_t vd_cnn_dsp_q_bytes(const vd_cnn_layer_t *L)
 // false (area partly written) when a channel's shift is outside [VD_CNN_DSP_SHIFT_MIN, -1] or the clamp
 // is not [-128, 127]. sums: the caller has put each channel's weight sum at vd_cnn_dsp_q_sums(L, area)
 // (a kernel that reads every weight anyway, once per call); else they are summed here.
-bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, bool sums, vd_cnn_dsp_q_t *q);
+bool vd__cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, bool sums, vd_cnn_dsp_q_t *q);
 
-// Where vd_cnn_dsp_q_fill takes the weight sums from (its thr array, written channel by channel after
+// Where vd__cnn_dsp_q_fill takes the weight sums from (its thr array, written channel by channel after
 // the channel's sum is read).
 static inline int32_t *vd_cnn_dsp_q_sums(const vd_cnn_layer_t *L, uint8_t *area)
 {

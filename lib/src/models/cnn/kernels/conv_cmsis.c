@@ -489,7 +489,7 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
     uint32_t *wq = (uint32_t *)(void *)(scr + s.w16);
     uint32_t *d = wq;
     if (one) {
-        if (!vd_cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, false, &q)) {
+        if (!vd__cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, false, &q)) {
             return false;
         }   // per channel [ (w00, w02) (w10, w12) (w20, w22) (w01, w11) (w21, 0) 0 ] (dsp_one_px)
         for (size_t o = 0u; o < co; o++) {
@@ -512,7 +512,7 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
     // Widened weights: groups of four channels [word pair][channel][2], then single channels [word].
     // (The pair (w0, w2) of weight bytes w0..w3 is SXTB16 of their word, (w1, w3) SXTB16 ROR 8: four
     // instructions per four weights, once per call, and calls are one output row when streamed; the
-    // weight sums for vd_cnn_dsp_q_fill on the way, two SMLAD with (1, 1) per four weights.)
+    // weight sums for vd__cnn_dsp_q_fill on the way, two SMLAD with (1, 1) per four weights.)
     const size_t cin = L->cin;
     int32_t *sums = vd_cnn_dsp_q_sums(L, scr + s.ch);
     size_t o = 0u;
@@ -542,7 +542,7 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
         }
         sums[o] = (int32_t)a;
     }
-    if (!vd_cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, true, &q)) {
+    if (!vd__cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, true, &q)) {
         return false;
     }
     uint32_t *xs = (uint32_t *)(void *)(scr + s.rows);

@@ -282,7 +282,7 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
     scratch_layout_t s;
     (void)vd__cnn_dw3x3_scratch(L, &s);
     vd_cnn_dsp_q_t q;
-    if (!vd_cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, false, &q)) {
+    if (!vd__cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, false, &q)) {
         return false;
     }
     const size_t c_n = g->co;
