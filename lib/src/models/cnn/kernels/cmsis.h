@@ -61,8 +61,8 @@ bool vd__cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q
 // Not in -Os builds: there gcc neither unrolls the tap loops nor specialises the inlined requantisation
 // per layer kind, and the kernels took more instructions than CMSIS-NN's (95.7 M against 82.1 M per
 // frame on the Cortex-M7 MinSizeRel firmware), so -Os keeps CMSIS-NN's kernels and their smaller code.
-// (Since the kernels' hot loops are assembly blocks, an -Os firmware with them measured 38.4 M against
-// 82.1 M and 4344 B more flash; not switched: -Os stays the small build.)
+// (Since the kernels' hot loops are assembly blocks, the M7 -Os firmware with them measured a 36.4 M
+// CNN stage against 82.1 M, flash 4840 B more; not switched: -Os stays the small build.)
 // Nor at -O0 (no __OPTIMIZE__): there gcc keeps a frame pointer and cannot give the assembly blocks
 // their 14 registers ("impossible constraints").
 #if defined(ARM_MATH_DSP) && defined(__ARM_FEATURE_SAT) && defined(__GNUC__) && defined(__OPTIMIZE__) && \
