@@ -282,28 +282,46 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
     scratch_layout_t s;
     (void)vd__cnn_dw3x3_scratch(L, &s);
     vd_cnn_dsp_q_t q;
-    if (!vd__cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, false, &q)) {
-        return false;
-    }
     const size_t c_n = g->co;
     uint32_t *wx = (uint32_t *)(void *)(scr + s.w16);
     int8_t *zrow = (int8_t *)(void *)(scr + s.rows);
     for (size_t c = 0u; c < c_n; c++) {
         zrow[c] = (int8_t)g->zp_in;
     }
+    // Widened weights per group of four channels, from words of four channels (once per call, and
+    // streamed calls are one output row): taps x = w[2p][c..c+3], y = w[2p+1][c..c+3] give the
+    // channels' pairs (x_c, y_c) as dsp_pixel_in gives the inputs' (PKHBT / PKHTB, SXTB16); the
+    // weight sums for vd__cnn_dsp_q_fill on the way (SMLAD with (1, 1); tap 8's lanes by hand).
+    int32_t *sums = vd_cnn_dsp_q_sums(L, scr + s.ch);
     for (size_t c = 0u; c + 4u <= c_n; c += 4u) {
         uint32_t *d = wx + (c / 4u) * 18u;
         const int8_t *w = L->w + c;
+        uint32_t a[4] = {0u, 0u, 0u, 0u};   // |sum| <= 9 128
         for (size_t p = 0u; p < 4u; p++, d += 4) {   // (w[2p][c], w[2p + 1][c]) per channel c
+            uint32_t x, y;
+            memcpy(&x, w + 2u * p * c_n, 4u);
+            memcpy(&y, w + (2u * p + 1u) * c_n, 4u);
+            const uint32_t lo = (x & 0xFFFFu) | (y << 16), hi = (y & 0xFFFF0000u) | (x >> 16);
+            d[0] = SXTB16(lo);
+            d[1] = SXTB16_RORn(lo, 8u);
+            d[2] = SXTB16(hi);
+            d[3] = SXTB16_RORn(hi, 8u);
             for (size_t i = 0u; i < 4u; i++) {
-                d[i] = (uint32_t)(uint16_t)(int16_t)w[2u * p * c_n + i] |
-                       ((uint32_t)(uint16_t)(int16_t)w[(2u * p + 1u) * c_n + i] << 16);
+                a[i] = SMLAD(d[i], 0x00010001u, a[i]);
             }
         }
         uint32_t x;   // tap 8: (w0, w2) is SXTB16 of the word w0..w3, (w1, w3) ROR 8
         memcpy(&x, w + 8u * c_n, 4u);
         d[0] = SXTB16(x);
         d[1] = SXTB16_RORn(x, 8u);
+        sums[c] = (int32_t)a[0] + w[8u * c_n];
+        sums[c + 1u] = (int32_t)a[1] + w[8u * c_n + 1u];
+        sums[c + 2u] = (int32_t)a[2] + w[8u * c_n + 2u];
+        sums[c + 3u] = (int32_t)a[3] + w[8u * c_n + 3u];
+    }
+    // (Channels beyond a multiple of four: the fill sums every channel itself.)
+    if (!vd__cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, (c_n % 4u) == 0u, &q)) {
+        return false;
     }
     if (q.relu) {
         dsp_rows(L, g, in, out, y0, y1, wx, zrow, &q, true);
