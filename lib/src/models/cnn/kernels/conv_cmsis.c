@@ -439,6 +439,124 @@ static inline void dsp_pw_run_relu(const int8_t *src, size_t n, size_t nw, uint3
 #undef VD_DSP_PW
 }
 
+// dsp_pw_run_relu for a layer with the rounding's sign term (not ReLU: cmsis.h's vd_cnn_dsp_out with thr)
+// and any cout: groups of four channels as there, then the rem = cout % 4 channels one at a time (their
+// weights [word] each). Per value the requantisation adds the thr load and the conditional - 2^31
+// (CMP, ITE, MOV, SUBS, SBC).
+static inline void dsp_pw_run_thr(const int8_t *src, size_t n, size_t nw, uint32_t *xs, const uint32_t *wq,
+                                  const vd_cnn_dsp_ch_t *ch0, const int32_t *thr0, size_t groups, size_t rem, int8_t *o)
+{
+    const uint32_t *xe = xs + nw;
+    const size_t odd = (nw / 2u) % 2u == 0u;   // after the first step of four values, an odd count left
+    size_t gc = 0u;
+    const int32_t *thr = thr0;
+    int32_t a0, a1, a2, a3;
+    uint32_t xa, xb, w0, w1, *x;
+    const uint32_t *w;
+    const vd_cnn_dsp_ch_t *ch;
+#define VD_DSP_PW(a)                                                                                            \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "smlad %[" a "], %[xa], %[w0], %[" a "]\n\t"                                                              \
+    "smlad %[" a "], %[xb], %[w1], %[" a "]\n\t"
+#define VD_DSP_PW0(a)                                                                                           \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "smuad %[" a "], %[xa], %[w0]\n\t"                                                                        \
+    "smlad %[" a "], %[xb], %[w1], %[" a "]\n\t"
+#define VD_DSP_RQT(a)                                                                                           \
+    "ldr %[x], %[thrm]\n\t"                                                                                   \
+    "ldr %[w1], [%[x]], #4\n\t"                                                                               \
+    "str %[x], %[thrm]\n\t"                                                                                   \
+    "cmp %[" a "], %[w1]\n\t"                                                                                 \
+    "ite le\n\t"                                                                                              \
+    "movle %[x], #0x80000000\n\t"                                                                             \
+    "movgt %[x], #0\n\t"                                                                                      \
+    "ldrd %[xa], %[xb], [%[ch]], #8\n\t"                                                                      \
+    "subs %[xa], %[xa], %[x]\n\t"                                                                             \
+    "sbc %[xb], %[xb], #0\n\t"                                                                                \
+    "ldrd %[w0], %[w1], [%[ch]], #8\n\t"                                                                      \
+    "smlal %[xa], %[xb], %[" a "], %[w0]\n\t"                                                                 \
+    "asr %[xb], %[xb], %[w1]\n\t"                                                                             \
+    "ssat %[xb], #8, %[xb]\n\t"                                                                               \
+    "strb %[xb], [%[o]], #1\n\t"
+    __asm__ __volatile__(
+        "3:\n\t"
+        "ldr %[w], %[srcm]\n\t"
+        "ldr %[x], %[xsm]\n\t"
+        "4:\n\t"
+        "ldr %[xa], [%[w]], #4\n\t"
+        "sxtb16 %[xb], %[xa]\n\t"
+        "sxtb16 %[xa], %[xa], ror #8\n\t"
+        "strd %[xb], %[xa], [%[x]], #8\n\t"
+        "cmp %[x], %[xe]\n\t"
+        "bne 4b\n\t"
+        "str %[w], %[srcm]\n\t"
+        "ldr %[w], %[wqm]\n\t"
+        "ldr %[ch], %[chm]\n\t"
+        "ldr %[xa], %[thr0m]\n\t"
+        "str %[xa], %[thrm]\n\t"
+        "ldr %[xa], %[gm]\n\t"
+        "cmp %[xa], #0\n\t"
+        "beq 7f\n\t"
+        "str %[xa], %[gcm]\n\t"
+        "2:\n\t"
+        "ldr %[x], %[xsm]\n\t"
+        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
+        VD_DSP_PW0("a0") VD_DSP_PW0("a1") VD_DSP_PW0("a2") VD_DSP_PW0("a3")
+        "ldr %[xa], %[oddm]\n\t"
+        "cmp %[xa], #0\n\t"
+        "beq 5f\n\t"
+        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
+        VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
+        "5:\n\t"
+        "cmp %[x], %[xe]\n\t"
+        "beq 6f\n\t"
+        "1:\n\t"
+        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
+        VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
+        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
+        VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
+        "cmp %[x], %[xe]\n\t"
+        "bne 1b\n\t"
+        "6:\n\t"
+        VD_DSP_RQT("a0") VD_DSP_RQT("a1") VD_DSP_RQT("a2") VD_DSP_RQT("a3")
+        "ldr %[xa], %[gcm]\n\t"
+        "subs %[xa], %[xa], #1\n\t"
+        "str %[xa], %[gcm]\n\t"
+        "bne 2b\n\t"
+        "7:\n\t"                               // the rem single channels
+        "ldr %[xa], %[remm]\n\t"
+        "cmp %[xa], #0\n\t"
+        "beq 8f\n\t"
+        "str %[xa], %[gcm]\n\t"
+        "5:\n\t"
+        "ldr %[x], %[xsm]\n\t"
+        "mov %[a0], #0\n\t"
+        "6:\n\t"
+        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
+        VD_DSP_PW("a0")
+        "cmp %[x], %[xe]\n\t"
+        "bne 6b\n\t"
+        VD_DSP_RQT("a0")
+        "ldr %[xa], %[gcm]\n\t"
+        "subs %[xa], %[xa], #1\n\t"
+        "str %[xa], %[gcm]\n\t"
+        "bne 5b\n\t"
+        "8:\n\t"
+        "ldr %[xa], %[nm]\n\t"
+        "subs %[xa], %[xa], #1\n\t"
+        "str %[xa], %[nm]\n\t"
+        "bne 3b"
+        : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [xa] "=&r"(xa), [xb] "=&r"(xb),
+          [w0] "=&r"(w0), [w1] "=&r"(w1), [x] "=&r"(x), [w] "=&r"(w), [ch] "=&r"(ch), [o] "+r"(o),
+          [srcm] "+m"(src), [nm] "+m"(n), [gcm] "+m"(gc), [thrm] "+m"(thr)
+        : [xe] "r"(xe), [xsm] "m"(xs), [wqm] "m"(wq), [chm] "m"(ch0), [gm] "m"(groups), [oddm] "m"(odd),
+          [thr0m] "m"(thr0), [remm] "m"(rem)
+        : "cc", "memory");
+#undef VD_DSP_RQT
+#undef VD_DSP_PW0
+#undef VD_DSP_PW
+}
+
 // Pointwise rows [y0, y1) (relu a constant at the call site).
 static inline void dsp_pw_rows(const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0, uint32_t y1,
                                size_t kw, uint32_t *xs, const uint32_t *wq, const vd_cnn_dsp_q_t *q, bool relu)
@@ -452,6 +570,11 @@ static inline void dsp_pw_rows(const geom_t *g, const ring_t *in, const ring_t *
         const size_t npix = (size_t)g->wo * (e - y);
         if (relu && (co % 4u) == 0u) {
             dsp_pw_run_relu(src, npix, nw, xs, wq, q->ch, co / 4u, dst);
+            y = e;
+            continue;
+        }
+        if (!relu && npix > 0u) {
+            dsp_pw_run_thr(src, npix, nw, xs, wq, q->ch, q->thr, co / 4u, co % 4u, dst);
             y = e;
             continue;
         }
