@@ -358,17 +358,9 @@ static inline void dsp_one_rows(const geom_t *g, const ring_t *in, const ring_t 
 // dsp_px's loop (LDRD of the input, four LDRD of the weights, eight SMLAD per four input values) and
 // the requantisation (cmsis.h's vd_cnn_dsp_out4_relu), the output pointer running on. Thirteen
 // registers; the bases, the source pointer and the counters live on the stack (gcc's spills around a
-// block per group cost ~10 instructions more per group).
-static inline void dsp_pw_run_relu(const int8_t *src, size_t n, size_t nw, uint32_t *xs, const uint32_t *wq,
-                                   const vd_cnn_dsp_ch_t *ch0, size_t groups, int8_t *o)
-{
-    const uint32_t *xe = xs + nw;
-    const size_t odd = (nw / 2u) % 2u == 0u;   // after the first step of four values, an odd count left
-    size_t gc = 0u;
-    int32_t a0, a1, a2, a3;
-    uint32_t xa, xb, w0, w1, *x;
-    const uint32_t *w;
-    const vd_cnn_dsp_ch_t *ch;
+// block per group cost ~10 instructions more per group). The first step of four values starts the
+// sums (SMUAD), then eight values per iteration: with nw / 2 steps even one more single step first
+// (dsp_pw_run_relu_e), odd none (_o): two functions, so that no group tests it.
 #define VD_DSP_PW(a)                                                                                            \
     "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
     "smlad %[" a "], %[xa], %[w0], %[" a "]\n\t"                                                              \
@@ -384,62 +376,63 @@ static inline void dsp_pw_run_relu(const int8_t *src, size_t n, size_t nw, uint3
     "asr %[xb], %[xb], %[w1]\n\t"                                                                             \
     "ssat %[xb], #8, %[xb]\n\t"                                                                               \
     "strb %[xb], [%[o]], #1\n\t"
-    __asm__ __volatile__(
-        "3:\n\t"
-        "ldr %[w], %[srcm]\n\t"
-        "ldr %[x], %[xsm]\n\t"
-        "4:\n\t"
-        "ldr %[xa], [%[w]], #4\n\t"
-        "sxtb16 %[xb], %[xa]\n\t"
-        "sxtb16 %[xa], %[xa], ror #8\n\t"
-        "strd %[xb], %[xa], [%[x]], #8\n\t"
-        "cmp %[x], %[xe]\n\t"
-        "bne 4b\n\t"
-        "str %[w], %[srcm]\n\t"
-        "ldr %[w], %[wqm]\n\t"
-        "ldr %[ch], %[chm]\n\t"
-        "ldr %[xa], %[gm]\n\t"
-        "str %[xa], %[gcm]\n\t"
-        "2:\n\t"
-        "ldr %[x], %[xsm]\n\t"
-        "ldrd %[xa], %[xb], [%[x]], #8\n\t"   // the first four values start the sums (SMUAD)
-        VD_DSP_PW0("a0") VD_DSP_PW0("a1") VD_DSP_PW0("a2") VD_DSP_PW0("a3")
-        "ldr %[xa], %[oddm]\n\t"               // nw / 2 odd: one more step of four values first
-        "cmp %[xa], #0\n\t"                     // (not CBZ: low registers only)
-        "beq 5f\n\t"
-        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
-        VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
-        "5:\n\t"
-        "cmp %[x], %[xe]\n\t"
-        "beq 6f\n\t"
-        "1:\n\t"                               // then eight values per iteration
-        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
-        VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
-        "ldrd %[xa], %[xb], [%[x]], #8\n\t"
-        VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
-        "cmp %[x], %[xe]\n\t"
-        "bne 1b\n\t"
-        "6:\n\t"
-        VD_DSP_RQ("a0") VD_DSP_RQ("a1") VD_DSP_RQ("a2") VD_DSP_RQ("a3")
-        "ldr %[xa], %[gcm]\n\t"
-        "subs %[xa], %[xa], #1\n\t"
-        "str %[xa], %[gcm]\n\t"
-        "bne 2b\n\t"
-        "ldr %[xa], %[nm]\n\t"
-        "subs %[xa], %[xa], #1\n\t"
-        "str %[xa], %[nm]\n\t"
-        "bne 3b"
-        : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [xa] "=&r"(xa), [xb] "=&r"(xb),
-          [w0] "=&r"(w0), [w1] "=&r"(w1), [x] "=&r"(x), [w] "=&r"(w), [ch] "=&r"(ch), [o] "+r"(o),
-          [srcm] "+m"(src), [nm] "+m"(n), [gcm] "+m"(gc)
-        : [xe] "r"(xe), [xsm] "m"(xs), [wqm] "m"(wq), [chm] "m"(ch0), [gm] "m"(groups), [oddm] "m"(odd)
-        : "cc", "memory");
+#define VD_DSP_PW_STEP                                                                                          \
+    "ldrd %[xa], %[xb], [%[x]], #8\n\t" VD_DSP_PW("a0") VD_DSP_PW("a1") VD_DSP_PW("a2") VD_DSP_PW("a3")
+#define VD_DSP_PW_RUN(name, extra)                                                                              \
+    static inline void name(const int8_t *src, size_t n, size_t nw, uint32_t *xs, const uint32_t *wq,           \
+                            const vd_cnn_dsp_ch_t *ch0, size_t groups, int8_t *o)                               \
+    {                                                                                                           \
+        const uint32_t *xe = xs + nw;                                                                           \
+        const vd_cnn_dsp_ch_t *che = ch0 + 4u * groups;                                                         \
+        int32_t a0, a1, a2, a3;                                                                                 \
+        uint32_t xa, xb, w0, w1, *x;                                                                            \
+        const uint32_t *w;                                                                                      \
+        const vd_cnn_dsp_ch_t *ch;                                                                              \
+        __asm__ __volatile__("3:\n\t"                                                                          \
+                             "ldr %[w], %[srcm]\n\t"                                                           \
+                             "ldr %[x], %[xsm]\n\t"                                                            \
+                             "4:\n\t"                                                                          \
+                             "ldr %[xa], [%[w]], #4\n\t"                                                       \
+                             "sxtb16 %[xb], %[xa]\n\t"                                                         \
+                             "sxtb16 %[xa], %[xa], ror #8\n\t"                                                 \
+                             "strd %[xb], %[xa], [%[x]], #8\n\t"                                               \
+                             "cmp %[x], %[xe]\n\t"                                                             \
+                             "bne 4b\n\t"                                                                      \
+                             "str %[w], %[srcm]\n\t"                                                           \
+                             "ldr %[w], %[wqm]\n\t"                                                            \
+                             "ldr %[ch], %[chm]\n\t"                                                           \
+                             "2:\n\t"                                                                          \
+                             "ldr %[x], %[xsm]\n\t"                                                            \
+                             "ldrd %[xa], %[xb], [%[x]], #8\n\t" VD_DSP_PW0("a0") VD_DSP_PW0("a1")              \
+                                 VD_DSP_PW0("a2") VD_DSP_PW0("a3") extra                                        \
+                             "cmp %[x], %[xe]\n\t"                                                             \
+                             "beq 6f\n\t"                                                                      \
+                             "1:\n\t" VD_DSP_PW_STEP VD_DSP_PW_STEP                                             \
+                             "cmp %[x], %[xe]\n\t"                                                             \
+                             "bne 1b\n\t"                                                                      \
+                             "6:\n\t" VD_DSP_RQ("a0") VD_DSP_RQ("a1") VD_DSP_RQ("a2") VD_DSP_RQ("a3")            \
+                             "ldr %[xa], %[chem]\n\t"                                                          \
+                             "cmp %[ch], %[xa]\n\t"                                                            \
+                             "bne 2b\n\t"                                                                      \
+                             "ldr %[xa], %[nm]\n\t"                                                            \
+                             "subs %[xa], %[xa], #1\n\t"                                                       \
+                             "str %[xa], %[nm]\n\t"                                                            \
+                             "bne 3b"                                                                           \
+                             : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [xa] "=&r"(xa),    \
+                               [xb] "=&r"(xb), [w0] "=&r"(w0), [w1] "=&r"(w1), [x] "=&r"(x), [w] "=&r"(w),       \
+                               [ch] "=&r"(ch), [o] "+r"(o), [srcm] "+m"(src), [nm] "+m"(n)                       \
+                             : [xe] "r"(xe), [xsm] "m"(xs), [wqm] "m"(wq), [chm] "m"(ch0), [chem] "m"(che)       \
+                             : "cc", "memory");                                                                 \
+    }
+VD_DSP_PW_RUN(dsp_pw_run_relu_e, VD_DSP_PW_STEP)
+VD_DSP_PW_RUN(dsp_pw_run_relu_o, "")
+#undef VD_DSP_PW_RUN
+#undef VD_DSP_PW_STEP
 #undef VD_DSP_RQ
 #undef VD_DSP_PW0
 #undef VD_DSP_PW
-}
 
-// dsp_pw_run_relu for a layer with the rounding's sign term (not ReLU: cmsis.h's vd_cnn_dsp_out with thr)
+// dsp_pw_run_relu_e / _o for a layer with the rounding's sign term (not ReLU: cmsis.h's vd_cnn_dsp_out with thr)
 // and any cout: groups of four channels as there, then the rem = cout % 4 channels one at a time (their
 // weights [word] each). Per value the requantisation adds the thr load and the conditional - 2^31
 // (CMP, ITE, MOV, SUBS, SBC).
@@ -569,7 +562,11 @@ static inline void dsp_pw_rows(const geom_t *g, const ring_t *in, const ring_t *
         int8_t *dst = vd_cnn_ring_row(out, y);
         const size_t npix = (size_t)g->wo * (e - y);
         if (relu && (co % 4u) == 0u) {
-            dsp_pw_run_relu(src, npix, nw, xs, wq, q->ch, co / 4u, dst);
+            if ((nw / 2u) % 2u == 0u) {
+                dsp_pw_run_relu_e(src, npix, nw, xs, wq, q->ch, co / 4u, dst);
+            } else {
+                dsp_pw_run_relu_o(src, npix, nw, xs, wq, q->ch, co / 4u, dst);
+            }
             y = e;
             continue;
         }
