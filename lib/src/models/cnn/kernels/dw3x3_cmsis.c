@@ -127,9 +127,10 @@ static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const
 }
 
 // Group c (four channels) of n consecutive pixels whose nine taps are all inside: row pointers r0..r2
-// at the first pixel's left tap column (+ c), the columns cn bytes apart, the pixels adv bytes apart;
-// wg the group's weights. The taps in assembly (14 instructions per pair of taps, an ADD for each third
-// column; in C gcc 12 keeps the tap pointers on the stack: two more per tap). Group-major (a run of
+// at the first pixel's left tap column (+ c), the columns cn bytes apart (the third one by LDR's
+// register offset shifted left by 1), the pixels adv bytes apart; wg the group's weights. The taps in
+// assembly (14 instructions per pair of taps; in C gcc 12 keeps the tap pointers on the stack: two
+// more per tap). Group-major (a run of
 // pixels per group) so that the per-pixel set-up is three pointer additions.
 #define VD_DSP_PAIR(ld, mul)                                                                                    \
     ld "pkhbt %[y], %[x], %[z], lsl #16\n\t"                                                                  \
@@ -151,12 +152,11 @@ static inline void dsp_run_in(const int8_t *r0, const int8_t *r1, const int8_t *
         int32_t a0, a1, a2, a3;
         uint32_t x, y, z, w0, w1;
         __asm__(VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)
-                VD_DSP_PAIR("add %[x], %[r0], %[cn]\n\tldr %[x], [%[x], %[cn]]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
-                VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tadd %[z], %[r1], %[cn]\n\tldr %[z], [%[z], %[cn]]\n\t",
+                VD_DSP_PAIR("ldr %[x], [%[r0], %[cn], lsl #1]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
+                VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tldr %[z], [%[r1], %[cn], lsl #1]\n\t",
                             VD_DSP_SMLAD)
                 VD_DSP_PAIR("ldr %[x], [%[r2]]\n\tldr %[z], [%[r2], %[cn]]\n\t", VD_DSP_SMLAD)
-                "add %[x], %[r2], %[cn]\n\t"
-                "ldr %[x], [%[x], %[cn]]\n\t"
+                "ldr %[x], [%[r2], %[cn], lsl #1]\n\t"
                 "ldrd %[w0], %[w1], [%[w]], #8\n\t"
                 "sxtb16 %[y], %[x]\n\t"
                 "sxtb16 %[x], %[x], ror #8\n\t"
@@ -193,12 +193,11 @@ static inline void dsp_run_in_relu(const int8_t *r0, const int8_t *r1, const int
         "1:\n\t"
         "ldr %[w], %[wgm]\n\t"
         VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)
-        VD_DSP_PAIR("add %[x], %[r0], %[cn]\n\tldr %[x], [%[x], %[cn]]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
-        VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tadd %[z], %[r1], %[cn]\n\tldr %[z], [%[z], %[cn]]\n\t",
+        VD_DSP_PAIR("ldr %[x], [%[r0], %[cn], lsl #1]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
+        VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tldr %[z], [%[r1], %[cn], lsl #1]\n\t",
                     VD_DSP_SMLAD)
         VD_DSP_PAIR("ldr %[x], [%[r2]]\n\tldr %[z], [%[r2], %[cn]]\n\t", VD_DSP_SMLAD)
-        "add %[x], %[r2], %[cn]\n\t"
-        "ldr %[x], [%[x], %[cn]]\n\t"
+        "ldr %[x], [%[r2], %[cn], lsl #1]\n\t"
         "ldrd %[w0], %[w1], [%[w]], #8\n\t"
         "sxtb16 %[y], %[x]\n\t"
         "sxtb16 %[x], %[x], ror #8\n\t"
