@@ -174,7 +174,7 @@ static inline void dsp_run_in(const int8_t *r0, const int8_t *r1, const int8_t *
 }
 // dsp_run_in of a ReLU layer with the pixel loop and the requantisation (cmsis.h's vd_cnn_dsp_out4_relu)
 // in the same assembly block: the 14 registers hold the sums, the taps' temporaries and the row
-// pointers, and the rest (weights, constants, output pointer, pixel count) is read from the stack once
+// pointers, and the rest (weights, constants, output pointer, the row end) is read from the stack once
 // per pixel instead of gcc's spills around the block (~25 instructions per pixel and group). n >= 1.
 static inline void dsp_run_in_relu(const int8_t *r0, const int8_t *r1, const int8_t *r2, size_t n, size_t adv,
                                    const uint32_t *wg, const vd_cnn_dsp_ch_t *ch, size_t cn, int8_t *o)
@@ -182,6 +182,7 @@ static inline void dsp_run_in_relu(const int8_t *r0, const int8_t *r1, const int
     int32_t a0, a1, a2, a3;
     uint32_t x, y, z, w0, w1;
     const uint32_t *wx;
+    const int8_t *r0e = r0 + n * adv;   // r0 after the last pixel
 #define VD_DSP_RQ(a, i)                                                                                         \
     "ldrd %[y], %[z], [%[x]], #8\n\t"                                                                         \
     "ldrd %[w0], %[w1], [%[x]], #8\n\t"                                                                       \
@@ -214,14 +215,12 @@ static inline void dsp_run_in_relu(const int8_t *r0, const int8_t *r1, const int
         "add %[r0], %[r0], %[x]\n\t"
         "add %[r1], %[r1], %[x]\n\t"
         "add %[r2], %[r2], %[x]\n\t"
-        "ldr %[x], %[nm]\n\t"
-        "subs %[x], %[x], #1\n\t"
-        "str %[x], %[nm]\n\t"
+        "ldr %[x], %[r0em]\n\t"
+        "cmp %[r0], %[x]\n\t"
         "bne 1b"
         : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [x] "=&r"(x), [y] "=&r"(y), [z] "=&r"(z),
-          [w0] "=&r"(w0), [w1] "=&r"(w1), [w] "=&r"(wx), [r0] "+r"(r0), [r1] "+r"(r1), [r2] "+r"(r2), [om] "+m"(o),
-          [nm] "+m"(n)
-        : [cn] "r"(cn), [wgm] "m"(wg), [chm] "m"(ch), [advm] "m"(adv)
+          [w0] "=&r"(w0), [w1] "=&r"(w1), [w] "=&r"(wx), [r0] "+r"(r0), [r1] "+r"(r1), [r2] "+r"(r2), [om] "+m"(o)
+        : [cn] "r"(cn), [wgm] "m"(wg), [chm] "m"(ch), [advm] "m"(adv), [r0em] "m"(r0e)
         : "cc", "memory");
 #undef VD_DSP_RQ
 }
