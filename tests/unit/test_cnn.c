@@ -2327,6 +2327,67 @@ static void backend_committed_models(void)
     }
     TEST_ASSERT_TRUE(loaded == 2u);
 }
+
+#if defined(VD_CNN_CMSIS)
+// A random layer as the shipped networks' (and so the CMSIS-NN back end's DSP kernels', kernels/cmsis.h)
+// are: clamp [-128, 127], zero point -128 (ReLU) or zp, every shift in -12..-5.
+static tl_t dsp_weighted(uint32_t *st, uint8_t op, uint8_t stride, uint8_t in, uint16_t cin, uint16_t cout, int8_t zp)
+{
+    tl_t L = rnd_weighted(st, op, stride, in, cin, cout);
+    L.zp = zp;
+    L.amin = -128;
+    L.amax = 127;
+    int8_t *shift = g_spool + g_sn - cout;   // this layer's shifts (rnd_weighted's last take of the pool)
+    for (uint32_t o = 0u; o < cout; o++) {
+        shift[o] = (int8_t)(-5 - (int32_t)(tu_rand(st) % 8u));
+    }
+    return L;
+}
+
+// Shapes of the DSP kernels' less common paths, which the committed networks do not reach: pointwise
+// layers whose input channels are an odd number of four-value steps (12, 20) or one step (4), ReLU
+// layers with output channels not a multiple of 4, a one-channel 3x3 layer of 12 channels, depthwise
+// layers of 8, 12, 20 channels at strides 1 and 2; whole plane and streamed at several sizes, through
+// backend_check. Returns the bytes compared.
+static uint32_t backend_dsp_models(void)
+{
+    static uint8_t img[100 * 36];
+    static const uint32_t sizes[5][2] = {{4, 4}, {8, 8}, {20, 12}, {44, 28}, {100, 36}};
+    uint32_t compared = 0u;
+    tm_t d;
+    for (uint32_t seed = 0u; seed < 4u; seed++) {
+        uint32_t st = seed * 2654435761u + 7u;
+        pools_reset();
+        g_wsym = seed % 2u == 1u;
+        tm_init(&d, 8u, 8u, 5u, 4u);
+        d.L[0] = dsp_weighted(&st, VD_CNN_OP_CONV3X3, 2u, 0u, 1u, 12u, -128);
+        d.L[1] = dsp_weighted(&st, VD_CNN_OP_DW3X3, 1u, 1u, 12u, 12u, -128);
+        d.L[2] = dsp_weighted(&st, VD_CNN_OP_PW1X1, 1u, 2u, 12u, 8u, -128);
+        d.L[3] = dsp_weighted(&st, VD_CNN_OP_DW3X3, 2u, 3u, 8u, 8u, -128);
+        d.L[4] = dsp_weighted(&st, VD_CNN_OP_PW1X1, 1u, 4u, 8u, 4u, -128);
+        d.L[5] = dsp_weighted(&st, VD_CNN_OP_PW1X1, 1u, 5u, 4u, 20u, -128);
+        d.L[6] = dsp_weighted(&st, VD_CNN_OP_DW3X3, 1u, 6u, 20u, 20u, -128);
+        d.L[7] = dsp_weighted(&st, VD_CNN_OP_PW1X1, 1u, 7u, 20u, 12u, -128);
+        d.L[8] = dsp_weighted(&st, VD_CNN_OP_PW1X1, 1u, 8u, 12u, 6u, -128);
+        d.L[9] = dsp_weighted(&st, VD_CNN_OP_PW1X1, 1u, 9u, 6u, 8u, -128);
+        d.L[10] = dsp_weighted(&st, VD_CNN_OP_PW1X1, 1u, 10u, 8u, 5u, (int8_t)(seed * 3u));
+        d.n = 11u;
+        if (seed >= 2u) {
+            rnd_norm(&d, &st);
+        }
+        TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &g_m));
+        for (uint32_t si = 0u; si < 5u; si++) {
+            const uint32_t w = sizes[si][0], h = sizes[si][1];
+            rnd_image(img, w, h, seed * 5u + si + 500u);
+            char msg[64];
+            snprintf(msg, sizeof msg, "dsp seed %u %ux%u", (unsigned)seed, (unsigned)w, (unsigned)h);
+            compared += backend_check(&g_m, img, w, h, 0u, msg);
+            compared += backend_check(&g_m, img, w, h, VD_CNN_STREAM, msg);
+        }
+    }
+    return compared;
+}
+#endif
 #endif
 
 static void x86_skip_unless_available(void)
@@ -2391,6 +2452,16 @@ static void test_cmsis_kernels_match_portable_committed(void)
 #endif
 }
 
+// The DSP kernels' less common shapes (backend_dsp_models) through the CMSIS-NN back end: every tensor
+// equals the portable kernels'.
+static void test_cmsis_dsp_shapes_match_portable(void)
+{
+    cmsis_skip_unless_built();
+#if defined(VD_CNN_CMSIS)
+    TEST_ASSERT_TRUE(backend_dsp_models() > 10000u);
+#endif
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -2421,6 +2492,7 @@ int main(void)
     RUN_TEST(test_x86_kernels_match_portable_committed);
     RUN_TEST(test_cmsis_kernels_match_portable_random);
     RUN_TEST(test_cmsis_kernels_match_portable_committed);
+    RUN_TEST(test_cmsis_dsp_shapes_match_portable);
     RUN_TEST(test_structural_corruptions_rejected);
     RUN_TEST(test_every_bit_flip_and_truncation_rejected);
     return UNITY_END();

@@ -34,6 +34,15 @@
 #include "vd/resample.h"
 
 #include <string.h>
+#if defined(__ARM_FEATURE_SIMD32) && defined(__ARM_FEATURE_UNALIGNED) && defined(__GNUC__)
+#include <arm_acle.h>
+
+// Bytes x1 x2 x3 x0 of x (UXTB16's ROR 8 operand; gcc 12's arm_acle.h has no __ror).
+static inline uint32_t ror8(uint32_t x)
+{
+    return (x >> 8) | (x << 24);
+}
+#endif
 
 #include "internal/recip_internal.h"
 #include "internal/vd_internal.h"
@@ -525,7 +534,34 @@ static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_
             const uint8_t *a = data + ((size_t)r->y + 2u * (size_t)cy) * stride + (size_t)r->x;
             const uint8_t *b = a + stride;
             uint8_t *out = dst->data + (size_t)cy * dst->stride;
-            for (uint32_t cx = 0; cx < dst->width; cx++) {
+            uint32_t cx = 0;
+#if defined(__ARM_FEATURE_SIMD32) && defined(__ARM_FEATURE_UNALIGNED) && defined(__GNUC__)
+            // Armv7E-M (Cortex-M4/M7): four outputs from two words of each row, the byte pairs summed
+            // in 16-bit lanes (UXTB16, UADD16; sums <= 4 * 255 + 2), ~7 instructions per output
+            // against ~12 for the loop below (mps2-an500: ~1 M per frame of vd_cnn_compact's input,
+            // whose rows the percentile histogram and the network each make).
+            for (; cx + 4u <= dst->width; cx += 4u) {
+                uint32_t w[4];
+                memcpy(&w[0], a + 2u * cx, 4u);
+                memcpy(&w[1], a + 2u * cx + 4u, 4u);
+                memcpy(&w[2], b + 2u * cx, 4u);
+                memcpy(&w[3], b + 2u * cx + 4u, 4u);
+                // (x0 + x1, x2 + x3) of a word's bytes x0..x3, then the two rows, then + 2.
+                const uint32_t lo = __uadd16(__uadd16(__uadd16(__uxtb16(w[0]), __uxtb16(ror8(w[0]))),
+                                                      __uadd16(__uxtb16(w[2]), __uxtb16(ror8(w[2])))),
+                                             0x00020002u);
+                const uint32_t hi = __uadd16(__uadd16(__uadd16(__uxtb16(w[1]), __uxtb16(ror8(w[1]))),
+                                                      __uadd16(__uxtb16(w[3]), __uxtb16(ror8(w[3])))),
+                                             0x00020002u);
+                // Lane values >> 2 in bytes 0 and 2, folded into bytes 0 and 1, two outputs per lane pair.
+                uint32_t p = (lo >> 2) & 0x00FF00FFu, q = (hi >> 2) & 0x00FF00FFu;
+                p |= p >> 8;
+                q |= q >> 8;
+                const uint32_t o4 = (p & 0xFFFFu) | (q << 16);
+                memcpy(out + cx, &o4, 4u);
+            }
+#endif
+            for (; cx < dst->width; cx++) {
                 const uint32_t sum = (uint32_t)a[2u * cx] + a[2u * cx + 1u] + b[2u * cx] + b[2u * cx + 1u];
                 out[cx] = (uint8_t)((sum + 2u) >> 2);
             }

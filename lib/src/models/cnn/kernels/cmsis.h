@@ -61,60 +61,103 @@ bool vd__cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q
 // Not in -Os builds: there gcc neither unrolls the tap loops nor specialises the inlined requantisation
 // per layer kind, and the kernels took more instructions than CMSIS-NN's (95.7 M against 82.1 M per
 // frame on the Cortex-M7 MinSizeRel firmware), so -Os keeps CMSIS-NN's kernels and their smaller code.
-#if defined(ARM_MATH_DSP) && defined(__ARM_FEATURE_SAT) && defined(__GNUC__) && !defined(__OPTIMIZE_SIZE__)
+// (Since the kernels' hot loops are assembly blocks, the M7 -Os firmware with them measured a 36.4 M
+// CNN stage against 82.1 M, flash 4840 B more; not switched: -Os stays the small build.)
+// Nor at -O0 (no __OPTIMIZE__): there gcc keeps a frame pointer and cannot give the assembly blocks
+// their 14 registers ("impossible constraints").
+#if defined(ARM_MATH_DSP) && defined(__ARM_FEATURE_SAT) && defined(__GNUC__) && defined(__OPTIMIZE__) && \
+    !defined(__OPTIMIZE_SIZE__)
 #include <arm_acle.h>
 #define VD_CNN_DSP 1
 
 // One output channel's requantisation in the DSP kernels' form: models/requant.h's one-shift form
-// vd_rq_z (ReLU layers: vd_rq_z_nn) as one signed multiply-accumulate (SMLAL) and one arithmetic shift of
-// its high word. With x the int32 sum (bias included), vd computes v = (x + 2^31) mult + k (mod 2^64) and
-// z = (v >> rsh) - 2^(63 - rsh); here k2 = k + 2^31 mult + 2^63, so x mult + k2 = v + 2^63 (mod 2^64),
-// whose high word read as int32 is hi(v) - 2^31 exactly, and for rsh = 32 + sh (sh 0..31)
-// floor((hi(v) - 2^31) / 2^sh) = (hi(v) >> sh) - 2^(31 - sh) = z. Only for channels with shift <= -1
-// (rsh >= 32) and no left shift: vd_cnn_dsp_q_fill refuses other layers.
+// vd_rq_z (ReLU layers: vd_rq_z_nn) as one signed multiply-accumulate (SMLAL), one arithmetic shift of
+// its high word and one SSAT. With x the int32 sum (bias included), vd computes v = (x + 2^31) mult + k
+// (mod 2^64) and z = (v >> rsh) - 2^(63 - rsh); with k2 = k + 2^31 mult + 2^63, x mult + k2 = v + 2^63
+// (mod 2^64), whose high word read as int32 is H = hi(v) - 2^31 exactly, and for rsh = 32 + sh (sh 0..30)
+// floor(H / 2^sh) = (hi(v) >> sh) - 2^(31 - sh) = z. Three more terms fold into the 64-bit constant:
+//  * the bias b' (the model's bias - zp_in sum w: padding taps read zp_in and add zero): with the sum of
+//    products s = x - b' (exact: |s| <= K 128 128 < 2^31 for the loader's K <= 25 * 1024),
+//    x mult + k2 = s mult + (k2 + b' mult), so the sums start at 0;
+//  * the output zero point: H + zp 2^sh, shifted by sh, is z + zp, so zp 2^(32 + sh) in the constant
+//    gives z + zp, and one SSAT to 8 bits is vd_cnn_rq_out's clamp to [act_min, act_max] = [-128, 127]
+//    (the only range these kernels take). No wrap: z (and z_nn <= z + 1) lies in [-2^(31-e),
+//    2^(31-e) + 1] for the right shift e = sh + 1, so H lies in [-2^30, 2^30 + 2^e) and H + zp 2^sh
+//    (|zp| <= 128) in int32 for e <= 24 (VD_CNN_DSP_SHIFT_MIN);
+//  * the sign term of vd_rq_z (not for ReLU layers, act_min >= zp: vd_rq_z_nn): x <= thr takes the
+//    constant - 2^31, tested as s <= thr - b' (clamped to int32: |s| < 2^31).
+// vd__cnn_dsp_q_fill refuses other layers (shift outside [-24, -1], a clamp other than the int8 range).
+#define VD_CNN_DSP_SHIFT_MIN (-24)
+
 typedef struct vd_cnn_dsp_ch {
-    uint64_t k2;     // k + 2^31 mult + 2^63 (mod 2^64)
+    uint64_t k;      // k2 + b' mult + zp 2^(32 + sh) (mod 2^64)
     int32_t mult;    // Q31 multiplier
     uint32_t sh;     // rsh - 32
-    int32_t thr;     // vd_rq_ch_t's thr: x <= thr takes k2 - 2^31 (the rounding's sign term; not for ReLU)
-    int32_t pad;
 } vd_cnn_dsp_ch_t;
 
 typedef struct vd_cnn_dsp_q {
-    const vd_cnn_dsp_ch_t *ch;
-    int32_t *bias;   // per channel (kernels fold - zp_in sum w into it)
-    int32_t zp, lo, hi;
-    bool relu;       // lo >= 0: no sign term (models/requant.h vd_rq_z_nn)
-    bool sat8;       // lo == 0 and hi == 255 (so zp = -128 = act_min, act_max = 127): one USAT clamps
+    vd_cnn_dsp_ch_t *ch;
+    int32_t *thr;    // per channel: s <= thr takes k - 2^31 (the rounding's sign term; not for ReLU)
+    bool relu;       // act_min >= zp: no sign term (models/requant.h vd_rq_z_nn)
 } vd_cnn_dsp_q_t;
 
-// Bytes of the constants (28 per output channel): they take the place of the portable kernels'
+// Bytes of the constants (20 per output channel): they take the place of the portable kernels'
 // vd_rq_ch_t constants in the layer's scratch, which are larger.
 static inline uint32_t vd_cnn_dsp_q_bytes(const vd_cnn_layer_t *L)
 {
     return vd_cnn_round_up((uint32_t)(L->cout * (sizeof(vd_cnn_dsp_ch_t) + 4u)), VD_CNN_ITEM_ALIGN);
 }
 
-// The constants of layer L at area (8-byte aligned, vd_cnn_dsp_q_bytes long); false (area partly
-// written) when a channel's shift is outside [VD_RQ_SHIFT_MIN, -1].
-bool vd_cnn_dsp_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_dsp_q_t *q);
+// The constants of layer L (input zero point zp_in) at area (8-byte aligned, vd_cnn_dsp_q_bytes long);
+// false (area partly written) when a channel's shift is outside [VD_CNN_DSP_SHIFT_MIN, -1] or the clamp
+// is not [-128, 127]. sums: the caller has put each channel's weight sum at vd_cnn_dsp_q_sums(L, area)
+// (a kernel that reads every weight anyway, once per call); else they are summed here.
+bool vd__cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, bool sums, vd_cnn_dsp_q_t *q);
 
-// The output byte of sum acc (bias included) of channel c; relu and sat8 are the layer's (constants at
-// the call sites, so each kernel has one loop per case).
-static inline int8_t vd_cnn_dsp_out(int32_t acc, const vd_cnn_dsp_ch_t *c, const vd_cnn_dsp_q_t *q, bool relu,
-                                    bool sat8)
+// Where vd__cnn_dsp_q_fill takes the weight sums from (its thr array, written channel by channel after
+// the channel's sum is read).
+static inline int32_t *vd_cnn_dsp_q_sums(const vd_cnn_layer_t *L, uint8_t *area)
 {
-    uint64_t k = c->k2;
-    if (!relu && acc <= c->thr) {
+    return (int32_t *)(void *)(area + sizeof(vd_cnn_dsp_ch_t) * L->cout);
+}
+
+// The output byte of channel c from its sum of products s (no bias); relu is the layer's (a constant at
+// the call sites, so each kernel has one loop per case).
+static inline int8_t vd_cnn_dsp_out(int32_t s, const vd_cnn_dsp_ch_t *c, int32_t thr, bool relu)
+{
+    uint64_t k = c->k;
+    if (!relu && s <= thr) {
         k -= (uint64_t)1 << 31;
     }
-    const uint64_t v = (uint64_t)((int64_t)acc * c->mult) + k;
-    // gcc's >> of a negative int is arithmetic (this code is gcc/clang on Arm only): one ASR.
-    const int32_t z = (int32_t)(uint32_t)(v >> 32) >> c->sh;
-    if (sat8) {
-        return (int8_t)((int32_t)__usat(z, 8) - 128);   // zp is -128 (hi = act_max - zp = 255)
-    }
-    return vd_cnn_rq_out(z, q->zp, q->lo, q->hi);
+    // hi:lo = s mult + k (SMLAL), z = hi >> sh (ASR: arithmetic), SSAT 8. In assembly: gcc 12 widens
+    // s to 64 bits when s comes out of an SMLAD chain and multiplies with MUL, MLA, UMULL and ADC.
+    uint32_t lo = (uint32_t)k, hi = (uint32_t)(k >> 32);
+    int32_t r;
+    __asm__("smlal %0, %1, %3, %4\n\tasr %1, %1, %5\n\tssat %2, #8, %1"
+            : "+r"(lo), "+r"(hi), "=r"(r)
+            : "r"(s), "r"(c->mult), "r"(c->sh));
+    return (int8_t)r;
+}
+
+// vd_cnn_dsp_out of four consecutive channels of a ReLU layer (the sums a[0..3] of channels ch[0..3]) into
+// o[0..3]: per value LDRD of k, LDRD of mult and sh, SMLAL, ASR, SSAT, STRB (in C gcc 12 recomputes the
+// constants' addresses and loads them in three).
+static inline void vd_cnn_dsp_out4_relu(int32_t a0, int32_t a1, int32_t a2, int32_t a3, const vd_cnn_dsp_ch_t *ch,
+                                        int8_t *o)
+{
+    uint32_t lo, hi, m, sh;
+#define VD_DSP_RQ(a, i)                                                                                         \
+    "ldrd %[lo], %[hi], [%[ch]], #8\n\t"                                                                     \
+    "ldrd %[m], %[sh], [%[ch]], #8\n\t"                                                                      \
+    "smlal %[lo], %[hi], %[" a "], %[m]\n\t"                                                                 \
+    "asr %[hi], %[hi], %[sh]\n\t"                                                                            \
+    "ssat %[hi], #8, %[hi]\n\t"                                                                              \
+    "strb %[hi], [%[o], #" i "]\n\t"
+    __asm__ __volatile__(VD_DSP_RQ("a0", "0") VD_DSP_RQ("a1", "1") VD_DSP_RQ("a2", "2") VD_DSP_RQ("a3", "3")
+            : [lo] "=&r"(lo), [hi] "=&r"(hi), [m] "=&r"(m), [sh] "=&r"(sh), [ch] "+r"(ch)
+            : [a0] "r"(a0), [a1] "r"(a1), [a2] "r"(a2), [a3] "r"(a3), [o] "r"(o)
+            : "memory");
+#undef VD_DSP_RQ
 }
 #endif
 

@@ -62,98 +62,270 @@ static void run_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const vd_cnn_cms
 }
 
 #if defined(VD_CNN_DSP)
-// The DSP kernel (cmsis.h): one output pixel, four channels per step. Per tap: one word of four input
-// bytes, SXTB16 (channels 0, 2) and SXTB16 ROR 8 (1, 3), the two widened weight words (wx: per group of
-// four channels and tap k, (w0 | w2 << 16) and (w1 | w3 << 16)), SMLABB / SMLATT into four sums started
-// at the bias (which holds - zp_in sum w: padding taps read zrow, zp_in bytes, and add zero).
-static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const int8_t *w, const vd_cnn_dsp_q_t *q,
-                             size_t cn, int8_t *o, bool relu, bool sat8)
+// The DSP kernel (cmsis.h): one output pixel, four channels per step, the nine taps as four pairs (k,
+// k + 1) and tap 8. Per pair: the two taps' input words x = (a0 a1 a2 a3), x' = (b0 b1 b2 b3), PKHBT
+// (a0 a1 b0 b1) and PKHTB (a2 a3 b2 b3), whose SXTB16 and SXTB16 ROR 8 are the 16-bit pairs (a_c, b_c)
+// of channels 0..3, each one SMLAD with the channel's weight pair (w_k, w_k+1); tap 8 SXTB16 (channels
+// 0, 2), ROR 8 (1, 3) and SMLABB / SMLATT. wx per group of four channels: for pair p four words (channel
+// c: w[2p][c] | w[2p + 1][c] << 16), then tap 8's (w0 | w2 << 16), (w1 | w3 << 16): 18 words. The sums
+// start at 0 (the bias and - zp_in sum w are in the requantisation constants: padding taps read zrow,
+// zp_in bytes, and add zero).
+static inline uint32_t dsp_ld(const int8_t *p)
 {
-    size_t c = 0u;
-    for (; c + 4u <= cn; c += 4u, wx += 18) {
-        int32_t a0 = q->bias[c], a1 = q->bias[c + 1u], a2 = q->bias[c + 2u], a3 = q->bias[c + 3u];
-        for (size_t k = 0u; k < 9u; k++) {
-            uint32_t x;
-            memcpy(&x, t[k] + c, 4u);
-            const int32_t x02 = (int32_t)SXTB16(x);
-            const int32_t x13 = (int32_t)SXTB16_RORn(x, 8u);
-            const int32_t w02 = (int32_t)wx[2u * k], w13 = (int32_t)wx[2u * k + 1u];
-            a0 = __smlabb(x02, w02, a0);
-            a2 = __smlatt(x02, w02, a2);
-            a1 = __smlabb(x13, w13, a1);
-            a3 = __smlatt(x13, w13, a3);
-        }
-        o[c] = vd_cnn_dsp_out(a0, &q->ch[c], q, relu, sat8);
-        o[c + 1u] = vd_cnn_dsp_out(a1, &q->ch[c + 1u], q, relu, sat8);
-        o[c + 2u] = vd_cnn_dsp_out(a2, &q->ch[c + 2u], q, relu, sat8);
-        o[c + 3u] = vd_cnn_dsp_out(a3, &q->ch[c + 3u], q, relu, sat8);
+    uint32_t x;
+    memcpy(&x, p, 4u);
+    return x;
+}
+
+static inline void dsp_store(const int32_t a[4], const vd_cnn_dsp_q_t *q, size_t c, int8_t *o, bool relu)
+{
+    if (relu) {
+        vd_cnn_dsp_out4_relu(a[0], a[1], a[2], a[3], q->ch + c, o + c);
+        return;
     }
-    for (; c < cn; c++) {   // channels beyond a multiple of four: the plain sums
-        int32_t a = q->bias[c];
-        for (size_t k = 0u; k < 9u; k++) {
-            a += (int32_t)t[k][c] * (int32_t)w[k * cn + c];
-        }
-        o[c] = vd_cnn_dsp_out(a, &q->ch[c], q, relu, sat8);
+    for (size_t i = 0u; i < 4u; i++) {
+        o[c + i] = vd_cnn_dsp_out(a[i], &q->ch[c + i], q->thr[c + i], relu);
     }
 }
 
+// Channels beyond a multiple of four: the plain sums.
+static inline void dsp_rest(const int8_t *const t[9], const int8_t *w, const vd_cnn_dsp_q_t *q, size_t c, size_t cn,
+                            int8_t *o, bool relu)
+{
+    for (; c < cn; c++) {
+        int32_t a = 0;
+        for (size_t k = 0u; k < 9u; k++) {
+            a += (int32_t)t[k][c] * (int32_t)w[k * cn + c];
+        }
+        o[c] = vd_cnn_dsp_out(a, &q->ch[c], relu ? 0 : q->thr[c], relu);
+    }
+}
+
+// A pixel from its nine tap pointers (padding columns or rows: zrow), in C.
+static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const int8_t *w, const vd_cnn_dsp_q_t *q,
+                             size_t cn, int8_t *o, bool relu)
+{
+    size_t c = 0u;
+    for (; c + 4u <= cn; c += 4u, wx += 18) {
+        uint32_t a[4] = {0u, 0u, 0u, 0u};
+        for (size_t p = 0u; p < 4u; p++) {
+            const uint32_t x = dsp_ld(t[2u * p] + c), x2 = dsp_ld(t[2u * p + 1u] + c);
+            const uint32_t lo = (x & 0xFFFFu) | (x2 << 16), hi = (x2 & 0xFFFF0000u) | (x >> 16);
+            const uint32_t *wp = wx + 4u * p;
+            a[0] = SMLAD(SXTB16(lo), wp[0], a[0]);
+            a[1] = SMLAD(SXTB16_RORn(lo, 8u), wp[1], a[1]);
+            a[2] = SMLAD(SXTB16(hi), wp[2], a[2]);
+            a[3] = SMLAD(SXTB16_RORn(hi, 8u), wp[3], a[3]);
+        }
+        const uint32_t x = dsp_ld(t[8] + c);
+        const int32_t x02 = (int32_t)SXTB16(x), x13 = (int32_t)SXTB16_RORn(x, 8u);
+        const int32_t s[4] = {__smlabb(x02, (int32_t)wx[16], (int32_t)a[0]), __smlabb(x13, (int32_t)wx[17], (int32_t)a[1]),
+                              __smlatt(x02, (int32_t)wx[16], (int32_t)a[2]), __smlatt(x13, (int32_t)wx[17], (int32_t)a[3])};
+        dsp_store(s, q, c, o, relu);
+    }
+    dsp_rest(t, w, q, c, cn, o, relu);
+}
+
+// Group c (four channels) of n consecutive pixels whose nine taps are all inside: row pointers r0..r2
+// at the first pixel's left tap column (+ c), the columns cn bytes apart (the third one by LDR's
+// register offset shifted left by 1), the pixels adv bytes apart; wg the group's weights. The taps in
+// assembly (14 instructions per pair of taps; in C gcc 12 keeps the tap pointers on the stack: two
+// more per tap). Group-major (a run of
+// pixels per group) so that the per-pixel set-up is three pointer additions.
+#define VD_DSP_PAIR(ld, mul)                                                                                    \
+    ld "pkhbt %[y], %[x], %[z], lsl #16\n\t"                                                                  \
+    "pkhtb %[z], %[z], %[x], asr #16\n\t"                                                                     \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "sxtb16 %[x], %[y]\n\t"                                                                                   \
+    "sxtb16 %[y], %[y], ror #8\n\t" mul("a0", "x", "w0") mul("a1", "y", "w1")                                 \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "sxtb16 %[x], %[z]\n\t"                                                                                   \
+    "sxtb16 %[y], %[z], ror #8\n\t" mul("a2", "x", "w0") mul("a3", "y", "w1")
+#define VD_DSP_SMUAD(a, x, w) "smuad %[" a "], %[" x "], %[" w "]\n\t"
+#define VD_DSP_SMLAD(a, x, w) "smlad %[" a "], %[" x "], %[" w "], %[" a "]\n\t"
+
+static inline void dsp_run_in(const int8_t *r0, const int8_t *r1, const int8_t *r2, size_t n, size_t adv,
+                              const uint32_t *wg, const vd_cnn_dsp_q_t *q, size_t c, size_t cn, int8_t *o, bool relu)
+{
+    for (size_t i = 0u; i < n; i++, r0 += adv, r1 += adv, r2 += adv, o += cn) {
+        const uint32_t *wx = wg;
+        int32_t a0, a1, a2, a3;
+        uint32_t x, y, z, w0, w1;
+        __asm__(VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)
+                VD_DSP_PAIR("ldr %[x], [%[r0], %[cn], lsl #1]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
+                VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tldr %[z], [%[r1], %[cn], lsl #1]\n\t",
+                            VD_DSP_SMLAD)
+                VD_DSP_PAIR("ldr %[x], [%[r2]]\n\tldr %[z], [%[r2], %[cn]]\n\t", VD_DSP_SMLAD)
+                "ldr %[x], [%[r2], %[cn], lsl #1]\n\t"
+                "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+                "sxtb16 %[y], %[x]\n\t"
+                "sxtb16 %[x], %[x], ror #8\n\t"
+                "smlabb %[a0], %[y], %[w0], %[a0]\n\t"
+                "smlatt %[a2], %[y], %[w0], %[a2]\n\t"
+                "smlabb %[a1], %[x], %[w1], %[a1]\n\t"
+                "smlatt %[a3], %[x], %[w1], %[a3]"
+                : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [x] "=&r"(x), [y] "=&r"(y),
+                  [z] "=&r"(z), [w0] "=&r"(w0), [w1] "=&r"(w1), [w] "+r"(wx)
+                : [r0] "r"(r0), [r1] "r"(r1), [r2] "r"(r2), [cn] "r"(cn)
+                : "memory");
+        const int32_t a[4] = {a0, a1, a2, a3};
+        dsp_store(a, q, c, o, relu);
+    }
+}
+// dsp_run_in of a ReLU layer with the pixel loop and the requantisation (cmsis.h's vd_cnn_dsp_out4_relu)
+// in the same assembly block: the 14 registers hold the sums, the taps' temporaries and the row
+// pointers, and the rest (weights, constants, output pointer, the row end) is read from the stack once
+// per pixel instead of gcc's spills around the block (~25 instructions per pixel and group). n >= 1.
+static inline void dsp_run_in_relu(const int8_t *r0, const int8_t *r1, const int8_t *r2, size_t n, size_t adv,
+                                   const uint32_t *wg, const vd_cnn_dsp_ch_t *ch, size_t cn, int8_t *o)
+{
+    int32_t a0, a1, a2, a3;
+    uint32_t x, y, z, w0, w1;
+    const uint32_t *wx;
+    const int8_t *r0e = r0 + n * adv;   // r0 after the last pixel
+#define VD_DSP_RQ(a, i)                                                                                         \
+    "ldrd %[y], %[z], [%[x]], #8\n\t"                                                                         \
+    "ldrd %[w0], %[w1], [%[x]], #8\n\t"                                                                       \
+    "smlal %[y], %[z], %[" a "], %[w0]\n\t"                                                                   \
+    "asr %[z], %[z], %[w1]\n\t"                                                                               \
+    "ssat %[z], #8, %[z]\n\t"                                                                                 \
+    "strb %[z], [%[w], #" i "]\n\t"
+    __asm__ __volatile__(
+        "1:\n\t"
+        "ldr %[w], %[wgm]\n\t"
+        VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)
+        VD_DSP_PAIR("ldr %[x], [%[r0], %[cn], lsl #1]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
+        VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tldr %[z], [%[r1], %[cn], lsl #1]\n\t",
+                    VD_DSP_SMLAD)
+        VD_DSP_PAIR("ldr %[x], [%[r2]]\n\tldr %[z], [%[r2], %[cn]]\n\t", VD_DSP_SMLAD)
+        "ldr %[x], [%[r2], %[cn], lsl #1]\n\t"
+        "ldrd %[w0], %[w1], [%[w]], #8\n\t"
+        "sxtb16 %[y], %[x]\n\t"
+        "sxtb16 %[x], %[x], ror #8\n\t"
+        "smlabb %[a0], %[y], %[w0], %[a0]\n\t"
+        "smlatt %[a2], %[y], %[w0], %[a2]\n\t"
+        "smlabb %[a1], %[x], %[w1], %[a1]\n\t"
+        "smlatt %[a3], %[x], %[w1], %[a3]\n\t"
+        "ldr %[x], %[chm]\n\t"
+        "ldr %[w], %[om]\n\t"
+        VD_DSP_RQ("a0", "0") VD_DSP_RQ("a1", "1") VD_DSP_RQ("a2", "2") VD_DSP_RQ("a3", "3")
+        "add %[w], %[w], %[cn]\n\t"
+        "str %[w], %[om]\n\t"
+        "ldr %[x], %[advm]\n\t"
+        "add %[r0], %[r0], %[x]\n\t"
+        "add %[r1], %[r1], %[x]\n\t"
+        "add %[r2], %[r2], %[x]\n\t"
+        "ldr %[x], %[r0em]\n\t"
+        "cmp %[r0], %[x]\n\t"
+        "bne 1b"
+        : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [x] "=&r"(x), [y] "=&r"(y), [z] "=&r"(z),
+          [w0] "=&r"(w0), [w1] "=&r"(w1), [w] "=&r"(wx), [r0] "+r"(r0), [r1] "+r"(r1), [r2] "+r"(r2), [om] "+m"(o)
+        : [cn] "r"(cn), [wgm] "m"(wg), [chm] "m"(ch), [advm] "m"(adv), [r0em] "m"(r0e)
+        : "cc", "memory");
+#undef VD_DSP_RQ
+}
+#undef VD_DSP_SMLAD
+#undef VD_DSP_SMUAD
+#undef VD_DSP_PAIR
+
 // Output rows [y0, y1) with the DSP kernel (the tap pointers of vd_cnn_dw3x3_taps, as dw3x3.c).
-static void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
-                     uint32_t y1, const uint32_t *wx, const int8_t *zrow, const vd_cnn_dsp_q_t *q)
+static inline void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
+                            uint32_t y0, uint32_t y1, const uint32_t *wx, const int8_t *zrow, const vd_cnn_dsp_q_t *q,
+                            bool relu)
 {
     const size_t c_n = g->co;
     const int32_t step = L->stride;
+    const bool fast = (c_n % 4u) == 0u;
     for (uint32_t oy = y0; oy < y1; oy++) {
         const int8_t *rowp[3];
         vd_cnn_dw3x3_rows(in, g->hi, oy, step, rowp);
         int8_t *orow = vd_cnn_ring_row(out, oy);
+        const bool rows = fast && rowp[0] != NULL && rowp[1] != NULL && rowp[2] != NULL;
+        // Interior pixels [xa, xb): all three columns inside (ix0 = ox step - 1 >= 0, ix0 + 2 < wi).
+        const uint32_t xa = 1u;
+        uint32_t xb = ((uint32_t)g->wi - 2u) / (uint32_t)step + 1u;
+        xb = (xb < g->wo) ? xb : g->wo;
+        if (rows && g->wi >= 3u && xb > xa) {
+            const size_t at = ((size_t)xa * (size_t)step - 1u) * c_n;
+            for (size_t c = 0u; c < c_n; c += 4u) {
+                if (relu) {
+                    dsp_run_in_relu(rowp[0] + at + c, rowp[1] + at + c, rowp[2] + at + c, xb - xa, (size_t)step * c_n,
+                                    wx + (c / 4u) * 18u, q->ch + c, c_n, orow + (size_t)xa * c_n + c);
+                    continue;
+                }
+                dsp_run_in(rowp[0] + at + c, rowp[1] + at + c, rowp[2] + at + c, xb - xa, (size_t)step * c_n,
+                           wx + (c / 4u) * 18u, q, c, c_n, orow + (size_t)xa * c_n, relu);
+            }
+        } else {
+            xb = 0u;   // every pixel below
+        }
         for (uint32_t ox = 0u; ox < g->wo; ox++) {
+            if (ox == xa && xb > xa) {
+                ox = xb - 1u;
+                continue;
+            }
             const int8_t *t[9];
             vd_cnn_dw3x3_taps(rowp, ox, step, c_n, g->wi, zrow, t);
-            int8_t *o = orow + (size_t)ox * c_n;
-            if (q->relu && q->sat8) {
-                dsp_pixel(t, wx, L->w, q, c_n, o, true, true);
-            } else if (q->relu) {
-                dsp_pixel(t, wx, L->w, q, c_n, o, true, false);
-            } else {
-                dsp_pixel(t, wx, L->w, q, c_n, o, false, false);
-            }
+            dsp_pixel(t, wx, L->w, q, c_n, orow + (size_t)ox * c_n, relu);
         }
     }
 }
 
 // The DSP kernel's scratch: widened weights in dw3x3.c's int16 weight piece (18 bytes per channel either
-// way), zrow in its row piece, the constants in its constants piece. False when a channel's shift is
-// outside the DSP requantisation's range (cmsis.h).
+// way), zrow in its row piece, the constants in its constants piece. False when the layer is outside
+// the DSP requantisation's range (cmsis.h).
 static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
                       uint32_t y1, uint8_t *scr)
 {
     scratch_layout_t s;
     (void)vd__cnn_dw3x3_scratch(L, &s);
     vd_cnn_dsp_q_t q;
-    if (!vd_cnn_dsp_q_fill(L, scr + s.ch, &q)) {
-        return false;
-    }
     const size_t c_n = g->co;
     uint32_t *wx = (uint32_t *)(void *)(scr + s.w16);
     int8_t *zrow = (int8_t *)(void *)(scr + s.rows);
     for (size_t c = 0u; c < c_n; c++) {
-        int32_t wsum = 0;
-        for (size_t k = 0u; k < 9u; k++) {
-            wsum += L->w[k * c_n + c];
-        }
-        q.bias[c] = vd_rq_u32_to_i32((uint32_t)q.bias[c] - (uint32_t)(g->zp_in * wsum));
         zrow[c] = (int8_t)g->zp_in;
     }
+    // Widened weights per group of four channels, from words of four channels (once per call, and
+    // streamed calls are one output row): taps x = w[2p][c..c+3], y = w[2p+1][c..c+3] give the
+    // channels' pairs (x_c, y_c) as dsp_pixel_in gives the inputs' (PKHBT / PKHTB, SXTB16); the
+    // weight sums for vd__cnn_dsp_q_fill on the way (SMLAD with (1, 1); tap 8's lanes by hand).
+    int32_t *sums = vd_cnn_dsp_q_sums(L, scr + s.ch);
     for (size_t c = 0u; c + 4u <= c_n; c += 4u) {
         uint32_t *d = wx + (c / 4u) * 18u;
-        for (size_t k = 0u; k < 9u; k++) {
-            const int8_t *wk = L->w + k * c_n + c;
-            d[2u * k] = (uint32_t)(uint16_t)(int16_t)wk[0] | ((uint32_t)(uint16_t)(int16_t)wk[2] << 16);
-            d[2u * k + 1u] = (uint32_t)(uint16_t)(int16_t)wk[1] | ((uint32_t)(uint16_t)(int16_t)wk[3] << 16);
+        const int8_t *w = L->w + c;
+        uint32_t a[4] = {0u, 0u, 0u, 0u};   // |sum| <= 9 128
+        for (size_t p = 0u; p < 4u; p++, d += 4) {   // (w[2p][c], w[2p + 1][c]) per channel c
+            uint32_t x, y;
+            memcpy(&x, w + 2u * p * c_n, 4u);
+            memcpy(&y, w + (2u * p + 1u) * c_n, 4u);
+            const uint32_t lo = (x & 0xFFFFu) | (y << 16), hi = (y & 0xFFFF0000u) | (x >> 16);
+            d[0] = SXTB16(lo);
+            d[1] = SXTB16_RORn(lo, 8u);
+            d[2] = SXTB16(hi);
+            d[3] = SXTB16_RORn(hi, 8u);
+            for (size_t i = 0u; i < 4u; i++) {
+                a[i] = SMLAD(d[i], 0x00010001u, a[i]);
+            }
         }
+        uint32_t x;   // tap 8: (w0, w2) is SXTB16 of the word w0..w3, (w1, w3) ROR 8
+        memcpy(&x, w + 8u * c_n, 4u);
+        d[0] = SXTB16(x);
+        d[1] = SXTB16_RORn(x, 8u);
+        sums[c] = (int32_t)a[0] + w[8u * c_n];
+        sums[c + 1u] = (int32_t)a[1] + w[8u * c_n + 1u];
+        sums[c + 2u] = (int32_t)a[2] + w[8u * c_n + 2u];
+        sums[c + 3u] = (int32_t)a[3] + w[8u * c_n + 3u];
     }
-    dsp_rows(L, g, in, out, y0, y1, wx, zrow, &q);
+    // (Channels beyond a multiple of four: the fill sums every channel itself.)
+    if (!vd__cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, (c_n % 4u) == 0u, &q)) {
+        return false;
+    }
+    if (q.relu) {
+        dsp_rows(L, g, in, out, y0, y1, wx, zrow, &q, true);
+    } else {
+        dsp_rows(L, g, in, out, y0, y1, wx, zrow, &q, false);
+    }
     return true;
 }
 #endif
