@@ -337,6 +337,47 @@ static void gather_u8(const geom_t *g, const int8_t *const rowp[5], int32_t ks, 
     }
 }
 
+// vd__cnn_conv_gather for a CONV3X3 on one input channel (the first layer):
+// the same int16 rows (x - zp_in, padding taps 0). The generic gather moves
+// one tap at a time (callgrind: 18 % of the demo's instructions, almost all
+// here); this converts each input row's span of the block once into buf
+// (0 outside the row) and copies pixel i's 3 taps from buf + step i with one
+// 8-byte move. The move's 4th value lands on tap 3 (ky + 1) or, for ky = 2,
+// on position 9, whose packed weight is 0 (pack_avx2 pads k2 = 10 with 0):
+// rewritten, or multiplied by 0.
+static AVX2_TARGET void gather_c1k3(const geom_t *g, const int8_t *const rowp[5], int32_t step, uint32_t x0,
+                                    uint32_t npix, size_t kp, int16_t *rows)
+{
+    int16_t buf[48];   // step (npix - 1) + 4 <= 34 values, whole 16-value chunks
+    const int32_t ix0 = (int32_t)x0 * step - 1;
+    const int32_t n = step * ((int32_t)npix - 1) + 4;
+    const int32_t jlo = (ix0 < 0) ? -ix0 : 0;
+    const int32_t jhi = ((int32_t)g->wi - ix0 < n) ? (int32_t)g->wi - ix0 : n;
+    const __m256i zp = _mm256_set1_epi16((int16_t)g->zp_in);
+    for (int32_t ky = 0; ky < 3; ky++) {
+        const int8_t *x = rowp[ky];
+        int32_t j = 0;
+        if (x != NULL) {
+            for (; j < jlo; j++) {
+                buf[j] = 0;
+            }
+            for (; j + 16 <= jhi; j += 16) {
+                const __m128i v = _mm_loadu_si128((const __m128i *)(const void *)(x + ix0 + j));
+                _mm256_storeu_si256((__m256i *)(void *)(buf + j), _mm256_sub_epi16(_mm256_cvtepi8_epi16(v), zp));
+            }
+            for (; j < jhi; j++) {
+                buf[j] = (int16_t)(x[ix0 + j] - g->zp_in);
+            }
+        }
+        for (; j < n; j++) {
+            buf[j] = 0;
+        }
+        for (uint32_t i = 0u; i < npix; i++) {
+            memcpy(rows + (size_t)i * kp + (size_t)ky * 3u, buf + (size_t)step * i, 4u * sizeof(int16_t));
+        }
+    }
+}
+
 // vd__cnn_conv_rows on the AVX2 GEMM: the portable int16 rows (x - zp_in, padding
 // 0) and, per tile of <= 64 output channels, int16 weight pairs
 // [k2 / 2][n][2] (2 n k2 <= the int16 copy's 2 chunk kp bytes).
@@ -352,6 +393,7 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
+    const bool c1k3 = ks == 3 && g->ci == 1u;   // gather_c1k3's case (stride 1 or 2: the loader's bound)
     for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
         pack_avx2(L->w + o0 * k, k, n_o, wp);
@@ -363,7 +405,11 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
             int8_t *orow = vd_cnn_ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
-                vd__cnn_conv_gather(g, rowp, ks, step, x0, npix, kp, rows);
+                if (c1k3) {
+                    gather_c1k3(g, rowp, step, x0, npix, kp, rows);
+                } else {
+                    vd__cnn_conv_gather(g, rowp, ks, step, x0, npix, kp, rows);
+                }
                 gemm_avx2(rows, kp, k, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }
