@@ -38,7 +38,9 @@ void vd__cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const ui
         vd_rq_ch_t c;
         vd_rq_prepare(vd_rq_u32_to_i32(vd_blob_u32(L->mult + 4u * o)), L->shift[o], bias, &c);
         v->bias[j] = c.bias;
+        v->bias_u[j] = (uint32_t)c.bias ^ 0x80000000u;
         v->mult[j] = c.mult;
+        v->mult_sw[j ^ 1u] = c.mult;
         v->thr[j] = c.thr;
         v->dk[j] = c.dk;
         v->off[j] = c.off;
@@ -64,5 +66,6 @@ vd_cnn_x86_rq_t vd__cnn_x86_rq_of(const vd_cnn_layer_t *L)
         q.general = q.general || L->shift[o] > 0;
     }
     q.sign = q.general || q.lo < 0;
+    q.sat8 = L->act_min == -128 && L->act_max == 127;
     return q;
 }
