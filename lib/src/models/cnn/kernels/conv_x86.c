@@ -221,9 +221,33 @@ X86_KERNEL AVX2_TARGET void pack_avx2(const int8_t *w, size_t k, size_t n_o, int
     }
 }
 
-X86_KERNEL AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
-                                      const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
-                                      uint32_t npix)
+// Requantises pixel p's accumulators (a0: channels 0-7 of the group, a1: 8-15) and
+// stores its n0 + n1 channels at d.
+AVX2_INLINE void gemm_out(int8_t *d, __m256i a0, __m256i a1, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q,
+                          size_t n0, size_t n1)
+{
+    if (n1 == 8u && q->sat8) {
+        // 16 channels in one store: after the two packs the dwords 0, 4, 1, 5
+        // hold channels 0-3, 4-7, 8-11, 12-15.
+        const __m256i b = sat8_16(_mm256_packs_epi32(rq8_z(a0, c, 0u, q), rq8_z(a1, c, 1u, q)), q);
+        _mm_storeu_si128((__m128i *)(void *)d, _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
+                                                   b, _mm256_setr_epi32(0, 4, 1, 5, 0, 4, 1, 5))));
+        return;
+    }
+    store8(d, rq8(a0, c, 0u, q), n0);
+    if (n1 > 0u) {
+        store8(d + 8, rq8(a1, c, 1u, q), n1);
+    }
+}
+
+// gemm_avx2's body; q's flags and wfull (n_o a multiple of 16: plain weight
+// loads, which leave gcc the registers the masks took: with them it spilled
+// accumulators in the inner loop) are constants where the caller specialises them.
+// rows holds VD_CNN_NPIX rows (the scratch's), so the 4 rows of the last
+// group are read even past npix (finite values; their results are not stored).
+AVX2_INLINE void gemm_avx2_body(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                                const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                                uint32_t npix, const bool wfull)
 {
     const size_t ng = (k + 1u) / 2u;
     const size_t row = n_o * 2u;
@@ -232,58 +256,58 @@ X86_KERNEL AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_
         const size_t n1 = (n_o - o0 > 8u) ? ((n_o - o0 - 8u < 8u) ? n_o - o0 - 8u : 8u) : 0u;
         const __m256i m0 = lane_mask8(n0), m1 = lane_mask8(n1);
         const vd_cnn_x86_rqv_t *c = &cv[o0 / 16u];
-        const bool full = n1 == 8u && q->sat8;
-        const __m256i order = _mm256_setr_epi32(0, 4, 1, 5, 0, 4, 1, 5);
         for (uint32_t p0 = 0u; p0 < npix; p0 += 4u) {
             const int16_t *r0 = rows + (size_t)p0 * rstride;
-            const int16_t *r1 = rows + (size_t)((p0 + 1u < npix) ? p0 + 1u : npix - 1u) * rstride;
-            const int16_t *r2 = rows + (size_t)((p0 + 2u < npix) ? p0 + 2u : npix - 1u) * rstride;
-            const int16_t *r3 = rows + (size_t)((p0 + 3u < npix) ? p0 + 3u : npix - 1u) * rstride;
+            const int16_t *r1 = r0 + rstride;
+            const int16_t *r2 = r1 + rstride;
+            const int16_t *r3 = r2 + rstride;
             const __m256i z = _mm256_setzero_si256();
             __m256i a00 = z, a01 = z, a10 = z, a11 = z, a20 = z, a21 = z, a30 = z, a31 = z;
             const int16_t *wr = wp + 2u * o0;
             for (size_t gi = 0u; gi < ng; gi++) {
-                const __m256i w0 = _mm256_maskload_epi32((const int *)(const void *)wr, m0);
-                const __m256i w1 = _mm256_maskload_epi32((const int *)(const void *)(wr + 16), m1);
+                const __m256i w0 = wfull ? _mm256_loadu_si256((const __m256i *)(const void *)wr)
+                                         : _mm256_maskload_epi32((const int *)(const void *)wr, m0);
+                const __m256i w1 = wfull ? _mm256_loadu_si256((const __m256i *)(const void *)(wr + 16))
+                                         : _mm256_maskload_epi32((const int *)(const void *)(wr + 16), m1);
                 int32_t b;
                 memcpy(&b, r0 + 2u * gi, sizeof b);
                 __m256i bb = _mm256_set1_epi32(b);
-                a00 = _mm256_add_epi32(a00, _mm256_madd_epi16(bb, w0));
-                a01 = _mm256_add_epi32(a01, _mm256_madd_epi16(bb, w1));
+                a00 = _mm256_add_epi32(_mm256_madd_epi16(bb, w0), a00);
+                a01 = _mm256_add_epi32(_mm256_madd_epi16(bb, w1), a01);
                 memcpy(&b, r1 + 2u * gi, sizeof b);
                 bb = _mm256_set1_epi32(b);
-                a10 = _mm256_add_epi32(a10, _mm256_madd_epi16(bb, w0));
-                a11 = _mm256_add_epi32(a11, _mm256_madd_epi16(bb, w1));
+                a10 = _mm256_add_epi32(_mm256_madd_epi16(bb, w0), a10);
+                a11 = _mm256_add_epi32(_mm256_madd_epi16(bb, w1), a11);
                 memcpy(&b, r2 + 2u * gi, sizeof b);
                 bb = _mm256_set1_epi32(b);
-                a20 = _mm256_add_epi32(a20, _mm256_madd_epi16(bb, w0));
-                a21 = _mm256_add_epi32(a21, _mm256_madd_epi16(bb, w1));
+                a20 = _mm256_add_epi32(_mm256_madd_epi16(bb, w0), a20);
+                a21 = _mm256_add_epi32(_mm256_madd_epi16(bb, w1), a21);
                 memcpy(&b, r3 + 2u * gi, sizeof b);
                 bb = _mm256_set1_epi32(b);
-                a30 = _mm256_add_epi32(a30, _mm256_madd_epi16(bb, w0));
-                a31 = _mm256_add_epi32(a31, _mm256_madd_epi16(bb, w1));
+                a30 = _mm256_add_epi32(_mm256_madd_epi16(bb, w0), a30);
+                a31 = _mm256_add_epi32(_mm256_madd_epi16(bb, w1), a31);
                 wr += row;
             }
             const __m256i acc[4][2] = {{a00, a01}, {a10, a11}, {a20, a21}, {a30, a31}};
             for (uint32_t p = 0u; p < 4u; p++) {
                 if (p0 + p < npix) {
-                    int8_t *d = out + ((size_t)p0 + p) * pstride + o0;
-                    if (full) {
-                        // 16 channels in one store: after the two packs the dwords 0, 4, 1, 5
-                        // hold channels 0-3, 4-7, 8-11, 12-15.
-                        const __m256i b = sat8_16(
-                            _mm256_packs_epi32(rq8_z(acc[p][0], c, 0u, q), rq8_z(acc[p][1], c, 1u, q)), q);
-                        _mm_storeu_si128((__m128i *)(void *)d,
-                                         _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(b, order)));
-                        continue;
-                    }
-                    store8(d, rq8(acc[p][0], c, 0u, q), n0);
-                    if (n1 > 0u) {
-                        store8(d + 8, rq8(acc[p][1], c, 1u, q), n1);
-                    }
+                    gemm_out(out + ((size_t)p0 + p) * pstride + o0, acc[p][0], acc[p][1], c, q, n0, n1);
                 }
             }
         }
+    }
+}
+
+X86_KERNEL AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                                      const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                                      uint32_t npix)
+{
+    if (q->sat8 && !q->sign && !q->general && n_o % 16u == 0u) {
+        // The shipped networks' case: the flags as constants (no branch per output).
+        const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
+        gemm_avx2_body(rows, rstride, k, wp, n_o, cv, &qc, pstride, out, npix, true);
+    } else {
+        gemm_avx2_body(rows, rstride, k, wp, n_o, cv, q, pstride, out, npix, false);
     }
 }
 

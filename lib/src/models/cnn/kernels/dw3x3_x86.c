@@ -222,7 +222,7 @@ AVX2_INLINE void dw_px(const int8_t *const t[9], const dw_pass_t *ps, const vd_c
         b = _mm256_packs_epi16(z16, z16);
     }
     const __m128i b8 = _mm256_castsi256_si128(_mm256_permute4x64_epi64(b, 0x08));
-    if (ps->nc == 16u) {
+    if (mode == 0u || ps->nc == 16u) {   // mode 0: nc = 16
         _mm_storeu_si128((__m128i *)(void *)o, b8);
     } else {
         int8_t tmp[16];
@@ -304,8 +304,11 @@ X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer
             const int8_t *rows[3];
             dw_rows(d, oy, rows);
             int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
-            if (ps.tl.mode == 0u) {   // whole passes (every pass but a last short one): the plain loads
-                dw_row(d, rows, c0, &ps, q, orow, 0u);
+            if (ps.tl.mode == 0u && q->sat8 && !q->sign && !q->general) {
+                // The shipped networks' case, specialised: a whole pass (plain loads, one
+                // store) and the requantisation flags as constants (no branch per pixel).
+                const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
+                dw_row(d, rows, c0, &ps, &qc, orow, 0u);
             } else {
                 dw_row(d, rows, c0, &ps, q, orow, ps.tl.mode);
             }
