@@ -91,10 +91,13 @@ vd_cnn_x86_rq_t vd__cnn_x86_rq_of(const vd_cnn_layer_t *L)
     q.zp = L->out_zp;
     q.lo = L->act_min - L->out_zp;
     q.hi = L->act_max - L->out_zp;
-    q.general = false;
+    // The largest shift (a max loop gcc vectorises; the || chain it did not:
+    // ~2 % of the demo's instructions, one call per layer call).
+    int32_t smax = INT8_MIN;
     for (uint32_t o = 0u; o < L->cout; o++) {
-        q.general = q.general || L->shift[o] > 0;
+        smax = (L->shift[o] > smax) ? L->shift[o] : smax;
     }
+    q.general = smax > 0;
     q.sign = q.general || q.lo < 0;
     q.sat8 = L->act_min == -128 && L->act_max == 127;
     return q;
