@@ -15,11 +15,13 @@
 //  * AVX2 (no AVX-512): exact int16 products by vpmaddwd (pairs of int16 products summed into int32:
 //    |sum| <= 2 * 255 * 128, no saturation) on conv.c's int16 rows (x - zp_in, padding 0), so no
 //    zero-point correction; weights as int16 pairs [k2 / 2][n][2] (2 n k2 <= the int16 copy's bytes).
-//    8 output channels per register, tiles of 4 pixels x 16 channels (16 ymm registers).
+//    8 output channels per register, tiles of 4 pixels x 16 channels (16 ymm registers). Rows: pointwise
+//    16 channels per vector op (gather_pw), the one-channel first layer per row span (gather_c1k3), others
+//    conv.c's gather. Layers whose output range is all of int8 skip the clamp (sat8_16 in x86.h).
 // Streamed runs repack a layer's weights per call as conv.c re-copies its own (32-bit gathers; AVX-512
 // weight sums by vpdpbusd against ones).
 // Reference: conv.c (tests/unit/test_cnn.c compares every tensor with it on random and shipped models).
-// Bounds: as conv.c; stack ~3.5 KiB (the constants of one tile of 64 channels).
+// Bounds: as conv.c; stack ~4 KiB (the constants of one tile of 64 channels).
 #include "models/cnn/kernels/x86.h"
 
 #include <string.h>

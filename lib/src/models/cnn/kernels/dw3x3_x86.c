@@ -6,7 +6,9 @@
 // into the constants. AVX-512: int16 products, vpdpwssd on tap pairs interleaved per channel
 // (unpacklo/hi), 2 products + int32 per lane, exact; packs_epi32 of the lo/hi results restores the
 // channel order; 32 channels per pass. AVX2: the same with vpmaddwd, 16 channels per pass, the last
-// pass's tail read without touching bytes past the pixel's channels (tail_of).
+// pass's tail read without touching bytes past the pixel's channels (tail_of); the pixels whose taps are all
+// inside the input step three row pointers (dw_row), and the shipped networks' case (whole passes, output
+// range all of int8, ReLU) is a specialised copy.
 // Reference: dw3x3.c (tests/unit/test_cnn.c compares every tensor with it).
 // Bounds: as dw3x3.c; stack: the weights and constants of one pass.
 #include "models/cnn/kernels/x86.h"
