@@ -524,12 +524,12 @@ static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_
         // given size_t indices and the width in a local (with uint32_t 2 cx, which may
         // wrap, and dst->width reread after each byte store, gcc 12 -O3 kept it
         // scalar: 17 instructions per pixel, callgrind).
-        const size_t w = dst->width;
+        const size_t out_w = dst->width;
         for (uint32_t cy = 0; cy < dst->height; cy++) {
             const uint8_t *a = data + ((size_t)r->y + 2u * (size_t)cy) * stride + (size_t)r->x;
             const uint8_t *b = a + stride;
             uint8_t *out = dst->data + (size_t)cy * dst->stride;
-            for (size_t cx = 0; cx < w; cx++) {
+            for (size_t cx = 0; cx < out_w; cx++) {
                 const uint32_t sum = (uint32_t)a[2u * cx] + a[2u * cx + 1u] + b[2u * cx] + b[2u * cx + 1u];
                 out[cx] = (uint8_t)((sum + 2u) >> 2);
             }
