@@ -249,11 +249,11 @@ AVX2_INLINE void gemm_out(int8_t *d, __m256i a0, __m256i a1, const vd_cnn_x86_rq
 // group are read even past npix (finite values; their results are not stored).
 AVX2_INLINE void gemm_avx2_body(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
                                 const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
-                                uint32_t npix, const bool wfull)
+                                uint32_t npix, size_t o_end, const bool wfull)
 {
     const size_t ng = (k + 1u) / 2u;
     const size_t row = n_o * 2u;
-    for (size_t o0 = 0u; o0 < n_o; o0 += 16u) {
+    for (size_t o0 = 0u; o0 < o_end; o0 += 16u) {
         const size_t n0 = (n_o - o0 < 8u) ? n_o - o0 : 8u;
         const size_t n1 = (n_o - o0 > 8u) ? ((n_o - o0 - 8u < 8u) ? n_o - o0 - 8u : 8u) : 0u;
         const __m256i m0 = lane_mask8(n0), m1 = lane_mask8(n1);
@@ -300,16 +300,62 @@ AVX2_INLINE void gemm_avx2_body(const int16_t *rows, size_t rstride, size_t k, c
     }
 }
 
+// The last group of output channels o0 .. n_o - 1 when it holds at most 8 (n_o % 16 in
+// 1..8: the heads, a 24- or 136-channel layer): 4 pixels x 8 channels, where
+// gemm_avx2_body would compute 16 lanes per pixel and store 8.
+X86_KERNEL AVX2_TARGET void gemm_avx2_8(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                                        size_t o0, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q, size_t pstride,
+                                        int8_t *out, uint32_t npix)
+{
+    const size_t ng = (k + 1u) / 2u;
+    const size_t row = n_o * 2u;
+    const size_t n0 = n_o - o0;
+    const __m256i m0 = lane_mask8(n0);
+    for (uint32_t p0 = 0u; p0 < npix; p0 += 4u) {
+        const int16_t *r0 = rows + (size_t)p0 * rstride;   // 16 rows in the scratch, as gemm_avx2_body
+        const int16_t *r1 = r0 + rstride;
+        const int16_t *r2 = r1 + rstride;
+        const int16_t *r3 = r2 + rstride;
+        const __m256i z = _mm256_setzero_si256();
+        __m256i a0 = z, a1 = z, a2 = z, a3 = z;
+        const int16_t *wr = wp + 2u * o0;
+        for (size_t gi = 0u; gi < ng; gi++) {
+            const __m256i w0 = _mm256_maskload_epi32((const int *)(const void *)wr, m0);
+            int32_t b;
+            memcpy(&b, r0 + 2u * gi, sizeof b);
+            a0 = _mm256_add_epi32(_mm256_madd_epi16(_mm256_set1_epi32(b), w0), a0);
+            memcpy(&b, r1 + 2u * gi, sizeof b);
+            a1 = _mm256_add_epi32(_mm256_madd_epi16(_mm256_set1_epi32(b), w0), a1);
+            memcpy(&b, r2 + 2u * gi, sizeof b);
+            a2 = _mm256_add_epi32(_mm256_madd_epi16(_mm256_set1_epi32(b), w0), a2);
+            memcpy(&b, r3 + 2u * gi, sizeof b);
+            a3 = _mm256_add_epi32(_mm256_madd_epi16(_mm256_set1_epi32(b), w0), a3);
+            wr += row;
+        }
+        const __m256i acc[4] = {a0, a1, a2, a3};
+        for (uint32_t p = 0u; p < 4u; p++) {
+            if (p0 + p < npix) {
+                store8(out + ((size_t)p0 + p) * pstride + o0, rq8(acc[p], c, 0u, q), n0);
+            }
+        }
+    }
+}
+
 X86_KERNEL AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
                                       const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
                                       uint32_t npix)
 {
-    if (q->sat8 && !q->sign && !q->general && n_o % 16u == 0u) {
-        // The shipped networks' case: the flags as constants (no branch per output).
+    const size_t tail = n_o % 16u;
+    const size_t o_end = (tail != 0u && tail <= 8u) ? n_o - tail : n_o;   // groups of gemm_avx2_body
+    if (q->sat8 && !q->sign && !q->general && o_end % 16u == 0u) {
+        // The shipped networks' case: the flags as constants (no branch per output), whole groups.
         const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
-        gemm_avx2_body(rows, rstride, k, wp, n_o, cv, &qc, pstride, out, npix, true);
+        gemm_avx2_body(rows, rstride, k, wp, n_o, cv, &qc, pstride, out, npix, o_end, true);
     } else {
-        gemm_avx2_body(rows, rstride, k, wp, n_o, cv, q, pstride, out, npix, false);
+        gemm_avx2_body(rows, rstride, k, wp, n_o, cv, q, pstride, out, npix, o_end, false);
+    }
+    if (o_end < n_o) {
+        gemm_avx2_8(rows, rstride, k, wp, n_o, o_end, &cv[o_end / 16u], q, pstride, out, npix);
     }
 }
 
