@@ -15,11 +15,13 @@
 //  * AVX2 (no AVX-512): exact int16 products by vpmaddwd (pairs of int16 products summed into int32:
 //    |sum| <= 2 * 255 * 128, no saturation) on conv.c's int16 rows (x - zp_in, padding 0), so no
 //    zero-point correction; weights as int16 pairs [k2 / 2][n][2] (2 n k2 <= the int16 copy's bytes).
-//    8 output channels per register, tiles of 4 pixels x 16 channels (16 ymm registers).
+//    8 output channels per register, tiles of 4 pixels x 16 channels (16 ymm registers). Rows: pointwise
+//    16 channels per vector op (gather_pw), the one-channel first layer per row span (gather_c1k3), others
+//    conv.c's gather. Layers whose output range is all of int8 skip the clamp (sat8_16 in x86.h).
 // Streamed runs repack a layer's weights per call as conv.c re-copies its own (32-bit gathers; AVX-512
 // weight sums by vpdpbusd against ones).
 // Reference: conv.c (tests/unit/test_cnn.c compares every tensor with it on random and shipped models).
-// Bounds: as conv.c; stack ~3.5 KiB (the constants of one tile of 64 channels).
+// Bounds: as conv.c; stack ~4 KiB (the constants of one tile of 64 channels).
 #include "models/cnn/kernels/x86.h"
 
 #include <string.h>
@@ -221,58 +223,139 @@ X86_KERNEL AVX2_TARGET void pack_avx2(const int8_t *w, size_t k, size_t n_o, int
     }
 }
 
-X86_KERNEL AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
-                                      const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
-                                      uint32_t npix)
+// Requantises pixel p's accumulators (a0: channels 0-7 of the group, a1: 8-15) and
+// stores its n0 + n1 channels at d.
+AVX2_INLINE void gemm_out(int8_t *d, __m256i a0, __m256i a1, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q,
+                          size_t n0, size_t n1)
+{
+    if (n1 == 8u && q->sat8) {
+        // 16 channels in one store: after the two packs the dwords 0, 4, 1, 5
+        // hold channels 0-3, 4-7, 8-11, 12-15.
+        const __m256i b = sat8_16(_mm256_packs_epi32(rq8_z(a0, c, 0u, q), rq8_z(a1, c, 1u, q)), q);
+        _mm_storeu_si128((__m128i *)(void *)d, _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
+                                                   b, _mm256_setr_epi32(0, 4, 1, 5, 0, 4, 1, 5))));
+        return;
+    }
+    store8(d, rq8(a0, c, 0u, q), n0);
+    if (n1 > 0u) {
+        store8(d + 8, rq8(a1, c, 1u, q), n1);
+    }
+}
+
+// gemm_avx2's body; q's flags and wfull (n_o a multiple of 16: plain weight
+// loads, which leave gcc the registers the masks took: with them it spilled
+// accumulators in the inner loop) are constants where the caller specialises them.
+// rows holds VD_CNN_NPIX rows (the scratch's), so the 4 rows of the last
+// group are read even past npix (finite values; their results are not stored).
+AVX2_INLINE void gemm_avx2_body(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                                const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                                uint32_t npix, size_t o_end, const bool wfull)
 {
     const size_t ng = (k + 1u) / 2u;
     const size_t row = n_o * 2u;
-    for (size_t o0 = 0u; o0 < n_o; o0 += 16u) {
+    for (size_t o0 = 0u; o0 < o_end; o0 += 16u) {
         const size_t n0 = (n_o - o0 < 8u) ? n_o - o0 : 8u;
         const size_t n1 = (n_o - o0 > 8u) ? ((n_o - o0 - 8u < 8u) ? n_o - o0 - 8u : 8u) : 0u;
         const __m256i m0 = lane_mask8(n0), m1 = lane_mask8(n1);
         const vd_cnn_x86_rqv_t *c = &cv[o0 / 16u];
         for (uint32_t p0 = 0u; p0 < npix; p0 += 4u) {
             const int16_t *r0 = rows + (size_t)p0 * rstride;
-            const int16_t *r1 = rows + (size_t)((p0 + 1u < npix) ? p0 + 1u : npix - 1u) * rstride;
-            const int16_t *r2 = rows + (size_t)((p0 + 2u < npix) ? p0 + 2u : npix - 1u) * rstride;
-            const int16_t *r3 = rows + (size_t)((p0 + 3u < npix) ? p0 + 3u : npix - 1u) * rstride;
+            const int16_t *r1 = r0 + rstride;
+            const int16_t *r2 = r1 + rstride;
+            const int16_t *r3 = r2 + rstride;
             const __m256i z = _mm256_setzero_si256();
             __m256i a00 = z, a01 = z, a10 = z, a11 = z, a20 = z, a21 = z, a30 = z, a31 = z;
             const int16_t *wr = wp + 2u * o0;
             for (size_t gi = 0u; gi < ng; gi++) {
-                const __m256i w0 = _mm256_maskload_epi32((const int *)(const void *)wr, m0);
-                const __m256i w1 = _mm256_maskload_epi32((const int *)(const void *)(wr + 16), m1);
+                const __m256i w0 = wfull ? _mm256_loadu_si256((const __m256i *)(const void *)wr)
+                                         : _mm256_maskload_epi32((const int *)(const void *)wr, m0);
+                const __m256i w1 = wfull ? _mm256_loadu_si256((const __m256i *)(const void *)(wr + 16))
+                                         : _mm256_maskload_epi32((const int *)(const void *)(wr + 16), m1);
                 int32_t b;
                 memcpy(&b, r0 + 2u * gi, sizeof b);
                 __m256i bb = _mm256_set1_epi32(b);
-                a00 = _mm256_add_epi32(a00, _mm256_madd_epi16(bb, w0));
-                a01 = _mm256_add_epi32(a01, _mm256_madd_epi16(bb, w1));
+                a00 = _mm256_add_epi32(_mm256_madd_epi16(bb, w0), a00);
+                a01 = _mm256_add_epi32(_mm256_madd_epi16(bb, w1), a01);
                 memcpy(&b, r1 + 2u * gi, sizeof b);
                 bb = _mm256_set1_epi32(b);
-                a10 = _mm256_add_epi32(a10, _mm256_madd_epi16(bb, w0));
-                a11 = _mm256_add_epi32(a11, _mm256_madd_epi16(bb, w1));
+                a10 = _mm256_add_epi32(_mm256_madd_epi16(bb, w0), a10);
+                a11 = _mm256_add_epi32(_mm256_madd_epi16(bb, w1), a11);
                 memcpy(&b, r2 + 2u * gi, sizeof b);
                 bb = _mm256_set1_epi32(b);
-                a20 = _mm256_add_epi32(a20, _mm256_madd_epi16(bb, w0));
-                a21 = _mm256_add_epi32(a21, _mm256_madd_epi16(bb, w1));
+                a20 = _mm256_add_epi32(_mm256_madd_epi16(bb, w0), a20);
+                a21 = _mm256_add_epi32(_mm256_madd_epi16(bb, w1), a21);
                 memcpy(&b, r3 + 2u * gi, sizeof b);
                 bb = _mm256_set1_epi32(b);
-                a30 = _mm256_add_epi32(a30, _mm256_madd_epi16(bb, w0));
-                a31 = _mm256_add_epi32(a31, _mm256_madd_epi16(bb, w1));
+                a30 = _mm256_add_epi32(_mm256_madd_epi16(bb, w0), a30);
+                a31 = _mm256_add_epi32(_mm256_madd_epi16(bb, w1), a31);
                 wr += row;
             }
             const __m256i acc[4][2] = {{a00, a01}, {a10, a11}, {a20, a21}, {a30, a31}};
             for (uint32_t p = 0u; p < 4u; p++) {
                 if (p0 + p < npix) {
-                    int8_t *d = out + ((size_t)p0 + p) * pstride + o0;
-                    store8(d, rq8(acc[p][0], c, 0u, q), n0);
-                    if (n1 > 0u) {
-                        store8(d + 8, rq8(acc[p][1], c, 1u, q), n1);
-                    }
+                    gemm_out(out + ((size_t)p0 + p) * pstride + o0, acc[p][0], acc[p][1], c, q, n0, n1);
                 }
             }
         }
+    }
+}
+
+// The last group of output channels o0 .. n_o - 1 when it holds at most 8 (n_o % 16 in
+// 1..8: the heads, a 24- or 136-channel layer): 4 pixels x 8 channels, where
+// gemm_avx2_body would compute 16 lanes per pixel and store 8.
+X86_KERNEL AVX2_TARGET void gemm_avx2_8(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                                        size_t o0, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q, size_t pstride,
+                                        int8_t *out, uint32_t npix)
+{
+    const size_t ng = (k + 1u) / 2u;
+    const size_t row = n_o * 2u;
+    const size_t n0 = n_o - o0;
+    const __m256i m0 = lane_mask8(n0);
+    for (uint32_t p0 = 0u; p0 < npix; p0 += 4u) {
+        const int16_t *r0 = rows + (size_t)p0 * rstride;   // 16 rows in the scratch, as gemm_avx2_body
+        const int16_t *r1 = r0 + rstride;
+        const int16_t *r2 = r1 + rstride;
+        const int16_t *r3 = r2 + rstride;
+        const __m256i z = _mm256_setzero_si256();
+        __m256i a0 = z, a1 = z, a2 = z, a3 = z;
+        const int16_t *wr = wp + 2u * o0;
+        for (size_t gi = 0u; gi < ng; gi++) {
+            const __m256i w0 = _mm256_maskload_epi32((const int *)(const void *)wr, m0);
+            int32_t b;
+            memcpy(&b, r0 + 2u * gi, sizeof b);
+            a0 = _mm256_add_epi32(_mm256_madd_epi16(_mm256_set1_epi32(b), w0), a0);
+            memcpy(&b, r1 + 2u * gi, sizeof b);
+            a1 = _mm256_add_epi32(_mm256_madd_epi16(_mm256_set1_epi32(b), w0), a1);
+            memcpy(&b, r2 + 2u * gi, sizeof b);
+            a2 = _mm256_add_epi32(_mm256_madd_epi16(_mm256_set1_epi32(b), w0), a2);
+            memcpy(&b, r3 + 2u * gi, sizeof b);
+            a3 = _mm256_add_epi32(_mm256_madd_epi16(_mm256_set1_epi32(b), w0), a3);
+            wr += row;
+        }
+        const __m256i acc[4] = {a0, a1, a2, a3};
+        for (uint32_t p = 0u; p < 4u; p++) {
+            if (p0 + p < npix) {
+                store8(out + ((size_t)p0 + p) * pstride + o0, rq8(acc[p], c, 0u, q), n0);
+            }
+        }
+    }
+}
+
+X86_KERNEL AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                                      const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                                      uint32_t npix)
+{
+    const size_t tail = n_o % 16u;
+    const size_t o_end = (tail != 0u && tail <= 8u) ? n_o - tail : n_o;   // groups of gemm_avx2_body
+    if (q->sat8 && !q->sign && !q->general && o_end % 16u == 0u) {
+        // The shipped networks' case: the flags as constants (no branch per output), whole groups.
+        const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
+        gemm_avx2_body(rows, rstride, k, wp, n_o, cv, &qc, pstride, out, npix, o_end, true);
+    } else {
+        gemm_avx2_body(rows, rstride, k, wp, n_o, cv, q, pstride, out, npix, o_end, false);
+    }
+    if (o_end < n_o) {
+        gemm_avx2_8(rows, rstride, k, wp, n_o, o_end, &cv[o_end / 16u], q, pstride, out, npix);
     }
 }
 
@@ -337,6 +420,72 @@ static void gather_u8(const geom_t *g, const int8_t *const rowp[5], int32_t ks, 
     }
 }
 
+// vd__cnn_conv_gather for a CONV3X3 on one input channel (the first layer):
+// the same int16 rows (x - zp_in, padding taps 0). The generic gather moves
+// one tap at a time (callgrind: 18 % of the demo's instructions, almost all
+// here); this converts each input row's span of the block once into buf
+// (0 outside the row) and copies pixel i's 3 taps from buf + step i with one
+// 8-byte move. The move's 4th value lands on tap 3 (ky + 1) or, for ky = 2,
+// on position 9, whose packed weight is 0 (pack_avx2 pads k2 = 10 with 0):
+// rewritten, or multiplied by 0.
+static AVX2_TARGET void gather_c1k3(const geom_t *g, const int8_t *const rowp[5], int32_t step, uint32_t x0,
+                                    uint32_t npix, size_t kp, int16_t *rows)
+{
+    int16_t buf[48];   // step (npix - 1) + 4 <= 34 values, whole 16-value chunks
+    const int32_t ix0 = (int32_t)x0 * step - 1;
+    const int32_t n = step * ((int32_t)npix - 1) + 4;
+    const int32_t jlo = (ix0 < 0) ? -ix0 : 0;
+    const int32_t jhi = ((int32_t)g->wi - ix0 < n) ? (int32_t)g->wi - ix0 : n;
+    const __m256i zp = _mm256_set1_epi16((int16_t)g->zp_in);
+    for (int32_t ky = 0; ky < 3; ky++) {
+        const int8_t *x = rowp[ky];
+        int32_t j = 0;
+        if (x != NULL) {
+            for (; j < jlo; j++) {
+                buf[j] = 0;
+            }
+            for (; j + 16 <= jhi; j += 16) {
+                const __m128i v = _mm_loadu_si128((const __m128i *)(const void *)(x + ix0 + j));
+                _mm256_storeu_si256((__m256i *)(void *)(buf + j), _mm256_sub_epi16(_mm256_cvtepi8_epi16(v), zp));
+            }
+            for (; j < jhi; j++) {
+                buf[j] = (int16_t)(x[ix0 + j] - g->zp_in);
+            }
+        }
+        for (; j < n; j++) {
+            buf[j] = 0;
+        }
+        for (uint32_t i = 0u; i < npix; i++) {
+            memcpy(rows + (size_t)i * kp + (size_t)ky * 3u, buf + (size_t)step * i, 4u * sizeof(int16_t));
+        }
+    }
+}
+
+// vd__cnn_conv_gather for a pointwise layer: the npix pixels' ci channels
+// (contiguous from x) as int16 x - zp_in, kp apart, 16 and then 8 at a time
+// (the generic loop: ~1.8 instructions per value, callgrind).
+static AVX2_TARGET void gather_pw(const int8_t *x, size_t ci, int32_t zp_in, uint32_t npix, size_t kp, int16_t *rows)
+{
+    const __m256i zp = _mm256_set1_epi16((int16_t)zp_in);
+    for (uint32_t i = 0u; i < npix; i++) {
+        const int8_t *xi = x + (size_t)i * ci;
+        int16_t *r = rows + (size_t)i * kp;
+        size_t c = 0u;
+        for (; c + 16u <= ci; c += 16u) {
+            const __m128i v = _mm_loadu_si128((const __m128i *)(const void *)(xi + c));
+            _mm256_storeu_si256((__m256i *)(void *)(r + c), _mm256_sub_epi16(_mm256_cvtepi8_epi16(v), zp));
+        }
+        if (c + 8u <= ci) {
+            const __m128i v = _mm_cvtepi8_epi16(_mm_loadl_epi64((const __m128i *)(const void *)(xi + c)));
+            _mm_storeu_si128((__m128i *)(void *)(r + c), _mm_sub_epi16(v, _mm256_castsi256_si128(zp)));
+            c += 8u;
+        }
+        for (; c < ci; c++) {
+            r[c] = (int16_t)(xi[c] - zp_in);
+        }
+    }
+}
+
 // vd__cnn_conv_rows on the AVX2 GEMM: the portable int16 rows (x - zp_in, padding
 // 0) and, per tile of <= 64 output channels, int16 weight pairs
 // [k2 / 2][n][2] (2 n k2 <= the int16 copy's 2 chunk kp bytes).
@@ -347,11 +496,17 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
     const size_t kp = vd_cnn_round_up((uint32_t)k, VD_CNN_KCHUNK);
     int16_t *wp = (int16_t *)(void *)(scr + s->w16);
     int16_t *rows = (int16_t *)(void *)(scr + s->rows);
-    memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
+    if (k % 2u != 0u) {
+        // gemm_avx2 reads k2 = k rounded up to even values per row: position k (weight 0) must be
+        // defined. The gathers write positions 0..k - 1 of every row they fill; rows past npix feed
+        // only results that are not stored. (Zeroing every call: ~1.4 % of the demo's instructions.)
+        memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
+    }
     const vd_cnn_x86_rq_t xq = vd__cnn_x86_rq_of(L);
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
+    const bool c1k3 = ks == 3 && g->ci == 1u;   // gather_c1k3's case (stride 1 or 2: the loader's bound)
     for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
         pack_avx2(L->w + o0 * k, k, n_o, wp);
@@ -363,7 +518,13 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
             int8_t *orow = vd_cnn_ring_row(out, oy) + o0;
             for (uint32_t x0 = 0u; x0 < g->wo; x0 += VD_CNN_NPIX) {
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
-                vd__cnn_conv_gather(g, rowp, ks, step, x0, npix, kp, rows);
+                if (pw) {
+                    gather_pw(rowp[0] + (size_t)x0 * g->ci, g->ci, g->zp_in, npix, kp, rows);
+                } else if (c1k3) {
+                    gather_c1k3(g, rowp, step, x0, npix, kp, rows);
+                } else {
+                    vd__cnn_conv_gather(g, rowp, ks, step, x0, npix, kp, rows);
+                }
                 gemm_avx2(rows, kp, k, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }

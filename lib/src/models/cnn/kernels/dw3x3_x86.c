@@ -6,7 +6,9 @@
 // into the constants. AVX-512: int16 products, vpdpwssd on tap pairs interleaved per channel
 // (unpacklo/hi), 2 products + int32 per lane, exact; packs_epi32 of the lo/hi results restores the
 // channel order; 32 channels per pass. AVX2: the same with vpmaddwd, 16 channels per pass, the last
-// pass's tail read without touching bytes past the pixel's channels (tail_of).
+// pass's tail read without touching bytes past the pixel's channels (tail_of); the pixels whose taps are all
+// inside the input step three row pointers (dw_row), and the shipped networks' case (whole passes, output
+// range all of int8, ReLU) is a specialised copy.
 // Reference: dw3x3.c (tests/unit/test_cnn.c compares every tensor with it).
 // Bounds: as dw3x3.c; stack: the weights and constants of one pass.
 #include "models/cnn/kernels/x86.h"
@@ -173,14 +175,15 @@ AVX2_INLINE tail_t tail_of(size_t n, size_t c_n)
     return t;
 }
 
-AVX2_INLINE __m256i tap_act(const int8_t *p, const tail_t *t)
+// mode: t->mode, or a constant where the caller specialises on it.
+AVX2_INLINE __m256i tap_act(const int8_t *p, const tail_t *t, const uint32_t mode)
 {
     __m128i v;
-    if (t->mode == 0u) {
+    if (mode == 0u) {
         v = _mm_loadu_si128((const __m128i *)(const void *)p);
-    } else if (t->mode == 1u) {
+    } else if (mode == 1u) {
         v = _mm_shuffle_epi8(_mm_loadu_si128((const __m128i *)(const void *)(p + t->n - 16u)), t->shuf);
-    } else if (t->mode == 2u) {
+    } else if (mode == 2u) {
         const __m128i lo = _mm_loadl_epi64((const __m128i *)(const void *)p);
         const __m128i hi = _mm_srl_epi64(_mm_loadl_epi64((const __m128i *)(const void *)(p + t->n - 8u)), t->sh);
         v = _mm_unpacklo_epi64(lo, hi);
@@ -190,23 +193,106 @@ AVX2_INLINE __m256i tap_act(const int8_t *p, const tail_t *t)
     return _mm256_cvtepi8_epi16(v);
 }
 
+// The weights of a pass as the activations' tap pairs and its constants.
+typedef struct dw_pass {
+    __m256i wl[5], wh[5];
+    vd_cnn_x86_rqv_t cv;   // lanes 0..7 the lo sums', 8..15 the hi sums'
+    tail_t tl;
+    size_t nc;
+} dw_pass_t;
+
+// One output pixel of a pass from its 9 tap pointers (already at the pass's
+// first channel) to o.
+AVX2_INLINE void dw_px(const int8_t *const t[9], const dw_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *o,
+                       const uint32_t mode)
+{
+    __m256i al = _mm256_setzero_si256(), ah = _mm256_setzero_si256();
+    for (size_t i = 0u; i < 4u; i++) {
+        const __m256i xa = tap_act(t[2u * i], &ps->tl, mode), xb = tap_act(t[2u * i + 1u], &ps->tl, mode);
+        al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(xa, xb), ps->wl[i]));
+        ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(xa, xb), ps->wh[i]));
+    }
+    const __m256i x8 = tap_act(t[8], &ps->tl, mode), zero = _mm256_setzero_si256();
+    al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(x8, zero), ps->wl[4]));
+    ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(x8, zero), ps->wh[4]));
+    // packs restores the channel order per 128-bit lane; permute joins the lanes' bytes.
+    __m256i b;
+    if (q->sat8) {
+        b = sat8_16(_mm256_packs_epi32(rq8_z(al, &ps->cv, 0u, q), rq8_z(ah, &ps->cv, 1u, q)), q);
+    } else {
+        const __m256i z16 = _mm256_packs_epi32(rq8(al, &ps->cv, 0u, q), rq8(ah, &ps->cv, 1u, q));
+        b = _mm256_packs_epi16(z16, z16);
+    }
+    const __m128i b8 = _mm256_castsi256_si128(_mm256_permute4x64_epi64(b, 0x08));
+    if (mode == 0u || ps->nc == 16u) {   // mode 0: nc = 16
+        _mm_storeu_si128((__m128i *)(void *)o, b8);
+    } else {
+        int8_t tmp[16];
+        _mm_storeu_si128((__m128i *)(void *)tmp, b8);
+        memcpy(o, tmp, ps->nc);
+    }
+}
+
+// One output row of a pass from channel c0. Pixels whose 9 taps are all in
+// the input (3 rows, columns ix0 .. ix0 + 2 inside) step three row pointers
+// (dw_taps per pixel cost a quarter of the kernel's instructions, callgrind);
+// the others take dw_taps.
+AVX2_INLINE void dw_row(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], size_t c0, const dw_pass_t *ps,
+                        const vd_cnn_x86_rq_t *q, int8_t *orow, const uint32_t mode)
+{
+    const size_t c_n = d->c_n;
+    const size_t s = d->stride;
+    uint32_t xa = 0u, xb = 0u;   // interior [xa, xb): ox >= 1 and ox s + 1 < wi
+    if (rows[0] != NULL && rows[1] != NULL && rows[2] != NULL && d->wi >= 2u) {
+        xa = 1u;
+        xb = (d->wi - 2u) / d->stride + 1u;
+        xb = (xb < d->wo) ? xb : d->wo;
+        xb = (xb > xa) ? xb : xa;
+    }
+    uint32_t ox = 0u;
+    while (ox < d->wo) {
+        if (ox == xa && xa < xb) {
+            const size_t adv = s * c_n;
+            const int8_t *p0 = rows[0] + ((size_t)xa * s - 1u) * c_n + c0;
+            const int8_t *p1 = rows[1] + ((size_t)xa * s - 1u) * c_n + c0;
+            const int8_t *p2 = rows[2] + ((size_t)xa * s - 1u) * c_n + c0;
+            for (; ox < xb; ox++) {
+                const int8_t *const t[9] = {p0, p0 + c_n, p0 + 2u * c_n, p1, p1 + c_n, p1 + 2u * c_n,
+                                            p2, p2 + c_n, p2 + 2u * c_n};
+                dw_px(t, ps, q, orow + (size_t)ox * c_n + c0, mode);
+                p0 += adv;
+                p1 += adv;
+                p2 += adv;
+            }
+            continue;
+        }
+        const int8_t *t[9];
+        dw_taps(d, rows, ox, t);
+        for (size_t i = 0u; i < 9u; i++) {
+            t[i] += c0;
+        }
+        dw_px(t, ps, q, orow + (size_t)ox * c_n + c0, mode);
+        ox++;
+    }
+}
+
 X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
                                     uint32_t y0, uint32_t y1)
 {
     const size_t c_n = d->c_n;
     for (size_t c0 = 0u; c0 < c_n; c0 += 16u) {
-        const size_t nc = (c_n - c0 < 16u) ? c_n - c0 : 16u;
+        dw_pass_t ps;
+        ps.nc = (c_n - c0 < 16u) ? c_n - c0 : 16u;
         __m256i wt[9];
         __m256i wsum = _mm256_setzero_si256();
         for (size_t i = 0u; i < 9u; i++) {
-            wt[i] = tap16(L->w + i * c_n + c0, nc);
+            wt[i] = tap16(L->w + i * c_n + c0, ps.nc);
             wsum = _mm256_add_epi16(wsum, wt[i]);   // |sum| <= 9 * 128: int16
         }
-        __m256i wl[5], wh[5];
         for (size_t i = 0u; i < 5u; i++) {
             const __m256i wb = (i < 4u) ? wt[2u * i + 1u] : _mm256_setzero_si256();
-            wl[i] = _mm256_unpacklo_epi16(wt[2u * i], wb);
-            wh[i] = _mm256_unpackhi_epi16(wt[2u * i], wb);
+            ps.wl[i] = _mm256_unpacklo_epi16(wt[2u * i], wb);
+            ps.wh[i] = _mm256_unpackhi_epi16(wt[2u * i], wb);
         }
         int16_t ws[16];
         _mm256_storeu_si256((__m256i *)(void *)ws, wsum);
@@ -214,37 +300,19 @@ X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer
         uint32_t map[16];
         int32_t corr[16];
         dw_lanes(d, c0, ws, 8u, map, corr, map + 8, corr + 8);
-        vd_cnn_x86_rqv_t cv;
-        vd__cnn_x86_rqv_fill(&cv, L, map, corr, 16u);
-        const tail_t tl = tail_of(nc, c_n);
+        vd__cnn_x86_rqv_fill(&ps.cv, L, map, corr, 16u);
+        ps.tl = tail_of(ps.nc, c_n);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
             dw_rows(d, oy, rows);
             int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
-            for (uint32_t ox = 0u; ox < d->wo; ox++) {
-                const int8_t *t[9];
-                dw_taps(d, rows, ox, t);
-                __m256i al = _mm256_setzero_si256(), ah = _mm256_setzero_si256();
-                for (size_t i = 0u; i < 4u; i++) {
-                    const __m256i xa = tap_act(t[2u * i] + c0, &tl), xb = tap_act(t[2u * i + 1u] + c0, &tl);
-                    al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(xa, xb), wl[i]));
-                    ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(xa, xb), wh[i]));
-                }
-                const __m256i x8 = tap_act(t[8] + c0, &tl), zero = _mm256_setzero_si256();
-                al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(x8, zero), wl[4]));
-                ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(x8, zero), wh[4]));
-                // packs restores the channel order per 128-bit lane; permute joins the lanes' bytes.
-                const __m256i z16 = _mm256_packs_epi32(rq8(al, &cv, 0u, q), rq8(ah, &cv, 1u, q));
-                const __m256i z8 = _mm256_permute4x64_epi64(_mm256_packs_epi16(z16, z16), 0x08);
-                const __m128i b = _mm256_castsi256_si128(z8);
-                int8_t *o = orow + (size_t)ox * c_n + c0;
-                if (nc == 16u) {
-                    _mm_storeu_si128((__m128i *)(void *)o, b);
-                } else {
-                    int8_t tmp[16];
-                    _mm_storeu_si128((__m128i *)(void *)tmp, b);
-                    memcpy(o, tmp, nc);
-                }
+            if (ps.tl.mode == 0u && q->sat8 && !q->sign && !q->general) {
+                // The shipped networks' case, specialised: a whole pass (plain loads, one
+                // store) and the requantisation flags as constants (no branch per pixel).
+                const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
+                dw_row(d, rows, c0, &ps, &qc, orow, 0u);
+            } else {
+                dw_row(d, rows, c0, &ps, q, orow, ps.tl.mode);
             }
         }
     }

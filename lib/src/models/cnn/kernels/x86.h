@@ -41,7 +41,9 @@
 // _mm512_mul_epu32. bias includes the kernel's zero-point correction.
 typedef struct vd_cnn_x86_rqv {
     int32_t bias[16];
+    uint32_t bias_u[16];   // bias + 2^31 modulo 2^32: the AVX2 form without the sign term adds it to the sum
     uint32_t mult[16];   // Q31 multiplier
+    uint32_t mult_sw[16];  // mult of lanes 2j + 1, 2j (the odd lanes' multiplier in the even places)
     int32_t thr[16];
     uint32_t dk[16];     // 0 or 2^31
     uint32_t off[16];
@@ -55,6 +57,7 @@ typedef struct vd_cnn_x86_rq {
     int32_t zp, lo, hi;
     bool general;   // some channel has lsh > 0
     bool sign;      // the sign term is needed (not ReLU-clamped, or general)
+    bool sat8;      // act_min -128, act_max 127: the clamp is int8 saturation of z + zp (sat8_16)
 } vd_cnn_x86_rq_t;
 
 // Fills v for lanes 0..15: lane j takes output channel ch_of[j] of layer L
@@ -102,23 +105,32 @@ X86_INLINE __m512i rq16(__m512i acc, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86
     return _mm512_add_epi32(z, _mm512_set1_epi32(q->zp));
 }
 
-// rq16 on lanes 8 h .. 8 h + 7 of c.
-AVX2_INLINE __m256i rq8(__m256i acc, const vd_cnn_x86_rqv_t *c, uint32_t h, const vd_cnn_x86_rq_t *q)
+// rq16 on lanes 8 h .. 8 h + 7 of c, before the clamp: z of the one-shift
+// form (vd_rq_z, vd_rq_z_nn), an int32.
+AVX2_INLINE __m256i rq8_z(__m256i acc, const vd_cnn_x86_rqv_t *c, uint32_t h, const vd_cnn_x86_rq_t *q)
 {
-    __m256i x = _mm256_add_epi32(acc, _mm256_loadu_si256((const __m256i *)(const void *)(c->bias + 8u * h)));
-    if (q->general) {
-        const __m256i sh = _mm256_loadu_si256((const __m256i *)(const void *)(c->lsh + 8u * h));
-        const __m256i t = _mm256_sllv_epi32(x, sh);
-        const __m256i same = _mm256_cmpeq_epi32(_mm256_srav_epi32(t, sh), x);
-        const __m256i sat = _mm256_xor_si256(_mm256_srai_epi32(x, 31), _mm256_set1_epi32(INT32_MAX));
-        x = _mm256_blendv_epi8(sat, t, same);
+    __m256i x = acc, xu;
+    if (!q->general && !q->sign) {
+        // x itself is not needed: x + 2^31 = sum + (bias + 2^31), modulo 2^32.
+        xu = _mm256_add_epi32(acc, _mm256_loadu_si256((const __m256i *)(const void *)(c->bias_u + 8u * h)));
+    } else {
+        x = _mm256_add_epi32(acc, _mm256_loadu_si256((const __m256i *)(const void *)(c->bias + 8u * h)));
+        if (q->general) {
+            const __m256i sh = _mm256_loadu_si256((const __m256i *)(const void *)(c->lsh + 8u * h));
+            const __m256i t = _mm256_sllv_epi32(x, sh);
+            const __m256i same = _mm256_cmpeq_epi32(_mm256_srav_epi32(t, sh), x);
+            const __m256i sat = _mm256_xor_si256(_mm256_srai_epi32(x, 31), _mm256_set1_epi32(INT32_MAX));
+            x = _mm256_blendv_epi8(sat, t, same);
+        }
+        xu = _mm256_xor_si256(x, _mm256_set1_epi32(INT32_MIN));
     }
-    const __m256i xu = _mm256_xor_si256(x, _mm256_set1_epi32(INT32_MIN));
-    const __m256i mult = _mm256_loadu_si256((const __m256i *)(const void *)(c->mult + 8u * h));
-    __m256i ve = _mm256_add_epi64(_mm256_mul_epu32(xu, mult),
-                                  _mm256_loadu_si256((const __m256i *)(const void *)(c->k_e + 4u * h)));
-    __m256i vo = _mm256_add_epi64(_mm256_mul_epu32(_mm256_srli_epi64(xu, 32), _mm256_srli_epi64(mult, 32)),
-                                  _mm256_loadu_si256((const __m256i *)(const void *)(c->k_o + 4u * h)));
+    __m256i ve = _mm256_add_epi64(
+        _mm256_mul_epu32(xu, _mm256_loadu_si256((const __m256i *)(const void *)(c->mult + 8u * h))),
+        _mm256_loadu_si256((const __m256i *)(const void *)(c->k_e + 4u * h)));
+    __m256i vo = _mm256_add_epi64(
+        _mm256_mul_epu32(_mm256_srli_epi64(xu, 32),
+                         _mm256_loadu_si256((const __m256i *)(const void *)(c->mult_sw + 8u * h))),
+        _mm256_loadu_si256((const __m256i *)(const void *)(c->k_o + 4u * h)));
     if (q->sign) {
         // d = dk where not (x > thr).
         const __m256i gt = _mm256_cmpgt_epi32(x, _mm256_loadu_si256((const __m256i *)(const void *)(c->thr + 8u * h)));
@@ -128,11 +140,27 @@ AVX2_INLINE __m256i rq8(__m256i acc, const vd_cnn_x86_rqv_t *c, uint32_t h, cons
     }
     ve = _mm256_srlv_epi64(ve, _mm256_loadu_si256((const __m256i *)(const void *)(c->rsh_e + 4u * h)));
     vo = _mm256_srlv_epi64(vo, _mm256_loadu_si256((const __m256i *)(const void *)(c->rsh_o + 4u * h)));
-    __m256i z = _mm256_blend_epi32(ve, _mm256_slli_epi64(vo, 32), 0xAA);
-    z = _mm256_sub_epi32(z, _mm256_loadu_si256((const __m256i *)(const void *)(c->off + 8u * h)));
+    const __m256i z = _mm256_blend_epi32(ve, _mm256_slli_epi64(vo, 32), 0xAA);
+    return _mm256_sub_epi32(z, _mm256_loadu_si256((const __m256i *)(const void *)(c->off + 8u * h)));
+}
+
+// rq16 on lanes 8 h .. 8 h + 7 of c: clamp(z, lo, hi) + zp.
+AVX2_INLINE __m256i rq8(__m256i acc, const vd_cnn_x86_rqv_t *c, uint32_t h, const vd_cnn_x86_rq_t *q)
+{
+    __m256i z = rq8_z(acc, c, h, q);
     z = _mm256_max_epi32(z, _mm256_set1_epi32(q->lo));
     z = _mm256_min_epi32(z, _mm256_set1_epi32(q->hi));
     return _mm256_add_epi32(z, _mm256_set1_epi32(q->zp));
+}
+
+// Where q->sat8: the int16 lanes of p (packs of two rq8_z results) + zp,
+// saturated. packs_epi32 then adds_epi16 then packs_epi16 equals
+// clamp(z + zp, -128, 127) = clamp(z, lo, hi) + zp for every int32 z: a z
+// saturated to +-32767/-32768 stays beyond +-127 after adding |zp| <= 128.
+AVX2_INLINE __m256i sat8_16(__m256i p, const vd_cnn_x86_rq_t *q)
+{
+    const __m256i s = _mm256_adds_epi16(p, _mm256_set1_epi16((int16_t)q->zp));
+    return _mm256_packs_epi16(s, s);
 }
 
 #endif
