@@ -34,15 +34,6 @@
 #include "vd/resample.h"
 
 #include <string.h>
-#if defined(__ARM_FEATURE_SIMD32) && defined(__ARM_FEATURE_UNALIGNED) && defined(__GNUC__)
-#include <arm_acle.h>
-
-// Bytes x1 x2 x3 x0 of x (UXTB16's ROR 8 operand; gcc 12's arm_acle.h has no __ror).
-static inline uint32_t ror8(uint32_t x)
-{
-    return (x >> 8) | (x << 24);
-}
-#endif
 
 #include "internal/recip_internal.h"
 #include "internal/vd_internal.h"
@@ -539,26 +530,25 @@ static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_
             const uint8_t *b = a + stride;
             uint8_t *out = dst->data + (size_t)cy * dst->stride;
             size_t cx = 0;
-#if defined(__ARM_FEATURE_SIMD32) && defined(__ARM_FEATURE_UNALIGNED) && defined(__GNUC__)
+#if defined(__ARM_FEATURE_SIMD32) && defined(__ARM_FEATURE_UNALIGNED)
             // Armv7E-M (Cortex-M4/M7): four outputs from two words of each row, the byte pairs summed
-            // in 16-bit lanes (UXTB16, UADD16; sums <= 4 * 255 + 2), ~7 instructions per output
-            // against ~12 for the loop below (mps2-an500: ~1 M per frame of vd_cnn_compact's input,
-            // whose rows the percentile histogram and the network each make).
+            // as two 16-bit lanes of a plain 32-bit word (a lane's sum <= 4 * 255 + 2 never carries into
+            // the next), ~7 instructions per output against ~12 for the loop below (mps2-an500: ~1 M per
+            // frame of vd_cnn_compact's input, whose rows the percentile histogram and the network each
+            // make). Plain C: the ALU's shifted operands do what UXTB16 / UADD16 would, without an
+            // intrinsics header (lib/'s include rule).
+            const uint32_t m = 0x00FF00FFu;   // bytes 0 and 2 of a word, one per 16-bit lane
             for (; cx + 4u <= out_w; cx += 4u) {
                 uint32_t w[4];
                 memcpy(&w[0], a + 2u * cx, 4u);
                 memcpy(&w[1], a + 2u * cx + 4u, 4u);
                 memcpy(&w[2], b + 2u * cx, 4u);
                 memcpy(&w[3], b + 2u * cx + 4u, 4u);
-                // (x0 + x1, x2 + x3) of a word's bytes x0..x3, then the two rows, then + 2.
-                const uint32_t lo = __uadd16(__uadd16(__uadd16(__uxtb16(w[0]), __uxtb16(ror8(w[0]))),
-                                                      __uadd16(__uxtb16(w[2]), __uxtb16(ror8(w[2])))),
-                                             0x00020002u);
-                const uint32_t hi = __uadd16(__uadd16(__uadd16(__uxtb16(w[1]), __uxtb16(ror8(w[1]))),
-                                                      __uadd16(__uxtb16(w[3]), __uxtb16(ror8(w[3])))),
-                                             0x00020002u);
+                // Per lane: (x0 + x1) of the first row's byte pair + the second row's + 2.
+                const uint32_t lo = (w[0] & m) + ((w[0] >> 8) & m) + (w[2] & m) + ((w[2] >> 8) & m) + 0x00020002u;
+                const uint32_t hi = (w[1] & m) + ((w[1] >> 8) & m) + (w[3] & m) + ((w[3] >> 8) & m) + 0x00020002u;
                 // Lane values >> 2 in bytes 0 and 2, folded into bytes 0 and 1, two outputs per lane pair.
-                uint32_t p = (lo >> 2) & 0x00FF00FFu, q = (hi >> 2) & 0x00FF00FFu;
+                uint32_t p = (lo >> 2) & m, q = (hi >> 2) & m;
                 p |= p >> 8;
                 q |= q >> 8;
                 const uint32_t o4 = (p & 0xFFFFu) | (q << 16);
