@@ -204,6 +204,26 @@ static inline int32_t dsp_one_dot(const uint32_t **w, uint32_t x0, uint32_t x1, 
     return a;
 }
 
+// One output channel of a one-channel 3x3 layer (label 1: loops over the channels): five SMLAD over the
+// widened taps x0..x4, then cmsis.h's vd_cnn_dsp_out4_relu requantisation and the store. Shared by the
+// single-pixel block and the run block below.
+#define VD_DSP_C1_CHANNEL                                                                                     \
+    "1:\n\t"                                                                                                  \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "smuad %[a], %[x0], %[w0]\n\t"                                                                            \
+    "smlad %[a], %[x1], %[w1], %[a]\n\t"                                                                      \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "smlad %[a], %[x2], %[w0], %[a]\n\t"                                                                      \
+    "smlad %[a], %[x3], %[w1], %[a]\n\t"                                                                      \
+    "ldr %[w0], [%[w]], #8\n\t"                                                                               \
+    "smlad %[a], %[x4], %[w0], %[a]\n\t"                                                                      \
+    "ldrd %[t0], %[t1], [%[ch]], #8\n\t"                                                                      \
+    "ldrd %[w0], %[w1], [%[ch]], #8\n\t"                                                                      \
+    "smlal %[t0], %[t1], %[a], %[w0]\n\t"                                                                     \
+    "asr %[t1], %[t1], %[w1]\n\t"                                                                             \
+    "ssat %[t1], #8, %[t1]\n\t"                                                                               \
+    "strb %[t1], [%[o]], #1\n\t"
+
 static inline void dsp_one_px(const uint32_t t[3], const uint32_t *wq, const vd_cnn_dsp_q_t *q, size_t cn, int8_t *o,
                               bool relu)
 {
@@ -217,21 +237,7 @@ static inline void dsp_one_px(const uint32_t t[3], const uint32_t *wq, const vd_
         const int8_t *oe = o + cn;
         int32_t a;
         uint32_t w0, w1, t0, t1;
-        __asm__ __volatile__("1:\n\t"
-                             "ldrd %[w0], %[w1], [%[w]], #8\n\t"
-                             "smuad %[a], %[x0], %[w0]\n\t"
-                             "smlad %[a], %[x1], %[w1], %[a]\n\t"
-                             "ldrd %[w0], %[w1], [%[w]], #8\n\t"
-                             "smlad %[a], %[x2], %[w0], %[a]\n\t"
-                             "smlad %[a], %[x3], %[w1], %[a]\n\t"
-                             "ldr %[w0], [%[w]], #8\n\t"
-                             "smlad %[a], %[x4], %[w0], %[a]\n\t"
-                             "ldrd %[t0], %[t1], [%[ch]], #8\n\t"
-                             "ldrd %[w0], %[w1], [%[ch]], #8\n\t"
-                             "smlal %[t0], %[t1], %[a], %[w0]\n\t"
-                             "asr %[t1], %[t1], %[w1]\n\t"
-                             "ssat %[t1], #8, %[t1]\n\t"
-                             "strb %[t1], [%[o]], #1\n\t"
+        __asm__ __volatile__(VD_DSP_C1_CHANNEL
                              "ldr %[t0], %[oe]\n\t"
                              "cmp %[o], %[t0]\n\t"
                              "bne 1b"
@@ -285,21 +291,7 @@ static inline void dsp_one_run_relu(const int8_t *r0, const int8_t *r1, const in
                          "ldr %[t0], %[cnm]\n\t"
                          "add %[t0], %[o], %[t0]\n\t"
                          "str %[t0], %[oem]\n\t"
-                         "1:\n\t"
-                         "ldrd %[w0], %[w1], [%[w]], #8\n\t"
-                         "smuad %[a], %[x0], %[w0]\n\t"
-                         "smlad %[a], %[x1], %[w1], %[a]\n\t"
-                         "ldrd %[w0], %[w1], [%[w]], #8\n\t"
-                         "smlad %[a], %[x2], %[w0], %[a]\n\t"
-                         "smlad %[a], %[x3], %[w1], %[a]\n\t"
-                         "ldr %[w0], [%[w]], #8\n\t"
-                         "smlad %[a], %[x4], %[w0], %[a]\n\t"
-                         "ldrd %[t0], %[t1], [%[ch]], #8\n\t"
-                         "ldrd %[w0], %[w1], [%[ch]], #8\n\t"
-                         "smlal %[t0], %[t1], %[a], %[w0]\n\t"
-                         "asr %[t1], %[t1], %[w1]\n\t"
-                         "ssat %[t1], #8, %[t1]\n\t"
-                         "strb %[t1], [%[o]], #1\n\t"
+                         VD_DSP_C1_CHANNEL
                          "ldr %[t0], %[oem]\n\t"
                          "cmp %[o], %[t0]\n\t"
                          "bne 1b\n\t"

@@ -144,6 +144,22 @@ static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const
 #define VD_DSP_SMUAD(a, x, w) "smuad %[" a "], %[" x "], %[" w "]\n\t"
 #define VD_DSP_SMLAD(a, x, w) "smlad %[" a "], %[" x "], %[" w "], %[" a "]\n\t"
 
+// The nine taps of four channels: four tap pairs (VD_DSP_PAIR) and the ninth tap by SMLABB / SMLATT into
+// the sums a0..a3. Shared by the pixel-at-a-time block and the ReLU run block below.
+#define VD_DSP_TAPS                                                                                           \
+    VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)                            \
+    VD_DSP_PAIR("ldr %[x], [%[r0], %[cn], lsl #1]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)                    \
+    VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tldr %[z], [%[r1], %[cn], lsl #1]\n\t", VD_DSP_SMLAD)             \
+    VD_DSP_PAIR("ldr %[x], [%[r2]]\n\tldr %[z], [%[r2], %[cn]]\n\t", VD_DSP_SMLAD)                            \
+    "ldr %[x], [%[r2], %[cn], lsl #1]\n\t"                                                                    \
+    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
+    "sxtb16 %[y], %[x]\n\t"                                                                                   \
+    "sxtb16 %[x], %[x], ror #8\n\t"                                                                           \
+    "smlabb %[a0], %[y], %[w0], %[a0]\n\t"                                                                    \
+    "smlatt %[a2], %[y], %[w0], %[a2]\n\t"                                                                    \
+    "smlabb %[a1], %[x], %[w1], %[a1]\n\t"                                                                    \
+    "smlatt %[a3], %[x], %[w1], %[a3]\n\t"
+
 static inline void dsp_run_in(const int8_t *r0, const int8_t *r1, const int8_t *r2, size_t n, size_t adv,
                               const uint32_t *wg, const vd_cnn_dsp_q_t *q, size_t c, size_t cn, int8_t *o, bool relu)
 {
@@ -151,19 +167,7 @@ static inline void dsp_run_in(const int8_t *r0, const int8_t *r1, const int8_t *
         const uint32_t *wx = wg;
         int32_t a0, a1, a2, a3;
         uint32_t x, y, z, w0, w1;
-        __asm__(VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)
-                VD_DSP_PAIR("ldr %[x], [%[r0], %[cn], lsl #1]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
-                VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tldr %[z], [%[r1], %[cn], lsl #1]\n\t",
-                            VD_DSP_SMLAD)
-                VD_DSP_PAIR("ldr %[x], [%[r2]]\n\tldr %[z], [%[r2], %[cn]]\n\t", VD_DSP_SMLAD)
-                "ldr %[x], [%[r2], %[cn], lsl #1]\n\t"
-                "ldrd %[w0], %[w1], [%[w]], #8\n\t"
-                "sxtb16 %[y], %[x]\n\t"
-                "sxtb16 %[x], %[x], ror #8\n\t"
-                "smlabb %[a0], %[y], %[w0], %[a0]\n\t"
-                "smlatt %[a2], %[y], %[w0], %[a2]\n\t"
-                "smlabb %[a1], %[x], %[w1], %[a1]\n\t"
-                "smlatt %[a3], %[x], %[w1], %[a3]"
+        __asm__(VD_DSP_TAPS
                 : [a0] "=&r"(a0), [a1] "=&r"(a1), [a2] "=&r"(a2), [a3] "=&r"(a3), [x] "=&r"(x), [y] "=&r"(y),
                   [z] "=&r"(z), [w0] "=&r"(w0), [w1] "=&r"(w1), [w] "+r"(wx)
                 : [r0] "r"(r0), [r1] "r"(r1), [r2] "r"(r2), [cn] "r"(cn)
@@ -193,19 +197,7 @@ static inline void dsp_run_in_relu(const int8_t *r0, const int8_t *r1, const int
     __asm__ __volatile__(
         "1:\n\t"
         "ldr %[w], %[wgm]\n\t"
-        VD_DSP_PAIR("ldr %[x], [%[r0]]\n\tldr %[z], [%[r0], %[cn]]\n\t", VD_DSP_SMUAD)
-        VD_DSP_PAIR("ldr %[x], [%[r0], %[cn], lsl #1]\n\tldr %[z], [%[r1]]\n\t", VD_DSP_SMLAD)
-        VD_DSP_PAIR("ldr %[x], [%[r1], %[cn]]\n\tldr %[z], [%[r1], %[cn], lsl #1]\n\t",
-                    VD_DSP_SMLAD)
-        VD_DSP_PAIR("ldr %[x], [%[r2]]\n\tldr %[z], [%[r2], %[cn]]\n\t", VD_DSP_SMLAD)
-        "ldr %[x], [%[r2], %[cn], lsl #1]\n\t"
-        "ldrd %[w0], %[w1], [%[w]], #8\n\t"
-        "sxtb16 %[y], %[x]\n\t"
-        "sxtb16 %[x], %[x], ror #8\n\t"
-        "smlabb %[a0], %[y], %[w0], %[a0]\n\t"
-        "smlatt %[a2], %[y], %[w0], %[a2]\n\t"
-        "smlabb %[a1], %[x], %[w1], %[a1]\n\t"
-        "smlatt %[a3], %[x], %[w1], %[a3]\n\t"
+        VD_DSP_TAPS
         "ldr %[x], %[chm]\n\t"
         "ldr %[w], %[om]\n\t"
         VD_DSP_RQ("a0", "0") VD_DSP_RQ("a1", "1") VD_DSP_RQ("a2", "2") VD_DSP_RQ("a3", "3")
