@@ -353,6 +353,7 @@ static inline void dsp_one_rows(const geom_t *g, const ring_t *in, const ring_t 
 // block per group cost ~10 instructions more per group). The first step of four values starts the
 // sums (SMUAD), then eight values per iteration: with nw / 2 steps even one more single step first
 // (dsp_pw_run_relu_e), odd none (_o): two functions, so that no group tests it.
+// VD_DSP_PW / VD_DSP_PW0 (a step's multiply-adds of one sum) serve this block and dsp_pw_run_thr's.
 #define VD_DSP_PW(a)                                                                                            \
     "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
     "smlad %[" a "], %[xa], %[w0], %[" a "]\n\t"                                                              \
@@ -421,8 +422,6 @@ VD_DSP_PW_RUN(dsp_pw_run_relu_o, "")
 #undef VD_DSP_PW_RUN
 #undef VD_DSP_PW_STEP
 #undef VD_DSP_RQ
-#undef VD_DSP_PW0
-#undef VD_DSP_PW
 
 // dsp_pw_run_relu_e / _o for a layer with the rounding's sign term (not ReLU: cmsis.h's vd_cnn_dsp_out with thr)
 // and any cout: groups of four channels as there, then the rem = cout % 4 channels one at a time (their
@@ -439,14 +438,6 @@ static inline void dsp_pw_run_thr(const int8_t *src, size_t n, size_t nw, uint32
     uint32_t xa, xb, w0, w1, *x;
     const uint32_t *w;
     const vd_cnn_dsp_ch_t *ch;
-#define VD_DSP_PW(a)                                                                                            \
-    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
-    "smlad %[" a "], %[xa], %[w0], %[" a "]\n\t"                                                              \
-    "smlad %[" a "], %[xb], %[w1], %[" a "]\n\t"
-#define VD_DSP_PW0(a)                                                                                           \
-    "ldrd %[w0], %[w1], [%[w]], #8\n\t"                                                                       \
-    "smuad %[" a "], %[xa], %[w0]\n\t"                                                                        \
-    "smlad %[" a "], %[xb], %[w1], %[" a "]\n\t"
 #define VD_DSP_RQT(a)                                                                                           \
     "ldr %[x], %[thrm]\n\t"                                                                                   \
     "ldr %[w1], [%[x]], #4\n\t"                                                                               \
