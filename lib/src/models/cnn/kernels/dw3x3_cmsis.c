@@ -119,8 +119,10 @@ static inline void dsp_pixel(const int8_t *const t[9], const uint32_t *wx, const
         }
         const uint32_t x = dsp_ld(t[8] + c);
         const int32_t x02 = (int32_t)SXTB16(x), x13 = (int32_t)SXTB16_RORn(x, 8u);
-        const int32_t s[4] = {__smlabb(x02, (int32_t)wx[16], (int32_t)a[0]), __smlabb(x13, (int32_t)wx[17], (int32_t)a[1]),
-                              __smlatt(x02, (int32_t)wx[16], (int32_t)a[2]), __smlatt(x13, (int32_t)wx[17], (int32_t)a[3])};
+        const int32_t s[4] = {__smlabb(x02, (int32_t)wx[16], (int32_t)a[0]),
+                              __smlabb(x13, (int32_t)wx[17], (int32_t)a[1]),
+                              __smlatt(x02, (int32_t)wx[16], (int32_t)a[2]),
+                              __smlatt(x13, (int32_t)wx[17], (int32_t)a[3])};
         dsp_store(s, q, c, o, relu);
     }
     dsp_rest(t, w, q, c, cn, o, relu);
