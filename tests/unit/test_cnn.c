@@ -1037,11 +1037,11 @@ static void test_run_arguments(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 4100u, 8u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 0u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 8u, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 8u, 8u, 8u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 8u, 8u, 16u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(NULL, img, 8u, 8u, 16u, ws, bytes, &out));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, NULL, 8u, 8u, 16u, ws, bytes, &out));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, img, 8u, 8u, 16u, ws, bytes, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_ex(&m, img, 8u, 8u, 16u, 8u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_ex(&m, img, 8u, 8u, 16u, 16u, ws, bytes, &out));
     uint64_t macs;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_macs(&m, 8u, 8u, NULL));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_macs(&m, 9u, 8u, &macs));
@@ -2085,6 +2085,98 @@ static void test_stream_committed_models_match_whole_plane(void)
 }
 
 
+// Head bytes of a streamed run of m on img (w x h) with flags, into ws; copied to head (>= out bytes).
+static vd_status_t reuse_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h, uint32_t flags,
+                             uint8_t *ws, size_t bytes, int8_t *head, size_t *n)
+{
+    vd_cnn_output_t out;
+    const vd_status_t st = vd_cnn_run_ex(m, img, w, h, w, VD_CNN_STREAM | flags, ws, bytes, &out);
+    if (st == VD_OK) {
+        *n = (size_t)out.w * out.h * out.c;
+        memcpy(head, out.data, *n);
+    }
+    return st;
+}
+
+// VD_CNN_REUSE_PLAN: a kept plan gives the same bytes as a new one; a record changed since (ring heights
+// out of bounds, a CRC that does not match, another size in between) is planned anew, and forged heights
+// with a matching CRC never write outside the workspace (guarded allocation), only change results or
+// ask for more workspace.
+static void test_reuse_plan_kept_checked_and_safe(void)
+{
+    static vd_cnn_model_t m;
+    if (!load_file_model(VD_SOURCE_DIR "/models/vd_cnn_compact.vdm", &m)) {
+        TEST_IGNORE_MESSAGE("models/vd_cnn_compact.vdm not in this checkout");
+    }
+    const uint32_t w = 64u, h = 32u;
+    static uint8_t img[64 * 32];
+    static int8_t ref[8192], got[8192];
+    warm_frame(img, w, h, 5u, 1u);
+    size_t bytes, small, nref = 0u, n = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&m, w, h, VD_CNN_STREAM, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&m, w, h, VD_CNN_STREAM | VD_CNN_REUSE_PLAN, &small));
+    TEST_ASSERT_EQUAL_size_t(bytes, small);   // no effect on the size
+    uint8_t *ws = tu_guarded_alloc(1, bytes);
+    memset(ws, 0, bytes);
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, 0u, ws, bytes, ref, &nref));
+    TEST_ASSERT_TRUE(nref > 0u && nref <= sizeof ref);
+    vd_cnn_plan_t *p = (vd_cnn_plan_t *)(void *)ws;
+    const vd_cnn_plan_t fresh = *p;
+    // Kept: same bytes and the same plan, twice.
+    for (int k = 0; k < 2; k++) {
+        TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+        TEST_ASSERT_EQUAL_size_t(nref, n);
+        TEST_ASSERT_EQUAL_MEMORY(ref, got, n);
+        TEST_ASSERT_EQUAL_MEMORY(fresh.rows, p->rows, sizeof fresh.rows);
+        TEST_ASSERT_EQUAL_MEMORY(fresh.off, p->off, sizeof fresh.off);
+        TEST_ASSERT_EQUAL_UINT32(VD_CNN_STREAM, p->flags);   // the plan's flags do not hold the reuse bit
+    }
+    // Another size in between, then back.
+    static int8_t other[8192];
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, 32u, 32u, VD_CNN_REUSE_PLAN, ws, bytes, other, &n));
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
+    const uint32_t nt = m.n_layers + 1u;
+    uint32_t t1 = 1u;   // a computed tensor with a ring of more than one row
+    while (t1 < m.n_layers && !(p->live[t1] == 1u && p->rows[t1] > 1u && p->rows[t1] < p->h[t1])) {
+        t1++;
+    }
+    TEST_ASSERT_TRUE(t1 < m.n_layers);
+    // A changed height without its CRC, or out of bounds with it: planned anew.
+    p->rows[t1] = (uint16_t)(p->rows[t1] - 1u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
+    TEST_ASSERT_EQUAL_MEMORY(fresh.rows, p->rows, sizeof fresh.rows);
+    uint32_t crc;
+    p->rows[t1] = (uint16_t)(p->h[t1] + 1u);
+    crc = vd__crc32(0u, p->rows, nt * sizeof p->rows[0]);
+    crc = vd__crc32(crc, p->h, nt * sizeof p->h[0]);
+    p->rows_crc = vd__crc32(crc, p->live, nt * sizeof p->live[0]);
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
+    TEST_ASSERT_EQUAL_MEMORY(fresh.rows, p->rows, sizeof fresh.rows);
+    // Forged within bounds, CRC matching: kept (the proof that a run keeps heights). A taller ring asks
+    // for more workspace than there is; a one-row ring runs inside its item (wrong values, no stray write).
+    p->rows[t1] = p->h[t1];
+    crc = vd__crc32(0u, p->rows, nt * sizeof p->rows[0]);
+    crc = vd__crc32(crc, p->h, nt * sizeof p->h[0]);
+    p->rows_crc = vd__crc32(crc, p->live, nt * sizeof p->live[0]);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));   // magic 0: anew
+    TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
+    p->rows[t1] = 1u;
+    crc = vd__crc32(0u, p->rows, nt * sizeof p->rows[0]);
+    crc = vd__crc32(crc, p->h, nt * sizeof p->h[0]);
+    p->rows_crc = vd__crc32(crc, p->live, nt * sizeof p->live[0]);
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_UINT16(1u, p->rows[t1]);
+    // Without the flag the record is never read.
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, 0u, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
+    TEST_ASSERT_EQUAL_MEMORY(fresh.rows, p->rows, sizeof fresh.rows);
+    tu_guarded_free(1);
+}
+
 // ------------------------------------------------------------ x86 kernels against the portable ones
 
 // Pushes a random weighted layer to the limits (mode bits): 1 weights
@@ -2487,6 +2579,7 @@ int main(void)
     RUN_TEST(test_stream_random_models_match_whole_plane);
     RUN_TEST(test_stream_fuses_upsample_read_only_by_concats);
     RUN_TEST(test_stream_committed_models_match_whole_plane);
+    RUN_TEST(test_reuse_plan_kept_checked_and_safe);
     RUN_TEST(test_awkward_models_match_naive_reference);
     RUN_TEST(test_x86_kernels_match_portable_random);
     RUN_TEST(test_x86_kernels_match_portable_committed);

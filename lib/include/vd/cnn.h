@@ -82,6 +82,16 @@ extern "C" {
 // end is built.
 #define VD_CNN_PORTABLE 4u
 
+// vd_cnn_run_ex / vd_cnn_run_rows flag: keep the ring heights of the previous run in the same workspace
+// when that run completed with the same model, size and flags (without this one): the streamed row
+// schedule's sizing walk, most of a plan's cost (~0.8 M instructions per frame of vd_cnn_compact on a
+// Cortex-M7, docs/embedded.md). What is kept is checked (a CRC and bounds; the workspace is caller
+// memory), so any content is safe and the results are the same bytes. The run reads the workspace's first
+// bytes before writing them: the workspace must hold what an earlier vd_cnn_run* call left, or be zeroed
+// by the caller (memory checkers report reads of never-written memory). No effect on the workspace size.
+// The detector uses it.
+#define VD_CNN_REUSE_PLAN 8u
+
 // Layer ops (field `op` of a layer entry).
 typedef enum vd_cnn_op {
     VD_CNN_OP_CONV3X3 = 1,   // full 3x3 convolution, padding 1, stride 1 or 2

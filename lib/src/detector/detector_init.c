@@ -436,6 +436,7 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // D of overlay_size
         det->cnn_ws = vd_arena_take(&a, l.cnn_ws);
         det->cnn_ws_bytes = l.cnn_ws;
+        memset(det->cnn_ws, 0, l.cnn_ws);   // written before VD_CNN_REUSE_PLAN's first read (vd/cnn.h)
         det->cnn_boxes = (vd_cnn_box_t *)vd_arena_take(&a, l.cnn_boxes);
         det->cnn_boxes_cap = l.cnn_boxes_cap;
         VD_ASSERT(det->cnn_boxes != NULL);

@@ -64,7 +64,7 @@
 // Stretch histogram (uint32[256]) and its int8 lookup table.
 #define VD_CNN_HIST_BYTES (256u * 4u + 256u)
 
-#define VD_CNN_RUN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE)   // every flag of the _ex calls
+#define VD_CNN_RUN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE | VD_CNN_REUSE_PLAN)   // every flag of the _ex calls
 #define VD_CNN_INPUT_ZP (-128)   // zero point of tensor 0 (pixel - 128)
 // vd_cnn_plan_t.live of an upsample fused into the concats that read it (schedule.c).
 #define VD_CNN_LIVE_FUSED 2u
@@ -103,6 +103,7 @@ typedef struct vd_cnn_plan {
     uint16_t need[VD_CNN_MAX_TENSORS];   // rows needed for the current head target
     uint16_t req[VD_CNN_MAX_TENSORS];    // rows made by the current sub-step
     uint8_t live[VD_CNN_MAX_TENSORS];    // 1: the head depends on it; 2: also, an upsample fused into its concats
+    uint32_t rows_crc;        // CRC-32 of rows, h and live (tensors 0..n): the next run's check before reusing rows
 } vd_cnn_plan_t;
 
 // Bytes of the record (items start after it).
@@ -181,8 +182,16 @@ static inline uint64_t vd_cnn_tensor_bytes(const chain_t *c, uint32_t t, uint32_
 // VD_ERR_OVERFLOW if the workspace would not fit 32 bits.
 vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
                              uint32_t flags, vd_cnn_plan_t *p);
+// As vd__cnn_plan_make, for a run into the workspace whose record is p: with VD_CNN_REUSE_PLAN in flags,
+// the ring heights of the run before are kept when its record says it completed with the same model, size
+// and other flags and they pass their CRC and bounds (the schedule's sizing walk is most of a plan's cost;
+// the items are placed anew either way). The plan's flags are flags without VD_CNN_REUSE_PLAN.
+vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+                                 uint32_t flags, vd_cnn_plan_t *p);
 // Row schedule: ring heights p->rows (and p->h, p->live) of a plan.
 void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p);
+// Tensor heights and liveness (p->h, p->live) alone: the part of vd__cnn_sched_rows a kept plan recomputes.
+void vd__cnn_sched_init(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p);
 // A walk of the streamed schedule: start, then sub-steps (rows p->done .. p->req to make) until false.
 void vd__cnn_sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps);
 bool vd__cnn_sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *target);

@@ -155,8 +155,7 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
     uint8_t *base = (uint8_t *)ws;
     vd_cnn_plan_t *p = (vd_cnn_plan_t *)ws;
-    p->magic = 0u;
-    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags, p));
+    VD_TRY(vd__cnn_plan_for_run(m, &c, width, height, flags, p));
     VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
 
     // Streamed, item 1 ends with a row buffer for a row function.

@@ -11,12 +11,15 @@
 // (schedule.c), every item lives for the whole run (the layers interleave) and one scratch, sized for
 // the largest layer, serves all of them. The plan is written to the workspace's run record, so the
 // size query and the run compute the same offsets.
+// A run keeps the ring heights of the run before in the same workspace (same model, size and flags:
+// vd__cnn_plan_for_run), so a detector's second and later frames skip the sizing walk.
 // Bounds: O(items^2) for the plan (items <= 2 + 2 L) plus the schedule's ring sizing
-// O((H0 + Hn) L^2); stack ~1.5 KiB for the size query (the plan on the stack), vd_cnn_tensor ~320 B
+// O((H0 + Hn) L^2) when the heights are not kept; stack ~1.5 KiB for the size query (the plan on the stack), vd_cnn_tensor ~320 B
 // (reads the run record back instead).
 #include "vd/cnn.h"
 
 #include "models/cnn/cnn_internal.h"
+#include "core/crc32.h"
 #include "internal/vd_internal.h"
 
 #include <string.h>
@@ -140,12 +143,10 @@ static vd_status_t items_place(vd_cnn_plan_t *p, uint64_t *end_out)
     return VD_OK;
 }
 
-// The plan of a run: ring heights (the row schedule), items, offsets; the
-// key vd_cnn_tensor checks after the run.
-vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
-                             uint32_t flags, vd_cnn_plan_t *p)
+// Items, offsets and the key vd_cnn_tensor checks after the run, of a plan whose ring heights are set.
+static vd_status_t plan_items(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+                              uint32_t flags, vd_cnn_plan_t *p)
 {
-    vd__cnn_sched_rows(m, c, height, flags, p);
     VD_TRY(items_size(m, c, width, flags, p));
     uint64_t end;
     VD_TRY(items_place(p, &end));
@@ -163,6 +164,61 @@ vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_
     return VD_OK;
 }
 
+// CRC-32 of the ring heights, tensor heights and liveness of tensors 0..n.
+static uint32_t rows_crc(const vd_cnn_plan_t *p, uint32_t n)
+{
+    uint32_t crc = vd__crc32(0u, p->rows, (n + 1u) * sizeof p->rows[0]);
+    crc = vd__crc32(crc, p->h, (n + 1u) * sizeof p->h[0]);
+    return vd__crc32(crc, p->live, (n + 1u) * sizeof p->live[0]);
+}
+
+// The plan of a run: ring heights (the row schedule), items, offsets; the
+// key vd_cnn_tensor checks after the run.
+vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+                             uint32_t flags, vd_cnn_plan_t *p)
+{
+    vd__cnn_sched_rows(m, c, height, flags, p);
+    p->rows_crc = rows_crc(p, m->n_layers);
+    return plan_items(m, c, width, height, flags, p);
+}
+
+// True when the record p, written by a complete run with the same model, size and flags, holds ring
+// heights this run can keep: heights and liveness recomputed equal the kept ones (CRC), every ring within
+// its tensor and a computed tensor's at least one row (the ring row modulo). The record is caller memory:
+// what is kept is checked, and the items are sized from the kept heights, so a record changed since
+// the last run can make a run compute wrong values only after forging the CRC, never write outside its items.
+static bool rows_kept(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height, uint32_t flags,
+                      vd_cnn_plan_t *p)
+{
+    const uint32_t n = m->n_layers;
+    if (p->magic != VD_CNN_REC_MAGIC || p->flags != flags || p->width != width || p->height != height ||
+        p->crc != m->crc32 || p->size != m->size) {
+        return false;
+    }
+    const uint32_t kept = p->rows_crc;
+    vd__cnn_sched_init(m, c, height, flags, p);
+    for (uint32_t t = 0u; t <= n; t++) {
+        const bool computed = p->live[t] != 0u && p->live[t] != VD_CNN_LIVE_FUSED;
+        if (p->rows[t] > p->h[t] || (computed && p->rows[t] == 0u) ||
+            (p->live[t] == VD_CNN_LIVE_FUSED && p->rows[t] != 0u)) {
+            return false;
+        }
+    }
+    return rows_crc(p, n) == kept;
+}
+
+vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+                                 uint32_t flags, vd_cnn_plan_t *p)
+{
+    const uint32_t pf = flags & ~VD_CNN_REUSE_PLAN;
+    const bool keep = (flags & VD_CNN_REUSE_PLAN) != 0u && rows_kept(m, c, width, height, pf, p);
+    p->magic = 0u;   // set again by a complete run
+    if (!keep) {
+        return vd__cnn_plan_make(m, c, width, height, pf, p);
+    }
+    return plan_items(m, c, width, height, pf, p);
+}
+
 vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
                                      size_t *bytes)
 {
@@ -171,7 +227,7 @@ vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, ui
     VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
     VD_VERIFY(vd__cnn_size_ok(m, width, height), VD_ERR_ARG);
     vd_cnn_plan_t p;
-    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags, &p));
+    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags & ~VD_CNN_REUSE_PLAN, &p));
     *bytes = p.total;
     return VD_OK;
 }

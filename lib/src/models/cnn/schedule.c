@@ -66,6 +66,38 @@ static uint32_t row_hi(const vd_cnn_layer_t *L, uint32_t y, uint32_t hlast)
     return ((uint32_t)hi < hlast) ? (uint32_t)hi : hlast;
 }
 
+// Output rows of L (of hout) whose last input row read (clamped to hlast) is below avail: a prefix,
+// row_hi being non-decreasing in y; row_hi inverted, so a sub-step costs O(1) per tensor, not per row.
+// Stride s is 1 or 2 (the loader's rule).
+static uint32_t rows_ready(const vd_cnn_layer_t *L, uint32_t avail, uint32_t hlast, uint32_t hout)
+{
+    if (avail > hlast) {
+        return hout;   // every row's clamped last input row is <= hlast
+    }
+    // avail <= hlast: row y is ready iff its unclamped last row hi(y) <= avail - 1.
+    const uint32_t s = L->stride;
+    uint32_t n;
+    switch (L->op) {
+    case VD_CNN_OP_CONV3X3:
+    case VD_CNN_OP_DW3X3:   // hi = s y + 1
+        n = (avail < 2u) ? 0u : (avail - 2u) / s + 1u;
+        break;
+    case VD_CNN_OP_CONV5X5:   // hi = s y + 2
+        n = (avail < 3u) ? 0u : (avail - 3u) / s + 1u;
+        break;
+    case VD_CNN_OP_MAXPOOL2:   // hi = 2 y + 1
+        n = (avail < 2u) ? 0u : (avail - 2u) / 2u + 1u;
+        break;
+    case VD_CNN_OP_UPSAMPLE2:   // hi = y / 2
+        n = 2u * avail;
+        break;
+    default:   // PW1X1, CONCAT: hi = y
+        n = avail;
+        break;
+    }
+    return (n < hout) ? n : hout;
+}
+
 static bool reads(const vd_cnn_layer_t *L, uint32_t t)
 {
     return L->in == t || (L->op == VD_CNN_OP_CONCAT && L->in2 == t);
@@ -77,7 +109,7 @@ static bool reads(const vd_cnn_layer_t *L, uint32_t t)
 // concat reads its source's row y / 2, column x / 2 instead. That drops the
 // upsampled rings, twice the source's row bytes each (models/vd_cnn.vdm at
 // 320x256: 7 680 B).
-static void sched_init(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p)
+void vd__cnn_sched_init(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
     for (uint32_t t = 0u; t <= n; t++) {
@@ -144,11 +176,10 @@ static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
             if (L->op == VD_CNN_OP_CONCAT && p->req[L->in2] < avail) {
                 avail = p->req[L->in2];
             }
-            const uint32_t hlast = (uint32_t)p->h[L->in] - 1u;
-            // Bounded by the need (<= the tensor height): one row per pass.
-            while (y < p->need[t] && row_hi(L, y, hlast) < avail) {
-                y++;
-            }
+            // Rows from done while below the need and ready.
+            const uint32_t ready = rows_ready(L, avail, (uint32_t)p->h[L->in] - 1u, p->h[t]);
+            const uint32_t upto = (ready < p->need[t]) ? ready : p->need[t];
+            y = (upto > y) ? upto : y;
         }
         p->req[t] = (uint16_t)y;
     }
@@ -233,7 +264,7 @@ void vd__cnn_sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps
 void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
-    sched_init(m, c, height, flags, p);
+    vd__cnn_sched_init(m, c, height, flags, p);
     const bool stream = (flags & VD_CNN_STREAM) != 0u;
     const bool keep = (flags & VD_CNN_KEEP_TENSORS) != 0u;
     for (uint32_t t = 0u; t <= n; t++) {
