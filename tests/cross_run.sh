@@ -3,7 +3,7 @@
 # Cross builds of vd (issue: embedded readiness): the library for Cortex-M7/M4/M0+
 # (-Werror, MinSizeRel; M7/M4 with the CMSIS-NN back end where ../shared/vendor/cmsis-nn is; the names
 # each libvd.a defines checked by tests/check_lib_symbols.py), the unit
-# tests for armhf and aarch64 run under qemu-user, the CNN's unit tests on Cortex-M7 code with the
+# tests for armhf and aarch64 run under qemu-user, the CNN's (and the resampler's) unit tests on Cortex-M7 code with the
 # CMSIS-NN back end under qemu-user. Then the embedded budget checks
 # (tools/vdtools/generators/embedded_report.py --check).
 set -euo pipefail
@@ -29,8 +29,8 @@ done
 echo "== cortex-m7 code, CMSIS-NN back end: CNN unit tests under qemu-user"
 cmake -S . -B build-cortex-m7-qemu -G Ninja -DCMAKE_TOOLCHAIN_FILE=tools/toolchains/cortex-m7-qemu.cmake \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVD_BUILD_TOOLS=OFF -DVD_BUILD_PORT=OFF -DVD_CNN_CMSIS=ON >/dev/null
-cmake --build build-cortex-m7-qemu -j "$jobs" --target test_cnn test_detector_cnn test_boost >/dev/null
-ctest --test-dir build-cortex-m7-qemu --output-on-failure -j "$jobs" -R '^test_(cnn|detector_cnn|boost)$'
+cmake --build build-cortex-m7-qemu -j "$jobs" --target test_cnn test_detector_cnn test_boost test_resample >/dev/null
+ctest --test-dir build-cortex-m7-qemu --output-on-failure -j "$jobs" -R '^test_(cnn|detector_cnn|boost|resample)$'
 if [ -f tools/vdtools/generators/embedded_report.py ]; then
   PYTHONPATH=tools${PYTHONPATH:+:$PYTHONPATH} python3 -m vdtools.generators.embedded_report --check
 fi

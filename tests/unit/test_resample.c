@@ -404,6 +404,36 @@ static void test_box_args(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_resample_box_u16(&v16, NULL, 2, 2, &g, &d1));
 }
 
+// The 2 x 2 fast path (four outputs per step, 16-bit lanes on Armv7E-M / Armv7-A) at the values where a
+// lane's sum or its rounding could go wrong: sums 0..1020 from bytes near 0 and 255, every phase of a
+// row against the four-output blocks, widths 1..23 (tails), odd source offsets (unaligned words).
+static void test_box_2x2_extremes(void)
+{
+    static const uint8_t vals[8] = {0, 1, 2, 3, 127, 253, 254, 255};
+    static uint8_t p8[4 * 50];
+    static uint8_t out[25];
+    uint32_t seed = 77u;
+    for (int trial = 0; trial < 2000; trial++) {
+        for (size_t i = 0; i < sizeof(p8); i++) {
+            p8[i] = vals[tu_rand(&seed) % 8u];
+        }
+        if (trial < 8) {
+            memset(p8, vals[trial], sizeof(p8));   // constant planes
+        }
+        const uint32_t ow = 1u + tu_rand(&seed) % 23u;
+        const uint32_t x0 = tu_rand(&seed) % 3u;
+        const vd_view_u8_t v = {p8, 50, 4, 50};
+        const vd_rect_t r = {(int32_t)x0, 1, (int32_t)(2u * ow), 2};
+        vd_image_u8_t d = {out, ow, 1, 25};
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_resample_box_u8(&v, &r, 2, 2, &d));
+        for (uint32_t cx = 0; cx < ow; cx++) {
+            const uint8_t *a = p8 + 50u + x0 + 2u * cx;
+            const uint32_t sum = (uint32_t)a[0] + a[1] + a[50] + a[51];
+            TEST_ASSERT_EQUAL_UINT8((sum + 2u) / 4u, out[cx]);
+        }
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -421,6 +451,7 @@ int main(void)
     RUN_TEST(test_box_hand_worked);
     RUN_TEST(test_box_u16_grey);
     RUN_TEST(test_box_random_vs_naive);
+    RUN_TEST(test_box_2x2_extremes);
     RUN_TEST(test_box_args);
     return UNITY_END();
 }

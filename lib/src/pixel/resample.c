@@ -530,29 +530,41 @@ static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_
             const uint8_t *b = a + stride;
             uint8_t *out = dst->data + (size_t)cy * dst->stride;
             size_t cx = 0;
-#if defined(__ARM_FEATURE_SIMD32) && defined(__ARM_FEATURE_UNALIGNED)
-            // Armv7E-M (Cortex-M4/M7): four outputs from two words of each row, the byte pairs summed
-            // as two 16-bit lanes of a plain 32-bit word (a lane's sum <= 4 * 255 + 2 never carries into
-            // the next), ~7 instructions per output against ~12 for the loop below (mps2-an500: ~1 M per
-            // frame of vd_cnn_compact's input, whose rows the percentile histogram and the network each
-            // make). Plain C: the ALU's shifted operands do what UXTB16 / UADD16 would, without an
-            // intrinsics header (lib/'s include rule).
+#if defined(__ARM_FEATURE_SIMD32) && defined(__ARM_FEATURE_UNALIGNED) && defined(__GNUC__)
+            // Armv7E-M (Cortex-M4/M7; also Armv7-A): four outputs from two words of each row. UXTB16 /
+            // UXTAB16 (ROR #8) add the bytes of a pair into one 16-bit lane (a lane's sum <= 4 * 255 + 2
+            // never carries into the next), then +2, >> 2 and PKHBT pack the four bytes: ~22 instructions
+            // per four outputs against ~36 for the plain-C SWAR form gcc 12 made of the same arithmetic
+            // (mps2-an500: these rows are made twice per frame of vd_cnn_compact, for the percentile
+            // histogram and for the network). Assembly, not <arm_acle.h>: lib/'s include rule; the masks
+            // and the rounding constant in registers, which ARM as well as Thumb-2 encodings take.
             const uint32_t m = 0x00FF00FFu;   // bytes 0 and 2 of a word, one per 16-bit lane
+            const uint32_t k2 = 0x00020002u;  // the rounding 2 in both lanes
             for (; cx + 4u <= out_w; cx += 4u) {
-                uint32_t w[4];
-                memcpy(&w[0], a + 2u * cx, 4u);
-                memcpy(&w[1], a + 2u * cx + 4u, 4u);
-                memcpy(&w[2], b + 2u * cx, 4u);
-                memcpy(&w[3], b + 2u * cx + 4u, 4u);
-                // Per lane: (x0 + x1) of the first row's byte pair + the second row's + 2.
-                const uint32_t lo = (w[0] & m) + ((w[0] >> 8) & m) + (w[2] & m) + ((w[2] >> 8) & m) + 0x00020002u;
-                const uint32_t hi = (w[1] & m) + ((w[1] >> 8) & m) + (w[3] & m) + ((w[3] >> 8) & m) + 0x00020002u;
-                // Lane values >> 2 in bytes 0 and 2, folded into bytes 0 and 1, two outputs per lane pair.
-                uint32_t p = (lo >> 2) & m, q = (hi >> 2) & m;
-                p |= p >> 8;
-                q |= q >> 8;
-                const uint32_t o4 = (p & 0xFFFFu) | (q << 16);
-                memcpy(out + cx, &o4, 4u);
+                uint32_t w0, w1, w2, w3, lo, hi;
+                memcpy(&w0, a + 2u * cx, 4u);
+                memcpy(&w1, a + 2u * cx + 4u, 4u);
+                memcpy(&w2, b + 2u * cx, 4u);
+                memcpy(&w3, b + 2u * cx + 4u, 4u);
+                // lo lanes: outputs 0 and 1 (bytes 0+1 and 2+3 of w0 and w2); hi: outputs 2 and 3.
+                __asm__("uxtb16 %[lo], %[w0]\n\t"
+                        "uxtab16 %[lo], %[lo], %[w0], ror #8\n\t"
+                        "uxtab16 %[lo], %[lo], %[w2]\n\t"
+                        "uxtab16 %[lo], %[lo], %[w2], ror #8\n\t"
+                        "uxtb16 %[hi], %[w1]\n\t"
+                        "uxtab16 %[hi], %[hi], %[w1], ror #8\n\t"
+                        "uxtab16 %[hi], %[hi], %[w3]\n\t"
+                        "uxtab16 %[hi], %[hi], %[w3], ror #8\n\t"
+                        "add %[lo], %[lo], %[k2]\n\t"
+                        "add %[hi], %[hi], %[k2]\n\t"
+                        "and %[lo], %[m], %[lo], lsr #2\n\t"      // o0 | o1 << 16
+                        "and %[hi], %[m], %[hi], lsr #2\n\t"      // o2 | o3 << 16
+                        "orr %[lo], %[lo], %[lo], lsr #8\n\t"     // low half o0 | o1 << 8
+                        "orr %[hi], %[hi], %[hi], lsr #8\n\t"
+                        "pkhbt %[lo], %[lo], %[hi], lsl #16"
+                        : [lo] "=&r"(lo), [hi] "=&r"(hi)
+                        : [w0] "r"(w0), [w1] "r"(w1), [w2] "r"(w2), [w3] "r"(w3), [m] "r"(m), [k2] "r"(k2));
+                memcpy(out + cx, &lo, 4u);
             }
 #endif
             for (; cx < out_w; cx++) {
