@@ -163,7 +163,9 @@ static void sched_pull(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t targe
 // Push: p->req, the rows every tensor has after one sub-step: tensor 0
 // VD_CNN_BAND_IN_ROWS more input rows (up to its need), then in layer order
 // each computed tensor every row whose input rows exist, up to its need.
-static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
+// pulled: the need grew this sub-step (sched_pull); else a tensor whose inputs gained no row (req ==
+// done: done holds the previous sub-step's req) keeps its rows, as its readiness and need are unchanged.
+static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p, bool pulled)
 {
     const uint32_t n = m->n_layers;
     const uint32_t in_next = p->done[0] + VD_CNN_BAND_IN_ROWS;
@@ -171,7 +173,9 @@ static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
     for (uint32_t t = 1u; t <= n; t++) {
         const vd_cnn_layer_t *L = &m->layers[t - 1u];
         uint32_t y = p->done[t];
-        if (p->live[t] != 0u) {
+        const bool grew = p->req[L->in] != p->done[L->in] ||
+                          (L->op == VD_CNN_OP_CONCAT && p->req[L->in2] != p->done[L->in2]);
+        if (p->live[t] != 0u && (pulled || grew)) {
             uint32_t avail = p->req[L->in];
             if (L->op == VD_CNN_OP_CONCAT && p->req[L->in2] < avail) {
                 avail = p->req[L->in2];
@@ -239,14 +243,15 @@ static uint32_t sched_oldest(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, ui
 bool vd__cnn_sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *target)
 {
     const uint32_t n = m->n_layers;
-    if (p->done[n] >= *target) {
+    const bool pulled = p->done[n] >= *target;
+    if (pulled) {
         if (*target >= p->h[n]) {
             return false;
         }
         *target = (*target + VD_CNN_BAND_ROWS < p->h[n]) ? *target + VD_CNN_BAND_ROWS : p->h[n];
         sched_pull(m, p, *target);
     }
-    sched_push(m, p);
+    sched_push(m, p, pulled);
     return true;
 }
 
