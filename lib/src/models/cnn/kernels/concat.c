@@ -33,15 +33,18 @@ static inline void chan_copy(int8_t *d, const int8_t *s, uint32_t n)
 void vd__cnn_concat_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *a, uint32_t ua, const ring_t *b,
                         uint32_t ub, const ring_t *out, uint32_t y0, uint32_t y1)
 {
+    // Locals: the byte stores may alias *L and *g, which the compiler would reload per pixel.
     const uint32_t ca = L->cin;
     const uint32_t cb = (uint32_t)L->cout - L->cin;
+    const size_t co = L->cout;
+    const uint32_t wo = g->wo;
     for (uint32_t y = y0; y < y1; y++) {
         const int8_t *ra = vd_cnn_ring_row(a, y >> ua);
         const int8_t *rb = vd_cnn_ring_row(b, y >> ub);
         int8_t *o = vd_cnn_ring_row(out, y);
-        for (uint32_t x = 0u; x < g->wo; x++) {
-            chan_copy(o + (size_t)x * L->cout, ra + (size_t)(x >> ua) * ca, ca);
-            chan_copy(o + (size_t)x * L->cout + ca, rb + (size_t)(x >> ub) * cb, cb);
+        for (uint32_t x = 0u; x < wo; x++, o += co) {
+            chan_copy(o, ra + (size_t)(x >> ua) * ca, ca);
+            chan_copy(o + ca, rb + (size_t)(x >> ub) * cb, cb);
         }
     }
 }
