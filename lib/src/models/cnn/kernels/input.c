@@ -98,7 +98,18 @@ void vd__cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, cons
                 d[x] = (int8_t)((int32_t)row[x] - 128);
             }
         } else {
-            for (uint32_t x = 0u; x < w; x++) {
+            // Four pixels per word load and store (~4 instructions per pixel against ~5, Cortex-M7); byte
+            // lane k of the word read maps to byte lane k of the word written, in either byte order.
+            const uint8_t *u = (const uint8_t *)(const void *)lut;
+            uint32_t x = 0u;
+            for (; x + 4u <= w; x += 4u) {
+                uint32_t v;
+                memcpy(&v, row + x, 4u);
+                const uint32_t q = (uint32_t)u[v & 255u] | ((uint32_t)u[(v >> 8) & 255u] << 8) |
+                                   ((uint32_t)u[(v >> 16) & 255u] << 16) | ((uint32_t)u[v >> 24] << 24);
+                memcpy(d + x, &q, 4u);
+            }
+            for (; x < w; x++) {
                 d[x] = lut[row[x]];
             }
         }
