@@ -8,7 +8,8 @@
 // size (the detector's network input). Then every weighted layer runs again from its input tensor:
 //   streamed  one output row per call on rings as tall as the detector's streamed plan makes them, the
 //             input rows copied into their slots before the call (the calls vd_detector_run makes), the
-//             plan's one scratch;
+//             plan's one scratch and the layer's prepared area if the plan gives it one (CMSIS-NN back end:
+//             set up by the call of row 0, reused by the others);
 //   plane     one call for the whole output.
 // Each with the portable kernel and with CMSIS-NN; every output row is compared with the kept tensor.
 // Output: one "# vd_fw_layer ..." line per layer (SysTick cycles; under qemu-system-arm -icount shift=0
@@ -48,15 +49,16 @@ static void put_kv(const char *k, uint32_t v)
     sh_putu(v);
 }
 
-// One kernel call of layer L: the portable kernel or (cmsis) the CMSIS-NN one.
+// One kernel call of layer L: the portable kernel or (cmsis) the CMSIS-NN one, with the layer's
+// prepared area prep (NULL: none; made by the call with y0 == 0, as in the executor).
 static void kernel(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
-                   uint32_t y1, bool stream, uint8_t *scr, uint32_t scr_bytes, bool cmsis)
+                   uint32_t y1, bool stream, uint8_t *scr, uint32_t scr_bytes, uint8_t *prep, bool cmsis)
 {
 #if defined(VD_CNN_CMSIS)
     if (cmsis) {
         const bool done = (L->op == VD_CNN_OP_DW3X3)
-                              ? vd__cnn_dw3x3_rows_cmsis(L, g, in, out, y0, y1, scr, scr_bytes)
-                              : vd__cnn_conv_rows_cmsis(L, g, in, out, y0, y1, stream, scr);
+                              ? vd__cnn_dw3x3_rows_cmsis(L, g, in, out, y0, y1, scr, scr_bytes, prep)
+                              : vd__cnn_conv_rows_cmsis(L, g, in, out, y0, y1, stream, scr, prep);
         if (done) {
             return;
         }
@@ -64,6 +66,7 @@ static void kernel(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, c
 #else
     (void)cmsis;
     (void)scr_bytes;
+    (void)prep;
 #endif
     if (L->op == VD_CNN_OP_DW3X3) {
         vd__cnn_dw3x3_rows(L, g, in, out, y0, y1, scr);
@@ -76,7 +79,7 @@ static void kernel(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, c
 // that differ from the kept tensor `ref`.
 static uint32_t time_layer(const vd_cnn_layer_t *L, const geom_t *g, const int8_t *src, const int8_t *ref,
                            uint32_t rin, uint32_t rout, uint8_t *ring_in, uint8_t *ring_out, uint8_t *scr,
-                           uint32_t scr_bytes, bool stream, bool cmsis, uint32_t *bad)
+                           uint32_t scr_bytes, uint8_t *prep, bool stream, bool cmsis, uint32_t *bad)
 {
     const size_t in_row = (size_t)g->wi * g->ci, out_row = (size_t)g->wo * g->co;
     const int32_t ks = (L->op == VD_CNN_OP_PW1X1) ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
@@ -87,7 +90,7 @@ static uint32_t time_layer(const vd_cnn_layer_t *L, const geom_t *g, const int8_
         in.base = (int8_t *)(uintptr_t)src;   // the kept plane itself (kernels only read their input)
         in.rows = g->hi;
         const uint64_t t0 = fw_ticks();
-        kernel(L, g, &in, &out, 0u, g->ho, false, scr, scr_bytes, cmsis);
+        kernel(L, g, &in, &out, 0u, g->ho, false, scr, scr_bytes, NULL, cmsis);
         ticks = fw_ticks() - t0;
         for (uint32_t y = 0u; y < g->ho; y++) {
             *bad += (memcmp(ring_out + (size_t)y * out_row, ref + (size_t)y * out_row, out_row) != 0) ? 1u : 0u;
@@ -102,7 +105,7 @@ static uint32_t time_layer(const vd_cnn_layer_t *L, const geom_t *g, const int8_
             memcpy(vd_cnn_ring_row(&in, (uint32_t)(have + 1)), src + (size_t)(have + 1) * in_row, in_row);
         }
         const uint64_t t0 = fw_ticks();
-        kernel(L, g, &in, &out, y, y + 1u, true, scr, scr_bytes, cmsis);
+        kernel(L, g, &in, &out, y, y + 1u, true, scr, scr_bytes, prep, cmsis);
         ticks += fw_ticks() - t0;
         *bad += (memcmp(vd_cnn_ring_row(&out, y), ref + (size_t)y * out_row, out_row) != 0) ? 1u : 0u;
     }
@@ -166,9 +169,12 @@ int main(void)
         const size_t mark = used;
         const uint32_t rin_rows = (plan.rows[L->in] != 0u) ? plan.rows[L->in] : g.hi;   // 0: never stored
         uint8_t *scr = take(&used, (stream_scr > plane_scr) ? stream_scr : plane_scr);
+        uint32_t prep_len;   // the layer's prepared area in the streamed plan (0: none)
+        (void)vd_cnn_prep_at(&cnn, &plan, l, &prep_len);
+        uint8_t *prep = (prep_len != 0u) ? take(&used, prep_len) : NULL;
         uint8_t *rin = take(&used, (size_t)g.wi * g.ci * rin_rows);
         uint8_t *rout = take(&used, (size_t)g.wo * g.co * g.ho);
-        if (scr == NULL || rin == NULL || rout == NULL) {
+        if (scr == NULL || rin == NULL || rout == NULL || (prep_len != 0u && prep == NULL)) {
             return fail("arena");
         }
         uint32_t t[2][2], bad = 0u;   // [streamed, plane][portable, cmsis]
@@ -177,7 +183,7 @@ int main(void)
             for (uint32_t k = 0u; k < 2u; k++) {
                 memset(rout, 0x5A, (size_t)g.wo * g.co * g.ho);
                 t[mode][k] = time_layer(L, &g, ti.data, to.data, rin_rows, stream ? plan.rows[l + 1u] : g.ho,
-                                        rin, rout, scr, stream ? stream_scr : plane_scr, stream, k == 1u, &bad);
+                                        rin, rout, scr, stream ? stream_scr : plane_scr, prep, stream, k == 1u, &bad);
             }
             port_sum[mode] += t[mode][0];
             cmsis_sum[mode] += t[mode][1];

@@ -61,6 +61,12 @@
 #ifndef VD_CNN_STREAM_COUT
 #define VD_CNN_STREAM_COUT 64u
 #endif
+// Streamed with the CMSIS back end: the layers' prepared areas (vd__cnn_cmsis_prep_bytes) are planned,
+// the layers with the most output rows (kernel calls) first, as long as the workspace stays within this
+// many bytes (plan.c); 0: none.
+#ifndef VD_CNN_PREP_CAP
+#define VD_CNN_PREP_CAP (224u * 1024u)
+#endif
 // Stretch histogram (uint32[256]) and its int8 lookup table.
 #define VD_CNN_HIST_BYTES (256u * 4u + 256u)
 
@@ -176,6 +182,26 @@ static inline uint32_t vd_cnn_item_of_tensor(uint32_t t)
 static inline uint64_t vd_cnn_tensor_bytes(const chain_t *c, uint32_t t, uint32_t width, uint32_t rows)
 {
     return (uint64_t)(width / c->f[t]) * (uint64_t)rows * (uint64_t)c->chan[t];
+}
+
+// Where layer l's prepared area (the CMSIS back end's, vd__cnn_cmsis_prep_bytes) lies in a streamed plan:
+// its offset, and its bytes in *len (0: none; always 0 whole plane and without the CMSIS back end). Layers
+// l >= 1 have item 3 + 2l (their scratch item, unused when streamed: item 3 is the one shared scratch);
+// layer 0's sits in item 1 between the histogram and the row buffer (plan.c).
+static inline uint32_t vd_cnn_prep_at(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t l, uint32_t *len)
+{
+    *len = 0u;
+    if ((p->flags & VD_CNN_STREAM) == 0u) {
+        return 0u;
+    }
+    if (l > 0u) {
+        *len = p->len[3u + 2u * l];
+        return p->off[3u + 2u * l];
+    }
+    const uint32_t hist =
+        (m->input_norm != VD_CNN_NORM_NONE) ? vd_cnn_round_up(VD_CNN_HIST_BYTES, VD_CNN_ITEM_ALIGN) : 0u;
+    *len = p->len[1] - hist - vd_cnn_round_up(p->width, VD_CNN_ITEM_ALIGN);
+    return p->off[1] + hist;
 }
 
 // The plan of a run into p (m checked by vd__cnn_model_ok, size by vd__cnn_size_ok):
@@ -344,10 +370,17 @@ void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring
 // as the portable kernels', scr_bytes long: the portable layout's size, or more when streamed) and the
 // same bytes. False (nothing written) when the layer is not one CMSIS-NN computes bit-exactly (a channel
 // with shift > 0 or < -30): the caller runs the portable kernel.
+// prep: NULL (the DSP kernels' set-up, weights widened and requantisation constants, made in scr on every
+// call), or the layer's prepared area (vd__cnn_cmsis_prep_bytes(L) > 0 bytes, 16-byte aligned): the call
+// with y0 == 0 makes the set-up there, and the layer's later calls (y0 > 0: a run's calls of a layer go
+// up its rows from 0, schedule.c) read it back, so the area must be untouched in between.
 bool vd__cnn_conv_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                            uint32_t y0, uint32_t y1, bool stream, uint8_t *scr);
+                            uint32_t y0, uint32_t y1, bool stream, uint8_t *scr, uint8_t *prep);
 bool vd__cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                             uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t scr_bytes);
+                             uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t scr_bytes, uint8_t *prep);
+// Bytes of layer L's prepared area (multiple of VD_CNN_ITEM_ALIGN); 0 when its kernel keeps none (not a
+// layer of the DSP kernels, or a build without them: -Os, no DSP extension).
+uint32_t vd__cnn_cmsis_prep_bytes(const vd_cnn_layer_t *L);
 
 // ------------------------------------------------------------ decode (decode.c)
 

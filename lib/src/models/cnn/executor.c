@@ -80,6 +80,10 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
 #if defined(VD_CNN_CMSIS)
     // CMSIS-NN takes the layers it computes bit-exactly unless the caller asked for the portable kernels.
     const bool cmsis = (p->flags & VD_CNN_PORTABLE) == 0u;
+    // Streamed, the layer's prepared area if the plan gave it one (plan.c prep_size).
+    uint32_t prep_len;
+    const uint32_t prep_off = vd_cnn_prep_at(m, p, l, &prep_len);
+    uint8_t *prep = (prep_len != 0u) ? base + prep_off : NULL;
 #endif
     switch (L->op) {
     case VD_CNN_OP_CONV3X3:
@@ -92,7 +96,7 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
         }
 #endif
 #if defined(VD_CNN_CMSIS)
-        if (cmsis && vd__cnn_conv_rows_cmsis(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr)) {
+        if (cmsis && vd__cnn_conv_rows_cmsis(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr, prep)) {
             break;
         }
 #endif
@@ -106,7 +110,7 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
         }
 #endif
 #if defined(VD_CNN_CMSIS)
-        if (cmsis && vd__cnn_dw3x3_rows_cmsis(L, &g, &in, &o, y0, y1, scr, p->len[scr_item])) {
+        if (cmsis && vd__cnn_dw3x3_rows_cmsis(L, &g, &in, &o, y0, y1, scr, p->len[scr_item], prep)) {
             break;
         }
 #endif

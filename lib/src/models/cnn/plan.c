@@ -9,13 +9,14 @@
 // that makes it to its last reader (every one to the end with VD_CNN_KEEP_TENSORS) and a scratch for
 // its layer only. Streamed (VD_CNN_STREAM), tensors are rings whose heights come from the row schedule
 // (schedule.c), every item lives for the whole run (the layers interleave) and one scratch, sized for
-// the largest layer, serves all of them. The plan is written to the workspace's run record, so the
-// size query and the run compute the same offsets.
+// the largest layer, serves all of them; with the CMSIS back end's DSP kernels the other layers' scratch
+// items (and a piece of item 1 for layer 0) hold prepared areas (prep_size). The plan is written to the
+// workspace's run record, so the size query and the run compute the same offsets.
 // A run keeps the ring heights of the run before in the same workspace (same model, size and flags:
 // vd__cnn_plan_for_run), so a detector's second and later frames skip the sizing walk.
 // Bounds: O(items^2) for the plan (items <= 2 + 2 L) plus the schedule's ring sizing
-// O((H0 + Hn) L^2) when the heights are not kept; stack ~1.5 KiB for the size query (the plan on the stack), vd_cnn_tensor ~320 B
-// (reads the run record back instead).
+// O((H0 + Hn) L^2) when the heights are not kept; stack ~1.5 KiB for the size query (the plan on the
+// stack), vd_cnn_tensor ~320 B (reads the run record back instead).
 #include "vd/cnn.h"
 
 #include "models/cnn/cnn_internal.h"
@@ -37,8 +38,43 @@ static uint64_t scratch_of(const vd_cnn_layer_t *L, bool stream, scratch_layout_
     return 0u;
 }
 
+#if defined(VD_CNN_CMSIS)
+// Streamed, the CMSIS back end's prepared areas (vd_cnn_prep_at: item 3 + 2l, layer 0's in item 1): a
+// layer's DSP set-up (weights widened, requantisation constants) made on its first call of a run instead
+// of on every call, which is one output row. Not every layer's fits a small device's workspace, so a
+// deterministic rule, a pure function of the model, size and flags like the rest of the plan: the layers
+// by output height (calls per run), tallest first, then by index, each taken if the workspace stays within
+// VD_CNN_PREP_CAP (224 KiB: a 256 KiB detector workspace keeps room for its other slices). Streamed,
+// every item lives for the whole run, so the workspace is the record plus the sum of the items.
+static void prep_size(const vd_cnn_model_t *m, vd_cnn_plan_t *p)
+{
+    const uint32_t n = m->n_layers;
+    uint64_t used = VD_CNN_REC_BYTES;
+    for (uint32_t i = 0u; i < p->n_items; i++) {
+        used += p->len[i];
+    }
+    uint32_t seen = 0u;   // bit l: layer l considered (a mask, not an array of sizes: the size query's stack)
+    for (uint32_t k = 0u; k < n; k++) {
+        uint32_t best = n;
+        for (uint32_t l = 0u; l < n; l++) {
+            if ((seen & (1u << l)) == 0u && (best == n || p->h[l + 1u] > p->h[best + 1u])) {
+                best = l;
+            }
+        }
+        seen |= 1u << best;
+        const vd_cnn_layer_t *L = &m->layers[best];
+        const uint32_t want = (p->live[best + 1u] != 0u && vd_cnn_weighted(L->op)) ? vd__cnn_cmsis_prep_bytes(L) : 0u;
+        if (want != 0u && used + want <= VD_CNN_PREP_CAP) {
+            used += want;
+            p->len[(best == 0u) ? 1u : 3u + 2u * best] += want;
+        }
+    }
+}
+#endif
+
 // Length and lifetime (p->len, p->first, p->last) of every item. Streamed,
-// every item lives for the whole run and one scratch (item 3) serves every layer.
+// every item lives for the whole run and one scratch (item 3) serves every layer
+// (then the CMSIS back end's prepared areas, prep_size).
 static vd_status_t items_size(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t flags,
                               vd_cnn_plan_t *p)
 {
@@ -99,6 +135,11 @@ static vd_status_t items_size(const vd_cnn_model_t *m, const chain_t *c, uint32_
         p->first[i] = (uint8_t)first;
         p->last[i] = (uint8_t)last;
     }
+#if defined(VD_CNN_CMSIS)
+    if (stream) {   // with VD_CNN_PORTABLE too: the flag changes the kernels, never the workspace
+        prep_size(m, p);
+    }
+#endif
     return VD_OK;
 }
 

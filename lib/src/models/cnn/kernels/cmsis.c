@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// The CMSIS-NN back end's shared part: a layer's requantisation arrays in CMSIS-NN's form.
+// The CMSIS-NN back end's shared part: a layer's requantisation arrays in CMSIS-NN's form, the DSP
+// kernels' constants, and the size of a layer's prepared area (plan.c).
 //
 // Algorithm: the model's per-channel multiplier, shift and bias (little-endian in the blob, read as in
 // kernels/scratch.c) copied into three int32 arrays, the form CMSIS-NN's kernels take
@@ -64,10 +65,8 @@ bool vd__cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, b
     if (L->act_min != -128 || L->act_max != 127) {
         return false;
     }
-    vd_cnn_dsp_ch_t *ch = (vd_cnn_dsp_ch_t *)(void *)area;
-    q->ch = ch;
-    q->thr = (int32_t *)(void *)(ch + L->cout);
-    q->relu = L->act_min >= L->out_zp;
+    vd_cnn_dsp_q_view(L, area, q);
+    vd_cnn_dsp_ch_t *ch = q->ch;
     const int32_t zp2 = 2 * L->out_zp + 1;   // |2 zp + 1| <= 255
     for (uint32_t o = 0u; o < L->cout; o++) {
         const int32_t sh = L->shift[o];
@@ -95,3 +94,20 @@ bool vd__cnn_dsp_q_fill(const vd_cnn_layer_t *L, int32_t zp_in, uint8_t *area, b
     return true;
 }
 #endif
+
+uint32_t vd__cnn_cmsis_prep_bytes(const vd_cnn_layer_t *L)
+{
+#if defined(VD_CNN_DSP)
+    // The layers the DSP kernels take (their vd__cnn_dsp_q_fill succeeds): a prepared area that a later
+    // call trusts must have been filled, never refused.
+    const uint32_t w = vd_cnn_prep_w_bytes(L);
+    bool ok = w != 0u && L->act_min == -128 && L->act_max == 127;
+    for (uint32_t o = 0u; o < L->cout && ok; o++) {
+        ok = L->shift[o] <= -1 && L->shift[o] >= VD_CNN_DSP_SHIFT_MIN;
+    }
+    return ok ? w + vd_cnn_dsp_q_bytes(L) : 0u;
+#else
+    (void)L;   // CMSIS-NN's own kernels (-Os, no DSP extension): O(cout) set-up per call, nothing kept
+    return 0u;
+#endif
+}

@@ -57,7 +57,8 @@ bool vd__cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q
 // vd's own Armv7E-M DSP kernels in the back end (dw3x3_cmsis.c, conv_cmsis.c): where CMSIS-NN's kernels spend
 // most of their instructions on the compact network's small shapes (per-call and per-pixel set-up, 9 or
 // 8..64 multiply-adds per output value against ~15 instructions of requantisation per value), the same
-// SXTB16 / SMLAD / SMLABB arithmetic with the weights widened once per call and a shorter requantisation.
+// SXTB16 / SMLAD / SMLABB arithmetic with the weights widened once per call (streamed: once per run, into
+// a prepared area where plan.c gives one) and a shorter requantisation.
 // Not in -Os builds: there gcc neither unrolls the tap loops nor specialises the inlined requantisation
 // per layer kind, and the kernels took more instructions than CMSIS-NN's (95.7 M against 82.1 M per
 // frame on the Cortex-M7 MinSizeRel firmware), so -Os keeps CMSIS-NN's kernels and their smaller code.
@@ -106,6 +107,39 @@ typedef struct vd_cnn_dsp_q {
 static inline uint32_t vd_cnn_dsp_q_bytes(const vd_cnn_layer_t *L)
 {
     return vd_cnn_round_up((uint32_t)(L->cout * (sizeof(vd_cnn_dsp_ch_t) + 4u)), VD_CNN_ITEM_ALIGN);
+}
+
+// The view of the constants at area (8-byte aligned) of layer L: what vd__cnn_dsp_q_fill sets, without
+// filling them (a prepared area's later calls).
+static inline void vd_cnn_dsp_q_view(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_dsp_q_t *q)
+{
+    q->ch = (vd_cnn_dsp_ch_t *)(void *)area;
+    q->thr = (int32_t *)(void *)(q->ch + L->cout);
+    q->relu = L->act_min >= L->out_zp;
+}
+
+// A layer's prepared area (vd__cnn_cmsis_prep_bytes, cnn_internal.h): its widened weights (pointwise
+// 2 K cout bytes, one-channel 3x3 24 cout, depthwise 72 per group of four channels), for the depthwise
+// kernel the zero-point row (cout bytes), then the constants (vd_cnn_dsp_q_bytes); each piece at a
+// multiple of VD_CNN_ITEM_ALIGN. vd_cnn_prep_dw_zrow: where the zero-point row starts;
+// vd_cnn_prep_w_bytes: where the constants start (0: not a layer of the DSP kernels).
+static inline uint32_t vd_cnn_prep_dw_zrow(const vd_cnn_layer_t *L)
+{
+    return vd_cnn_round_up(72u * (L->cout / 4u), VD_CNN_ITEM_ALIGN);
+}
+
+static inline uint32_t vd_cnn_prep_w_bytes(const vd_cnn_layer_t *L)
+{
+    if (L->op == VD_CNN_OP_PW1X1 && (L->cin % 4u) == 0u) {
+        return vd_cnn_round_up(2u * L->cin * L->cout, VD_CNN_ITEM_ALIGN);
+    }
+    if (L->op == VD_CNN_OP_CONV3X3 && L->cin == 1u) {
+        return vd_cnn_round_up(24u * L->cout, VD_CNN_ITEM_ALIGN);
+    }
+    if (L->op == VD_CNN_OP_DW3X3) {
+        return vd_cnn_prep_dw_zrow(L) + vd_cnn_round_up(L->cout, VD_CNN_ITEM_ALIGN);
+    }
+    return 0u;
 }
 
 // The constants of layer L (input zero point zp_in) at area (8-byte aligned, vd_cnn_dsp_q_bytes long);

@@ -85,9 +85,10 @@ static uint32_t run_end(const ring_t *a, const ring_t *b, uint32_t y, uint32_t y
 // The DSP kernel (cmsis.h) of pointwise layers (K = cin a multiple of 4) and 3x3 layers with one input
 // channel. Pointwise: per output pixel its K input bytes widened once into xs, words j: SXTB16 of input
 // word j/2 (values 0, 2 of it) for even j, SXTB16 ROR 8 (values 1, 3) for odd j; the weights widened
-// once per call in the same pairs, per group of four output channels interleaved [k word pair][channel]
-// [2] (one LDRD per channel and pair), then per group SMLAD into four sums from 0 (the bias and
-// - zp_in sum w are in the requantisation constants: padding taps read zp_in and add zero).
+// once per call (or per run: dsp_layer) in the same pairs, per group of four output channels
+// interleaved [k word pair][channel][2] (one LDRD per channel and pair), then per group SMLAD into four
+// sums from 0 (the bias and - zp_in sum w are in the requantisation constants: padding taps read zp_in
+// and add zero).
 static inline uint64_t dsp_ld2(const uint32_t *p)
 {
     uint64_t v;
@@ -571,28 +572,15 @@ static inline void dsp_pw_rows(const geom_t *g, const ring_t *in, const ring_t *
     }
 }
 
-// Pointwise (cin % 4 == 0) and one-channel 3x3 layers; false when the layer is neither, its weights do
-// not fit conv.c's weight piece, or it is outside the DSP requantisation's range (cmsis.h).
-static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
-                      uint32_t y1, bool stream, uint8_t *scr)
+// The DSP kernels' set-up of a pointwise (one: one-channel 3x3) layer: the widened weights at wq, the
+// requantisation constants at qa (vd__cnn_dsp_q_fill); false when the layer is outside its range.
+static bool dsp_prepare(const vd_cnn_layer_t *L, int32_t zp_in, bool one, uint32_t *wq, uint8_t *qa,
+                        vd_cnn_dsp_q_t *q)
 {
-    const bool pw = L->op == VD_CNN_OP_PW1X1 && (L->cin % 4u) == 0u;
-    const bool one = L->op == VD_CNN_OP_CONV3X3 && L->cin == 1u;
-    if (!pw && !one) {
-        return false;
-    }
-    scratch_layout_t s;
-    (void)vd__cnn_conv_scratch(L, stream, &s);
-    const size_t kw = one ? 12u : L->cin;   // bytes per widened pixel (one: 6 words per channel)
-    const size_t co = g->co;
-    if ((size_t)(s.rows - s.w16) < 2u * kw * co || (size_t)(s.ch - s.rows) < 2u * kw) {
-        return false;
-    }
-    vd_cnn_dsp_q_t q;
-    uint32_t *wq = (uint32_t *)(void *)(scr + s.w16);
+    const size_t co = L->cout;
     uint32_t *d = wq;
     if (one) {
-        if (!vd__cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, false, &q)) {
+        if (!vd__cnn_dsp_q_fill(L, zp_in, qa, false, q)) {
             return false;
         }   // per channel [ (w00, w02) (w10, w12) (w20, w22) (w01, w11) (w21, 0) 0 ] (dsp_one_px)
         for (size_t o = 0u; o < co; o++) {
@@ -604,20 +592,14 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
             *d++ = dsp_pair(w[7], 0);
             *d++ = 0u;
         }
-        const int32_t step = L->stride;
-        if (q.relu) {
-            dsp_one_rows(g, in, out, y0, y1, step, wq, &q, true);
-        } else {
-            dsp_one_rows(g, in, out, y0, y1, step, wq, &q, false);
-        }
         return true;
     }
     // Widened weights: groups of four channels [word pair][channel][2], then single channels [word].
     // (The pair (w0, w2) of weight bytes w0..w3 is SXTB16 of their word, (w1, w3) SXTB16 ROR 8: four
-    // instructions per four weights, once per call, and calls are one output row when streamed; the
-    // weight sums for vd__cnn_dsp_q_fill on the way, two SMLAD with (1, 1) per four weights.)
+    // instructions per four weights; the weight sums for vd__cnn_dsp_q_fill on the way, two SMLAD with
+    // (1, 1) per four weights.)
     const size_t cin = L->cin;
-    int32_t *sums = vd_cnn_dsp_q_sums(L, scr + s.ch);
+    int32_t *sums = vd_cnn_dsp_q_sums(L, qa);
     size_t o = 0u;
     for (; o + 4u <= co; o += 4u) {
         uint32_t a[4] = {0u, 0u, 0u, 0u};   // |sum| <= K 128 < 2^31
@@ -645,8 +627,43 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
         }
         sums[o] = (int32_t)a;
     }
-    if (!vd__cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, true, &q)) {
+    return vd__cnn_dsp_q_fill(L, zp_in, qa, true, q);
+}
+
+// Pointwise (cin % 4 == 0) and one-channel 3x3 layers; false when the layer is neither, its weights do
+// not fit conv.c's weight piece (without a prepared area), or it is outside the DSP requantisation's
+// range (cmsis.h). The set-up goes into prep when there is one (cnn_internal.h: made when y0 == 0, read
+// back by the later calls), else into the scratch on every call (streamed calls are one output row).
+static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+                      uint32_t y1, bool stream, uint8_t *scr, uint8_t *prep)
+{
+    const bool pw = L->op == VD_CNN_OP_PW1X1 && (L->cin % 4u) == 0u;
+    const bool one = L->op == VD_CNN_OP_CONV3X3 && L->cin == 1u;
+    if (!pw && !one) {
         return false;
+    }
+    scratch_layout_t s;
+    (void)vd__cnn_conv_scratch(L, stream, &s);
+    const size_t kw = one ? 12u : L->cin;   // bytes per widened pixel (one: 6 words per channel)
+    if ((prep == NULL && (size_t)(s.rows - s.w16) < 2u * kw * g->co) || (size_t)(s.ch - s.rows) < 2u * kw) {
+        return false;
+    }
+    vd_cnn_dsp_q_t q;
+    uint32_t *wq = (uint32_t *)(void *)((prep != NULL) ? prep : scr + s.w16);
+    uint8_t *qa = (prep != NULL) ? prep + vd_cnn_prep_w_bytes(L) : scr + s.ch;
+    if (prep != NULL && y0 > 0u) {
+        vd_cnn_dsp_q_view(L, qa, &q);   // made by the layer's call with y0 == 0
+    } else if (!dsp_prepare(L, g->zp_in, one, wq, qa, &q)) {
+        return false;
+    }
+    if (one) {
+        const int32_t step = L->stride;
+        if (q.relu) {
+            dsp_one_rows(g, in, out, y0, y1, step, wq, &q, true);
+        } else {
+            dsp_one_rows(g, in, out, y0, y1, step, wq, &q, false);
+        }
+        return true;
     }
     uint32_t *xs = (uint32_t *)(void *)(scr + s.rows);
     if (q.relu) {
@@ -659,12 +676,14 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
 #endif
 
 bool vd__cnn_conv_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                            uint32_t y0, uint32_t y1, bool stream, uint8_t *scr)
+                            uint32_t y0, uint32_t y1, bool stream, uint8_t *scr, uint8_t *prep)
 {
 #if defined(VD_CNN_DSP)
-    if (dsp_layer(L, g, in, out, y0, y1, stream, scr)) {
+    if (dsp_layer(L, g, in, out, y0, y1, stream, scr, prep)) {
         return true;
     }
+#else
+    (void)prep;   // no DSP kernels: no prepared area (vd__cnn_cmsis_prep_bytes)
 #endif
     scratch_layout_t s;
     (void)vd__cnn_conv_scratch(L, stream, &s);   // conv.c's layout: the patches take its weights and rows

@@ -265,26 +265,20 @@ static inline void dsp_rows(const vd_cnn_layer_t *L, const geom_t *g, const ring
     }
 }
 
-// The DSP kernel's scratch: widened weights in dw3x3.c's int16 weight piece (18 bytes per channel either
-// way), zrow in its row piece, the constants in its constants piece. False when the layer is outside
-// the DSP requantisation's range (cmsis.h).
-static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
-                      uint32_t y1, uint8_t *scr)
+// The DSP kernel's set-up: the zero-point row zrow, the widened weights wx and the requantisation
+// constants at qa (vd__cnn_dsp_q_fill); false when the layer is outside its range (cmsis.h).
+static bool dsp_prepare(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t *wx, int8_t *zrow, uint8_t *qa,
+                        vd_cnn_dsp_q_t *q)
 {
-    scratch_layout_t s;
-    (void)vd__cnn_dw3x3_scratch(L, &s);
-    vd_cnn_dsp_q_t q;
-    const size_t c_n = g->co;
-    uint32_t *wx = (uint32_t *)(void *)(scr + s.w16);
-    int8_t *zrow = (int8_t *)(void *)(scr + s.rows);
+    const size_t c_n = L->cout;
     for (size_t c = 0u; c < c_n; c++) {
-        zrow[c] = (int8_t)g->zp_in;
+        zrow[c] = (int8_t)zp_in;
     }
-    // Widened weights per group of four channels, from words of four channels (once per call, and
-    // streamed calls are one output row): taps x = w[2p][c..c+3], y = w[2p+1][c..c+3] give the
-    // channels' pairs (x_c, y_c) as dsp_pixel_in gives the inputs' (PKHBT / PKHTB, SXTB16); the
-    // weight sums for vd__cnn_dsp_q_fill on the way (SMLAD with (1, 1); tap 8's lanes by hand).
-    int32_t *sums = vd_cnn_dsp_q_sums(L, scr + s.ch);
+    // Widened weights per group of four channels, from words of four channels: taps x = w[2p][c..c+3],
+    // y = w[2p+1][c..c+3] give the channels' pairs (x_c, y_c) as dsp_pixel_in gives the inputs' (PKHBT /
+    // PKHTB, SXTB16); the weight sums for vd__cnn_dsp_q_fill on the way (SMLAD with (1, 1); tap 8's lanes
+    // by hand).
+    int32_t *sums = vd_cnn_dsp_q_sums(L, qa);
     for (size_t c = 0u; c + 4u <= c_n; c += 4u) {
         uint32_t *d = wx + (c / 4u) * 18u;
         const int8_t *w = L->w + c;
@@ -312,7 +306,26 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
         sums[c + 3u] = (int32_t)a[3] + w[8u * c_n + 3u];
     }
     // (Channels beyond a multiple of four: the fill sums every channel itself.)
-    if (!vd__cnn_dsp_q_fill(L, g->zp_in, scr + s.ch, (c_n % 4u) == 0u, &q)) {
+    return vd__cnn_dsp_q_fill(L, zp_in, qa, (c_n % 4u) == 0u, q);
+}
+
+// The DSP kernel: its set-up in the layer's prepared area when there is one (cmsis.h's layout; made
+// when y0 == 0, read back by the later calls: cnn_internal.h), else in the scratch on every call
+// (streamed calls are one output row): the widened weights in dw3x3.c's int16 weight piece (18 bytes per
+// channel either way), zrow in its row piece, the constants in its constants piece. False when the
+// layer is outside the DSP requantisation's range (cmsis.h).
+static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
+                      uint32_t y1, uint8_t *scr, uint8_t *prep)
+{
+    scratch_layout_t s;
+    (void)vd__cnn_dw3x3_scratch(L, &s);
+    uint32_t *wx = (uint32_t *)(void *)((prep != NULL) ? prep : scr + s.w16);
+    int8_t *zrow = (int8_t *)(void *)((prep != NULL) ? prep + vd_cnn_prep_dw_zrow(L) : scr + s.rows);
+    uint8_t *qa = (prep != NULL) ? prep + vd_cnn_prep_w_bytes(L) : scr + s.ch;
+    vd_cnn_dsp_q_t q;
+    if (prep != NULL && y0 > 0u) {
+        vd_cnn_dsp_q_view(L, qa, &q);   // made by the layer's call with y0 == 0
+    } else if (!dsp_prepare(L, g->zp_in, wx, zrow, qa, &q)) {
         return false;
     }
     if (q.relu) {
@@ -325,12 +338,14 @@ static bool dsp_layer(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in
 #endif
 
 bool vd__cnn_dw3x3_rows_cmsis(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                             uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t scr_bytes)
+                             uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t scr_bytes, uint8_t *prep)
 {
 #if defined(VD_CNN_DSP)
-    if (dsp_layer(L, g, in, out, y0, y1, scr)) {
+    if (dsp_layer(L, g, in, out, y0, y1, scr, prep)) {
         return true;
     }
+#else
+    (void)prep;   // no DSP kernels: no prepared area (vd__cnn_cmsis_prep_bytes)
 #endif
     scratch_layout_t s;
     (void)vd__cnn_dw3x3_scratch(L, &s);
