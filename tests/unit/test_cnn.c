@@ -2098,6 +2098,37 @@ static vd_status_t reuse_run(const vd_cnn_model_t *m, const uint8_t *img, uint32
     return st;
 }
 
+// The streamed band rule (plan.c): vd_cnn at 320 x 256 (workspace above VD_CNN_BAND_CAP with one-row
+// bands) keeps 1; vd_cnn_compact takes VD_CNN_BAND_MAX within the cap; a whole plane has no band.
+static void test_stream_band_rule(void)
+{
+    static vd_cnn_model_t m;
+    static vd_cnn_plan_t p;
+    chain_t c;
+    if (!load_file_model(VD_SOURCE_DIR "/models/vd_cnn.vdm", &m)) {
+        TEST_IGNORE_MESSAGE("models/vd_cnn.vdm not in this checkout");
+    }
+    TEST_ASSERT_TRUE(vd__cnn_model_ok(&m, &c));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd__cnn_plan_make(&m, &c, 320u, 256u, VD_CNN_STREAM, &p));
+    TEST_ASSERT_EQUAL_UINT8(1u, p.band);
+    TEST_ASSERT_TRUE(p.total > VD_CNN_BAND_CAP);
+    static vd_cnn_model_t mc;
+    TEST_ASSERT_TRUE(load_file_model(VD_SOURCE_DIR "/models/vd_cnn_compact.vdm", &mc));
+    TEST_ASSERT_TRUE(vd__cnn_model_ok(&mc, &c));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd__cnn_plan_make(&mc, &c, 320u, 256u, VD_CNN_STREAM, &p));
+    TEST_ASSERT_EQUAL_UINT8(VD_CNN_BAND_MAX, p.band);
+    TEST_ASSERT_TRUE(p.total <= VD_CNN_BAND_CAP);
+}
+
+// The CRC a record's kept part carries (plan.c's rows_crc): rows, h, live of tensors 0..nt-1, the band.
+static uint32_t forged_crc(const vd_cnn_plan_t *p, uint32_t nt)
+{
+    uint32_t crc = vd__crc32(0u, p->rows, nt * sizeof p->rows[0]);
+    crc = vd__crc32(crc, p->h, nt * sizeof p->h[0]);
+    crc = vd__crc32(crc, p->live, nt * sizeof p->live[0]);
+    return vd__crc32(crc, &p->band, sizeof p->band);
+}
+
 // VD_CNN_REUSE_PLAN: a kept plan gives the same bytes as a new one; a record changed since (ring heights
 // out of bounds, a CRC that does not match, another size in between) is planned anew, and forged heights
 // with a matching CRC never write outside the workspace (guarded allocation), only change results or
@@ -2147,29 +2178,29 @@ static void test_reuse_plan_kept_checked_and_safe(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
     TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
     TEST_ASSERT_EQUAL_MEMORY(fresh.rows, p->rows, sizeof fresh.rows);
-    uint32_t crc;
     p->rows[t1] = (uint16_t)(p->h[t1] + 1u);
-    crc = vd__crc32(0u, p->rows, nt * sizeof p->rows[0]);
-    crc = vd__crc32(crc, p->h, nt * sizeof p->h[0]);
-    p->rows_crc = vd__crc32(crc, p->live, nt * sizeof p->live[0]);
+    p->rows_crc = forged_crc(p, nt);
     TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
     TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
     TEST_ASSERT_EQUAL_MEMORY(fresh.rows, p->rows, sizeof fresh.rows);
     // Forged within bounds, CRC matching: kept (the proof that a run keeps heights). A taller ring asks
     // for more workspace than there is; a one-row ring runs inside its item (wrong values, no stray write).
     p->rows[t1] = p->h[t1];
-    crc = vd__crc32(0u, p->rows, nt * sizeof p->rows[0]);
-    crc = vd__crc32(crc, p->h, nt * sizeof p->h[0]);
-    p->rows_crc = vd__crc32(crc, p->live, nt * sizeof p->live[0]);
+    p->rows_crc = forged_crc(p, nt);
     TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
     TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));   // magic 0: anew
     TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
     p->rows[t1] = 1u;
-    crc = vd__crc32(0u, p->rows, nt * sizeof p->rows[0]);
-    crc = vd__crc32(crc, p->h, nt * sizeof p->h[0]);
-    p->rows_crc = vd__crc32(crc, p->live, nt * sizeof p->live[0]);
+    p->rows_crc = forged_crc(p, nt);
     TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
     TEST_ASSERT_EQUAL_UINT16(1u, p->rows[t1]);
+    // A band outside 1..VD_CNN_BAND_MAX, CRC matching: planned anew.
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, 0u, ws, bytes, got, &n));
+    p->band = (uint8_t)(VD_CNN_BAND_MAX + 1u);
+    p->rows_crc = forged_crc(p, nt);
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
+    TEST_ASSERT_EQUAL_UINT8(fresh.band, p->band);
     // Without the flag the record is never read.
     TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, 0u, ws, bytes, got, &n));
     TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
@@ -2580,6 +2611,7 @@ int main(void)
     RUN_TEST(test_stream_fuses_upsample_read_only_by_concats);
     RUN_TEST(test_stream_committed_models_match_whole_plane);
     RUN_TEST(test_reuse_plan_kept_checked_and_safe);
+    RUN_TEST(test_stream_band_rule);
     RUN_TEST(test_awkward_models_match_naive_reference);
     RUN_TEST(test_x86_kernels_match_portable_random);
     RUN_TEST(test_x86_kernels_match_portable_committed);

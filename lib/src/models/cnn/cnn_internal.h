@@ -46,15 +46,19 @@
 #define VD_CNN_KCHUNK 8u
 // Channels per pass of the depthwise kernel (weight copies padded to it).
 #define VD_CNN_DWB 16u
-// Head rows per step of the streamed executor (VD_CNN_STREAM): rings grow
-// by about this many rows per tensor, per-layer set-up runs once per band.
-#ifndef VD_CNN_BAND_ROWS
-#define VD_CNN_BAND_ROWS 1u
+// Streamed (VD_CNN_STREAM): the plan's band B, head rows per pull and input rows per push sub-step. A
+// taller band means fewer sub-steps and kernel calls per run (set-up and row overhead amortised) and
+// taller rings. The plan takes B = 1 when its workspace exceeds VD_CNN_BAND_CAP, else the tallest of
+// VD_CNN_BAND_MAX, VD_CNN_BAND_MAX / 2, .., 2 whose workspace stays within it, else 1 (plan.c): the shipped
+// pair, whose rings are what puts the detector at its 256 KiB bar, keeps 1 row; vd_cnn_compact takes 4.
+#ifndef VD_CNN_BAND_MAX
+#define VD_CNN_BAND_MAX 4u
 #endif
-// Input rows per push sub-step of the streamed schedule (>= 1): more rows
-// per kernel call (set-up amortised), taller rings.
-#ifndef VD_CNN_BAND_IN_ROWS
-#define VD_CNN_BAND_IN_ROWS 1u
+#ifndef VD_CNN_BAND_CAP
+#define VD_CNN_BAND_CAP (192u * 1024u)
+#endif
+#if VD_CNN_BAND_MAX < 1 || VD_CNN_BAND_MAX > 64
+#error "VD_CNN_BAND_MAX must be 1..64"
 #endif
 // Streamed: output channels per int16 weight copy of a CONV / PW layer
 // (the one shared scratch holds 2 * this * K bytes of weights).
@@ -70,7 +74,8 @@
 // Stretch histogram (uint32[256]) and its int8 lookup table.
 #define VD_CNN_HIST_BYTES (256u * 4u + 256u)
 
-#define VD_CNN_RUN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE | VD_CNN_REUSE_PLAN)   // every flag of the _ex calls
+// Every flag of the _ex calls.
+#define VD_CNN_RUN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE | VD_CNN_REUSE_PLAN)
 #define VD_CNN_INPUT_ZP (-128)   // zero point of tensor 0 (pixel - 128)
 // vd_cnn_plan_t.live of an upsample fused into the concats that read it (schedule.c).
 #define VD_CNN_LIVE_FUSED 2u
@@ -109,7 +114,8 @@ typedef struct vd_cnn_plan {
     uint16_t need[VD_CNN_MAX_TENSORS];   // rows needed for the current head target
     uint16_t req[VD_CNN_MAX_TENSORS];    // rows made by the current sub-step
     uint8_t live[VD_CNN_MAX_TENSORS];    // 1: the head depends on it; 2: also, an upsample fused into its concats
-    uint32_t rows_crc;        // CRC-32 of rows, h and live (tensors 0..n): the next run's check before reusing rows
+    uint8_t band;             // streamed: head rows per pull, input rows per push (1..VD_CNN_BAND_MAX)
+    uint32_t rows_crc;        // CRC-32 of rows, h, live (tensors 0..n) and band: the next run's check before reuse
 } vd_cnn_plan_t;
 
 // Bytes of the record (items start after it).
@@ -364,7 +370,7 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
 void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                            uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level);
 
-// ------------------------------------------------------------ CMSIS-NN back end (kernels/*cmsis*.c, CMake VD_CNN_CMSIS)
+// ------------------------------------------------------ CMSIS-NN back end (kernels/*cmsis*.c, CMake VD_CNN_CMSIS)
 
 // vd__cnn_conv_rows and vd__cnn_dw3x3_rows on CMSIS-NN's kernels, with the layer's scratch (the same item
 // as the portable kernels', scr_bytes long: the portable layout's size, or more when streamed) and the

@@ -210,21 +210,43 @@ static uint32_t rows_crc(const vd_cnn_plan_t *p, uint32_t n)
 {
     uint32_t crc = vd__crc32(0u, p->rows, (n + 1u) * sizeof p->rows[0]);
     crc = vd__crc32(crc, p->h, (n + 1u) * sizeof p->h[0]);
-    return vd__crc32(crc, p->live, (n + 1u) * sizeof p->live[0]);
+    crc = vd__crc32(crc, p->live, (n + 1u) * sizeof p->live[0]);
+    return vd__crc32(crc, &p->band, sizeof p->band);
 }
 
-// The plan of a run: ring heights (the row schedule), items, offsets; the
-// key vd_cnn_tensor checks after the run.
-vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
-                             uint32_t flags, vd_cnn_plan_t *p)
+// The plan with band b (the ring heights from the row schedule, their CRC, the items).
+static vd_status_t plan_band(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+                             uint32_t flags, uint32_t b, vd_cnn_plan_t *p)
 {
+    p->band = (uint8_t)b;
     vd__cnn_sched_rows(m, c, height, flags, p);
     p->rows_crc = rows_crc(p, m->n_layers);
     return plan_items(m, c, width, height, flags, p);
 }
 
+// The plan of a run: ring heights (the row schedule), items, offsets; the
+// key vd_cnn_tensor checks after the run. Streamed, the band (cnn_internal.h, VD_CNN_BAND_CAP): 1 when
+// that plan's workspace exceeds the cap (the larger networks, whose rings set the detector's workspace),
+// else the tallest band from VD_CNN_BAND_MAX down whose workspace stays within it. A pure function of the
+// model, size and flags like the rest of the plan; up to 2 + log2(VD_CNN_BAND_MAX) sizing walks.
+vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
+                             uint32_t flags, vd_cnn_plan_t *p)
+{
+    VD_TRY(plan_band(m, c, width, height, flags, 1u, p));
+    if ((flags & VD_CNN_STREAM) == 0u || p->total > VD_CNN_BAND_CAP) {
+        return VD_OK;
+    }
+    for (uint32_t b = VD_CNN_BAND_MAX; b >= 2u; b /= 2u) {
+        VD_TRY(plan_band(m, c, width, height, flags, b, p));
+        if (p->total <= VD_CNN_BAND_CAP) {
+            return VD_OK;
+        }
+    }
+    return plan_band(m, c, width, height, flags, 1u, p);
+}
+
 // True when the record p, written by a complete run with the same model, size and flags, holds ring
-// heights this run can keep: heights and liveness recomputed equal the kept ones (CRC), every ring within
+// heights and band this run can keep: heights and liveness recomputed equal the kept ones (CRC), every ring within
 // its tensor and a computed tensor's at least one row (the ring row modulo). The record is caller memory:
 // what is kept is checked, and the items are sized from the kept heights, so a record changed since
 // the last run can make a run compute wrong values only after forging the CRC, never write outside its items.
@@ -237,6 +259,9 @@ static bool rows_kept(const vd_cnn_model_t *m, const chain_t *c, uint32_t width,
         return false;
     }
     const uint32_t kept = p->rows_crc;
+    if (p->band < 1u || p->band > VD_CNN_BAND_MAX) {
+        return false;
+    }
     vd__cnn_sched_init(m, c, height, flags, p);
     for (uint32_t t = 0u; t <= n; t++) {
         const bool computed = p->live[t] != 0u && p->live[t] != VD_CNN_LIVE_FUSED;

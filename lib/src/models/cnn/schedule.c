@@ -4,10 +4,10 @@
 //
 // Algorithm: the streamed executor (VD_CNN_STREAM) keeps every tensor but the head as
 // a ring of full-width rows. For head rows T = B, 2B, .. (B =
-// VD_CNN_BAND_ROWS) it first pulls: walking the layers backwards, the rows
+// p->band, plan.c) it first pulls: walking the layers backwards, the rows
 // each tensor must have so that the head has T rows (p->need; rows_read of
 // the consumers' last needed row, clamped). Then it pushes in sub-steps:
-// tensor 0 gains VD_CNN_BAND_IN_ROWS (1) input rows, and in layer order
+// tensor 0 gains B input rows, and in layer order
 // every tensor makes the rows whose input rows exist, up to its need. Pull alone would make the
 // whole receptive field of the first head row in one batch per tensor (an
 // encoder tensor would hold tens of rows); push alone would finish every
@@ -161,14 +161,14 @@ static void sched_pull(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t targe
 }
 
 // Push: p->req, the rows every tensor has after one sub-step: tensor 0
-// VD_CNN_BAND_IN_ROWS more input rows (up to its need), then in layer order
+// p->band more input rows (up to its need), then in layer order
 // each computed tensor every row whose input rows exist, up to its need.
 // pulled: the need grew this sub-step (sched_pull); else a tensor whose inputs gained no row (req ==
 // done: done holds the previous sub-step's req) keeps its rows, as its readiness and need are unchanged.
 static void sched_push(const vd_cnn_model_t *m, vd_cnn_plan_t *p, bool pulled)
 {
     const uint32_t n = m->n_layers;
-    const uint32_t in_next = p->done[0] + VD_CNN_BAND_IN_ROWS;
+    const uint32_t in_next = p->done[0] + p->band;
     p->req[0] = (uint16_t)((in_next < p->need[0]) ? in_next : ((p->done[0] < p->need[0]) ? p->need[0] : p->done[0]));
     for (uint32_t t = 1u; t <= n; t++) {
         const vd_cnn_layer_t *L = &m->layers[t - 1u];
@@ -248,7 +248,7 @@ bool vd__cnn_sched_next(const vd_cnn_model_t *m, vd_cnn_plan_t *p, uint32_t *tar
         if (*target >= p->h[n]) {
             return false;
         }
-        *target = (*target + VD_CNN_BAND_ROWS < p->h[n]) ? *target + VD_CNN_BAND_ROWS : p->h[n];
+        *target = (*target + p->band < p->h[n]) ? *target + p->band : p->h[n];
         sched_pull(m, p, *target);
     }
     sched_push(m, p, pulled);
