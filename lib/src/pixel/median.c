@@ -238,6 +238,13 @@ static uint8_t med3_px(const uint8_t *r0, const uint8_t *r1, const uint8_t *r2, 
     return MED3(l, md, h);
 }
 
+// The 4- and 8-row kernels are built (not in -Os builds: see vd_median3_u8).
+#if defined(__OPTIMIZE_SIZE__)
+#define VD_MED3_WIDE 0
+#else
+#define VD_MED3_WIDE 1
+#endif
+
 // BLK3 outputs of n (1, 2 or 4) consecutive rows: p[0 .. n+1] are the input
 // rows and o[0 .. n-1] the output rows, at image column x / output offset off.
 // A macro, used at two sites, so that every kernel has two callers: gcc -O2
@@ -246,12 +253,12 @@ static uint8_t med3_px(const uint8_t *r0, const uint8_t *r1, const uint8_t *r2, 
 // pointers and spilled them (15% slower).
 #define MED3_BLOCK(n, p, x, o, off)                                                                             \
     do {                                                                                                      \
-        if ((n) == 8) {                                                                                       \
+        if ((n) == 8 && VD_MED3_WIDE) {                                                                       \
             med3_rows8((p)[0] + (x) - 1, (p)[1] + (x) - 1, (p)[2] + (x) - 1, (p)[3] + (x) - 1, (p)[4] + (x) - 1, \
                        (p)[5] + (x) - 1, (p)[6] + (x) - 1, (p)[7] + (x) - 1, (p)[8] + (x) - 1, (p)[9] + (x) - 1, \
                        (o)[0] + (off), (o)[1] + (off), (o)[2] + (off), (o)[3] + (off), (o)[4] + (off),        \
                        (o)[5] + (off), (o)[6] + (off), (o)[7] + (off));                                       \
-        } else if ((n) == 4) {                                                                                \
+        } else if ((n) == 4 && VD_MED3_WIDE) {                                                                \
             med3_rows4((p)[0] + (x) - 1, (p)[1] + (x) - 1, (p)[2] + (x) - 1, (p)[3] + (x) - 1, (p)[4] + (x) - 1, \
                        (p)[5] + (x) - 1, (o)[0] + (off), (o)[1] + (off), (o)[2] + (off), (o)[3] + (off));     \
         } else if ((n) == 2) {                                                                                \
@@ -326,6 +333,11 @@ vd_status_t vd_median3_u8(const vd_view_u8_t *src, const vd_rect_t *roi, vd_imag
     int32_t y = 0;
     while (y < r.h) {
         int32_t n = r.h >= 8 ? 8 : (r.h >= 4 ? 4 : (r.h - y >= 2 ? 2 : 1));
+#if defined(__OPTIMIZE_SIZE__)
+        // -Os: groups of 2 and 1 only, so the 4- and 8-row kernels are never referenced and not built
+        // (~2 KiB of Cortex-M0+ code: the whole library's 64 KiB budget; same values, fewer rows shared).
+        n = (r.h - y >= 2) ? 2 : 1;
+#endif
         if (n >= 4 && y > r.h - n) {
             y = r.h - n;
         }

@@ -68,32 +68,21 @@ static uint32_t row_hi(const vd_cnn_layer_t *L, uint32_t y, uint32_t hlast)
 
 // Output rows of L (of hout) whose last input row read (clamped to hlast) is below avail: a prefix,
 // row_hi being non-decreasing in y; row_hi inverted, so a sub-step costs O(1) per tensor, not per row.
-// Stride s is 1 or 2 (the loader's rule).
+// Every op but the upsample reads up to row hi(y) = hi(0) + (hi(1) - hi(0)) y (rows_read).
 static uint32_t rows_ready(const vd_cnn_layer_t *L, uint32_t avail, uint32_t hlast, uint32_t hout)
 {
     if (avail > hlast) {
         return hout;   // every row's clamped last input row is <= hlast
     }
     // avail <= hlast: row y is ready iff its unclamped last row hi(y) <= avail - 1.
-    const uint32_t s = L->stride;
+    int32_t lo, k0, k1;
+    rows_read(L, 0u, &lo, &k0);
+    rows_read(L, 1u, &lo, &k1);
     uint32_t n;
-    switch (L->op) {
-    case VD_CNN_OP_CONV3X3:
-    case VD_CNN_OP_DW3X3:   // hi = s y + 1
-        n = (avail < 2u) ? 0u : (avail - 2u) / s + 1u;
-        break;
-    case VD_CNN_OP_CONV5X5:   // hi = s y + 2
-        n = (avail < 3u) ? 0u : (avail - 3u) / s + 1u;
-        break;
-    case VD_CNN_OP_MAXPOOL2:   // hi = 2 y + 1
-        n = (avail < 2u) ? 0u : (avail - 2u) / 2u + 1u;
-        break;
-    case VD_CNN_OP_UPSAMPLE2:   // hi = y / 2
-        n = 2u * avail;
-        break;
-    default:   // PW1X1, CONCAT: hi = y
-        n = avail;
-        break;
+    if (L->op == VD_CNN_OP_UPSAMPLE2) {
+        n = 2u * avail;   // hi = y / 2
+    } else {
+        n = (avail <= (uint32_t)k0) ? 0u : (avail - 1u - (uint32_t)k0) / (uint32_t)(k1 - k0) + 1u;
     }
     return (n < hout) ? n : hout;
 }

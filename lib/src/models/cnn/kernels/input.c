@@ -35,7 +35,9 @@ const int8_t *vd__cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, u
     for (uint32_t y = 0u; y < h; y++) {
         const uint8_t *row = src_row(src, y);
         uint32_t x = 0u;
-        // Four pixels per word load, in any byte order (5.5 instructions per pixel against 6.2, Cortex-M7).
+#if !defined(__OPTIMIZE_SIZE__)
+        // Four pixels per word load, in any byte order (5.5 instructions per pixel against 6.2, Cortex-M7;
+        // not in -Os builds, which keep the smaller byte loop).
         for (; x + 4u <= w; x += 4u) {
             uint32_t v;
             memcpy(&v, row + x, 4u);
@@ -44,6 +46,7 @@ const int8_t *vd__cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, u
             hist[(v >> 16) & 255u]++;
             hist[v >> 24]++;
         }
+#endif
         for (; x < w; x++) {
             hist[row[x]]++;
         }
@@ -98,10 +101,12 @@ void vd__cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, cons
                 d[x] = (int8_t)((int32_t)row[x] - 128);
             }
         } else {
-            // Four pixels per word load and store (~4 instructions per pixel against ~5, Cortex-M7); byte
-            // lane k of the word read maps to byte lane k of the word written, in either byte order.
-            const uint8_t *u = (const uint8_t *)(const void *)lut;
             uint32_t x = 0u;
+#if !defined(__OPTIMIZE_SIZE__)
+            // Four pixels per word load and store (~4 instructions per pixel against ~5, Cortex-M7; not in
+            // -Os builds); byte lane k of the word read maps to byte lane k of the word written, in either
+            // byte order.
+            const uint8_t *u = (const uint8_t *)(const void *)lut;
             for (; x + 4u <= w; x += 4u) {
                 uint32_t v;
                 memcpy(&v, row + x, 4u);
@@ -109,6 +114,7 @@ void vd__cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, cons
                                    ((uint32_t)u[(v >> 16) & 255u] << 16) | ((uint32_t)u[v >> 24] << 24);
                 memcpy(d + x, &q, 4u);
             }
+#endif
             for (; x < w; x++) {
                 d[x] = lut[row[x]];
             }
