@@ -11,8 +11,8 @@ it; vd_fw_cnn_layers.elf then compares every output row of every weighted layer 
 kernels and CMSIS-NN, with the network's own tensors on the board.
 
 Skipped only when qemu-system-arm is absent (tools/setup.sh installs it). The
-firmware builds into <repo>/build-fw-m7 and build-fw-m4 (~30 s each the first time; $VD_FW_BUILD_PREFIX
-changes build-fw)."""
+firmware builds into <repo>/build-fw-m7, build-fw-m4 (-Os) and build-fw-m7-release (-O3) (~30 s each the
+first time; $VD_FW_BUILD_PREFIX changes build-fw)."""
 import os
 import re
 import shutil
@@ -43,11 +43,17 @@ def qemu():
     return exe
 
 
-def build_firmware(toolchain):
-    bdir = REPO / BOARDS[toolchain][2]
+# (toolchain, build type) of the firmware checks: both boards at -Os (CMSIS-NN's own kernels), and the
+# Cortex-M7 at -O3, where the back end runs vd's DSP kernels with their prepared areas and the streamed
+# executor's taller bands (docs/architecture.md): a different code path to the same bytes.
+BUILDS = [("cortex-m4", "MinSizeRel"), ("cortex-m7", "MinSizeRel"), ("cortex-m7", "Release")]
+
+
+def build_firmware(toolchain, build_type="MinSizeRel"):
+    bdir = REPO / (BOARDS[toolchain][2] + ("" if build_type == "MinSizeRel" else "-" + build_type.lower()))
     subprocess.run(["cmake", "-S", str(REPO / "tools" / "firmware"), "-B", str(bdir), "-G", "Ninja",
                     f"-DCMAKE_TOOLCHAIN_FILE={REPO / 'tools' / 'toolchains' / (toolchain + '.cmake')}",
-                    "-DCMAKE_BUILD_TYPE=MinSizeRel"], check=True, capture_output=True, text=True)
+                    f"-DCMAKE_BUILD_TYPE={build_type}"], check=True, capture_output=True, text=True)
     subprocess.run(["cmake", "--build", str(bdir), "-j", "2"], check=True, capture_output=True, text=True)
     return bdir
 
@@ -61,12 +67,12 @@ def run_qemu(qemu_exe, toolchain, elf, icount=False):
     return subprocess.run(cmd, capture_output=True, text=True, timeout=QEMU_TIMEOUT, stdin=subprocess.DEVNULL)
 
 
-@pytest.mark.parametrize("toolchain", sorted(BOARDS))
-def test_firmware_matches_demo(qemu, toolchain, tmp_path):
+@pytest.mark.parametrize("toolchain,build_type", BUILDS)
+def test_firmware_matches_demo(qemu, toolchain, build_type, tmp_path):
     demo = build_dir() / "tools" / "vd_fir_demo"
     if not demo.is_file():
         pytest.skip(f"vd_fir_demo not built at {demo} (cmake --build build); set VD_BUILD_DIR")
-    bdir = build_firmware(toolchain)
+    bdir = build_firmware(toolchain, build_type)
     r = run_qemu(qemu, toolchain, bdir / "vd_fw.elf")
     assert r.returncode == 0, r.stderr[-2000:]
     fw_lines = [ln for ln in r.stderr.splitlines(keepends=True) if not ln.startswith("#")]
@@ -93,9 +99,9 @@ def cmsis_on(bdir):
     return "VD_CNN_CMSIS:BOOL=ON" in (bdir / "CMakeCache.txt").read_text()
 
 
-@pytest.mark.parametrize("toolchain", sorted(BOARDS))
-def test_firmware_cnn_layers_bit_exact(qemu, toolchain):
-    bdir = build_firmware(toolchain)
+@pytest.mark.parametrize("toolchain,build_type", BUILDS)
+def test_firmware_cnn_layers_bit_exact(qemu, toolchain, build_type):
+    bdir = build_firmware(toolchain, build_type)
     # The back end is on wherever CMSIS-NN is at hand, so the JSON check above covers it too.
     assert cmsis_on(bdir) == (CMSIS_NN / "Include" / "arm_nnfunctions.h").is_file()
     r = run_qemu(qemu, toolchain, bdir / "vd_fw_cnn_layers.elf")
