@@ -66,8 +66,10 @@ bool vd__cnn_cmsis_q_fill(const vd_cnn_layer_t *L, uint8_t *area, vd_cnn_cmsis_q
 // CNN stage against 82.1 M, flash 4840 B more; not switched: -Os stays the small build.)
 // Nor at -O0 (no __OPTIMIZE__): there gcc keeps a frame pointer and cannot give the assembly blocks
 // their 14 registers ("impossible constraints").
-#if defined(ARM_MATH_DSP) && defined(__ARM_FEATURE_SAT) && defined(__GNUC__) && defined(__OPTIMIZE__) && \
-    !defined(__OPTIMIZE_SIZE__)
+// Nor with clang: its register allocator gives up on the 14-register blocks ("inline assembly requires
+// more registers than available", clang 14 for Cortex-M7), so clang builds take CMSIS-NN's kernels.
+#if defined(ARM_MATH_DSP) && defined(__ARM_FEATURE_SAT) && defined(__GNUC__) && !defined(__clang__) && \
+    defined(__OPTIMIZE__) && !defined(__OPTIMIZE_SIZE__)
 #include <arm_acle.h>
 #define VD_CNN_DSP 1
 
