@@ -2201,10 +2201,24 @@ static void test_reuse_plan_kept_checked_and_safe(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
     TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
     TEST_ASSERT_EQUAL_UINT8(fresh.band, p->band);
+    // A plan made ahead (the detector's init): no tensor to read, kept by the first run, same bytes.
+    memset(ws, 0xA5, bytes);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd__cnn_plan_ahead(&m, w, h, VD_CNN_STREAM, ws, bytes));
+    TEST_ASSERT_EQUAL_UINT32(VD_CNN_PLAN_MAGIC, p->magic);
+    vd_cnn_output_t t;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_tensor(&m, ws, bytes, w, h, m.n_layers, &t));
+    TEST_ASSERT_EQUAL_MEMORY(fresh.rows, p->rows, nt * sizeof p->rows[0]);   // (the rest: 0xA5)
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
+    TEST_ASSERT_EQUAL_UINT32(VD_CNN_REC_MAGIC, p->magic);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd__cnn_plan_ahead(&m, w, h, VD_CNN_STREAM, ws, bytes - 16u));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd__cnn_plan_ahead(&m, 6u, h, VD_CNN_STREAM, ws, bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd__cnn_plan_ahead(NULL, w, h, VD_CNN_STREAM, ws, bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd__cnn_plan_ahead(&m, w, h, VD_CNN_STREAM, ws + 1, bytes - 1u));
     // Without the flag the record is never read.
     TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, 0u, ws, bytes, got, &n));
     TEST_ASSERT_EQUAL_MEMORY(ref, got, nref);
-    TEST_ASSERT_EQUAL_MEMORY(fresh.rows, p->rows, sizeof fresh.rows);
+    TEST_ASSERT_EQUAL_MEMORY(fresh.rows, p->rows, nt * sizeof p->rows[0]);
     tu_guarded_free(1);
 }
 

@@ -437,6 +437,18 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         det->cnn_ws = vd_arena_take(&a, l.cnn_ws);
         det->cnn_ws_bytes = l.cnn_ws;
         memset(det->cnn_ws, 0, l.cnn_ws);   // written before VD_CNN_REUSE_PLAN's first read (vd/cnn.h)
+        // The first network's plan for the largest frame, kept by a first frame of that size as by the
+        // later ones (the sizing walk: ~1.2 M instructions of vd_cnn_compact on a Cortex-M7).
+        uint32_t nw = 0u;
+        uint32_t nh = 0u;
+        vd__detector_cnn_input_size(c.cnn_model, c.max_width, c.max_height, &nw, &nh);
+        const vd_status_t pst = (nw != 0u && nh != 0u)
+                                    ? vd__cnn_plan_ahead(c.cnn_model, nw, nh, VD_CNN_STREAM, det->cnn_ws, l.cnn_ws)
+                                    : VD_OK;
+        if (pst != VD_OK) {
+            memset(det, 0, sizeof(*det));
+            return pst;   // not expected: plan_net sized the workspace with the same call
+        }
         det->cnn_boxes = (vd_cnn_box_t *)vd_arena_take(&a, l.cnn_boxes);
         det->cnn_boxes_cap = l.cnn_boxes_cap;
         VD_ASSERT(det->cnn_boxes != NULL);

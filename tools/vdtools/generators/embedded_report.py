@@ -404,8 +404,8 @@ def _first_extra(fw):
     """'x.x M instructions' (or a range): the first frame's CNN stage above the later frames' largest, per
     build of fw."""
     extra = [(d["cnn_us"][0] - max(d["cnn_us"][1:])) / 1e3 for d in fw if len(d["cnn_us"]) > 1]
-    if not extra:
-        return "no"
+    if not extra or max(abs(e) for e in extra) < 0.05:
+        return "no"   # (within 0.05 M)
     lo, hi = min(extra), max(extra)
     return f"{lo:.1f} M instructions" if abs(hi - lo) < 0.05 else f"{lo:.1f}–{hi:.1f} M instructions"
 
@@ -468,10 +468,10 @@ def firmware_section(fw, cnn_rows, problems):
               "\"Of which CNN stage\" is `vd_detector_stats_t.time_us[VD_DETECTOR_STAGE_CNN]` through the detector's",
               "clock callback (1 µs = 1 000 instructions here): the network input rows, the network, the",
               "decoding; ranges are over the frames; the rest of `vd_detector_run` (merge, overlap",
-              "suppression, temporal analysis) varies with the detections. The first frame's CNN stage also",
-              "sizes the streamed rings (the row schedule's walk), which the detector keeps for the frames after",
-              "it (`VD_CNN_REUSE_PLAN`): \"per MAC\" and the estimate use the later frames (the largest of",
-              f"them); the first frame took {_first_extra(fw)} more."]
+              "suppression, temporal analysis) varies with the detections. The streamed rings' sizing (the row",
+              "schedule's walk) is done at `vd_detector_init` for the largest frame and kept from frame to frame",
+              "(`VD_CNN_REUSE_PLAN`): \"per MAC\" and the estimate use the frames after the first (the largest",
+              f"of them); the first frame took {_first_extra(fw)} more."]
     lines += layers_section(fw, problems)
     ref = next((d for d in fw if d["toolchain"] == "cortex-m7" and d["build_type"] == "Release" and d["cmsis"]), None)
     port = next((d for d in fw if d["toolchain"] == "cortex-m7" and d["build_type"] == "Release" and not d["cmsis"]),

@@ -40,6 +40,7 @@
 // length is rounded up to it.
 #define VD_CNN_ITEM_ALIGN 16u
 #define VD_CNN_REC_MAGIC 0x524E4E43u   // "CNNR"
+#define VD_CNN_PLAN_MAGIC 0x504E4E43u  // "CNNP": a plan made ahead of any run (vd__cnn_plan_ahead), no tensors
 // Output pixels per block of the CONV3X3 / PW1X1 kernel (a multiple of 4), and its K chunk
 // (K is zero-padded to a multiple of it).
 #define VD_CNN_NPIX 16u
@@ -220,6 +221,12 @@ vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_
 // the items are placed anew either way). The plan's flags are flags without VD_CNN_REUSE_PLAN.
 vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
                                  uint32_t flags, vd_cnn_plan_t *p);
+// The plan of a later run (m, width, height, flags with VD_CNN_STREAM as a run would take them) written into
+// the record of workspace ws (bytes >= its total), marked VD_CNN_PLAN_MAGIC: the run keeps it as it keeps
+// an earlier run's (VD_CNN_REUSE_PLAN), vd_cnn_tensor finds no tensor. VD_ERR_ARG / VD_ERR_STATE /
+// VD_ERR_WORKSPACE as vd_cnn_run_ex. The detector calls it at init for the largest frame.
+vd_status_t vd__cnn_plan_ahead(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags, void *ws,
+                               size_t bytes);
 // Row schedule: ring heights p->rows (and p->h, p->live) of a plan.
 void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p);
 // Tensor heights and liveness (p->h, p->live) alone: the part of vd__cnn_sched_rows a kept plan recomputes.

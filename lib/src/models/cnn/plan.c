@@ -254,7 +254,7 @@ static bool rows_kept(const vd_cnn_model_t *m, const chain_t *c, uint32_t width,
                       vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
-    if (p->magic != VD_CNN_REC_MAGIC || p->flags != flags || p->width != width || p->height != height ||
+    if ((p->magic != VD_CNN_REC_MAGIC && p->magic != VD_CNN_PLAN_MAGIC) || p->flags != flags || p->width != width || p->height != height ||
         p->crc != m->crc32 || p->size != m->size) {
         return false;
     }
@@ -283,6 +283,23 @@ vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint
         return vd__cnn_plan_make(m, c, width, height, pf, p);
     }
     return plan_items(m, c, width, height, pf, p);
+}
+
+vd_status_t vd__cnn_plan_ahead(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags, void *ws,
+                               size_t bytes)
+{
+    VD_VERIFY(m != NULL && (flags & ~VD_CNN_RUN_FLAGS) == 0u, VD_ERR_ARG);
+    chain_t c;
+    VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(vd__cnn_size_ok(m, width, height), VD_ERR_ARG);
+    VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
+    VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
+    vd_cnn_plan_t *p = (vd_cnn_plan_t *)ws;
+    p->magic = 0u;
+    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags & ~VD_CNN_REUSE_PLAN, p));
+    VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
+    p->magic = VD_CNN_PLAN_MAGIC;
+    return VD_OK;
 }
 
 vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
