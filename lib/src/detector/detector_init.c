@@ -436,9 +436,10 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // D of overlay_size
         det->cnn_ws = vd_arena_take(&a, l.cnn_ws);
         det->cnn_ws_bytes = l.cnn_ws;
-        memset(det->cnn_ws, 0, l.cnn_ws);   // written before VD_CNN_REUSE_PLAN's first read (vd/cnn.h)
         // The first network's plan for the largest frame, kept by a first frame of that size as by the
-        // later ones (the sizing walk: ~1.2 M instructions of vd_cnn_compact on a Cortex-M7).
+        // later ones (the sizing walk: ~1.2 M instructions of vd_cnn_compact on a Cortex-M7). It also
+        // writes the record that VD_CNN_REUSE_PLAN reads first (vd/cnn.h); without a half-resolution
+        // pixel (nw or nh 0) the network never runs.
         uint32_t nw = 0u;
         uint32_t nh = 0u;
         vd__detector_cnn_input_size(c.cnn_model, c.max_width, c.max_height, &nw, &nh);

@@ -245,23 +245,22 @@ vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_
     return plan_band(m, c, width, height, flags, 1u, p);
 }
 
-// True when the record p, written by a complete run with the same model, size and flags, holds ring
-// heights and band this run can keep: heights and liveness recomputed equal the kept ones (CRC), every ring within
-// its tensor and a computed tensor's at least one row (the ring row modulo). The record is caller memory:
-// what is kept is checked, and the items are sized from the kept heights, so a record changed since
-// the last run can make a run compute wrong values only after forging the CRC, never write outside its items.
+// True when the record p, written by a complete run (or vd__cnn_plan_ahead) with the same model, size and
+// flags, holds ring heights and a band this run can keep: heights and liveness recomputed equal the kept
+// ones (CRC), every ring within its tensor and a computed tensor's at least one row (the ring row
+// modulo). The record is caller memory: what is kept is checked, and the items are sized from the kept
+// heights, so a record changed since the last run can make a run compute wrong values only after forging
+// the CRC, never write outside its items.
 static bool rows_kept(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height, uint32_t flags,
                       vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
-    if ((p->magic != VD_CNN_REC_MAGIC && p->magic != VD_CNN_PLAN_MAGIC) || p->flags != flags || p->width != width || p->height != height ||
-        p->crc != m->crc32 || p->size != m->size) {
+    const bool planned = p->magic == VD_CNN_REC_MAGIC || p->magic == VD_CNN_PLAN_MAGIC;
+    if (!planned || p->flags != flags || p->width != width || p->height != height || p->crc != m->crc32 ||
+        p->size != m->size || p->band < 1u || p->band > VD_CNN_BAND_MAX) {
         return false;
     }
     const uint32_t kept = p->rows_crc;
-    if (p->band < 1u || p->band > VD_CNN_BAND_MAX) {
-        return false;
-    }
     vd__cnn_sched_init(m, c, height, flags, p);
     for (uint32_t t = 0u; t <= n; t++) {
         const bool computed = p->live[t] != 0u && p->live[t] != VD_CNN_LIVE_FUSED;
