@@ -21,6 +21,7 @@
 #include "vd/detector.h"
 #include "vd/resample.h"
 #include "core/crc32.h"
+#include "models/cnn/cnn_internal.h"   // the run record (vd_cnn_plan_t) a pair parks
 #include "../data/dbn_golden.h"
 
 void setUp(void) {}
@@ -1053,10 +1054,11 @@ static void test_pair_workspace_and_bad_model(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b0));
     c.cnn_model2 = &g_cnn2;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b1));
-    TEST_ASSERT_EQUAL_size_t(b0 + 512u * sizeof(vd_cnn_box_t), b1);
+    // + the parked run record of the network not running (VD_CNN_REC_BYTES, a multiple of the slice alignment)
+    TEST_ASSERT_EQUAL_size_t(b0 + 512u * sizeof(vd_cnn_box_t) + VD_CNN_REC_BYTES, b1);
     c.cnn_flip = 1u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
-    TEST_ASSERT_EQUAL_size_t(b0 + (1024u + 2u * 512u) * sizeof(vd_cnn_box_t), b2);
+    TEST_ASSERT_EQUAL_size_t(b0 + (1024u + 2u * 512u) * sizeof(vd_cnn_box_t) + VD_CNN_REC_BYTES, b2);
     vd_cnn_model_t unloaded;
     memset(&unloaded, 0, sizeof unloaded);
     c.cnn_model2 = &unloaded;
@@ -1065,6 +1067,68 @@ static void test_pair_workspace_and_bad_model(void)
     c.sources = VD_DETECTOR_SRC_HOTSPOT;
     c.cnn_model = NULL;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
+}
+
+// A pair keeps each network's plan (the record of the one not running is parked, outside the overlay):
+// after init and after every run the record in the network workspace is network 1's, the parked one
+// network 2's, both marked (a plan made ahead, then a complete run). Over frames of changing size and
+// content, and after the parked record is forged (its ring heights, which the next run must not keep, and
+// its magic), every run's candidates equal those of a detector initialised for that frame alone.
+static vd_detector_t g_det_keep;
+static uint64_t g_ws_keep[512u * 1024u / 8u];
+
+static void test_pair_keeps_each_plan(void)
+{
+    net_t n = net_default();
+    n.off_x = -24;
+    net_load(&n);
+    net_t n2 = net_default();
+    n2.off_x = 64;
+    n2.max_peaks = 40u;
+    net_load_into(&n2, g_blob2.b, &g_cnn2);
+    TEST_ASSERT_TRUE(g_cnn.crc32 != g_cnn2.crc32);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.cnn_model2 = &g_cnn2;
+    c.cnn_flip = 1u;
+    c.cnn_score_thr_q15 = thr_q15_of_pixel(40u);
+    c.on_candidate = rec_candidate;
+    c.candidate_user = &g_rec_c;
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &bytes));
+    TEST_ASSERT_TRUE(bytes <= sizeof(g_ws_keep));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_init(&g_det_keep, &c, NULL, g_ws_keep, bytes));
+    const vd_cnn_plan_t *in_ws = (const vd_cnn_plan_t *)g_det_keep.cnn_ws;
+    vd_cnn_plan_t *parked = (vd_cnn_plan_t *)g_det_keep.cnn_park;
+    TEST_ASSERT_NOT_NULL(parked);
+    TEST_ASSERT_EQUAL_HEX32(VD_CNN_PLAN_MAGIC, in_ws->magic);
+    TEST_ASSERT_EQUAL_HEX32(g_cnn.crc32, in_ws->crc);
+    TEST_ASSERT_EQUAL_HEX32(VD_CNN_PLAN_MAGIC, parked->magic);
+    TEST_ASSERT_EQUAL_HEX32(g_cnn2.crc32, parked->crc);
+    static const uint32_t sizes[6][2] = {{50u, 48u}, {50u, 48u}, {40u, 32u}, {50u, 48u}, {50u, 48u}, {50u, 48u}};
+    for (uint32_t k = 0u; k < 6u; k++) {
+        fill((uint8_t)(20u + k));
+        spot(8u, 200u);
+        spot(4u + 2u * k, (uint8_t)(150u + 10u * k));
+        const vd_frame_t f = frame8(sizes[k][0], sizes[k][1]);
+        if (k == 4u) {
+            parked->rows[1] = (uint16_t)(parked->rows[1] + 1u);   // forged heights: the CRC check refuses them
+        }
+        if (k == 5u) {
+            parked->magic = 0u;   // not a plan: network 2 plans again
+        }
+        vd_detector_stats_t s;
+        TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_b, &s));   // fresh detector in g_det
+        g_rec_c.n = 0u;
+        size_t nd = 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det_keep, &f, g_out, 64u, &nd));
+        TEST_ASSERT_TRUE(g_rec_b.n > 0u);
+        TEST_ASSERT_EQUAL_size_t(g_rec_b.n, g_rec_c.n);
+        TEST_ASSERT_EQUAL_MEMORY(g_rec_b.c, g_rec_c.c, g_rec_b.n * sizeof(g_rec_b.c[0]));
+        TEST_ASSERT_EQUAL_HEX32(VD_CNN_REC_MAGIC, in_ws->magic);
+        TEST_ASSERT_EQUAL_HEX32(g_cnn.crc32, in_ws->crc);
+        TEST_ASSERT_EQUAL_HEX32(VD_CNN_REC_MAGIC, parked->magic);
+        TEST_ASSERT_EQUAL_HEX32(g_cnn2.crc32, parked->crc);
+    }
 }
 
 // The fusion written again from the definition (detector.h, cfg.cnn_flip),
@@ -1258,6 +1322,7 @@ int main(void)
     RUN_TEST(test_pair_threshold_from_second_header);
     RUN_TEST(test_pair_of_one_network);
     RUN_TEST(test_pair_workspace_and_bad_model);
+    RUN_TEST(test_pair_keeps_each_plan);
     RUN_TEST(test_clock_and_temporal);
     return UNITY_END();
 }

@@ -41,6 +41,7 @@
 
 #include "vd/resample.h"
 #include "detector/detector_internal.h"
+#include "models/cnn/cnn_internal.h"
 #include "internal/vd_internal.h"
 
 void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh)
@@ -267,6 +268,19 @@ static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_
     return VD_OK;
 }
 
+void vd__detector_cnn_park_swap(vd_detector_t *det)
+{
+    uint8_t *x = (uint8_t *)det->cnn_ws;
+    uint8_t *y = (uint8_t *)det->cnn_park;
+    uint8_t t[64];   // memcpy: the record is read as bytes (no aliasing of its typed fields)
+    for (size_t i = 0u; i < VD_CNN_REC_BYTES; i += sizeof t) {
+        const size_t k = (VD_CNN_REC_BYTES - i < sizeof t) ? VD_CNN_REC_BYTES - i : sizeof t;
+        memcpy(t, x + i, k);
+        memcpy(x + i, y + i, k);
+        memcpy(y + i, t, k);
+    }
+}
+
 vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n)
 {
     if (det->cnn_never && (det->cfg.cnn_model2 == NULL || det->cnn2_never)) {
@@ -300,7 +314,10 @@ vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, siz
         size_t n1 = 0u;
         size_t n2 = 0u;
         VD_TRY(net_boxes(det, m, det->cnn_thr_i8, det->cnn_never, &r, f, det->cnn_boxes, m->max_peaks, &n1));
-        VD_TRY(net_boxes(det, m2, det->cnn2_thr_i8, det->cnn2_never, &r, f, b2, m2->max_peaks, &n2));
+        vd__detector_cnn_park_swap(det);   // network 2's record in, network 1's parked
+        const vd_status_t st = net_boxes(det, m2, det->cnn2_thr_i8, det->cnn2_never, &r, f, b2, m2->max_peaks, &n2);
+        vd__detector_cnn_park_swap(det);
+        VD_TRY(st);
         (void)fuse_boxes(det, det->cnn_boxes, n1, b2, n2, NULL, n);
         return (det->stats.overflow_candidates != 0u) ? VD_ERR_CAPACITY : VD_OK;
     }

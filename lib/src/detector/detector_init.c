@@ -150,7 +150,7 @@ typedef struct layout {
     size_t comps, cand, obs, tracks, hist, sample, dbn, scratch;
     size_t cc, crop, rmask, refine, contour, points, contours;
     size_t contrast, integral;
-    size_t cnn_ws, cnn_boxes;
+    size_t cnn_ws, cnn_boxes, cnn_park;
     size_t points_cap, contours_cap, cnn_boxes_cap;
     int32_t cnn_thr_i8, cnn2_thr_i8;
     uint32_t cnn_thr_score_q15;
@@ -249,6 +249,9 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
         l->cnn_ws = 0u;
         return VD_OK;
     }
+    // A pair parks the run record of the network not running (VD_CNN_REUSE_PLAN keeps each one's plan:
+    // one sizing walk less per network and frame, ~0.8 M instructions of vd_cnn on x86).
+    l->cnn_park = (m2 != NULL) ? VD_CNN_REC_BYTES : 0u;
     // With cnn_flip pass A's boxes [0, K) survive pass B's decode into [K, 2K);
     // cnn_model2's boxes follow the first network's.
     const size_t f = (c->cnn_flip != 0u) ? 2u : 1u;
@@ -360,8 +363,8 @@ static vd_status_t total_size(const layout_t *l, size_t *bytes)
     VD_VERIFY(vd_size_add_slice(&t, l->comps) && vd_size_add_slice(&t, l->cand) &&
               vd_size_add_slice(&t, l->obs) && vd_size_add_slice(&t, l->tracks) &&
               vd_size_add_slice(&t, l->hist) && vd_size_add_slice(&t, l->scratch) &&
-              vd_size_add_slice(&t, l->sample) &&
-              vd_size_add_slice(&t, l->dbn) && vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
+              vd_size_add_slice(&t, l->sample) && vd_size_add_slice(&t, l->dbn) &&
+              vd_size_add_slice(&t, l->cnn_park) && vd_size_add_slice(&t, ov), VD_ERR_OVERFLOW);
     *bytes = t;
     return VD_OK;
 }
@@ -374,6 +377,16 @@ vd_status_t vd_detector_workspace_size(const vd_detector_cfg_t *cfg, const vd_db
     layout_t l;
     VD_TRY(plan(&c, model, &l));
     return total_size(&l, bytes);
+}
+
+// Network m's plan for the largest frame into the network workspace ws (vd__cnn_plan_ahead); nothing
+// without a half-resolution pixel (nw or nh 0: the network never runs).
+static vd_status_t plan_ahead(const vd_cnn_model_t *m, const vd_detector_cfg_t *c, void *ws, size_t bytes)
+{
+    uint32_t nw = 0u;
+    uint32_t nh = 0u;
+    vd__detector_cnn_input_size(m, c->max_width, c->max_height, &nw, &nh);
+    return (nw != 0u && nh != 0u) ? vd__cnn_plan_ahead(m, nw, nh, VD_CNN_STREAM, ws, bytes) : VD_OK;
 }
 
 // Slices of the arena; VD_ERR_WORKSPACE when one does not fit.
@@ -416,6 +429,7 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
     det->sample = (uint8_t *)take(&arena, l.sample, &ok);
     det->dbn_ws = take(&arena, l.dbn, &ok);
     det->dbn_ws_bytes = l.dbn;
+    det->cnn_park = take(&arena, l.cnn_park, &ok);
     size_t work;
     VD_TRY(overlay_size(&l, &work, &det->overlay_bytes));
     det->overlay = (uint8_t *)take(&arena, det->overlay_bytes, &ok);
@@ -436,16 +450,16 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         vd_arena_t a = {det->overlay, det->overlay_bytes, 0u};   // D of overlay_size
         det->cnn_ws = vd_arena_take(&a, l.cnn_ws);
         det->cnn_ws_bytes = l.cnn_ws;
-        // The first network's plan for the largest frame, kept by a first frame of that size as by the
-        // later ones (the sizing walk: ~1.2 M instructions of vd_cnn_compact on a Cortex-M7). It also
-        // writes the record that VD_CNN_REUSE_PLAN reads first (vd/cnn.h); without a half-resolution
-        // pixel (nw or nh 0) the network never runs.
-        uint32_t nw = 0u;
-        uint32_t nh = 0u;
-        vd__detector_cnn_input_size(c.cnn_model, c.max_width, c.max_height, &nw, &nh);
-        const vd_status_t pst = (nw != 0u && nh != 0u)
-                                    ? vd__cnn_plan_ahead(c.cnn_model, nw, nh, VD_CNN_STREAM, det->cnn_ws, l.cnn_ws)
-                                    : VD_OK;
+        // Each network's plan for the largest frame, kept by a first frame of that size as by the later
+        // ones (the sizing walk: ~1.2 M instructions of vd_cnn_compact on a Cortex-M7): a pair's second
+        // network first, parked, then the first network's, which writes the record VD_CNN_REUSE_PLAN reads
+        // first (vd/cnn.h).
+        vd_status_t pst = VD_OK;
+        if (c.cnn_model2 != NULL) {
+            pst = plan_ahead(c.cnn_model2, &c, det->cnn_ws, l.cnn_ws);
+            vd__detector_cnn_park_swap(det);
+        }
+        pst = (pst == VD_OK) ? plan_ahead(c.cnn_model, &c, det->cnn_ws, l.cnn_ws) : pst;
         if (pst != VD_OK) {
             memset(det, 0, sizeof(*det));
             return pst;   // not expected: plan_net sized the workspace with the same call
