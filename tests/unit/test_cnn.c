@@ -1037,11 +1037,11 @@ static void test_run_arguments(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 4100u, 8u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 0u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size(&m, 8u, 8u, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 8u, 8u, 16u, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 8u, 8u, 32u, &bytes));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(NULL, img, 8u, 8u, 16u, ws, bytes, &out));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, NULL, 8u, 8u, 16u, ws, bytes, &out));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run(&m, img, 8u, 8u, 16u, ws, bytes, NULL));
-    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_ex(&m, img, 8u, 8u, 16u, 16u, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_ex(&m, img, 8u, 8u, 16u, 32u, ws, bytes, &out));
     uint64_t macs;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_macs(&m, 8u, 8u, NULL));
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_macs(&m, 9u, 8u, &macs));
@@ -2222,6 +2222,59 @@ static void test_reuse_plan_kept_checked_and_safe(void)
     tu_guarded_free(1);
 }
 
+// VD_CNN_SAME_HIST: after a complete run on a frame, a kept-plan run on its mirror takes that run's input
+// table and gives the bytes of a fresh run on the mirror; the table is made anew (the flag not honoured)
+// without VD_CNN_REUSE_PLAN, after a plan made ahead, and after a run of another size. A broken promise
+// (an inverted frame) gives other bytes than a fresh run of it, inside the guarded workspace.
+static void test_same_hist_mirror(void)
+{
+    static vd_cnn_model_t m;
+    if (!load_file_model(VD_SOURCE_DIR "/models/vd_cnn_compact.vdm", &m)) {
+        TEST_IGNORE_MESSAGE("models/vd_cnn_compact.vdm not in this checkout");
+    }
+    TEST_ASSERT_TRUE(m.input_norm == VD_CNN_NORM_PERCENTILE || m.input_norm == VD_CNN_NORM_EQUALISE);
+    const uint32_t w = 64u, h = 32u;
+    static uint8_t img[64 * 32], mir[64 * 32], inv[64 * 32];
+    warm_frame(img, w, h, 11u, 2u);
+    for (uint32_t y = 0u; y < h; y++) {
+        for (uint32_t x = 0u; x < w; x++) {
+            mir[y * w + x] = img[y * w + (w - 1u - x)];
+            inv[y * w + x] = (uint8_t)(255u - img[y * w + x]);
+        }
+    }
+    static int8_t ref_m[8192], ref_i[8192], got[8192];
+    size_t bytes, nref = 0u, n = 0u, ni = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&m, w, h, VD_CNN_STREAM | VD_CNN_SAME_HIST, &bytes));
+    uint8_t *ws = tu_guarded_alloc(1, bytes);
+    memset(ws, 0, bytes);
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, mir, w, h, 0u, ws, bytes, ref_m, &nref));
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, inv, w, h, 0u, ws, bytes, ref_i, &ni));
+    TEST_ASSERT_EQUAL_size_t(nref, ni);
+    const uint32_t keep = VD_CNN_REUSE_PLAN | VD_CNN_SAME_HIST;
+    // Honoured: the frame, then its mirror.
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, mir, w, h, keep, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref_m, got, nref);
+    // A broken promise: the frame's table on the inverted frame, not the inverted frame's own.
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, inv, w, h, keep, ws, bytes, got, &n));
+    TEST_ASSERT_TRUE(memcmp(ref_i, got, ni) != 0);
+    // Not honoured: without VD_CNN_REUSE_PLAN ...
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, w, h, 0u, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, inv, w, h, VD_CNN_SAME_HIST, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref_i, got, ni);
+    // ... after a plan made ahead (no run left a table) ...
+    memset(ws, 0x5A, bytes);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd__cnn_plan_ahead(&m, w, h, VD_CNN_STREAM, ws, bytes));
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, inv, w, h, keep, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref_i, got, ni);
+    // ... and after a run of another size.
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, img, 32u, 32u, VD_CNN_REUSE_PLAN, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_INT(VD_OK, reuse_run(&m, inv, w, h, keep, ws, bytes, got, &n));
+    TEST_ASSERT_EQUAL_MEMORY(ref_i, got, ni);
+    tu_guarded_free(1);
+}
+
 // ------------------------------------------------------------ x86 kernels against the portable ones
 
 // Pushes a random weighted layer to the limits (mode bits): 1 weights
@@ -2625,6 +2678,7 @@ int main(void)
     RUN_TEST(test_stream_fuses_upsample_read_only_by_concats);
     RUN_TEST(test_stream_committed_models_match_whole_plane);
     RUN_TEST(test_reuse_plan_kept_checked_and_safe);
+    RUN_TEST(test_same_hist_mirror);
     RUN_TEST(test_stream_band_rule);
     RUN_TEST(test_awkward_models_match_naive_reference);
     RUN_TEST(test_x86_kernels_match_portable_random);

@@ -91,6 +91,14 @@ extern "C" {
 // by the caller (memory checkers report reads of never-written memory). No effect on the workspace size.
 // The detector uses it.
 #define VD_CNN_REUSE_PLAN 8u
+// vd_cnn_run_ex / vd_cnn_run_rows flag, with VD_CNN_STREAM and VD_CNN_REUSE_PLAN: the caller promises that
+// this run's input has the grey-level histogram of the previous run in the same workspace (the detector's
+// mirrored pass: the same pixels in another order), so the run takes that run's normalisation table
+// (percentile stretch or equalisation) instead of reading its whole input once more for a histogram.
+// Honoured only when the plan is kept from a complete run (VD_CNN_REUSE_PLAN: same model, size and other
+// flags); otherwise the table is made as without it. A broken promise gives the earlier input's table
+// (other values, never a read or write outside the workspace). No effect on the workspace size.
+#define VD_CNN_SAME_HIST 16u
 
 // Layer ops (field `op` of a layer entry).
 typedef enum vd_cnn_op {

@@ -237,9 +237,12 @@ static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32
     r->nw = nw;
     for (uint32_t p = 0u; p < passes; p++) {
         r->flip = p == 1u;
+        // The mirrored pass reads the same pixels (without width padding, which repeats another column):
+        // it keeps pass 0's input table.
+        const uint32_t same = (r->flip && r->hw == nw) ? VD_CNN_SAME_HIST : 0u;
         vd_cnn_output_t head;
-        VD_TRY(vd_cnn_run_rows(m, &rows, nw, nh, VD_CNN_STREAM | VD_CNN_REUSE_PLAN, det->cnn_ws, det->cnn_ws_bytes,
-                                &head));
+        VD_TRY(vd_cnn_run_rows(m, &rows, nw, nh, VD_CNN_STREAM | VD_CNN_REUSE_PLAN | same, det->cnn_ws,
+                                det->cnn_ws_bytes, &head));
         VD_TRY(r->st);
         size_t nb = 0u;
         VD_TRY(vd_cnn_decode(m, &head, thr_i8, 0u, 2u * nw, 2u * nh, boxes + (size_t)p * k, k, &nb));

@@ -76,7 +76,9 @@
 #define VD_CNN_HIST_BYTES (256u * 4u + 256u)
 
 // Every flag of the _ex calls.
-#define VD_CNN_RUN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE | VD_CNN_REUSE_PLAN)
+#define VD_CNN_RUN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE | VD_CNN_REUSE_PLAN | VD_CNN_SAME_HIST)
+// Run flags that do not change a plan (a plan's flags are the others).
+#define VD_CNN_RUN_ONLY_FLAGS (VD_CNN_REUSE_PLAN | VD_CNN_SAME_HIST)
 #define VD_CNN_INPUT_ZP (-128)   // zero point of tensor 0 (pixel - 128)
 // vd_cnn_plan_t.live of an upsample fused into the concats that read it (schedule.c).
 #define VD_CNN_LIVE_FUSED 2u
@@ -218,9 +220,11 @@ vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_
 // As vd__cnn_plan_make, for a run into the workspace whose record is p: with VD_CNN_REUSE_PLAN in flags,
 // the ring heights of the run before are kept when its record says it completed with the same model, size
 // and other flags and they pass their CRC and bounds (the schedule's sizing walk is most of a plan's cost;
-// the items are placed anew either way). The plan's flags are flags without VD_CNN_REUSE_PLAN.
+// the items are placed anew either way). The plan's flags are flags without VD_CNN_RUN_ONLY_FLAGS.
+// *after_run: the heights were kept from a complete run (not a plan made ahead), so the items, placed the
+// same way, still hold what that run left in them (its input table: VD_CNN_SAME_HIST).
 vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
-                                 uint32_t flags, vd_cnn_plan_t *p);
+                                 uint32_t flags, vd_cnn_plan_t *p, bool *after_run);
 // The plan of a later run (m, width, height, flags with VD_CNN_STREAM as a run would take them) written into
 // the record of workspace ws (bytes >= its total), marked VD_CNN_PLAN_MAGIC: the run keeps it as it keeps
 // an earlier run's (VD_CNN_REUSE_PLAN), vd_cnn_tensor finds no tensor. VD_ERR_ARG / VD_ERR_STATE /
@@ -357,6 +361,8 @@ typedef struct in_src {
 
 // The percentile stretch's lookup table from a histogram of the whole plane
 // in hist_area (VD_CNN_HIST_BYTES); NULL without a stretch.
+// The table the previous run left in hist_area (VD_CNN_SAME_HIST); NULL without a normalisation.
+const int8_t *vd__cnn_norm_kept(const vd_cnn_model_t *m, uint8_t *hist_area);
 const int8_t *vd__cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
                                 uint8_t *hist_area);
 // Rows [y0, y1) of tensor 0: pixel - 128, or lut[pixel].

@@ -159,13 +159,17 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
     uint8_t *base = (uint8_t *)ws;
     vd_cnn_plan_t *p = (vd_cnn_plan_t *)ws;
-    VD_TRY(vd__cnn_plan_for_run(m, &c, width, height, flags, p));
+    bool after_run = false;
+    VD_TRY(vd__cnn_plan_for_run(m, &c, width, height, flags, p, &after_run));
     VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
 
     // Streamed, item 1 ends with a row buffer for a row function.
     uint8_t *buf = (rows != NULL) ? base + p->off[1] + p->len[1] - vd_cnn_round_up(width, VD_CNN_ITEM_ALIGN) : NULL;
     const in_src_t src = {img, stride_bytes, rows, buf};
-    const int8_t *lut = vd__cnn_norm_table(m, &src, width, height, base + p->off[1]);
+    // Streamed, every item lives for the whole run, so a kept plan's item 1 still holds the last table.
+    const bool same = after_run && (flags & (VD_CNN_SAME_HIST | VD_CNN_STREAM)) == (VD_CNN_SAME_HIST | VD_CNN_STREAM);
+    const int8_t *lut = same ? vd__cnn_norm_kept(m, base + p->off[1])
+                             : vd__cnn_norm_table(m, &src, width, height, base + p->off[1]);
     const ring_t t0 = ring_of(base, p, &c, 0u);
     const uint32_t n = m->n_layers;
     if ((flags & VD_CNN_STREAM) == 0u) {

@@ -273,10 +273,11 @@ static bool rows_kept(const vd_cnn_model_t *m, const chain_t *c, uint32_t width,
 }
 
 vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
-                                 uint32_t flags, vd_cnn_plan_t *p)
+                                 uint32_t flags, vd_cnn_plan_t *p, bool *after_run)
 {
-    const uint32_t pf = flags & ~VD_CNN_REUSE_PLAN;
+    const uint32_t pf = flags & ~VD_CNN_RUN_ONLY_FLAGS;
     const bool keep = (flags & VD_CNN_REUSE_PLAN) != 0u && rows_kept(m, c, width, height, pf, p);
+    *after_run = keep && p->magic == VD_CNN_REC_MAGIC;
     p->magic = 0u;   // set again by a complete run
     if (!keep) {
         return vd__cnn_plan_make(m, c, width, height, pf, p);
@@ -295,7 +296,7 @@ vd_status_t vd__cnn_plan_ahead(const vd_cnn_model_t *m, uint32_t width, uint32_t
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
     vd_cnn_plan_t *p = (vd_cnn_plan_t *)ws;
     p->magic = 0u;
-    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags & ~VD_CNN_REUSE_PLAN, p));
+    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags & ~VD_CNN_RUN_ONLY_FLAGS, p));
     VD_VERIFY(bytes >= p->total, VD_ERR_WORKSPACE);
     p->magic = VD_CNN_PLAN_MAGIC;
     return VD_OK;
@@ -309,7 +310,7 @@ vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, ui
     VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
     VD_VERIFY(vd__cnn_size_ok(m, width, height), VD_ERR_ARG);
     vd_cnn_plan_t p;
-    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags & ~VD_CNN_REUSE_PLAN, &p));
+    VD_TRY(vd__cnn_plan_make(m, &c, width, height, flags & ~VD_CNN_RUN_ONLY_FLAGS, &p));
     *bytes = p.total;
     return VD_OK;
 }

@@ -23,6 +23,12 @@ static const uint8_t *src_row(const in_src_t *s, uint32_t y)
     return s->buf;
 }
 
+const int8_t *vd__cnn_norm_kept(const vd_cnn_model_t *m, uint8_t *hist_area)
+{
+    const bool norm = m->input_norm == VD_CNN_NORM_PERCENTILE || m->input_norm == VD_CNN_NORM_EQUALISE;
+    return norm ? (const int8_t *)(void *)(hist_area + 256u * 4u) : NULL;
+}
+
 const int8_t *vd__cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
                                 uint8_t *hist_area)
 {
