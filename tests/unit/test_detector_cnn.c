@@ -1054,11 +1054,12 @@ static void test_pair_workspace_and_bad_model(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b0));
     c.cnn_model2 = &g_cnn2;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b1));
-    // + the parked run record of the network not running (VD_CNN_REC_BYTES, a multiple of the slice alignment)
-    TEST_ASSERT_EQUAL_size_t(b0 + 512u * sizeof(vd_cnn_box_t) + VD_CNN_REC_BYTES, b1);
+    // + both networks' parked plan keys (2 x 96 B, a multiple of the slice alignment)
+    TEST_ASSERT_EQUAL_size_t(192u, 2u * sizeof(vd_cnn_plan_key_t));
+    TEST_ASSERT_EQUAL_size_t(b0 + 512u * sizeof(vd_cnn_box_t) + 192u, b1);
     c.cnn_flip = 1u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
-    TEST_ASSERT_EQUAL_size_t(b0 + (1024u + 2u * 512u) * sizeof(vd_cnn_box_t) + VD_CNN_REC_BYTES, b2);
+    TEST_ASSERT_EQUAL_size_t(b0 + (1024u + 2u * 512u) * sizeof(vd_cnn_box_t) + 192u, b2);
     vd_cnn_model_t unloaded;
     memset(&unloaded, 0, sizeof unloaded);
     c.cnn_model2 = &unloaded;
@@ -1069,11 +1070,12 @@ static void test_pair_workspace_and_bad_model(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
 }
 
-// A pair keeps each network's plan (the record of the one not running is parked, outside the overlay):
-// after init and after every run the record in the network workspace is network 1's, the parked one
-// network 2's, both marked (a plan made ahead, then a complete run). Over frames of changing size and
-// content, and after the parked record is forged (its ring heights, which the next run must not keep, and
-// its magic), every run's candidates equal those of a detector initialised for that frame alone.
+// A pair keeps each network's plan (what VD_CNN_REUSE_PLAN keeps of each record is parked, outside the
+// overlay): after init and after every run the parked keys are network 1's and network 2's, both marked
+// (a plan made ahead, then a complete run), and the record in the network workspace is network 2's. Over
+// frames of changing size and content, and after network 2's parked key is forged (a ring height, which
+// the next run must not keep, and its magic), every run's candidates equal those of a detector
+// initialised for that frame alone.
 static vd_detector_t g_det_keep;
 static uint64_t g_ws_keep[512u * 1024u / 8u];
 
@@ -1098,12 +1100,12 @@ static void test_pair_keeps_each_plan(void)
     TEST_ASSERT_TRUE(bytes <= sizeof(g_ws_keep));
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_init(&g_det_keep, &c, NULL, g_ws_keep, bytes));
     const vd_cnn_plan_t *in_ws = (const vd_cnn_plan_t *)g_det_keep.cnn_ws;
-    vd_cnn_plan_t *parked = (vd_cnn_plan_t *)g_det_keep.cnn_park;
+    vd_cnn_plan_key_t *parked = (vd_cnn_plan_key_t *)g_det_keep.cnn_park;
     TEST_ASSERT_NOT_NULL(parked);
-    TEST_ASSERT_EQUAL_HEX32(VD_CNN_PLAN_MAGIC, in_ws->magic);
-    TEST_ASSERT_EQUAL_HEX32(g_cnn.crc32, in_ws->crc);
-    TEST_ASSERT_EQUAL_HEX32(VD_CNN_PLAN_MAGIC, parked->magic);
-    TEST_ASSERT_EQUAL_HEX32(g_cnn2.crc32, parked->crc);
+    TEST_ASSERT_EQUAL_HEX32(VD_CNN_PLAN_MAGIC, parked[0].magic);
+    TEST_ASSERT_EQUAL_HEX32(g_cnn.crc32, parked[0].crc);
+    TEST_ASSERT_EQUAL_HEX32(VD_CNN_PLAN_MAGIC, parked[1].magic);
+    TEST_ASSERT_EQUAL_HEX32(g_cnn2.crc32, parked[1].crc);
     static const uint32_t sizes[6][2] = {{50u, 48u}, {50u, 48u}, {40u, 32u}, {50u, 48u}, {50u, 48u}, {50u, 48u}};
     for (uint32_t k = 0u; k < 6u; k++) {
         fill((uint8_t)(20u + k));
@@ -1111,10 +1113,10 @@ static void test_pair_keeps_each_plan(void)
         spot(4u + 2u * k, (uint8_t)(150u + 10u * k));
         const vd_frame_t f = frame8(sizes[k][0], sizes[k][1]);
         if (k == 4u) {
-            parked->rows[1] = (uint16_t)(parked->rows[1] + 1u);   // forged heights: the CRC check refuses them
+            parked[1].rows[1] = (uint16_t)(parked[1].rows[1] + 1u);   // forged: the CRC check refuses it
         }
         if (k == 5u) {
-            parked->magic = 0u;   // not a plan: network 2 plans again
+            parked[1].magic = 0u;   // not a plan: network 2 plans again
         }
         vd_detector_stats_t s;
         TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_b, &s));   // fresh detector in g_det
@@ -1125,9 +1127,12 @@ static void test_pair_keeps_each_plan(void)
         TEST_ASSERT_EQUAL_size_t(g_rec_b.n, g_rec_c.n);
         TEST_ASSERT_EQUAL_MEMORY(g_rec_b.c, g_rec_c.c, g_rec_b.n * sizeof(g_rec_b.c[0]));
         TEST_ASSERT_EQUAL_HEX32(VD_CNN_REC_MAGIC, in_ws->magic);
-        TEST_ASSERT_EQUAL_HEX32(g_cnn.crc32, in_ws->crc);
-        TEST_ASSERT_EQUAL_HEX32(VD_CNN_REC_MAGIC, parked->magic);
-        TEST_ASSERT_EQUAL_HEX32(g_cnn2.crc32, parked->crc);
+        TEST_ASSERT_EQUAL_HEX32(g_cnn2.crc32, in_ws->crc);
+        for (uint32_t j = 0u; j < 2u; j++) {
+            TEST_ASSERT_EQUAL_HEX32(VD_CNN_REC_MAGIC, parked[j].magic);
+            TEST_ASSERT_EQUAL_HEX32(j == 0u ? g_cnn.crc32 : g_cnn2.crc32, parked[j].crc);
+            TEST_ASSERT_EQUAL_UINT32(in_ws->height, parked[j].height);   // both networks' plans of this frame
+        }
     }
 }
 

@@ -202,8 +202,8 @@ typedef struct vd_detector {
     void *cnn_ws;                // CNN source (in the overlay; NULL when off): streamed vd_cnn_run_rows
                                  //   workspace for the largest input (no input plane: rows on demand),
     size_t cnn_ws_bytes;
-    void *cnn_park;              // cfg.cnn_model2: the run record of the network not in cnn_ws (outside the
-                                 //   overlay), swapped in for its passes so each network keeps its plan
+    void *cnn_park;              // cfg.cnn_model2: what each network's run record keeps (outside the overlay),
+                                 //   put into cnn_ws for its passes, so each network keeps its plan
     vd_cnn_box_t *cnn_boxes;     //   decoded boxes (header max_peaks; twice that with cnn_flip: pass A in
                                  //   [0, max_peaks), pass B in [max_peaks, 2 max_peaks)); cfg.cnn_model2's
                                  //   follow, laid out the same way with its own max_peaks

@@ -254,8 +254,10 @@ static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32
 
 // The boxes of one network of a cfg.cnn_model2 pair at boxes[0..): its passes
 // (two fused in place, without a threshold, with cnn_flip); *count of them.
+// park: the network's parked plan key (VD_CNN_REUSE_PLAN), or NULL.
 static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_t thr_i8, bool never,
-                             cnn_rows_ctx_t *r, const vd_frame_t *f, vd_cnn_box_t *boxes, size_t k, size_t *count)
+                             cnn_rows_ctx_t *r, const vd_frame_t *f, vd_cnn_box_t *boxes, size_t k,
+                             vd_cnn_plan_key_t *park, size_t *count)
 {
     *count = 0u;
     if (never) {
@@ -266,22 +268,17 @@ static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_
     vd__detector_cnn_input_size(m, f->width, f->height, &nw, &nh);
     const uint32_t passes = (det->cfg.cnn_flip != 0u) ? 2u : 1u;
     size_t kept[2] = {0u, 0u};
-    VD_TRY(run_passes(det, m, thr_i8, r, nw, nh, f, boxes, k, passes, kept));
+    // This network's parked plan in, and out again after its passes (each network keeps its own plan).
+    if (park != NULL) {
+        vd__cnn_plan_key_put(det->cnn_ws, park);
+    }
+    const vd_status_t st = run_passes(det, m, thr_i8, r, nw, nh, f, boxes, k, passes, kept);
+    if (park != NULL) {
+        vd__cnn_plan_key_get(det->cnn_ws, park);
+    }
+    VD_TRY(st);
     *count = (passes == 2u) ? fuse_boxes(det, boxes, kept[0], boxes + k, kept[1], boxes, NULL) : kept[0];
     return VD_OK;
-}
-
-void vd__detector_cnn_park_swap(vd_detector_t *det)
-{
-    uint8_t *x = (uint8_t *)det->cnn_ws;
-    uint8_t *y = (uint8_t *)det->cnn_park;
-    uint8_t t[64];   // memcpy: the record is read as bytes (no aliasing of its typed fields)
-    for (size_t i = 0u; i < VD_CNN_REC_BYTES; i += sizeof t) {
-        const size_t k = (VD_CNN_REC_BYTES - i < sizeof t) ? VD_CNN_REC_BYTES - i : sizeof t;
-        memcpy(t, x + i, k);
-        memcpy(x + i, y + i, k);
-        memcpy(y + i, t, k);
-    }
 }
 
 vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n)
@@ -314,13 +311,12 @@ vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, siz
         // set fused over its own passes first (init sized the array so).
         const vd_cnn_model_t *m2 = det->cfg.cnn_model2;
         vd_cnn_box_t *b2 = det->cnn_boxes + (size_t)m->max_peaks * passes;
+        vd_cnn_plan_key_t *park = (vd_cnn_plan_key_t *)det->cnn_park;   // init carved it for the pair
         size_t n1 = 0u;
         size_t n2 = 0u;
-        VD_TRY(net_boxes(det, m, det->cnn_thr_i8, det->cnn_never, &r, f, det->cnn_boxes, m->max_peaks, &n1));
-        vd__detector_cnn_park_swap(det);   // network 2's record in, network 1's parked
-        const vd_status_t st = net_boxes(det, m2, det->cnn2_thr_i8, det->cnn2_never, &r, f, b2, m2->max_peaks, &n2);
-        vd__detector_cnn_park_swap(det);
-        VD_TRY(st);
+        VD_TRY(net_boxes(det, m, det->cnn_thr_i8, det->cnn_never, &r, f, det->cnn_boxes, m->max_peaks, &park[0],
+                         &n1));
+        VD_TRY(net_boxes(det, m2, det->cnn2_thr_i8, det->cnn2_never, &r, f, b2, m2->max_peaks, &park[1], &n2));
         (void)fuse_boxes(det, det->cnn_boxes, n1, b2, n2, NULL, n);
         return (det->stats.overflow_candidates != 0u) ? VD_ERR_CAPACITY : VD_OK;
     }

@@ -86,9 +86,6 @@ vd_status_t vd__detector_window_source(vd_detector_t *det, const vd_frame_t *f, 
 // Returns VD_OK, VD_ERR_CAPACITY (boxes beyond max_candidates, counted in
 // stats.overflow_candidates) or a vd_cnn_* / resample status.
 vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n);
-// A pair (cfg.cnn_model2): swaps the run record at the start of det->cnn_ws with the parked one
-// (det->cnn_park), so the next network's passes find their own plan (VD_CNN_REUSE_PLAN checks what it keeps).
-void vd__detector_cnn_park_swap(vd_detector_t *det);
 // Network input size for a frame of w x h: floor(w / 2), floor(h / 2) rounded
 // up to the model's alignment (0 x 0 when either half is 0).
 void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh);

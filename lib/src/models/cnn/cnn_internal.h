@@ -121,6 +121,14 @@ typedef struct vd_cnn_plan {
     uint32_t rows_crc;        // CRC-32 of rows, h, live (tensors 0..n) and band: the next run's check before reuse
 } vd_cnn_plan_t;
 
+// What VD_CNN_REUSE_PLAN keeps of a record (the key rows_kept checks, the ring heights and band with their
+// CRC; the rest is recomputed): a detector parks it for the network of a pair that is not running.
+typedef struct vd_cnn_plan_key {
+    uint32_t magic, flags, width, height, crc, size, rows_crc;
+    uint16_t rows[VD_CNN_MAX_TENSORS];
+    uint8_t band;
+} vd_cnn_plan_key_t;
+
 // Bytes of the record (items start after it).
 #define VD_CNN_REC_BYTES \
     ((uint32_t)((sizeof(vd_cnn_plan_t) + VD_CNN_ITEM_ALIGN - 1u) / VD_CNN_ITEM_ALIGN * VD_CNN_ITEM_ALIGN))
@@ -231,6 +239,10 @@ vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint
 // VD_ERR_WORKSPACE as vd_cnn_run_ex. The detector calls it at init for the largest frame.
 vd_status_t vd__cnn_plan_ahead(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags, void *ws,
                                size_t bytes);
+// The key of the record at the start of workspace ws into *k, and back (the record's other fields are left
+// as they are: a run recomputes or checks them).
+void vd__cnn_plan_key_get(const void *ws, vd_cnn_plan_key_t *k);
+void vd__cnn_plan_key_put(void *ws, const vd_cnn_plan_key_t *k);
 // Row schedule: ring heights p->rows (and p->h, p->live) of a plan.
 void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p);
 // Tensor heights and liveness (p->h, p->live) alone: the part of vd__cnn_sched_rows a kept plan recomputes.

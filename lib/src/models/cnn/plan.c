@@ -285,6 +285,34 @@ vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint
     return plan_items(m, c, width, height, pf, p);
 }
 
+void vd__cnn_plan_key_get(const void *ws, vd_cnn_plan_key_t *k)
+{
+    const vd_cnn_plan_t *p = (const vd_cnn_plan_t *)ws;
+    k->magic = p->magic;
+    k->flags = p->flags;
+    k->width = p->width;
+    k->height = p->height;
+    k->crc = p->crc;
+    k->size = p->size;
+    k->rows_crc = p->rows_crc;
+    memcpy(k->rows, p->rows, sizeof k->rows);
+    k->band = p->band;
+}
+
+void vd__cnn_plan_key_put(void *ws, const vd_cnn_plan_key_t *k)
+{
+    vd_cnn_plan_t *p = (vd_cnn_plan_t *)ws;
+    p->magic = k->magic;
+    p->flags = k->flags;
+    p->width = k->width;
+    p->height = k->height;
+    p->crc = k->crc;
+    p->size = k->size;
+    p->rows_crc = k->rows_crc;
+    memcpy(p->rows, k->rows, sizeof k->rows);
+    p->band = k->band;
+}
+
 vd_status_t vd__cnn_plan_ahead(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags, void *ws,
                                size_t bytes)
 {
