@@ -241,8 +241,8 @@ vd_status_t vd__cnn_plan_ahead(const vd_cnn_model_t *m, uint32_t width, uint32_t
                                size_t bytes);
 // The key of the record at the start of workspace ws into *k, and back (the record's other fields are left
 // as they are: a run recomputes or checks them).
-void vd__cnn_plan_key_get(const void *ws, vd_cnn_plan_key_t *k);
-void vd__cnn_plan_key_put(void *ws, const vd_cnn_plan_key_t *k);
+void vd__cnn_plan_key_get(void *ws, vd_cnn_plan_key_t *k);
+void vd__cnn_plan_key_put(void *ws, vd_cnn_plan_key_t *k);
 // Row schedule: ring heights p->rows (and p->h, p->live) of a plan.
 void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p);
 // Tensor heights and liveness (p->h, p->live) alone: the part of vd__cnn_sched_rows a kept plan recomputes.

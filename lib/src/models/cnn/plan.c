@@ -285,32 +285,26 @@ vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint
     return plan_items(m, c, width, height, pf, p);
 }
 
-void vd__cnn_plan_key_get(const void *ws, vd_cnn_plan_key_t *k)
+// Copies what a key holds between the record p and the key k, into the key (get) or back (put).
+static void plan_key_move(vd_cnn_plan_t *p, vd_cnn_plan_key_t *k, bool get)
 {
-    const vd_cnn_plan_t *p = (const vd_cnn_plan_t *)ws;
-    k->magic = p->magic;
-    k->flags = p->flags;
-    k->width = p->width;
-    k->height = p->height;
-    k->crc = p->crc;
-    k->size = p->size;
-    k->rows_crc = p->rows_crc;
-    memcpy(k->rows, p->rows, sizeof k->rows);
-    k->band = p->band;
+    uint32_t *const rec[7] = {&p->magic, &p->flags, &p->width, &p->height, &p->crc, &p->size, &p->rows_crc};
+    uint32_t *const key[7] = {&k->magic, &k->flags, &k->width, &k->height, &k->crc, &k->size, &k->rows_crc};
+    for (size_t i = 0u; i < 7u; i++) {
+        *(get ? key[i] : rec[i]) = *(get ? rec[i] : key[i]);
+    }
+    memcpy(get ? k->rows : p->rows, get ? p->rows : k->rows, sizeof k->rows);
+    *(get ? &k->band : &p->band) = *(get ? &p->band : &k->band);
 }
 
-void vd__cnn_plan_key_put(void *ws, const vd_cnn_plan_key_t *k)
+void vd__cnn_plan_key_get(void *ws, vd_cnn_plan_key_t *k)
 {
-    vd_cnn_plan_t *p = (vd_cnn_plan_t *)ws;
-    p->magic = k->magic;
-    p->flags = k->flags;
-    p->width = k->width;
-    p->height = k->height;
-    p->crc = k->crc;
-    p->size = k->size;
-    p->rows_crc = k->rows_crc;
-    memcpy(p->rows, k->rows, sizeof k->rows);
-    p->band = k->band;
+    plan_key_move((vd_cnn_plan_t *)ws, k, true);
+}
+
+void vd__cnn_plan_key_put(void *ws, vd_cnn_plan_key_t *k)
+{
+    plan_key_move((vd_cnn_plan_t *)ws, k, false);
 }
 
 vd_status_t vd__cnn_plan_ahead(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags, void *ws,
