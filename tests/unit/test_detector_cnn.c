@@ -1055,7 +1055,7 @@ static void test_pair_workspace_and_bad_model(void)
     c.cnn_model2 = &g_cnn2;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b1));
     // + both networks' parked plan keys (2 x 96 B, a multiple of the slice alignment)
-    TEST_ASSERT_EQUAL_size_t(192u, 2u * sizeof(vd_cnn_plan_key_t));
+    TEST_ASSERT_EQUAL_size_t(192u, 2u * (size_t)VD_CNN_PLAN_KEY_BYTES);
     TEST_ASSERT_EQUAL_size_t(b0 + 512u * sizeof(vd_cnn_box_t) + 192u, b1);
     c.cnn_flip = 1u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &b2));
@@ -1100,8 +1100,12 @@ static void test_pair_keeps_each_plan(void)
     TEST_ASSERT_TRUE(bytes <= sizeof(g_ws_keep));
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_init(&g_det_keep, &c, NULL, g_ws_keep, bytes));
     const vd_cnn_plan_t *in_ws = (const vd_cnn_plan_t *)g_det_keep.cnn_ws;
-    vd_cnn_plan_key_t *parked = (vd_cnn_plan_key_t *)g_det_keep.cnn_park;
-    TEST_ASSERT_NOT_NULL(parked);
+    uint8_t *park = (uint8_t *)g_det_keep.cnn_park;
+    TEST_ASSERT_NOT_NULL(park);
+    static vd_cnn_plan_t parked[2];   // the keys, read into whole records (the rest stays zero)
+    for (uint32_t j = 0u; j < 2u; j++) {
+        memcpy(&parked[j], park + j * VD_CNN_PLAN_KEY_BYTES, VD_CNN_PLAN_KEY_BYTES);
+    }
     TEST_ASSERT_EQUAL_HEX32(VD_CNN_PLAN_MAGIC, parked[0].magic);
     TEST_ASSERT_EQUAL_HEX32(g_cnn.crc32, parked[0].crc);
     TEST_ASSERT_EQUAL_HEX32(VD_CNN_PLAN_MAGIC, parked[1].magic);
@@ -1114,9 +1118,11 @@ static void test_pair_keeps_each_plan(void)
         const vd_frame_t f = frame8(sizes[k][0], sizes[k][1]);
         if (k == 4u) {
             parked[1].rows[1] = (uint16_t)(parked[1].rows[1] + 1u);   // forged: the CRC check refuses it
+            memcpy(park + VD_CNN_PLAN_KEY_BYTES, &parked[1], VD_CNN_PLAN_KEY_BYTES);
         }
         if (k == 5u) {
             parked[1].magic = 0u;   // not a plan: network 2 plans again
+            memcpy(park + VD_CNN_PLAN_KEY_BYTES, &parked[1], VD_CNN_PLAN_KEY_BYTES);
         }
         vd_detector_stats_t s;
         TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, 1u, &f, &g_rec_b, &s));   // fresh detector in g_det
@@ -1129,6 +1135,7 @@ static void test_pair_keeps_each_plan(void)
         TEST_ASSERT_EQUAL_HEX32(VD_CNN_REC_MAGIC, in_ws->magic);
         TEST_ASSERT_EQUAL_HEX32(g_cnn2.crc32, in_ws->crc);
         for (uint32_t j = 0u; j < 2u; j++) {
+            memcpy(&parked[j], park + j * VD_CNN_PLAN_KEY_BYTES, VD_CNN_PLAN_KEY_BYTES);
             TEST_ASSERT_EQUAL_HEX32(VD_CNN_REC_MAGIC, parked[j].magic);
             TEST_ASSERT_EQUAL_HEX32(j == 0u ? g_cnn.crc32 : g_cnn2.crc32, parked[j].crc);
             TEST_ASSERT_EQUAL_UINT32(in_ws->height, parked[j].height);   // both networks' plans of this frame

@@ -254,10 +254,10 @@ static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32
 
 // The boxes of one network of a cfg.cnn_model2 pair at boxes[0..): its passes
 // (two fused in place, without a threshold, with cnn_flip); *count of them.
-// park: the network's parked plan key (VD_CNN_REUSE_PLAN), or NULL.
+// park: the network's parked plan key (VD_CNN_PLAN_KEY_BYTES of its run record), or NULL.
 static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_t thr_i8, bool never,
                              cnn_rows_ctx_t *r, const vd_frame_t *f, vd_cnn_box_t *boxes, size_t k,
-                             vd_cnn_plan_key_t *park, size_t *count)
+                             uint8_t *park, size_t *count)
 {
     *count = 0u;
     if (never) {
@@ -270,11 +270,11 @@ static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_
     size_t kept[2] = {0u, 0u};
     // This network's parked plan in, and out again after its passes (each network keeps its own plan).
     if (park != NULL) {
-        vd__cnn_plan_key_put(det->cnn_ws, park);
+        memcpy(det->cnn_ws, park, VD_CNN_PLAN_KEY_BYTES);
     }
     const vd_status_t st = run_passes(det, m, thr_i8, r, nw, nh, f, boxes, k, passes, kept);
     if (park != NULL) {
-        vd__cnn_plan_key_get(det->cnn_ws, park);
+        memcpy(park, det->cnn_ws, VD_CNN_PLAN_KEY_BYTES);
     }
     VD_TRY(st);
     *count = (passes == 2u) ? fuse_boxes(det, boxes, kept[0], boxes + k, kept[1], boxes, NULL) : kept[0];
@@ -311,12 +311,12 @@ vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, siz
         // set fused over its own passes first (init sized the array so).
         const vd_cnn_model_t *m2 = det->cfg.cnn_model2;
         vd_cnn_box_t *b2 = det->cnn_boxes + (size_t)m->max_peaks * passes;
-        vd_cnn_plan_key_t *park = (vd_cnn_plan_key_t *)det->cnn_park;   // init carved it for the pair
+        uint8_t *park = (uint8_t *)det->cnn_park;   // init carved both keys for the pair
         size_t n1 = 0u;
         size_t n2 = 0u;
-        VD_TRY(net_boxes(det, m, det->cnn_thr_i8, det->cnn_never, &r, f, det->cnn_boxes, m->max_peaks, &park[0],
-                         &n1));
-        VD_TRY(net_boxes(det, m2, det->cnn2_thr_i8, det->cnn2_never, &r, f, b2, m2->max_peaks, &park[1], &n2));
+        VD_TRY(net_boxes(det, m, det->cnn_thr_i8, det->cnn_never, &r, f, det->cnn_boxes, m->max_peaks, park, &n1));
+        VD_TRY(net_boxes(det, m2, det->cnn2_thr_i8, det->cnn2_never, &r, f, b2, m2->max_peaks,
+                         park + VD_CNN_PLAN_KEY_BYTES, &n2));
         (void)fuse_boxes(det, det->cnn_boxes, n1, b2, n2, NULL, n);
         return (det->stats.overflow_candidates != 0u) ? VD_ERR_CAPACITY : VD_OK;
     }

@@ -251,7 +251,7 @@ static vd_status_t plan_cnn(const vd_detector_cfg_t *c, layout_t *l)
     }
     // A pair parks what VD_CNN_REUSE_PLAN keeps of each network's run record (each keeps its plan: one
     // sizing walk less per network and frame, ~0.8 M instructions of vd_cnn on x86).
-    l->cnn_park = (m2 != NULL) ? 2u * sizeof(vd_cnn_plan_key_t) : 0u;
+    l->cnn_park = (m2 != NULL) ? 2u * (size_t)VD_CNN_PLAN_KEY_BYTES : 0u;
     // With cnn_flip pass A's boxes [0, K) survive pass B's decode into [K, 2K);
     // cnn_model2's boxes follow the first network's.
     const size_t f = (c->cnn_flip != 0u) ? 2u : 1u;
@@ -455,14 +455,14 @@ vd_status_t vd_detector_init(vd_detector_t *det, const vd_detector_cfg_t *cfg, c
         // network first, then the first network's, which writes the record VD_CNN_REUSE_PLAN reads first
         // (vd/cnn.h); a pair parks both keys.
         vd_status_t pst = VD_OK;
-        vd_cnn_plan_key_t *park = (vd_cnn_plan_key_t *)det->cnn_park;
+        uint8_t *park = (uint8_t *)det->cnn_park;
         if (c.cnn_model2 != NULL) {
             pst = plan_ahead(c.cnn_model2, &c, det->cnn_ws, l.cnn_ws);
-            vd__cnn_plan_key_get(det->cnn_ws, &park[1]);
+            memcpy(park + VD_CNN_PLAN_KEY_BYTES, det->cnn_ws, VD_CNN_PLAN_KEY_BYTES);
         }
         pst = (pst == VD_OK) ? plan_ahead(c.cnn_model, &c, det->cnn_ws, l.cnn_ws) : pst;
         if (park != NULL) {
-            vd__cnn_plan_key_get(det->cnn_ws, &park[0]);
+            memcpy(park, det->cnn_ws, VD_CNN_PLAN_KEY_BYTES);
         }
         if (pst != VD_OK) {
             memset(det, 0, sizeof(*det));

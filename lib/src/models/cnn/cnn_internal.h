@@ -97,37 +97,34 @@
 // after a complete run, the key vd_cnn_tensor checks. Offsets are from the
 // workspace start; item lifetimes are steps (0 = input, l + 1 = layer l).
 typedef struct vd_cnn_plan {
+    // First, what VD_CNN_REUSE_PLAN keeps (VD_CNN_PLAN_KEY_BYTES: a pair's detector parks them per network).
     uint32_t magic;           // VD_CNN_REC_MAGIC after a complete run, else 0
     uint32_t flags;
     uint32_t width;
     uint32_t height;
     uint32_t crc;             // model identity
     uint32_t size;
+    uint32_t rows_crc;        // CRC-32 of rows, h, live (tensors 0..n) and band: the next run's check before reuse
+    // Per tensor: rows kept (ring height; the height for a whole plane, 0 if never computed).
+    uint16_t rows[VD_CNN_MAX_TENSORS];
+    uint8_t band;             // streamed: head rows per pull, input rows per push (1..VD_CNN_BAND_MAX)
+    // Recomputed by every run.
     uint32_t n_items;
     uint32_t total;           // workspace bytes, record included
     uint32_t off[VD_CNN_MAX_ITEMS];
     uint32_t len[VD_CNN_MAX_ITEMS];
     uint8_t first[VD_CNN_MAX_ITEMS];
     uint8_t last[VD_CNN_MAX_ITEMS];
-    // Per tensor: rows kept (ring height; the height for a whole plane, 0 if
-    // never computed), height, and the row schedule's counters.
-    uint16_t rows[VD_CNN_MAX_TENSORS];
+    // Per tensor: height, and the row schedule's counters.
     uint16_t h[VD_CNN_MAX_TENSORS];
     uint16_t done[VD_CNN_MAX_TENSORS];   // rows produced so far
     uint16_t need[VD_CNN_MAX_TENSORS];   // rows needed for the current head target
     uint16_t req[VD_CNN_MAX_TENSORS];    // rows made by the current sub-step
     uint8_t live[VD_CNN_MAX_TENSORS];    // 1: the head depends on it; 2: also, an upsample fused into its concats
-    uint8_t band;             // streamed: head rows per pull, input rows per push (1..VD_CNN_BAND_MAX)
-    uint32_t rows_crc;        // CRC-32 of rows, h, live (tensors 0..n) and band: the next run's check before reuse
 } vd_cnn_plan_t;
 
-// What VD_CNN_REUSE_PLAN keeps of a record (the key rows_kept checks, the ring heights and band with their
-// CRC; the rest is recomputed): a detector parks it for the network of a pair that is not running.
-typedef struct vd_cnn_plan_key {
-    uint32_t magic, flags, width, height, crc, size, rows_crc;
-    uint16_t rows[VD_CNN_MAX_TENSORS];
-    uint8_t band;
-} vd_cnn_plan_key_t;
+// Bytes at the start of a record that VD_CNN_REUSE_PLAN keeps (magic .. band); the rest a run recomputes.
+#define VD_CNN_PLAN_KEY_BYTES ((uint32_t)offsetof(vd_cnn_plan_t, n_items))
 
 // Bytes of the record (items start after it).
 #define VD_CNN_REC_BYTES \
@@ -239,10 +236,6 @@ vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint
 // VD_ERR_WORKSPACE as vd_cnn_run_ex. The detector calls it at init for the largest frame.
 vd_status_t vd__cnn_plan_ahead(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags, void *ws,
                                size_t bytes);
-// The key of the record at the start of workspace ws into *k, and back (the record's other fields are left
-// as they are: a run recomputes or checks them).
-void vd__cnn_plan_key_get(void *ws, vd_cnn_plan_key_t *k);
-void vd__cnn_plan_key_put(void *ws, vd_cnn_plan_key_t *k);
 // Row schedule: ring heights p->rows (and p->h, p->live) of a plan.
 void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p);
 // Tensor heights and liveness (p->h, p->live) alone: the part of vd__cnn_sched_rows a kept plan recomputes.
@@ -371,12 +364,11 @@ typedef struct in_src {
     uint8_t *buf;        // width bytes (row function only)
 } in_src_t;
 
-// The percentile stretch's lookup table from a histogram of the whole plane
-// in hist_area (VD_CNN_HIST_BYTES); NULL without a stretch.
-// The table the previous run left in hist_area (VD_CNN_SAME_HIST); NULL without a normalisation.
-const int8_t *vd__cnn_norm_kept(const vd_cnn_model_t *m, uint8_t *hist_area);
+// The input normalisation's lookup table (percentile stretch or equalisation) from a histogram of the whole
+// plane in hist_area (VD_CNN_HIST_BYTES); kept: the table the previous run left there (VD_CNN_SAME_HIST),
+// the input not read. NULL without a normalisation.
 const int8_t *vd__cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
-                                uint8_t *hist_area);
+                                uint8_t *hist_area, bool kept);
 // Rows [y0, y1) of tensor 0: pixel - 128, or lut[pixel].
 void vd__cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, const ring_t *t0, uint32_t y0, uint32_t y1);
 

@@ -168,8 +168,7 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
     const in_src_t src = {img, stride_bytes, rows, buf};
     // Streamed, every item lives for the whole run, so a kept plan's item 1 still holds the last table.
     const bool same = after_run && (flags & (VD_CNN_SAME_HIST | VD_CNN_STREAM)) == (VD_CNN_SAME_HIST | VD_CNN_STREAM);
-    const int8_t *lut = same ? vd__cnn_norm_kept(m, base + p->off[1])
-                             : vd__cnn_norm_table(m, &src, width, height, base + p->off[1]);
+    const int8_t *lut = vd__cnn_norm_table(m, &src, width, height, base + p->off[1], same);
     const ring_t t0 = ring_of(base, p, &c, 0u);
     const uint32_t n = m->n_layers;
     if ((flags & VD_CNN_STREAM) == 0u) {

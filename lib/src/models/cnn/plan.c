@@ -285,28 +285,6 @@ vd_status_t vd__cnn_plan_for_run(const vd_cnn_model_t *m, const chain_t *c, uint
     return plan_items(m, c, width, height, pf, p);
 }
 
-// Copies what a key holds between the record p and the key k, into the key (get) or back (put).
-static void plan_key_move(vd_cnn_plan_t *p, vd_cnn_plan_key_t *k, bool get)
-{
-    uint32_t *const rec[7] = {&p->magic, &p->flags, &p->width, &p->height, &p->crc, &p->size, &p->rows_crc};
-    uint32_t *const key[7] = {&k->magic, &k->flags, &k->width, &k->height, &k->crc, &k->size, &k->rows_crc};
-    for (size_t i = 0u; i < 7u; i++) {
-        *(get ? key[i] : rec[i]) = *(get ? rec[i] : key[i]);
-    }
-    memcpy(get ? k->rows : p->rows, get ? p->rows : k->rows, sizeof k->rows);
-    *(get ? &k->band : &p->band) = *(get ? &p->band : &k->band);
-}
-
-void vd__cnn_plan_key_get(void *ws, vd_cnn_plan_key_t *k)
-{
-    plan_key_move((vd_cnn_plan_t *)ws, k, true);
-}
-
-void vd__cnn_plan_key_put(void *ws, vd_cnn_plan_key_t *k)
-{
-    plan_key_move((vd_cnn_plan_t *)ws, k, false);
-}
-
 vd_status_t vd__cnn_plan_ahead(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags, void *ws,
                                size_t bytes)
 {

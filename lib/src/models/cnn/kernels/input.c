@@ -23,20 +23,17 @@ static const uint8_t *src_row(const in_src_t *s, uint32_t y)
     return s->buf;
 }
 
-const int8_t *vd__cnn_norm_kept(const vd_cnn_model_t *m, uint8_t *hist_area)
-{
-    const bool norm = m->input_norm == VD_CNN_NORM_PERCENTILE || m->input_norm == VD_CNN_NORM_EQUALISE;
-    return norm ? (const int8_t *)(void *)(hist_area + 256u * 4u) : NULL;
-}
-
 const int8_t *vd__cnn_norm_table(const vd_cnn_model_t *m, const in_src_t *src, uint32_t w, uint32_t h,
-                                uint8_t *hist_area)
+                                uint8_t *hist_area, bool kept)
 {
     if (m->input_norm != VD_CNN_NORM_PERCENTILE && m->input_norm != VD_CNN_NORM_EQUALISE) {
         return NULL;
     }
     uint32_t *hist = (uint32_t *)(void *)hist_area;
     int8_t *lut = (int8_t *)(void *)(hist_area + 256u * 4u);
+    if (kept) {
+        return lut;
+    }
     memset(hist, 0, 256u * sizeof(uint32_t));
     for (uint32_t y = 0u; y < h; y++) {
         const uint8_t *row = src_row(src, y);
