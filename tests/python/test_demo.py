@@ -233,6 +233,8 @@ def bad_cases(clip_dir, tmp):
         ("bad config value", ok + ["--config", tmp / "cfg.json"]),
         ("unknown config key", ok + ["--config", tmp / "cfg2.json"]),
         ("bad flag value", ok + ["--score-thr", "2"]),
+        ("confirm band upside down", ok + ["--track-confirm", "0.3,0.4"]),
+        ("confirm above 1", ok + ["--track-confirm", "1.2"]),
         ("unknown flag", ok + ["--frobnicate", "1"]),
     ]
 

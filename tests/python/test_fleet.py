@@ -176,5 +176,13 @@ def test_settings_follow_the_demo():
     fields, cnn, dbn, desc = fleet.resolve({"sources": "hotspot", "temporal": "off"})
     assert cnn is None and desc["dbn_model"] == "vd_dbn_grey.vdm" and fields["temporal"] is False
     assert fleet.resolve({"cnn_thr": 0.35})[0]["cnn_score_thr_q15"] == 11469   # round(0.35 * 32768)
+    # --track-confirm HI[,LO] as settings.c reads it: LO left out is HI - 0.07; LO > HI is refused
+    f = fleet.resolve({"track-confirm": "0.4"})[0]
+    assert (f["temporal_cfg.confirm_hi_q15"], f["temporal_cfg.confirm_lo_q15"]) == (13107, 10813)  # 0.4, 0.33
+    f = fleet.resolve({"track_confirm": "0.5,0.25"})[0]
+    assert (f["temporal_cfg.confirm_hi_q15"], f["temporal_cfg.confirm_lo_q15"]) == (16384, 8192)
+    for bad in ("0.3,0.4", "1.5", "x", "0.4,0.3,0.2", "0"):
+        with pytest.raises(fleet.FleetError, match="track-confirm"):
+            fleet.resolve({"track-confirm": bad})
     with pytest.raises(fleet.FleetError, match="not supported"):
         fleet.resolve({"window-preset": "msrs"})

@@ -100,3 +100,19 @@ def test_clip_option(demo, tmp_path):
     assert p.returncode == 2 and "bad --clip 'bogus'" in p.stderr
     p = run("--clip", "hit-uav", "--input", str(CLIP / "images"))
     assert p.returncode == 2 and "not with --input" in p.stderr
+
+
+def test_track_confirm_moves_the_band(demo, tmp_path):
+    """--track-confirm HI[,LO] (docs/demo.md): confirmation follows the track-score band and nothing else, so a
+    lower band confirms a superset of the default's boxes, a higher one a subset, with boxes and scores equal."""
+    def run(*a):
+        jl = tmp_path / f"d{len(list(tmp_path.iterdir()))}.jsonl"
+        subprocess.run([str(demo), "--frames", "12", "--json", str(jl), "--quiet", *a], check=True, timeout=300,
+                       capture_output=True)
+        return [json.loads(x)["detections"] for x in jl.read_text().splitlines()]
+    base, low, high = run(), run("--track-confirm", "0.30"), run("--track-confirm", "0.55,0.50")
+    assert run("--track-confirm", "0.42,0.35") == base                 # the defaults, spelled out
+    key = lambda recs: [[(tuple(d["box"]), d["score"], d["track"]) for d in r] for r in recs]
+    assert key(low) == key(base) == key(high)
+    conf = lambda recs: {(i, tuple(d["box"])) for i, r in enumerate(recs) for d in r if d["state"] == "confirmed"}
+    assert conf(high) < conf(base) < conf(low), (len(conf(high)), len(conf(base)), len(conf(low)))

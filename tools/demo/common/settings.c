@@ -256,6 +256,26 @@ static bool set_track_sigma_rel(demo_opts_t *o, const char *v)
     return true;
 }
 
+// "HI" or "HI,LO": the track-score hysteresis of confirmation, 0 < LO <= HI <= 1 (Q15). LO left out keeps
+// the default's gap (0.42 / 0.35) below HI, so one number moves the whole band.
+static bool set_track_confirm(demo_opts_t *o, const char *v)
+{
+    double hi, lo;
+    if (!parse_pair(v, ',', &hi, &lo)) {
+        if (!parse_double(v, 1.0 / 32768.0, 1.0, &hi)) {
+            return false;
+        }
+        lo = hi - 0.07;
+        lo = (lo < 1.0 / 32768.0) ? 1.0 / 32768.0 : lo;
+    }
+    if (hi < 1.0 / 32768.0 || hi > 1.0 || lo < 1.0 / 32768.0 || lo > hi) {
+        return false;
+    }
+    o->cfg.temporal_cfg.confirm_hi_q15 = (uint16_t)lround(hi * 32768.0);
+    o->cfg.temporal_cfg.confirm_lo_q15 = (uint16_t)lround(lo * 32768.0);
+    return true;
+}
+
 // "hotspot,cnn" (or with '+'): the union of the named sources, at least one.
 static bool set_sources(demo_opts_t *o, const char *v)
 {
@@ -472,6 +492,10 @@ static const setting_t k_settings[] = {
      "temporal: track-aware scores (each box's score fused with its track's, confirmed by the track score "
      "with hysteresis; default on, off = paper 000's confirmation after 3 frames)",
      SWITCH(U8, temporal_cfg.flags, VD_TEMPORAL_SCORES)},
+    {"track-confirm", "HI[,LO]",
+     "temporal, track scores: a track is confirmed when its score reaches HI and stays so until it falls "
+     "below LO, 0 < LO <= HI <= 1 (default 0.42,0.35; LO left out: HI - 0.07)",
+     CUSTOM(set_track_confirm)},
     {"track-coast", "N",
      "temporal, track scores: output a confirmed track missed for up to N frames at its predicted box as "
      "recovered, with its decaying score, 0..255 (default 0)",

@@ -158,7 +158,7 @@ def plan(recs, shard_frames=256):
 # ------------------------------------------------------------------ detector settings (as vd_fir_demo)
 
 SETTINGS = ("sources", "cnn-model", "cnn-model2", "model", "temporal", "cnn-thr", "cnn-flip", "thr-mode", "hot-thr",
-            "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast")
+            "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast", "track-confirm")
 
 
 def _vdm_version(blob):
@@ -187,6 +187,20 @@ def _switch(v):
     raise FleetError(f"bad switch value {v!r}")
 
 
+def _confirm_q15(v):
+    """settings.c's set_track_confirm: "HI" or "HI,LO" -> (hi, lo) in Q15 (LO left out: HI - 0.07)."""
+    try:
+        parts = [float(x) for x in str(v).split(",")]
+    except ValueError:
+        raise FleetError(f"bad value {v!r} for track-confirm") from None
+    if len(parts) == 1:
+        parts.append(max(parts[0] - 0.07, 1 / 32768))
+    hi, lo = parts if len(parts) == 2 else (0.0, 1.0)
+    if not (1 / 32768 <= lo <= hi <= 1.0):
+        raise FleetError(f"bad value {v!r} for track-confirm")
+    return int(math.floor(hi * 32768 + 0.5)), int(math.floor(lo * 32768 + 0.5))
+
+
 def vdet_scores_flag():
     from vdtools.bindings import detector as vdet
     return vdet.TEMPORAL_SCORES
@@ -208,6 +222,8 @@ def resolve(settings, models_dir=None):
     fields["temporal_cfg.flags"] = vdet_scores_flag() if _switch(s.get("track-scores", True)) else 0
     if "track-coast" in s:
         fields["temporal_cfg.coast_frames"] = int(s["track-coast"])
+    if "track-confirm" in s:
+        fields["temporal_cfg.confirm_hi_q15"], fields["temporal_cfg.confirm_lo_q15"] = _confirm_q15(s["track-confirm"])
     if "thr-mode" in s:
         fields["thr_mode"] = {"constant": 0, "adaptive": 1}[s["thr-mode"]]
     if "hot-thr" in s:
