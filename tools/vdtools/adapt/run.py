@@ -161,7 +161,7 @@ class Adaptation:
         self.res_before = M.detections(before, self.val)
         if self.labelled:
             self.fig_before = M.figures(self.res_before, self.thr_before)
-            self.fig_before_val = M.figures(self.res_before, M.choose_threshold(self.res_before))
+            self.fig_before_val = M.figures(self.res_before, M.choose_threshold(self.res_before, self.thr_before))
         self.times["before"] = time.time() - t0
         self.say(f"{len(self.frames)} frames: {len(self.adapt)} adapt, {len(self.val)} val; before: "
                  + (f"val AP@0.5 {100 * self.fig_before['ap']:.1f}" if self.labelled
@@ -256,7 +256,7 @@ class Adaptation:
             self.after.append(mdir / f"{name}.vdm")
             self.after[-1].write_bytes(blob)
         self.res_after = M.detections(self.after, self.val)
-        self.thr = M.choose_threshold(self.res_after) if self.labelled else self.thr_before
+        self.thr = M.choose_threshold(self.res_after, self.thr_before) if self.labelled else self.thr_before
         (tmp / "float").mkdir(exist_ok=True)
         for (desc, _, meta), net, name, arch in zip(exported, self.nets, self.names, self.archs):
             V.write_c_array(TU.with_threshold(desc, meta, self.thr), name, tmp)
