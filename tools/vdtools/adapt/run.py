@@ -297,7 +297,8 @@ class Adaptation:
                           batch=TU.BATCH, threads=self.a.threads,
                           last_losses=tuner.losses[-1][1] if tuner.losses else None),
             threshold=dict(before=self.thr_before, after=self.thr,
-                           chosen_on="val part" if self.labelled else "unchanged (no labels)"),
+                           chosen_on="val part, one-standard-error rule towards the shipped threshold" if self.labelled
+                           else "unchanged (no labels)"),
             outputs=dict(models=[f"{n}.vdm" for n in self.names], config="vd.json", demo_check=self.demo_check),
         )
         if self.labelled:
