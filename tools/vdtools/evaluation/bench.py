@@ -19,6 +19,7 @@ import os
 import platform
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -105,7 +106,7 @@ def find_clip(arg):
             return c
     if arg:
         return None
-    out = Path("/tmp") / f"vd_bench_clip_{os.getuid()}"
+    out = Path(tempfile.gettempdir()) / f"vd_bench_clip_{os.getuid()}"
     if not (out / "u8").is_dir():
         from vdtools.data import clip
         clip.generate(out)
@@ -160,7 +161,7 @@ def run_c_timing(a, name, paths, mode, model):
     exe = vd_bench_exe(a)
     if not exe.exists():
         return {}
-    lst = Path("/tmp") / f"vd_bench_{os.getuid()}_{name}.lst"
+    lst = Path(tempfile.gettempdir()) / f"vd_bench_{os.getuid()}_{name}.lst"
     lst.write_text("\n".join(str(p) for p in paths) + "\n")
     txt = subprocess.run([str(exe), "--iters", str(a.repeats), "--model", str(model), "--thr-mode", mode,
                           "--max-cands", str(a.max_cands_per_frame), str(lst)],
@@ -211,7 +212,7 @@ class Bench:
         self.model_blob, self.model_name = paper_model(clib.REPO)
         from vdtools.formats import vdm
         self.model_macs = sum(int(L["w"].shape[0]) * int(L["w"].shape[1]) for L in vdm.unpack(self.model_blob)["layers"])
-        self.mpath = Path("/tmp") / f"vd_bench_model_{os.getuid()}.vdm"
+        self.mpath = Path(tempfile.gettempdir()) / f"vd_bench_model_{os.getuid()}.vdm"
         self.mpath.write_bytes(self.model_blob)
         # DBN model in our own instance
         self._mkeep = np.zeros((len(self.model_blob) + 15) // 8, np.uint64)
@@ -572,9 +573,9 @@ def run_callgrind(a):
     """Runs build/tools/vd_bench --iters 1 under callgrind on each set's frame sample."""
     import subprocess
     exe = vd_bench_exe(a)
-    tmp = Path("/tmp") / f"vd_bench_cg_{os.getuid()}"
+    tmp = Path(tempfile.gettempdir()) / f"vd_bench_cg_{os.getuid()}"
     tmp.mkdir(exist_ok=True)
-    model = Path("/tmp") / f"vd_bench_model_{os.getuid()}.vdm"
+    model = Path(tempfile.gettempdir()) / f"vd_bench_model_{os.getuid()}.vdm"
     blob, _ = paper_model(clib.REPO)
     model.write_bytes(blob)
     data = clib.DATA_DIR
