@@ -7,7 +7,8 @@ With labels (a YOLO folder or COCO JSON; a frame without labels has no vehicles)
 adapt part and a val part by blocks of file-name order; the shipped float networks (models/float/vd_cnn.npz
 and vd_cnn2.npz, the pair the demo runs) are fine-tuned quantisation-aware on the adapt part mixed with
 ../shared/data's training frames (when present, so that they do not forget what they knew), exported as
-int8 .vdm files, and the score threshold is chosen on the val part. Without labels: self-training on
+int8 .vdm files, and the score threshold is chosen on the val part (the one-standard-error rule towards the
+shipped threshold: docs/adapt.md). Without labels: self-training on
 pseudo-labels of the shipped pair (its fused flip passes, a high score threshold, boxes of middling score
 as ignore regions; iterated with the adapted networks' own labels), threshold unchanged.
 
