@@ -6,7 +6,7 @@ import numpy as np
 
 from vdtools.evaluation import cnn_eval as CE
 from vdtools.formats import cnn_vdm as V
-from vdtools.metrics.evaluate import iou, match_flags
+from vdtools.metrics.evaluate import iou
 
 AGREE_IOU = 0.5
 
@@ -48,9 +48,7 @@ def _counts(results, thresholds):
     for i, (_, fr, dets, gts) in enumerate(results):
         n[i] = len(fr.boxes)
         for j, t in enumerate(thresholds):
-            flags, _ = match_flags([d for d in dets if d[1] >= t], gts)
-            tp[i, j] = sum(1 for _, f in flags if f == 1)
-            fp[i, j] = sum(1 for _, f in flags if f == 0)
+            tp[i, j], fp[i, j], _ = CE.counts_at(dets, gts, t)
     return tp, fp, n
 
 
@@ -59,16 +57,14 @@ def _f1(tp, fp, n):
     return 2 * tp / np.maximum(tp + fp + n, 1e-9)
 
 
-def choose_threshold(results, prior=None, seed=0):
+def choose_threshold(results, prior, seed=0):
     """The operating point on the user's val frames. cnn_eval's rule (the best F1 among the thresholds with
-    TP >= 70 % and FP <= 30 %, else among all; what `prior=None` gives) chose 0.40 on a val part of 14 cars
+    TP >= 70 % and FP <= 30 %, else among all) chose 0.40 on a val part of 14 cars
     in docs/results/adapt.md's proxy A: with a few dozen vehicles the best F1 is mostly noise. So the
     one-standard-error rule of model selection (Hastie, Tibshirani, Friedman, ESL 7.10): of the thresholds
     whose pooled F1 is within one bootstrap standard error of the best one's (val frames drawn with
     replacement, BOOT_DRAWS draws, fixed seed), the one closest to `prior`, the shipped header threshold (a
     choice made on far more frames). A val part that clearly favours another point still moves it."""
-    if prior is None:
-        return CE.choose_threshold(CE.figures(results))
     thresholds = sorted(set(CE.THRESHOLDS) | {round(prior, 4)})
     tp, fp, n = _counts(results, thresholds)
     f1 = _f1(tp.sum(0), fp.sum(0), n.sum())

@@ -98,6 +98,11 @@ def read_grey(path):
     return np.ascontiguousarray(a)
 
 
+def scratch(name):
+    """A per-user scratch path in the system's temp directory (files the benchmark may reuse between runs)."""
+    return Path(tempfile.gettempdir()) / f"vd_bench_{os.getuid()}_{name}"
+
+
 def find_clip(arg):
     """The bundled clip: --clip, else <dir of libvd.so>/clip, else generated into /tmp."""
     cands = [Path(arg)] if arg else [clib.lib_path().parent / "clip", clib.REPO / "build" / "clip"]
@@ -106,7 +111,7 @@ def find_clip(arg):
             return c
     if arg:
         return None
-    out = Path(tempfile.gettempdir()) / f"vd_bench_clip_{os.getuid()}"
+    out = scratch("clip")
     if not (out / "u8").is_dir():
         from vdtools.data import clip
         clip.generate(out)
@@ -161,7 +166,7 @@ def run_c_timing(a, name, paths, mode, model):
     exe = vd_bench_exe(a)
     if not exe.exists():
         return {}
-    lst = Path(tempfile.gettempdir()) / f"vd_bench_{os.getuid()}_{name}.lst"
+    lst = scratch(f"{name}.lst")
     lst.write_text("\n".join(str(p) for p in paths) + "\n")
     txt = subprocess.run([str(exe), "--iters", str(a.repeats), "--model", str(model), "--thr-mode", mode,
                           "--max-cands", str(a.max_cands_per_frame), str(lst)],
@@ -212,7 +217,7 @@ class Bench:
         self.model_blob, self.model_name = paper_model(clib.REPO)
         from vdtools.formats import vdm
         self.model_macs = sum(int(L["w"].shape[0]) * int(L["w"].shape[1]) for L in vdm.unpack(self.model_blob)["layers"])
-        self.mpath = Path(tempfile.gettempdir()) / f"vd_bench_model_{os.getuid()}.vdm"
+        self.mpath = scratch("model.vdm")
         self.mpath.write_bytes(self.model_blob)
         # DBN model in our own instance
         self._mkeep = np.zeros((len(self.model_blob) + 15) // 8, np.uint64)
@@ -573,9 +578,9 @@ def run_callgrind(a):
     """Runs build/tools/vd_bench --iters 1 under callgrind on each set's frame sample."""
     import subprocess
     exe = vd_bench_exe(a)
-    tmp = Path(tempfile.gettempdir()) / f"vd_bench_cg_{os.getuid()}"
+    tmp = scratch("cg")
     tmp.mkdir(exist_ok=True)
-    model = Path(tempfile.gettempdir()) / f"vd_bench_model_{os.getuid()}.vdm"
+    model = scratch("model.vdm")
     blob, _ = paper_model(clib.REPO)
     model.write_bytes(blob)
     data = clib.DATA_DIR

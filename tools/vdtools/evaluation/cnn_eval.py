@@ -434,6 +434,13 @@ def run_demo(demo, model, frames, extra=(), tmp="out/cnn_eval", paper=None, mode
     return out
 
 
+def counts_at(dets, gts, thr):
+    """One frame's detections [(box, score)] kept at score >= thr against its ground truth: (TP, FP, matched
+    ground-truth indices); a detection in an ignore region counts as neither."""
+    flags, matched = match_flags([d for d in dets if d[1] >= thr], gts)
+    return sum(1 for _, f in flags if f == 1), sum(1 for _, f in flags if f == 0), matched
+
+
 def figures(results, thresholds=THRESHOLDS):
     """{family: {ap, n_frames, n_vehicles, pr: (recall, precision), at: {thr: {...}}}}."""
     fams = {}
@@ -446,10 +453,9 @@ def figures(results, thresholds=THRESHOLDS):
         for t in thresholds:
             tp = fp = n = hot_tp = hot_n = 0
             for fr, dets, gts in items:
-                kept = [d for d in dets if d[1] >= t]
-                flags, matched = match_flags(kept, gts)
-                tp += sum(1 for _, f in flags if f == 1)
-                fp += sum(1 for _, f in flags if f == 0)
+                t_tp, t_fp, matched = counts_at(dets, gts, t)
+                tp += t_tp
+                fp += t_fp
                 n += len(fr.boxes)
                 hot_n += int(fr.hot.sum())
                 hot_tp += sum(1 for k in matched if k < len(fr.boxes) and fr.hot[k])

@@ -195,9 +195,9 @@ def _confirm_q15(v):
         raise FleetError(f"bad value {v!r} for track-confirm") from None
     if len(parts) == 1:
         parts.append(max(parts[0] - 0.07, 1 / 32768))
-    hi, lo = parts if len(parts) == 2 else (0.0, 1.0)
-    if not (1 / 32768 <= lo <= hi <= 1.0):
+    if len(parts) != 2 or not (1 / 32768 <= parts[1] <= parts[0] <= 1.0):
         raise FleetError(f"bad value {v!r} for track-confirm")
+    hi, lo = parts
     return int(math.floor(hi * 32768 + 0.5)), int(math.floor(lo * 32768 + 0.5))
 
 
