@@ -1,7 +1,10 @@
 # SPDX-License-Identifier: MIT
 """Benchmark of every vd stage against its OpenCV counterpart, same process, same pixels.
 
-    VD_LIB=build-bench/libvd.so python3 -m vdtools.evaluation.bench [--frames 40] [--repeats 15] [--json docs/results/bench.json]
+    VD_LIB=build-bench/libvd.so python3 -m vdtools.evaluation.bench [--frames 40] [--repeats 15] [--json out/bench.json]
+
+A run writes out/bench.json (callgrind: out/callgrind.json) unless --json names the file: the committed
+record docs/results/bench.json changes only when asked for, never as a side effect of a smoke run.
 
 Release build of libvd.so required (cmake -DCMAKE_BUILD_TYPE=Release). cv2.setNumThreads(1).
 Per stage and frame: median of `repeats` single-call timings (time.perf_counter_ns) after
@@ -754,6 +757,17 @@ def machine():
             "cv2": cv2.__version__, "libvd": str(clib.lib_path()), "loadavg": os.getloadavg()}
 
 
+RECORD = clib.REPO / "docs" / "results" / "bench.json"
+
+
+def result_path(json_arg, markdown):
+    """Where a run writes (or --markdown reads): --json if given; else the committed record for reading and
+    out/bench.json for writing, so only an explicit --json replaces the record."""
+    if json_arg is not None:
+        return Path(json_arg)
+    return RECORD if markdown else Path("out") / "bench.json"
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=40, help="frames per real set (evenly spread sample)")
@@ -763,18 +777,22 @@ def main(argv=None):
     ap.add_argument("--clip", default=None, help="clip directory (default: next to libvd.so, else generated)")
     ap.add_argument("--max-size", type=int, default=0, help="also time a max-size square frame (e.g. 8192)")
     ap.add_argument("--sets", default="", help="comma list to restrict (msrs-night,hit-uav,clip-u8,clip-u16)")
-    ap.add_argument("--json", default=str(clib.REPO / "docs" / "results" / "bench.json"))
+    ap.add_argument("--json", default=None,
+                    help="result file (default: out/bench.json for a run; the committed docs/results/bench.json "
+                         "for --markdown); give docs/results/bench.json to update the record")
     ap.add_argument("--callgrind", action="store_true",
                     help="instead: instructions per stage call from valgrind --tool=callgrind on tools/vd_bench")
     ap.add_argument("--vd-bench", default=None, help="vd_bench executable (default: <dir of libvd.so>/tools/vd_bench)")
     ap.add_argument("--markdown", action="store_true", help="instead: print the tables of --json (+ callgrind.json)")
     a = ap.parse_args(argv)
+    a.json = str(result_path(a.json, a.markdown))
     if a.markdown:
         print(markdown(a.json, Path(a.json).with_name("callgrind.json")))
         return 0
     if a.callgrind:
         res = run_callgrind(a)
         js = Path(a.json).with_name("callgrind.json") if a.json.endswith("bench.json") else Path(a.json)
+        js.parent.mkdir(parents=True, exist_ok=True)
         js.write_text(json.dumps({"machine": machine(), "args": vars(a), "callgrind": res}, indent=1))
         print(f"wrote {js}")
         return 0
