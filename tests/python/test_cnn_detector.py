@@ -273,6 +273,37 @@ def test_pair_real_frames_equal_python(demo, data_dir, tmp_path, flip):
     assert total > 0
 
 
+def test_pair_full_res_real_frames_equal_python(demo, data_dir, tmp_path):
+    """--cnn-full-res (cfg.cnn_full_res): the shipped pair with flip passes reads the frame itself instead of its
+    half-resolution plane. Odd-sized crops of real test-split frames (321 x 241: the mirror spans every column
+    at full resolution): demo == cnn_detector.detect(full_res=True), cnn_eval.Pair == cnn_detector.pair_boxes,
+    and the workspace the library asks for grows with the plane."""
+    if not (MODEL.is_file() and MODEL2.is_file()):
+        pytest.skip("the shipped pair (models/vd_cnn.vdm, models/vd_cnn2.vdm) is not committed")
+    from vdtools.evaluation import cnn_eval
+    desc, desc2 = V.unpack(MODEL.read_bytes()), V.unpack(MODEL2.read_bytes())
+    kw = dict(max_candidates=max(int(desc["max_peaks"]), int(desc2["max_peaks"])), max_detections=32, flip=True,
+              full_res=True)
+    pair = cnn_eval.Pair(cnn_eval.Int8(MODEL, backend="ref", flip=True, full_res=True),
+                         cnn_eval.Int8(MODEL2, backend="ref", flip=True, full_res=True))
+    frames = {f"crop_{k}": v[101:342, 157:478] for fr in _real_frames(data_dir, per_family=2).values()
+              for k, v in fr.items()}
+    src = write_frames(tmp_path / "crops", frames)
+    jl = tmp_path / "full.jsonl"
+    run(demo, "--input", src, "--temporal", "off", "--json", jl, "--quiet", "--cnn-full-res", "on")
+    total = compare(demo_dets(jl), frames, desc, "pair full res: ", desc2=desc2, **kw)
+    for name, img in list(frames.items())[:2]:
+        h, w = img.shape
+        got = [(b, int(round(s * 32768))) for b, s in pair(img, w, h, score_thr_q15=11469)]
+        assert got == CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True, full_res=True), name
+        assert got != CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True) or not got, name
+    assert total > 0
+    from vdtools.bindings import detector as D
+    ws = {fr: D.workspace_size(640, 480, sources=D.source_bits(["cnn"]), cnn_model=MODEL, cnn_model2=MODEL2,
+                               cnn_flip=1, cnn_full_res=fr) for fr in (0, 1)}
+    assert ws[1] > ws[0], ws
+
+
 # ------------------------------------------------------------------ real frames, the shipped model
 def _real_frames(data_dir, per_family=6):
     """A few test-split frames per family (MSRS 640x480, HIT-UAV and its flight 640x512), read as

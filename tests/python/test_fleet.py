@@ -168,6 +168,9 @@ def test_settings_follow_the_demo():
     assert fields["cnn_flip"] == 1 and fields["max_candidates"] == 100 and fields["max_detections"] == 32
     fields = fleet.resolve({"cnn-flip": "off"})[0]
     assert fields["cnn_flip"] == 0 and fields["max_candidates"] == 100 and fields["max_detections"] == 32
+    assert "cnn_full_res" not in fields and fleet.resolve({"cnn-full-res": "on"})[0]["cnn_full_res"] == 1
+    with pytest.raises(fleet.FleetError, match="switch"):
+        fleet.resolve({"cnn-full-res": "maybe"})
     fields, cnn, dbn, desc = fleet.resolve({"cnn-model2": "none"})   # one network: room for both passes' top-K
     assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm"} and isinstance(cnn, bytes)
     assert fields["max_candidates"] == 200 and fields["max_detections"] == 100

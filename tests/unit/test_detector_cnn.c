@@ -1313,6 +1313,88 @@ static void test_clock_and_temporal(void)
     TEST_ASSERT_TRUE(g_out[0].track_id != 0u);
 }
 
+// ------------------------------------------------------------ cnn_full_res
+
+// Full resolution, hand-worked: the block of test_box_position_score_source
+// (frame (26, 18)-(27, 19), 200 over 201) is now read pixel for pixel: the two
+// max-pools put it in cell (26 >> 2, 18 >> 2) = (6, 4) with value max = 201;
+// centre (4 * 6 + 2, 4 * 4 + 2) = (26, 18) in network pixels = frame pixels,
+// width 8 network pixels = 8 frame pixels: [22, 30) x [14, 22).
+static void test_full_res_hand_worked(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    fill(20u);
+    rect8(26u, 18u, 2u, 1u, 200u);
+    rect8(26u, 19u, 2u, 1u, 201u);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.cnn_full_res = 1u;
+    init_or_fail(&c, NULL);
+    vd_frame_t f = frame8(64u, 48u);
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    expect_box(&g_out[0], 22, 14, 8, 8, 201u);
+    // 0 or 1 only, checked even without the CNN source.
+    size_t b = 0u;
+    c.cnn_full_res = 2u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
+    c.sources = VD_DETECTOR_SRC_HOTSPOT;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
+    // The network's input is 4x the pixels: its workspace never shrinks (this tiny network's rows are in
+    // the overlay's shadow; the shipped pair's growth is in tests/python/test_cnn_detector.py).
+    size_t half = 0u;
+    size_t full = 0u;
+    c = cnn_cfg();
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &half));
+    c.cnn_full_res = 1u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &full));
+    TEST_ASSERT_TRUE(full >= half);
+}
+
+// Full resolution on a frame F is half resolution on F with every pixel
+// repeated 2 x 2 (the box average of four equal pixels is the pixel): the
+// same candidates in the same order with the same scores, every corner of the
+// replicated frame's box twice the full-resolution one to within the decode's
+// rounding (one pixel), with and without the flip pass. F: 40 x 32, spots of
+// several values and sizes, one at the right edge (padding and mirror).
+static void test_full_res_is_half_res_of_the_doubled_frame(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    static const uint8_t spots[][4] = {{5, 6, 180}, {17, 9, 220}, {30, 20, 150}, {38, 27, 240}, {11, 25, 200}};
+    for (uint8_t flip = 0u; flip <= 1u; flip++) {
+        fill(20u);
+        for (size_t i = 0u; i < sizeof spots / sizeof spots[0]; i++) {
+            rect8(spots[i][0], spots[i][1], 2u, 1u + (uint32_t)(i & 1u), spots[i][2]);
+        }
+        vd_detector_cfg_t c = cnn_cfg();
+        c.cnn_full_res = 1u;
+        vd_frame_t f = frame8(40u, 32u);
+        vd_detector_stats_t s;
+        TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, flip, &f, &g_rec_a, &s));
+        TEST_ASSERT_TRUE(g_rec_a.n >= 4u);
+        // F doubled in place, from the bottom-right so that no source pixel is overwritten before it is read.
+        for (uint32_t y = 32u; y-- > 0u;) {
+            for (uint32_t x = 40u; x-- > 0u;) {
+                const uint8_t v = g_px[y][x];
+                rect8(2u * x, 2u * y, 2u, 2u, v);
+            }
+        }
+        c.cnn_full_res = 0u;
+        f = frame8(80u, 64u);
+        TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, flip, &f, &g_rec_b, &s));
+        TEST_ASSERT_EQUAL_size_t(g_rec_a.n, g_rec_b.n);
+        for (size_t i = 0u; i < g_rec_a.n; i++) {
+            const vd_rect_t *a = &g_rec_a.c[i].box;
+            const vd_rect_t *h = &g_rec_b.c[i].box;
+            TEST_ASSERT_EQUAL_UINT8(g_rec_b.c[i].score_q8, g_rec_a.c[i].score_q8);
+            TEST_ASSERT_INT32_WITHIN(1, h->x, 2 * a->x);
+            TEST_ASSERT_INT32_WITHIN(1, h->y, 2 * a->y);
+            TEST_ASSERT_INT32_WITHIN(1, h->x + h->w, 2 * (a->x + a->w));
+            TEST_ASSERT_INT32_WITHIN(1, h->y + h->h, 2 * (a->y + a->h));
+        }
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -1336,5 +1418,7 @@ int main(void)
     RUN_TEST(test_pair_workspace_and_bad_model);
     RUN_TEST(test_pair_keeps_each_plan);
     RUN_TEST(test_clock_and_temporal);
+    RUN_TEST(test_full_res_hand_worked);
+    RUN_TEST(test_full_res_is_half_res_of_the_doubled_frame);
     return UNITY_END();
 }

@@ -57,7 +57,7 @@ enum {
     VD_DETECTOR_STAGE_TEMPORAL,       // vd_temporal_update incl. recovery probes
     VD_DETECTOR_STAGE_CONTRAST,       // contrast source: map, threshold, labelling, merge
     VD_DETECTOR_STAGE_WINDOWS,        // window source: cell integral image, pre-filter, ranking, merge
-    VD_DETECTOR_STAGE_CNN,            // CNN source: half-resolution input, vd_cnn_run, vd_cnn_decode, merge
+    VD_DETECTOR_STAGE_CNN,            // CNN source: half- (or full-) resolution input, vd_cnn_run, vd_cnn_decode, merge
     VD_DETECTOR_STAGE_TOTAL,          // (indices before CNN keep their values; TOTAL and COUNT moved up by one)
     VD_DETECTOR_STAGE_COUNT
 };
@@ -103,6 +103,10 @@ typedef struct vd_detector_cfg {
     uint16_t cnn_score_thr_q15;  // drop boxes with score_q15 < this, 1..32768; 0 = the deciding header's threshold
     uint8_t cnn_rescore;         // 0: CNN boxes skip the verifier; 1: verified as windows (needs a DBN model)
     uint8_t cnn_flip;            // 0: one pass; 1: fused horizontal-flip pass (twice the network's time)
+    uint8_t cnn_full_res;        // 0: the network reads the frame at half resolution (2x2 box average, the scale
+                                 //   the shipped networks trained at); 1: at full resolution, for a camera whose
+                                 //   vehicles are about half the training data's size (4x the multiply-adds and
+                                 //   a network workspace for twice the width; docs/results/cameras.md)
 
     // Verifier.
     uint8_t verifier;            // VD_DETECTOR_VERIFIER_*, 0..1; 0 = DBN

@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: MIT
-// The detector's learned candidate source: the frame at half resolution through the int8 CNN, decoded boxes
-// into the merged candidate list.
+// The detector's learned candidate source: the frame at half resolution (or, with cfg.cnn_full_res, at full
+// resolution) through the int8 CNN, decoded boxes into the merged candidate list.
 //
 // Algorithm (issue 10, CenterNet-style detection with cnn.h): the frame is
 // box-averaged 2x2, row by row as the streamed network asks for them
 // (vd_cnn_run_rows, VD_CNN_STREAM) (8-bit: (a + b + c + d + 2) >> 2; 16-bit: the rounded raw
 // mean through the detector's grey map), the floor(W/2) x floor(H/2) plane is
+// (cfg.cnn_full_res: the frame itself, 16-bit through the grey map, and every
+// "2" below reads 1: a frame whose cars are half the size looks to the network
+// as the frames it trained on; tests/unit/test_detector_cnn.c)
 // padded to multiples of the model's alignment by repeating its last column
 // and row (numpy np.pad mode "edge"), the network runs once, its heatmap
 // peaks are decoded at the header's top-K into a 2 nw x 2 nh frame and each
@@ -44,11 +47,17 @@
 #include "models/cnn/cnn_internal.h"
 #include "internal/vd_internal.h"
 
-void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh)
+uint32_t vd__detector_cnn_div(const vd_detector_cfg_t *c)
+{
+    return (c->cnn_full_res != 0u) ? 1u : 2u;
+}
+
+void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t d, uint32_t w, uint32_t h, uint32_t *nw,
+                                 uint32_t *nh)
 {
     const uint32_t a = m->align;   // >= 1 for a loaded model
-    const uint32_t hw = w / 2u;
-    const uint32_t hh = h / 2u;
+    const uint32_t hw = w / d;
+    const uint32_t hh = h / d;
     if (hw == 0u || hh == 0u) {
         *nw = 0u;
         *nh = 0u;
@@ -70,6 +79,7 @@ typedef struct cnn_rows_ctx {
     vd_view_u16_t v16;
     bool wide;          // 16-bit frame
     bool flip;          // the cnn_flip pass: rows mirrored (x -> hw - 1 - x)
+    uint32_t d;         // frame pixels per plane pixel and axis (vd__detector_cnn_div)
     uint32_t hw, hh, nw;
     vd_status_t st;     // first failure of a row (none expected: the views are checked up front)
 } cnn_rows_ctx_t;
@@ -79,10 +89,10 @@ static void cnn_row(void *ctx, uint32_t y, uint8_t *dst)
     cnn_rows_ctx_t *r = (cnn_rows_ctx_t *)ctx;
     const uint32_t sy = (y < r->hh) ? y : r->hh - 1u;
     vd_image_u8_t d = {dst, r->hw, 1u, r->nw};
-    // The ROI is the even part of the frame: an odd last column/row is not read.
-    const vd_rect_t roi = {0, (int32_t)(2u * sy), (int32_t)(2u * r->hw), 2};
-    const vd_status_t st = r->wide ? vd_resample_box_u16(&r->v16, &roi, 2u, 2u, &r->det->grey, &d)
-                                   : vd_resample_box_u8(&r->v8, &roi, 2u, 2u, &d);
+    // The ROI is the even part of the frame (d = 2): an odd last column/row is not read.
+    const vd_rect_t roi = {0, (int32_t)(r->d * sy), (int32_t)(r->d * r->hw), (int32_t)r->d};
+    const vd_status_t st = r->wide ? vd_resample_box_u16(&r->v16, &roi, r->d, r->d, &r->det->grey, &d)
+                                   : vd_resample_box_u8(&r->v8, &roi, r->d, r->d, &d);
     if (st != VD_OK) {
         r->st = (r->st == VD_OK) ? st : r->st;
         memset(dst, 0, r->nw);
@@ -110,15 +120,15 @@ static uint8_t score_q8_of(uint32_t score_q15)
 
 // Clips the decoded boxes b[0..nb) to the frame in place and returns how many
 // are left (order kept, empty ones dropped). flip: the boxes of the mirrored
-// plane, mirrored back first: [x, x + w) -> [2 hw - x - w, 2 hw - x) (the
-// plane's hw columns are frame columns 0..2 hw). Decode already keeps x, y >= 0
-// and the box inside 2 nw x 2 nh; a mirrored box may start left of 0 when it
+// plane, mirrored back first: [x, x + w) -> [d hw - x - w, d hw - x) (the
+// plane's hw columns are frame columns 0..d hw). Decode already keeps x, y >= 0
+// and the box inside d nw x d nh; a mirrored box may start left of 0 when it
 // came from the padding, and any box may reach into the padding.
-static size_t clip_boxes(vd_cnn_box_t *b, size_t nb, bool flip, uint32_t hw, const vd_frame_t *f)
+static size_t clip_boxes(vd_cnn_box_t *b, size_t nb, bool flip, uint32_t span_px, const vd_frame_t *f)
 {
     const int32_t fw = (int32_t)f->width;
     const int32_t fh = (int32_t)f->height;
-    const int32_t span = 2 * (int32_t)hw;   // <= VD_MAX_DIM
+    const int32_t span = (int32_t)span_px;   // d hw <= VD_MAX_DIM
     size_t kept = 0u;
     for (size_t i = 0u; i < nb; i++) {
         const vd_rect_t r = b[i].rect;
@@ -245,9 +255,9 @@ static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32
                                 det->cnn_ws_bytes, &head));
         VD_TRY(r->st);
         size_t nb = 0u;
-        VD_TRY(vd_cnn_decode(m, &head, thr_i8, 0u, 2u * nw, 2u * nh, boxes + (size_t)p * k, k, &nb));
+        VD_TRY(vd_cnn_decode(m, &head, thr_i8, 0u, r->d * nw, r->d * nh, boxes + (size_t)p * k, k, &nb));
         det->stats.cnn_boxes += (uint32_t)nb;
-        kept[p] = clip_boxes(boxes + (size_t)p * k, nb, r->flip, r->hw, f);
+        kept[p] = clip_boxes(boxes + (size_t)p * k, nb, r->flip, r->d * r->hw, f);
     }
     return VD_OK;
 }
@@ -265,7 +275,7 @@ static vd_status_t net_boxes(vd_detector_t *det, const vd_cnn_model_t *m, int32_
     }
     uint32_t nw = 0u;
     uint32_t nh = 0u;
-    vd__detector_cnn_input_size(m, f->width, f->height, &nw, &nh);
+    vd__detector_cnn_input_size(m, r->d, f->width, f->height, &nw, &nh);
     const uint32_t passes = (det->cfg.cnn_flip != 0u) ? 2u : 1u;
     size_t kept[2] = {0u, 0u};
     // This network's parked plan in, and out again after its passes (each network keeps its own plan).
@@ -289,7 +299,8 @@ vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, siz
     const vd_cnn_model_t *m = det->cfg.cnn_model;
     uint32_t nw = 0u;
     uint32_t nh = 0u;
-    vd__detector_cnn_input_size(m, f->width, f->height, &nw, &nh);
+    const uint32_t d = vd__detector_cnn_div(&det->cfg);
+    vd__detector_cnn_input_size(m, d, f->width, f->height, &nw, &nh);
     if (nw == 0u || nh == 0u) {
         return VD_OK;   // a frame under 2 x 2 pixels has no half-resolution plane
     }
@@ -297,8 +308,9 @@ vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, siz
     memset(&r, 0, sizeof r);
     r.det = det;
     r.wide = f->format != VD_PIX_U8;
-    r.hw = f->width / 2u;
-    r.hh = f->height / 2u;
+    r.d = d;
+    r.hw = f->width / d;
+    r.hh = f->height / d;
     r.st = VD_OK;
     if (r.wide) {
         VD_TRY(vd_frame_view_u16(f, &r.v16));

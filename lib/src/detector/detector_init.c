@@ -78,7 +78,7 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *c)
     VD_VERIFY(c->sources <= (VD_DETECTOR_SRC_ALL | VD_DETECTOR_SRC_CNN), VD_ERR_ARG);
     // CNN: the model is checked by the size query and init (they see it loaded or not).
     VD_VERIFY(c->cnn_score_thr_q15 <= (uint32_t)VD_CNN_SCORE_ONE_Q15 && c->cnn_rescore <= 1u &&
-                  c->cnn_flip <= 1u, VD_ERR_ARG);
+                  c->cnn_flip <= 1u && c->cnn_full_res <= 1u, VD_ERR_ARG);
     VD_VERIFY((c->sources & VD_DETECTOR_SRC_CNN) == 0u || c->cnn_model != NULL, VD_ERR_ARG);
     VD_VERIFY(c->verifier <= VD_DETECTOR_VERIFIER_BOOST, VD_ERR_ARG);
     VD_VERIFY(c->verifier != VD_DETECTOR_VERIFIER_BOOST || c->boost_model != NULL, VD_ERR_ARG);
@@ -179,13 +179,14 @@ static vd_status_t plan_net(const vd_detector_cfg_t *c, const vd_cnn_model_t *m,
     VD_TRY(st);
     uint32_t nw = 0u;
     uint32_t nh = 0u;
-    vd__detector_cnn_input_size(m, c->max_width, c->max_height, &nw, &nh);
+    const uint32_t d = vd__detector_cnn_div(c);
+    vd__detector_cnn_input_size(m, d, c->max_width, c->max_height, &nw, &nh);
     if (nw == 0u || nh == 0u) {
         *no_plane = true;   // no half-resolution pixel in any frame
         return VD_OK;
     }
-    // Decoding scales to 2 nw x 2 nh, which must be a valid frame size.
-    VD_VERIFY(nw <= VD_CNN_MAX_SIDE && nh <= VD_CNN_MAX_SIDE && nw <= VD_MAX_DIM / 2u && nh <= VD_MAX_DIM / 2u,
+    // Decoding scales to d nw x d nh, which must be a valid frame size.
+    VD_VERIFY(nw <= VD_CNN_MAX_SIDE && nh <= VD_CNN_MAX_SIDE && nw <= VD_MAX_DIM / d && nh <= VD_MAX_DIM / d,
               VD_ERR_ARG);
     // Streamed: the network keeps row rings, and its input rows are made on
     // demand from the frame (no input plane).
@@ -385,7 +386,7 @@ static vd_status_t plan_ahead(const vd_cnn_model_t *m, const vd_detector_cfg_t *
 {
     uint32_t nw = 0u;
     uint32_t nh = 0u;
-    vd__detector_cnn_input_size(m, c->max_width, c->max_height, &nw, &nh);
+    vd__detector_cnn_input_size(m, vd__detector_cnn_div(c), c->max_width, c->max_height, &nw, &nh);
     return (nw != 0u && nh != 0u) ? vd__cnn_plan_ahead(m, nw, nh, VD_CNN_STREAM, ws, bytes) : VD_OK;
 }
 

@@ -86,9 +86,12 @@ vd_status_t vd__detector_window_source(vd_detector_t *det, const vd_frame_t *f, 
 // Returns VD_OK, VD_ERR_CAPACITY (boxes beyond max_candidates, counted in
 // stats.overflow_candidates) or a vd_cnn_* / resample status.
 vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, size_t *n);
-// Network input size for a frame of w x h: floor(w / 2), floor(h / 2) rounded
-// up to the model's alignment (0 x 0 when either half is 0).
-void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t w, uint32_t h, uint32_t *nw, uint32_t *nh);
+// Network input size for a frame of w x h: floor(w / d), floor(h / d) rounded
+// up to the model's alignment (0 x 0 when either is 0); d = vd__detector_cnn_div.
+void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t d, uint32_t w, uint32_t h, uint32_t *nw,
+                                 uint32_t *nh);
+// Frame pixels per network input pixel and axis: 2 (half resolution), 1 with cfg.cnn_full_res.
+uint32_t vd__detector_cnn_div(const vd_detector_cfg_t *c);
 
 // detector_region.c.
 // Hot-spot candidate: expands the component, refines the region and traces

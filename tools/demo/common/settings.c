@@ -564,6 +564,11 @@ static const setting_t k_settings[] = {
      "score, fused scores below the score threshold dropped) before overlap suppression (test-time "
      "augmentation: about twice the network's time; default on, chosen on the val split)",
      SWITCH(U8, cnn_flip, 0), OPTIONAL_VALUE},
+    {"cnn-full-res", "[on|off]",
+     "cnn source: the networks read the frame at full resolution instead of half (for a camera "
+     "whose vehicles are about half the size of the training data's, e.g. a wider lens: 4x the "
+     "networks' time and a larger workspace; default off)",
+     SWITCH(U8, cnn_full_res, 0), OPTIONAL_VALUE},
     {"cnn-model2", "FILE|none",
      "cnn source: a second version-3 .vdm network run on the same frame, its boxes fused with "
      "the first network's as the flip pass fuses (an ensemble: about the second network's time "

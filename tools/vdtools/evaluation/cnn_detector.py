@@ -54,12 +54,13 @@ def score_threshold(desc, score_thr_q15=0):
     return int(score_thr_q15) if score_thr_q15 else cnn_eval.score_of_logit(desc, desc["score_threshold_q"])
 
 
-def boxes(desc, img, score_thr_q15=0, flip=False):
+def boxes(desc, img, score_thr_q15=0, flip=False, full_res=False):
     """The CNN source's candidates of an 8-bit frame, in order: [((x, y, w, h), score_q15)].
     score_thr_q15: cfg.cnn_score_thr_q15 (0: the header's threshold). flip: cfg.cnn_flip, the fused flip
-    pass (A-derived boxes first, then the mirrored pass's leftovers)."""
+    pass (A-derived boxes first, then the mirrored pass's leftovers). full_res: cfg.cnn_full_res."""
     fh, fw = img.shape
-    if fw < 2 or fh < 2:
+    div = 1 if full_res else 2
+    if fw < div or fh < div:
         return []   # no half-resolution pixel: the detector runs nothing
     thr = int(desc["score_threshold_q"])
     if score_thr_q15:
@@ -72,36 +73,38 @@ def boxes(desc, img, score_thr_q15=0, flip=False):
     align = V.alignment(desc)
 
     def decode(x, q):   # the header's top-K, as the detector
-        return R.decode(desc, R.run(desc, x), 2 * x.shape[1], 2 * x.shape[0], thr_q=q)
+        return R.decode(desc, R.run(desc, x), div * x.shape[1], div * x.shape[0], thr_q=q)
     if flip:
-        return cnn_eval.fused_flip_pass(decode, img, align, fw, fh, thr, t)
-    return cnn_eval.clip_boxes(decode(cnn_eval.net_input(img, align), thr), fw, fh)
+        return cnn_eval.fused_flip_pass(decode, img, align, fw, fh, thr, t, div)
+    return cnn_eval.clip_boxes(decode(cnn_eval.net_input(img, align, div=div), thr), fw, fh)
 
 
-def pair_boxes(desc, desc2, img, score_thr_q15=0, flip=False):
+def pair_boxes(desc, desc2, img, score_thr_q15=0, flip=False, full_res=False):
     """The CNN source's candidates with cfg.cnn_model2 (desc2), in order: [((x, y, w, h), score_q15)]: both
     networks through the numpy reference at their headers' top-K, fused by cnn_eval.fuse_pair at T (desc2's
     header threshold, the pair's operating point, or score_thr_q15); with score_thr_q15 above both networks'
-    top scores nothing runs."""
+    top scores nothing runs. full_res: cfg.cnn_full_res."""
     fh, fw = img.shape
-    if fw < 2 or fh < 2:
+    div = 1 if full_res else 2
+    if fw < div or fh < div:
         return []
     t = score_threshold(desc2, score_thr_q15)
     if score_thr_q15 and thr_from_score(desc, score_thr_q15) is None and thr_from_score(desc2, score_thr_q15) is None:
         return []
 
     def net(d):   # the header's top-K, as the detector
-        return d, V.alignment(d), lambda x, q: R.decode(d, R.run(d, x), 2 * x.shape[1], 2 * x.shape[0], thr_q=q)
-    return cnn_eval.fuse_pair([net(desc), net(desc2)], img, fw, fh, t, flip)
+        return d, V.alignment(d), lambda x, q: R.decode(d, R.run(d, x), div * x.shape[1], div * x.shape[0], thr_q=q)
+    return cnn_eval.fuse_pair([net(desc), net(desc2)], img, fw, fh, t, flip, div=div)
 
 
 def detect(desc, img, score_thr_q15=0, nms_iou_q15=16384, max_candidates=None, max_detections=None, flip=False,
-           desc2=None):
+           desc2=None, full_res=False):
     """Detections of vd_detector_run with sources = cnn, no rescoring, temporal analysis off:
     [((x, y, w, h), score_q8)], best first. score_thr_q15: cfg.cnn_score_thr_q15 (0 = the header's
     threshold); max_candidates / max_detections: the detector's budgets (None = unlimited); flip:
-    cfg.cnn_flip; desc2: cfg.cnn_model2 (pair_boxes)."""
-    bx = boxes(desc, img, score_thr_q15, flip) if desc2 is None else pair_boxes(desc, desc2, img, score_thr_q15, flip)
+    cfg.cnn_flip; desc2: cfg.cnn_model2 (pair_boxes); full_res: cfg.cnn_full_res."""
+    bx = (boxes(desc, img, score_thr_q15, flip, full_res) if desc2 is None
+          else pair_boxes(desc, desc2, img, score_thr_q15, flip, full_res))
     cands = [(b, score_q8(s)) for b, s in bx]
     if max_candidates is not None:
         cands = cands[:max_candidates]

@@ -92,11 +92,12 @@ def nms(dets, thr=0.5):
     return keep
 
 
-def net_input(img, align=16, mirror=False):
+def net_input(img, align=16, mirror=False, div=2):
     """Half-resolution plane, padded (edge replicate) to a multiple of the model's alignment: the
     detector's network input. mirror: the flip pass's input, the half-resolution plane mirrored left to
-    right before the padding (not the frame: for odd widths the detector drops the last frame column)."""
-    h = CD.half(img)
+    right before the padding (not the frame: for odd widths the detector drops the last frame column).
+    div 1: the frame itself (the detector's cfg.cnn_full_res)."""
+    h = CD.half(img) if div == 2 else img
     return CD.pad_to(np.ascontiguousarray(h[:, ::-1]) if mirror else h, align)
 
 
@@ -167,23 +168,25 @@ def fuse_flip(a, b, thr_q15):
     return [(box, s) for box, s in out if s >= thr_q15]
 
 
-def fused_flip_pass(decode, img, align, frame_w, frame_h, dec_q, thr_q15):
+def fused_flip_pass(decode, img, align, frame_w, frame_h, dec_q, thr_q15, div=2):
     """The detector's two passes with cfg.cnn_flip: decode(plane, thr_q) -> decoded boxes, run on the plane
     and on its mirror at dec_q (the logit of flip_decode_score(T), or -128), clipped (the mirror's boxes
-    mirrored back) and fused with threshold thr_q15 (T): [((x, y, w, h), score_q15)]."""
-    a = clip_boxes(decode(net_input(img, align), dec_q), frame_w, frame_h)
-    b = clip_boxes(decode(net_input(img, align, mirror=True), dec_q), frame_w, frame_h, flip_hw=img.shape[1] // 2)
+    mirrored back) and fused with threshold thr_q15 (T): [((x, y, w, h), score_q15)]. div: net_input's."""
+    a = clip_boxes(decode(net_input(img, align, div=div), dec_q), frame_w, frame_h)
+    b = clip_boxes(decode(net_input(img, align, mirror=True, div=div), dec_q), frame_w, frame_h,
+                   flip_hw=img.shape[1] // div, div=div)
     return fuse_flip(a, b, thr_q15)
 
 
-def clip_boxes(boxes, frame_w, frame_h, flip_hw=None):
+def clip_boxes(boxes, frame_w, frame_h, flip_hw=None, div=2):
     """Decoded boxes [(x, y, w, h, score_q15, ...)] -> [((x, y, w, h), score_q15)] inside the frame, empty
     ones dropped (lib/src/detector_cnn.c append_boxes). flip_hw: the boxes of the mirrored half-resolution
-    plane (hw = frame_w // 2 columns), mirrored back first: [x, x + w) -> [2 hw - x - w, 2 hw - x)."""
+    plane (hw = frame_w // 2 columns), mirrored back first: [x, x + w) -> [2 hw - x - w, 2 hw - x); with
+    div 1 (full resolution) hw = frame_w and the span is hw."""
     out = []
     for bx, by, bw, bh, s, *_ in boxes:
         bx, by, bw, bh = int(bx), int(by), int(bw), int(bh)
-        x0, x1 = (bx, bx + bw) if flip_hw is None else (2 * flip_hw - bx - bw, 2 * flip_hw - bx)
+        x0, x1 = (bx, bx + bw) if flip_hw is None else (div * flip_hw - bx - bw, div * flip_hw - bx)
         x0, x1, y1 = max(x0, 0), min(x1, frame_w), min(by + bh, frame_h)
         if x1 > x0 and y1 > by:
             out.append(((x0, by, x1 - x0, y1 - by), int(s)))
@@ -195,16 +198,19 @@ class Int8:
     flip pass: a second pass on the mirrored half-resolution plane (mirrored before the padding, so odd widths
     match C), its boxes mirrored back and fused with the first pass's (fuse_flip)."""
 
-    def __init__(self, model_path, backend="c", flip=False):
+    def __init__(self, model_path, backend="c", flip=False, full_res=False):
         self.blob = Path(model_path).read_bytes()
         self.desc = V.unpack(self.blob)
         self.backend = backend
         self.flip = flip
+        self.div = 1 if full_res else 2   # the detector's cfg.cnn_full_res
         self.c = vd_cnn.CModel(self.blob) if backend == "c" else None
         self.align = V.alignment(self.desc)
 
-    def _decode(self, x, thr_q, factor=2, max_peaks=100):
-        """Boxes of plane x in the coordinates of a frame `factor` times its size (2: the half-resolution plane)."""
+    def _decode(self, x, thr_q, factor=None, max_peaks=100):
+        """Boxes of plane x in the coordinates of a frame `factor` times its size (default self.div: 2 for
+        the half-resolution plane, 1 at full resolution)."""
+        factor = self.div if factor is None else factor
         fw, fh = x.shape[1] * factor, x.shape[0] * factor
         if self.c is not None:
             return self.c.decode(self.c.run(x), fw, fh, thr_q=thr_q, max_peaks=max_peaks)
@@ -221,8 +227,8 @@ class Int8:
             if thr_q is None:
                 return []
         if not self.flip:
-            return [(b, s / 32768.0) for b, s in clip_boxes(self._decode(net_input(img, self.align), thr_q),
-                                                             frame_w, frame_h)]
+            return [(b, s / 32768.0) for b, s in clip_boxes(self._decode(net_input(img, self.align, div=self.div),
+                                                                          thr_q), frame_w, frame_h)]
         if score_thr_q15 is not None:
             t = int(score_thr_q15)
         else:
@@ -230,17 +236,18 @@ class Int8:
         dec_q = -128 if t == 0 else thr_from_score(self.desc, flip_decode_score(t))
         if dec_q is None:
             return []
-        fused = fused_flip_pass(self._decode, img, self.align, frame_w, frame_h, dec_q, t)
+        fused = fused_flip_pass(self._decode, img, self.align, frame_w, frame_h, dec_q, t, self.div)
         return [(box, s / 32768.0) for box, s in fused]
 
 
-def fuse_pair(nets, img, frame_w, frame_h, t, flip, every_peak=False):
+def fuse_pair(nets, img, frame_w, frame_h, t, flip, every_peak=False, div=2):
     """The detector's cfg.cnn_model2 (lib/src/detector_cnn.c), integer for integer: nets = two (desc, align,
     decode(plane, thr_q)) of the first and the second network. Each decodes, through its own score table, at
     the logit of max(1, P T - (P - 1) 32768), P = 2 (4 with flip: the passes averaged into a final score),
     or every peak with every_peak (AP curves); with flip its two passes are fused without a threshold
     (fused_flip_pass at 0). A network none of whose logits reaches that score adds no box. Then the first
-    network's boxes and the second's are fused at T (fuse_flip): [((x, y, w, h), score_q15)]."""
+    network's boxes and the second's are fused at T (fuse_flip): [((x, y, w, h), score_q15)]. div: net_input's
+    (1: cfg.cnn_full_res)."""
     p = 4 if flip else 2
     lo = max(1, p * int(t) - (p - 1) * SCORE_ONE_Q15)
     sets = []
@@ -249,9 +256,9 @@ def fuse_pair(nets, img, frame_w, frame_h, t, flip, every_peak=False):
         if q is None:
             sets.append([])
         elif flip:
-            sets.append(fused_flip_pass(decode, img, align, frame_w, frame_h, q, 0))
+            sets.append(fused_flip_pass(decode, img, align, frame_w, frame_h, q, 0, div))
         else:
-            sets.append(clip_boxes(decode(net_input(img, align), q), frame_w, frame_h))
+            sets.append(clip_boxes(decode(net_input(img, align, div=div), q), frame_w, frame_h))
     return fuse_flip(sets[0], sets[1], t)
 
 
@@ -261,9 +268,9 @@ class Pair:
     backend and flip."""
 
     def __init__(self, first, second):
-        if first.flip != second.flip:
-            raise ValueError("both networks of a pair run with the same flip setting")
-        self.nets, self.flip = (first, second), first.flip
+        if first.flip != second.flip or first.div != second.div:
+            raise ValueError("both networks of a pair run with the same flip and resolution settings")
+        self.nets, self.flip, self.div = (first, second), first.flip, first.div
 
     def __call__(self, img, frame_w, frame_h, thr_q=-128, score_thr_q15=None):
         """As Int8.__call__: T = score_thr_q15 (nothing runs when it is above both networks' top scores),
@@ -276,7 +283,8 @@ class Pair:
             t = 0 if thr_q == -128 else score_of_logit(self.nets[0].desc, thr_q)
         nets = [(n.desc, n.align, lambda x, q, n=n: n._decode(x, q, max_peaks=int(n.desc["max_peaks"])))
                 for n in self.nets]
-        return [(box, s / 32768.0) for box, s in fuse_pair(nets, img, frame_w, frame_h, t, self.flip, t == 0)]
+        return [(box, s / 32768.0) for box, s in fuse_pair(nets, img, frame_w, frame_h, t, self.flip, t == 0,
+                                                                self.div)]
 
 
 class ExtraScale:
@@ -622,6 +630,9 @@ def main(argv=None):
                     help="horizontal-flip test-time augmentation: a second pass on the mirrored half-resolution "
                          "plane, its boxes fused with the first pass's (backends c/ref; with --backend demo: "
                          "vd_fir_demo --cnn-flip on)")
+    ap.add_argument("--full-res", action="store_true",
+                    help="the networks read the frame at full resolution instead of half (the detector's "
+                         "cfg.cnn_full_res, vd_fir_demo --cnn-full-res; backends c/ref/demo)")
     ap.add_argument("--extra-scale", type=int, choices=(1, 4),
                     help="experiment: also run the network (fused flip pass) on the frame at full (1) or quarter (4) "
                          "resolution and append those boxes before suppression (backends c/ref; ExtraScale)")
@@ -638,6 +649,8 @@ def main(argv=None):
         raise SystemExit("--flip is for the networks (--model or --ckpt), not --paper")
     if a.ckpt2 and not a.ckpt:
         raise SystemExit("--ckpt2 pairs two float networks: give --ckpt too")
+    if a.full_res and (a.ckpt or a.paper or a.extra_scale):
+        raise SystemExit("--full-res is for the int8 networks (--model, --model2) without --extra-scale")
     if a.extra_scale and a.backend == "demo":
         raise SystemExit("--extra-scale is an experiment of backends c/ref (the detector has no such pass)")
     frames = CD.load_frames(a.data, splits=("train", "val", "test") if a.split == "all" else (a.split,))
@@ -648,20 +661,21 @@ def main(argv=None):
     t0 = time.time()
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
-                       extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"], model2=a.model2)
+                       extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"]
+                       + (["--cnn-full-res"] if a.full_res else []), model2=a.model2)
     else:
         if a.ensemble and (not a.ckpt or a.ckpt2):
             raise SystemExit("--ensemble averages float networks with --ckpt (not a pair)")
         if a.ensemble:
             pred = FloatEnsemble([a.ckpt] + a.ensemble, flip=a.flip)
         else:
-            pred = Float(a.ckpt, flip=a.flip) if a.ckpt else Int8(a.model, a.backend, flip=a.flip)
+            pred = Float(a.ckpt, flip=a.flip) if a.ckpt else Int8(a.model, a.backend, flip=a.flip, full_res=a.full_res)
         if a.ckpt2:
             pred = FloatPair(pred, Float(a.ckpt2, flip=a.flip))
         if a.model2:
             if a.ckpt or a.extra_scale:
                 raise SystemExit("--model2 pairs two int8 networks (--model), without --extra-scale")
-            pred = Pair(pred, Int8(a.model2, a.backend, flip=a.flip))
+            pred = Pair(pred, Int8(a.model2, a.backend, flip=a.flip, full_res=a.full_res))
         if a.extra_scale:
             if a.ckpt or not a.flip:
                 raise SystemExit("--extra-scale is for the int8 network with --flip")

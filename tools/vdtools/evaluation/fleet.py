@@ -157,8 +157,8 @@ def plan(recs, shard_frames=256):
 
 # ------------------------------------------------------------------ detector settings (as vd_fir_demo)
 
-SETTINGS = ("sources", "cnn-model", "cnn-model2", "model", "temporal", "cnn-thr", "cnn-flip", "thr-mode", "hot-thr",
-            "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast", "track-confirm")
+SETTINGS = ("sources", "cnn-model", "cnn-model2", "model", "temporal", "cnn-thr", "cnn-flip", "cnn-full-res",
+            "thr-mode", "hot-thr", "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast", "track-confirm")
 
 
 def _vdm_version(blob):
@@ -218,6 +218,8 @@ def resolve(settings, models_dir=None):
                          f"(supported: {', '.join(SETTINGS)})")
     models_dir = Path(models_dir or clib.REPO / "models")
     fields = {"temporal": _switch(s.get("temporal", True)), "cnn_flip": int(_switch(s.get("cnn-flip", True)))}
+    if "cnn-full-res" in s:   # default off, as the library's
+        fields["cnn_full_res"] = int(_switch(s["cnn-full-res"]))
     # temporal_cfg: the demo's track-aware scores (default on) and coasting (default 0)
     fields["temporal_cfg.flags"] = vdet_scores_flag() if _switch(s.get("track-scores", True)) else 0
     if "track-coast" in s:
