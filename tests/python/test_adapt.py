@@ -262,13 +262,19 @@ def test_end_to_end_labelled(tmp_path, vdlib, demo):
     for k in ("before", "after"):
         assert 0.0 <= rep["val"][k]["ap"] <= 1.0 and rep["val"][k]["n_vehicles"] == rep["frames"]["val_vehicles"]
     assert "AP@0.5" in md and "Time taken" in md
+    # --resolution auto with labels: both input resolutions measured on all 8 labelled frames, the better kept
+    res = rep["resolution"]
+    assert res["asked"] == "auto" and set(res["ap"]) == {"half", "full"}
+    assert res["full_res"] == (res["ap"]["full"] > res["ap"]["half"])
+    assert json.loads((out / "vd.json").read_text()).get("cnn-full-res", False) == res["full_res"]
 
 
 def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
     pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
     imgs = _frames(tmp_path / "images")
     out = tmp_path / "out"
-    args = ["--images", imgs, "--out", out, "--steps", "3", "--rounds", "2", "--replay", "none", "--demo", demo]
+    args = ["--images", imgs, "--out", out, "--steps", "3", "--rounds", "2", "--replay", "none", "--demo", demo,
+            "--resolution", "full"]
     p = _run(args + ["--interrupt-after", "1"])
     assert p.returncode == 3 and "resume" in p.stderr, p.stderr
     assert not out.exists() and len(list(tmp_path.glob("out.tmp-*"))) == 1
@@ -278,6 +284,25 @@ def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
     assert not rep["labelled"] and rep["training"]["resumed"] and rep["training"]["steps"] == 3
     assert [r["round"] for r in rep["pseudo_labels"]["rounds"]] == [0, 1]
     assert "gain is not measured" in md and "boxes per frame" in md
+    # --resolution full, kept across the resume: vd.json turns the detector's full-resolution input on (and
+    # _check_outputs ran the demo with it)
+    assert rep["resolution"] == dict(full_res=True, asked="full", chosen_on="asked", ap=None)
+    assert json.loads((out / "vd.json").read_text())["cnn-full-res"] is True
+    assert "**full**" in md
+
+
+def test_doubled_frame_is_the_frame_at_full_resolution():
+    """tune.doubled: every pixel 2 x 2, boxes x 2; its half-resolution plane (cnn_data.half) is the frame."""
+    import numpy as np
+    from vdtools.adapt import tune as TU
+    from vdtools.data import cnn_data as CD
+    img = np.array([[10, 20, 30], [40, 50, 60]], np.uint8)
+    fr = CD.Frame("user", "a.png", "a.png", "user:0", "adapt", img, np.array([[1, 0, 2, 1]], np.float32),
+                  np.zeros((0, 4), np.float32), np.array([True]))
+    d = TU.doubled(fr)
+    assert d.img.shape == (4, 6) and d.img[3, 5] == 60 and d.img[0, 1] == 10 and d.img[2, 2] == 50
+    assert d.boxes.tolist() == [[2, 0, 4, 2]] and fr.boxes.tolist() == [[1, 0, 2, 1]]
+    assert np.array_equal(CD.half(d.img), img)
 
 
 def test_threshold_rule_needs_evidence_to_leave_the_shipped_point():

@@ -65,6 +65,11 @@ def parser():
                     "(default) or none")
     ap.add_argument("--user-share", type=float, default=0.5, help="share of your frames among the training "
                     "crops when frames are mixed in (default 0.5)")
+    ap.add_argument("--resolution", choices=("auto", "half", "full"), default="auto",
+                    help="the networks' input: half resolution (the scale they trained at) or full (for cameras "
+                         "whose vehicles are about half the size: 4x the time, vd_fir_demo --cnn-full-res); auto "
+                         "(default): with labels, whichever the shipped networks do better on all your labelled "
+                         "frames, without labels half")
     ap.add_argument("--rounds", type=int, default=2, help="self-training rounds without labels (default 2)")
     ap.add_argument("--threads", type=int, default=2, help="PyTorch threads (default 2)")
     ap.add_argument("--seed", type=int, default=0)

@@ -11,10 +11,11 @@ from vdtools.metrics.evaluate import iou
 AGREE_IOU = 0.5
 
 
-def predictor(models, flip=True):
-    """The detector's CNN source for one .vdm or a pair (the second fused with the first), flip passes on."""
-    first = CE.Int8(models[0], "c", flip=flip)
-    return first if len(models) == 1 else CE.Pair(first, CE.Int8(models[1], "c", flip=flip))
+def predictor(models, flip=True, full_res=False):
+    """The detector's CNN source for one .vdm or a pair (the second fused with the first), flip passes on;
+    full_res: cfg.cnn_full_res (the networks read the frame itself, not its half-resolution plane)."""
+    first = CE.Int8(models[0], "c", flip=flip, full_res=full_res)
+    return first if len(models) == 1 else CE.Pair(first, CE.Int8(models[1], "c", flip=flip, full_res=full_res))
 
 
 def header_threshold(models):
@@ -23,9 +24,18 @@ def header_threshold(models):
     return CE.score_of_logit(desc, desc["score_threshold_q"]) / 32768.0
 
 
-def detections(models, frames):
+def detections(models, frames, full_res=False):
     """cnn_eval.run's [(family, frame, boxes after suppression, ground truth)], every peak."""
-    return CE.run(predictor(models), frames)
+    return CE.run(predictor(models, full_res=full_res), frames)
+
+
+def choose_resolution(models, frames, thr):
+    """Half or full resolution for the networks' input (cfg.cnn_full_res), on labelled frames the networks
+    never saw: full when its pooled AP@0.5 is higher. A camera whose vehicles are about half the size of the
+    training data's gains a lot from full resolution, one whose vehicles are as large loses a lot
+    (docs/results/cameras.md), so a few dozen frames tell them apart. (full_res, {"half": AP, "full": AP})."""
+    ap = {k: figures(detections(models, frames, full_res=k == "full"), thr)["ap"] for k in ("half", "full")}
+    return ap["full"] > ap["half"], ap
 
 
 def figures(results, thr):
@@ -106,12 +116,12 @@ def agreement(res_a, thr_a, res_b, thr_b):
     return 2 * m / n if n else None
 
 
-def flip_agreement(models, frames, thr):
+def flip_agreement(models, frames, thr, full_res=False):
     """How far the networks agree with themselves: the boxes (one pass per network, fused as the pair) of each
     frame against those of its mirror image, mirrored back; pooled 2 x matched / all at thr."""
     import copy
     import numpy as np
-    pred = predictor(models, flip=False)
+    pred = predictor(models, flip=False, full_res=full_res)
     mirrored = []
     for fr in frames:
         g = copy.copy(fr)
@@ -128,7 +138,7 @@ def _layers(path):
     return [(int(L["op"]), int(L["stride"]), int(L["cin"]), int(L["cout"])) for L in d["layers"]], int(d["max_peaks"])
 
 
-def rules(before, after, width, height):
+def rules(before, after, width, height, full_res=False):
     """What the library's rules depend on, before and after: the layers and top-K of each file (the same
     ones give the same multiply-adds, hence speed, and the same workspace) and the detector workspace at the
     frame size with the demo's budgets (candidates 2 x the largest top-K with the flip pass; detections 32 with
@@ -137,7 +147,8 @@ def rules(before, after, width, height):
 
     def workspace(models):
         k = max(_layers(m)[1] for m in models)
-        return D.workspace_size(width, height, sources="cnn", cnn_flip=1, cnn_model=str(models[0]),
+        return D.workspace_size(width, height, sources="cnn", cnn_flip=1, cnn_full_res=int(full_res),
+                                cnn_model=str(models[0]),
                                 cnn_model2=str(models[1]) if len(models) > 1 else None, max_candidates=2 * k,
                                 max_detections=32 if len(models) > 1 else k)
     import os

@@ -30,6 +30,11 @@ def report_md(r):
               + "; training frames of ../shared/data mixed in: "
               + (", ".join(f"{k} {v} frames" for k, v in r["replay"]["families"].items()) or "none")
               + f" (crop shares {', '.join(f'{k} {v:.2f}' for k, v in r['replay']['shares'].items())}).", ""]
+    res = r["resolution"]
+    lines += ["Input resolution: " + ("**full** (`cnn-full-res` in vd.json: 4x the networks' time and a larger "
+                                      "workspace)" if res["full_res"] else "half (the networks' training scale)")
+              + (f"; AP@0.5 of the before networks on all labelled frames: half {_pct(res['ap']['half'])}, full "
+                 f"{_pct(res['ap']['full'])}" if res["ap"] else f" ({res['chosen_on']})") + ".", ""]
     if r["labelled"]:
         b, bv, a = r["val"]["before"], r["val"]["before_at_val_choice"], r["val"]["after"]
         lines += ["## Before / after on your val frames (the C library, fused flip passes)", "",

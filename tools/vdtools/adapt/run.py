@@ -43,11 +43,15 @@ def find_demo(path=None):
     return Path(found) if found else None
 
 
-def config(models, thr):
-    """vd_fir_demo --config settings: the adapted networks, their operating point, the fused flip pass."""
-    return {"sources": "cnn", "cnn-model": str(models[0]),
-            "cnn-model2": str(models[1]) if len(models) > 1 else "none",
-            "cnn-thr": round(float(thr), 4), "cnn-flip": True}
+def config(models, thr, full_res=False):
+    """vd_fir_demo --config settings: the adapted networks, their operating point, the fused flip pass (and
+    full-resolution input when it was chosen)."""
+    cfg = {"sources": "cnn", "cnn-model": str(models[0]),
+           "cnn-model2": str(models[1]) if len(models) > 1 else "none",
+           "cnn-thr": round(float(thr), 4), "cnn-flip": True}
+    if full_res:
+        cfg["cnn-full-res"] = True
+    return cfg
 
 
 def check_config(demo, cfg_path, frame_path, work):
@@ -158,7 +162,8 @@ class Adaptation:
             self.times["before_export"] = time.time() - t0
             t0 = time.time()
         self.before, self.thr_before = before, M.header_threshold(before)
-        self.res_before = M.detections(before, self.val)
+        self.choose_resolution()
+        self.res_before = M.detections(before, self.val, self.full_res)
         if self.labelled:
             self.fig_before = M.figures(self.res_before, self.thr_before)
             self.fig_before_val = M.figures(self.res_before, M.choose_threshold(self.res_before, self.thr_before))
@@ -166,6 +171,26 @@ class Adaptation:
         self.say(f"{len(self.frames)} frames: {len(self.adapt)} adapt, {len(self.val)} val; before: "
                  + (f"val AP@0.5 {100 * self.fig_before['ap']:.1f}" if self.labelled
                     else f"{M.boxes_per_frame(self.res_before, self.thr_before):.2f} boxes per val frame"))
+
+    def choose_resolution(self):
+        """--resolution: half, full, or (auto) what the before files do better on all labelled frames (none of
+        which they trained on); without labels auto is half. Full: the user's training frames are doubled
+        (TU.doubled) and so is the calibration set, everything measured reads the frames at full resolution."""
+        if self.ck is not None and "full_res" in self.ck:
+            self.full_res, self.res_ap = self.ck["full_res"], self.ck.get("res_ap")
+        elif self.a.resolution == "auto" and self.labelled:
+            self.full_res, self.res_ap = M.choose_resolution(self.before, self.adapt + self.val, self.thr_before)
+        else:
+            self.full_res, self.res_ap = self.a.resolution == "full", None
+        if self.full_res:
+            self.calib = TU.calibration_set([TU.doubled(f) for f in self.adapt], self.replay, self.a.seed)
+        if self.res_ap:
+            self.say(f"input resolution: {'full' if self.full_res else 'half'} (AP@0.5 on all {len(self.frames)} "
+                     f"labelled frames: half {100 * self.res_ap['half']:.1f}, full {100 * self.res_ap['full']:.1f})")
+
+    def user_train(self, frames):
+        """The user's frames as the networks train on them: doubled at full resolution."""
+        return [TU.doubled(f) for f in frames] if self.full_res else frames
 
     def time_budget(self):
         """Seconds of training: what --minutes leaves after reading, measuring and calibrating, less what
@@ -190,7 +215,8 @@ class Adaptation:
         path = self.tmp / "ckpt.pt"
         part = path.with_suffix(".part")
         torch.save(dict(tuner=tuner.state(), budget=self.budget, times=self.times, pseudo_log=self.state["log"],
-                        round=self.state["round"], pseudo=self.state["pseudo"],
+                        round=self.state["round"], pseudo=self.state["pseudo"], full_res=self.full_res,
+                        res_ap=self.res_ap,
                         wall=self.t_prev + time.time() - self.t_start), part)
         os.replace(part, path)
 
@@ -204,7 +230,7 @@ class Adaptation:
             for net, name, mp in zip(self.nets, self.names, self.peaks):
                 models.append(rdir / f"{name}.vdm")
                 models[-1].write_bytes(TU.export(net, self.calib, BASE_THR, name, mp)[1])
-        res = M.detections(models, self.adapt)
+        res = M.detections(models, self.adapt, self.full_res)
         pseudo = [([d[0] for d in dets if d[1] >= PSEUDO_HI], [d[0] for d in dets if PSEUDO_LO <= d[1] < PSEUDO_HI])
                   for _, _, dets, _ in res]
         self.state["log"].append(dict(round=r, vehicles=sum(len(p[0]) for p in pseudo),
@@ -227,12 +253,12 @@ class Adaptation:
         self.rounds = 1 if self.labelled else a.rounds
         for r in range(self.state["round"], self.rounds):
             self.state["round"] = r
-            user = self.adapt
+            user = self.user_train(self.adapt)
             if not self.labelled:
                 if self.state["pseudo"] is None:
                     self.state["pseudo"] = self.pseudo_labels(r)
                 src = [f for f in self.frames if f.part == "adapt"]
-                user = [TU.user_frame(f, b, ig) for f, (b, ig) in zip(src, self.state["pseudo"])]
+                user = self.user_train([TU.user_frame(f, b, ig) for f, (b, ig) in zip(src, self.state["pseudo"])])
             done = tuner.train(dict(self.by_fam, user=user), self.shares, self.calib, (r + 1) / self.rounds,
                                a.steps, budget, on_step=on_step, save=self.save, interrupt_after=a.interrupt_after)
             if not done:
@@ -255,7 +281,7 @@ class Adaptation:
         for (_, blob, _), name in zip(exported, self.names):
             self.after.append(mdir / f"{name}.vdm")
             self.after[-1].write_bytes(blob)
-        self.res_after = M.detections(self.after, self.val)
+        self.res_after = M.detections(self.after, self.val, self.full_res)
         self.thr = M.choose_threshold(self.res_after, self.thr_before) if self.labelled else self.thr_before
         (tmp / "float").mkdir(exist_ok=True)
         for (desc, _, meta), net, name, arch in zip(exported, self.nets, self.names, self.archs):
@@ -265,14 +291,14 @@ class Adaptation:
             net.set_fake_quant(None)
             net.eval()
             E.save_float(net, dict(arch=arch, step=self.tuner.step, qat=True), tmp / "float" / f"{name}.npz")
-        (tmp / "vd.json").write_text(json.dumps(config([self.out / f"{n}.vdm" for n in self.names], self.thr),
-                                                indent=1) + "\n")
+        (tmp / "vd.json").write_text(json.dumps(config([self.out / f"{n}.vdm" for n in self.names], self.thr,
+                                                       self.full_res), indent=1) + "\n")
         self.times["export"] = time.time() - t0
         self.demo_check = None
         demo = find_demo(self.a.demo)
         if demo is not None and demo.is_file():
             cp = tmp / "vd.check.json"
-            cp.write_text(json.dumps(config([tmp / f"{n}.vdm" for n in self.names], self.thr)))
+            cp.write_text(json.dumps(config([tmp / f"{n}.vdm" for n in self.names], self.thr, self.full_res)))
             ok, what = check_config(demo, cp, self.val[0].path, tmp)
             cp.unlink()
             if not ok:
@@ -299,6 +325,10 @@ class Adaptation:
             threshold=dict(before=self.thr_before, after=self.thr,
                            chosen_on="val part, one-standard-error rule towards the shipped threshold" if self.labelled
                            else "unchanged (no labels)"),
+            resolution=dict(full_res=self.full_res, asked=self.a.resolution,
+                            chosen_on="AP@0.5 of the before networks on all labelled frames" if self.res_ap
+                            else "asked" if self.a.resolution != "auto" else "half (no labels to choose with)",
+                            ap=self.res_ap),
             outputs=dict(models=[f"{n}.vdm" for n in self.names], config="vd.json", demo_check=self.demo_check),
         )
         if self.labelled:
@@ -309,10 +339,10 @@ class Adaptation:
             rep["val"] = dict(
                 boxes_per_frame=dict(before=M.boxes_per_frame(self.res_before, self.thr_before),
                                      after=M.boxes_per_frame(self.res_after, self.thr)),
-                flip_agreement=dict(before=M.flip_agreement(self.before, self.val, self.thr_before),
-                                    after=M.flip_agreement(self.after, self.val, self.thr)),
+                flip_agreement=dict(before=M.flip_agreement(self.before, self.val, self.thr_before, self.full_res),
+                                    after=M.flip_agreement(self.after, self.val, self.thr, self.full_res)),
                 before_after_agreement=M.agreement(self.res_before, self.thr_before, self.res_after, self.thr))
-        rep["rules"] = M.rules(self.before, self.after, f[0].img.shape[1], f[0].img.shape[0])
+        rep["rules"] = M.rules(self.before, self.after, f[0].img.shape[1], f[0].img.shape[0], self.full_res)
         shutil.rmtree(self.after[0].parent)
         cpu = os.times()
         rep["time"] = dict(wall_s=round(self.t_prev + time.time() - self.t_start, 1),

@@ -36,6 +36,15 @@ def user_frame(uf, boxes=None, ignore=None):
                     CD._hot_flags(uf.img, b))
 
 
+def doubled(fr):
+    """fr with every pixel repeated 2 x 2 and its boxes scaled by 2: the half-resolution plane of it is fr's
+    frame itself, so training on it teaches the networks fr at full resolution (cfg.cnn_full_res)."""
+    import dataclasses
+    img = np.ascontiguousarray(np.repeat(np.repeat(fr.img, 2, 0), 2, 1))
+    return dataclasses.replace(fr, img=img, boxes=fr.boxes * 2, ignore=fr.ignore * 2,
+                               others=fr.others * np.array([2, 2, 2, 2, 1], np.float32) if len(fr.others) else fr.others)
+
+
 def load_base(path):
     """(Net in training mode, arch) of float weights (.npz of models/float, or a cnn_train checkpoint)."""
     net, ck = E.load_net(path)

@@ -54,7 +54,7 @@ PERTURB = {
     "sharpen": lambda a, r: _sharpen(a),
 }
 # geometric changes (boxes scale too): the frame shrunk so that cars are 10-30 px, as a wider lens shows them
-RESCALE = {"down50": 0.5}
+RESCALE = {"down50": 0.5, "down33": 1 / 3}   # down33: cars about the other camera's size (median ~30 px)
 
 
 def _sharpen(a):
