@@ -264,8 +264,8 @@ def test_end_to_end_labelled(tmp_path, vdlib, demo):
     assert "AP@0.5" in md and "Time taken" in md
     # --resolution auto with labels: both input resolutions measured on all 8 labelled frames, the better kept
     res = rep["resolution"]
-    assert res["asked"] == "auto" and set(res["ap"]) == {"half", "full"}
-    assert res["full_res"] == (res["ap"]["full"] > res["ap"]["half"])
+    assert res["asked"] == "auto" and res["measured"]["measure"] == "AP@0.5"
+    assert res["full_res"] == (res["measured"]["full"] > res["measured"]["half"])
     assert json.loads((out / "vd.json").read_text()).get("cnn-full-res", False) == res["full_res"]
 
 
@@ -286,9 +286,22 @@ def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
     assert "gain is not measured" in md and "boxes per frame" in md
     # --resolution full, kept across the resume: vd.json turns the detector's full-resolution input on (and
     # _check_outputs ran the demo with it)
-    assert rep["resolution"] == dict(full_res=True, asked="full", chosen_on="asked", ap=None)
+    assert rep["resolution"] == dict(full_res=True, asked="full", chosen_on="asked", measured=None)
     assert json.loads((out / "vd.json").read_text())["cnn-full-res"] is True
     assert "**full**" in md
+
+
+def test_end_to_end_unlabelled_chooses_resolution_by_flip_agreement(tmp_path, vdlib, demo):
+    pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
+    imgs = _frames(tmp_path / "images")
+    out = tmp_path / "out"
+    p = _run(["--images", imgs, "--out", out, "--steps", "1", "--rounds", "1", "--replay", "none", "--demo", demo])
+    assert p.returncode == 0, p.stderr
+    rep, md = _check_outputs(out, demo, imgs)
+    res = rep["resolution"]
+    assert res["asked"] == "auto" and res["measured"]["measure"] == "flip agreement"
+    assert res["full_res"] == (res["measured"]["full"] > res["measured"]["half"])
+    assert "flip agreement of the before networks" in md
 
 
 def test_doubled_frame_is_the_frame_at_full_resolution():

@@ -111,3 +111,13 @@ def test_perturb_rescale_moves_boxes_with_the_frame():
     for name in ("equalize", "clahe", "bright", "sharpen"):
         h = E.perturb([fr], name)[0]
         assert h.img.shape == img.shape and h.img.dtype == np.uint8 and h.boxes is fr.boxes
+    # down33: a third, rounded (80 x 64 -> 27 x 21); boxes scaled by exactly 1/3
+    t = E.perturb([fr], "down33")[0]
+    assert t.img.shape == (21, 27)
+    np.testing.assert_allclose(t.boxes, [[8 / 3, 4 / 3, 20 / 3, 10 / 3]], rtol=1e-6)
+    # --perturb chains changes with '+', in order; an unknown name is refused by argparse
+    assert E._perturb_chain("bright+down33") == ["bright", "down33"]
+    import argparse
+    import pytest
+    with pytest.raises(argparse.ArgumentTypeError, match="nope"):
+        E._perturb_chain("bright+nope")

@@ -68,8 +68,8 @@ def parser():
     ap.add_argument("--resolution", choices=("auto", "half", "full"), default="auto",
                     help="the networks' input: half resolution (the scale they trained at) or full (for cameras "
                          "whose vehicles are about half the size: 4x the time, vd_fir_demo --cnn-full-res); auto "
-                         "(default): with labels, whichever the shipped networks do better on all your labelled "
-                         "frames, without labels half")
+                         "(default): whichever the shipped networks do better on all your frames (AP@0.5 with "
+                         "labels; without, their agreement with themselves on the mirrored frames)")
     ap.add_argument("--rounds", type=int, default=2, help="self-training rounds without labels (default 2)")
     ap.add_argument("--threads", type=int, default=2, help="PyTorch threads (default 2)")
     ap.add_argument("--seed", type=int, default=0)

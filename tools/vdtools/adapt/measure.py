@@ -29,13 +29,21 @@ def detections(models, frames, full_res=False):
     return CE.run(predictor(models, full_res=full_res), frames)
 
 
-def choose_resolution(models, frames, thr):
-    """Half or full resolution for the networks' input (cfg.cnn_full_res), on labelled frames the networks
-    never saw: full when its pooled AP@0.5 is higher. A camera whose vehicles are about half the size of the
-    training data's gains a lot from full resolution, one whose vehicles are as large loses a lot
-    (docs/results/cameras.md), so a few dozen frames tell them apart. (full_res, {"half": AP, "full": AP})."""
-    ap = {k: figures(detections(models, frames, full_res=k == "full"), thr)["ap"] for k in ("half", "full")}
-    return ap["full"] > ap["half"], ap
+def choose_resolution(models, frames, thr, labelled=True):
+    """Half or full resolution for the networks' input (cfg.cnn_full_res), on frames the networks never saw:
+    full when its measure is higher. With labels the measure is the pooled AP@0.5; without, the networks'
+    agreement with themselves on the mirrored frames (flip_agreement), which picked the better resolution on
+    all six val sets it was tried on, road and drone, as they are and shrunk to a half and a third (the
+    largest box count and score did not: docs/results/adapt.md). A camera whose vehicles are about half the
+    size of the training data's gains a lot from full resolution, one whose vehicles are as large loses a lot
+    (docs/results/cameras.md), so a few dozen frames tell them apart.
+    (full_res, {"measure": name, "half": value, "full": value})."""
+    if labelled:
+        m = {k: figures(detections(models, frames, full_res=k == "full"), thr)["ap"] for k in ("half", "full")}
+    else:
+        # no box at all at a resolution (agreement None) is no evidence for it
+        m = {k: flip_agreement(models, frames, thr, full_res=k == "full") or 0.0 for k in ("half", "full")}
+    return m["full"] > m["half"], dict(m, measure="AP@0.5" if labelled else "flip agreement")
 
 
 def figures(results, thr):

@@ -33,8 +33,9 @@ def report_md(r):
     res = r["resolution"]
     lines += ["Input resolution: " + ("**full** (`cnn-full-res` in vd.json: 4x the networks' time and a larger "
                                       "workspace)" if res["full_res"] else "half (the networks' training scale)")
-              + (f"; AP@0.5 of the before networks on all labelled frames: half {_pct(res['ap']['half'])}, full "
-                 f"{_pct(res['ap']['full'])}" if res["ap"] else f" ({res['chosen_on']})") + ".", ""]
+              + (f"; {res['measured']['measure']} of the before networks on all your frames: half "
+                 f"{_pct(res['measured']['half'])} %, full {_pct(res['measured']['full'])} %" if res["measured"]
+                 else f" ({res['chosen_on']})") + ".", ""]
     if r["labelled"]:
         b, bv, a = r["val"]["before"], r["val"]["before_at_val_choice"], r["val"]["after"]
         lines += ["## Before / after on your val frames (the C library, fused flip passes)", "",

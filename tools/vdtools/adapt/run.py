@@ -173,20 +173,23 @@ class Adaptation:
                     else f"{M.boxes_per_frame(self.res_before, self.thr_before):.2f} boxes per val frame"))
 
     def choose_resolution(self):
-        """--resolution: half, full, or (auto) what the before files do better on all labelled frames (none of
-        which they trained on); without labels auto is half. Full: the user's training frames are doubled
-        (TU.doubled) and so is the calibration set, everything measured reads the frames at full resolution."""
+        """--resolution: half, full, or (auto) what the before files do better on all the user's frames (none
+        of which they trained on): AP@0.5 with labels, flip agreement without (M.choose_resolution). Full: the
+        user's training frames are doubled (TU.doubled) and so is the calibration set, everything measured
+        reads the frames at full resolution."""
         if self.ck is not None and "full_res" in self.ck:
             self.full_res, self.res_ap = self.ck["full_res"], self.ck.get("res_ap")
-        elif self.a.resolution == "auto" and self.labelled:
-            self.full_res, self.res_ap = M.choose_resolution(self.before, self.adapt + self.val, self.thr_before)
+        elif self.a.resolution == "auto":
+            self.full_res, self.res_ap = M.choose_resolution(self.before, self.adapt + self.val, self.thr_before,
+                                                             self.labelled)
         else:
             self.full_res, self.res_ap = self.a.resolution == "full", None
         if self.full_res:
             self.calib = TU.calibration_set([TU.doubled(f) for f in self.adapt], self.replay, self.a.seed)
         if self.res_ap:
-            self.say(f"input resolution: {'full' if self.full_res else 'half'} (AP@0.5 on all {len(self.frames)} "
-                     f"labelled frames: half {100 * self.res_ap['half']:.1f}, full {100 * self.res_ap['full']:.1f})")
+            r = self.res_ap
+            self.say(f"input resolution: {'full' if self.full_res else 'half'} ({r['measure']} on all "
+                     f"{len(self.frames)} frames: half {100 * r['half']:.1f}, full {100 * r['full']:.1f})")
 
     def user_train(self, frames):
         """The user's frames as the networks train on them: doubled at full resolution."""
@@ -326,9 +329,8 @@ class Adaptation:
                            chosen_on="val part, one-standard-error rule towards the shipped threshold" if self.labelled
                            else "unchanged (no labels)"),
             resolution=dict(full_res=self.full_res, asked=self.a.resolution,
-                            chosen_on="AP@0.5 of the before networks on all labelled frames" if self.res_ap
-                            else "asked" if self.a.resolution != "auto" else "half (no labels to choose with)",
-                            ap=self.res_ap),
+                            chosen_on=f"{self.res_ap['measure']} of the before networks on all frames"
+                            if self.res_ap else "asked", measured=self.res_ap),
             outputs=dict(models=[f"{n}.vdm" for n in self.names], config="vd.json", demo_check=self.demo_check),
         )
         if self.labelled:

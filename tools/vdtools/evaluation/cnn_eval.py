@@ -83,6 +83,16 @@ def perturb(frames, name):
     return out
 
 
+def _perturb_chain(text):
+    """--perturb's value: one change or several joined by '+' -> [names] (argparse type)."""
+    names = text.split("+")
+    bad = [n for n in names if n not in PERTURB and n not in RESCALE]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown change {', '.join(map(repr, bad))} (choose from "
+                                         f"{', '.join(sorted(PERTURB) + sorted(RESCALE))})")
+    return names
+
+
 def nms(dets, thr=0.5):
     """Greedy suppression by score: a box whose IoU with a kept one is > thr goes (the detector's rule)."""
     keep = []
@@ -625,7 +635,9 @@ def main(argv=None):
     ap.add_argument("--paper", help="evaluate the paper pipeline instead: demo flags, e.g. \"--sources hotspot\" "
                     "(--model is then a DBN model; --backend demo)")
     ap.add_argument("--thr", type=float, help="operating point to report (default: chosen here, val split only)")
-    ap.add_argument("--perturb", choices=sorted(PERTURB) + sorted(RESCALE), help="camera-like change of the frames (backends c/ref)")
+    ap.add_argument("--perturb", type=_perturb_chain, metavar="|".join(sorted(PERTURB) + sorted(RESCALE)),
+                    help="camera-like change of the frames (backends c/ref); several chained with '+', applied "
+                         "in that order, e.g. bright+down33")
     ap.add_argument("--flip", action="store_true",
                     help="horizontal-flip test-time augmentation: a second pass on the mirrored half-resolution "
                          "plane, its boxes fused with the first pass's (backends c/ref; with --backend demo: "
@@ -656,8 +668,8 @@ def main(argv=None):
     frames = CD.load_frames(a.data, splits=("train", "val", "test") if a.split == "all" else (a.split,))
     if a.subset == "msrs-night":     # the rule of cnn_train --exclude msrs-night
         frames = [f for f in frames if CD.subset(f) == "msrs-night"]
-    if a.perturb:
-        frames = perturb(frames, a.perturb)
+    for name in a.perturb or []:
+        frames = perturb(frames, name)
     t0 = time.time()
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
