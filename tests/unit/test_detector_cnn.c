@@ -204,13 +204,20 @@ static void expect_box(const vd_detection_t *d, int32_t x, int32_t y, int32_t w,
 
 // One bright 2x2 block: half-resolution pixel (200 + 200 + 201 + 201 + 2) >> 2
 // = 201 (200.5 rounded half up) in cell (3, 2).
-static void test_box_position_score_source(void)
+// The default network and the block: 200 over 201 at frame (26, 18)-(27, 19) on 20.
+static net_t block_scene(void)
 {
     net_t n = net_default();
     net_load(&n);
     fill(20u);
     rect8(26u, 18u, 2u, 1u, 200u);
     rect8(26u, 19u, 2u, 1u, 201u);
+    return n;
+}
+
+static void test_box_position_score_source(void)
+{
+    net_t n = block_scene();
     vd_detector_cfg_t c = cnn_cfg();
     init_or_fail(&c, NULL);
     vd_frame_t f = frame8(64u, 48u);
@@ -1322,11 +1329,7 @@ static void test_clock_and_temporal(void)
 // width 8 network pixels = 8 frame pixels: [22, 30) x [14, 22).
 static void test_full_res_hand_worked(void)
 {
-    net_t n = net_default();
-    net_load(&n);
-    fill(20u);
-    rect8(26u, 18u, 2u, 1u, 200u);
-    rect8(26u, 19u, 2u, 1u, 201u);
+    (void)block_scene();
     vd_detector_cfg_t c = cnn_cfg();
     c.cnn_full_res = 1u;
     init_or_fail(&c, NULL);
