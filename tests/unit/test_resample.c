@@ -349,6 +349,8 @@ static void test_box_random_vs_naive(void)
         uint32_t ky = 1u + tu_rand(&seed) % (uint32_t)r.h;
         if ((trial & 2) != 0 && r.w >= 2 && r.h >= 2) {
             kx = ky = 2u;   // half of the trials: the 2 x 2 fast path (8-bit) and its 16-bit twin
+        } else if ((trial & 4) != 0) {
+            kx = ky = 1u;   // a quarter: the 1 x 1 path (the CNN's full-resolution rows), both formats
         }
         const uint32_t cw = (uint32_t)r.w / kx;
         const uint32_t ch = (uint32_t)r.h / ky;
