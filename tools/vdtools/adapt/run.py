@@ -178,16 +178,16 @@ class Adaptation:
         user's training frames are doubled (TU.doubled) and so is the calibration set, everything measured
         reads the frames at full resolution."""
         if self.ck is not None and "full_res" in self.ck:
-            self.full_res, self.res_ap = self.ck["full_res"], self.ck.get("res_ap")
+            self.full_res, self.res_measured = self.ck["full_res"], self.ck.get("res_measured")
         elif self.a.resolution == "auto":
-            self.full_res, self.res_ap = M.choose_resolution(self.before, self.adapt + self.val, self.thr_before,
+            self.full_res, self.res_measured = M.choose_resolution(self.before, self.adapt + self.val, self.thr_before,
                                                              self.labelled)
         else:
-            self.full_res, self.res_ap = self.a.resolution == "full", None
+            self.full_res, self.res_measured = self.a.resolution == "full", None
         if self.full_res:
             self.calib = TU.calibration_set([TU.doubled(f) for f in self.adapt], self.replay, self.a.seed)
-        if self.res_ap:
-            r = self.res_ap
+        if self.res_measured:
+            r = self.res_measured
             self.say(f"input resolution: {'full' if self.full_res else 'half'} ({r['measure']} on all "
                      f"{len(self.frames)} frames: half {100 * r['half']:.1f}, full {100 * r['full']:.1f})")
 
@@ -219,7 +219,7 @@ class Adaptation:
         part = path.with_suffix(".part")
         torch.save(dict(tuner=tuner.state(), budget=self.budget, times=self.times, pseudo_log=self.state["log"],
                         round=self.state["round"], pseudo=self.state["pseudo"], full_res=self.full_res,
-                        res_ap=self.res_ap,
+                        res_measured=self.res_measured,
                         wall=self.t_prev + time.time() - self.t_start), part)
         os.replace(part, path)
 
@@ -329,8 +329,8 @@ class Adaptation:
                            chosen_on="val part, one-standard-error rule towards the shipped threshold" if self.labelled
                            else "unchanged (no labels)"),
             resolution=dict(full_res=self.full_res, asked=self.a.resolution,
-                            chosen_on=f"{self.res_ap['measure']} of the before networks on all frames"
-                            if self.res_ap else "asked", measured=self.res_ap),
+                            chosen_on=f"{self.res_measured['measure']} of the before networks on all frames"
+                            if self.res_measured else "asked", measured=self.res_measured),
             outputs=dict(models=[f"{n}.vdm" for n in self.names], config="vd.json", demo_check=self.demo_check),
         )
         if self.labelled:
