@@ -12,6 +12,7 @@
 // mixed sizes) ends the run with one line on stderr and exit status 1; usage
 // errors exit with 2. See docs/demo.md.
 #include "args.h"
+#include "autores.h"
 #include "eval.h"
 #include "json.h"
 #include "models.h"
@@ -75,6 +76,8 @@ typedef struct run {
     demo_report_t report;    // --report
     bool have_report;
     demo_progress_t prog;    // zeroed (off) until the frame loop starts
+    demo_autores_t autores;  // --cnn-full-res auto's measurement
+    bool autores_ran;
     int8_t *matched;         // --eval: per detection of this frame (dets_cap)
     bool *gt_used;           // --eval: per box of this frame's annotations
     size_t cap_gt_used;
@@ -510,6 +513,13 @@ static void summary(run_t *r)
                    k + 1 < VD_DETECTOR_STAGE_COUNT ? "," : "\n");
         }
     }
+    if (r->autores_ran) {
+        const demo_autores_t *a = &r->autores;
+        printf("cnn input: %s resolution (--cnn-full-res auto: flip agreement half %.1f %%, full %.1f %% over %u "
+               "frames%s; %.2f s)\n", a->full ? "full" : "half", 100.0 * demo_autores_agreement(a, 0),
+               100.0 * demo_autores_agreement(a, 1), (unsigned)a->frames,
+               a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full" : "", a->seconds);
+    }
     if (r->capacity_warnings > 0) {
         printf("note: %llu frames hit a detector budget (VD_ERR_CAPACITY; see --max-candidates, --max-detections)\n",
                (unsigned long long)r->capacity_warnings);
@@ -630,6 +640,21 @@ static int run(run_t *r)
     copts.fps = o->fps;
     copts.format = o->dev_format;
     copts.same_size = true;
+    if (o->cnn_full_res_auto && r->m.have_cnn && (o->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
+        if (r->device) {
+            if (!o->quiet) {
+                fprintf(stderr, "vd_fir_demo: --cnn-full-res auto measures recorded frames; a camera runs at half "
+                                "resolution (set --cnn-full-res on for one whose vehicles are small)\n");
+            }
+        } else {
+            st = demo_autores_measure(o, &r->m, o->input, &copts, &r->autores, r->err, sizeof r->err);
+            if (st != VD_OK) {
+                return fail(r, st, r->err);
+            }
+            r->autores_ran = true;
+            o->cfg.cnn_full_res = r->autores.full ? 1u : 0u;
+        }
+    }
     st = vd_capture_open(&r->cap, o->input, &copts);
     if (st == VD_OK) {
         st = vd_capture_start(&r->cap);

@@ -102,6 +102,7 @@ static void set_defaults(demo_opts_t *o)
     o->cfg.temporal = true;
     o->cfg.temporal_cfg.flags |= VD_TEMPORAL_SCORES;   // track-aware scores (docs/results/temporal.md)
     o->cfg.cnn_flip = 1u;   // the shipped operating point (docs/results/detector.md): fused flip pass at the header's threshold
+    o->cnn_full_res_auto = true;   // half or full resolution measured on the recording (autores.c, docs/demo.md)
 }
 
 // --clip NAME: the bundled clip's frames (applied after the first pass) and annotations.
@@ -211,8 +212,7 @@ static int first_pass(demo_opts_t *o, int argc, char **argv, FILE *out, FILE *er
         }
         const int sid = demo_setting_find(a + 2);
         if (demo_setting_is_switch(sid) && strchr(a + 2, '_') == NULL) {
-            bool on;
-            if (i + 1 < argc && demo_parse_switch(argv[i + 1], &on)) {
+            if (i + 1 < argc && demo_setting_value_ok(sid, argv[i + 1])) {
                 i++;   // its optional value; applied in the second pass
             }
             continue;
@@ -266,8 +266,7 @@ static int second_pass(demo_opts_t *o, int argc, char **argv, FILE *errf)
         }
         int id = demo_setting_find(argv[i] + 2);
         if (demo_setting_is_switch(id)) {
-            bool on;
-            const char *v = (i + 1 < argc && demo_parse_switch(argv[i + 1], &on)) ? argv[++i] : "on";
+            const char *v = (i + 1 < argc && demo_setting_value_ok(id, argv[i + 1])) ? argv[++i] : "on";
             if (!demo_setting_apply(o, id, v, msg, sizeof msg)) {
                 return usage_error(errf, "%s%s", msg, "");
             }

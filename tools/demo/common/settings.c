@@ -256,6 +256,24 @@ static bool set_track_sigma_rel(demo_opts_t *o, const char *v)
     return true;
 }
 
+// on/off (and the rest of a switch's words) or auto: vd_fir_demo measures which resolution the networks
+// agree with themselves better at on the first frames of a recording (tools/demo/autores.c).
+static bool set_cnn_full_res(demo_opts_t *o, const char *v)
+{
+    bool on = false;
+    if (strcmp(v, "auto") == 0) {
+        o->cnn_full_res_auto = true;
+        o->cfg.cnn_full_res = 0u;   // until the choice is made
+        return true;
+    }
+    if (!demo_parse_switch(v, &on)) {
+        return false;
+    }
+    o->cnn_full_res_auto = false;
+    o->cfg.cnn_full_res = on ? 1u : 0u;
+    return true;
+}
+
 // "HI" or "HI,LO": the track-score hysteresis of confirmation, 0 < LO <= HI <= 1 (Q15). LO left out keeps
 // the default's gap (0.42 / 0.35) below HI, so one number moves the whole band.
 static bool set_track_confirm(demo_opts_t *o, const char *v)
@@ -564,11 +582,13 @@ static const setting_t k_settings[] = {
      "score, fused scores below the score threshold dropped) before overlap suppression (test-time "
      "augmentation: about twice the network's time; default on, chosen on the val split)",
      SWITCH(U8, cnn_flip, 0), OPTIONAL_VALUE},
-    {"cnn-full-res", "[on|off]",
+    {"cnn-full-res", "[on|off|auto]",
      "cnn source: the networks read the frame at full resolution instead of half (for a camera "
      "whose vehicles are about half the size of the training data's, e.g. a wider lens: 4x the "
-     "networks' time and a larger workspace; default off)",
-     SWITCH(U8, cnn_full_res, 0), OPTIONAL_VALUE},
+     "networks' time and a larger workspace). auto (default): on recorded input, full when the "
+     "networks agree better with themselves on mirrored frames at full resolution, over the first "
+     "16-32 frames (docs/demo.md); half on a camera, in the GStreamer element and for fewer frames",
+     CUSTOM(set_cnn_full_res), OPTIONAL_VALUE},
     {"cnn-model2", "FILE|none",
      "cnn source: a second version-3 .vdm network run on the same frame, its boxes fused with "
      "the first network's as the flip pass fuses (an ensemble: about the second network's time "
@@ -698,6 +718,18 @@ static bool apply_path(demo_opts_t *o, const setting_t *s, const char *v)
     snprintf(buf, DEMO_PATH_MAX, "%s", v);
     memcpy((unsigned char *)o + s->field, &copy, sizeof copy);
     return true;
+}
+
+bool demo_setting_value_ok(int id, const char *v)
+{
+    bool on = false;
+    if (id < 0 || (size_t)id >= SET_COUNT || !k_settings[id].optional) {
+        return false;
+    }
+    if (k_settings[id].kind == K_CUSTOM && strcmp(v, "auto") == 0) {
+        return true;   // --cnn-full-res auto, the only optional custom setting's extra word
+    }
+    return demo_parse_switch(v, &on);
 }
 
 bool demo_setting_is_switch(int id)

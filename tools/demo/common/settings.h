@@ -45,12 +45,17 @@ typedef struct demo_opts {
     bool sources_set;           // --sources given (flag or config): no default source choice
     bool max_candidates_set;    // --max-candidates / --max-detections given: not raised for the CNN
     bool max_detections_set;
+    bool cnn_full_res_auto;     // --cnn-full-res auto (the default): vd_fir_demo chooses cfg.cnn_full_res on the
+                                // first frames of a recording (tools/demo/autores.c); elsewhere it reads off
 } demo_opts_t;
 
 // The detector setting called `name` ("cnn-flip" or "cnn_flip"); -1 if there is none.
 int demo_setting_find(const char *name);
 // True for a switch (--cnn-rescore, --cnn-flip) whose value may be left out on the command line.
 bool demo_setting_is_switch(int id);
+// True when v is a value setting id takes after its flag: for a switch, on/off etc. (and "auto" for
+// --cnn-full-res); a switch's value may be left out, so anything else is the next argument.
+bool demo_setting_value_ok(int id, const char *v);
 // Applies value v of setting id to o; false with msg "bad value 'v' for NAME (expected ARG)".
 bool demo_setting_apply(demo_opts_t *o, int id, const char *v, char *msg, size_t msg_len);
 // --help lines of every setting in table order ("  --name ARG   help", wrapped at 100 columns).

@@ -674,7 +674,7 @@ def main(argv=None):
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
                        extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"]
-                       + (["--cnn-full-res"] if a.full_res else []), model2=a.model2)
+                       + ["--cnn-full-res", "on" if a.full_res else "off"], model2=a.model2)
     else:
         if a.ensemble and (not a.ckpt or a.ckpt2):
             raise SystemExit("--ensemble averages float networks with --ckpt (not a pair)")

@@ -218,7 +218,10 @@ def resolve(settings, models_dir=None):
                          f"(supported: {', '.join(SETTINGS)})")
     models_dir = Path(models_dir or clib.REPO / "models")
     fields = {"temporal": _switch(s.get("temporal", True)), "cnn_flip": int(_switch(s.get("cnn-flip", True)))}
-    if "cnn-full-res" in s:   # default off, as the library's
+    if "cnn-full-res" in s:   # default off, as the library's (vd_fir_demo's auto measures a whole recording)
+        if str(s["cnn-full-res"]) == "auto":
+            raise FleetError("cnn-full-res auto is vd_fir_demo's measurement on a recording's first frames; the "
+                             "fleet runs one setting on every shard: give on or off")
         fields["cnn_full_res"] = int(_switch(s["cnn-full-res"]))
     # temporal_cfg: the demo's track-aware scores (default on) and coasting (default 0)
     fields["temporal_cfg.flags"] = vdet_scores_flag() if _switch(s.get("track-scores", True)) else 0

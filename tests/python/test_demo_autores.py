@@ -1,0 +1,123 @@
+# SPDX-License-Identifier: MIT
+"""vd_fir_demo --cnn-full-res auto (the default; tools/demo/autores.c): on the first frames of a recording the
+demo measures how far the networks agree with themselves on mirrored frames at half and at full resolution,
+and takes full resolution when that agreement is higher (vdtools.adapt.measure.choose_resolution without
+labels). Checked here on the bundled HIT-UAV clip (its vehicles are the training size: half resolution,
+detections unchanged) and on the same frames shrunk to a third (small vehicles: full resolution), against
+the Python measure, and for its edges: few frames, bad values, config files."""
+import json
+import re
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from vdtools.adapt import measure
+from vdtools.bindings import port
+from vdtools.bindings.clib import REPO
+from vdtools.data import cnn_data as CD
+from buildpaths import run_demo as run
+
+CLIP = REPO / "tools" / "demo" / "hit-uav-clip" / "images"
+MODELS = [str(REPO / "models" / "vd_cnn.vdm"), str(REPO / "models" / "vd_cnn2.vdm")]
+LINE = re.compile(r"cnn input: (half|full) resolution \(--cnn-full-res auto: flip agreement half ([-\d.]+) %, "
+                  r"full ([-\d.]+) % over (\d+) frames")
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    if not all(Path(m).is_file() for m in MODELS):
+        pytest.skip("the shipped networks (models/vd_cnn.vdm, models/vd_cnn2.vdm) are not in this checkout")
+    return MODELS
+
+
+def clip_paths():
+    return sorted(p for p in CLIP.iterdir() if p.suffix.lower() in (".png", ".jpg", ".jpeg", ".pgm"))
+
+
+@pytest.fixture(scope="module")
+def small_clip(tmp_path_factory):
+    """The clip's frames shrunk to a third (cnn_eval's down33: cars of ~15-25 px, INTER_AREA)."""
+    out = tmp_path_factory.mktemp("clip33")
+    for p in clip_paths():
+        img = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        h, w = img.shape
+        small = cv2.resize(img, (int(round(w / 3)), int(round(h / 3))), interpolation=cv2.INTER_AREA)
+        cv2.imwrite(str(out / (p.stem + ".png")), small)
+    return out
+
+
+def choice(stdout):
+    m = LINE.search(stdout)
+    assert m, stdout
+    return m.group(1), float(m.group(2)), float(m.group(3)), int(m.group(4))
+
+
+def python_measure(folder, n=32):
+    """measure.flip_agreement on the first n frames the demo reads (the port's decoder: JPEG decoders differ
+    from OpenCV's by a grey level here and there), both resolutions."""
+    z = lambda k: np.zeros((0, k), np.float32)
+    frames = []
+    with port.Capture(folder) as cap:
+        for f, name in cap:
+            frames.append(CD.Frame("user", name, name, "g", "val", port.pixels(f).copy(), z(4), z(4),
+                                   np.zeros(0, bool), z(5)))
+            if len(frames) == n:
+                break
+    thr = measure.header_threshold(MODELS)
+    return [measure.flip_agreement(MODELS, frames, thr, full_res=k) for k in (False, True)]
+
+
+def detections(path):
+    return [json.loads(line)["detections"] for line in Path(path).read_text().splitlines()]
+
+
+def test_clip_stays_at_half_resolution(demo, shipped, tmp_path):
+    """Vehicles of the training size: half resolution, the detections of --cnn-full-res off byte for byte."""
+    a = run(demo, "--json", tmp_path / "a.jsonl", "--quiet")
+    res, half, full, n = choice(a.stdout)
+    assert (res, n) == ("half", 32) and half > full
+    run(demo, "--json", tmp_path / "b.jsonl", "--quiet", "--cnn-full-res", "off")
+    assert (tmp_path / "a.jsonl").read_bytes() == (tmp_path / "b.jsonl").read_bytes()
+    # the same figures as the Python measure vd-adapt uses (agreement in per cent, printed to 0.1)
+    py = python_measure(CLIP)
+    assert [half, full] == [round(100 * v, 1) for v in py]
+
+
+def test_small_vehicles_choose_full_resolution(demo, shipped, small_clip, tmp_path):
+    """The clip shrunk to a third: full resolution, and the detections of --cnn-full-res on."""
+    a = run(demo, "--input", small_clip, "--json", tmp_path / "a.jsonl", "--quiet", "--temporal", "off")
+    res, half, full, n = choice(a.stdout)
+    assert (res, n) == ("full", 32) and full > half
+    py = python_measure(small_clip)
+    assert [half, full] == [round(100 * (v or 0.0), 1) for v in py]
+    run(demo, "--input", small_clip, "--json", tmp_path / "b.jsonl", "--quiet", "--temporal", "off",
+        "--cnn-full-res", "on")
+    assert detections(tmp_path / "a.jsonl") == detections(tmp_path / "b.jsonl")
+    # fewer frames than DEMO_AUTORES_MIN_FRAMES (16) are too little evidence: half resolution
+    c = run(demo, "--input", small_clip, "--json", tmp_path / "c.jsonl", "--quiet", "--temporal", "off",
+            "--frames", "15")
+    assert choice(c.stdout)[0] == "half" and choice(c.stdout)[3] == 15 and "too few" in c.stdout
+    run(demo, "--input", small_clip, "--json", tmp_path / "d.jsonl", "--quiet", "--temporal", "off",
+        "--frames", "15", "--cnn-full-res", "off")
+    assert detections(tmp_path / "c.jsonl") == detections(tmp_path / "d.jsonl")
+
+
+def test_explicit_values_skip_the_measurement(demo, shipped, small_clip, tmp_path):
+    """on/off (flag, bare flag, config) run no measurement; auto from a config file measures; bad values fail."""
+    for args in (["--cnn-full-res", "off"], ["--cnn-full-res", "on"], ["--cnn-full-res"], ["--cnn-full-res", "0"]):
+        r = run(demo, "--input", small_clip, "--frames", "2", "--quiet", *args)
+        assert "cnn input:" not in r.stdout, args
+    cfg = tmp_path / "auto.json"
+    cfg.write_text('{"cnn-full-res": "auto"}')
+    r = run(demo, "--input", small_clip, "--frames", "20", "--quiet", "--config", cfg)
+    assert choice(r.stdout)[:1] == ("full",) or choice(r.stdout)[3] == 20
+    cfg.write_text('{"cnn-full-res": true}')
+    assert "cnn input:" not in run(demo, "--input", small_clip, "--frames", "2", "--quiet", "--config", cfg).stdout
+    # a word that is no value of the switch is the next argument (as for --cnn-flip)
+    r = run(demo, "--input", small_clip, "--frames", "2", "--quiet", "--cnn-full-res", "sometimes", check=False)
+    assert r.returncode == 2 and "sometimes" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    (tmp_path / "bad.json").write_text('{"cnn-full-res": "automatic"}')
+    r = run(demo, "--input", small_clip, "--frames", "2", "--quiet", "--config", tmp_path / "bad.json", check=False)
+    assert r.returncode == 2 and "cnn-full-res" in r.stderr and len(r.stderr.strip().splitlines()) == 1
