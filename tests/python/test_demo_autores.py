@@ -21,8 +21,8 @@ from buildpaths import run_demo as run
 
 CLIP = REPO / "tools" / "demo" / "hit-uav-clip" / "images"
 MODELS = [str(REPO / "models" / "vd_cnn.vdm"), str(REPO / "models" / "vd_cnn2.vdm")]
-LINE = re.compile(r"cnn input: (half|full) resolution \(--cnn-full-res auto: flip agreement half ([-\d.]+) %, "
-                  r"full ([-\d.]+) % over (\d+) frames")
+LINE = re.compile(r"cnn input: (half|full) resolution \(--cnn-full-res auto: flip agreement half ([\d.]+) %, "
+                  r"full ([\d.]+) % over (\d+) frames")
 
 
 @pytest.fixture(scope="module")
@@ -121,3 +121,17 @@ def test_explicit_values_skip_the_measurement(demo, shipped, small_clip, tmp_pat
     (tmp_path / "bad.json").write_text('{"cnn-full-res": "automatic"}')
     r = run(demo, "--input", small_clip, "--frames", "2", "--quiet", "--config", tmp_path / "bad.json", check=False)
     assert r.returncode == 2 and "cnn-full-res" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_frames_without_vehicles(demo, shipped, tmp_path):
+    """Frames on which neither resolution finds a box (flat grey; 1x1 to 33x17 px, under the networks'
+    alignment too) are no evidence for full resolution: half, said as such, and the run goes on."""
+    for w, h in ((1, 1), (2, 2), (33, 17), (64, 48)):
+        d = tmp_path / f"{w}x{h}"
+        d.mkdir()
+        for i in range(16):
+            cv2.imwrite(str(d / f"f{i:02d}.png"), np.full((h, w), 90 + i, np.uint8))
+        r = run(demo, "--input", d, "--quiet", "--json", d / "d.jsonl")
+        assert "cnn input: half resolution (--cnn-full-res auto: flip agreement half none (no box), full none " \
+               "(no box) over 16 frames" in r.stdout, (w, h, r.stdout)
+        assert len((d / "d.jsonl").read_text().splitlines()) == 16

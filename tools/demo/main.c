@@ -515,9 +515,17 @@ static void summary(run_t *r)
     }
     if (r->autores_ran) {
         const demo_autores_t *a = &r->autores;
-        printf("cnn input: %s resolution (--cnn-full-res auto: flip agreement half %.1f %%, full %.1f %% over %u "
-               "frames%s; %.2f s)\n", a->full ? "full" : "half", 100.0 * demo_autores_agreement(a, 0),
-               100.0 * demo_autores_agreement(a, 1), (unsigned)a->frames,
+        char pct[2][16];
+        for (int k = 0; k < 2; k++) {
+            const double v = demo_autores_agreement(a, k);
+            if (v < 0.0) {
+                snprintf(pct[k], sizeof pct[k], "none (no box)");
+            } else {
+                snprintf(pct[k], sizeof pct[k], "%.1f %%", 100.0 * v);
+            }
+        }
+        printf("cnn input: %s resolution (--cnn-full-res auto: flip agreement half %s, full %s over %u frames%s; "
+               "%.2f s)\n", a->full ? "full" : "half", pct[0], pct[1], (unsigned)a->frames,
                a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full" : "", a->seconds);
     }
     if (r->capacity_warnings > 0) {
