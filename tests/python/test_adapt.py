@@ -230,13 +230,17 @@ def _run(args, timeout=900):
 
 def _check_outputs(out, demo, images, n_nets=2):
     from vdtools.formats import cnn_vdm as V
+    from vdtools.training.cnn_targets import NORM_CODE
     names = ["vd_cnn", "vd_cnn2"][:n_nets]
     for n in names:
         desc = V.unpack((out / f"{n}.vdm").read_bytes())
         assert desc["name"] == n
         assert (out / f"{n}_vdm.c").is_file() and (out / f"{n}_vdm.h").is_file()
         assert json.loads((out / f"{n}.scales.json").read_text())["adapted_by"] == "vd-adapt"
-        assert (out / "float" / f"{n}.npz").is_file()
+        # the float weights keep the input normalisation their .vdm reads (vd_cnn2: equalise), so that
+        # --base OUT/float/... adapts the same network again
+        with np.load(out / "float" / f"{n}.npz") as z:
+            assert NORM_CODE[str(z["__norm__"])] == desc["input_norm"], n
     assert not (out / "ckpt.pt").exists() and not list(out.parent.glob(out.name + ".tmp-*"))
     cfg = json.loads((out / "vd.json").read_text())
     assert cfg["cnn-model"] == str(out / "vd_cnn.vdm") and cfg["sources"] == "cnn" and 0 < cfg["cnn-thr"] < 1

@@ -70,6 +70,8 @@ def parser():
                          "whose vehicles are about half the size: 4x the time, vd_fir_demo --cnn-full-res); auto "
                          "(default): whichever the shipped networks do better on all your frames (AP@0.5 with "
                          "labels; without, their agreement with themselves on the mirrored frames)")
+    ap.add_argument("--lr", type=float, default=3e-4, help="peak learning rate of the fine-tuning's cosine schedule "
+                    "(default 3e-4, the shipped networks' QAT stage)")
     ap.add_argument("--rounds", type=int, default=2, help="self-training rounds without labels (default 2)")
     ap.add_argument("--threads", type=int, default=2, help="PyTorch threads (default 2)")
     ap.add_argument("--seed", type=int, default=0)
@@ -113,8 +115,8 @@ def prepare(a):
         raise InputError("--minutes must be > 0")
     if not 0 < a.val_frac < 1:
         raise InputError("--val-frac must be between 0 and 1")
-    if a.steps < 0 or a.rounds < 1 or a.threads < 1 or not 0 < a.user_share <= 1:
-        raise InputError("--steps >= 0, --rounds >= 1, --threads >= 1 and 0 < --user-share <= 1")
+    if a.steps < 0 or a.rounds < 1 or a.threads < 1 or not 0 < a.user_share <= 1 or not 0 < a.lr <= 0.1:
+        raise InputError("--steps >= 0, --rounds >= 1, --threads >= 1, 0 < --user-share <= 1 and 0 < --lr <= 0.1")
     if a.block is not None and a.block < 1:
         raise InputError("--block must be >= 1")
     replay = [] if a.replay == "none" else [f.strip() for f in a.replay.split(",") if f.strip()]
@@ -151,7 +153,7 @@ def prepare(a):
         images=[(f.name, f.stat().st_size, int(f.stat().st_mtime)) for f in files],
         labels=None if not a.labels else [str(Path(a.labels).resolve()), Path(a.labels).stat().st_mtime],
         classes=a.classes, bases=[str(Path(p).resolve()) for p in bases], minutes=a.minutes, steps=a.steps,
-        val_frac=a.val_frac, block=block, seed=a.seed, replay=replay, user_share=a.user_share, rounds=a.rounds,
+        val_frac=a.val_frac, block=block, seed=a.seed, replay=replay, user_share=a.user_share, rounds=a.rounds, lr=a.lr,
         data=str(data.resolve()))).encode()).hexdigest()[:10]
     return dict(out=out, tmp=out.parent / f"{out.name}.tmp-{key}", frames=frames, labels=label_info, block=block,
                 bases=[Path(p) for p in bases], before=[Path(p) for p in before] if before else None,

@@ -102,7 +102,7 @@ class Adaptation:
             self.say(f"resuming in {self.tmp.name} from step {self.ck['tuner']['step']}")
         self.load()
         self.measure_before()
-        self.tuner = TU.Tuner(self.nets, self.a.seed)
+        self.tuner = TU.Tuner(self.nets, self.a.seed, lr=self.a.lr)
         if self.ck:
             self.tuner.load(self.ck["tuner"])
         else:
@@ -291,7 +291,9 @@ class Adaptation:
                                                                      thr=self.thr, adapted_by="vd-adapt"), indent=1) + "\n")
             net.set_fake_quant(None)
             net.eval()
-            E.save_float(net, dict(arch=arch, step=self.tuner.step, qat=True), tmp / "float" / f"{name}.npz")
+            # norm: the input normalisation the network reads (vd_cnn2: equalise); --base reads it back
+            E.save_float(net, dict(arch=arch, step=self.tuner.step, qat=True, norm=net.norm),
+                         tmp / "float" / f"{name}.npz")
         (tmp / "vd.json").write_text(json.dumps(config([self.out / f"{n}.vdm" for n in self.names], self.thr,
                                                        self.full_res), indent=1) + "\n")
         self.times["export"] = time.time() - t0
@@ -320,7 +322,7 @@ class Adaptation:
             before_quantised_here=plan["before"] is None,
             replay=dict(families={k: len(v) for k, v in self.by_fam.items()}, shares=self.shares, data=str(plan["data"])),
             training=dict(steps=tuner.step, budget_s=round(self.budget, 1) if not self.a.steps else None,
-                          steps_asked=self.a.steps, rounds=self.rounds, resumed=self.resumed, lr=TU.LR,
+                          steps_asked=self.a.steps, rounds=self.rounds, resumed=self.resumed, lr=self.a.lr,
                           batch=TU.BATCH, threads=self.a.threads,
                           last_losses=tuner.losses[-1][1] if tuner.losses else None),
             threshold=dict(before=self.thr_before, after=self.thr,
