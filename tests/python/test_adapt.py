@@ -149,6 +149,10 @@ def test_bad_arguments_are_one_line(tmp_path, capsys):
     imgs = _frames(tmp_path / "images")
     _bad(capsys, tmp_path / "out", ["--images", imgs, "--val-frac", "1.5"], "--val-frac")
     _bad(capsys, tmp_path / "out", ["--images", imgs, "--classes", "2"], "give --labels too")
+    _bad(capsys, tmp_path / "out", ["--images", imgs, "--lr", "0"], "--lr")
+    _frames(tmp_path / "images2", labels=tmp_path / "labels2")
+    _bad(capsys, tmp_path / "out", ["--images", tmp_path / "images2", "--labels", tmp_path / "labels2",
+                                    "--self-train"], "--self-train is for frames without labels")
     rc, err = _adapt(["--images", imgs], capsys)          # argparse's own error, on one line too
     assert rc == 2 and len(err) == 1 and "--out" in err[0]
 
@@ -240,7 +244,8 @@ def _check_outputs(out, demo, images, n_nets=2):
         # the float weights keep the input normalisation their .vdm reads (vd_cnn2: equalise), so that
         # --base OUT/float/... adapts the same network again
         with np.load(out / "float" / f"{n}.npz") as z:
-            assert NORM_CODE[str(z["__norm__"])] == desc["input_norm"], n
+            norm = str(z["__norm__"]) if "__norm__" in z.files else "stretch"   # files before --norm: stretch
+            assert NORM_CODE[norm] == desc["input_norm"], n
     assert not (out / "ckpt.pt").exists() and not list(out.parent.glob(out.name + ".tmp-*"))
     cfg = json.loads((out / "vd.json").read_text())
     assert cfg["cnn-model"] == str(out / "vd_cnn.vdm") and cfg["sources"] == "cnn" and 0 < cfg["cnn-thr"] < 1
@@ -279,7 +284,7 @@ def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
     imgs = _frames(tmp_path / "images")
     out = tmp_path / "out"
     args = ["--images", imgs, "--out", out, "--steps", "3", "--rounds", "2", "--replay", "none", "--demo", demo,
-            "--resolution", "full"]
+            "--resolution", "full", "--self-train"]
     p = _run(args + ["--interrupt-after", "1"])
     assert p.returncode == 3 and "resume" in p.stderr, p.stderr
     assert not out.exists() and len(list(tmp_path.glob("out.tmp-*"))) == 1
@@ -297,16 +302,25 @@ def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
 
 
 def test_end_to_end_unlabelled_chooses_resolution_by_flip_agreement(tmp_path, vdlib, demo):
+    """Without labels and without --self-train (the default): the resolution is chosen by flip agreement, the
+    shipped networks are written unchanged (files, firmware arrays, float weights) and nothing is trained."""
     pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
     imgs = _frames(tmp_path / "images")
     out = tmp_path / "out"
-    p = _run(["--images", imgs, "--out", out, "--steps", "1", "--rounds", "1", "--replay", "none", "--demo", demo])
+    p = _run(["--images", imgs, "--out", out, "--replay", "none", "--demo", demo])
     assert p.returncode == 0, p.stderr
     rep, md = _check_outputs(out, demo, imgs)
     res = rep["resolution"]
     assert res["asked"] == "auto" and res["measured"]["measure"] == "flip agreement"
     assert res["full_res"] == (res["measured"]["full"] > res["measured"]["half"])
     assert "flip agreement of the before networks" in md
+    assert rep["training"]["trained"] is False and rep["training"]["steps"] == 0 and "pseudo_labels" not in rep
+    assert "the networks were not trained" in md and "shipped (unchanged)" in md
+    for n in ("vd_cnn", "vd_cnn2"):
+        assert (out / f"{n}.vdm").read_bytes() == (REPO / "models" / f"{n}.vdm").read_bytes()
+        assert (out / "float" / f"{n}.npz").read_bytes() == (REPO / "models" / "float" / f"{n}.npz").read_bytes()
+    assert rep["val"]["boxes_per_frame"]["before"] == rep["val"]["boxes_per_frame"]["after"]
+    assert json.loads((out / "vd.json").read_text())["cnn-thr"] == round(rep["threshold"]["before"], 4)
 
 
 def test_doubled_frame_is_the_frame_at_full_resolution():

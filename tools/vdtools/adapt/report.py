@@ -22,14 +22,23 @@ def report_md(r):
         lines += [f"Labels: {lab['kind']}, {lab['matched']} frames labelled (the others have no vehicles), vehicle "
                   f"classes {lab['vehicle_classes']}; {f['adapt_vehicles']} vehicles to adapt on, "
                   f"{f['val_vehicles']} to measure on.", ""]
+    elif t.get("trained", True):
+        lines += ["Labels: none (self-training on pseudo-labels of the networks themselves, `--self-train`).", ""]
     else:
-        lines += ["Labels: none (self-training on pseudo-labels of the networks themselves).", ""]
-    lines += [f"Networks: {', '.join(r['archs'])} from {', '.join(Path(b).name for b in r['base'])}; "
-              f"quantisation-aware fine-tuning, {t['steps']} steps of batch {t['batch']} (lr {t['lr']:g}, "
-              f"{t['threads']} threads)" + (f", {t['rounds']} self-training rounds" if not r["labelled"] else "")
-              + "; training frames of ../shared/data mixed in: "
-              + (", ".join(f"{k} {v} frames" for k, v in r["replay"]["families"].items()) or "none")
-              + f" (crop shares {', '.join(f'{k} {v:.2f}' for k, v in r['replay']['shares'].items())}).", ""]
+        lines += ["Labels: none, so **the networks were not trained**: without labels vd-adapt chooses the input "
+                  "resolution on your frames and keeps the shipped networks, because self-training on their own "
+                  "pseudo-labels lowered AP on every proxy measured with them (docs/results/adapt.md, section E; "
+                  "`--self-train` runs it anyway). Label a few dozen frames to adapt the networks themselves.", ""]
+    if t.get("trained", True):
+        lines += [f"Networks: {', '.join(r['archs'])} from {', '.join(Path(b).name for b in r['base'])}; "
+                  f"quantisation-aware fine-tuning, {t['steps']} steps of batch {t['batch']} (lr {t['lr']:g}, "
+                  f"{t['threads']} threads)" + (f", {t['rounds']} self-training rounds" if not r["labelled"] else "")
+                  + "; training frames of ../shared/data mixed in: "
+                  + (", ".join(f"{k} {v} frames" for k, v in r["replay"]["families"].items()) or "none")
+                  + f" (crop shares {', '.join(f'{k} {v:.2f}' for k, v in r['replay']['shares'].items())}).", ""]
+    else:
+        lines += [f"Networks: {', '.join(r['archs'])}, the files of {', '.join(Path(b).name for b in r['base'])} "
+                  "unchanged.", ""]
     res = r["resolution"]
     lines += ["Input resolution: " + ("**full** (`cnn-full-res` in vd.json: 4x the networks' time and a larger "
                                       "workspace)" if res["full_res"] else "half (the networks' training scale)")
@@ -51,7 +60,7 @@ def report_md(r):
                   "The val part chose the threshold, so its after figures lean optimistic; with few val vehicles "
                   "they are noisy too. Measure on frames of other scenes before you rely on them."]
     else:
-        v, ps = r["val"], r["pseudo_labels"]
+        v, ps = r["val"], r.get("pseudo_labels")
         lines += ["## What can be measured without labels", "",
                   "**Without labels the gain is not measured**: these figures say how the output changed, not "
                   "whether it got better.", "",
@@ -60,17 +69,19 @@ def report_md(r):
                   f"{v['boxes_per_frame']['before']:.2f} | {v['boxes_per_frame']['after']:.2f} |",
                   f"| flip agreement (boxes found on the frame and on its mirror image) | "
                   f"{_pct(v['flip_agreement']['before'])} % | {_pct(v['flip_agreement']['after'])} % |", "",
-                  f"Boxes in common before / after: {_pct(v['before_after_agreement'])} %. Pseudo-labels per round "
-                  f"(score >= {ps['hi']}; {ps['lo']}..{ps['hi']} ignored): "
-                  + "; ".join(f"round {p['round']}: {p['vehicles']} vehicles in {p['frames_with_vehicles']} frames, "
-                              f"{p['ignore']} ignored" for p in ps["rounds"]) + "."]
+                  f"Boxes in common before / after: {_pct(v['before_after_agreement'])} %." + (
+                      "" if ps is None else f" Pseudo-labels per round (score >= {ps['hi']}; {ps['lo']}..{ps['hi']} "
+                      "ignored): " + "; ".join(f"round {p['round']}: {p['vehicles']} vehicles in "
+                                               f"{p['frames_with_vehicles']} frames, {p['ignore']} ignored"
+                                               for p in ps["rounds"]) + ".")]
     dc, ru = r["outputs"]["demo_check"], r["rules"]
     lines += ["", f"Library rules: the adapted files have the same layers and top-K as before "
               f"({'yes' if all(ru['same_layers_and_top_k']) else 'NO'}), so the same multiply-adds; detector "
               f"workspace at {f['size'][0]}×{f['size'][1]} with the flip pass {ru['workspace_bytes']['after']} B "
               f"(before {ru['workspace_bytes']['before']} B); model files {ru['file_bytes']['after']} B.",
               "", "## Outputs", "",
-              "- " + ", ".join(f"`{m}`" for m in r["outputs"]["models"]) + ": the adapted int8 networks (header "
+              "- " + ", ".join(f"`{m}`" for m in r["outputs"]["models"]) + ": the "
+              + ("adapted" if t.get("trained", True) else "shipped (unchanged)") + " int8 networks (header "
               f"threshold {r['threshold']['after']:.3f}); `NAME_vdm.c` / `NAME_vdm.h`: the same bytes as firmware "
               "arrays; `NAME.scales.json`: the export's scales; `float/NAME.npz`: the float weights (to adapt again: "
               "`--base`)" + ("; `before/`: the base networks as quantised here, the before figures' files"

@@ -82,6 +82,8 @@ class Adaptation:
         self.a, self.plan, self.t_start, self.argv = a, plan, t_start, argv
         self.tmp, self.out, self.frames = plan["tmp"], plan["out"], plan["frames"]
         self.labelled = plan["labels"] is not None
+        self.trains = self.labelled or a.self_train   # without labels the networks are kept unless --self-train
+        self.tuner = None
         n = len(plan["bases"])
         self.names, self.peaks = NAMES[:n], MAX_PEAKS[:n]
         self.resumed = (self.tmp / "ckpt.pt").is_file()
@@ -102,17 +104,20 @@ class Adaptation:
             self.say(f"resuming in {self.tmp.name} from step {self.ck['tuner']['step']}")
         self.load()
         self.measure_before()
-        self.tuner = TU.Tuner(self.nets, self.a.seed, lr=self.a.lr)
-        if self.ck:
-            self.tuner.load(self.ck["tuner"])
+        if self.trains:
+            self.tuner = TU.Tuner(self.nets, self.a.seed, lr=self.a.lr)
+            if self.ck:
+                self.tuner.load(self.ck["tuner"])
+            else:
+                self.times["calibrate"] = self.tuner.start(self.calib)
+            self.budget = self.ck["budget"] if self.ck else self.time_budget()
+            if not self.train():
+                print(f"vd-adapt: interrupted after step {self.tuner.step}; run the same command again to resume "
+                      f"(checkpoint in {self.tmp})", file=sys.stderr)
+                return EXIT_INTERRUPTED
+            self.export()
         else:
-            self.times["calibrate"] = self.tuner.start(self.calib)
-        self.budget = self.ck["budget"] if self.ck else self.time_budget()
-        if not self.train():
-            print(f"vd-adapt: interrupted after step {self.tuner.step}; run the same command again to resume "
-                  f"(checkpoint in {self.tmp})", file=sys.stderr)
-            return EXIT_INTERRUPTED
-        self.export()
+            self.keep()
         rep = self.report()
         (self.tmp / "ckpt.pt").unlink(missing_ok=True)
         for q in self.tmp.glob("round-*"):
@@ -128,7 +133,7 @@ class Adaptation:
         """The replayed training frames, the user's frames as cnn_data frames, the calibration set, the nets."""
         t0, plan = time.time(), self.plan
         self.replay = []
-        if plan["replay"]:
+        if plan["replay"] and (self.trains or plan["before"] is None):   # kept networks need no replay
             self.say(f"reading the training frames of {plan['data']} ({', '.join(plan['replay'])}) to mix in")
             self.replay = [f for f in CD.load_frames(plan["data"], splits=("train",)) if CD.family(f) in plan["replay"]]
         self.by_fam = {}
@@ -294,9 +299,40 @@ class Adaptation:
             # norm: the input normalisation the network reads (vd_cnn2: equalise); --base reads it back
             E.save_float(net, dict(arch=arch, step=self.tuner.step, qat=True, norm=net.norm),
                          tmp / "float" / f"{name}.npz")
+        self.times["export"] = time.time() - t0
+        self.write_config()
+
+    def keep(self):
+        """Without labels and without --self-train: the before networks unchanged (self-training lowered AP on
+        every proxy measured with the shipped pair: docs/results/adapt.md, section E), at the resolution chosen
+        on the user's frames, threshold unchanged; the same outputs as export()."""
+        t0, tmp = time.time(), self.tmp
+        mdir = tmp / "models-check"
+        mdir.mkdir(exist_ok=True)
+        (tmp / "float").mkdir(exist_ok=True)
+        self.after, self.thr, self.res_after = [], self.thr_before, self.res_before
+        for src, base, net, name, arch in zip(self.before, self.plan["bases"], self.nets, self.names, self.archs):
+            blob = Path(src).read_bytes()
+            self.after.append(mdir / f"{name}.vdm")
+            self.after[-1].write_bytes(blob)
+            V.write_c_array(blob, name, tmp)
+            scales = Path(src).with_suffix(".scales.json")
+            meta = json.loads(scales.read_text()) if scales.is_file() else {}
+            (tmp / f"{name}.scales.json").write_text(json.dumps(dict(meta, arch=arch, thr=self.thr, kept=True,
+                                                                     adapted_by="vd-adapt"), indent=1) + "\n")
+            if Path(base).suffix == ".npz":
+                shutil.copyfile(base, tmp / "float" / f"{name}.npz")
+            else:
+                net.eval()
+                E.save_float(net, dict(arch=arch, step=0, qat=False, norm=net.norm), tmp / "float" / f"{name}.npz")
+        self.times["export"] = time.time() - t0
+        self.write_config()
+
+    def write_config(self):
+        """vd.json, and its check with vd_fir_demo on a val frame."""
+        tmp = self.tmp
         (tmp / "vd.json").write_text(json.dumps(config([self.out / f"{n}.vdm" for n in self.names], self.thr,
                                                        self.full_res), indent=1) + "\n")
-        self.times["export"] = time.time() - t0
         self.demo_check = None
         demo = find_demo(self.a.demo)
         if demo is not None and demo.is_file():
@@ -321,10 +357,11 @@ class Adaptation:
             before_models=[str(p) for p in self.before] if plan["before"] else [f"before/{p.name}" for p in self.before],
             before_quantised_here=plan["before"] is None,
             replay=dict(families={k: len(v) for k, v in self.by_fam.items()}, shares=self.shares, data=str(plan["data"])),
-            training=dict(steps=tuner.step, budget_s=round(self.budget, 1) if not self.a.steps else None,
-                          steps_asked=self.a.steps, rounds=self.rounds, resumed=self.resumed, lr=self.a.lr,
-                          batch=TU.BATCH, threads=self.a.threads,
-                          last_losses=tuner.losses[-1][1] if tuner.losses else None),
+            training=dict(trained=self.trains, self_train=self.a.self_train, steps=tuner.step if tuner else 0,
+                          budget_s=round(self.budget, 1) if tuner and not self.a.steps else None,
+                          steps_asked=self.a.steps, rounds=self.rounds if tuner else 0, resumed=self.resumed,
+                          lr=self.a.lr, batch=TU.BATCH, threads=self.a.threads,
+                          last_losses=tuner.losses[-1][1] if tuner and tuner.losses else None),
             threshold=dict(before=self.thr_before, after=self.thr,
                            chosen_on="val part, one-standard-error rule towards the shipped threshold" if self.labelled
                            else "unchanged (no labels)"),
@@ -337,7 +374,8 @@ class Adaptation:
             rep["val"] = dict(before=self.fig_before, before_at_val_choice=self.fig_before_val,
                               after=M.figures(self.res_after, self.thr))
         else:
-            rep["pseudo_labels"] = dict(hi=PSEUDO_HI, lo=PSEUDO_LO, rounds=self.state["log"])
+            if self.trains:
+                rep["pseudo_labels"] = dict(hi=PSEUDO_HI, lo=PSEUDO_LO, rounds=self.state["log"])
             rep["val"] = dict(
                 boxes_per_frame=dict(before=M.boxes_per_frame(self.res_before, self.thr_before),
                                      after=M.boxes_per_frame(self.res_after, self.thr)),
