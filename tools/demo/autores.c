@@ -164,6 +164,9 @@ vd_status_t demo_autores_measure(const demo_opts_t *o, const demo_models_t *m, c
     if (st == VD_OK) {
         st = vd_capture_start(&cap);
     }
+    if (st != VD_OK) {
+        snprintf(err, err_len, "%s", vd_capture_error(&cap)[0] ? vd_capture_error(&cap) : input);
+    }
     while (st == VD_OK && out->frames < DEMO_AUTORES_MAX_FRAMES &&
            (o->max_frames == 0u || out->frames < o->max_frames)) {
         vd_frame_t f, fm;
