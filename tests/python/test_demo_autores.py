@@ -135,3 +135,12 @@ def test_frames_without_vehicles(demo, shipped, tmp_path):
         assert "cnn input: half resolution (--cnn-full-res auto: flip agreement half none (no box), full none " \
                "(no box) over 16 frames" in r.stdout, (w, h, r.stdout)
         assert len((d / "d.jsonl").read_text().splitlines()) == 16
+
+
+def test_input_errors_name_the_input(demo, shipped, tmp_path):
+    """The measurement opens the input first: its errors are the run's, one line naming what failed."""
+    (tmp_path / "empty").mkdir()
+    for what, needle in ((tmp_path / "nope", "cannot open"), (tmp_path / "empty", "no frames")):
+        r = run(demo, "--input", what, "--quiet", check=False)
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 1 and len(lines) == 1 and str(what) in lines[0] and needle in lines[0], r.stderr
