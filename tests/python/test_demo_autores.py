@@ -144,3 +144,18 @@ def test_input_errors_name_the_input(demo, shipped, tmp_path):
         r = run(demo, "--input", what, "--quiet", check=False)
         lines = r.stderr.strip().splitlines()
         assert r.returncode == 1 and len(lines) == 1 and str(what) in lines[0] and needle in lines[0], r.stderr
+
+
+def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
+    """vdtools.evaluation.fleet with the default settings measures a recording's first frames the same way
+    (auto_resolution, through the library's bindings): the same choice and agreement as the demo's summary."""
+    from vdtools.evaluation import fleet
+    if not port.lib_path().exists():
+        pytest.skip(f"{port.lib_path()} not built")
+    fields, cnn, _dbn, _desc = fleet.resolve({})
+    assert "cnn_full_res" not in fields
+    for folder, want in ((CLIP, "half"), (small_clip, "full")):
+        got = fleet.auto_resolution({"input": str(folder)}, fields, cnn)
+        res, half, full, n = choice(run(demo, "--input", folder, "--quiet", "--temporal", "off").stdout)
+        assert (("full" if got["full"] else "half"), got["frames"]) == (res, n) == (want, 32)
+        assert [round(100 * (v or 0.0), 1) for v in got["agreement"]] == [half, full]

@@ -171,8 +171,9 @@ def test_settings_follow_the_demo():
     assert "cnn_full_res" not in fields and fleet.resolve({"cnn-full-res": "on"})[0]["cnn_full_res"] == 1
     with pytest.raises(fleet.FleetError, match="switch"):
         fleet.resolve({"cnn-full-res": "maybe"})
-    with pytest.raises(fleet.FleetError, match="give on or off"):   # the demo's measurement, not the fleet's
-        fleet.resolve({"cnn-full-res": "auto"})
+    # auto (the default, as the demo's) sets no field: run() measures each recording (auto_resolution)
+    assert "cnn_full_res" not in fleet.resolve({"cnn-full-res": "auto"})[0]
+    assert fleet.resolve({"cnn-full-res": "off"})[0]["cnn_full_res"] == 0
     fields, cnn, dbn, desc = fleet.resolve({"cnn-model2": "none"})   # one network: room for both passes' top-K
     assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm"} and isinstance(cnn, bytes)
     assert fields["max_candidates"] == 200 and fields["max_detections"] == 100

@@ -218,10 +218,9 @@ def resolve(settings, models_dir=None):
                          f"(supported: {', '.join(SETTINGS)})")
     models_dir = Path(models_dir or clib.REPO / "models")
     fields = {"temporal": _switch(s.get("temporal", True)), "cnn_flip": int(_switch(s.get("cnn-flip", True)))}
-    if "cnn-full-res" in s:   # default off, as the library's (vd_fir_demo's auto measures a whole recording)
-        if str(s["cnn-full-res"]) == "auto":
-            raise FleetError("cnn-full-res auto is vd_fir_demo's measurement on a recording's first frames; the "
-                             "fleet runs one setting on every shard: give on or off")
+    # cnn-full-res: on/off, or auto (the default, as vd_fir_demo's): no field here, run() measures each
+    # recording's first frames as the demo does (auto_resolution)
+    if "cnn-full-res" in s and str(s["cnn-full-res"]) != "auto":
         fields["cnn_full_res"] = int(_switch(s["cnn-full-res"]))
     # temporal_cfg: the demo's track-aware scores (default on) and coasting (default 0)
     fields["temporal_cfg.flags"] = vdet_scores_flag() if _switch(s.get("track-scores", True)) else 0
@@ -290,6 +289,43 @@ def resolve(settings, models_dir=None):
         if cand is not None:
             dbn, desc["dbn_model"] = cand.read_bytes(), cand.name
     return fields, cnn, dbn, desc
+
+
+AUTO_MAX_FRAMES, AUTO_MIN_FRAMES = 32, 16   # tools/demo/autores.h DEMO_AUTORES_MAX_FRAMES / _MIN_FRAMES
+
+
+def auto_resolution(rec, fields, cnn):
+    """vd_fir_demo's --cnn-full-res auto (tools/demo/autores.c) on a recording: its first AUTO_MAX_FRAMES
+    frames (as the port reads them) and their mirror images through the CNN source alone (the resolved
+    networks and threshold, one pass each, no tracking) at half and at full resolution; boxes of the mirror
+    image, mirrored back, matched one to one at IoU >= 0.5 (vdtools.adapt.measure._agreement). Full resolution
+    when its pooled agreement 2 x matched / boxes is higher and at least AUTO_MIN_FRAMES frames were read.
+    Returns dict(full, frames, agreement=[half, full]) (None: no box at that resolution)."""
+    import numpy as np
+    from vdtools.adapt.measure import _agreement
+    from vdtools.bindings import port
+    sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
+    runners, counts, n = [None, None], [[0, 0], [0, 0]], 0
+    with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
+        for f, _name in cap:
+            img = port.pixels(f).copy()
+            mirror = np.ascontiguousarray(img[:, ::-1])
+            w = img.shape[1]
+            for k in (0, 1):
+                if runners[k] is None:
+                    runners[k] = _Runner(dict(sub, cnn_full_res=k), cnn, None, f.width, f.height)
+                a = [tuple(d["box"]) for d in runners[k].det.run(img)[0]]
+                b = [(w - d["box"][0] - d["box"][2], *d["box"][1:]) for d in runners[k].det.run(mirror)[0]]
+                r = _agreement(a, b)
+                if r is not None:
+                    counts[k][0] += r[0]
+                    counts[k][1] += r[1]
+            n += 1
+            if n == AUTO_MAX_FRAMES:
+                break
+    agree = [2 * m / b if b else None for m, b in counts]
+    full = n >= AUTO_MIN_FRAMES and (agree[1] or 0.0) > (agree[0] or 0.0)
+    return dict(full=full, frames=n, agreement=agree)
 
 
 # ------------------------------------------------------------------ one shard (runs on a worker)
@@ -578,6 +614,13 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     fields, cnn, dbn, desc = resolve(settings)
     shards = plan(recs, shard_frames)
     byid = {r["id"]: r for r in recs}
+    # cnn-full-res auto (the default with the cnn source): each recording's own choice, as the demo makes it
+    rec_fields, cnn_input = {r["id"]: fields for r in recs}, None
+    if "cnn_full_res" not in fields and fields["sources"] & SRC_CNN:
+        cnn_input = {}
+        for r in recs:
+            cnn_input[r["id"]] = auto_resolution(r, fields, cnn)
+            rec_fields[r["id"]] = dict(fields, cnn_full_res=int(cnn_input[r["id"]]["full"]))
     mine_dir = str(Path(mine).resolve()) if mine else None
     if mine_dir:
         (Path(mine_dir) / "images").mkdir(parents=True, exist_ok=True)
@@ -585,7 +628,8 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     todo, results = [], {}
     for s in shards:
         r = byid[s["rec"]]
-        s.update(out=str(out_dir), key=_key(s, fields, (cnn, dbn)), settings=fields, mine=mine_dir,
+        f_r = rec_fields[s["rec"]]
+        s.update(out=str(out_dir), key=_key(s, f_r, (cnn, dbn)), settings=f_r, mine=mine_dir,
                  recording=dict(gt=r["gt"], classes=r["classes"], raw_size=r["raw_size"],
                                 raw_format=r["raw_format"], meta=r["meta"]))
         _, mpath = shard_paths(out_dir, s["rec"], s["index"])
@@ -603,6 +647,10 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
             todo.append(s)
     log(f"vdtools.evaluation.fleet: {len(recs)} recordings, {len(shards)} shards ({len(shards) - len(todo)} complete, "
         f"{len(todo)} to run); " + ", ".join(f"{k} {v}" for k, v in desc.items()))
+    if cnn_input:
+        full = sorted(k for k, v in cnn_input.items() if v["full"])
+        log(f"vdtools.evaluation.fleet: cnn-full-res auto: full resolution for {len(full)} of {len(recs)} recordings"
+            + (f" ({', '.join(full[:8])}{' ...' if len(full) > 8 else ''})" if full else ""))
     cluster = None
     n_workers = 0
     wall = 0.0
@@ -636,7 +684,8 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
                     cluster.close()
     _clean_tmp(out_dir, mine_dir)
     ran = sum(results[(s["rec"], s["index"])]["frames"] for s in todo)
-    report = reduce(recs, shards, results, out_dir, wall, n_workers, desc, mine_dir, frames_run=ran)
+    report = reduce(recs, shards, results, out_dir, wall, n_workers, desc, mine_dir, frames_run=ran,
+                    cnn_input=cnn_input)
     log(format_summary(report))
     return report
 
@@ -708,9 +757,10 @@ def _group_figures(ms):
                 cold_tp_rate=r(tot["tp"] - tot["hot_tp"], cold), cold=cold)
 
 
-def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=None, frames_run=0):
+def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=None, frames_run=0, cnn_input=None):
     """One report from the shard metrics (and the merged recordings): throughput, stages, accuracy.
-    frames_run: frames of the shards this run computed (the others were complete already)."""
+    frames_run: frames of the shards this run computed (the others were complete already); cnn_input: the
+    auto resolution choice per recording (auto_resolution), or None."""
     counts = _merge_recordings(recs, shards, out_dir)
     ms = [results[(s["rec"], s["index"])] for s in shards]
     frames = sum(m["frames"] for m in ms)
@@ -749,6 +799,8 @@ def reduce(recs, shards, results, out_dir, wall_s, n_workers, desc, mine_dir=Non
         # --shard-frames 0 per recording)
         report["recordings_accuracy"] = {rid: _group_figures([m for m in gt_ms if m["rec"] == rid])
                                          for rid in dict.fromkeys(m["rec"] for m in gt_ms)}
+    if cnn_input is not None:
+        report["cnn_input"] = cnn_input
     if mine_dir:
         report["mined"] = _merge_mined(recs, shards, mine_dir)
     _atomic_write(Path(out_dir) / "report.json", json.dumps(report, indent=1))
