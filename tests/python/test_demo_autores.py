@@ -159,3 +159,18 @@ def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
         res, half, full, n = choice(run(demo, "--input", folder, "--quiet", "--temporal", "off").stdout)
         assert (("full" if got["full"] else "half"), got["frames"]) == (res, n) == (want, 32)
         assert [round(100 * (v or 0.0), 1) for v in got["agreement"]] == [half, full]
+
+
+def test_one_to_one_hand_worked():
+    """The flip agreement's matching (metrics.evaluate.one_to_one; autores.c matches): greedy in a's order,
+    the largest IoU wins, ties go to the later box of b, IoU >= 0.5 counts."""
+    from vdtools.metrics.evaluate import one_to_one
+    assert one_to_one([], []) is None
+    assert one_to_one([(0, 0, 10, 10)], []) == (0, 1)
+    # IoU 90/110 against 100/100: the exact box is taken, the second box of a finds nothing left above 0.5
+    assert one_to_one([(0, 0, 10, 10), (1, 0, 10, 10)], [(1, 0, 10, 10), (0, 0, 10, 10)]) == (2, 4)
+    assert one_to_one([(0, 0, 10, 10), (30, 0, 10, 10)], [(1, 0, 10, 10), (0, 0, 10, 10)]) == (1, 4)
+    # equal IoU 80/120 both ways: the later b box is taken, so the second a box (which overlaps only the
+    # earlier one at 0.667) still finds its match; 50/150 = 0.33 never counts
+    assert one_to_one([(0, 0, 10, 10), (-4, 0, 10, 10)], [(-2, 0, 10, 10), (2, 0, 10, 10)]) == (2, 4)
+    assert one_to_one([(0, 0, 10, 10)], [(5, 0, 10, 10)]) == (0, 2)

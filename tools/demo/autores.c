@@ -98,7 +98,7 @@ static void overlap(const vd_rect_t *a, const vd_rect_t *b, uint64_t *inter, uin
     *uni = (uint64_t)a->w * (uint64_t)a->h + (uint64_t)b->w * (uint64_t)b->h - *inter;
 }
 
-// Boxes of a matched one to one with b as vdtools.adapt.measure._agreement: each box of a in turn takes the
+// Boxes of a matched one to one with b as vdtools.metrics.evaluate.one_to_one: each box of a in turn takes the
 // unused box of b with the largest IoU (ties: the later one), kept when IoU >= 0.5. used: nb flags.
 static uint32_t matches(const vd_detection_t *a, size_t na, const vd_detection_t *b, size_t nb, bool *used)
 {

@@ -6,7 +6,7 @@ import numpy as np
 
 from vdtools.evaluation import cnn_eval as CE
 from vdtools.formats import cnn_vdm as V
-from vdtools.metrics.evaluate import iou
+from vdtools.metrics.evaluate import one_to_one
 
 AGREE_IOU = 0.5
 
@@ -101,17 +101,8 @@ def boxes_per_frame(results, thr):
 
 
 def _agreement(a, b):
-    """2 x matched / (|a| + |b|) of two box lists, matched greedily one to one at IoU >= AGREE_IOU (1 when
-    both are empty)."""
-    if not a and not b:
-        return None
-    used, m = set(), 0
-    for x in a:
-        best = max(((iou(x, y), j) for j, y in enumerate(b) if j not in used), default=(0.0, None))
-        if best[1] is not None and best[0] >= AGREE_IOU:
-            used.add(best[1])
-            m += 1
-    return m, len(a) + len(b)
+    """(matched, |a| + |b|) of two box lists (metrics.evaluate.one_to_one), None when both are empty."""
+    return one_to_one(a, b, AGREE_IOU)
 
 
 def agreement(res_a, thr_a, res_b, thr_b):

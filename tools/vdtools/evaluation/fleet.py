@@ -298,11 +298,11 @@ def auto_resolution(rec, fields, cnn):
     """vd_fir_demo's --cnn-full-res auto (tools/demo/autores.c) on a recording: its first AUTO_MAX_FRAMES
     frames (as the port reads them) and their mirror images through the CNN source alone (the resolved
     networks and threshold, one pass each, no tracking) at half and at full resolution; boxes of the mirror
-    image, mirrored back, matched one to one at IoU >= 0.5 (vdtools.adapt.measure._agreement). Full resolution
+    image, mirrored back, matched one to one at IoU >= 0.5 (metrics.evaluate.one_to_one). Full resolution
     when its pooled agreement 2 x matched / boxes is higher and at least AUTO_MIN_FRAMES frames were read.
     Returns dict(full, frames, agreement=[half, full]) (None: no box at that resolution)."""
     import numpy as np
-    from vdtools.adapt.measure import _agreement
+    from vdtools.metrics.evaluate import one_to_one
     from vdtools.bindings import port
     sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
     runners, counts, n = [None, None], [[0, 0], [0, 0]], 0
@@ -316,7 +316,7 @@ def auto_resolution(rec, fields, cnn):
                     runners[k] = _Runner(dict(sub, cnn_full_res=k), cnn, None, f.width, f.height)
                 a = [tuple(d["box"]) for d in runners[k].det.run(img)[0]]
                 b = [(w - d["box"][0] - d["box"][2], *d["box"][1:]) for d in runners[k].det.run(mirror)[0]]
-                r = _agreement(a, b)
+                r = one_to_one(a, b, 0.5)
                 if r is not None:
                     counts[k][0] += r[0]
                     counts[k][1] += r[1]

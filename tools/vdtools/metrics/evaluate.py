@@ -43,6 +43,21 @@ def iou(a, b):
     return inter / (aw * ah + bw * bh - inter)
 
 
+def one_to_one(a, b, thr=0.5):
+    """(matched, |a| + |b|) of two box lists [(x, y, w, h)], matched greedily one to one: each box of a in turn
+    takes the unused box of b with the largest IoU (ties: the later one), counted when IoU >= thr; None when
+    both lists are empty. The flip agreement of vd-adapt and vd_fir_demo --cnn-full-res auto (autores.c)."""
+    if not a and not b:
+        return None
+    used, m = set(), 0
+    for x in a:
+        best = max(((iou(x, y), j) for j, y in enumerate(b) if j not in used), default=(0.0, None))
+        if best[1] is not None and best[0] >= thr:
+            used.add(best[1])
+            m += 1
+    return m, len(a) + len(b)
+
+
 def _pick(classes, cats, fallback):
     if classes:
         out = []
