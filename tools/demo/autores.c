@@ -19,7 +19,6 @@
 typedef struct res_run {
     vd_detector_t det;
     void *ws;
-    bool ready;
 } res_run_t;
 
 static double now_s(void)
@@ -63,7 +62,6 @@ static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t
                  full ? "full" : "half", (unsigned)f->width, (unsigned)f->height);
         return st;
     }
-    r->ready = true;
     return VD_OK;
 }
 
@@ -147,10 +145,9 @@ static vd_status_t measure_frame(res_run_t *r, const vd_frame_t *f, const vd_fra
     return VD_OK;
 }
 
-vd_status_t demo_autores_measure(const demo_opts_t *o, const demo_models_t *m, const char *input,
-                                 const vd_capture_opts_t *copts, demo_autores_t *out, char *err, size_t err_len)
+vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
+                                 demo_autores_t *out, char *err, size_t err_len)
 {
-    (void)m;   // the options' cfg already points at the loaded networks
     memset(out, 0, sizeof *out);
     const double t0 = now_s();
     vd_capture_t cap;

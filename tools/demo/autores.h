@@ -29,10 +29,12 @@ double demo_autores_agreement(const demo_autores_t *a, int full);
 // frames, how far the networks agree with themselves at half and at full resolution: each frame and its
 // mirror image through the CNN source alone (the options' networks and threshold, one pass each, temporal
 // analysis off), the mirror's boxes mirrored back and matched one to one at IoU >= 0.5 (vdtools.adapt.
-// measure.flip_agreement, the rule vd-adapt --resolution auto takes without labels). Full resolution when
+// measure.flip_agreement, the rule vd-adapt --resolution auto takes without labels; vdtools.evaluation.fleet
+// auto_resolution does the same per recording). Full resolution when
 // its agreement is the higher one and at least DEMO_AUTORES_MIN_FRAMES frames were measured.
-// A capture or detector error: its status, err says what.
-vd_status_t demo_autores_measure(const demo_opts_t *o, const demo_models_t *m, const char *input,
-                                 const vd_capture_opts_t *copts, demo_autores_t *out, char *err, size_t err_len);
+// o->cfg must point at the loaded networks (demo_models_load). A capture or detector error: its status,
+// err says what.
+vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
+                                 demo_autores_t *out, char *err, size_t err_len);
 
 #endif

@@ -655,7 +655,7 @@ static int run(run_t *r)
                                 "resolution (set --cnn-full-res on for one whose vehicles are small)\n");
             }
         } else {
-            st = demo_autores_measure(o, &r->m, o->input, &copts, &r->autores, r->err, sizeof r->err);
+            st = demo_autores_measure(o, o->input, &copts, &r->autores, r->err, sizeof r->err);
             if (st != VD_OK) {
                 return fail(r, st, r->err);
             }

@@ -418,6 +418,7 @@ typedef struct setting {
     bool (*parse)(demo_opts_t *o, const char *v);  // K_CUSTOM
     size_t mark;        // offsetof a bool set when a value is taken; 0 (= .input, no bool) for none
     bool optional;      // a switch whose value may be left out on the command line (= on)
+    const char *word;   // an optional setting's value besides a switch's words (cnn-full-res: "auto"), or NULL
 } setting_t;
 
 #define CFG(f) offsetof(demo_opts_t, cfg.f)
@@ -431,6 +432,7 @@ typedef struct setting {
 #define CUSTOM(fn) .kind = K_CUSTOM, .parse = (fn)
 #define MARK(f) .mark = offsetof(demo_opts_t, f)
 #define OPTIONAL_VALUE .optional = true
+#define OPTIONAL_OR(w) .optional = true, .word = (w)
 
 static const named_value_t k_thr_modes[] = {
     {"constant", VD_DETECTOR_THR_CONSTANT}, {"adaptive", VD_DETECTOR_THR_ADAPTIVE}, {NULL, 0}};
@@ -588,7 +590,7 @@ static const setting_t k_settings[] = {
      "networks' time and a larger workspace). auto (default): on recorded input, full when the "
      "networks agree better with themselves on mirrored frames at full resolution, over the first "
      "16-32 frames (docs/demo.md); half on a camera, in the GStreamer element and for fewer frames",
-     CUSTOM(set_cnn_full_res), OPTIONAL_VALUE},
+     CUSTOM(set_cnn_full_res), OPTIONAL_OR("auto")},
     {"cnn-model2", "FILE|none",
      "cnn source: a second version-3 .vdm network run on the same frame, its boxes fused with "
      "the first network's as the flip pass fuses (an ensemble: about the second network's time "
@@ -726,10 +728,8 @@ bool demo_setting_value_ok(int id, const char *v)
     if (id < 0 || (size_t)id >= SET_COUNT || !k_settings[id].optional) {
         return false;
     }
-    if (k_settings[id].kind == K_CUSTOM && strcmp(v, "auto") == 0) {
-        return true;   // --cnn-full-res auto, the only optional custom setting's extra word
-    }
-    return demo_parse_switch(v, &on);
+    const char *w = k_settings[id].word;
+    return (w != NULL && strcmp(v, w) == 0) || demo_parse_switch(v, &on);
 }
 
 bool demo_setting_is_switch(int id)

@@ -53,8 +53,8 @@ typedef struct demo_opts {
 int demo_setting_find(const char *name);
 // True for a switch (--cnn-rescore, --cnn-flip) whose value may be left out on the command line.
 bool demo_setting_is_switch(int id);
-// True when v is a value setting id takes after its flag: for a switch, on/off etc. (and "auto" for
-// --cnn-full-res); a switch's value may be left out, so anything else is the next argument.
+// True when v is a value setting id takes after its flag: a switch's on/off etc., or the setting's own
+// extra word (--cnn-full-res auto); a switch's value may be left out, so anything else is the next argument.
 bool demo_setting_value_ok(int id, const char *v);
 // Applies value v of setting id to o; false with msg "bad value 'v' for NAME (expected ARG)".
 bool demo_setting_apply(demo_opts_t *o, int id, const char *v, char *msg, size_t msg_len);

@@ -100,16 +100,11 @@ def boxes_per_frame(results, thr):
     return sum(sum(1 for _, s in dets if s >= thr) for _, _, dets, _ in results) / max(len(results), 1)
 
 
-def _agreement(a, b):
-    """(matched, |a| + |b|) of two box lists (metrics.evaluate.one_to_one), None when both are empty."""
-    return one_to_one(a, b, AGREE_IOU)
-
-
 def agreement(res_a, thr_a, res_b, thr_b):
     """Share of boxes two result sets of the same frames have in common (F1-like, pooled over frames)."""
     m = n = 0
     for (_, _, da, _), (_, _, db, _) in zip(res_a, res_b):
-        r = _agreement([d[0] for d in da if d[1] >= thr_a], [d[0] for d in db if d[1] >= thr_b])
+        r = one_to_one([d[0] for d in da if d[1] >= thr_a], [d[0] for d in db if d[1] >= thr_b], AGREE_IOU)
         if r is not None:
             m, n = m + r[0], n + r[1]
     return 2 * m / n if n else None

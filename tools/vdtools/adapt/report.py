@@ -9,6 +9,7 @@ def _pct(v):
 
 def report_md(r):
     f, t = r["frames"], r["training"]
+    trained = t["trained"]   # False: an unlabelled run without --self-train kept the networks
     lines = ["# vd-adapt report", "", f"Command: `{r['command']}`", "",
              f"Time taken: {r['time']['wall_s'] / 60:.1f} min wall ("
              + (f"budget {r['time']['minutes_asked']:g} min" if not t["steps_asked"] else f"{t['steps_asked']} steps asked")
@@ -22,14 +23,14 @@ def report_md(r):
         lines += [f"Labels: {lab['kind']}, {lab['matched']} frames labelled (the others have no vehicles), vehicle "
                   f"classes {lab['vehicle_classes']}; {f['adapt_vehicles']} vehicles to adapt on, "
                   f"{f['val_vehicles']} to measure on.", ""]
-    elif t.get("trained", True):
+    elif trained:
         lines += ["Labels: none (self-training on pseudo-labels of the networks themselves, `--self-train`).", ""]
     else:
         lines += ["Labels: none, so **the networks were not trained**: without labels vd-adapt chooses the input "
                   "resolution on your frames and keeps the shipped networks, because self-training on their own "
                   "pseudo-labels lowered AP on every proxy measured with them (docs/results/adapt.md, section E; "
                   "`--self-train` runs it anyway). Label a few dozen frames to adapt the networks themselves.", ""]
-    if t.get("trained", True):
+    if trained:
         lines += [f"Networks: {', '.join(r['archs'])} from {', '.join(Path(b).name for b in r['base'])}; "
                   f"quantisation-aware fine-tuning, {t['steps']} steps of batch {t['batch']} (lr {t['lr']:g}, "
                   f"{t['threads']} threads)" + (f", {t['rounds']} self-training rounds" if not r["labelled"] else "")
@@ -81,7 +82,7 @@ def report_md(r):
               f"(before {ru['workspace_bytes']['before']} B); model files {ru['file_bytes']['after']} B.",
               "", "## Outputs", "",
               "- " + ", ".join(f"`{m}`" for m in r["outputs"]["models"]) + ": the "
-              + ("adapted" if t.get("trained", True) else "shipped (unchanged)") + " int8 networks (header "
+              + ("adapted" if trained else "shipped (unchanged)") + " int8 networks (header "
               f"threshold {r['threshold']['after']:.3f}); `NAME_vdm.c` / `NAME_vdm.h`: the same bytes as firmware "
               "arrays; `NAME.scales.json`: the export's scales; `float/NAME.npz`: the float weights (to adapt again: "
               "`--base`)" + ("; `before/`: the base networks as quantised here, the before figures' files"
