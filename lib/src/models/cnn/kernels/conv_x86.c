@@ -9,7 +9,8 @@
 //    (a zero term, as in the portable rows) and (zp_in + 128) sum w is subtracted from the bias, modulo
 //    2^32 like every accumulation. Per tile of <= 64 output channels the int8 weights are packed
 //    [k4 / 4][n][4] (n k4 <= the int16 copy's 2 chunk kp bytes), per block of 16 pixels the rows as
-//    unsigned bytes x + 128, k4 apart (16 k4 <= the int16 rows' bytes). Output channels run along the
+//    unsigned bytes x + 128, k4 apart (16 k4 <= the int16 rows' bytes; the one-channel first layer per
+//    row span, gather_c1k3_u8). Output channels run along the
 //    lanes (16 per register, 4 registers per tile), 4 pixels per pass. Pointwise layers whose input
 //    channels are a multiple of 4 read their input row in place.
 //  * AVX2 (no AVX-512): exact int16 products by vpmaddwd (pairs of int16 products summed into int32:
@@ -420,6 +421,47 @@ static void gather_u8(const geom_t *g, const int8_t *const rowp[5], int32_t ks, 
     }
 }
 
+// gather_u8 for a CONV3X3 on one input channel (the first layer), as
+// gather_c1k3 below does for the int16 rows: each input row's span of the
+// block is flipped to unsigned bytes once (zp_in + 128 outside the row), then
+// pixel i's 3 taps move from buf + step i with one 4-byte move. The 4th byte
+// lands on tap 3 (ky + 1, rewritten next) or, for ky = 2, on position 9 of the
+// k4 = 12, whose packed weight is 0 (pack_vnni pads k..k4 with 0). The per-tap
+// loop of gather_u8 took 12 % of the demo's time on an AVX-512 machine (perf).
+static X86_TARGET void gather_c1k3_u8(const geom_t *g, const int8_t *const rowp[5], int32_t step, uint32_t x0,
+                                      uint32_t npix, size_t k4, uint8_t *rows)
+{
+    uint8_t buf[48];   // step (npix - 1) + 4 <= 34 values
+    const int32_t ix0 = (int32_t)x0 * step - 1;
+    const int32_t n = step * ((int32_t)npix - 1) + 4;
+    const int32_t jlo = (ix0 < 0) ? -ix0 : 0;
+    const int32_t jhi = ((int32_t)g->wi - ix0 < n) ? (int32_t)g->wi - ix0 : n;
+    const uint8_t upad = (uint8_t)(g->zp_in + 128);
+    const __m128i top = _mm_set1_epi8((char)0x80);
+    for (int32_t ky = 0; ky < 3; ky++) {
+        const int8_t *x = rowp[ky];
+        int32_t j = 0;
+        if (x != NULL) {
+            for (; j < jlo; j++) {
+                buf[j] = upad;
+            }
+            for (; j + 16 <= jhi; j += 16) {
+                const __m128i v = _mm_loadu_si128((const __m128i *)(const void *)(x + ix0 + j));
+                _mm_storeu_si128((__m128i *)(void *)(buf + j), _mm_xor_si128(v, top));
+            }
+            for (; j < jhi; j++) {
+                buf[j] = (uint8_t)((uint8_t)x[ix0 + j] ^ 0x80u);
+            }
+        }
+        for (; j < n; j++) {
+            buf[j] = upad;
+        }
+        for (uint32_t i = 0u; i < npix; i++) {
+            memcpy(rows + (size_t)i * k4 + (size_t)ky * 3u, buf + (size_t)step * i, 4u);
+        }
+    }
+}
+
 // vd__cnn_conv_gather for a CONV3X3 on one input channel (the first layer):
 // the same int16 rows (x - zp_in, padding taps 0). The generic gather moves
 // one tap at a time (callgrind: 18 % of the demo's instructions, almost all
@@ -558,6 +600,7 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
     const bool in_place = pw && ci % 4u == 0u;
+    const bool c1k3 = ks == 3 && ci == 1u;   // gather_c1k3_u8's case (stride 1 or 2: the loader's bound)
     for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
         int32_t corr[VD_CNN_X86_TILE];
@@ -580,7 +623,11 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
                               &xq, g->co, orow + (size_t)x0 * g->co, npix);
                     continue;
                 }
-                gather_u8(g, rowp, ks, step, x0, npix, k4, rows);
+                if (c1k3) {
+                    gather_c1k3_u8(g, rowp, step, x0, npix, k4, rows);
+                } else {
+                    gather_u8(g, rowp, ks, step, x0, npix, k4, rows);
+                }
                 gemm_vnni(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }

@@ -5,10 +5,12 @@
 // Algorithm: the taps are x itself (padding taps read a row of zp_in) and bias - zp_in sum w is folded
 // into the constants. AVX-512: int16 products, vpdpwssd on tap pairs interleaved per channel
 // (unpacklo/hi), 2 products + int32 per lane, exact; packs_epi32 of the lo/hi results restores the
-// channel order; 32 channels per pass. AVX2: the same with vpmaddwd, 16 channels per pass, the last
-// pass's tail read without touching bytes past the pixel's channels (tail_of); the pixels whose taps are all
-// inside the input step three row pointers (dw_row), and the shipped networks' case (whole passes, output
-// range all of int8, ReLU) is a specialised copy.
+// channel order; 32 channels per pass; interior pixels (no padding tap) pair the taps by column instead
+// (rows 0 and 1, row 2 with 0) so that a column loaded for one pixel serves the next (dwv_run). AVX2: the
+// same with vpmaddwd, 16 channels per pass, the last pass's tail read without touching bytes past the
+// pixel's channels (tail_of); the pixels whose taps are all inside the input step three row pointers
+// (dw_row), and the shipped networks' case (whole passes, output range all of int8, ReLU) is a
+// specialised copy.
 // Reference: dw3x3.c (tests/unit/test_cnn.c compares every tensor with it).
 // Bounds: as dw3x3.c; stack: the weights and constants of one pass.
 #include "models/cnn/kernels/x86.h"
@@ -85,26 +87,133 @@ X86_INLINE __m512i dw_tap(const int8_t *t, __mmask32 m)
     return _mm512_cvtepi8_epi16(_mm256_maskz_loadu_epi8(m, t));
 }
 
+// A tap column (rows 0..2 of one input column, 32 channels as int16) in the
+// pairing of the interior path: rows 0 and 1 interleaved per channel
+// (unpacklo/hi), row 2 with 0. Weights take the same form, so one pixel is
+// 6 vpdpwssd per half, and a column loaded for pixel ox serves the next
+// pixel too (its left or centre column).
+typedef struct dwv_col {
+    __m512i pl, ph, el, eh;
+} dwv_col_t;
+
+X86_INLINE dwv_col_t dwv_col(const int8_t *p0, const int8_t *p1, const int8_t *p2, __mmask32 m)
+{
+    const __m512i a = dw_tap(p0, m), b = dw_tap(p1, m), e = dw_tap(p2, m), z = _mm512_setzero_si512();
+    const dwv_col_t c = {_mm512_unpacklo_epi16(a, b), _mm512_unpackhi_epi16(a, b), _mm512_unpacklo_epi16(e, z),
+                         _mm512_unpackhi_epi16(e, z)};
+    return c;
+}
+
+X86_INLINE void dwv_acc(const dwv_col_t *c, const dwv_col_t *w, __m512i *al, __m512i *ah)
+{
+    *al = _mm512_dpwssd_epi32(_mm512_dpwssd_epi32(*al, c->pl, w->pl), c->el, w->el);
+    *ah = _mm512_dpwssd_epi32(_mm512_dpwssd_epi32(*ah, c->ph, w->ph), c->eh, w->eh);
+}
+
+// The constants of one pass of 32 channels from c0 (m: its lanes).
+typedef struct dwv_pass {
+    __m512i wl[5], wh[5];   // tap pairs (0,1) (2,3) (4,5) (6,7) (8,-), the border pixels' pairing
+    dwv_col_t wc[3];        // per column kx: taps (0,kx) (1,kx) paired, (2,kx) with 0
+    vd_cnn_x86_rqv_t cl, ch;
+    __mmask32 m;
+    size_t c0;
+} dwv_pass_t;
+
+X86_INLINE void dwv_out(__m512i al, __m512i ah, const dwv_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *o)
+{
+    const __m512i z = _mm512_packs_epi32(rq16(al, &ps->cl, q), rq16(ah, &ps->ch, q));
+    _mm512_mask_cvtepi16_storeu_epi8(o, ps->m, z);
+}
+
+// Output pixels [xa, xb) of a row whose 9 taps are all inside the input (the
+// 3 rows present, columns ox s - 1 .. ox s + 1 inside): 2 new columns per
+// pixel at stride 2, 1 at stride 1 (the loader's strides). Every pixel through
+// dw_taps and its 9 loads made the kernel ~20 % slower (perf, the demo).
+X86_INLINE void dwv_run(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], uint32_t xa, uint32_t xb,
+                        const dwv_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *orow)
+{
+    const size_t c_n = d->c_n, adv = (size_t)d->stride * c_n;
+    const size_t at = ((size_t)xa * d->stride - 1u) * c_n + ps->c0;
+    const int8_t *p0 = rows[0] + at, *p1 = rows[1] + at, *p2 = rows[2] + at;
+    dwv_col_t cl = dwv_col(p0, p1, p2, ps->m), cc = dwv_col(p0 + c_n, p1 + c_n, p2 + c_n, ps->m);
+    for (uint32_t ox = xa; ox < xb; ox++) {
+        if (d->stride != 1u) {   // 2: the left column is the last pixel's right one, the centre is new
+            cc = dwv_col(p0 + c_n, p1 + c_n, p2 + c_n, ps->m);
+        }
+        const dwv_col_t cr = dwv_col(p0 + 2u * c_n, p1 + 2u * c_n, p2 + 2u * c_n, ps->m);
+        __m512i al = _mm512_setzero_si512(), ah = _mm512_setzero_si512();
+        dwv_acc(&cl, &ps->wc[0], &al, &ah);
+        dwv_acc(&cc, &ps->wc[1], &al, &ah);
+        dwv_acc(&cr, &ps->wc[2], &al, &ah);
+        dwv_out(al, ah, ps, q, orow + (size_t)ox * c_n + ps->c0);
+        if (d->stride == 1u) {
+            cl = cc;
+            cc = cr;
+        } else {
+            cl = cr;
+        }
+        p0 += adv;
+        p1 += adv;
+        p2 += adv;
+    }
+}
+
+// One border pixel (some tap padding) from its 9 tap pointers.
+X86_INLINE void dwv_px(const int8_t *const t[9], const dwv_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *o)
+{
+    const size_t c0 = ps->c0;
+    __m512i al = _mm512_setzero_si512(), ah = _mm512_setzero_si512();
+    for (size_t i = 0u; i < 4u; i++) {
+        const __m512i xa = dw_tap(t[2u * i] + c0, ps->m), xb = dw_tap(t[2u * i + 1u] + c0, ps->m);
+        al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(xa, xb), ps->wl[i]);
+        ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(xa, xb), ps->wh[i]);
+    }
+    const __m512i x8 = dw_tap(t[8] + c0, ps->m), zero = _mm512_setzero_si512();
+    al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(x8, zero), ps->wl[4]);
+    ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(x8, zero), ps->wh[4]);
+    dwv_out(al, ah, ps, q, o + c0);
+}
+
+// The interior [*xa, *xb) of output row with input rows `rows` (empty when a row is padding).
+static inline void dw_interior(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], uint32_t *xa, uint32_t *xb)
+{
+    *xa = 0u;
+    *xb = 0u;
+    if (rows[0] != NULL && rows[1] != NULL && rows[2] != NULL && d->wi >= 2u) {
+        *xa = 1u;
+        const uint32_t b = (d->wi - 2u) / d->stride + 1u;
+        *xb = (b < d->wo) ? b : d->wo;
+        *xb = (*xb > *xa) ? *xb : *xa;
+    }
+}
+
 X86_KERNEL X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
                                    uint32_t y0, uint32_t y1)
 {
     const size_t c_n = d->c_n;
     for (size_t c0 = 0u; c0 < c_n; c0 += 32u) {
+        dwv_pass_t ps;
         const size_t nc = (c_n - c0 < 32u) ? c_n - c0 : 32u;
-        const __mmask32 m = (nc == 32u) ? (__mmask32)0xFFFFFFFFu : (__mmask32)(((uint32_t)1 << nc) - 1u);
-        // Weights [9][c_n] straight from the model; tap pairs (0,1) (2,3)
-        // (4,5) (6,7) (8,-) interleaved per channel as the activations will be.
+        ps.m = (nc == 32u) ? (__mmask32)0xFFFFFFFFu : (__mmask32)(((uint32_t)1 << nc) - 1u);
+        ps.c0 = c0;
+        // Weights [9][c_n] straight from the model, in both pairings.
         __m512i wt[9];
         __m512i wsum = _mm512_setzero_si512();
         for (size_t i = 0u; i < 9u; i++) {
-            wt[i] = dw_tap(L->w + i * c_n + c0, m);
+            wt[i] = dw_tap(L->w + i * c_n + c0, ps.m);
             wsum = _mm512_add_epi16(wsum, wt[i]);   // |sum| <= 9 * 128: int16
         }
-        __m512i wl[5], wh[5];
+        const __m512i zero = _mm512_setzero_si512();
         for (size_t i = 0u; i < 5u; i++) {
-            const __m512i wb = (i < 4u) ? wt[2u * i + 1u] : _mm512_setzero_si512();
-            wl[i] = _mm512_unpacklo_epi16(wt[2u * i], wb);
-            wh[i] = _mm512_unpackhi_epi16(wt[2u * i], wb);
+            const __m512i wb = (i < 4u) ? wt[2u * i + 1u] : zero;
+            ps.wl[i] = _mm512_unpacklo_epi16(wt[2u * i], wb);
+            ps.wh[i] = _mm512_unpackhi_epi16(wt[2u * i], wb);
+        }
+        for (size_t kx = 0u; kx < 3u; kx++) {
+            ps.wc[kx].pl = _mm512_unpacklo_epi16(wt[kx], wt[3u + kx]);
+            ps.wc[kx].ph = _mm512_unpackhi_epi16(wt[kx], wt[3u + kx]);
+            ps.wc[kx].el = _mm512_unpacklo_epi16(wt[6u + kx], zero);
+            ps.wc[kx].eh = _mm512_unpackhi_epi16(wt[6u + kx], zero);
         }
         // bias - zp_in sum w (the taps are x, padding taps zp_in), modulo 2^32.
         int16_t ws[32];
@@ -112,27 +221,23 @@ X86_KERNEL X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_
         uint32_t map_lo[16], map_hi[16];
         int32_t corr_lo[16], corr_hi[16];
         dw_lanes(d, c0, ws, 16u, map_lo, corr_lo, map_hi, corr_hi);
-        vd_cnn_x86_rqv_t cl, chv;
-        vd__cnn_x86_rqv_fill(&cl, L, map_lo, corr_lo, 16u);
-        vd__cnn_x86_rqv_fill(&chv, L, map_hi, corr_hi, 16u);
+        vd__cnn_x86_rqv_fill(&ps.cl, L, map_lo, corr_lo, 16u);
+        vd__cnn_x86_rqv_fill(&ps.ch, L, map_hi, corr_hi, 16u);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
             dw_rows(d, oy, rows);
             int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
+            uint32_t xa, xb;
+            dw_interior(d, rows, &xa, &xb);
             for (uint32_t ox = 0u; ox < d->wo; ox++) {
+                if (ox == xa && xa < xb) {
+                    dwv_run(d, rows, xa, xb, &ps, q, orow);
+                    ox = xb - 1u;
+                    continue;
+                }
                 const int8_t *t[9];
                 dw_taps(d, rows, ox, t);
-                __m512i al = _mm512_setzero_si512(), ah = _mm512_setzero_si512();
-                for (size_t i = 0u; i < 4u; i++) {
-                    const __m512i xa = dw_tap(t[2u * i] + c0, m), xb = dw_tap(t[2u * i + 1u] + c0, m);
-                    al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(xa, xb), wl[i]);
-                    ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(xa, xb), wh[i]);
-                }
-                const __m512i x8 = dw_tap(t[8] + c0, m), zero = _mm512_setzero_si512();
-                al = _mm512_dpwssd_epi32(al, _mm512_unpacklo_epi16(x8, zero), wl[4]);
-                ah = _mm512_dpwssd_epi32(ah, _mm512_unpackhi_epi16(x8, zero), wh[4]);
-                const __m512i z = _mm512_packs_epi32(rq16(al, &cl, q), rq16(ah, &chv, q));
-                _mm512_mask_cvtepi16_storeu_epi8(orow + (size_t)ox * c_n + c0, m, z);
+                dwv_px(t, &ps, q, orow + (size_t)ox * c_n);
             }
         }
     }
@@ -242,13 +347,8 @@ AVX2_INLINE void dw_row(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], s
 {
     const size_t c_n = d->c_n;
     const size_t s = d->stride;
-    uint32_t xa = 0u, xb = 0u;   // interior [xa, xb): ox >= 1 and ox s + 1 < wi
-    if (rows[0] != NULL && rows[1] != NULL && rows[2] != NULL && d->wi >= 2u) {
-        xa = 1u;
-        xb = (d->wi - 2u) / d->stride + 1u;
-        xb = (xb < d->wo) ? xb : d->wo;
-        xb = (xb > xa) ? xb : xa;
-    }
+    uint32_t xa, xb;   // interior [xa, xb): ox >= 1 and ox s + 1 < wi
+    dw_interior(d, rows, &xa, &xb);
     uint32_t ox = 0u;
     while (ox < d->wo) {
         if (ox == xa && xa < xb) {
