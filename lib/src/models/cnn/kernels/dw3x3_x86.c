@@ -132,12 +132,15 @@ X86_INLINE void dwv_out(__m512i al, __m512i ah, const dwv_pass_t *ps, const vd_c
 X86_INLINE void dwv_run(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], uint32_t xa, uint32_t xb,
                         const dwv_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *orow)
 {
+    // Locals: the int8 stores below may alias *d and *q, which the compiler would otherwise read per pixel.
+    const bool s1 = d->stride == 1u;
+    const vd_cnn_x86_rq_t qv = *q;
     const size_t c_n = d->c_n, adv = (size_t)d->stride * c_n;
     const size_t at = ((size_t)xa * d->stride - 1u) * c_n + ps->c0;
     const int8_t *p0 = rows[0] + at, *p1 = rows[1] + at, *p2 = rows[2] + at;
     dwv_col_t cl = dwv_col(p0, p1, p2, ps->m), cc = dwv_col(p0 + c_n, p1 + c_n, p2 + c_n, ps->m);
     for (uint32_t ox = xa; ox < xb; ox++) {
-        if (d->stride != 1u) {   // 2: the left column is the last pixel's right one, the centre is new
+        if (!s1) {   // 2: the left column is the last pixel's right one, the centre is new
             cc = dwv_col(p0 + c_n, p1 + c_n, p2 + c_n, ps->m);
         }
         const dwv_col_t cr = dwv_col(p0 + 2u * c_n, p1 + 2u * c_n, p2 + 2u * c_n, ps->m);
@@ -145,8 +148,8 @@ X86_INLINE void dwv_run(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], u
         dwv_acc(&cl, &ps->wc[0], &al, &ah);
         dwv_acc(&cc, &ps->wc[1], &al, &ah);
         dwv_acc(&cr, &ps->wc[2], &al, &ah);
-        dwv_out(al, ah, ps, q, orow + (size_t)ox * c_n + ps->c0);
-        if (d->stride == 1u) {
+        dwv_out(al, ah, ps, &qv, orow + (size_t)ox * c_n + ps->c0);
+        if (s1) {
             cl = cc;
             cc = cr;
         } else {
@@ -230,6 +233,13 @@ X86_KERNEL X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_
             uint32_t xa, xb;
             dw_interior(d, rows, &xa, &xb);
             for (uint32_t ox = 0u; ox < d->wo; ox++) {
+                if (ox == xa && xa < xb && !q->general && !q->sign) {
+                    // The shipped networks' case: the requantisation flags as constants.
+                    const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, q->sat8};
+                    dwv_run(d, rows, xa, xb, &ps, &qc, orow);
+                    ox = xb - 1u;
+                    continue;
+                }
                 if (ox == xa && xa < xb) {
                     dwv_run(d, rows, xa, xb, &ps, q, orow);
                     ox = xb - 1u;
