@@ -63,7 +63,7 @@ have() {  # name, package(s), command...: a library or plugin that must be prese
 }
 have "GStreamer development files" "libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev" \
   pkg-config --exists gstreamer-1.0 gstreamer-base-1.0 gstreamer-video-1.0
-for el in videoconvert videotestsrc rawvideoparse decodebin; do
+for el in videoconvert videoscale videotestsrc rawvideoparse decodebin; do
   have "GStreamer element $el" "gstreamer1.0-tools gstreamer1.0-plugins-base" gst-inspect-1.0 --exists "$el"
 done
 for el in multifilesrc pngdec pngenc jpegdec; do

@@ -9,6 +9,10 @@
 //                                            message must equal JSONL (vd_fir_demo --json) line by line
 //   test_gst_vdfir error TEXT PIPELINE       PIPELINE must end with a GStreamer ERROR message (not
 //                                            a crash, not EOS) whose text contains TEXT
+//   test_gst_vdfir resolution R PIPELINE     PIPELINE (with vdfir) must post one "vdfir-resolution"
+//                                            message choosing R (half or full) after 32 frames, or
+//                                            none (R = none), and a "vdfir" message per frame with
+//                                            seq 0, 1, .. unbroken by the switch
 // The frames are decoded once and then read losslessly by both the demo and the element:
 // JPEG decoders differ (stb_image in the demo, libjpeg-turbo in jpegdec), PNG does not.
 #include <stdio.h>
@@ -510,6 +514,82 @@ static int cmd_compare(const char *jsonl, const char *desc)
     return rc;
 }
 
+// --- resolution ---------------------------------------------------------------------
+typedef struct res_got {
+    int messages;        // vdfir-resolution messages
+    gboolean full;
+    guint frames;
+    guint64 from_seq;
+    double agree[2];
+    guint64 next_seq;    // the seq the next vdfir message must carry
+    gboolean seq_broken;
+} res_got_t;
+
+static void on_res_message(GstMessage *m, void *user)
+{
+    res_got_t *g = user;
+    const GstStructure *s = gst_message_get_structure(m);
+    if (GST_MESSAGE_TYPE(m) != GST_MESSAGE_ELEMENT || s == NULL) {
+        return;
+    }
+    if (gst_structure_has_name(s, "vdfir")) {
+        guint64 seq = 0;
+        g->seq_broken = g->seq_broken || !gst_structure_get_uint64(s, "seq", &seq) || seq != g->next_seq;
+        g->next_seq++;
+    } else if (gst_structure_has_name(s, "vdfir-resolution")) {
+        g->messages++;
+        if (!gst_structure_get_boolean(s, "full", &g->full) || !gst_structure_get_uint(s, "frames", &g->frames) ||
+            !gst_structure_get_uint64(s, "from-seq", &g->from_seq) ||
+            !gst_structure_get_double(s, "agreement-half", &g->agree[0]) ||
+            !gst_structure_get_double(s, "agreement-full", &g->agree[1])) {
+            g->messages = 100;   // a message without its fields
+        }
+    }
+}
+
+static int cmd_resolution(const char *want, const char *desc)
+{
+    const gboolean none = strcmp(want, "none") == 0, full = strcmp(want, "full") == 0;
+    if (!none && !full && strcmp(want, "half") != 0) {
+        return fail("resolution: R must be half, full or none");
+    }
+    GstElement *pipe = parse(desc);
+    if (pipe == NULL) {
+        return 1;
+    }
+    res_got_t g;
+    memset(&g, 0, sizeof g);
+    // Element messages are delivered on the bus in posting order, so seq order is checked as they come.
+    GstMessage *m = run_pipeline(pipe, on_res_message, &g);
+    gst_object_unref(pipe);
+    if (m != NULL) {
+        const int rc = print_error(m, "resolution");
+        gst_message_unref(m);
+        return rc;
+    }
+    printf("test_gst_vdfir: %" G_GUINT64_FORMAT " frames; %d resolution message(s): %s from frame %" G_GUINT64_FORMAT
+           ", %u frames measured, flip agreement half %.3f, full %.3f\n",
+           g.next_seq, g.messages, g.full ? "full" : "half", g.from_seq, g.frames, g.agree[0], g.agree[1]);
+    if (g.seq_broken) {
+        return fail("the per-frame messages' seq is not 0, 1, 2, .. (the switch must not restart it)");
+    }
+    if (none) {
+        return g.messages == 0 ? 0 : fail("a resolution message where none was expected");
+    }
+    if (g.messages != 1) {
+        return fail("not exactly one resolution message with its fields");
+    }
+    if (g.frames != 32u || g.from_seq != 31u || g.next_seq <= g.from_seq) {
+        return fail("the choice must come with the 32nd frame (seq 31), before the stream ends");
+    }
+    for (int k = 0; k < 2; k++) {
+        if (!(g.agree[k] == -1.0 || (g.agree[k] >= 0.0 && g.agree[k] <= 1.0))) {
+            return fail("an agreement outside [0, 1] (or -1: no box)");
+        }
+    }
+    return g.full == full ? 0 : fail("the element chose the other resolution");
+}
+
 // --- error ------------------------------------------------------------------------
 static int cmd_error(const char *want, const char *desc)
 {
@@ -554,7 +634,10 @@ int main(int argc, char **argv)
     if (argc == 4 && strcmp(argv[1], "error") == 0) {
         return cmd_error(argv[2], argv[3]);
     }
+    if (argc == 4 && strcmp(argv[1], "resolution") == 0) {
+        return cmd_resolution(argv[2], argv[3]);
+    }
     fprintf(stderr, "usage: test_gst_vdfir png8 OUTDIR INDIR N | raw16 OUTFILE INDIR W H | compare JSONL PIPELINE | "
-                    "error TEXT PIPELINE\n");
+                    "error TEXT PIPELINE | resolution half|full|none PIPELINE\n");
     return 2;
 }

@@ -1,25 +1,11 @@
 // SPDX-License-Identifier: MIT
-// --cnn-full-res auto: which resolution the networks should read a recording at, measured on its first frames.
-//
-// Why: the networks trained on vehicles of a certain size. A camera whose vehicles are about half that size
-// (a wider lens, a smaller sensor, a higher mount) loses most of them at half resolution and gets them back at
-// full resolution, while a camera like the training ones loses 20-27 AP points at full resolution
-// (docs/results/cameras.md). Without labels, how far the networks agree with themselves on mirrored frames
-// picked the better resolution on every val set it was tried on (docs/results/adapt.md, section D); this is
-// that rule (vdtools.adapt.measure.choose_resolution without labels), run where a user runs vd.
+// --cnn-full-res auto: which resolution the networks should read a recording at, measured on its first frames
+// (the measurement itself: common/flipagree.c, which the GStreamer element shares).
 #include "autores.h"
 
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-#include "vd/vd.h"
-
-typedef struct res_run {
-    vd_detector_t det;
-    void *ws;
-} res_run_t;
 
 static double now_s(void)
 {
@@ -28,135 +14,13 @@ static double now_s(void)
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
-double demo_autores_agreement(const demo_autores_t *a, int full)
-{
-    const int k = full ? 1 : 0;
-    return a->boxes[k] == 0u ? -1.0 : 2.0 * (double)a->matched[k] / (double)a->boxes[k];
-}
-
-// The CNN source alone as the options set it, one pass per network, no tracking: the predictor of
-// vdtools.adapt.measure.flip_agreement.
-static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t *f, uint8_t full, char *err,
-                            size_t err_len)
-{
-    vd_detector_cfg_t cfg;
-    demo_detector_cfg(o, f->width, f->height, &cfg);
-    cfg.sources = VD_DETECTOR_SRC_CNN;
-    cfg.cnn_rescore = 0u;
-    cfg.cnn_flip = 0u;
-    cfg.cnn_full_res = full;
-    cfg.temporal = false;
-    cfg.clock_us = NULL;
-    cfg.on_candidate = NULL;
-    size_t bytes = 0;
-    vd_status_t st = vd_detector_workspace_size(&cfg, NULL, &bytes);
-    if (st == VD_OK && posix_memalign(&r->ws, 64, bytes ? bytes : 1) != 0) {
-        r->ws = NULL;
-        st = VD_ERR_IO;
-    }
-    if (st == VD_OK) {
-        st = vd_detector_init(&r->det, &cfg, NULL, r->ws, bytes);
-    }
-    if (st != VD_OK) {
-        snprintf(err, err_len, "--cnn-full-res auto: the detector at %s resolution cannot run %ux%u frames",
-                 full ? "full" : "half", (unsigned)f->width, (unsigned)f->height);
-        return st;
-    }
-    return VD_OK;
-}
-
-// Left-right mirror image of f into buf (f's size, packed rows).
-static void mirror(const vd_frame_t *f, void *buf, vd_frame_t *out)
-{
-    const size_t bpp = f->format == VD_PIX_U16 ? 2u : 1u;
-    const size_t row = (size_t)f->width * bpp;
-    for (uint32_t y = 0; y < f->height; y++) {
-        const unsigned char *s = (const unsigned char *)f->data + (size_t)y * f->stride;
-        unsigned char *d = (unsigned char *)buf + (size_t)y * row;
-        for (uint32_t x = 0; x < f->width; x++) {
-            memcpy(d + (size_t)(f->width - 1u - x) * bpp, s + (size_t)x * bpp, bpp);
-        }
-    }
-    *out = *f;
-    out->data = buf;
-    out->stride = row;
-}
-
-// a IoU >= b IoU, exactly: inter_a / union_a against inter_b / union_b.
-static bool iou_ge(uint64_t ia, uint64_t ua, uint64_t ib, uint64_t ub)
-{
-    return ia * ub >= ib * ua;
-}
-
-static void overlap(const vd_rect_t *a, const vd_rect_t *b, uint64_t *inter, uint64_t *uni)
-{
-    const int32_t ix = (a->x + a->w < b->x + b->w ? a->x + a->w : b->x + b->w) - (a->x > b->x ? a->x : b->x);
-    const int32_t iy = (a->y + a->h < b->y + b->h ? a->y + a->h : b->y + b->h) - (a->y > b->y ? a->y : b->y);
-    *inter = (ix > 0 && iy > 0) ? (uint64_t)ix * (uint64_t)iy : 0u;
-    *uni = (uint64_t)a->w * (uint64_t)a->h + (uint64_t)b->w * (uint64_t)b->h - *inter;
-}
-
-// Boxes of a matched one to one with b as vdtools.metrics.evaluate.one_to_one: each box of a in turn takes the
-// unused box of b with the largest IoU (ties: the later one), kept when IoU >= 0.5. used: nb flags.
-static uint32_t matches(const vd_detection_t *a, size_t na, const vd_detection_t *b, size_t nb, bool *used)
-{
-    uint32_t m = 0u;
-    memset(used, 0, nb * sizeof *used);
-    for (size_t i = 0; i < na; i++) {
-        size_t best = nb;
-        uint64_t bi = 0u, bu = 1u;
-        for (size_t j = 0; j < nb; j++) {
-            uint64_t in = 0u, un = 1u;
-            if (used[j]) {
-                continue;
-            }
-            overlap(&a[i].box, &b[j].box, &in, &un);
-            if (un > 0u && (best == nb || iou_ge(in, un, bi, bu))) {
-                best = j;
-                bi = in;
-                bu = un;
-            }
-        }
-        if (best < nb && 2u * bi >= bu) {
-            used[best] = true;
-            m++;
-        }
-    }
-    return m;
-}
-
-// One frame at one resolution: its boxes and its mirror image's, mirrored back, into the pooled counts.
-static vd_status_t measure_frame(res_run_t *r, const vd_frame_t *f, const vd_frame_t *fm, vd_detection_t *da,
-                                 vd_detection_t *db, size_t cap, bool *used, uint64_t *matched, uint64_t *boxes)
-{
-    size_t na = 0, nb = 0;
-    vd_status_t st = vd_detector_run(&r->det, f, da, cap, &na);
-    if (st == VD_OK || st == VD_ERR_CAPACITY) {
-        st = vd_detector_run(&r->det, fm, db, cap, &nb);
-    }
-    if (st != VD_OK && st != VD_ERR_CAPACITY) {
-        return st;
-    }
-    for (size_t j = 0; j < nb; j++) {
-        db[j].box.x = (int32_t)f->width - db[j].box.x - db[j].box.w;
-    }
-    *matched += matches(da, na, db, nb, used);
-    *boxes += na + nb;
-    return VD_OK;
-}
-
 vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
                                  demo_autores_t *out, char *err, size_t err_len)
 {
     memset(out, 0, sizeof *out);
     const double t0 = now_s();
     vd_capture_t cap;
-    res_run_t runs[2];
-    memset(runs, 0, sizeof runs);
-    void *buf = NULL;
-    vd_detection_t *da = NULL, *db = NULL;
-    bool *used = NULL;
-    size_t cap_dets = 0;
+    demo_flipagree_t *fa = NULL;
     vd_status_t st = vd_capture_open(&cap, input, copts);
     if (st == VD_OK) {
         st = vd_capture_start(&cap);
@@ -166,7 +30,7 @@ vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const 
     }
     while (st == VD_OK && out->frames < DEMO_AUTORES_MAX_FRAMES &&
            (o->max_frames == 0u || out->frames < o->max_frames)) {
-        vd_frame_t f, fm;
+        vd_frame_t f;
         st = vd_capture_next(&cap, o->timeout_ms, &f);
         if (st == VD_ERR_RANGE && vd_capture_at_end(&cap)) {
             st = VD_OK;
@@ -176,45 +40,22 @@ vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const 
             snprintf(err, err_len, "%s", vd_capture_error(&cap));
             break;
         }
-        if (buf == NULL) {
-            buf = malloc((size_t)f.width * f.height * (f.format == VD_PIX_U16 ? 2u : 1u));
-            for (int k = 0; k < 2 && buf != NULL && st == VD_OK; k++) {
-                st = run_init(&runs[k], o, &f, (uint8_t)k, err, err_len);
-            }
-            if (st == VD_OK && buf != NULL) {
-                cap_dets = (size_t)runs[0].det.cfg.max_detections + 1u;
-                da = calloc(cap_dets, sizeof *da);
-                db = calloc(cap_dets, sizeof *db);
-                used = calloc(cap_dets, sizeof *used);
-            }
-            if (st == VD_OK && (buf == NULL || da == NULL || db == NULL || used == NULL)) {
-                snprintf(err, err_len, "out of memory");
-                st = VD_ERR_IO;
-            }
+        if (fa == NULL) {
+            st = demo_flipagree_new(&fa, o, &f, err, err_len);
         }
         if (st == VD_OK) {
-            mirror(&f, buf, &fm);
-            for (int k = 0; k < 2 && st == VD_OK; k++) {
-                st = measure_frame(&runs[k], &f, &fm, da, db, cap_dets, used, &out->matched[k], &out->boxes[k]);
-            }
+            st = demo_flipagree_add(fa, &f, out);
             if (st != VD_OK) {
                 snprintf(err, err_len, "--cnn-full-res auto: %s: detector failed", vd_capture_frame_name(&cap));
             }
         }
         vd_capture_release(&cap, &f);
-        out->frames += st == VD_OK ? 1u : 0u;
     }
     vd_capture_close(&cap);
-    free(buf);
-    free(da);
-    free(db);
-    free(used);
-    free(runs[0].ws);
-    free(runs[1].ws);
-    // No box at a resolution is no evidence for it (vd-adapt counts its agreement as 0).
-    const double half = demo_autores_agreement(out, 0);
-    const double full = demo_autores_agreement(out, 1);
-    out->full = st == VD_OK && out->frames >= DEMO_AUTORES_MIN_FRAMES && full > (half > 0.0 ? half : 0.0);
+    demo_flipagree_free(fa);
+    if (st == VD_OK) {
+        demo_autores_decide(out);
+    }
     out->seconds = now_s() - t0;
     return st;
 }

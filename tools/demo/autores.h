@@ -1,29 +1,13 @@
 // SPDX-License-Identifier: MIT
 // --cnn-full-res auto (vd_fir_demo's default): half or full resolution for the networks' input, measured
-// on the first frames of a recording (autores.c, docs/demo.md "Choosing the networks' resolution").
+// on the first frames of a recording (autores.c over common/flipagree.c, docs/demo.md "Choosing the networks'
+// resolution").
 #ifndef VD_DEMO_AUTORES_H
 #define VD_DEMO_AUTORES_H
 
-#include <stdbool.h>
-#include <stdint.h>
-
-#include "models.h"
+#include "flipagree.h"
 #include "settings.h"
 #include "vd_port/capture.h"
-
-#define DEMO_AUTORES_MAX_FRAMES 32u   // frames measured at most (the first ones of the recording)
-#define DEMO_AUTORES_MIN_FRAMES 16u   // fewer frames are too little evidence: half resolution
-
-typedef struct demo_autores {
-    bool full;              // the choice
-    uint32_t frames;        // frames measured
-    uint64_t matched[2];    // [half, full]: boxes matched between a frame and its mirror image (pairs)
-    uint64_t boxes[2];      // ... and all boxes of both, pooled over the frames
-    double seconds;         // time the measurement took
-} demo_autores_t;
-
-// Flip agreement of a measurement: 2 matched / boxes, or -1 when there was no box at that resolution.
-double demo_autores_agreement(const demo_autores_t *a, int full);
 
 // Opens `input` a second time (recorded input only) and measures, on its first DEMO_AUTORES_MAX_FRAMES
 // frames, how far the networks agree with themselves at half and at full resolution: each frame and its

@@ -15,6 +15,7 @@
 #include <gst/video/gstvideofilter.h>
 
 #include "args.h"
+#include "flipagree.h"
 #include "models.h"
 #include "vd/vd.h"
 
@@ -50,6 +51,10 @@ struct _GstVdFir {
     size_t dets_cap;
     guint32 width, height;
     guint64 seq;
+    // --cnn-full-res auto (the demo's default): the first frames of a size measured as they pass
+    demo_flipagree_t *fa;
+    demo_autores_t ar;
+    gboolean ar_measuring;
 };
 
 enum { PROP_0, PROP_MODEL, PROP_CONFIG, PROP_DRAW, PROP_SOURCES };
@@ -80,6 +85,20 @@ static void free_detector(GstVdFir *self)
     g_free(self->dets);
     self->dets = NULL;
     self->det_ready = FALSE;
+}
+
+// Starts --cnn-full-res auto's measurement over for frames of a new size (half resolution meanwhile), when
+// the options ask for it and the CNN source runs.
+static void autores_reset(GstVdFir *self)
+{
+    demo_flipagree_free(self->fa);
+    self->fa = NULL;
+    memset(&self->ar, 0, sizeof self->ar);
+    self->ar_measuring = self->opts.cnn_full_res_auto && self->models.have_cnn &&
+                         (self->opts.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
+    if (self->ar_measuring) {
+        self->opts.cfg.cnn_full_res = 0u;
+    }
 }
 
 static gboolean gst_vdfir_start(GstBaseTransform *bt)
@@ -148,6 +167,9 @@ static gboolean gst_vdfir_stop(GstBaseTransform *bt)
 {
     GstVdFir *self = GST_VDFIR(bt);
     free_detector(self);
+    demo_flipagree_free(self->fa);
+    self->fa = NULL;
+    self->ar_measuring = FALSE;
     if (self->loaded) {
         demo_models_free(&self->models);
         self->loaded = FALSE;
@@ -204,8 +226,9 @@ static gboolean gst_vdfir_set_info(GstVideoFilter *vf, GstCaps *incaps, GstVideo
     const guint32 w = (guint32)GST_VIDEO_INFO_WIDTH(in_info);
     const guint32 h = (guint32)GST_VIDEO_INFO_HEIGHT(in_info);
     if (self->det_ready && w == self->width && h == self->height) {
-        return TRUE;   // same size (e.g. a format change): tracks continue
+        return TRUE;   // same size (e.g. a format change): tracks and the resolution's measurement continue
     }
+    autores_reset(self);
     return init_detector(self, w, h);
 }
 
@@ -263,6 +286,62 @@ static GstStructure *detection_structure(const vd_detection_t *d, gboolean with_
     return s;
 }
 
+// --cnn-full-res auto on the first frames as they pass (the demo measures a recording's first frames before its
+// run; a stream cannot wait): frame f, unchanged yet, into the measurement; at DEMO_AUTORES_MAX_FRAMES the
+// choice, posted as a "vdfir-resolution" element message, and at full resolution a new detector from this
+// frame on (tracks start over, seq continues). A measurement that cannot run leaves half resolution with a
+// warning. FALSE: the new detector failed (its error is posted).
+static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
+{
+    char err[512] = "";
+    const gint64 t0 = g_get_monotonic_time();
+    vd_status_t st = VD_OK;
+    if (self->fa == NULL) {
+        st = demo_flipagree_new(&self->fa, &self->opts, f, err, sizeof err);
+    }
+    if (st == VD_OK) {
+        st = demo_flipagree_add(self->fa, f, &self->ar);
+    }
+    self->ar.seconds += (double)(g_get_monotonic_time() - t0) * 1e-6;
+    if (st != VD_OK) {
+        GST_ELEMENT_WARNING(self, STREAM, FAILED,
+                            ("vdfir: cnn-full-res auto: %s: half resolution", err[0] ? err : vd_status_str(st)),
+                            (NULL));
+        demo_flipagree_free(self->fa);
+        self->fa = NULL;
+        self->ar_measuring = FALSE;
+        return TRUE;
+    }
+    if (self->ar.frames < DEMO_AUTORES_MAX_FRAMES) {
+        return TRUE;
+    }
+    demo_flipagree_free(self->fa);
+    self->fa = NULL;
+    self->ar_measuring = FALSE;
+    const gboolean full = demo_autores_decide(&self->ar);
+    GST_INFO_OBJECT(self,
+                    "cnn input: %s resolution from frame %" G_GUINT64_FORMAT
+                    " (flip agreement half %.3f, full %.3f over %u frames; %.2f s)",
+                    full ? "full" : "half", self->seq, demo_autores_agreement(&self->ar, 0),
+                    demo_autores_agreement(&self->ar, 1), (unsigned)self->ar.frames, self->ar.seconds);
+    GstStructure *ms = gst_structure_new(
+        "vdfir-resolution", "full", G_TYPE_BOOLEAN, full, "from-seq", G_TYPE_UINT64, self->seq, "frames", G_TYPE_UINT,
+        (guint)self->ar.frames, "agreement-half", G_TYPE_DOUBLE, demo_autores_agreement(&self->ar, 0),
+        "agreement-full", G_TYPE_DOUBLE, demo_autores_agreement(&self->ar, 1), "seconds", G_TYPE_DOUBLE,
+        self->ar.seconds, NULL);
+    gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), ms));
+    if (!full) {
+        return TRUE;
+    }
+    self->opts.cfg.cnn_full_res = 1u;
+    const guint64 seq = self->seq;
+    if (!init_detector(self, self->width, self->height)) {
+        return FALSE;
+    }
+    self->seq = seq;
+    return TRUE;
+}
+
 static GstFlowReturn gst_vdfir_transform_frame_ip(GstVideoFilter *vf, GstVideoFrame *frame)
 {
     GstVdFir *self = GST_VDFIR(vf);
@@ -284,6 +363,9 @@ static GstFlowReturn gst_vdfir_transform_frame_ip(GstVideoFilter *vf, GstVideoFr
     GstBuffer *buf = frame->buffer;
     if (GST_BUFFER_PTS_IS_VALID(buf)) {
         f.timestamp_us = GST_BUFFER_PTS(buf) / 1000u;
+    }
+    if (self->ar_measuring && !autores_step(self, &f)) {
+        return GST_FLOW_ERROR;
     }
     size_t n = 0;
     vd_status_t st = vd_detector_run(&self->det, &f, self->dets, self->dets_cap, &n);
@@ -372,6 +454,7 @@ static void gst_vdfir_finalize(GObject *obj)
 {
     GstVdFir *self = GST_VDFIR(obj);
     free_detector(self);
+    demo_flipagree_free(self->fa);
     if (self->loaded) {
         demo_models_free(&self->models);
     }

@@ -1,0 +1,49 @@
+// SPDX-License-Identifier: MIT
+// --cnn-full-res auto, frame by frame: how far the networks agree with themselves on mirrored frames at half
+// and at full resolution (flipagree.c), shared by vd_fir_demo (its first frames, before the run: autores.c)
+// and the GStreamer element vdfir (the first frames as they pass). docs/demo.md "Choosing the networks'
+// resolution".
+#ifndef VD_DEMO_FLIPAGREE_H
+#define VD_DEMO_FLIPAGREE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "settings.h"
+#include "vd/detector.h"
+
+#define DEMO_AUTORES_MAX_FRAMES 32u   // frames measured at most (the first ones of the recording)
+#define DEMO_AUTORES_MIN_FRAMES 16u   // fewer frames are too little evidence: half resolution
+
+typedef struct demo_autores {
+    bool full;              // the choice
+    uint32_t frames;        // frames measured
+    uint64_t matched[2];    // [half, full]: boxes matched between a frame and its mirror image (pairs)
+    uint64_t boxes[2];      // ... and all boxes of both, pooled over the frames
+    double seconds;         // time the measurement took
+} demo_autores_t;
+
+// Flip agreement of a measurement: 2 matched / boxes, or -1 when there was no box at that resolution.
+double demo_autores_agreement(const demo_autores_t *a, int full);
+
+// Sets a->full from the counts (full when its agreement is the higher one and at least DEMO_AUTORES_MIN_FRAMES
+// frames were measured; no box at a resolution is no evidence for it) and returns it.
+bool demo_autores_decide(demo_autores_t *a);
+
+// The two detectors (the CNN source alone as the options set it, one pass per network, temporal analysis
+// off; at half and at full resolution) and buffers of a measurement on frames of `first`'s size and format.
+typedef struct demo_flipagree demo_flipagree_t;
+
+// o->cfg must point at the loaded networks (demo_models_load). A detector that cannot run such frames: its
+// status, err says which; out of memory: VD_ERR_IO. *out NULL on failure.
+vd_status_t demo_flipagree_new(demo_flipagree_t **out, const demo_opts_t *o, const vd_frame_t *first, char *err,
+                               size_t err_len);
+
+// Frame f (first's size and format) and its mirror image at both resolutions into a's counts (a->frames + 1).
+// A detector error: its status (a unchanged but for the counts of the resolution measured before it).
+vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_autores_t *a);
+
+void demo_flipagree_free(demo_flipagree_t *fa);
+
+#endif
