@@ -174,3 +174,58 @@ def test_one_to_one_hand_worked():
     # earlier one at 0.667) still finds its match; 50/150 = 0.33 never counts
     assert one_to_one([(0, 0, 10, 10), (-4, 0, 10, 10)], [(-2, 0, 10, 10), (2, 0, 10, 10)]) == (2, 4)
     assert one_to_one([(0, 0, 10, 10)], [(5, 0, 10, 10)]) == (0, 2)
+
+
+@pytest.fixture
+def camera_dir(request):
+    """A folder under /dev/: the demo takes its camera path for any input under /dev/ (frames named by number,
+    the input opened once), while the port reads a directory there as recorded frames, so a camera's code
+    runs on known frames."""
+    import shutil
+    import uuid
+    shm = Path("/dev/shm")
+    if not shm.is_dir() or not os_access_w(shm):
+        pytest.skip("/dev/shm is not a writable directory here: the camera path cannot be run on files")
+    d = shm / f"vd_autores_{uuid.uuid4().hex}"
+    d.mkdir()
+    request.addfinalizer(lambda: shutil.rmtree(d, ignore_errors=True))
+    return d
+
+
+def os_access_w(p):
+    import os
+    return os.access(p, os.W_OK)
+
+
+def test_camera_measures_its_first_frames_as_they_come(demo, shipped, small_clip, camera_dir, tmp_path):
+    """On a camera (input under /dev/) the first 32 frames are measured as they come and detected on at half
+    resolution; from the 32nd the choice holds: here the small vehicles' full resolution. The figures equal
+    those of the same frames as a recording."""
+    import shutil
+    for p in sorted(small_clip.iterdir()):
+        shutil.copy(p, camera_dir / p.name)
+    a = run(demo, "--input", camera_dir, "--json", tmp_path / "a.jsonl", "--temporal", "off")
+    assert "first 32 frames are measured as they come" in a.stderr
+    res, half, full, n = choice(a.stdout)
+    assert (res, n) == ("full", 32) and "as they came; from frame 32 on" in a.stdout
+    rec = run(demo, "--input", small_clip, "--json", tmp_path / "r.jsonl", "--quiet", "--temporal", "off")
+    assert choice(rec.stdout)[:4] == (res, half, full, n)
+    for k in ("off", "on"):
+        run(demo, "--input", camera_dir, "--json", tmp_path / f"{k}.jsonl", "--quiet", "--temporal", "off",
+            "--cnn-full-res", k)
+    got, off, on = (detections(tmp_path / f"{k}.jsonl") for k in ("a", "off", "on"))
+    assert len(got) == len(small_clip_paths(small_clip)) > 32
+    assert got[:31] == off[:31] and got[31:] == on[31:] and any(got[31:])
+    # a camera whose vehicles are the training size stays at half resolution: the detections of off
+    for p in camera_dir.iterdir():
+        p.unlink()
+    for p in clip_paths():
+        shutil.copy(p, camera_dir / p.name)
+    b = run(demo, "--input", camera_dir, "--json", tmp_path / "b.jsonl", "--quiet")
+    assert choice(b.stdout)[0] == "half"
+    run(demo, "--input", camera_dir, "--json", tmp_path / "c.jsonl", "--quiet", "--cnn-full-res", "off")
+    assert detections(tmp_path / "b.jsonl") == detections(tmp_path / "c.jsonl")
+
+
+def small_clip_paths(folder):
+    return sorted(p for p in folder.iterdir() if p.suffix == ".png")

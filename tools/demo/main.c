@@ -78,6 +78,7 @@ typedef struct run {
     demo_progress_t prog;    // zeroed (off) until the frame loop starts
     demo_autores_t autores;  // --cnn-full-res auto's measurement
     bool autores_ran;
+    demo_autores_live_t live;   // ... on a camera: its first frames as they come
     int8_t *matched;         // --eval: per detection of this frame (dets_cap)
     bool *gt_used;           // --eval: per box of this frame's annotations
     size_t cap_gt_used;
@@ -411,6 +412,36 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     return VD_OK;
 }
 
+// --cnn-full-res auto on a camera: frame f (not yet detected on) into the measurement; when it completes it at
+// full resolution, a new detector from this frame on (tracks start over).
+static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
+{
+    bool now = false;
+    vd_status_t st = demo_autores_live_frame(&r->live, &r->o, f, r->frames, &now, r->err, sizeof r->err);
+    if (st != VD_OK || !now) {
+        return st;
+    }
+    r->autores = r->live.a;
+    r->autores_ran = true;
+    if (!r->autores.full) {
+        return VD_OK;
+    }
+    r->o.cfg.cnn_full_res = 1u;
+    free(r->ws);
+    free(r->dets);
+    free(r->eval_dets);
+    free(r->matched);
+    free(r->cands);
+    vd_rgb_free(&r->canvas);
+    r->ws = NULL;
+    r->dets = NULL;
+    r->eval_dets = NULL;
+    r->matched = NULL;
+    r->cands = NULL;
+    r->det_ready = false;
+    return init_detector(r, f);
+}
+
 // The hot-spot threshold the detector used on this frame (stats; the resolved
 // setting when the hot-spot source is off; 65536 = nothing can be hot).
 static uint32_t hot_threshold(const run_t *r, const vd_frame_t *f)
@@ -524,9 +555,13 @@ static void summary(run_t *r)
                 snprintf(pct[k], sizeof pct[k], "%.1f %%", 100.0 * v);
             }
         }
-        printf("cnn input: %s resolution (--cnn-full-res auto: flip agreement half %s, full %s over %u frames%s; "
+        char from[64] = "";
+        if (r->live.decided) {
+            snprintf(from, sizeof from, ", as they came; from frame %llu on", (unsigned long long)r->live.from + 1u);
+        }
+        printf("cnn input: %s resolution (--cnn-full-res auto: flip agreement half %s, full %s over %u frames%s%s; "
                "%.2f s)\n", a->full ? "full" : "half", pct[0], pct[1], (unsigned)a->frames,
-               a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full" : "", a->seconds);
+               a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full" : "", from, a->seconds);
     }
     if (r->capacity_warnings > 0) {
         printf("note: %llu frames hit a detector budget (VD_ERR_CAPACITY; see --max-candidates, --max-detections)\n",
@@ -588,6 +623,7 @@ static void cleanup(run_t *r)
     free(r->dets);
     free(r->eval_dets);
     free(r->cands);
+    demo_autores_live_free(&r->live);
     demo_models_free(&r->m);
     if (r->have_gt) {
         demo_gt_free(&r->gt);
@@ -650,9 +686,12 @@ static int run(run_t *r)
     copts.same_size = true;
     if (o->cnn_full_res_auto && r->m.have_cnn && (o->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
         if (r->device) {
+            // A camera's frames cannot be read twice: its first frames are measured as they come.
+            r->live.on = true;
+            o->cfg.cnn_full_res = 0u;
             if (!o->quiet) {
-                fprintf(stderr, "vd_fir_demo: --cnn-full-res auto measures recorded frames; a camera runs at half "
-                                "resolution (set --cnn-full-res on for one whose vehicles are small)\n");
+                fprintf(stderr, "vd_fir_demo: --cnn-full-res auto: a camera's first %u frames are measured as they "
+                                "come (half resolution meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES);
             }
         } else {
             st = demo_autores_measure(o, o->input, &copts, &r->autores, r->err, sizeof r->err);
@@ -745,6 +784,11 @@ static int run(run_t *r)
                      (unsigned)r->height, r->format == VD_PIX_U16 ? "16" : "8");
             vd_capture_release(&r->cap, &f);
             return fail(r, VD_ERR_FORMAT, m);
+        }
+        st = autores_live(r, &f);
+        if (st != VD_OK) {
+            vd_capture_release(&r->cap, &f);
+            return fail(r, st, r->err);
         }
         size_t n = 0;
         r->n_cands = 0;
