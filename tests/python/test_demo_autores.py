@@ -162,7 +162,7 @@ def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
 
 
 def test_one_to_one_hand_worked():
-    """The flip agreement's matching (metrics.evaluate.one_to_one; autores.c matches): greedy in a's order,
+    """The flip agreement's matching (metrics.evaluate.one_to_one; flipagree.c matches): greedy in a's order,
     the largest IoU wins, ties go to the later box of b, IoU >= 0.5 counts."""
     from vdtools.metrics.evaluate import one_to_one
     assert one_to_one([], []) is None

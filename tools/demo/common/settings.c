@@ -257,7 +257,7 @@ static bool set_track_sigma_rel(demo_opts_t *o, const char *v)
 }
 
 // on/off (and the rest of a switch's words) or auto: vd_fir_demo measures which resolution the networks
-// agree with themselves better at on the first frames of a recording (tools/demo/autores.c).
+// agree with themselves better at on the first frames (common/flipagree.c; tools/demo/autores.c).
 static bool set_cnn_full_res(demo_opts_t *o, const char *v)
 {
     bool on = false;

@@ -45,8 +45,8 @@ typedef struct demo_opts {
     bool sources_set;           // --sources given (flag or config): no default source choice
     bool max_candidates_set;    // --max-candidates / --max-detections given: not raised for the CNN
     bool max_detections_set;
-    bool cnn_full_res_auto;     // --cnn-full-res auto (the default): vd_fir_demo chooses cfg.cnn_full_res on the
-                                // first frames of a recording (tools/demo/autores.c); elsewhere it reads off
+    bool cnn_full_res_auto;     // --cnn-full-res auto (the default): vd_fir_demo and the element choose
+                                // cfg.cnn_full_res on the first frames (common/flipagree.c); the fleet too
 } demo_opts_t;
 
 // The detector setting called `name` ("cnn-flip" or "cnn_flip"); -1 if there is none.

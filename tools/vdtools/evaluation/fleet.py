@@ -291,11 +291,11 @@ def resolve(settings, models_dir=None):
     return fields, cnn, dbn, desc
 
 
-AUTO_MAX_FRAMES, AUTO_MIN_FRAMES = 32, 16   # tools/demo/autores.h DEMO_AUTORES_MAX_FRAMES / _MIN_FRAMES
+AUTO_MAX_FRAMES, AUTO_MIN_FRAMES = 32, 16   # tools/demo/common/flipagree.h DEMO_AUTORES_*
 
 
 def auto_resolution(rec, fields, cnn):
-    """vd_fir_demo's --cnn-full-res auto (tools/demo/autores.c) on a recording: its first AUTO_MAX_FRAMES
+    """vd_fir_demo's --cnn-full-res auto (tools/demo/common/flipagree.c) on a recording: its first AUTO_MAX_FRAMES
     frames (as the port reads them) and their mirror images through the CNN source alone (the resolved
     networks and threshold, one pass each, no tracking) at half and at full resolution; boxes of the mirror
     image, mirrored back, matched one to one at IoU >= 0.5 (metrics.evaluate.one_to_one). Full resolution

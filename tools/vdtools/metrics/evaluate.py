@@ -46,7 +46,7 @@ def iou(a, b):
 def one_to_one(a, b, thr=0.5):
     """(matched, |a| + |b|) of two box lists [(x, y, w, h)], matched greedily one to one: each box of a in turn
     takes the unused box of b with the largest IoU (ties: the later one), counted when IoU >= thr; None when
-    both lists are empty. The flip agreement of vd-adapt and vd_fir_demo --cnn-full-res auto (autores.c)."""
+    both lists are empty. The flip agreement of vd-adapt and vd_fir_demo --cnn-full-res auto (flipagree.c)."""
     if not a and not b:
         return None
     used, m = set(), 0
