@@ -55,6 +55,9 @@ uint32_t vd_rect_iou_q15(const vd_rect_t *a, const vd_rect_t *b)
     }
     vd_rect_t i = rect_intersect(a, b);
     uint64_t inter = (uint64_t)i.w * (uint64_t)i.h;
+    if (inter == 0u) {
+        return 0u;   // most pairs the fusion and suppression compare: no 64-bit division for them
+    }
     uint64_t uni = (uint64_t)a->w * (uint64_t)a->h + (uint64_t)b->w * (uint64_t)b->h - inter;
     // inter <= uni < 2^63, so inter << 15 fits in uint64.
     return (uint32_t)((inter << 15) / uni);
