@@ -355,6 +355,23 @@ static void on_candidate(void *user, const vd_detection_t *cand)
     }
 }
 
+// What init_detector allocates, freed (again NULL: cleanup and a new detector may follow).
+static void free_detector(run_t *r)
+{
+    vd_rgb_free(&r->canvas);
+    free(r->ws);
+    free(r->dets);
+    free(r->eval_dets);
+    free(r->matched);
+    free(r->cands);
+    r->ws = NULL;
+    r->dets = NULL;
+    r->eval_dets = NULL;
+    r->matched = NULL;
+    r->cands = NULL;
+    r->det_ready = false;
+}
+
 static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
 {
     vd_detector_cfg_t cfg;
@@ -427,18 +444,7 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
         return VD_OK;
     }
     r->o.cfg.cnn_full_res = 1u;
-    free(r->ws);
-    free(r->dets);
-    free(r->eval_dets);
-    free(r->matched);
-    free(r->cands);
-    vd_rgb_free(&r->canvas);
-    r->ws = NULL;
-    r->dets = NULL;
-    r->eval_dets = NULL;
-    r->matched = NULL;
-    r->cands = NULL;
-    r->det_ready = false;
+    free_detector(r);
     return init_detector(r, f);
 }
 
@@ -615,14 +621,9 @@ static void cleanup(run_t *r)
 {
     discard_outputs(r);
     demo_report_abort(&r->report);
-    free(r->matched);
     free(r->gt_used);
     vd_capture_close(&r->cap);
-    vd_rgb_free(&r->canvas);
-    free(r->ws);
-    free(r->dets);
-    free(r->eval_dets);
-    free(r->cands);
+    free_detector(r);
     demo_autores_live_free(&r->live);
     demo_models_free(&r->m);
     if (r->have_gt) {
