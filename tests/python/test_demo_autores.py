@@ -229,20 +229,3 @@ def test_camera_measures_its_first_frames_as_they_come(demo, shipped, small_clip
 
 def small_clip_paths(folder):
     return sorted(p for p in folder.iterdir() if p.suffix == ".png")
-
-
-def test_fleet_measures_recordings_on_the_cluster(shipped, small_clip):
-    """Several recordings are measured as cluster tasks, one each: the same figures as measured in turn."""
-    pytest.importorskip("distributed")
-    from distributed import Client
-    from vdtools.evaluation import fleet
-    if not port.lib_path().exists():
-        pytest.skip(f"{port.lib_path()} not built")
-    fields, cnn, _dbn, _desc = fleet.resolve({})
-    recs = [{"id": "clip", "input": str(CLIP)}, {"id": "small", "input": str(small_clip)}]
-    serial = {r["id"]: fleet.auto_resolution(r, fields, cnn) for r in recs}
-    logged = []
-    with Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=":0") as c:
-        got = fleet._measure_resolutions(recs, fields, cnn, lambda: c, 0, logged.append)
-    assert got == serial and [got[k]["full"] for k in ("clip", "small")] == [False, True]
-    assert "2 recordings measured" in logged[0]

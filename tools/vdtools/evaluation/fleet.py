@@ -603,24 +603,6 @@ def _clean_tmp(out_dir, mine_dir):
                 p.unlink()
 
 
-def _measure_resolutions(recs, fields, cnn, get_client, retries, log):
-    """cnn-full-res auto (the default with the cnn source): each recording's own choice, as the demo makes it
-    (auto_resolution, ~2 s per recording at 640x512). Several recordings are measured on the cluster, one task
-    each (the same function, so the same figures); a single one here, without starting a cluster for it."""
-    t0 = time.perf_counter()
-    if len(recs) > 1:
-        c = get_client()
-        cf = c.scatter([cnn], broadcast=True)[0]
-        futs = [c.submit(auto_resolution, r, fields, cf, retries=retries, pure=False,
-                         key=f"vd-resolution-{i:05d}-{r['id']}") for i, r in enumerate(recs)]
-        got = c.gather(futs)
-    else:
-        got = [auto_resolution(r, fields, cnn) for r in recs]
-    log(f"vdtools.evaluation.fleet: cnn-full-res auto: {len(recs)} recordings measured in "
-        f"{time.perf_counter() - t0:.1f} s")
-    return {r["id"]: g for r, g in zip(recs, got)}
-
-
 def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_frames=256, mine=None,
         retries=2, shard_fn=None, client=None, log=print):
     """The whole evaluation; returns the report dict (also DIR/report.json and DIR/report.md).
@@ -634,30 +616,11 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     byid = {r["id"]: r for r in recs}
     # cnn-full-res auto (the default with the cnn source): each recording's own choice, as the demo makes it
     rec_fields, cnn_input = {r["id"]: fields for r in recs}, None
-    own = client is None
-    cluster = None
-    try:
-        def get_client():   # started when first needed: a resumed run may need no cluster
-            nonlocal client, cluster
-            if client is None:
-                client, cluster = _start_client(scheduler, workers)
-            return client
-        if "cnn_full_res" not in fields and fields["sources"] & SRC_CNN:
-            cnn_input = _measure_resolutions(recs, fields, cnn, get_client, retries, log)
-            for r in recs:
-                rec_fields[r["id"]] = dict(fields, cnn_full_res=int(cnn_input[r["id"]]["full"]))
-        return _evaluate(recs, out_dir, cnn, dbn, desc, shards, byid, rec_fields, cnn_input, mine, retries,
-                         shard_fn, get_client, log)
-    finally:
-        if own and client is not None:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-
-
-def _evaluate(recs, out_dir, cnn, dbn, desc, shards, byid, rec_fields, cnn_input, mine, retries, shard_fn,
-              get_client, log):
-    """run()'s shards: planned, resumed where complete, the rest on the cluster, then reduced."""
+    if "cnn_full_res" not in fields and fields["sources"] & SRC_CNN:
+        cnn_input = {}
+        for r in recs:
+            cnn_input[r["id"]] = auto_resolution(r, fields, cnn)
+            rec_fields[r["id"]] = dict(fields, cnn_full_res=int(cnn_input[r["id"]]["full"]))
     mine_dir = str(Path(mine).resolve()) if mine else None
     if mine_dir:
         (Path(mine_dir) / "images").mkdir(parents=True, exist_ok=True)
@@ -688,28 +651,37 @@ def _evaluate(recs, out_dir, cnn, dbn, desc, shards, byid, rec_fields, cnn_input
         full = sorted(k for k, v in cnn_input.items() if v["full"])
         log(f"vdtools.evaluation.fleet: cnn-full-res auto: full resolution for {len(full)} of {len(recs)} recordings"
             + (f" ({', '.join(full[:8])}{' ...' if len(full) > 8 else ''})" if full else ""))
+    cluster = None
     n_workers = 0
     wall = 0.0
     if todo:
         from distributed import as_completed
-        client = get_client()
-        n_workers = len(client.scheduler_info()["workers"])
-        mfut = client.scatter((cnn, dbn), broadcast=True)
-        t0 = time.perf_counter()   # cluster start-up is not part of the throughput
-        fn = shard_fn or run_shard
-        futs = {client.submit(fn, s, mfut, retries=retries, pure=False,
-                              key=f"vd-shard-{s['rec']}-{s['index']:05d}-{s['key'][:8]}"): s for s in todo}
-        failed = []
-        for fut in as_completed(futs):
-            s = futs[fut]
-            if fut.status == "finished":
-                results[(s["rec"], s["index"])] = fut.result()
-            else:
-                failed.append((s, repr(fut.exception())))
-        if failed:
-            raise FleetError(f"{len(failed)} shards failed for good (rerun resumes): " +
-                             "; ".join(f"{s['rec']}/{s['index']}: {e}" for s, e in failed[:5]))
-        wall = time.perf_counter() - t0
+        own = client is None
+        if own:
+            client, cluster = _start_client(scheduler, workers)
+        try:
+            n_workers = len(client.scheduler_info()["workers"])
+            mfut = client.scatter((cnn, dbn), broadcast=True)
+            t0 = time.perf_counter()   # cluster start-up is not part of the throughput
+            fn = shard_fn or run_shard
+            futs = {client.submit(fn, s, mfut, retries=retries, pure=False,
+                                  key=f"vd-shard-{s['rec']}-{s['index']:05d}-{s['key'][:8]}"): s for s in todo}
+            failed = []
+            for fut in as_completed(futs):
+                s = futs[fut]
+                if fut.status == "finished":
+                    results[(s["rec"], s["index"])] = fut.result()
+                else:
+                    failed.append((s, repr(fut.exception())))
+            if failed:
+                raise FleetError(f"{len(failed)} shards failed for good (rerun resumes): " +
+                                 "; ".join(f"{s['rec']}/{s['index']}: {e}" for s, e in failed[:5]))
+            wall = time.perf_counter() - t0
+        finally:
+            if own:
+                client.close()
+                if cluster is not None:
+                    cluster.close()
     _clean_tmp(out_dir, mine_dir)
     ran = sum(results[(s["rec"], s["index"])]["frames"] for s in todo)
     report = reduce(recs, shards, results, out_dir, wall, n_workers, desc, mine_dir, frames_run=ran,
