@@ -93,10 +93,12 @@ def test_faults_resume_exactly_once_and_mining(setup, tmp_path):
     pids = set(client.run(os.getpid).values())
     task = lambda spec, models: faulty(spec, models, str(marks))
     rep = fleet.run(manifest, out, shard_frames=SHARD, mine=mine, client=client, shard_fn=task, log=lambda m: None)
-    # both faults happened, in a worker process, and the killed one is gone (the nanny started another)
+    # both faults happened, in a worker process, and the killed one is gone (the nanny started another);
+    # the raising shard may run on that replacement, a worker that did not exist when pids was taken
+    now = set(client.run(os.getpid).values())
     assert int((marks / "killed").read_text()) in pids
-    assert int((marks / "raised").read_text()) in pids
-    assert int((marks / "killed").read_text()) not in set(client.run(os.getpid).values())
+    assert int((marks / "raised").read_text()) in pids | now
+    assert int((marks / "killed").read_text()) not in now
     assert rep["recordings"] == 3 and rep["shards"] == 9 and rep["frames"] == 27 and rep["exactly_once"]
     assert leftovers(out) == [] and leftovers(mine) == []
     # frame by frame: the same bytes as the single-process demo on the same shards
