@@ -21,22 +21,4 @@
 vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
                                  demo_autores_t *out, char *err, size_t err_len);
 
-// --cnn-full-res auto on a camera, whose frames cannot be read twice: the first DEMO_AUTORES_MAX_FRAMES frames
-// measured as they come, before each is detected on (the demo detects at half resolution meanwhile), as the
-// GStreamer element does.
-typedef struct demo_autores_live {
-    demo_flipagree_t *fa;
-    demo_autores_t a;
-    bool on;        // measuring
-    bool decided;   // a.full is the choice, from frame `from` on
-    uint64_t from;
-} demo_autores_live_t;
-
-// Frame f (the `frame`-th of the run, 0-based) into the measurement; *now true when it completed it (lv->a.full
-// the choice, to apply from this frame on). A detector that cannot measure: its status, err says what.
-vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *o, const vd_frame_t *f,
-                                    uint64_t frame, bool *now, char *err, size_t err_len);
-
-void demo_autores_live_free(demo_autores_live_t *lv);
-
 #endif

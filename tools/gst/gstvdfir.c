@@ -52,9 +52,7 @@ struct _GstVdFir {
     guint32 width, height;
     guint64 seq;
     // --cnn-full-res auto (the demo's default): the first frames of a size measured as they pass
-    demo_flipagree_t *fa;
-    demo_autores_t ar;
-    gboolean ar_measuring;
+    demo_autores_live_t ar;
 };
 
 enum { PROP_0, PROP_MODEL, PROP_CONFIG, PROP_DRAW, PROP_SOURCES };
@@ -91,12 +89,11 @@ static void free_detector(GstVdFir *self)
 // the options ask for it and the CNN source runs.
 static void autores_reset(GstVdFir *self)
 {
-    demo_flipagree_free(self->fa);
-    self->fa = NULL;
+    demo_autores_live_free(&self->ar);
     memset(&self->ar, 0, sizeof self->ar);
-    self->ar_measuring = self->opts.cnn_full_res_auto && self->models.have_cnn &&
-                         (self->opts.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
-    if (self->ar_measuring) {
+    self->ar.on = self->opts.cnn_full_res_auto && self->models.have_cnn &&
+                  (self->opts.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
+    if (self->ar.on) {
         self->opts.cfg.cnn_full_res = 0u;
     }
 }
@@ -167,9 +164,8 @@ static gboolean gst_vdfir_stop(GstBaseTransform *bt)
 {
     GstVdFir *self = GST_VDFIR(bt);
     free_detector(self);
-    demo_flipagree_free(self->fa);
-    self->fa = NULL;
-    self->ar_measuring = FALSE;
+    demo_autores_live_free(&self->ar);
+    self->ar.on = false;
     if (self->loaded) {
         demo_models_free(&self->models);
         self->loaded = FALSE;
@@ -294,41 +290,28 @@ static GstStructure *detection_structure(const vd_detection_t *d, gboolean with_
 static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
 {
     char err[512] = "";
-    const gint64 t0 = g_get_monotonic_time();
-    vd_status_t st = VD_OK;
-    if (self->fa == NULL) {
-        st = demo_flipagree_new(&self->fa, &self->opts, f, err, sizeof err);
-    }
-    if (st == VD_OK) {
-        st = demo_flipagree_add(self->fa, f, &self->ar);
-    }
-    self->ar.seconds += (double)(g_get_monotonic_time() - t0) * 1e-6;
+    bool now = false;
+    const vd_status_t st = demo_autores_live_frame(&self->ar, &self->opts, f, self->seq, &now, err, sizeof err);
     if (st != VD_OK) {
         GST_ELEMENT_WARNING(self, STREAM, FAILED,
                             ("vdfir: cnn-full-res auto: %s: half resolution", err[0] ? err : vd_status_str(st)),
                             (NULL));
-        demo_flipagree_free(self->fa);
-        self->fa = NULL;
-        self->ar_measuring = FALSE;
         return TRUE;
     }
-    if (self->ar.frames < DEMO_AUTORES_MAX_FRAMES) {
+    if (!now) {
         return TRUE;
     }
-    demo_flipagree_free(self->fa);
-    self->fa = NULL;
-    self->ar_measuring = FALSE;
-    const gboolean full = demo_autores_decide(&self->ar);
+    const gboolean full = self->ar.a.full;
     GST_INFO_OBJECT(self,
                     "cnn input: %s resolution from frame %" G_GUINT64_FORMAT
                     " (flip agreement half %.3f, full %.3f over %u frames; %.2f s)",
-                    full ? "full" : "half", self->seq, demo_autores_agreement(&self->ar, 0),
-                    demo_autores_agreement(&self->ar, 1), (unsigned)self->ar.frames, self->ar.seconds);
+                    full ? "full" : "half", self->seq, demo_autores_agreement(&self->ar.a, 0),
+                    demo_autores_agreement(&self->ar.a, 1), (unsigned)self->ar.a.frames, self->ar.a.seconds);
     GstStructure *ms = gst_structure_new(
         "vdfir-resolution", "full", G_TYPE_BOOLEAN, full, "from-seq", G_TYPE_UINT64, self->seq, "frames", G_TYPE_UINT,
-        (guint)self->ar.frames, "agreement-half", G_TYPE_DOUBLE, demo_autores_agreement(&self->ar, 0),
-        "agreement-full", G_TYPE_DOUBLE, demo_autores_agreement(&self->ar, 1), "seconds", G_TYPE_DOUBLE,
-        self->ar.seconds, NULL);
+        (guint)self->ar.a.frames, "agreement-half", G_TYPE_DOUBLE, demo_autores_agreement(&self->ar.a, 0),
+        "agreement-full", G_TYPE_DOUBLE, demo_autores_agreement(&self->ar.a, 1), "seconds", G_TYPE_DOUBLE,
+        self->ar.a.seconds, NULL);
     gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), ms));
     if (!full) {
         return TRUE;
@@ -364,7 +347,7 @@ static GstFlowReturn gst_vdfir_transform_frame_ip(GstVideoFilter *vf, GstVideoFr
     if (GST_BUFFER_PTS_IS_VALID(buf)) {
         f.timestamp_us = GST_BUFFER_PTS(buf) / 1000u;
     }
-    if (self->ar_measuring && !autores_step(self, &f)) {
+    if (self->ar.on && !autores_step(self, &f)) {
         return GST_FLOW_ERROR;
     }
     size_t n = 0;
@@ -454,7 +437,7 @@ static void gst_vdfir_finalize(GObject *obj)
 {
     GstVdFir *self = GST_VDFIR(obj);
     free_detector(self);
-    demo_flipagree_free(self->fa);
+    demo_autores_live_free(&self->ar);
     if (self->loaded) {
         demo_models_free(&self->models);
     }

@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "models.h"
 
@@ -216,4 +217,54 @@ vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_a
     }
     a->frames++;
     return VD_OK;
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *o, const vd_frame_t *f,
+                                    uint64_t frame, bool *now, char *err, size_t err_len)
+{
+    *now = false;
+    if (!lv->on) {
+        return VD_OK;
+    }
+    const double t0 = now_s();
+    vd_status_t st = VD_OK;
+    if (lv->fa == NULL) {
+        st = demo_flipagree_new(&lv->fa, o, f, err, err_len);
+    }
+    if (st == VD_OK) {
+        st = demo_flipagree_add(lv->fa, f, &lv->a);
+        if (st != VD_OK) {
+            snprintf(err, err_len, "--cnn-full-res auto: frame %llu: detector failed", (unsigned long long)frame);
+        }
+    }
+    lv->a.seconds += now_s() - t0;
+    if (st != VD_OK) {
+        demo_autores_live_free(lv);
+        lv->on = false;
+        return st;
+    }
+    if (lv->a.frames < DEMO_AUTORES_MAX_FRAMES) {
+        return VD_OK;
+    }
+    demo_autores_decide(&lv->a);
+    demo_flipagree_free(lv->fa);
+    lv->fa = NULL;
+    lv->on = false;
+    lv->decided = true;
+    lv->from = frame;
+    *now = true;
+    return VD_OK;
+}
+
+void demo_autores_live_free(demo_autores_live_t *lv)
+{
+    demo_flipagree_free(lv->fa);
+    lv->fa = NULL;
 }

@@ -46,4 +46,22 @@ vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_a
 
 void demo_flipagree_free(demo_flipagree_t *fa);
 
+// --cnn-full-res auto on a live source (vd_fir_demo on a camera, the GStreamer element), whose frames cannot be
+// read twice: the first DEMO_AUTORES_MAX_FRAMES frames measured as they come, before each is detected on (at
+// half resolution meanwhile).
+typedef struct demo_autores_live {
+    demo_flipagree_t *fa;
+    demo_autores_t a;
+    bool on;        // measuring
+    bool decided;   // a.full is the choice, from frame `from` on
+    uint64_t from;
+} demo_autores_live_t;
+
+// Frame f (the `frame`-th of the run, 0-based) into the measurement; *now true when it completed it (lv->a.full
+// the choice, to apply from this frame on). A detector that cannot measure: its status, err says what.
+vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *o, const vd_frame_t *f,
+                                    uint64_t frame, bool *now, char *err, size_t err_len);
+
+void demo_autores_live_free(demo_autores_live_t *lv);
+
 #endif
