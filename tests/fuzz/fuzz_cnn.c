@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Fuzz harness: the CNN loader (vd_cnn_load) and, on whatever it accepts, vd_cnn_run (whole plane and
-// streamed) and vd_cnn_decode on a tiny input.
+// streamed), vd_cnn_decode and vd_cnn_run_rows_decode (the head a ring) on a tiny input.
 //
 // Input: one control byte, then the blob (or a plain blob starting with "VDMF"). Control bit 0: rewrite
 // the blob's CRC-32 field (when the claimed total size lies inside the input) so mutations reach the
@@ -140,6 +140,23 @@ static void run_checks(const vd_cnn_model_t *m, const uint8_t *blob, size_t byte
             FZ_CHECK(i == 0u || boxes[i - 1u].logit >= boxes[i].logit);
             FZ_CHECK(thr[k] == VD_CNN_THR_DEFAULT || boxes[i].logit >= thr[k]);
         }
+        // Decoded as the rows are made, the head a ring (VD_CNN_HEAD_RING): the same boxes, in its own
+        // exact workspace.
+        const uint32_t rf = VD_CNN_STREAM | VD_CNN_HEAD_RING;
+        size_t rb = 0u;
+        FZ_CHECK(vd_cnn_workspace_size_ex(m, w, h, rf, &rb) == VD_OK && rb > 0u && rb <= sb);
+        uint8_t *ws3 = fz_alloc(rb);
+        memset(ws3, 0x3C, rb);
+        const vd_cnn_decode_opts_t o = {thr[k], (uint32_t)k, fw, fh};
+        vd_cnn_box_t rboxes[5];
+        size_t rn = 98u;
+        FZ_CHECK(vd_cnn_run_rows_decode(m, &rows, w, h, rf, ws3, rb - 1u, &o, rboxes, cap, &rn) == VD_ERR_WORKSPACE);
+        FZ_CHECK(vd_cnn_run_rows_decode(m, &rows, w, h, rf, ws3, rb, &o, rboxes, cap, &rn) == VD_OK && rn == n);
+        for (size_t i = 0u; i < n; i++) {
+            FZ_CHECK(memcmp(&rboxes[i].rect, &boxes[i].rect, sizeof boxes[i].rect) == 0);
+            FZ_CHECK(rboxes[i].score_q15 == boxes[i].score_q15 && rboxes[i].logit == boxes[i].logit);
+        }
+        free(ws3);
     }
     free(copy);
     free(ws);

@@ -1828,9 +1828,60 @@ static void plane_row(void *ctx, uint32_t y, uint8_t *dst)
     r->calls++;
 }
 
+// vd_cnn_run_rows_decode (streamed, with and without VD_CNN_HEAD_RING) against vd_cnn_decode of the
+// whole-plane head `a`, for several thresholds, top-Ks and capacities: the same boxes, field by field,
+// in workspaces of exactly the queried size, guarded and prefilled with garbage.
+static void decode_stream_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h,
+                                const vd_cnn_output_t *a, const char *what)
+{
+    static vd_cnn_box_t want[200], got[200];
+    static const int32_t thrs[3] = {-128, 0, VD_CNN_THR_DEFAULT};
+    static const uint32_t peaks[2] = {0u, 3u};
+    static const size_t caps[3] = {0u, 5u, 200u};
+    for (uint32_t ring = 0u; ring < 2u; ring++) {
+        const uint32_t flags = VD_CNN_STREAM | ((ring != 0u) ? VD_CNN_HEAD_RING : 0u);
+        size_t bytes = 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(m, w, h, flags, &bytes));
+        void *ws = tu_guarded_alloc(3, bytes);
+        for (uint32_t ti = 0u; ti < 3u; ti++) {
+            for (uint32_t pi = 0u; pi < 2u; pi++) {
+                for (uint32_t ci = 0u; ci < 3u; ci++) {
+                    const vd_cnn_decode_opts_t o = {thrs[ti], peaks[pi], 2u * w + 1u, 2u * h};
+                    size_t nw = 99u, ng = 99u;
+                    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_decode(m, a, o.thr_i8, o.max_peaks, o.frame_w, o.frame_h,
+                                                               want, caps[ci], &nw));
+                    memset(ws, 0xC3, bytes);
+                    plane_rows_t pr = {img, w, h, 0u, 0u, true};
+                    const vd_cnn_rows_t rows = {plane_row, &pr};
+                    TEST_ASSERT_EQUAL_INT_MESSAGE(
+                        VD_OK, vd_cnn_run_rows_decode(m, &rows, w, h, flags, ws, bytes, &o, got, caps[ci], &ng),
+                        what);
+                    TEST_ASSERT_EQUAL_size_t_MESSAGE(nw, ng, what);
+                    for (size_t i = 0u; i < nw; i++) {
+                        TEST_ASSERT_EQUAL_INT32_MESSAGE(want[i].rect.x, got[i].rect.x, what);
+                        TEST_ASSERT_EQUAL_INT32_MESSAGE(want[i].rect.y, got[i].rect.y, what);
+                        TEST_ASSERT_EQUAL_INT32_MESSAGE(want[i].rect.w, got[i].rect.w, what);
+                        TEST_ASSERT_EQUAL_INT32_MESSAGE(want[i].rect.h, got[i].rect.h, what);
+                        TEST_ASSERT_EQUAL_UINT16_MESSAGE(want[i].score_q15, got[i].score_q15, what);
+                        TEST_ASSERT_EQUAL_INT8_MESSAGE(want[i].logit, got[i].logit, what);
+                    }
+                }
+            }
+        }
+        // A ring head is not whole (unless the ring is the head): vd_cnn_tensor refuses it.
+        const vd_cnn_plan_t *p = (const vd_cnn_plan_t *)ws;
+        vd_cnn_output_t t;
+        const vd_status_t st = vd_cnn_tensor(m, ws, bytes, w, h, m->n_layers, &t);
+        TEST_ASSERT_EQUAL_INT(p->rows[m->n_layers] == a->h ? VD_OK : VD_ERR_STATE, st);
+        TEST_ASSERT_TRUE(ring != 0u || st == VD_OK);
+        tu_guard_check(3);
+        tu_guarded_free(3);
+    }
+}
+
 // Whole-plane head of m on img (w x h) against the streamed run from the
 // plane and from a row source, in guarded workspaces of exactly the queried
-// sizes (the streamed one prefilled with garbage); then the streamed
+// sizes (the streamed one prefilled with garbage); the streamed decode; then the streamed
 // workspace contract (size - 1 fails, guards intact).
 static void stream_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h, const char *what)
 {
@@ -1859,6 +1910,7 @@ static void stream_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w
     // Every row once for the network, once more for a stretch histogram; in order.
     TEST_ASSERT_EQUAL_UINT32(h * ((m->input_norm != VD_CNN_NORM_NONE) ? 2u : 1u), pr.calls);
     TEST_ASSERT_TRUE(pr.in_order);
+    decode_stream_check(m, img, w, h, &a, what);
     tu_guard_check(0);
     tu_guard_check(1);
     tu_guarded_free(1);
@@ -2118,6 +2170,83 @@ static void test_stream_band_rule(void)
     TEST_ASSERT_EQUAL_INT(VD_OK, vd__cnn_plan_make(&mc, &c, 320u, 256u, VD_CNN_STREAM, &p));
     TEST_ASSERT_EQUAL_UINT8(VD_CNN_BAND_MAX, p.band);
     TEST_ASSERT_TRUE(p.total <= VD_CNN_BAND_CAP);
+}
+
+// VD_CNN_HEAD_RING, hand-worked on the committed networks at 320 x 256: the head (80 x 64 cells of 5
+// channels at stride 4: 25 600 B) becomes a ring of band + 2 rows of 400 B: vd_cnn (band 1) 3 rows,
+// 24 400 B less; vd_cnn_compact (band 4) 6 rows, 23 200 B less. Then every argument vd_cnn_run_rows_decode
+// refuses, before running, with *count untouched.
+static void test_head_ring_workspace_and_arguments(void)
+{
+    static vd_cnn_model_t m, mc;
+    if (!load_file_model(VD_SOURCE_DIR "/models/vd_cnn.vdm", &m) ||
+        !load_file_model(VD_SOURCE_DIR "/models/vd_cnn_compact.vdm", &mc)) {
+        TEST_IGNORE_MESSAGE("models/vd_cnn*.vdm not in this checkout");
+    }
+    static vd_cnn_plan_t p;
+    chain_t c;
+    const vd_cnn_model_t *ms[2] = {&m, &mc};
+    const uint32_t rows_want[2] = {3u, 6u};
+    for (uint32_t i = 0u; i < 2u; i++) {
+        size_t whole = 0u, ring = 0u;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(ms[i], 320u, 256u, VD_CNN_STREAM, &whole));
+        TEST_ASSERT_EQUAL_INT(VD_OK,
+                              vd_cnn_workspace_size_ex(ms[i], 320u, 256u, VD_CNN_STREAM | VD_CNN_HEAD_RING, &ring));
+        TEST_ASSERT_EQUAL_size_t(25600u - rows_want[i] * 400u, whole - ring);
+        TEST_ASSERT_TRUE(vd__cnn_model_ok(ms[i], &c));
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd__cnn_plan_make(ms[i], &c, 320u, 256u, VD_CNN_STREAM | VD_CNN_HEAD_RING, &p));
+        TEST_ASSERT_EQUAL_UINT16(rows_want[i], p.rows[ms[i]->n_layers]);
+    }
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 320u, 256u, VD_CNN_HEAD_RING, &bytes));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_workspace_size_ex(&m, 320u, 256u,
+                                                               VD_CNN_STREAM | VD_CNN_KEEP_TENSORS | VD_CNN_HEAD_RING,
+                                                               &bytes));
+    const uint32_t fl = VD_CNN_STREAM | VD_CNN_HEAD_RING;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&mc, 64u, 32u, fl, &bytes));
+    void *ws = tu_guarded_alloc(0, bytes);
+    static uint8_t img[64 * 32];
+    warm_frame(img, 64u, 32u, 5u, 1u);
+    plane_rows_t pr = {img, 64u, 32u, 0u, 0u, true};
+    const vd_cnn_rows_t rows = {plane_row, &pr};
+    const vd_cnn_rows_t no_row = {NULL, &pr};
+    vd_cnn_output_t out;
+    // The runs that return the head cannot return a ring of it.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_ex(&mc, img, 64u, 32u, 64u, fl, ws, bytes, &out));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows(&mc, &rows, 64u, 32u, fl, ws, bytes, &out));
+    vd_cnn_box_t boxes[8];
+    const vd_cnn_decode_opts_t ok = {VD_CNN_THR_DEFAULT, 0u, 128u, 64u};
+    const vd_cnn_decode_opts_t bad[4] = {{200, 0u, 128u, 64u}, {-129, 0u, 128u, 64u}, {0, 0u, 0u, 64u},
+                                         {0, 0u, 128u, VD_MAX_DIM + 1u}};
+    size_t n = 77u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(NULL, &rows, 64u, 32u, fl, ws, bytes, &ok, boxes, 8u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, NULL, 64u, 32u, fl, ws, bytes, &ok, boxes, 8u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, &no_row, 64u, 32u, fl, ws, bytes, &ok, boxes, 8u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, &rows, 64u, 32u, fl, ws, bytes, &ok, boxes, 8u, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, &rows, 64u, 32u, fl, ws, bytes, NULL, boxes, 8u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, &rows, 64u, 32u, fl, ws, bytes, &ok, NULL, 8u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, &rows, 64u, 32u, VD_CNN_HEAD_RING, ws, bytes, &ok,
+                                                             boxes, 8u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, &rows, 64u, 32u, fl | VD_CNN_KEEP_TENSORS, ws, bytes,
+                                                             &ok, boxes, 8u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, &rows, 64u, 32u, fl | 64u, ws, bytes, &ok, boxes,
+                                                             8u, &n));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, &rows, 60u, 32u, fl, ws, bytes, &ok, boxes, 8u, &n));
+    for (uint32_t i = 0u; i < 4u; i++) {
+        TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_run_rows_decode(&mc, &rows, 64u, 32u, fl, ws, bytes, &bad[i], boxes,
+                                                                 8u, &n));
+    }
+    TEST_ASSERT_EQUAL_UINT32(0u, pr.calls);   // refused before any row was asked for
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_run_rows_decode(&mc, &rows, 64u, 32u, fl, ws, bytes - 1u, &ok,
+                                                                   boxes, 8u, &n));
+    static vd_cnn_model_t unloaded;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_run_rows_decode(&unloaded, &rows, 64u, 32u, fl, ws, bytes, &ok, boxes,
+                                                               8u, &n));
+    TEST_ASSERT_EQUAL_size_t(77u, n);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run_rows_decode(&mc, &rows, 64u, 32u, fl, ws, bytes, &ok, boxes, 8u, &n));
+    TEST_ASSERT_TRUE(n <= 8u);
+    tu_guard_check(0);
+    tu_guarded_free(0);
 }
 
 // The CRC a record's kept part carries (plan.c's rows_crc): rows, h, live of tensors 0..nt-1, the band.
@@ -2680,6 +2809,7 @@ int main(void)
     RUN_TEST(test_reuse_plan_kept_checked_and_safe);
     RUN_TEST(test_same_hist_mirror);
     RUN_TEST(test_stream_band_rule);
+    RUN_TEST(test_head_ring_workspace_and_arguments);
     RUN_TEST(test_awkward_models_match_naive_reference);
     RUN_TEST(test_x86_kernels_match_portable_random);
     RUN_TEST(test_x86_kernels_match_portable_committed);

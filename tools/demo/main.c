@@ -82,7 +82,7 @@ typedef struct run {
     int8_t *matched;         // --eval: per detection of this frame (dets_cap)
     bool *gt_used;           // --eval: per box of this frame's annotations
     size_t cap_gt_used;
-    char err[1024];
+    char err[1600];   // holds a frame's name (name[1100]) and a sentence
 } run_t;
 
 // Ctrl-C / SIGTERM end the run after the current frame; outputs are then
@@ -638,12 +638,10 @@ static void cleanup(run_t *r)
     }
 }
 
-// The run proper; returns the exit status. cleanup() is the caller's.
-static int run(run_t *r)
+// The bundled clip's presence, the models and the ground truth (--eval); returns an exit status.
+static int load_inputs(run_t *r)
 {
     demo_opts_t *o = &r->o;
-    vd_status_t st;
-    r->device = strncmp(o->input, "/dev/", 5) == 0;
     struct stat sb;
     if (o->input_default) {
         if (stat(o->input, &sb) != 0) {
@@ -661,7 +659,7 @@ static int run(run_t *r)
             }
         }
     }
-    st = demo_models_load(&r->m, &r->o, VD_DEMO_MODELS_DIR, r->err, sizeof r->err);
+    vd_status_t st = demo_models_load(&r->m, &r->o, VD_DEMO_MODELS_DIR, r->err, sizeof r->err);
     if (st != VD_OK) {
         return fail(r, st, r->err);
     }
@@ -674,36 +672,54 @@ static int run(run_t *r)
         }
         r->have_gt = true;
     }
-    vd_capture_opts_t copts;
-    vd_capture_opts_default(&copts);
-    copts.raw_width = o->raw_w;
-    copts.raw_height = o->raw_h;
-    copts.raw_format = o->raw_format;
-    copts.raw_big_endian = o->raw_big_endian;
-    copts.width = o->dev_w;
-    copts.height = o->dev_h;
-    copts.fps = o->fps;
-    copts.format = o->dev_format;
-    copts.same_size = true;
-    if (o->cnn_full_res_auto && r->m.have_cnn && (o->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
-        if (r->device) {
-            // A camera's frames cannot be read twice: its first frames are measured as they come.
-            r->live.on = true;
-            o->cfg.cnn_full_res = 0u;
-            if (!o->quiet) {
-                fprintf(stderr, "vd_fir_demo: --cnn-full-res auto: a camera's first %u frames are measured as they "
-                                "come (half resolution meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES);
-            }
-        } else {
-            st = demo_autores_measure(o, o->input, &copts, &r->autores, r->err, sizeof r->err);
-            if (st != VD_OK) {
-                return fail(r, st, r->err);
-            }
-            r->autores_ran = true;
-            o->cfg.cnn_full_res = r->autores.full ? 1u : 0u;
-        }
+    return 0;
+}
+
+static void capture_opts(const demo_opts_t *o, vd_capture_opts_t *copts)
+{
+    vd_capture_opts_default(copts);
+    copts->raw_width = o->raw_w;
+    copts->raw_height = o->raw_h;
+    copts->raw_format = o->raw_format;
+    copts->raw_big_endian = o->raw_big_endian;
+    copts->width = o->dev_w;
+    copts->height = o->dev_h;
+    copts->fps = o->fps;
+    copts->format = o->dev_format;
+    copts->same_size = true;
+}
+
+// --cnn-full-res auto: a recording is measured before the run (its first frames read twice); a camera's
+// frames cannot be read twice, so they are measured as they come (autores_live) at half resolution.
+static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
+{
+    demo_opts_t *o = &r->o;
+    if (!o->cnn_full_res_auto || !r->m.have_cnn || (o->cfg.sources & VD_DETECTOR_SRC_CNN) == 0u) {
+        return 0;
     }
-    st = vd_capture_open(&r->cap, o->input, &copts);
+    if (r->device) {
+        r->live.on = true;
+        o->cfg.cnn_full_res = 0u;
+        if (!o->quiet) {
+            fprintf(stderr, "vd_fir_demo: --cnn-full-res auto: a camera's first %u frames are measured as they "
+                            "come (half resolution meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES);
+        }
+        return 0;
+    }
+    vd_status_t st = demo_autores_measure(o, o->input, copts, &r->autores, r->err, sizeof r->err);
+    if (st != VD_OK) {
+        return fail(r, st, r->err);
+    }
+    r->autores_ran = true;
+    o->cfg.cnn_full_res = r->autores.full ? 1u : 0u;
+    return 0;
+}
+
+// Capture started, the banner, the outputs and the report opened; returns an exit status.
+static int open_run(run_t *r, const vd_capture_opts_t *copts)
+{
+    demo_opts_t *o = &r->o;
+    vd_status_t st = vd_capture_open(&r->cap, o->input, copts);
     if (st == VD_OK) {
         st = vd_capture_start(&r->cap);
     }
@@ -735,104 +751,61 @@ static int run(run_t *r)
         }
         r->have_report = true;
     }
-    int retries = 0;
-    uint64_t total = 0;
-    if (!r->device && vd_file_frame_total(&r->cap, &total) != VD_OK) {
-        total = 0;
-    }
-    if (o->max_frames != 0 && (total == 0 ? r->device : total > o->max_frames)) {
-        total = o->max_frames;
-    }
-    demo_progress_start(&r->prog, !o->quiet, isatty(STDERR_FILENO) != 0, total, now_s());
-    // Recorded input ends at VD_ERR_RANGE + at_end; a device runs until --frames or an error.
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    for (;;) {
-        if ((o->max_frames != 0 && r->frames >= o->max_frames) || g_stop) {
-            break;
-        }
-        vd_frame_t f;
-        uint32_t t0 = clock_us(NULL);
-        st = vd_capture_next(&r->cap, o->timeout_ms, &f);
-        if (st == VD_ERR_RANGE && vd_capture_at_end(&r->cap)) {
-            break;
-        }
+    return 0;
+}
+
+// One captured frame through the detector and into every output; *n: its detections. On failure r->err
+// says why (the caller releases the frame either way).
+static vd_status_t process_frame(run_t *r, const vd_frame_t *f, const char *name, size_t *n)
+{
+    vd_status_t st;
+    *n = 0;
+    if (!r->det_ready) {
+        st = init_detector(r, f);
         if (st != VD_OK) {
-            if (r->device && (st == VD_ERR_TIMEOUT || st == VD_ERR_AGAIN) && ++retries <= MAX_DEVICE_RETRIES) {
-                continue;
-            }
-            char m[1200];
-            snprintf(m, sizeof m, "%s", vd_capture_error(&r->cap));
-            return fail(r, st, m);
+            return st;
         }
-        retries = 0;
-        char name[1100];
-        frame_name(r, &f, name, sizeof name);
-        if (!r->det_ready) {
-            st = init_detector(r, &f);
-            if (st != VD_OK) {
-                vd_capture_release(&r->cap, &f);
-                return fail(r, st, r->err);
-            }
-        } else if (f.width != r->width || f.height != r->height || f.format != r->format) {
-            char m[1400];
-            snprintf(m, sizeof m, "%s: %ux%u %s-bit, but the sequence started with %ux%u %s-bit frames", name,
-                     (unsigned)f.width, (unsigned)f.height, f.format == VD_PIX_U16 ? "16" : "8", (unsigned)r->width,
-                     (unsigned)r->height, r->format == VD_PIX_U16 ? "16" : "8");
-            vd_capture_release(&r->cap, &f);
-            return fail(r, VD_ERR_FORMAT, m);
-        }
-        st = autores_live(r, &f);
-        if (st != VD_OK) {
-            vd_capture_release(&r->cap, &f);
-            return fail(r, st, r->err);
-        }
-        size_t n = 0;
-        r->n_cands = 0;
-        st = vd_detector_run(&r->det, &f, r->dets, r->dets_cap, &n);
-        if (st == VD_ERR_CAPACITY) {
-            r->capacity_warnings++;
-        } else if (st != VD_OK) {
-            char m[1400];
-            snprintf(m, sizeof m, "%s: detector failed", name);
-            vd_capture_release(&r->cap, &f);
-            return fail(r, st, m);
-        }
-        if (r->json_open) {
-            write_json_line(r, name, &f, n);
-        }
-        if (r->have_gt) {
-            for (size_t i = 0; i < n; i++) {
-                r->eval_dets[i].box = r->dets[i].box;
-                r->eval_dets[i].score = score_of(&r->dets[i]);
-            }
-            st = evaluate_frame(r, name, &f, n);
-            if (st != VD_OK) {
-                vd_capture_release(&r->cap, &f);
-                return fail(r, st, r->err);
-            }
-            demo_gt_candidates(&r->gt, name, &f, hot_threshold(r, &f), r->cands, r->n_cands);
-        }
-        if (r->staging) {
-            st = draw_frame(r, name, &f, n);
-            if (st != VD_OK) {
-                vd_capture_release(&r->cap, &f);
-                return fail(r, st, r->err);
-            }
-        }
-        vd_capture_release(&r->cap, &f);
-        r->frames++;
-        r->detections += n;
-        st = record_times(r, vd_detector_last_stats(&r->det), clock_us(NULL) - t0);
-        if (st != VD_OK) {
-            return fail(r, st, r->err);
-        }
-        demo_progress_frame(&r->prog, stderr, r->frames, name, n, now_s());
+    } else if (f->width != r->width || f->height != r->height || f->format != r->format) {
+        snprintf(r->err, sizeof r->err, "%s: %ux%u %s-bit, but the sequence started with %ux%u %s-bit frames",
+                 name, (unsigned)f->width, (unsigned)f->height, f->format == VD_PIX_U16 ? "16" : "8",
+                 (unsigned)r->width, (unsigned)r->height, r->format == VD_PIX_U16 ? "16" : "8");
+        return VD_ERR_FORMAT;
     }
+    st = autores_live(r, f);
+    if (st != VD_OK) {
+        return st;
+    }
+    r->n_cands = 0;
+    st = vd_detector_run(&r->det, f, r->dets, r->dets_cap, n);
+    if (st == VD_ERR_CAPACITY) {
+        r->capacity_warnings++;
+    } else if (st != VD_OK) {
+        snprintf(r->err, sizeof r->err, "%s: detector failed", name);
+        return st;
+    }
+    if (r->json_open) {
+        write_json_line(r, name, f, *n);
+    }
+    if (r->have_gt) {
+        for (size_t i = 0; i < *n; i++) {
+            r->eval_dets[i].box = r->dets[i].box;
+            r->eval_dets[i].score = score_of(&r->dets[i]);
+        }
+        st = evaluate_frame(r, name, f, *n);
+        if (st != VD_OK) {
+            return st;
+        }
+        demo_gt_candidates(&r->gt, name, f, hot_threshold(r, f), r->cands, r->n_cands);
+    }
+    return r->staging ? draw_frame(r, name, f, *n) : VD_OK;
+}
+
+// After the last frame: the written JSON checked, evaluation and report written, outputs committed, the
+// summary printed; returns the exit status.
+static int finish(run_t *r)
+{
+    demo_opts_t *o = &r->o;
+    vd_status_t st;
     demo_progress_end(&r->prog, stderr);
     if (g_stop && !o->quiet) {
         fprintf(stderr, "vd_fir_demo: interrupted after %llu frames\n", (unsigned long long)r->frames);
@@ -870,6 +843,70 @@ static int run(run_t *r)
         demo_gt_report(&r->gt, stdout);
     }
     return 0;
+}
+
+// The run proper; returns the exit status. cleanup() is the caller's.
+static int run(run_t *r)
+{
+    demo_opts_t *o = &r->o;
+    r->device = strncmp(o->input, "/dev/", 5) == 0;
+    vd_capture_opts_t copts;
+    capture_opts(o, &copts);
+    int rc = load_inputs(r);
+    rc = (rc == 0) ? choose_resolution(r, &copts) : rc;
+    rc = (rc == 0) ? open_run(r, &copts) : rc;
+    if (rc != 0) {
+        return rc;
+    }
+    int retries = 0;
+    uint64_t total = 0;
+    if (!r->device && vd_file_frame_total(&r->cap, &total) != VD_OK) {
+        total = 0;
+    }
+    if (o->max_frames != 0 && (total == 0 ? r->device : total > o->max_frames)) {
+        total = o->max_frames;
+    }
+    demo_progress_start(&r->prog, !o->quiet, isatty(STDERR_FILENO) != 0, total, now_s());
+    // Recorded input ends at VD_ERR_RANGE + at_end; a device runs until --frames or an error.
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    while (!((o->max_frames != 0 && r->frames >= o->max_frames) || g_stop)) {
+        vd_frame_t f;
+        uint32_t t0 = clock_us(NULL);
+        vd_status_t st = vd_capture_next(&r->cap, o->timeout_ms, &f);
+        if (st == VD_ERR_RANGE && vd_capture_at_end(&r->cap)) {
+            break;
+        }
+        if (st != VD_OK) {
+            if (r->device && (st == VD_ERR_TIMEOUT || st == VD_ERR_AGAIN) && ++retries <= MAX_DEVICE_RETRIES) {
+                continue;
+            }
+            char m[1200];
+            snprintf(m, sizeof m, "%s", vd_capture_error(&r->cap));
+            return fail(r, st, m);
+        }
+        retries = 0;
+        char name[1100];
+        frame_name(r, &f, name, sizeof name);
+        size_t n = 0;
+        st = process_frame(r, &f, name, &n);
+        vd_capture_release(&r->cap, &f);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+        r->frames++;
+        r->detections += n;
+        st = record_times(r, vd_detector_last_stats(&r->det), clock_us(NULL) - t0);
+        if (st != VD_OK) {
+            return fail(r, st, r->err);
+        }
+        demo_progress_frame(&r->prog, stderr, r->frames, name, n, now_s());
+    }
+    return finish(r);
 }
 
 int main(int argc, char **argv)

@@ -99,6 +99,13 @@ extern "C" {
 // flags); otherwise the table is made as without it. A broken promise gives the earlier input's table
 // (other values, never a read or write outside the workspace). No effect on the workspace size.
 #define VD_CNN_SAME_HIST 16u
+// vd_cnn_workspace_size_ex / vd_cnn_run_rows_decode flag, with VD_CNN_STREAM and without
+// VD_CNN_KEEP_TENSORS: the head too is a ring, of the rows the decoder still reads (band + 2: a row's
+// peaks are decided once the row below it exists), and its rows are decoded as they are made, so no
+// whole head is stored (models/vd_cnn.vdm at 320x256: 25 600 B less; at 640x512: 102 400 B). Only
+// vd_cnn_run_rows_decode takes it (the other runs return the whole head); the boxes are the same bytes
+// as vd_cnn_run_rows + vd_cnn_decode. The detector uses it.
+#define VD_CNN_HEAD_RING 32u
 
 // Layer ops (field `op` of a layer entry).
 typedef enum vd_cnn_op {
@@ -292,6 +299,27 @@ VD_API vd_status_t vd_cnn_tensor(const vd_cnn_model_t *m, const void *ws, size_t
 // not loaded. Time O(Wo*Ho*(1 + K)) worst case; no workspace; stack a few words.
 VD_API vd_status_t vd_cnn_decode(const vd_cnn_model_t *m, const vd_cnn_output_t *out, int32_t thr_i8, uint32_t max_peaks,
                           uint32_t frame_w, uint32_t frame_h, vd_cnn_box_t *boxes, size_t capacity, size_t *count);
+
+// vd_cnn_decode's parameters for vd_cnn_run_rows_decode.
+typedef struct vd_cnn_decode_opts {
+    int32_t thr_i8;        // int8 heatmap threshold -128..127, or VD_CNN_THR_DEFAULT (header's)
+    uint32_t max_peaks;    // top-K, 0 = header's
+    uint32_t frame_w;      // frame size the boxes are scaled to, 1..VD_MAX_DIM
+    uint32_t frame_h;
+} vd_cnn_decode_opts_t;
+
+// vd_cnn_run_rows then vd_cnn_decode in one streamed pass: each head row is decoded as soon as the row
+// below it is made, so with VD_CNN_HEAD_RING the head needs only a ring of rows (the workspace must be
+// sized by vd_cnn_workspace_size_ex with the same flags). flags: VD_CNN_STREAM required, VD_CNN_KEEP_TENSORS
+// refused; the others as vd_cnn_run_rows. boxes / capacity / *count as vd_cnn_decode, the same bytes.
+// Returns as vd_cnn_run_rows, and VD_ERR_ARG as vd_cnn_decode for dec (NULL, thr_i8 or frame size out of
+// range), boxes NULL with capacity > 0 or NULL count, all checked before the run. With VD_CNN_HEAD_RING
+// vd_cnn_tensor cannot read the head afterwards (VD_ERR_STATE) unless its ring is the whole head.
+// Time: vd_cnn_run_rows plus vd_cnn_decode; stack: vd_cnn_run_rows' plus the decoder state (~60 B).
+VD_API vd_status_t vd_cnn_run_rows_decode(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, uint32_t width,
+                                          uint32_t height, uint32_t flags, void *ws, size_t bytes,
+                                          const vd_cnn_decode_opts_t *dec, vd_cnn_box_t *boxes, size_t capacity,
+                                          size_t *count);
 
 // The int8 heatmap threshold of a score threshold: the smallest logit v in
 // -128..127 whose decoded score (decode table channel 0) is >= score_q15.

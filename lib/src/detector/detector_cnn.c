@@ -250,12 +250,12 @@ static vd_status_t run_passes(vd_detector_t *det, const vd_cnn_model_t *m, int32
         // The mirrored pass reads the same pixels (without width padding, which repeats another column):
         // it keeps pass 0's input table.
         const uint32_t same = (r->flip && r->hw == nw) ? VD_CNN_SAME_HIST : 0u;
-        vd_cnn_output_t head;
-        VD_TRY(vd_cnn_run_rows(m, &rows, nw, nh, VD_CNN_STREAM | VD_CNN_REUSE_PLAN | same, det->cnn_ws,
-                                det->cnn_ws_bytes, &head));
-        VD_TRY(r->st);
+        // The head is decoded as its rows are made (a ring of them: VD_CNN_HEAD_RING).
+        const vd_cnn_decode_opts_t dec = {thr_i8, 0u, r->d * nw, r->d * nh};
         size_t nb = 0u;
-        VD_TRY(vd_cnn_decode(m, &head, thr_i8, 0u, r->d * nw, r->d * nh, boxes + (size_t)p * k, k, &nb));
+        VD_TRY(vd_cnn_run_rows_decode(m, &rows, nw, nh, VD_DETECTOR_CNN_FLAGS | VD_CNN_REUSE_PLAN | same,
+                                      det->cnn_ws, det->cnn_ws_bytes, &dec, boxes + (size_t)p * k, k, &nb));
+        VD_TRY(r->st);
         det->stats.cnn_boxes += (uint32_t)nb;
         kept[p] = clip_boxes(boxes + (size_t)p * k, nb, r->flip, r->d * r->hw, f);
     }

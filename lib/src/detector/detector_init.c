@@ -191,7 +191,7 @@ static vd_status_t plan_net(const vd_detector_cfg_t *c, const vd_cnn_model_t *m,
     // Streamed: the network keeps row rings, and its input rows are made on
     // demand from the frame (no input plane).
     size_t ws = 0u;
-    st = vd_cnn_workspace_size_ex(m, nw, nh, VD_CNN_STREAM, &ws);
+    st = vd_cnn_workspace_size_ex(m, nw, nh, VD_DETECTOR_CNN_FLAGS, &ws);
     VD_VERIFY(st != VD_ERR_STATE, VD_ERR_MODEL);
     VD_TRY(st);
     l->cnn_ws = (ws > l->cnn_ws) ? ws : l->cnn_ws;   // the networks run in turn
@@ -387,7 +387,7 @@ static vd_status_t plan_ahead(const vd_cnn_model_t *m, const vd_detector_cfg_t *
     uint32_t nw = 0u;
     uint32_t nh = 0u;
     vd__detector_cnn_input_size(m, vd__detector_cnn_div(c), c->max_width, c->max_height, &nw, &nh);
-    return (nw != 0u && nh != 0u) ? vd__cnn_plan_ahead(m, nw, nh, VD_CNN_STREAM, ws, bytes) : VD_OK;
+    return (nw != 0u && nh != 0u) ? vd__cnn_plan_ahead(m, nw, nh, VD_DETECTOR_CNN_FLAGS, ws, bytes) : VD_OK;
 }
 
 // Slices of the arena; VD_ERR_WORKSPACE when one does not fit.

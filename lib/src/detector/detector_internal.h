@@ -20,6 +20,10 @@
 #define VD_DET_NOINLINE
 #endif
 
+// The networks' plan flags (workspace, plan ahead, run): streamed rows, the head a ring decoded as it is
+// made (vd/cnn.h). The plan made ahead is kept by the runs only with the same flags.
+#define VD_DETECTOR_CNN_FLAGS (VD_CNN_STREAM | VD_CNN_HEAD_RING)
+
 // The 8-bit plane of one region: `view` with `roi` (in view coordinates),
 // and the per-axis factors mapping roi pixels to image pixels.
 typedef struct region_plane {

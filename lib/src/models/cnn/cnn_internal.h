@@ -76,7 +76,8 @@
 #define VD_CNN_HIST_BYTES (256u * 4u + 256u)
 
 // Every flag of the _ex calls.
-#define VD_CNN_RUN_FLAGS (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE | VD_CNN_REUSE_PLAN | VD_CNN_SAME_HIST)
+#define VD_CNN_RUN_FLAGS \
+    (VD_CNN_KEEP_TENSORS | VD_CNN_STREAM | VD_CNN_PORTABLE | VD_CNN_REUSE_PLAN | VD_CNN_SAME_HIST | VD_CNN_HEAD_RING)
 // Run flags that do not change a plan (a plan's flags are the others).
 #define VD_CNN_RUN_ONLY_FLAGS (VD_CNN_REUSE_PLAN | VD_CNN_SAME_HIST)
 #define VD_CNN_INPUT_ZP (-128)   // zero point of tensor 0 (pixel - 128)
@@ -411,5 +412,28 @@ uint32_t vd__cnn_cmsis_prep_bytes(const vd_cnn_layer_t *L);
 // model vd_cnn_load filled (its score table is checked there); the table
 // vd_cnn_thr_from_score searches.
 uint32_t vd__cnn_score_of_logit(const vd_cnn_model_t *m, int32_t v);
+
+// An incremental decode (vd_cnn_decode row by row): the head's rows arrive in order, and rows
+// [next, avail - 1) (all of them once avail == h) are decided as they can be: a row's peak test reads the
+// rows above and below it. A peak's box is made when it enters the top-K, from its cell, so the head row
+// need not outlive the decision.
+typedef struct dec_state {
+    const vd_cnn_model_t *m;
+    vd_cnn_box_t *boxes;
+    size_t k;              // top-K: min(max_peaks, capacity)
+    size_t n;              // boxes so far (<= k)
+    int32_t thr;           // int8 heatmap threshold
+    uint32_t w, h, c_n, s; // head grid, channels, stride
+    uint32_t frame_w, frame_h;
+    uint32_t next;         // first row not yet decided
+} dec_state_t;
+
+// Checks the decode parameters for a head of w x h cells of loaded model m and fills *d (no row decided).
+// VD_ERR_ARG as vd_cnn_decode.
+vd_status_t vd__cnn_decode_start(const vd_cnn_model_t *m, uint32_t w, uint32_t h, const vd_cnn_decode_opts_t *o,
+                                 vd_cnn_box_t *boxes, size_t capacity, dec_state_t *d);
+// Decides the rows that can be, given head rows [0, avail) with row y at
+// ring + (y % ring_rows) * (w * c_n) for the rows still in the ring.
+void vd__cnn_decode_rows(dec_state_t *d, const int8_t *ring, uint32_t ring_rows, uint32_t avail);
 
 #endif

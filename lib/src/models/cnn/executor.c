@@ -146,12 +146,15 @@ static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_i
     }
 }
 
-// vd_cnn_run_ex and vd_cnn_run_rows: exactly one of img, rows is set.
+// vd_cnn_run_ex, vd_cnn_run_rows and vd_cnn_run_rows_decode: exactly one of img, rows is set; dec (streamed
+// only): decode the head rows as they are made (the only way a ring head, VD_CNN_HEAD_RING, is read).
 static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd_cnn_rows_t *rows, uint32_t width,
                            uint32_t height, uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes,
-                           vd_cnn_output_t *out)
+                           vd_cnn_output_t *out, dec_state_t *dec)
 {
     VD_VERIFY(m != NULL && out != NULL && (flags & ~VD_CNN_RUN_FLAGS) == 0u, VD_ERR_ARG);
+    VD_VERIFY((flags & VD_CNN_HEAD_RING) == 0u || dec != NULL, VD_ERR_ARG);
+    VD_VERIFY(dec == NULL || ((flags & VD_CNN_STREAM) != 0u && (flags & VD_CNN_KEEP_TENSORS) == 0u), VD_ERR_ARG);
     chain_t c;
     VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
     VD_VERIFY(vd__cnn_size_ok(m, width, height) && (rows != NULL || stride_bytes >= width), VD_ERR_ARG);
@@ -187,6 +190,9 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
                     p->done[t] = p->req[t];
                 }
             }
+            if (dec != NULL) {
+                vd__cnn_decode_rows(dec, ring_of(base, p, &c, n).base, p->rows[n], p->done[n]);
+            }
         }
         VD_ASSERT(p->done[n] == p->h[n]);
     }
@@ -204,14 +210,35 @@ vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t 
                           uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
 {
     VD_VERIFY(img != NULL, VD_ERR_ARG);
-    return run_any(m, img, NULL, width, height, stride_bytes, flags, ws, bytes, out);
+    VD_VERIFY((flags & VD_CNN_HEAD_RING) == 0u, VD_ERR_ARG);   // its head is not whole: vd_cnn_run_rows_decode
+    return run_any(m, img, NULL, width, height, stride_bytes, flags, ws, bytes, out, NULL);
 }
 
 vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, uint32_t width, uint32_t height,
                             uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
 {
     VD_VERIFY(rows != NULL && rows->row != NULL && (flags & VD_CNN_STREAM) != 0u, VD_ERR_ARG);
-    return run_any(m, NULL, rows, width, height, 0u, flags, ws, bytes, out);
+    VD_VERIFY((flags & VD_CNN_HEAD_RING) == 0u, VD_ERR_ARG);   // its head is not whole: vd_cnn_run_rows_decode
+    return run_any(m, NULL, rows, width, height, 0u, flags, ws, bytes, out, NULL);
+}
+
+vd_status_t vd_cnn_run_rows_decode(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, uint32_t width,
+                                   uint32_t height, uint32_t flags, void *ws, size_t bytes,
+                                   const vd_cnn_decode_opts_t *dec, vd_cnn_box_t *boxes, size_t capacity,
+                                   size_t *count)
+{
+    VD_VERIFY(m != NULL && rows != NULL && rows->row != NULL && count != NULL, VD_ERR_ARG);
+    VD_VERIFY((flags & VD_CNN_STREAM) != 0u && (flags & VD_CNN_KEEP_TENSORS) == 0u, VD_ERR_ARG);
+    chain_t c;
+    VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
+    VD_VERIFY(vd__cnn_size_ok(m, width, height), VD_ERR_ARG);
+    const uint32_t f = c.f[m->n_layers];
+    dec_state_t d;
+    VD_TRY(vd__cnn_decode_start(m, width / f, height / f, dec, boxes, capacity, &d));
+    vd_cnn_output_t head;
+    VD_TRY(run_any(m, NULL, rows, width, height, 0u, flags, ws, bytes, &head, &d));
+    *count = d.n;
+    return VD_OK;
 }
 
 vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t width, uint32_t height,

@@ -232,6 +232,10 @@ static vd_status_t plan_band(const vd_cnn_model_t *m, const chain_t *c, uint32_t
 vd_status_t vd__cnn_plan_make(const vd_cnn_model_t *m, const chain_t *c, uint32_t width, uint32_t height,
                              uint32_t flags, vd_cnn_plan_t *p)
 {
+    // A ring head is streamed, and KEEP_TENSORS keeps every tensor whole.
+    VD_VERIFY((flags & VD_CNN_HEAD_RING) == 0u ||
+                  (flags & (VD_CNN_STREAM | VD_CNN_KEEP_TENSORS)) == VD_CNN_STREAM,
+              VD_ERR_ARG);
     VD_TRY(plan_band(m, c, width, height, flags, 1u, p));
     if ((flags & VD_CNN_STREAM) == 0u || p->total > VD_CNN_BAND_CAP) {
         return VD_OK;

@@ -252,17 +252,29 @@ void vd__cnn_sched_start(vd_cnn_plan_t *p, uint32_t *target, uint32_t *max_steps
     *max_steps = (uint32_t)p->h[0] + p->h[0] + 2u;   // H0 + Hn + 1 < 2 H0 + 2
 }
 
+// Oldest row of tensor t a live consumer still reads after this sub-step; for the head with
+// VD_CNN_HEAD_RING, its decoder (vd_cnn_run_rows_decode): rows from done - 1 are undecided, and the peak
+// test of row done - 1 reads row done - 2.
+static uint32_t oldest_read(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, uint32_t t, bool ring_head)
+{
+    if (t == m->n_layers && ring_head) {
+        return (p->done[t] >= 2u) ? p->done[t] - 2u : 0u;
+    }
+    return sched_oldest(m, p, t);
+}
+
 // p->rows: ring heights. Whole plane: every tensor's height. Streamed: the
-// walk above; the head (read by vd_cnn_decode) stays whole, and with
-// VD_CNN_KEEP_TENSORS every computed tensor does.
+// walk above; the head (read by vd_cnn_decode) stays whole unless VD_CNN_HEAD_RING (then the rows its
+// decoder still reads), and with VD_CNN_KEEP_TENSORS every computed tensor does.
 void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t height, uint32_t flags, vd_cnn_plan_t *p)
 {
     const uint32_t n = m->n_layers;
     vd__cnn_sched_init(m, c, height, flags, p);
     const bool stream = (flags & VD_CNN_STREAM) != 0u;
     const bool keep = (flags & VD_CNN_KEEP_TENSORS) != 0u;
+    const bool ring_head = stream && !keep && (flags & VD_CNN_HEAD_RING) != 0u;
     for (uint32_t t = 0u; t <= n; t++) {
-        p->rows[t] = (!stream || ((keep || t == n) && p->live[t] != 0u)) ? p->h[t] : 0u;
+        p->rows[t] = (!stream || ((keep || (t == n && !ring_head)) && p->live[t] != 0u)) ? p->h[t] : 0u;
     }
     if (!stream) {
         return;
@@ -274,7 +286,7 @@ void vd__cnn_sched_rows(const vd_cnn_model_t *m, const chain_t *c, uint32_t heig
     for (uint32_t k = 0u; k < max_steps && vd__cnn_sched_next(m, p, &target); k++) {
         for (uint32_t t = 0u; t <= n; t++) {
             if (p->req[t] > p->done[t]) {
-                const uint32_t span = p->req[t] - sched_oldest(m, p, t);
+                const uint32_t span = p->req[t] - oldest_read(m, p, t, ring_head);
                 p->rows[t] = (uint16_t)((span > p->rows[t]) ? span : p->rows[t]);
                 p->done[t] = p->req[t];
             }
