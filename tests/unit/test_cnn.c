@@ -1858,10 +1858,7 @@ static void decode_stream_check(const vd_cnn_model_t *m, const uint8_t *img, uin
                         what);
                     TEST_ASSERT_EQUAL_size_t_MESSAGE(nw, ng, what);
                     for (size_t i = 0u; i < nw; i++) {
-                        TEST_ASSERT_EQUAL_INT32_MESSAGE(want[i].rect.x, got[i].rect.x, what);
-                        TEST_ASSERT_EQUAL_INT32_MESSAGE(want[i].rect.y, got[i].rect.y, what);
-                        TEST_ASSERT_EQUAL_INT32_MESSAGE(want[i].rect.w, got[i].rect.w, what);
-                        TEST_ASSERT_EQUAL_INT32_MESSAGE(want[i].rect.h, got[i].rect.h, what);
+                        tu_assert_rect_equal(&want[i].rect, &got[i].rect, what);
                         TEST_ASSERT_EQUAL_UINT16_MESSAGE(want[i].score_q15, got[i].score_q15, what);
                         TEST_ASSERT_EQUAL_INT8_MESSAGE(want[i].logit, got[i].logit, what);
                     }

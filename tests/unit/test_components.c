@@ -131,10 +131,7 @@ static void assert_same_comps(const vd_component_t *exp, const vd_component_t *g
     for (size_t i = 0; i < n; i++) {
         char msg[64];
         snprintf(msg, sizeof msg, "component %zu", i);
-        TEST_ASSERT_EQUAL_INT32_MESSAGE(exp[i].box.x, got[i].box.x, msg);
-        TEST_ASSERT_EQUAL_INT32_MESSAGE(exp[i].box.y, got[i].box.y, msg);
-        TEST_ASSERT_EQUAL_INT32_MESSAGE(exp[i].box.w, got[i].box.w, msg);
-        TEST_ASSERT_EQUAL_INT32_MESSAGE(exp[i].box.h, got[i].box.h, msg);
+        tu_assert_rect_equal(&exp[i].box, &got[i].box, msg);
         TEST_ASSERT_EQUAL_UINT32_MESSAGE(exp[i].area, got[i].area, msg);
         TEST_ASSERT_EQUAL_UINT32_MESSAGE(exp[i].cx_q8, got[i].cx_q8, msg);
         TEST_ASSERT_EQUAL_UINT32_MESSAGE(exp[i].cy_q8, got[i].cy_q8, msg);

@@ -53,6 +53,14 @@ void tu_check_workspace_contract(size_t bytes, tu_ws_fn run, void *ctx)
     tu_guarded_free(3);
 }
 
+void tu_assert_rect_equal(const vd_rect_t *want, const vd_rect_t *got, const char *msg)
+{
+    TEST_ASSERT_EQUAL_INT32_MESSAGE(want->x, got->x, msg);
+    TEST_ASSERT_EQUAL_INT32_MESSAGE(want->y, got->y, msg);
+    TEST_ASSERT_EQUAL_INT32_MESSAGE(want->w, got->w, msg);
+    TEST_ASSERT_EQUAL_INT32_MESSAGE(want->h, got->h, msg);
+}
+
 int64_t tu_calib_temp_ck(const vd_calib_t *c, uint32_t raw)
 {
     int64_t p = (int64_t)raw * c->gain_q16;

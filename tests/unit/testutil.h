@@ -21,6 +21,9 @@ void tu_guarded_free(int slot);
 typedef vd_status_t (*tu_ws_fn)(void *ws, size_t bytes, void *ctx);
 void tu_check_workspace_contract(size_t bytes, tu_ws_fn run, void *ctx);
 
+// Asserts two rectangles equal, field by field, with msg on failure.
+void tu_assert_rect_equal(const vd_rect_t *want, const vd_rect_t *got, const char *msg);
+
 // Deterministic pseudo-random numbers (xorshift32) for naive-vs-fast tests.
 uint32_t tu_rand(uint32_t *state);
 
