@@ -146,11 +146,20 @@ static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_i
     }
 }
 
+// What vd_cnn_run_rows_decode asks of run_any: the decode's parameters, and its state (set by run_any
+// once the model and size are checked).
+typedef struct dec_req {
+    const vd_cnn_decode_opts_t *opts;
+    vd_cnn_box_t *boxes;
+    size_t capacity;
+    dec_state_t st;
+} dec_req_t;
+
 // vd_cnn_run_ex, vd_cnn_run_rows and vd_cnn_run_rows_decode: exactly one of img, rows is set; dec (streamed
 // only): decode the head rows as they are made (the only way a ring head, VD_CNN_HEAD_RING, is read).
 static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd_cnn_rows_t *rows, uint32_t width,
                            uint32_t height, uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes,
-                           vd_cnn_output_t *out, dec_state_t *dec)
+                           vd_cnn_output_t *out, dec_req_t *dec)
 {
     VD_VERIFY(m != NULL && out != NULL && (flags & ~VD_CNN_RUN_FLAGS) == 0u, VD_ERR_ARG);
     VD_VERIFY((flags & VD_CNN_HEAD_RING) == 0u || dec != NULL, VD_ERR_ARG);
@@ -158,6 +167,10 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
     chain_t c;
     VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
     VD_VERIFY(vd__cnn_size_ok(m, width, height) && (rows != NULL || stride_bytes >= width), VD_ERR_ARG);
+    if (dec != NULL) {
+        const uint32_t f = c.f[m->n_layers];
+        VD_TRY(vd__cnn_decode_start(m, width / f, height / f, dec->opts, dec->boxes, dec->capacity, &dec->st));
+    }
     VD_VERIFY(ws != NULL && ((uintptr_t)ws % (uintptr_t)VD_WORKSPACE_ALIGN) == 0u, VD_ERR_WORKSPACE);
     VD_VERIFY(bytes >= VD_CNN_REC_BYTES, VD_ERR_WORKSPACE);
     uint8_t *base = (uint8_t *)ws;
@@ -191,7 +204,7 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
                 }
             }
             if (dec != NULL) {
-                vd__cnn_decode_rows(dec, ring_of(base, p, &c, n).base, p->rows[n], p->done[n]);
+                vd__cnn_decode_rows(&dec->st, ring_of(base, p, &c, n).base, p->rows[n], p->done[n]);
             }
         }
         VD_ASSERT(p->done[n] == p->h[n]);
@@ -227,17 +240,15 @@ vd_status_t vd_cnn_run_rows_decode(const vd_cnn_model_t *m, const vd_cnn_rows_t 
                                    const vd_cnn_decode_opts_t *dec, vd_cnn_box_t *boxes, size_t capacity,
                                    size_t *count)
 {
-    VD_VERIFY(m != NULL && rows != NULL && rows->row != NULL && count != NULL, VD_ERR_ARG);
+    VD_VERIFY(rows != NULL && rows->row != NULL && count != NULL, VD_ERR_ARG);
     VD_VERIFY((flags & VD_CNN_STREAM) != 0u && (flags & VD_CNN_KEEP_TENSORS) == 0u, VD_ERR_ARG);
-    chain_t c;
-    VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
-    VD_VERIFY(vd__cnn_size_ok(m, width, height), VD_ERR_ARG);
-    const uint32_t f = c.f[m->n_layers];
-    dec_state_t d;
-    VD_TRY(vd__cnn_decode_start(m, width / f, height / f, dec, boxes, capacity, &d));
+    dec_req_t d;
+    d.opts = dec;
+    d.boxes = boxes;
+    d.capacity = capacity;
     vd_cnn_output_t head;
     VD_TRY(run_any(m, NULL, rows, width, height, 0u, flags, ws, bytes, &head, &d));
-    *count = d.n;
+    *count = d.st.n;
     return VD_OK;
 }
 
