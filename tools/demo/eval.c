@@ -210,6 +210,30 @@ static int cmp_img_id(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+// The "categories" of a COCO document (up to 256 with an id and a name) and the ids of those whose name
+// marks ignore regions (up to 16).
+static void coco_categories(const demo_json_t *d, cat_name_t cats[256], size_t *n_cats, int32_t ignore_ids[16],
+                            size_t *n_ignore)
+{
+    int64_t cs = demo_json_get(d, 0, "categories");
+    if (cs < 0 || d->tok[cs].type != DEMO_JSON_ARRAY) {
+        return;
+    }
+    int64_t c = demo_json_first(d, (uint32_t)cs);
+    for (uint32_t k = 0; k < d->tok[cs].size && c >= 0; k++, c = demo_json_sibling(d, (uint32_t)c)) {
+        int64_t id;
+        if (*n_cats < 256 && json_class(d, demo_json_get(d, (uint32_t)c, "id"), &id) &&
+            demo_json_string(d, demo_json_get(d, (uint32_t)c, "name"), cats[*n_cats].name,
+                             sizeof cats[*n_cats].name)) {
+            cats[*n_cats].id = (int32_t)id;
+            if (name_in(cats[*n_cats].name, k_ignore_names, 3) && *n_ignore < 16) {
+                ignore_ids[(*n_ignore)++] = (int32_t)id;
+            }
+            (*n_cats)++;
+        }
+    }
+}
+
 static vd_status_t load_coco(demo_gt_t *gt, const char *path, const char *classes_opt, char *err, size_t err_len)
 {
     char *text = NULL;
@@ -242,27 +266,11 @@ static vd_status_t load_coco(demo_gt_t *gt, const char *path, const char *classe
         snprintf(err, err_len, "%s: expected arrays \"images\" and \"annotations\" (or \"annotation\")", path);
         goto out;
     }
-    // categories
     cat_name_t cats[256];
     size_t n_cats = 0;
     int32_t ignore_ids[16];
     size_t n_ignore = 0;
-    int64_t cs = demo_json_get(&d, 0, "categories");
-    if (cs >= 0 && d.tok[cs].type == DEMO_JSON_ARRAY) {
-        int64_t c = demo_json_first(&d, (uint32_t)cs);
-        for (uint32_t k = 0; k < d.tok[cs].size && c >= 0; k++, c = demo_json_sibling(&d, (uint32_t)c)) {
-            int64_t id;
-            if (n_cats < 256 && json_class(&d, demo_json_get(&d, (uint32_t)c, "id"), &id) &&
-                demo_json_string(&d, demo_json_get(&d, (uint32_t)c, "name"), cats[n_cats].name,
-                                 sizeof cats[n_cats].name)) {
-                cats[n_cats].id = (int32_t)id;
-                if (name_in(cats[n_cats].name, k_ignore_names, 3) && n_ignore < 16) {
-                    ignore_ids[n_ignore++] = (int32_t)id;
-                }
-                n_cats++;
-            }
-        }
-    }
+    coco_categories(&d, cats, &n_cats, ignore_ids, &n_ignore);
     st = pick_classes(gt, classes_opt, cats, n_cats, 1, err, err_len);
     if (st != VD_OK) {
         goto out;

@@ -263,6 +263,27 @@ static vd_status_t scalar(demo_json_t *doc, size_t *i, char *err, size_t err_len
     return VD_OK;
 }
 
+// A ',' at text[*i] after a value in container top: the next state (a key in an object, a value in an
+// array, whose count grows); a closing bracket right after it is a trailing comma.
+static vd_status_t after_comma(demo_json_t *doc, demo_json_tok_t *top, size_t *i, int *state, char *err,
+                               size_t err_len)
+{
+    const char *text = doc->text;
+    const size_t len = doc->text_len;
+    (*i)++;
+    *state = top->type == DEMO_JSON_OBJECT ? S_KEY : S_VALUE;
+    if (top->type == DEMO_JSON_ARRAY) {
+        top->size++;
+    }
+    while (*i < len && is_ws(text[*i])) {
+        (*i)++;
+    }
+    if (*i < len && (text[*i] == '}' || text[*i] == ']')) {
+        return fail_at(doc, *i, "trailing comma", err, err_len);
+    }
+    return VD_OK;
+}
+
 vd_status_t demo_json_parse(demo_json_t *doc, const char *text, size_t len, char *err, size_t err_len)
 {
     char dummy[8];
@@ -329,17 +350,9 @@ vd_status_t demo_json_parse(demo_json_t *doc, const char *text, size_t len, char
         if (state == S_AFTER) {
             demo_json_tok_t *top = &doc->tok[stack[depth - 1]];
             if (c == ',') {
-                i++;
-                state = top->type == DEMO_JSON_OBJECT ? S_KEY : S_VALUE;
-                if (top->type == DEMO_JSON_ARRAY) {
-                    top->size++;
-                }
-                // a closer right after ',' is rejected by S_KEY / S_VALUE
-                while (i < len && is_ws(text[i])) {
-                    i++;
-                }
-                if (i < len && (text[i] == '}' || text[i] == ']')) {
-                    return fail_at(doc, i, "trailing comma", err, err_len);
+                st = after_comma(doc, top, &i, &state, err, err_len);
+                if (st != VD_OK) {
+                    return st;
                 }
                 continue;
             }
