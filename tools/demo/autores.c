@@ -5,20 +5,12 @@
 
 #include <stdio.h>
 #include <string.h>
-#include <time.h>
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
-}
 
 vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
                                  demo_autores_t *out, char *err, size_t err_len)
 {
     memset(out, 0, sizeof *out);
-    const double t0 = now_s();
+    const double t0 = demo_now_s();
     vd_capture_t cap;
     demo_flipagree_t *fa = NULL;
     vd_status_t st = vd_capture_open(&cap, input, copts);
@@ -56,6 +48,6 @@ vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const 
     if (st == VD_OK) {
         demo_autores_decide(out);
     }
-    out->seconds = now_s() - t0;
+    out->seconds = demo_now_s() - t0;
     return st;
 }

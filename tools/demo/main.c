@@ -103,13 +103,6 @@ static uint32_t clock_us(void *user)
     return (uint32_t)((uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u);
 }
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
-}
-
 // One error line: "vd_fir_demo: error: <detail> (<status text>)".
 static int fail(run_t *r, vd_status_t st, const char *detail)
 {
@@ -866,7 +859,7 @@ static int run(run_t *r)
     if (o->max_frames != 0 && (total == 0 ? r->device : total > o->max_frames)) {
         total = o->max_frames;
     }
-    demo_progress_start(&r->prog, !o->quiet, isatty(STDERR_FILENO) != 0, total, now_s());
+    demo_progress_start(&r->prog, !o->quiet, isatty(STDERR_FILENO) != 0, total, demo_now_s());
     // Recorded input ends at VD_ERR_RANGE + at_end; a device runs until --frames or an error.
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -904,7 +897,7 @@ static int run(run_t *r)
         if (st != VD_OK) {
             return fail(r, st, r->err);
         }
-        demo_progress_frame(&r->prog, stderr, r->frames, name, n, now_s());
+        demo_progress_frame(&r->prog, stderr, r->frames, name, n, demo_now_s());
     }
     return finish(r);
 }

@@ -219,7 +219,7 @@ vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_a
     return VD_OK;
 }
 
-static double now_s(void)
+double demo_now_s(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -233,7 +233,7 @@ vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *
     if (!lv->on) {
         return VD_OK;
     }
-    const double t0 = now_s();
+    const double t0 = demo_now_s();
     vd_status_t st = VD_OK;
     if (lv->fa == NULL) {
         st = demo_flipagree_new(&lv->fa, o, f, err, err_len);
@@ -244,7 +244,7 @@ vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *
             snprintf(err, err_len, "--cnn-full-res auto: frame %llu: detector failed", (unsigned long long)frame);
         }
     }
-    lv->a.seconds += now_s() - t0;
+    lv->a.seconds += demo_now_s() - t0;
     if (st != VD_OK) {
         demo_autores_live_free(lv);
         lv->on = false;
@@ -254,8 +254,7 @@ vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *
         return VD_OK;
     }
     demo_autores_decide(&lv->a);
-    demo_flipagree_free(lv->fa);
-    lv->fa = NULL;
+    demo_autores_live_free(lv);
     lv->on = false;
     lv->decided = true;
     lv->from = frame;

@@ -46,6 +46,9 @@ vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_a
 
 void demo_flipagree_free(demo_flipagree_t *fa);
 
+// Seconds on the monotonic clock (the measurements' timing; the demo's progress and rates).
+double demo_now_s(void);
+
 // --cnn-full-res auto on a live source (vd_fir_demo on a camera, the GStreamer element), whose frames cannot be
 // read twice: the first DEMO_AUTORES_MAX_FRAMES frames measured as they come, before each is detected on (at
 // half resolution meanwhile).

@@ -423,7 +423,7 @@ typedef struct dec_state {
     size_t k;              // top-K: min(max_peaks, capacity)
     size_t n;              // boxes so far (<= k)
     int32_t thr;           // int8 heatmap threshold
-    uint32_t w, h, c_n, s; // head grid, channels, stride
+    uint32_t w, h;         // head grid (channels and stride: the model's)
     uint32_t frame_w, frame_h;
     uint32_t next;         // first row not yet decided
 } dec_state_t;

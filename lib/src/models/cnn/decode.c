@@ -73,11 +73,12 @@ static bool is_peak(const int8_t *above, const int8_t *mid, const int8_t *below,
 static void box_of(const dec_state_t *d, const int8_t *cell, uint32_t x, uint32_t y, vd_cnn_box_t *b)
 {
     const vd_cnn_model_t *m = d->m;
-    const int64_t s = d->s;
+    const int64_t s = m->out_stride;
+    const bool offsets = m->out_channels == 5u;
     const int64_t den_x = (int64_t)d->w * s * 256;   // network input width in Q8
     const int64_t den_y = (int64_t)d->h * s * 256;
-    const int64_t off_x = (d->c_n == 5u) ? table_at(m, 3u, cell[3]) : 128;
-    const int64_t off_y = (d->c_n == 5u) ? table_at(m, 4u, cell[4]) : 128;
+    const int64_t off_x = offsets ? table_at(m, 3u, cell[3]) : 128;
+    const int64_t off_y = offsets ? table_at(m, 4u, cell[4]) : 128;
     const int64_t cx = ((int64_t)x * 256 + off_x) * s;
     const int64_t cy = ((int64_t)y * 256 + off_y) * s;
     const int64_t bw = table_at(m, 1u, cell[1]);
@@ -118,8 +119,6 @@ vd_status_t vd__cnn_decode_start(const vd_cnn_model_t *m, uint32_t w, uint32_t h
     d->thr = thr;
     d->w = w;
     d->h = h;
-    d->c_n = m->out_channels;
-    d->s = s;
     d->frame_w = o->frame_w;
     d->frame_h = o->frame_h;
     d->next = 0u;
@@ -131,9 +130,9 @@ vd_status_t vd__cnn_decode_start(const vd_cnn_model_t *m, uint32_t w, uint32_t h
 void vd__cnn_decode_rows(dec_state_t *d, const int8_t *ring, uint32_t ring_rows, uint32_t avail)
 {
     const uint32_t end = (avail >= d->h) ? d->h : ((avail >= 1u) ? avail - 1u : 0u);
-    const size_t rb = (size_t)d->w * d->c_n;
+    const uint32_t w = d->w, c_n = d->m->out_channels;
+    const size_t rb = (size_t)w * c_n;
     const size_t k = d->k;
-    const uint32_t w = d->w, c_n = d->c_n;
     const int32_t thr = d->thr;
     vd_cnn_box_t *boxes = d->boxes;
     size_t n = d->n;

@@ -162,6 +162,8 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
                            vd_cnn_output_t *out, dec_req_t *dec)
 {
     VD_VERIFY(m != NULL && out != NULL && (flags & ~VD_CNN_RUN_FLAGS) == 0u, VD_ERR_ARG);
+    // A ring head is read only by the decoder; the decoder runs in the streamed schedule, on a ring or a
+    // whole head (never with KEEP_TENSORS, whose head the caller reads).
     VD_VERIFY((flags & VD_CNN_HEAD_RING) == 0u || dec != NULL, VD_ERR_ARG);
     VD_VERIFY(dec == NULL || ((flags & VD_CNN_STREAM) != 0u && (flags & VD_CNN_KEEP_TENSORS) == 0u), VD_ERR_ARG);
     chain_t c;
@@ -223,7 +225,6 @@ vd_status_t vd_cnn_run_ex(const vd_cnn_model_t *m, const uint8_t *img, uint32_t 
                           uint32_t stride_bytes, uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
 {
     VD_VERIFY(img != NULL, VD_ERR_ARG);
-    VD_VERIFY((flags & VD_CNN_HEAD_RING) == 0u, VD_ERR_ARG);   // its head is not whole: vd_cnn_run_rows_decode
     return run_any(m, img, NULL, width, height, stride_bytes, flags, ws, bytes, out, NULL);
 }
 
@@ -231,7 +232,6 @@ vd_status_t vd_cnn_run_rows(const vd_cnn_model_t *m, const vd_cnn_rows_t *rows, 
                             uint32_t flags, void *ws, size_t bytes, vd_cnn_output_t *out)
 {
     VD_VERIFY(rows != NULL && rows->row != NULL && (flags & VD_CNN_STREAM) != 0u, VD_ERR_ARG);
-    VD_VERIFY((flags & VD_CNN_HEAD_RING) == 0u, VD_ERR_ARG);   // its head is not whole: vd_cnn_run_rows_decode
     return run_any(m, NULL, rows, width, height, 0u, flags, ws, bytes, out, NULL);
 }
 
@@ -241,7 +241,6 @@ vd_status_t vd_cnn_run_rows_decode(const vd_cnn_model_t *m, const vd_cnn_rows_t 
                                    size_t *count)
 {
     VD_VERIFY(rows != NULL && rows->row != NULL && count != NULL, VD_ERR_ARG);
-    VD_VERIFY((flags & VD_CNN_STREAM) != 0u && (flags & VD_CNN_KEEP_TENSORS) == 0u, VD_ERR_ARG);
     dec_req_t d;
     d.opts = dec;
     d.boxes = boxes;
