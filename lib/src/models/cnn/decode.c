@@ -6,8 +6,9 @@
 // plateau yields its first cell), kept top-K by insertion (logit descending, then raster order); each
 // peak's box, made when it enters the top-K, from the Q8 decode tables (channels 1-2 size, 3-4 centre
 // offset), in int64, rounded to frame pixels by floor division and clamped to the frame. Row by row
-// (vd__cnn_decode_rows), so that a streamed run decodes a ring of head rows (VD_CNN_HEAD_RING). A score threshold maps to a logit threshold by
-// binary search of the non-decreasing score table (checked by the loader).
+// (vd__cnn_decode_rows), so that a streamed run decodes a ring of head rows (VD_CNN_HEAD_RING). A score
+// threshold maps to a logit threshold by binary search of the non-decreasing score table (checked by the
+// loader).
 // Reference: tools/vdtools/formats/cnn_ref.py (bit-exact); format docs/model-format.md ("CNN kind").
 // Bounds: 8 compares per heatmap cell at most, O(K) per inserted peak plus its box; stack ~380 B (Cortex-M7
 // -Os).
