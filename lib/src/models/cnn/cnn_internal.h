@@ -378,7 +378,8 @@ void vd__cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, cons
 // Kernel sets by what the CPU (and OS) supports.
 #define VD_CNN_X86_NONE 0u     // portable C
 #define VD_CNN_X86_AVX2 1u     // AVX2: 256-bit, int16 vpmaddwd
-#define VD_CNN_X86_AVX512 2u   // AVX-512 F, BW, VL and VNNI: vpdpbusd / vpdpwssd
+#define VD_CNN_X86_AVXVNNI 2u  // AVX2 and AVX-VNNI (VEX vpdpbusd on 256 bits: CPUs without AVX-512, e.g. Alder Lake)
+#define VD_CNN_X86_AVX512 3u   // AVX-512 F, BW, VL and VNNI: vpdpbusd / vpdpwssd
 // The best set this CPU runs (a CPU check per call, no cached global).
 uint32_t vd__cnn_x86_level(void);
 // vd__cnn_conv_rows and vd__cnn_dw3x3_rows on the set `level` (not NONE):

@@ -44,21 +44,25 @@ typedef struct run_io {
     const int8_t *lut;
     uint8_t *base;
     const chain_t *c;
+    uint32_t level;   // x86 kernel set of the run (x86_level), 0 without the x86 back end
 } run_io_t;
 
-// The optional x86 kernels run unless the caller asked for the portable
-// ones or the CPU has neither AVX2 nor AVX-512 VNNI (checked per call: no
-// global state).
-#if defined(VD_CNN_X86)
+// The optional x86 kernels run unless the caller asked for the portable ones or the CPU lacks AVX2: asked
+// once per run (no global state), not per layer call: the CPUID behind AVX-VNNI traps to the hypervisor in
+// a virtual machine (~2 us; per row and layer it took 44 % of the demo's time on one).
 static uint32_t x86_level(uint32_t flags)
 {
+#if defined(VD_CNN_X86)
     return ((flags & VD_CNN_PORTABLE) != 0u) ? VD_CNN_X86_NONE : vd__cnn_x86_level();
-}
+#else
+    (void)flags;
+    return 0u;
 #endif
+}
 
 // Output rows [y0, y1) of layer l; its input rows must be in their rings.
 static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_plan_t *p, uint8_t *base, uint32_t l,
-                       uint32_t y0, uint32_t y1)
+                       uint32_t y0, uint32_t y1, uint32_t level)
 {
     const vd_cnn_layer_t *L = &m->layers[l];
     geom_t g;
@@ -74,8 +78,8 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     // The streamed plan has one scratch for all layers (item 3), refilled per call.
     const uint32_t scr_item = ((p->flags & VD_CNN_STREAM) != 0u) ? 3u : 3u + 2u * l;
     uint8_t *scr = base + p->off[scr_item];
-#if defined(VD_CNN_X86)
-    const uint32_t level = x86_level(p->flags);
+#if !defined(VD_CNN_X86)
+    (void)level;
 #endif
 #if defined(VD_CNN_CMSIS)
     // CMSIS-NN takes the layers it computes bit-exactly unless the caller asked for the portable kernels.
@@ -142,7 +146,7 @@ static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_i
         const ring_t t0 = ring_of(io->base, p, io->c, 0u);
         vd__cnn_input_rows(io->src, p->width, io->lut, &t0, p->done[0], p->req[0]);
     } else if (p->live[t] != VD_CNN_LIVE_FUSED) {   // a fused upsample is read through by its concats
-        layer_rows(m, io->c, p, io->base, t - 1u, p->done[t], p->req[t]);
+        layer_rows(m, io->c, p, io->base, t - 1u, p->done[t], p->req[t], io->level);
     }
 }
 
@@ -189,13 +193,14 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
     const int8_t *lut = vd__cnn_norm_table(m, &src, width, height, base + p->off[1], same);
     const ring_t t0 = ring_of(base, p, &c, 0u);
     const uint32_t n = m->n_layers;
+    const uint32_t level = x86_level(flags);
     if ((flags & VD_CNN_STREAM) == 0u) {
         vd__cnn_input_rows(&src, width, lut, &t0, 0u, height);
         for (uint32_t l = 0u; l < n; l++) {
-            layer_rows(m, &c, p, base, l, 0u, height / c.f[l + 1u]);
+            layer_rows(m, &c, p, base, l, 0u, height / c.f[l + 1u], level);
         }
     } else {
-        const run_io_t io = {&src, lut, base, &c};
+        const run_io_t io = {&src, lut, base, &c, level};
         uint32_t target, max_steps;
         vd__cnn_sched_start(p, &target, &max_steps);
         for (uint32_t k = 0u; k < max_steps && vd__cnn_sched_next(m, p, &target); k++) {

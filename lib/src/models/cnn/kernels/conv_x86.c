@@ -360,6 +360,126 @@ X86_KERNEL AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_
     }
 }
 
+// ---------------------------------------------------------------- AVX-VNNI (256-bit vpdpbusd, no AVX-512)
+// The AVX-512 VNNI scheme on 8 lanes: weights packed [k4 / 4][n][4] as pack_vnni does, the rows as unsigned
+// bytes x + 128, (zp_in + 128) sum w taken from the bias; vpdpbusd sums four u8 x s8 products into an int32
+// lane without intermediate saturation, so the sums equal the portable ones modulo 2^32 (as vpmaddwd's).
+// Four products per lane and instruction where vpmaddwd gives two and needs an add: about a third of the
+// AVX2 GEMM's instructions per multiply-add in the inner loop.
+
+X86_KERNEL AVXVNNI_TARGET void pack_avxvnni(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum)
+{
+    const size_t k4 = (k + 3u) / 4u * 4u;
+    const size_t full = k / 4u;   // groups of 4 weights inside the channel
+    const __m256i ones = _mm256_set1_epi8(1);
+    const __m256i idx = _mm256_mullo_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32((int32_t)k));
+    for (size_t o0 = 0u; o0 < n_o; o0 += 8u) {
+        const size_t nl = (n_o - o0 < 8u) ? n_o - o0 : 8u;
+        const __m256i m = lane_mask8(nl);
+        const int8_t *src = w + o0 * k;
+        int8_t *dst = wp + o0 * 4u;
+        __m256i sum = _mm256_setzero_si256();
+        for (size_t gi = 0u; gi < full; gi++) {
+            // Lane j: weights 4 gi .. 4 gi + 3 of channel o0 + j (a 32-bit transpose).
+            const __m256i v = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(),
+                                                          (const int *)(const void *)(src + 4u * gi), idx, m, 1);
+            _mm256_maskstore_epi32((int *)(void *)(dst + gi * n_o * 4u), m, v);
+            sum = _mm256_dpbusd_avx_epi32(sum, ones, v);
+        }
+        uint32_t s[8];
+        _mm256_storeu_si256((__m256i *)(void *)s, sum);
+        for (size_t j = 0u; j < nl; j++) {
+            // The last, partial group: zero weights past k (their activations are 0 too).
+            int8_t *d = dst + full * n_o * 4u + j * 4u;
+            for (size_t i = 4u * full; i < k4; i++) {
+                const int32_t wv = (i < k) ? src[j * k + i] : 0;
+                d[i - 4u * full] = (int8_t)wv;
+                s[j] += (uint32_t)wv;
+            }
+            wsum[o0 + j] = s[j];
+        }
+    }
+}
+
+// One pixel's 4 bytes of group gi, flipped to unsigned where the rows are the input itself, on all lanes.
+AVXVNNI_INLINE __m256i vnni8_bcast(const uint8_t *r, size_t gi, uint32_t flip)
+{
+    uint32_t b;
+    memcpy(&b, r + 4u * gi, sizeof b);
+    return _mm256_set1_epi32((int32_t)(b ^ flip));
+}
+
+// Channels o0 .. o0 + 15 (nv = 2, a constant after inlining) or o0 .. o0 + 7 (nv = 1) of npix pixels in
+// tiles of 4 pixels; wfull: every channel of the registers is one (plain weight loads, no masks).
+AVXVNNI_INLINE void gemm_avxvnni_body(const uint8_t *rows, size_t rstride, uint32_t flip, size_t k4,
+                                      const int8_t *wp, size_t n_o, size_t o0, const vd_cnn_x86_rqv_t *c,
+                                      const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out, uint32_t npix,
+                                      const size_t nv, const bool wfull)
+{
+    const size_t n0 = (n_o - o0 < 8u) ? n_o - o0 : 8u;
+    const size_t n1 = (nv > 1u && n_o - o0 > 8u) ? ((n_o - o0 - 8u < 8u) ? n_o - o0 - 8u : 8u) : 0u;
+    const __m256i m0 = lane_mask8(n0), m1 = lane_mask8(n1);
+    const size_t ng = k4 / 4u, wstep = n_o * 4u;
+    for (uint32_t p0 = 0u; p0 < npix; p0 += 4u) {
+        // Rows of the 4 pixels; past npix the last one again (read, not stored: in-place rows end there).
+        const uint8_t *r0 = rows + (size_t)p0 * rstride;
+        const uint8_t *r1 = rows + (size_t)((p0 + 1u < npix) ? p0 + 1u : npix - 1u) * rstride;
+        const uint8_t *r2 = rows + (size_t)((p0 + 2u < npix) ? p0 + 2u : npix - 1u) * rstride;
+        const uint8_t *r3 = rows + (size_t)((p0 + 3u < npix) ? p0 + 3u : npix - 1u) * rstride;
+        const __m256i z = _mm256_setzero_si256();
+        __m256i a00 = z, a01 = z, a10 = z, a11 = z, a20 = z, a21 = z, a30 = z, a31 = z;
+        const int8_t *w = wp + o0 * 4u;
+        for (size_t gi = 0u; gi < ng; gi++) {
+            const __m256i w0 = wfull ? _mm256_loadu_si256((const __m256i *)(const void *)w)
+                                     : _mm256_maskload_epi32((const int *)(const void *)w, m0);
+            const __m256i w1 = (nv < 2u) ? z
+                               : wfull ? _mm256_loadu_si256((const __m256i *)(const void *)(w + 32))
+                                       : _mm256_maskload_epi32((const int *)(const void *)(w + 32), m1);
+            __m256i bb = vnni8_bcast(r0, gi, flip);
+            a00 = _mm256_dpbusd_avx_epi32(a00, bb, w0);
+            a01 = (nv > 1u) ? _mm256_dpbusd_avx_epi32(a01, bb, w1) : a01;
+            bb = vnni8_bcast(r1, gi, flip);
+            a10 = _mm256_dpbusd_avx_epi32(a10, bb, w0);
+            a11 = (nv > 1u) ? _mm256_dpbusd_avx_epi32(a11, bb, w1) : a11;
+            bb = vnni8_bcast(r2, gi, flip);
+            a20 = _mm256_dpbusd_avx_epi32(a20, bb, w0);
+            a21 = (nv > 1u) ? _mm256_dpbusd_avx_epi32(a21, bb, w1) : a21;
+            bb = vnni8_bcast(r3, gi, flip);
+            a30 = _mm256_dpbusd_avx_epi32(a30, bb, w0);
+            a31 = (nv > 1u) ? _mm256_dpbusd_avx_epi32(a31, bb, w1) : a31;
+            w += wstep;
+        }
+        const __m256i acc[4][2] = {{a00, a01}, {a10, a11}, {a20, a21}, {a30, a31}};
+        for (uint32_t p = 0u; p < 4u; p++) {
+            if (p0 + p < npix) {
+                gemm_out(out + ((size_t)p0 + p) * pstride + o0, acc[p][0], acc[p][1], c, q, n0, n1);
+            }
+        }
+    }
+}
+
+// gemm_vnni's contract on AVX-VNNI: n_o <= VD_CNN_X86_TILE channels of packed weights wp (pack_avxvnni),
+// the rows rstride bytes apart (flip: the rows are int8 input pixels, made unsigned here).
+X86_KERNEL AVXVNNI_TARGET void gemm_avxvnni(const uint8_t *rows, size_t rstride, bool flip, size_t k4,
+                                            const int8_t *wp, size_t n_o, const vd_cnn_x86_rqv_t *cv,
+                                            const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out, uint32_t npix)
+{
+    const uint32_t f = flip ? 0x80808080u : 0u;
+    // The shipped networks' case: the requantisation flags as constants (no branch per output).
+    const bool shipped = q->sat8 && !q->sign && !q->general;
+    const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
+    for (size_t o0 = 0u; o0 < n_o; o0 += 16u) {
+        const vd_cnn_x86_rqv_t *c = &cv[o0 / 16u];
+        if (n_o - o0 >= 16u && shipped) {
+            gemm_avxvnni_body(rows, rstride, f, k4, wp, n_o, o0, c, &qc, pstride, out, npix, 2u, true);
+        } else if (n_o - o0 > 8u) {
+            gemm_avxvnni_body(rows, rstride, f, k4, wp, n_o, o0, c, q, pstride, out, npix, 2u, false);
+        } else {
+            gemm_avxvnni_body(rows, rstride, f, k4, wp, n_o, o0, c, q, pstride, out, npix, 1u, false);
+        }
+    }
+}
+
 // The per-lane requantisation constants of output channels o0 .. o0 + n_o - 1
 // (one tile), corr[j] subtracted from channel o0 + j's bias (corr may be NULL).
 static void tile_consts(const vd_cnn_layer_t *L, size_t o0, size_t n_o, const int32_t *corr, vd_cnn_x86_rqv_t *cv)
@@ -428,7 +548,7 @@ static void gather_u8(const geom_t *g, const int8_t *const rowp[5], int32_t ks, 
 // lands on tap 3 (ky + 1, rewritten next) or, for ky = 2, on position 9 of the
 // k4 = 12, whose packed weight is 0 (pack_vnni pads k..k4 with 0). The per-tap
 // loop of gather_u8 took 12 % of the demo's time on an AVX-512 machine (perf).
-static X86_TARGET void gather_c1k3_u8(const geom_t *g, const int8_t *const rowp[5], int32_t step, uint32_t x0,
+static AVX2_TARGET void gather_c1k3_u8(const geom_t *g, const int8_t *const rowp[5], int32_t step, uint32_t x0,
                                       uint32_t npix, size_t k4, uint8_t *rows)
 {
     uint8_t buf[48];   // step (npix - 1) + 4 <= 34 values
@@ -585,10 +705,11 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
     scratch_layout_t sl;
     (void)vd__cnn_conv_scratch(L, stream, &sl);
     const scratch_layout_t *s = &sl;
-    if (level != VD_CNN_X86_AVX512) {
+    if (level == VD_CNN_X86_AVX2) {
         conv_rows_avx2(L, g, in, out, y0, y1, scr, s);
         return;
     }
+    const bool v512 = level == VD_CNN_X86_AVX512;   // else AVX-VNNI: the same rows, weights and constants
     const size_t k = vd_cnn_k_of(L);
     const size_t k4 = vd_cnn_round_up((uint32_t)k, 4u);
     int8_t *wp = (int8_t *)(void *)(scr + s->w16);
@@ -605,7 +726,11 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
         int32_t corr[VD_CNN_X86_TILE];
         uint32_t wsum[VD_CNN_X86_TILE];
-        pack_vnni(L->w + o0 * k, k, n_o, wp, wsum);
+        if (v512) {
+            pack_vnni(L->w + o0 * k, k, n_o, wp, wsum);
+        } else {
+            pack_avxvnni(L->w + o0 * k, k, n_o, wp, wsum);
+        }
         for (size_t o = 0u; o < n_o; o++) {
             corr[o] = vd_rq_u32_to_i32(wsum[o] * (uint32_t)(g->zp_in + 128));   // modulo 2^32, as the sums
         }
@@ -619,8 +744,13 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
                 const uint32_t npix = (g->wo - x0 < VD_CNN_NPIX) ? g->wo - x0 : VD_CNN_NPIX;
                 if (in_place) {
                     // The input pixels are the rows (x, flipped to x + 128 in the kernel).
-                    gemm_vnni((const uint8_t *)(const void *)(rowp[0] + (size_t)x0 * ci), ci, true, k4, wp, n_o, cv,
-                              &xq, g->co, orow + (size_t)x0 * g->co, npix);
+                    const uint8_t *xr = (const uint8_t *)(const void *)(rowp[0] + (size_t)x0 * ci);
+                    int8_t *o = orow + (size_t)x0 * g->co;
+                    if (v512) {
+                        gemm_vnni(xr, ci, true, k4, wp, n_o, cv, &xq, g->co, o, npix);
+                    } else {
+                        gemm_avxvnni(xr, ci, true, k4, wp, n_o, cv, &xq, g->co, o, npix);
+                    }
                     continue;
                 }
                 if (c1k3) {
@@ -628,7 +758,11 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
                 } else {
                     gather_u8(g, rowp, ks, step, x0, npix, k4, rows);
                 }
-                gemm_vnni(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+                if (v512) {
+                    gemm_vnni(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+                } else {
+                    gemm_avxvnni(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+                }
             }
         }
     }

@@ -1,28 +1,39 @@
 // SPDX-License-Identifier: MIT
 // The x86-64 back end's shared part: which kernel set this CPU runs, requantisation constants as vectors.
 //
-// Algorithm: vd__cnn_x86_level asks the CPU (__builtin_cpu_supports) per call: AVX-512 F/BW/VL/VNNI, else
-// AVX2, else none (the portable kernels); no cached global, so two detectors never interfere and a
+// Algorithm: vd__cnn_x86_level asks the CPU (__builtin_cpu_supports, CPUID) per call: AVX-512 F/BW/VL/VNNI,
+// else AVX2 with AVX-VNNI, else AVX2, else none (the portable kernels); no cached global, so two detectors never interfere and a
 // binary built here runs on any x86-64 CPU. The constants of 16 lanes are vd_rq_prepare's per-channel
 // fields spread for the even/odd 64-bit halves of vpmuludq.
 // Bounds: O(16) per vector of constants; O(cout) per layer for vd__cnn_x86_rq_of.
 #include "models/cnn/kernels/x86.h"
 #include "models/blob_internal.h"
 
+#include <cpuid.h>
+
+// AVX-VNNI: CPUID leaf 7 sub-leaf 1, EAX bit 4 (clang 14's __builtin_cpu_supports has no name for it). Its
+// 256-bit registers are the AVX2 ones, whose OS support __builtin_cpu_supports("avx2") has checked.
+static bool avx_vnni(void)
+{
+    unsigned int a = 0u, b = 0u, c = 0u, d = 0u;
+    return __get_cpuid_count(7u, 1u, &a, &b, &c, &d) != 0 && (a & (1u << 4)) != 0u;
+}
+
 uint32_t vd__cnn_x86_level(void)
 {
     __builtin_cpu_init();
     uint32_t level = VD_CNN_X86_NONE;
-    if (__builtin_cpu_supports("avx2") != 0) {
-        level = VD_CNN_X86_AVX2;
-    }
     if (__builtin_cpu_supports("avx512f") != 0 && __builtin_cpu_supports("avx512bw") != 0 &&
         __builtin_cpu_supports("avx512vl") != 0 && __builtin_cpu_supports("avx512vnni") != 0) {
         level = VD_CNN_X86_AVX512;
+    } else if (__builtin_cpu_supports("avx2") != 0) {
+        level = avx_vnni() ? VD_CNN_X86_AVXVNNI : VD_CNN_X86_AVX2;   // a CPUID (the caller asks once per run)
     }
 #if defined(VD_CNN_X86_MAX_LEVEL)
-    // Test builds cap the level to exercise the AVX2 kernels on an AVX-512 CPU.
+    // Test builds cap the level to exercise the AVX2 or AVX-VNNI kernels on an AVX-512 CPU.
     level = (level > VD_CNN_X86_MAX_LEVEL) ? VD_CNN_X86_MAX_LEVEL : level;
+    // An AVX-512 CPU capped at AVX-VNNI need not have it (Ice Lake, Zen 4): then AVX2.
+    level = (level == VD_CNN_X86_AVXVNNI && !avx_vnni()) ? VD_CNN_X86_AVX2 : level;
 #endif
     return level;
 }

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// The x86-64 back end's shared part (AVX-512 VNNI, AVX2): requantisation on vector lanes, target attributes.
+// The x86-64 back end's shared part (AVX-512 VNNI, AVX-VNNI, AVX2): requantisation on vector lanes, target attributes.
 //
 // Included only by the x86 back end's files (kernels/*x86*.c, compiled when CMake's VD_CNN_X86 is ON):
 // the one place besides them that includes <immintrin.h> (the include rule's named exception). Functions
@@ -21,6 +21,8 @@
 #define X86_INLINE static inline __attribute__((always_inline)) X86_TARGET
 #define AVX2_TARGET __attribute__((target("avx2")))
 #define AVX2_INLINE static inline __attribute__((always_inline)) AVX2_TARGET
+#define AVXVNNI_TARGET __attribute__((target("avx2,avxvnni")))
+#define AVXVNNI_INLINE static inline __attribute__((always_inline)) AVXVNNI_TARGET
 // A file-local kernel called from one driver. gcc would clone a plain static
 // one for that call site (constant propagation, argument changes): +5 %
 // instructions in the AVX2 GEMM (callgrind, vd_cnn at 320x256); noipa keeps
