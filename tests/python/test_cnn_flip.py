@@ -173,3 +173,30 @@ def test_extra_scale_experiment(vdlib, data_dir):
         assert len(want) > 0
     with pytest.raises(ValueError):
         cnn_eval.ExtraScale(base, 2)
+
+
+def test_tiles_experiment(vdlib, data_dir):
+    """cnn_eval --tiles (tiled inference at full resolution, an experiment of docs/results/cameras.md): one tile
+    the size of the frame is the pair at full resolution, box for box (the frame's normalisation table taken
+    outside, the tile through a model without one); a 2x2 grid keeps every box inside the frame and finds a
+    vehicle; the experiment refuses what it is not (no flip, half resolution)."""
+    model2 = REPO / "models" / "vd_cnn2.vdm"
+    if not (MODEL.is_file() and model2.is_file()):
+        pytest.skip(f"no CNN pair at {MODEL}, {model2} (the trained networks are committed there)")
+    import cv2
+    f = next(f for f in frames_in_test_split(data_dir) if "hit-uav" in str(f.path))
+    img = cv2.imread(str(f.path), cv2.IMREAD_GRAYSCALE)
+    h, w = img.shape
+    pair = cnn_eval.Pair(cnn_eval.Int8(MODEL, flip=True, full_res=True),
+                         cnn_eval.Int8(model2, flip=True, full_res=True))
+    assert w % pair.nets[0].align == 0 and h % pair.nets[0].align == 0   # no padding: the mirrored pass's table too
+    whole = pair(img, w, h)
+    assert len(whole) > 0
+    assert cnn_eval.Tiles(pair, 1, 1, 1.0)(img, w, h) == whole
+    tiled = cnn_eval.Tiles(pair, 2, 2)(img, w, h)
+    assert len(tiled) > 0
+    assert all(x >= 0 and y >= 0 and x + bw <= w and y + bh <= h for (x, y, bw, bh), _ in tiled)
+    with pytest.raises(ValueError):
+        cnn_eval.Tiles(cnn_eval.Pair(cnn_eval.Int8(MODEL, flip=True), cnn_eval.Int8(model2, flip=True)), 2, 2)
+    with pytest.raises(ValueError):
+        cnn_eval.Tiles(cnn_eval.Pair(cnn_eval.Int8(MODEL, full_res=True), cnn_eval.Int8(model2, full_res=True)), 2, 2)

@@ -323,6 +323,50 @@ class ExtraScale:
         return self.base(img, frame_w, frame_h) + [(b, sc / 32768.0) for b, sc in extra if lo <= b[3] < hi]
 
 
+class Tiles:
+    """Tiled inference at full resolution, an experiment (cnn_eval --tiles; not in the detector): the pair (an
+    int8 Pair of the C backend with flip and full_res) on an nx x ny grid of tiles half the frame's width and
+    height, evenly spaced (overlapping for nx or ny > 2), each tile a network input of its own, its boxes moved
+    into the frame; run()'s suppression merges the tiles. A tile of half the frame's sides has the workspace
+    of the half-resolution run, so this is the one exact-memory way to full resolution on 256 KiB
+    (docs/architecture.md, "Why full resolution does not fit"). Each network's input normalisation is taken
+    over the whole frame (padded as the detector pads it) and the tiles run through a copy of the model without
+    one, so a tile differs from the whole-frame run by its borders alone: Tiles(pair, 1, 1, 1.0) is the pair
+    at full resolution."""
+
+    def __init__(self, pair, nx, ny, frac=0.5):
+        if not (isinstance(pair, Pair) and pair.flip and pair.div == 1 and all(n.c is not None for n in pair.nets)):
+            raise ValueError("--tiles runs an int8 pair of the C backend with --flip and --full-res")
+        self.nx, self.ny, self.frac = int(nx), int(ny), float(frac)
+        self.nets = []
+        for n in pair.nets:
+            d0 = dict(n.desc, input_norm=0, norm_lo_permille=0, norm_hi_permille=0, norm_min_range=0)
+            self.nets.append((n, vd_cnn.CModel(V.pack(d0))))
+
+    def _pos(self, k, n, size, tile):
+        return 0 if n == 1 else int(round(k * (size - tile) / (n - 1)))
+
+    def __call__(self, img, frame_w, frame_h):
+        h, w = img.shape
+        tw, th = int(round(w * self.frac)), int(round(h * self.frac))
+        planes = []
+        for n, c in self.nets:
+            pad = CD.pad_to(img, n.align)
+            q = (R.preprocess(pad, n.desc)[:h, :w, 0].astype(np.int16) + 128).astype(np.uint8)
+            dec = (lambda x, t, n=n, c=c: c.decode(c.run(x), x.shape[1], x.shape[0], thr_q=t,
+                                                   max_peaks=int(n.desc["max_peaks"])))
+            planes.append((q, n.align, dec))
+        out = []
+        for j in range(self.ny):
+            y0 = self._pos(j, self.ny, h, th)
+            for i in range(self.nx):
+                x0 = self._pos(i, self.nx, w, tw)
+                sets = [fused_flip_pass(dec, np.ascontiguousarray(q[y0:y0 + th, x0:x0 + tw]), align, tw, th, -128, 0,
+                                        1) for q, align, dec in planes]
+                out += [((x + x0, y + y0, bw, bh), sc / 32768.0) for (x, y, bw, bh), sc in fuse_flip(sets[0], sets[1], 0)]
+        return out
+
+
 def float_boxes_q15(boxes):
     """Float boxes of the half-resolution plane [(x, y, w, h, score)] -> [(x, y, w, h, score_q15)] in frame
     pixels, corners rounded to the nearest pixel, so that clip_boxes, fuse_flip and fuse_pair (the detector's
@@ -650,6 +694,9 @@ def main(argv=None):
                          "resolution and append those boxes before suppression (backends c/ref; ExtraScale)")
     ap.add_argument("--extra-h", help="with --extra-scale: keep only its boxes of height lo:hi frame pixels "
                     "(lo <= h < hi; default all)")
+    ap.add_argument("--tiles", metavar="NXxNY",
+                    help="experiment: the pair (--model2, --flip, --full-res, backend c) on NX x NY tiles half the "
+                         "frame's sides, e.g. 2x2, 3x3 (Tiles)")
     ap.add_argument("--out", help="JSON report")
     ap.add_argument("--pr", help="precision-recall PNG")
     a = ap.parse_args(argv)
@@ -693,6 +740,9 @@ def main(argv=None):
                 raise SystemExit("--extra-scale is for the int8 network with --flip")
             h = {} if a.extra_h is None else dict(h_range=tuple(int(v) for v in a.extra_h.split(":")))
             pred = ExtraScale(pred, a.extra_scale, **h)
+        if a.tiles:
+            nx, ny = (int(v) for v in a.tiles.lower().split("x"))
+            pred = Tiles(pred, nx, ny)
         res = run(pred, frames)
     sec = time.time() - t0
     # --thr may be off the grid, e.g. the exact score of a header's threshold (the demo's default)
