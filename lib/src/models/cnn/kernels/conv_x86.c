@@ -130,9 +130,25 @@ X86_KERNEL X86_TARGET void gemm_vnni(const uint8_t *rows, size_t rstride, bool f
     }
 }
 
+// pack_vnni / pack_avxvnni: the last, partial group of 4 weights of channels o0 .. o0 + nl - 1 (src: channel
+// o0's weights, dst: its place in the packing; zero weights past k, whose activations are 0 too), and the
+// channels' weight sums (s: those of the full groups).
+static void pack_tail(const int8_t *src, size_t k, size_t n_o, size_t nl, int8_t *dst, uint32_t *s, uint32_t *wsum)
+{
+    const size_t full = k / 4u, k4 = (k + 3u) / 4u * 4u;
+    for (size_t j = 0u; j < nl; j++) {
+        int8_t *d = dst + full * n_o * 4u + j * 4u;
+        for (size_t i = 4u * full; i < k4; i++) {
+            const int32_t wv = (i < k) ? src[j * k + i] : 0;
+            d[i - 4u * full] = (int8_t)wv;
+            s[j] += (uint32_t)wv;
+        }
+        wsum[j] = s[j];
+    }
+}
+
 X86_KERNEL X86_TARGET void pack_vnni(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum)
 {
-    const size_t k4 = (k + 3u) / 4u * 4u;
     const size_t full = k / 4u;   // groups of 4 weights inside the channel
     const __m512i ones = _mm512_set1_epi8(1);
     const __m512i idx = _mm512_mullo_epi32(_mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
@@ -156,16 +172,7 @@ X86_KERNEL X86_TARGET void pack_vnni(const int8_t *w, size_t k, size_t n_o, int8
         }
         uint32_t s[16];
         _mm512_storeu_si512(s, sum);
-        for (size_t j = 0u; j < nl; j++) {
-            // The last, partial group: zero weights past k (their activations are 0 too).
-            int8_t *d = dst + full * n_o * 4u + j * 4u;
-            for (size_t i = 4u * full; i < k4; i++) {
-                const int32_t wv = (i < k) ? src[j * k + i] : 0;
-                d[i - 4u * full] = (int8_t)wv;
-                s[j] += (uint32_t)wv;
-            }
-            wsum[o0 + j] = s[j];
-        }
+        pack_tail(src, k, n_o, nl, dst, s, wsum + o0);
     }
 }
 
@@ -369,7 +376,6 @@ X86_KERNEL AVX2_TARGET void gemm_avx2(const int16_t *rows, size_t rstride, size_
 
 X86_KERNEL AVXVNNI_TARGET void pack_avxvnni(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum)
 {
-    const size_t k4 = (k + 3u) / 4u * 4u;
     const size_t full = k / 4u;   // groups of 4 weights inside the channel
     const __m256i ones = _mm256_set1_epi8(1);
     const __m256i idx = _mm256_mullo_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32((int32_t)k));
@@ -388,16 +394,7 @@ X86_KERNEL AVXVNNI_TARGET void pack_avxvnni(const int8_t *w, size_t k, size_t n_
         }
         uint32_t s[8];
         _mm256_storeu_si256((__m256i *)(void *)s, sum);
-        for (size_t j = 0u; j < nl; j++) {
-            // The last, partial group: zero weights past k (their activations are 0 too).
-            int8_t *d = dst + full * n_o * 4u + j * 4u;
-            for (size_t i = 4u * full; i < k4; i++) {
-                const int32_t wv = (i < k) ? src[j * k + i] : 0;
-                d[i - 4u * full] = (int8_t)wv;
-                s[j] += (uint32_t)wv;
-            }
-            wsum[o0 + j] = s[j];
-        }
+        pack_tail(src, k, n_o, nl, dst, s, wsum + o0);
     }
 }
 
@@ -421,11 +418,10 @@ AVXVNNI_INLINE void gemm_avxvnni_body(const uint8_t *rows, size_t rstride, uint3
     const __m256i m0 = lane_mask8(n0), m1 = lane_mask8(n1);
     const size_t ng = k4 / 4u, wstep = n_o * 4u;
     for (uint32_t p0 = 0u; p0 < npix; p0 += 4u) {
-        // Rows of the 4 pixels; past npix the last one again (read, not stored: in-place rows end there).
-        const uint8_t *r0 = rows + (size_t)p0 * rstride;
-        const uint8_t *r1 = rows + (size_t)((p0 + 1u < npix) ? p0 + 1u : npix - 1u) * rstride;
-        const uint8_t *r2 = rows + (size_t)((p0 + 2u < npix) ? p0 + 2u : npix - 1u) * rstride;
-        const uint8_t *r3 = rows + (size_t)((p0 + 3u < npix) ? p0 + 3u : npix - 1u) * rstride;
+        const uint8_t *r[4];   // past npix the last pixel's row again (read, not stored: in-place rows end there)
+        for (uint32_t p = 0u; p < 4u; p++) {
+            r[p] = rows + (size_t)((p0 + p < npix) ? p0 + p : npix - 1u) * rstride;
+        }
         const __m256i z = _mm256_setzero_si256();
         __m256i a00 = z, a01 = z, a10 = z, a11 = z, a20 = z, a21 = z, a30 = z, a31 = z;
         const int8_t *w = wp + o0 * 4u;
@@ -435,16 +431,16 @@ AVXVNNI_INLINE void gemm_avxvnni_body(const uint8_t *rows, size_t rstride, uint3
             const __m256i w1 = (nv < 2u) ? z
                                : wfull ? _mm256_loadu_si256((const __m256i *)(const void *)(w + 32))
                                        : _mm256_maskload_epi32((const int *)(const void *)(w + 32), m1);
-            __m256i bb = vnni8_bcast(r0, gi, flip);
+            __m256i bb = vnni8_bcast(r[0], gi, flip);
             a00 = _mm256_dpbusd_avx_epi32(a00, bb, w0);
             a01 = (nv > 1u) ? _mm256_dpbusd_avx_epi32(a01, bb, w1) : a01;
-            bb = vnni8_bcast(r1, gi, flip);
+            bb = vnni8_bcast(r[1], gi, flip);
             a10 = _mm256_dpbusd_avx_epi32(a10, bb, w0);
             a11 = (nv > 1u) ? _mm256_dpbusd_avx_epi32(a11, bb, w1) : a11;
-            bb = vnni8_bcast(r2, gi, flip);
+            bb = vnni8_bcast(r[2], gi, flip);
             a20 = _mm256_dpbusd_avx_epi32(a20, bb, w0);
             a21 = (nv > 1u) ? _mm256_dpbusd_avx_epi32(a21, bb, w1) : a21;
-            bb = vnni8_bcast(r3, gi, flip);
+            bb = vnni8_bcast(r[3], gi, flip);
             a30 = _mm256_dpbusd_avx_epi32(a30, bb, w0);
             a31 = (nv > 1u) ? _mm256_dpbusd_avx_epi32(a31, bb, w1) : a31;
             w += wstep;
