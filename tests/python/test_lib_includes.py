@@ -5,7 +5,7 @@ recursively, so files may move between folders of lib/src without touching this 
 - an angle-bracket include names one of the standard headers that docs/architecture.md lists in its
   sentence "`lib/` includes only `<stdint.h> ...`" (read from the document, so the two cannot drift);
   the one named exception: x86 back-end files (a path below lib/ with the word "x86" in a folder or file
-  name, as lib/src/models/cnn/kernels/conv_x86.c) may include <immintrin.h>, and CMSIS-NN back-end files
+  name, as lib/src/models/cnn/kernels/conv_x86.c) may include <immintrin.h> and <cpuid.h>, and CMSIS-NN back-end files
   (the word "cmsis") CMSIS-NN's own headers;
 - a quoted include resolves to a file of lib/ (the including file's folder, lib/include, lib/src or
   any other folder of lib/),
@@ -27,7 +27,7 @@ ARCH = REPO / "docs" / "architecture.md"
 
 INCLUDE = re.compile(r'^\s*#\s*include\s*(?:<([^>]+)>|"([^"]+)"|(\w+))', re.M)
 BACKENDS = {   # word in a path below lib/ -> the extra angle-bracket headers its files may include
-    "x86": {"immintrin.h"},
+    "x86": {"immintrin.h", "cpuid.h"},
     "cmsis": {"arm_nnfunctions.h", "arm_nnsupportfunctions.h", "arm_nn_types.h", "arm_nn_math_types.h",
               "arm_math_types.h", "arm_acle.h"},   # arm_acle.h: the DSP intrinsics of vd's own M-profile kernels
 }

@@ -13,7 +13,8 @@
 //   kernels/      one op per file, each with its scratch query: input (tensor 0), conv (CONV3X3,
 //                 CONV5X5, PW1X1), dw3x3, maxpool2, upsample2, concat; scratch.c the layout and
 //                 requantisation constants of a weighted layer. Back ends beside the portable C:
-//                 *_x86.c (CMake VD_CNN_X86; x86.h, x86.c their shared part) and *_cmsis.c (CMake
+//                 *_x86*.c (CMake VD_CNN_X86; conv_x86.c's GEMM one gemm_x86_<set>.c per instruction
+//                 set; x86.h, x86.c their shared part) and *_cmsis.c (CMake
 //                 VD_CNN_CMSIS: CMSIS-NN on Cortex-M; cmsis.h, cmsis.c), dispatched in executor.c.
 //   decode.c      heatmap peaks, top-K, boxes; score threshold -> logit threshold
 // Private to lib/; tests include it. Types are unprefixed as in detector/detector_internal.h;

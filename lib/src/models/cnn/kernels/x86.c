@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: MIT
 // The x86-64 back end's shared part: which kernel set this CPU runs, requantisation constants as vectors.
 //
-// Algorithm: vd__cnn_x86_level asks the CPU (__builtin_cpu_supports, CPUID) per call: AVX-512 F/BW/VL/VNNI,
-// else AVX2 with AVX-VNNI, else AVX2, else none (the portable kernels); no cached global, so two detectors never interfere and a
-// binary built here runs on any x86-64 CPU. The constants of 16 lanes are vd_rq_prepare's per-channel
-// fields spread for the even/odd 64-bit halves of vpmuludq.
+// Algorithm: vd__cnn_x86_level asks the CPU (__builtin_cpu_supports, CPUID) per call (the executor: once per
+// run): AVX-512 F/BW/VL/VNNI, else AVX2 with AVX-VNNI, else AVX2, else none (the portable kernels); no
+// cached global, so two detectors never interfere and a binary built here runs on any x86-64 CPU. The
+// constants of 16 lanes are vd_rq_prepare's per-channel fields spread for the even/odd 64-bit halves of
+// vpmuludq. Also the VNNI packs' shared tail (vd__cnn_x86_pack_tail).
 // Bounds: O(16) per vector of constants; O(cout) per layer for vd__cnn_x86_rq_of.
 #include "models/cnn/kernels/x86.h"
 #include "models/blob_internal.h"
@@ -112,4 +113,21 @@ vd_cnn_x86_rq_t vd__cnn_x86_rq_of(const vd_cnn_layer_t *L)
     q.sign = q.general || q.lo < 0;
     q.sat8 = L->act_min == -128 && L->act_max == 127;
     return q;
+}
+
+// pack_vnni / pack_avxvnni: the last, partial group of 4 weights of channels o0 .. o0 + nl - 1 (src: channel
+// o0's weights, dst: its place in the packing; zero weights past k, whose activations are 0 too), and the
+// channels' weight sums (s: those of the full groups).
+void vd__cnn_x86_pack_tail(const int8_t *src, size_t k, size_t n_o, size_t nl, int8_t *dst, uint32_t *s, uint32_t *wsum)
+{
+    const size_t full = k / 4u, k4 = (k + 3u) / 4u * 4u;
+    for (size_t j = 0u; j < nl; j++) {
+        int8_t *d = dst + full * n_o * 4u + j * 4u;
+        for (size_t i = 4u * full; i < k4; i++) {
+            const int32_t wv = (i < k) ? src[j * k + i] : 0;
+            d[i - 4u * full] = (int8_t)wv;
+            s[j] += (uint32_t)wv;
+        }
+        wsum[j] = s[j];
+    }
 }

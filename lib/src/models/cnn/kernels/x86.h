@@ -14,6 +14,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "models/cnn/cnn_internal.h"
 
@@ -163,6 +164,74 @@ AVX2_INLINE __m256i sat8_16(__m256i p, const vd_cnn_x86_rq_t *q)
 {
     const __m256i s = _mm256_adds_epi16(p, _mm256_set1_epi16((int16_t)q->zp));
     return _mm256_packs_epi16(s, s);
+}
+
+// ------------------------------------------------------------ the GEMM kernels (gemm_x86_*.c)
+// conv_x86.c's driver calls, per tile of n_o <= VD_CNN_X86_TILE output channels of a layer with k = vd_cnn_k_of
+// weights per channel, a pack (w: the model's [n_o][k] int8 weights of the tile; wp: the scratch's weight area)
+// and then, per block of npix <= VD_CNN_NPIX pixels, a GEMM of its rows (rstride elements apart) into out
+// (pstride bytes per pixel), through the tile's requantisation constants cv (one per 16 channels) and q.
+// AVX-512 VNNI and AVX-VNNI: int8 weights packed [k4 / 4][n_o][4] with their sums wsum (for the bias's
+// (zp_in + 128) sum w), unsigned rows (flip: the rows are the int8 input itself, made unsigned in the kernel).
+X86_TARGET void vd__cnn_pack_vnni(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum);
+X86_TARGET void vd__cnn_gemm_vnni(const uint8_t *rows, size_t rstride, bool flip, size_t k4, const int8_t *wp,
+                                  size_t n_o, const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride,
+                                  int8_t *out, uint32_t npix);
+AVXVNNI_TARGET void vd__cnn_pack_avxvnni(const int8_t *w, size_t k, size_t n_o, int8_t *wp, uint32_t *wsum);
+AVXVNNI_TARGET void vd__cnn_gemm_avxvnni(const uint8_t *rows, size_t rstride, bool flip, size_t k4,
+                                         const int8_t *wp, size_t n_o, const vd_cnn_x86_rqv_t *cv,
+                                         const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out, uint32_t npix);
+// AVX2: int16 weight pairs [k2 / 2][n_o][2], int16 rows x - zp_in (kp apart).
+AVX2_TARGET void vd__cnn_pack_avx2(const int8_t *w, size_t k, size_t n_o, int16_t *wp);
+AVX2_TARGET void vd__cnn_gemm_avx2(const int16_t *rows, size_t rstride, size_t k, const int16_t *wp, size_t n_o,
+                                   const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                                   uint32_t npix);
+// The VNNI packs' last, partial group of 4 weights (x86.c).
+void vd__cnn_x86_pack_tail(const int8_t *src, size_t k, size_t n_o, size_t nl, int8_t *dst, uint32_t *s,
+                           uint32_t *wsum);
+
+// ------------------------------------------------------------ AVX2 output helpers (the AVX2 and AVX-VNNI GEMMs)
+
+// The low byte of each int32 lane (values in -128..127), n of them (1..8), to d.
+AVX2_INLINE void store8(int8_t *d, __m256i z, size_t n)
+{
+    const __m256i p16 = _mm256_packs_epi32(z, z);
+    const __m256i p8 = _mm256_packs_epi16(p16, p16);
+    const __m128i b = _mm_unpacklo_epi32(_mm256_castsi256_si128(p8), _mm256_extracti128_si256(p8, 1));
+    if (n >= 8u) {
+        _mm_storel_epi64((__m128i *)(void *)d, b);
+    } else {
+        int8_t tmp[16];
+        _mm_storeu_si128((__m128i *)(void *)tmp, b);
+        memcpy(d, tmp, n);
+    }
+}
+
+// All-ones in lanes 0 .. rem - 1 (a vpmaskmovd mask).
+AVX2_INLINE __m256i lane_mask8(size_t rem)
+{
+    const __m256i idx = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const int32_t r = (rem >= 8u) ? 8 : (int32_t)rem;
+    return _mm256_cmpgt_epi32(_mm256_set1_epi32(r), idx);
+}
+
+// Requantises pixel p's accumulators (a0: channels 0-7 of the group, a1: 8-15) and
+// stores its n0 + n1 channels at d.
+AVX2_INLINE void gemm_out(int8_t *d, __m256i a0, __m256i a1, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q,
+                          size_t n0, size_t n1)
+{
+    if (n1 == 8u && q->sat8) {
+        // 16 channels in one store: after the two packs the dwords 0, 4, 1, 5
+        // hold channels 0-3, 4-7, 8-11, 12-15.
+        const __m256i b = sat8_16(_mm256_packs_epi32(rq8_z(a0, c, 0u, q), rq8_z(a1, c, 1u, q)), q);
+        _mm_storeu_si128((__m128i *)(void *)d, _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
+                                                   b, _mm256_setr_epi32(0, 4, 1, 5, 0, 4, 1, 5))));
+        return;
+    }
+    store8(d, rq8(a0, c, 0u, q), n0);
+    if (n1 > 0u) {
+        store8(d + 8, rq8(a1, c, 1u, q), n1);
+    }
 }
 
 #endif
