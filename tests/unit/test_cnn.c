@@ -2730,6 +2730,24 @@ static void x86_skip_unless_available(void)
 #endif
 }
 
+// vd_cnn_kernel_set names the set the runs take: the x86 level's name where the x86 back end is built (the
+// capped copies of this test, test_cnn_avx2 and test_cnn_avxvnni, name theirs), "cmsis-nn" with CMSIS-NN.
+static void test_kernel_set_named(void)
+{
+    const char *k = vd_cnn_kernel_set();
+    TEST_ASSERT_NOT_NULL(k);
+#if defined(VD_CNN_X86)
+    static const char *const names[4] = {"portable", "avx2", "avx-vnni", "avx512-vnni"};   // by level 0..3
+    const uint32_t level = vd__cnn_x86_level();
+    TEST_ASSERT_TRUE(level < 4u);
+    TEST_ASSERT_EQUAL_STRING(names[level], k);
+#elif defined(VD_CNN_CMSIS)
+    TEST_ASSERT_EQUAL_STRING("cmsis-nn", k);
+#else
+    TEST_ASSERT_EQUAL_STRING("portable", k);
+#endif
+}
+
 // Random models of every op and the awkward ones with extreme values: every
 // tensor of the x86 kernels equals the portable kernels' (VD_CNN_PORTABLE),
 // whole plane and streamed.
@@ -2817,6 +2835,7 @@ int main(void)
     RUN_TEST(test_stream_band_rule);
     RUN_TEST(test_head_ring_workspace_and_arguments);
     RUN_TEST(test_awkward_models_match_naive_reference);
+    RUN_TEST(test_kernel_set_named);
     RUN_TEST(test_x86_kernels_match_portable_random);
     RUN_TEST(test_x86_kernels_match_portable_committed);
     RUN_TEST(test_cmsis_kernels_match_portable_random);

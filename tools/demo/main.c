@@ -543,6 +543,9 @@ static void summary(run_t *r)
                    k + 1 < VD_DETECTOR_STAGE_COUNT ? "," : "\n");
         }
     }
+    if (r->m.have_cnn && (r->o.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
+        printf("cnn kernels: %s\n", vd_cnn_kernel_set());   // which set the times above ran on
+    }
     if (r->autores_ran) {
         const demo_autores_t *a = &r->autores;
         char pct[2][16];

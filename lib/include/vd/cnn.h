@@ -339,6 +339,12 @@ VD_API vd_status_t vd_cnn_thr_from_score(const vd_cnn_model_t *m, uint32_t score
 // Returns VD_OK; VD_ERR_ARG / VD_ERR_STATE as vd_cnn_workspace_size.
 VD_API vd_status_t vd_cnn_macs(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint64_t *macs);
 
+// The kernel set vd_cnn_run* takes on this CPU without VD_CNN_PORTABLE, for figures that say what ran:
+// "avx512-vnni", "avx-vnni" or "avx2" (x86-64 builds with the x86 back end, CMake VD_CNN_X86: a CPU check,
+// made by every run), "cmsis-nn" (builds with the CMSIS-NN back end, VD_CNN_CMSIS; the layers CMSIS-NN cannot
+// compute exactly run the portable kernels), else "portable". A static string, never NULL; cannot fail.
+VD_API const char *vd_cnn_kernel_set(void);
+
 #ifdef __cplusplus
 }
 #endif

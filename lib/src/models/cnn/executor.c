@@ -261,3 +261,23 @@ vd_status_t vd_cnn_run(const vd_cnn_model_t *m, const uint8_t *img, uint32_t wid
 {
     return vd_cnn_run_ex(m, img, width, height, stride_bytes, 0u, ws, bytes, out);
 }
+
+const char *vd_cnn_kernel_set(void)
+{
+#if defined(VD_CNN_X86)
+    switch (vd__cnn_x86_level()) {
+    case VD_CNN_X86_AVX512:
+        return "avx512-vnni";
+    case VD_CNN_X86_AVXVNNI:
+        return "avx-vnni";
+    case VD_CNN_X86_AVX2:
+        return "avx2";
+    default:
+        return "portable";
+    }
+#elif defined(VD_CNN_CMSIS)
+    return "cmsis-nn";
+#else
+    return "portable";
+#endif
+}
