@@ -27,7 +27,7 @@ cmake --build build-asan -j "$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE install
 
-echo "== libFuzzer + ASan/UBSan, ${FUZZ_SECONDS:-30} s per fuzzer (11 fuzzers; CI stays under 30 min)"; FUZZ_SECONDS="${FUZZ_SECONDS:-30}" tests/fuzz/run.sh
+echo "== libFuzzer + ASan/UBSan, ${FUZZ_SECONDS:-20} s per fuzzer (11 fuzzers; CI stays under 30 min)"; FUZZ_SECONDS="${FUZZ_SECONDS:-20}" tests/fuzz/run.sh
 
 echo "== cross builds (Cortex-M7/M4/M0+) and ARM unit tests under qemu-user"
 tests/cross_run.sh
