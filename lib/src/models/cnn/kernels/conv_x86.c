@@ -246,7 +246,12 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
         conv_rows_avx2(L, g, in, out, y0, y1, scr, s);
         return;
     }
-    const bool v512 = level == VD_CNN_X86_AVX512;   // else AVX-VNNI: the same rows, weights and constants
+    // AVX-512 VNNI or AVX-VNNI: the same rows, weights and constants, so the set is two function pointers.
+    void (*const pack)(const int8_t *, size_t, size_t, int8_t *, uint32_t *) =
+        (level == VD_CNN_X86_AVX512) ? vd__cnn_pack_vnni : vd__cnn_pack_avxvnni;
+    void (*const gemm)(const uint8_t *, size_t, bool, size_t, const int8_t *, size_t, const vd_cnn_x86_rqv_t *,
+                       const vd_cnn_x86_rq_t *, size_t, int8_t *, uint32_t) =
+        (level == VD_CNN_X86_AVX512) ? vd__cnn_gemm_vnni : vd__cnn_gemm_avxvnni;
     const size_t k = vd_cnn_k_of(L);
     const size_t k4 = vd_cnn_round_up((uint32_t)k, 4u);
     int8_t *wp = (int8_t *)(void *)(scr + s->w16);
@@ -263,11 +268,7 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
         int32_t corr[VD_CNN_X86_TILE];
         uint32_t wsum[VD_CNN_X86_TILE];
-        if (v512) {
-            vd__cnn_pack_vnni(L->w + o0 * k, k, n_o, wp, wsum);
-        } else {
-            vd__cnn_pack_avxvnni(L->w + o0 * k, k, n_o, wp, wsum);
-        }
+        pack(L->w + o0 * k, k, n_o, wp, wsum);
         for (size_t o = 0u; o < n_o; o++) {
             corr[o] = vd_rq_u32_to_i32(wsum[o] * (uint32_t)(g->zp_in + 128));   // modulo 2^32, as the sums
         }
@@ -283,11 +284,7 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
                     // The input pixels are the rows (x, flipped to x + 128 in the kernel).
                     const uint8_t *xr = (const uint8_t *)(const void *)(rowp[0] + (size_t)x0 * ci);
                     int8_t *o = orow + (size_t)x0 * g->co;
-                    if (v512) {
-                        vd__cnn_gemm_vnni(xr, ci, true, k4, wp, n_o, cv, &xq, g->co, o, npix);
-                    } else {
-                        vd__cnn_gemm_avxvnni(xr, ci, true, k4, wp, n_o, cv, &xq, g->co, o, npix);
-                    }
+                    gemm(xr, ci, true, k4, wp, n_o, cv, &xq, g->co, o, npix);
                     continue;
                 }
                 if (c1k3) {
@@ -295,11 +292,7 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
                 } else {
                     gather_u8(g, rowp, ks, step, x0, npix, k4, rows);
                 }
-                if (v512) {
-                    vd__cnn_gemm_vnni(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
-                } else {
-                    vd__cnn_gemm_avxvnni(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
-                }
+                gemm(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }
     }
