@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Fuzz harness: the CNN loader (vd_cnn_load) and, on whatever it accepts, vd_cnn_run (whole plane and
-// streamed), vd_cnn_decode and vd_cnn_run_rows_decode (the head a ring) on a tiny input.
+// streamed, and streamed with its weights prepared), vd_cnn_decode and vd_cnn_run_rows_decode (the head a
+// ring) on a tiny input.
 //
 // Input: one control byte, then the blob (or a plain blob starting with "VDMF"). Control bit 0: rewrite
 // the blob's CRC-32 field (when the claimed total size lies inside the input) so mutations reach the
@@ -121,6 +122,20 @@ static void run_checks(const vd_cnn_model_t *m, const uint8_t *blob, size_t byte
     const vd_cnn_rows_t rows = {plane_row, &pl};
     FZ_CHECK(vd_cnn_run_rows(m, &rows, w, h, VD_CNN_STREAM, ws2, sb, &out2) == VD_OK);
     FZ_CHECK(memcmp(copy, out2.data, head) == 0);
+    // Prepared weights (vd_cnn_prepare; on x86 hosts, size 0 elsewhere): the same head, and a buffer
+    // that is not the model's refused.
+    vd_cnn_model_t pm = *m;
+    size_t pb = 0u;
+    FZ_CHECK(vd_cnn_prepared_size(&pm, &pb) == VD_OK);
+    uint8_t *pbuf = fz_alloc(pb + 1u);
+    FZ_CHECK(vd_cnn_prepare(&pm, pbuf, pb) == VD_OK && (pb == 0u) == (pm.prepared == NULL));
+    FZ_CHECK(vd_cnn_run_ex(&pm, img, w, h, w, VD_CNN_STREAM, ws2, sb, &out2) == VD_OK);
+    FZ_CHECK(memcmp(copy, out2.data, head) == 0);
+    if (pb > 0u) {
+        pbuf[8] ^= 1u;   // the model's CRC in the header
+        FZ_CHECK(vd_cnn_run_ex(&pm, img, w, h, w, VD_CNN_STREAM, ws2, sb, &out2) == VD_ERR_STATE);
+    }
+    free(pbuf);
     free(ws2);
 
     // Decoding: default and extreme thresholds, small capacities, a frame of 1..32 pixels.

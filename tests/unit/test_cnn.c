@@ -9,6 +9,7 @@
 #include "unity.h"
 #include "testutil.h"
 
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -2077,7 +2078,7 @@ static void test_stream_fuses_upsample_read_only_by_concats(void)
 // 640x480, 200x120, 66x34 and 16x16 (half resolution, padded to the
 // alignment as the detector pads: 320x256, 320x240, 100x60 -> 112x64, 33x17
 // -> 48x32, 8x8 -> 16x16 for alignment 16).
-static uint32_t g_model_buf[(128u * 1024u) / 4u];
+static uint32_t g_model_buf[(192u * 1024u) / 4u];   // the largest committed network, vd_cnn2: 157 KiB
 
 static bool load_file_model(const char *path, vd_cnn_model_t *m)
 {
@@ -2108,12 +2109,13 @@ static void warm_frame(uint8_t *img, uint32_t w, uint32_t h, uint32_t seed, uint
 
 static void test_stream_committed_models_match_whole_plane(void)
 {
-    static const char *const paths[2] = {VD_SOURCE_DIR "/models/vd_cnn.vdm", VD_SOURCE_DIR "/models/vd_cnn_compact.vdm"};
+    static const char *const paths[3] = {VD_SOURCE_DIR "/models/vd_cnn.vdm", VD_SOURCE_DIR "/models/vd_cnn2.vdm",
+                                         VD_SOURCE_DIR "/models/vd_cnn_compact.vdm"};
     static const uint32_t sizes[5][2] = {{320, 256}, {320, 240}, {100, 60}, {33, 17}, {8, 8}};
     static uint8_t img[320 * 256];
     static vd_cnn_model_t m;
     uint32_t loaded = 0u;
-    for (uint32_t mi = 0u; mi < 2u; mi++) {
+    for (uint32_t mi = 0u; mi < 3u; mi++) {
         if (!load_file_model(paths[mi], &m)) {
             continue;   // a checkout without the models: the random models above still run
         }
@@ -2128,7 +2130,7 @@ static void test_stream_committed_models_match_whole_plane(void)
             stream_check(&m, img, w, h, msg);
         }
     }
-    TEST_ASSERT_TRUE(loaded == 2u);
+    TEST_ASSERT_TRUE(loaded == 3u);
 }
 
 
@@ -2526,6 +2528,50 @@ static void test_awkward_models_match_naive_reference(void)
     TEST_ASSERT_TRUE(checked > 100000u);
 }
 
+#if defined(VD_CNN_X86)
+// m prepared (vd_cnn_prepare, into a guarded buffer) against the portable kernels: every tensor of a run
+// with flags fl | VD_CNN_KEEP_TENSORS, byte for byte. Returns the bytes compared.
+static uint32_t prepared_check(const vd_cnn_model_t *m, const uint8_t *img, uint32_t w, uint32_t h, uint32_t fl,
+                               const char *what)
+{
+    static vd_cnn_model_t pm;
+    pm = *m;
+    size_t pb = 0u, wb = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_prepared_size(&pm, &pb));
+    TEST_ASSERT_TRUE_MESSAGE(pb > 0u, what);   // x86_skip_unless_available: this CPU has a kernel set
+    uint8_t *pbuf = tu_guarded_alloc(2, pb);
+    memset(pbuf, 0x3C, pb);
+    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_prepare(&pm, pbuf, pb), what);
+    TEST_ASSERT_TRUE(pm.prepared == pbuf);
+    const uint32_t f = fl | VD_CNN_KEEP_TENSORS;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size_ex(&pm, w, h, f, &wb));
+    uint8_t *a = tu_guarded_alloc(0, wb);
+    uint8_t *b = tu_guarded_alloc(1, wb);
+    vd_cnn_output_t ha, hb;
+    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_run_ex(&pm, img, w, h, w, f, a, wb, &ha), what);
+    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_run_ex(&pm, img, w, h, w, f | VD_CNN_PORTABLE, b, wb, &hb), what);
+    uint32_t compared = 0u;
+    for (uint32_t t = 0u; t <= pm.n_layers; t++) {
+        vd_cnn_output_t xa, xb;
+        const vd_status_t sa = vd_cnn_tensor(&pm, a, wb, w, h, t, &xa);
+        TEST_ASSERT_EQUAL_INT_MESSAGE(vd_cnn_tensor(&pm, b, wb, w, h, t, &xb), sa, what);
+        if (sa == VD_OK) {
+            char msg[128];
+            snprintf(msg, sizeof msg, "%s prepared, flags %u tensor %u", what, (unsigned)f, (unsigned)t);
+            TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(xb.data, xa.data, xa.w * xa.h * xa.c, msg);
+            compared += xa.w * xa.h * xa.c;
+        }
+    }
+    tu_guard_check(0);
+    tu_guard_check(1);
+    tu_guard_check(2);
+    tu_guarded_free(1);
+    tu_guarded_free(0);
+    tu_guarded_free(2);
+    return compared;
+}
+#endif
+
 #if defined(VD_CNN_X86) || defined(VD_CNN_CMSIS)
 // Every tensor of m on img (w x h): flags fl (with VD_CNN_KEEP_TENSORS)
 // against fl | VD_CNN_PORTABLE, byte for byte; same workspace size; and the
@@ -2566,6 +2612,9 @@ static uint32_t backend_check(const vd_cnn_model_t *m, const uint8_t *img, uint3
         tu_guarded_free(1);
         tu_guarded_free(0);
     }
+#if defined(VD_CNN_X86)
+    compared += prepared_check(m, img, w, h, fl, what);   // and with its weights prepared once
+#endif
     return compared;
 }
 
@@ -2628,12 +2677,13 @@ static uint32_t backend_random_models(void)
 // The committed networks at several input sizes, whole plane and streamed, through backend_check.
 static void backend_committed_models(void)
 {
-    static const char *const paths[2] = {VD_SOURCE_DIR "/models/vd_cnn.vdm", VD_SOURCE_DIR "/models/vd_cnn_compact.vdm"};
+    static const char *const paths[3] = {VD_SOURCE_DIR "/models/vd_cnn.vdm", VD_SOURCE_DIR "/models/vd_cnn2.vdm",
+                                         VD_SOURCE_DIR "/models/vd_cnn_compact.vdm"};
     static const uint32_t sizes[4][2] = {{320, 256}, {100, 60}, {33, 17}, {8, 8}};
     static uint8_t img[320 * 256];
     static vd_cnn_model_t m;
     uint32_t loaded = 0u;
-    for (uint32_t mi = 0u; mi < 2u; mi++) {
+    for (uint32_t mi = 0u; mi < 3u; mi++) {
         if (!load_file_model(paths[mi], &m)) {
             continue;
         }
@@ -2649,7 +2699,7 @@ static void backend_committed_models(void)
             (void)backend_check(&m, img, w, h, VD_CNN_STREAM, msg);
         }
     }
-    TEST_ASSERT_TRUE(loaded == 2u);
+    TEST_ASSERT_TRUE(loaded == 3u);
 }
 
 #if defined(VD_CNN_CMSIS)
@@ -2713,6 +2763,100 @@ static uint32_t backend_dsp_models(void)
 }
 #endif
 #endif
+
+// vd_cnn_prepare's contract on chain_model (two pointwise layers, 1 -> 2 and 2 -> 3 channels): the size
+// hand-worked, every refusal with the model left unprepared, the same head prepared or not, and a buffer
+// that is not the model's (another model's struct, a damaged header) refused by the run.
+static void test_prepare_arguments_and_mismatch(void)
+{
+    tm_t d;
+    chain_model(&d);
+    static vd_cnn_model_t m, other;
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    TEST_ASSERT_NULL(m.prepared);
+    size_t pb = 1u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_prepared_size(NULL, &pb));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_prepared_size(&m, NULL));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_cnn_prepare(NULL, NULL, 0u));
+    memset(&other, 0, sizeof other);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_prepared_size(&other, &pb));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_prepare(&other, NULL, 0u));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_prepared_size(&m, &pb));
+#if defined(VD_CNN_X86)
+    if (vd__cnn_x86_level() == VD_CNN_X86_NONE) {
+        TEST_ASSERT_EQUAL_UINT32(0u, (uint32_t)pb);
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_prepare(&m, NULL, 0u));
+        TEST_ASSERT_NULL(m.prepared);
+        return;
+    }
+    // The 192-byte header, then per layer its flags (64 bytes) and one tile: 16 lanes of constants (768
+    // bytes) and the weights (VNNI: k4 = 4 bytes per channel; AVX2: k2 = 2 int16), 8 or 12 bytes, padded to
+    // 64: 192 + 2 * (64 + 768 + 64).
+    TEST_ASSERT_EQUAL_UINT32(1984u, (uint32_t)pb);
+    uint8_t *buf = tu_guarded_alloc(2, pb + VD_WORKSPACE_ALIGN);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_prepare(&m, NULL, pb));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_prepare(&m, buf, pb - 1u));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_prepare(&m, buf + 1, pb));
+    TEST_ASSERT_NULL(m.prepared);
+    uint8_t img[16 * 8];
+    for (uint32_t i = 0u; i < sizeof img; i++) {
+        img[i] = (uint8_t)(i * 37u);
+    }
+    size_t wb = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 16u, 8u, &wb));
+    uint8_t *ws = tu_guarded_alloc(1, wb);
+    vd_cnn_output_t out;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run(&m, img, 16u, 8u, 16u, ws, wb, &out));
+    int8_t head[4 * 2 * 3];
+    memcpy(head, out.data, sizeof head);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_prepare(&m, buf, pb));
+    TEST_ASSERT_TRUE(m.prepared == buf);
+    memset(ws, 0x77, wb);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run(&m, img, 16u, 8u, 16u, ws, wb, &out));
+    TEST_ASSERT_EQUAL_INT8_ARRAY(head, out.data, sizeof head);
+    // Another model with this buffer: its blob and CRC are not the header's.
+    TEST_ASSERT_TRUE(load_file_model(VD_SOURCE_DIR "/models/vd_cnn_compact.vdm", &other));
+    TEST_ASSERT_NULL(other.prepared);
+    other.prepared = buf;
+    size_t ob = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&other, 32u, 32u, &ob));
+    uint8_t *ows = tu_guarded_alloc(0, ob);
+    static uint8_t oimg[32 * 32];
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_run(&other, oimg, 32u, 32u, 32u, ows, ob, &out));
+    tu_guarded_free(0);
+    // A damaged header (a layer's offset moved, the level, the size): refused, even for portable runs.
+    uint32_t off0;
+    memcpy(&off0, buf + offsetof(vd_cnn_prep_hdr_t, off), sizeof off0);
+    TEST_ASSERT_EQUAL_UINT32(192u, off0);
+    uint32_t off3;
+    memcpy(&off3, buf + offsetof(vd_cnn_prep_hdr_t, off) + 3u * sizeof off3, sizeof off3);
+    TEST_ASSERT_EQUAL_UINT32(192u + 896u, off3);
+    const uint32_t bad[3][2] = {{(uint32_t)offsetof(vd_cnn_prep_hdr_t, off), 1088u},
+                                {(uint32_t)offsetof(vd_cnn_prep_hdr_t, level), 9u},
+                                {(uint32_t)offsetof(vd_cnn_prep_hdr_t, bytes), 100000u}};
+    for (uint32_t i = 0u; i < 3u; i++) {
+        uint32_t keep;
+        memcpy(&keep, buf + bad[i][0], sizeof keep);
+        memcpy(buf + bad[i][0], &bad[i][1], sizeof bad[i][1]);
+        TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_run(&m, img, 16u, 8u, 16u, ws, wb, &out));
+        TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_cnn_run_ex(&m, img, 16u, 8u, 16u, VD_CNN_PORTABLE, ws, wb, &out));
+        memcpy(buf + bad[i][0], &keep, sizeof keep);
+    }
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_run(&m, img, 16u, 8u, 16u, ws, wb, &out));
+    TEST_ASSERT_EQUAL_INT8_ARRAY(head, out.data, sizeof head);
+    // Loading again forgets the buffer.
+    TEST_ASSERT_EQUAL_INT(VD_OK, tm_load(&d, &m));
+    TEST_ASSERT_NULL(m.prepared);
+    tu_guard_check(1);
+    tu_guard_check(2);
+    tu_guarded_free(1);
+    tu_guarded_free(2);
+#else
+    TEST_ASSERT_EQUAL_UINT32(0u, (uint32_t)pb);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_prepare(&m, NULL, 0u));
+    TEST_ASSERT_NULL(m.prepared);
+#endif
+}
 
 static void x86_skip_unless_available(void)
 {
@@ -2836,6 +2980,7 @@ int main(void)
     RUN_TEST(test_head_ring_workspace_and_arguments);
     RUN_TEST(test_awkward_models_match_naive_reference);
     RUN_TEST(test_kernel_set_named);
+    RUN_TEST(test_prepare_arguments_and_mismatch);
     RUN_TEST(test_x86_kernels_match_portable_random);
     RUN_TEST(test_x86_kernels_match_portable_committed);
     RUN_TEST(test_cmsis_kernels_match_portable_random);

@@ -169,6 +169,7 @@ typedef struct vd_cnn_model {
     uint32_t n_layers;        // 1..VD_CNN_MAX_LAYERS
     vd_cnn_layer_t layers[VD_CNN_MAX_LAYERS];
     const uint8_t *decode_table;  // int32 LE [out_channels][256], indexed by int8 value + 128
+    const uint8_t *prepared;  // vd_cnn_prepare's buffer (NULL: none; vd_cnn_load sets NULL)
 } vd_cnn_model_t;
 
 // A tensor of a run: HWC int8, element (y, x, c) at data[(y*w + x)*c_count + c].
@@ -225,6 +226,23 @@ VD_API vd_status_t vd_cnn_workspace_size(const vd_cnn_model_t *m, uint32_t width
 // or both). VD_ERR_ARG also for any other flag bit.
 VD_API vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t width, uint32_t height, uint32_t flags,
                                      size_t *bytes);
+
+// Optional host speed-up: the bytes vd_cnn_prepare needs for m on this CPU. Only the x86-64 kernel sets
+// (CMake VD_CNN_X86) use prepared weights; elsewhere, or on a CPU without AVX2, *bytes is 0.
+// Returns VD_OK; VD_ERR_ARG for NULL m/bytes; VD_ERR_STATE if m is not loaded. Time O(n_layers).
+VD_API vd_status_t vd_cnn_prepared_size(const vd_cnn_model_t *m, size_t *bytes);
+
+// Packs the weights of every CONV3X3 / CONV5X5 / PW1X1 layer of m for the x86 kernel set this CPU runs,
+// with their requantisation constants, into buf and points m->prepared at it, so that runs read them
+// instead of repacking them for every band of rows (about a tenth of a streamed frame's time on x86;
+// docs/performance.md). Runs give the same bytes with or without it; runs with VD_CNN_PORTABLE ignore it.
+// buf: VD_WORKSPACE_ALIGN-aligned (64 suits the kernels' cache lines), >= vd_cnn_prepared_size() bytes,
+// owned by the caller, unchanged and alive while m is used (it holds the model's blob address and CRC,
+// which every run checks). bytes 0 (the size on other back ends): m->prepared stays NULL and buf may be
+// NULL. A model whose memory must stay small (an ECU's) simply never calls this.
+// Returns VD_OK; VD_ERR_ARG for NULL m; VD_ERR_STATE if m is not loaded; VD_ERR_WORKSPACE for a NULL,
+// misaligned or short buf where bytes are needed. Time O(weights); stack ~4 KiB (one tile's constants).
+VD_API vd_status_t vd_cnn_prepare(vd_cnn_model_t *m, void *buf, size_t bytes);
 
 // Runs the network on one grey plane.
 // img:      width x height uint8 pixels, row stride stride_bytes (>= width),

@@ -26,6 +26,7 @@ typedef struct demo_models {
     vd_cnn_model_t cnn2;
     bool have_cnn2;
     char cnn2_path[4096];
+    void *cnn_prep, *cnn2_prep;  // vd_cnn_prepare's buffers (posix_memalign'd; NULL: none, e.g. not x86)
     uint8_t *boost_blob;        // --verifier boost: the boosted verifier's file (malloc'd); boost points into it
     vd_boost_model_t boost;
 } demo_models_t;

@@ -30,7 +30,7 @@ class CnnModel(C.Structure):
                 ("norm_min_range", C.c_uint16), ("input_zp", C.c_int8), ("out_stride", C.c_uint8),
                 ("score_threshold_i8", C.c_int8), ("max_peaks", C.c_uint16), ("align", C.c_uint32),
                 ("name", C.c_char * 17), ("n_layers", C.c_uint32), ("layers", CnnLayer * MAX_LAYERS),
-                ("decode_table", C.c_void_p)]
+                ("decode_table", C.c_void_p), ("prepared", C.c_void_p)]
 
 
 class CnnOutput(C.Structure):
@@ -65,11 +65,29 @@ def lib():
         lb.vd_cnn_decode.argtypes = [M, O, C.c_int32, C.c_uint32, C.c_uint32, C.c_uint32, C.POINTER(CnnBox),
                                      C.c_size_t, sz]
         lb.vd_cnn_macs.argtypes = [M, C.c_uint32, C.c_uint32, C.POINTER(C.c_uint64)]
+        lb.vd_cnn_prepared_size.argtypes = [M, sz]
+        lb.vd_cnn_prepare.argtypes = [M, C.c_void_p, C.c_size_t]
         for f in (lb.vd_cnn_load, lb.vd_cnn_workspace_size, lb.vd_cnn_workspace_size_ex, lb.vd_cnn_run,
-                  lb.vd_cnn_run_ex, lb.vd_cnn_tensor, lb.vd_cnn_decode, lb.vd_cnn_macs):
+                  lb.vd_cnn_run_ex, lb.vd_cnn_tensor, lb.vd_cnn_decode, lb.vd_cnn_macs, lb.vd_cnn_prepared_size,
+                  lb.vd_cnn_prepare):
             f.restype = C.c_int
         _bound = True
     return lb
+
+
+def prepare(m):
+    """vd_cnn_prepare on the loaded model struct m (its weights packed once for this CPU's x86 kernels:
+    the same outputs, faster runs); returns the buffer to keep alive with m (None where there is nothing
+    to prepare)."""
+    lb = lib()
+    n = C.c_size_t(0)
+    clib.check(lb.vd_cnn_prepared_size(C.byref(m), C.byref(n)), "vd_cnn_prepared_size")
+    if n.value == 0:
+        return None
+    keep = np.zeros((n.value + 63) // 8 + 8, dtype=np.uint64)
+    addr = (keep.ctypes.data + 63) // 64 * 64   # 64: the kernels' cache lines (the API needs 8)
+    clib.check(lb.vd_cnn_prepare(C.byref(m), addr, n.value), "vd_cnn_prepare")
+    return keep
 
 
 def c_load(blob, offset=0, nbytes=None):

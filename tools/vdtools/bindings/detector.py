@@ -204,7 +204,7 @@ def _load_cnn(cnn_model):
     keep, addr = vd_cnn.aligned_copy(data)
     m = vd_cnn.CnnModel()
     clib.check(vd_cnn.lib().vd_cnn_load(C.byref(m), addr, len(data)), "vd_cnn_load")
-    return m, keep
+    return m, (keep, vd_cnn.prepare(m))   # as vd_fir_demo: the same detections, faster
 
 
 def _attach_cnn(cfg, cnn_model, cnn_model2):

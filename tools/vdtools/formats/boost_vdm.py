@@ -152,12 +152,17 @@ def forward_batch(cnn, X_u8, tensors):
             ft = np.float32 if ks * ks * c * 128 * 255 < (1 << 24) else np.float64
             p = np.zeros((n, h + 2 * pad, w + 2 * pad, c), ft)
             p[:, pad:pad + h, pad:pad + w] = xin.astype(ft) - ft(zp)
-            cols = np.empty((n, ho, wo, ks * ks, c), ft)
+            # The columns of one kernel row (kx, c) for every padded input row, then one product per ky:
+            # ks times less copying than a whole im2col (5x faster on the boosted kind's 64x64 crops).
+            cols = np.empty((n, h + 2 * pad, wo, ks, c), ft)
+            for kx in range(ks):
+                cols[:, :, :, kx] = p[:, :, kx:(wo - 1) * st + kx + 1:st]
+            cols = cols.reshape(n, h + 2 * pad, wo, ks * c)
+            wk = np.asarray(L["w"], ft).reshape(L["cout"], ks, ks * c)
+            a = np.zeros((n, ho, wo, L["cout"]), ft)
             for ky in range(ks):
-                for kx in range(ks):
-                    cols[:, :, :, ky * ks + kx] = p[:, ky:(ho - 1) * st + ky + 1:st, kx:(wo - 1) * st + kx + 1:st]
-            wm = np.asarray(L["w"], ft).reshape(L["cout"], -1).T
-            acc = np.rint(cols.reshape(-1, ks * ks * c) @ wm).astype(np.int64).reshape(n, ho, wo, -1)
+                a += cols[:, ky:(ho - 1) * st + ky + 1:st] @ wk[:, ky].T   # integer partial sums, exact as above
+            acc = np.rint(a).astype(np.int64)
             ts.append(R.requant(acc + np.asarray(L["bias"], np.int64), L))
         elif op == V.PW1X1:
             a = (xin.reshape(-1, c).astype(np.float64) - zp) @ np.asarray(L["w"], np.float64).reshape(L["cout"], c).T
@@ -185,7 +190,7 @@ def forward_batch(cnn, X_u8, tensors):
     return {t: ts[t] for t in tensors}
 
 
-def score_batch(d, X_u8, chunk=64):
+def score_batch(d, X_u8, chunk=8):
     """int64 scores of crops X_u8 [N, h, w] (== score() per crop), chunk crops at a time."""
     out = []
     ts_needed = sorted({t for t, _ in d["maps"]})

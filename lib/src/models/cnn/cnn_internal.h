@@ -385,10 +385,32 @@ void vd__cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, cons
 uint32_t vd__cnn_x86_level(void);
 // vd__cnn_conv_rows and vd__cnn_dw3x3_rows on the set `level` (not NONE):
 // the same scratch, the same bytes.
+// prep: the layer's area of a vd_cnn_prepare buffer made for `level` (NULL: made per call), both kernels.
 void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
-                          uint32_t y1, bool stream, uint8_t *scr, uint32_t level);
+                          uint32_t y1, bool stream, uint8_t *scr, uint32_t level, const uint8_t *prep);
+// Bytes of a CONV / PW / DW layer's prepared area for `level` (a multiple of 64), and when dst is not NULL
+// (VD_WORKSPACE_ALIGN-aligned) the area itself: the layer's requantisation flags, then per tile of <= 64
+// output channels its constants and packed weights (CONV / PW) or per pass its constants (DW), as the
+// kernels make them per call (x86.c). zp_in: the layer's input zero point.
+size_t vd__cnn_x86_prep_layer(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t level, uint8_t *dst);
 void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                           uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level);
+                           uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level, const uint8_t *prep);
+
+// A vd_cnn_prepare buffer's header (prepared.c): what it was made for, and each layer's area (0: none).
+#define VD_CNN_PREP_MAGIC 0x50524550u   // "PREP"
+#define VD_CNN_PREP_HDR 192u            // header bytes (>= sizeof, a multiple of 64)
+typedef struct vd_cnn_prep_hdr {
+    uint32_t magic;
+    uint32_t level;          // x86 kernel set
+    uint32_t crc32;          // the model's
+    uint32_t bytes;          // the whole buffer's
+    const uint8_t *blob;     // the model's
+    uint32_t off[VD_CNN_MAX_LAYERS];
+} vd_cnn_prep_hdr_t;
+// The prepared areas a run at x86 level `level` reads: *hdr NULL when m has none or they are for another
+// level (VD_CNN_PORTABLE runs); false when m->prepared's header does not match m (another model's buffer,
+// or a damaged header: its layout is made again and compared).
+bool vd__cnn_prepared_for(const vd_cnn_model_t *m, const chain_t *c, uint32_t level, const vd_cnn_prep_hdr_t **hdr);
 
 // ------------------------------------------------------ CMSIS-NN back end (kernels/*cmsis*.c, CMake VD_CNN_CMSIS)
 

@@ -45,6 +45,7 @@ typedef struct run_io {
     uint8_t *base;
     const chain_t *c;
     uint32_t level;   // x86 kernel set of the run (x86_level), 0 without the x86 back end
+    const vd_cnn_prep_hdr_t *prep;   // the model's prepared areas for that set (NULL: none)
 } run_io_t;
 
 // The optional x86 kernels run unless the caller asked for the portable ones or the CPU lacks AVX2: asked
@@ -62,7 +63,7 @@ static uint32_t x86_level(uint32_t flags)
 
 // Output rows [y0, y1) of layer l; its input rows must be in their rings.
 static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_plan_t *p, uint8_t *base, uint32_t l,
-                       uint32_t y0, uint32_t y1, uint32_t level)
+                       uint32_t y0, uint32_t y1, uint32_t level, const vd_cnn_prep_hdr_t *ph)
 {
     const vd_cnn_layer_t *L = &m->layers[l];
     geom_t g;
@@ -78,8 +79,11 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     // The streamed plan has one scratch for all layers (item 3), refilled per call.
     const uint32_t scr_item = ((p->flags & VD_CNN_STREAM) != 0u) ? 3u : 3u + 2u * l;
     uint8_t *scr = base + p->off[scr_item];
-#if !defined(VD_CNN_X86)
+#if defined(VD_CNN_X86)
+    const uint8_t *x86_prep = (ph != NULL && ph->off[l] != 0u) ? (const uint8_t *)(const void *)ph + ph->off[l] : NULL;
+#else
     (void)level;
+    (void)ph;
 #endif
 #if defined(VD_CNN_CMSIS)
     // CMSIS-NN takes the layers it computes bit-exactly unless the caller asked for the portable kernels.
@@ -95,7 +99,7 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     case VD_CNN_OP_PW1X1:
 #if defined(VD_CNN_X86)
         if (level != VD_CNN_X86_NONE) {
-            vd__cnn_conv_rows_x86(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr, level);
+            vd__cnn_conv_rows_x86(L, &g, &in, &o, y0, y1, (p->flags & VD_CNN_STREAM) != 0u, scr, level, x86_prep);
             break;
         }
 #endif
@@ -109,7 +113,7 @@ static void layer_rows(const vd_cnn_model_t *m, const chain_t *c, const vd_cnn_p
     case VD_CNN_OP_DW3X3:
 #if defined(VD_CNN_X86)
         if (level != VD_CNN_X86_NONE) {
-            vd__cnn_dw3x3_rows_x86(L, &g, &in, &o, y0, y1, scr, level);
+            vd__cnn_dw3x3_rows_x86(L, &g, &in, &o, y0, y1, scr, level, x86_prep);
             break;
         }
 #endif
@@ -146,7 +150,7 @@ static void produce(const vd_cnn_model_t *m, const vd_cnn_plan_t *p, const run_i
         const ring_t t0 = ring_of(io->base, p, io->c, 0u);
         vd__cnn_input_rows(io->src, p->width, io->lut, &t0, p->done[0], p->req[0]);
     } else if (p->live[t] != VD_CNN_LIVE_FUSED) {   // a fused upsample is read through by its concats
-        layer_rows(m, io->c, p, io->base, t - 1u, p->done[t], p->req[t], io->level);
+        layer_rows(m, io->c, p, io->base, t - 1u, p->done[t], p->req[t], io->level, io->prep);
     }
 }
 
@@ -173,6 +177,9 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
     chain_t c;
     VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
     VD_VERIFY(vd__cnn_size_ok(m, width, height) && (rows != NULL || stride_bytes >= width), VD_ERR_ARG);
+    const uint32_t level = x86_level(flags);
+    const vd_cnn_prep_hdr_t *ph;
+    VD_VERIFY(vd__cnn_prepared_for(m, &c, level, &ph), VD_ERR_STATE);
     if (dec != NULL) {
         const uint32_t f = c.f[m->n_layers];
         VD_TRY(vd__cnn_decode_start(m, width / f, height / f, dec->opts, dec->boxes, dec->capacity, &dec->st));
@@ -193,14 +200,13 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
     const int8_t *lut = vd__cnn_norm_table(m, &src, width, height, base + p->off[1], same);
     const ring_t t0 = ring_of(base, p, &c, 0u);
     const uint32_t n = m->n_layers;
-    const uint32_t level = x86_level(flags);
     if ((flags & VD_CNN_STREAM) == 0u) {
         vd__cnn_input_rows(&src, width, lut, &t0, 0u, height);
         for (uint32_t l = 0u; l < n; l++) {
-            layer_rows(m, &c, p, base, l, 0u, height / c.f[l + 1u], level);
+            layer_rows(m, &c, p, base, l, 0u, height / c.f[l + 1u], level, ph);
         }
     } else {
-        const run_io_t io = {&src, lut, base, &c, level};
+        const run_io_t io = {&src, lut, base, &c, level, ph};
         uint32_t target, max_steps;
         vd__cnn_sched_start(p, &target, &max_steps);
         for (uint32_t k = 0u; k < max_steps && vd__cnn_sched_next(m, p, &target); k++) {

@@ -391,6 +391,7 @@ static void model_fill(vd_cnn_model_t *m, const uint8_t *b, uint32_t total, cons
         entry_read(b, h->table, l, &m->layers[l], offs);
     }
     m->decode_table = b + h->dec_off;
+    m->prepared = NULL;   // vd_cnn_prepare's, for this blob only
 }
 
 vd_status_t vd_cnn_load(vd_cnn_model_t *m, const void *blob, size_t bytes)

@@ -10,7 +10,9 @@
 // layers whose input channels are a multiple of 4 read their input row in place) and subtract
 // (zp_in + 128) sum w from the bias; AVX2 takes conv.c's int16 rows x - zp_in (pointwise 16 channels per
 // vector op, gather_pw; the first layer per row span, gather_c1k3; others conv.c's gather).
-// Streamed runs repack a layer's weights per call as conv.c re-copies its own.
+// Streamed runs repack a layer's weights per call as conv.c re-copies its own, unless the model was
+// prepared (vd_cnn_prepare, prepared.c): then every call reads the layer's tiles from the area
+// vd__cnn_x86_prep_layer made once (tile_get), the same bytes as a pack.
 // Reference: conv.c (tests/unit/test_cnn.c compares every tensor with it on random and shipped models).
 // Bounds: as conv.c; stack ~4 KiB (the constants of one tile of 64 channels).
 #include "models/cnn/kernels/x86.h"
@@ -29,6 +31,84 @@ static void tile_consts(const vd_cnn_layer_t *L, size_t o0, size_t n_o, const in
         }
         vd__cnn_x86_rqv_fill(&cv[v], L, ch_of, (corr != NULL) ? corr + v * 16u : NULL, (uint32_t)n_l);
     }
+}
+
+// The packed weights (wp) and constants (cv) of output channels o0 .. o0 + n_o - 1 on set `level`: AVX2 int16
+// pairs [k2 / 2][n][2]; the VNNI sets int8 [k4 / 4][n][4] and the bias less (zp_in + 128) sum w.
+static void tile_make(const vd_cnn_layer_t *L, uint32_t level, int32_t zp_in, size_t o0, size_t n_o, void *wp,
+                      vd_cnn_x86_rqv_t *cv)
+{
+    const size_t k = vd_cnn_k_of(L);
+    if (level == VD_CNN_X86_AVX2) {
+        vd__cnn_pack_avx2(L->w + o0 * k, k, n_o, (int16_t *)wp);
+        tile_consts(L, o0, n_o, NULL, cv);
+        return;
+    }
+    int32_t corr[VD_CNN_X86_TILE];
+    uint32_t wsum[VD_CNN_X86_TILE];
+    if (level == VD_CNN_X86_AVX512) {
+        vd__cnn_pack_vnni(L->w + o0 * k, k, n_o, (int8_t *)wp, wsum);
+    } else {
+        vd__cnn_pack_avxvnni(L->w + o0 * k, k, n_o, (int8_t *)wp, wsum);
+    }
+    for (size_t o = 0u; o < n_o; o++) {
+        corr[o] = vd_rq_u32_to_i32(wsum[o] * (uint32_t)(zp_in + 128));   // modulo 2^32, as the sums
+    }
+    tile_consts(L, o0, n_o, corr, cv);
+}
+
+// Bytes of one tile's prepared part: its constants (768 bytes per 16 channels), then its weights, to 64 bytes.
+static size_t tile_prep_bytes(uint32_t level, size_t k, size_t n_o)
+{
+    const size_t nv = (n_o + VD_CNN_X86_LANES - 1u) / VD_CNN_X86_LANES;
+    const size_t wb = (level == VD_CNN_X86_AVX2) ? (k + 1u) / 2u * 2u * n_o * sizeof(int16_t)   // [k2 / 2][n][2]
+                                                 : (k + 3u) / 4u * 4u * n_o;                     // [k4 / 4][n][4]
+    return nv * sizeof(vd_cnn_x86_rqv_t) + (wb + 63u) / 64u * 64u;
+}
+
+size_t vd__cnn_x86_prep_conv(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t level, uint8_t *dst)
+{
+    const size_t k = vd_cnn_k_of(L);
+    size_t at = 0u;
+    for (size_t o0 = 0u; o0 < L->cout; o0 += VD_CNN_X86_TILE) {
+        const size_t n_o = (L->cout - o0 < VD_CNN_X86_TILE) ? L->cout - o0 : VD_CNN_X86_TILE;
+        if (dst != NULL) {
+            vd_cnn_x86_rqv_t *cv = (vd_cnn_x86_rqv_t *)(void *)(dst + at);
+            tile_make(L, level, zp_in, o0, n_o, cv + (n_o + VD_CNN_X86_LANES - 1u) / VD_CNN_X86_LANES, cv);
+        }
+        at += tile_prep_bytes(level, k, n_o);
+    }
+    return at;
+}
+
+// The layer-wide requantisation flags: from the head of the prepared area (*prep moves past it to the
+// tiles), or made.
+static vd_cnn_x86_rq_t layer_rq(const vd_cnn_layer_t *L, const uint8_t **prep)
+{
+    vd_cnn_x86_rq_t q;
+    if (*prep == NULL) {
+        return vd__cnn_x86_rq_of(L);
+    }
+    memcpy(&q, *prep, sizeof q);
+    *prep += VD_CNN_X86_PREP_RQ;
+    return q;
+}
+
+// The tile's constants and weights: from the prepared area at *prep (then past it), or made in cv and wp.
+static void tile_get(const vd_cnn_layer_t *L, uint32_t level, int32_t zp_in, size_t o0, size_t n_o,
+                     const uint8_t **prep, void *wp, vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rqv_t **cv_out,
+                     const void **wp_out)
+{
+    if (*prep != NULL) {
+        const vd_cnn_x86_rqv_t *pc = (const vd_cnn_x86_rqv_t *)(const void *)*prep;
+        *cv_out = pc;
+        *wp_out = pc + (n_o + VD_CNN_X86_LANES - 1u) / VD_CNN_X86_LANES;
+        *prep += tile_prep_bytes(level, vd_cnn_k_of(L), n_o);
+        return;
+    }
+    tile_make(L, level, zp_in, o0, n_o, wp, cv);
+    *cv_out = cv;
+    *wp_out = wp;
 }
 
 // The unsigned rows (x + 128, padding taps zp_in + 128) of npix output pixels
@@ -189,7 +269,7 @@ static AVX2_TARGET void gather_pw(const int8_t *x, size_t ci, int32_t zp_in, uin
 // 0) and, per tile of <= 64 output channels, int16 weight pairs
 // [k2 / 2][n][2] (2 n k2 <= the int16 copy's 2 chunk kp bytes).
 static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                           uint32_t y0, uint32_t y1, uint8_t *scr, const scratch_layout_t *s)
+                           uint32_t y0, uint32_t y1, uint8_t *scr, const scratch_layout_t *s, const uint8_t *prep)
 {
     const size_t k = vd_cnn_k_of(L);
     const size_t kp = vd_cnn_round_up((uint32_t)k, VD_CNN_KCHUNK);
@@ -201,16 +281,17 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
         // only results that are not stored. (Zeroing every call: ~1.4 % of the demo's instructions.)
         memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
     }
-    const vd_cnn_x86_rq_t xq = vd__cnn_x86_rq_of(L);
+    const vd_cnn_x86_rq_t xq = layer_rq(L, &prep);
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
     const bool c1k3 = ks == 3 && g->ci == 1u;   // gather_c1k3's case (stride 1 or 2: the loader's bound)
     for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
-        vd__cnn_pack_avx2(L->w + o0 * k, k, n_o, wp);
-        vd_cnn_x86_rqv_t cv[VD_CNN_X86_TILE / VD_CNN_X86_LANES];
-        tile_consts(L, o0, n_o, NULL, cv);
+        vd_cnn_x86_rqv_t cv_own[VD_CNN_X86_TILE / VD_CNN_X86_LANES];
+        const vd_cnn_x86_rqv_t *cv;
+        const void *wt;
+        tile_get(L, VD_CNN_X86_AVX2, g->zp_in, o0, n_o, &prep, wp, cv_own, &cv, &wt);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rowp[5];
             vd__cnn_conv_row_ptrs(g, in, oy, step, ks, rowp);
@@ -224,7 +305,8 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
                 } else {
                     vd__cnn_conv_gather(g, rowp, ks, step, x0, npix, kp, rows);
                 }
-                vd__cnn_gemm_avx2(rows, kp, k, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+                vd__cnn_gemm_avx2(rows, kp, k, (const int16_t *)wt, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co,
+                                  npix);
             }
         }
     }
@@ -237,18 +319,16 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
 // padding taps are zp_in + 128 and the bias loses (zp_in + 128) sum w, so
 // the int32 sums equal the portable ones modulo 2^32 (above).
 void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out, uint32_t y0,
-                          uint32_t y1, bool stream, uint8_t *scr, uint32_t level)
+                          uint32_t y1, bool stream, uint8_t *scr, uint32_t level, const uint8_t *prep)
 {
     scratch_layout_t sl;
     (void)vd__cnn_conv_scratch(L, stream, &sl);
     const scratch_layout_t *s = &sl;
     if (level == VD_CNN_X86_AVX2) {
-        conv_rows_avx2(L, g, in, out, y0, y1, scr, s);
+        conv_rows_avx2(L, g, in, out, y0, y1, scr, s, prep);
         return;
     }
-    // AVX-512 VNNI or AVX-VNNI: the same rows, weights and constants, so the set is two function pointers.
-    void (*const pack)(const int8_t *, size_t, size_t, int8_t *, uint32_t *) =
-        (level == VD_CNN_X86_AVX512) ? vd__cnn_pack_vnni : vd__cnn_pack_avxvnni;
+    // AVX-512 VNNI or AVX-VNNI: the same rows, weights and constants, so the set is a function pointer.
     void (*const gemm)(const uint8_t *, size_t, bool, size_t, const int8_t *, size_t, const vd_cnn_x86_rqv_t *,
                        const vd_cnn_x86_rq_t *, size_t, int8_t *, uint32_t) =
         (level == VD_CNN_X86_AVX512) ? vd__cnn_gemm_vnni : vd__cnn_gemm_avxvnni;
@@ -257,7 +337,7 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
     int8_t *wp = (int8_t *)(void *)(scr + s->w16);
     uint8_t *rows = scr + s->rows;
     memset(rows, 0, (size_t)VD_CNN_NPIX * k4);   // the k..k4 tails stay 0 (their weights are 0 too)
-    const vd_cnn_x86_rq_t xq = vd__cnn_x86_rq_of(L);
+    const vd_cnn_x86_rq_t xq = layer_rq(L, &prep);
     const size_t ci = g->ci;
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
@@ -266,14 +346,11 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
     const bool c1k3 = ks == 3 && ci == 1u;   // gather_c1k3_u8's case (stride 1 or 2: the loader's bound)
     for (size_t o0 = 0u; o0 < g->co; o0 += VD_CNN_X86_TILE) {
         const size_t n_o = (g->co - o0 < VD_CNN_X86_TILE) ? g->co - o0 : VD_CNN_X86_TILE;
-        int32_t corr[VD_CNN_X86_TILE];
-        uint32_t wsum[VD_CNN_X86_TILE];
-        pack(L->w + o0 * k, k, n_o, wp, wsum);
-        for (size_t o = 0u; o < n_o; o++) {
-            corr[o] = vd_rq_u32_to_i32(wsum[o] * (uint32_t)(g->zp_in + 128));   // modulo 2^32, as the sums
-        }
-        vd_cnn_x86_rqv_t cv[VD_CNN_X86_TILE / VD_CNN_X86_LANES];
-        tile_consts(L, o0, n_o, corr, cv);
+        vd_cnn_x86_rqv_t cv_own[VD_CNN_X86_TILE / VD_CNN_X86_LANES];
+        const vd_cnn_x86_rqv_t *cv;
+        const void *wt;
+        tile_get(L, level, g->zp_in, o0, n_o, &prep, wp, cv_own, &cv, &wt);
+        const int8_t *w8 = (const int8_t *)wt;
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rowp[5];
             vd__cnn_conv_row_ptrs(g, in, oy, step, ks, rowp);
@@ -284,7 +361,7 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
                     // The input pixels are the rows (x, flipped to x + 128 in the kernel).
                     const uint8_t *xr = (const uint8_t *)(const void *)(rowp[0] + (size_t)x0 * ci);
                     int8_t *o = orow + (size_t)x0 * g->co;
-                    gemm(xr, ci, true, k4, wp, n_o, cv, &xq, g->co, o, npix);
+                    gemm(xr, ci, true, k4, w8, n_o, cv, &xq, g->co, o, npix);
                     continue;
                 }
                 if (c1k3) {
@@ -292,7 +369,7 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
                 } else {
                     gather_u8(g, rowp, ks, step, x0, npix, k4, rows);
                 }
-                gemm(rows, k4, false, k4, wp, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
+                gemm(rows, k4, false, k4, w8, n_o, cv, &xq, g->co, orow + (size_t)x0 * g->co, npix);
             }
         }
     }

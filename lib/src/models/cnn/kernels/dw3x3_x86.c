@@ -190,8 +190,30 @@ static inline void dw_interior(const vd_cnn_x86_dw_t *d, const int8_t *const row
     }
 }
 
+// The AVX-512 pass from channel c0 (mask m): its constants, lo and hi sums (bias - zp_in sum w, modulo 2^32).
+static X86_TARGET void vnni_pass_consts(const vd_cnn_layer_t *L, size_t c_n, int32_t zp_in, size_t c0, __mmask32 m,
+                                        vd_cnn_x86_rqv_t *cl, vd_cnn_x86_rqv_t *ch)
+{
+    __m512i wsum = _mm512_setzero_si512();
+    for (size_t i = 0u; i < 9u; i++) {
+        wsum = _mm512_add_epi16(wsum, dw_tap(L->w + i * c_n + c0, m));   // |sum| <= 9 * 128: int16
+    }
+    int16_t ws[32];
+    _mm512_storeu_si512(ws, wsum);
+    vd_cnn_x86_dw_t d;
+    memset(&d, 0, sizeof d);
+    d.c_n = c_n;
+    d.zp_in = zp_in;
+    uint32_t map_lo[16], map_hi[16];
+    int32_t corr_lo[16], corr_hi[16];
+    dw_lanes(&d, c0, ws, 16u, map_lo, corr_lo, map_hi, corr_hi);
+    vd__cnn_x86_rqv_fill(cl, L, map_lo, corr_lo, 16u);
+    vd__cnn_x86_rqv_fill(ch, L, map_hi, corr_hi, 16u);
+}
+
+// prep: the layer's pass constants made by vd__cnn_x86_prep_dw (NULL: made here, per call).
 X86_KERNEL X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
-                                   uint32_t y0, uint32_t y1)
+                                   uint32_t y0, uint32_t y1, const vd_cnn_x86_rqv_t *prep)
 {
     const size_t c_n = d->c_n;
     for (size_t c0 = 0u; c0 < c_n; c0 += 32u) {
@@ -201,10 +223,8 @@ X86_KERNEL X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_
         ps.c0 = c0;
         // Weights [9][c_n] straight from the model, in both pairings.
         __m512i wt[9];
-        __m512i wsum = _mm512_setzero_si512();
         for (size_t i = 0u; i < 9u; i++) {
             wt[i] = dw_tap(L->w + i * c_n + c0, ps.m);
-            wsum = _mm512_add_epi16(wsum, wt[i]);   // |sum| <= 9 * 128: int16
         }
         const __m512i zero = _mm512_setzero_si512();
         for (size_t i = 0u; i < 5u; i++) {
@@ -218,14 +238,12 @@ X86_KERNEL X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_
             ps.wc[kx].el = _mm512_unpacklo_epi16(wt[6u + kx], zero);
             ps.wc[kx].eh = _mm512_unpackhi_epi16(wt[6u + kx], zero);
         }
-        // bias - zp_in sum w (the taps are x, padding taps zp_in), modulo 2^32.
-        int16_t ws[32];
-        _mm512_storeu_si512(ws, wsum);
-        uint32_t map_lo[16], map_hi[16];
-        int32_t corr_lo[16], corr_hi[16];
-        dw_lanes(d, c0, ws, 16u, map_lo, corr_lo, map_hi, corr_hi);
-        vd__cnn_x86_rqv_fill(&ps.cl, L, map_lo, corr_lo, 16u);
-        vd__cnn_x86_rqv_fill(&ps.ch, L, map_hi, corr_hi, 16u);
+        if (prep != NULL) {
+            memcpy(&ps.cl, prep + (c0 / 32u) * 2u, sizeof ps.cl);
+            memcpy(&ps.ch, prep + (c0 / 32u) * 2u + 1u, sizeof ps.ch);
+        } else {
+            vnni_pass_consts(L, c_n, d->zp_in, c0, ps.m, &ps.cl, &ps.ch);
+        }
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
             dw_rows(d, oy, rows);
@@ -386,31 +404,48 @@ AVX2_INLINE void dw_row(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], s
     }
 }
 
+// The AVX2 pass of nc channels from c0: its constants (lanes 0..7 the lo sums', 8..15 the hi sums').
+static AVX2_TARGET void avx2_pass_consts(const vd_cnn_layer_t *L, size_t c_n, int32_t zp_in, size_t c0, size_t nc,
+                                         vd_cnn_x86_rqv_t *cv)
+{
+    __m256i wsum = _mm256_setzero_si256();
+    for (size_t i = 0u; i < 9u; i++) {
+        wsum = _mm256_add_epi16(wsum, tap16(L->w + i * c_n + c0, nc));   // |sum| <= 9 * 128: int16
+    }
+    int16_t ws[16];
+    _mm256_storeu_si256((__m256i *)(void *)ws, wsum);
+    vd_cnn_x86_dw_t d;
+    memset(&d, 0, sizeof d);
+    d.c_n = c_n;
+    d.zp_in = zp_in;
+    uint32_t map[16];
+    int32_t corr[16];
+    dw_lanes(&d, c0, ws, 8u, map, corr, map + 8, corr + 8);
+    vd__cnn_x86_rqv_fill(cv, L, map, corr, 16u);
+}
+
+// prep: as dw_vnni's, one constant set per pass of 16 channels.
 X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
-                                    uint32_t y0, uint32_t y1)
+                                    uint32_t y0, uint32_t y1, const vd_cnn_x86_rqv_t *prep)
 {
     const size_t c_n = d->c_n;
     for (size_t c0 = 0u; c0 < c_n; c0 += 16u) {
         dw_pass_t ps;
         ps.nc = (c_n - c0 < 16u) ? c_n - c0 : 16u;
         __m256i wt[9];
-        __m256i wsum = _mm256_setzero_si256();
         for (size_t i = 0u; i < 9u; i++) {
             wt[i] = tap16(L->w + i * c_n + c0, ps.nc);
-            wsum = _mm256_add_epi16(wsum, wt[i]);   // |sum| <= 9 * 128: int16
         }
         for (size_t i = 0u; i < 5u; i++) {
             const __m256i wb = (i < 4u) ? wt[2u * i + 1u] : _mm256_setzero_si256();
             ps.wl[i] = _mm256_unpacklo_epi16(wt[2u * i], wb);
             ps.wh[i] = _mm256_unpackhi_epi16(wt[2u * i], wb);
         }
-        int16_t ws[16];
-        _mm256_storeu_si256((__m256i *)(void *)ws, wsum);
-        // One constant set: lanes 0..7 the lo sums', 8..15 the hi sums'.
-        uint32_t map[16];
-        int32_t corr[16];
-        dw_lanes(d, c0, ws, 8u, map, corr, map + 8, corr + 8);
-        vd__cnn_x86_rqv_fill(&ps.cv, L, map, corr, 16u);
+        if (prep != NULL) {
+            memcpy(&ps.cv, prep + c0 / 16u, sizeof ps.cv);
+        } else {
+            avx2_pass_consts(L, c_n, d->zp_in, c0, ps.nc, &ps.cv);
+        }
         ps.tl = tail_of(ps.nc, c_n);
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
@@ -430,7 +465,7 @@ X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer
 
 // vd__cnn_dw3x3_rows on the AVX-512 VNNI or AVX2 kernel: the scratch holds only the zero-point row.
 void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
-                           uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level)
+                           uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level, const uint8_t *prep)
 {
     scratch_layout_t s;
     (void)vd__cnn_dw3x3_scratch(L, &s);
@@ -438,10 +473,37 @@ void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring
     memset(zr, g->zp_in, g->co);
     const vd_cnn_x86_dw_t d = {in->base, in->row, in->rows, g->wi, g->hi, out->base, out->row, out->rows,
                                g->wo, L->stride, g->co, g->zp_in, zr};
-    const vd_cnn_x86_rq_t xq = vd__cnn_x86_rq_of(L);
-    if (level == VD_CNN_X86_AVX512) {
-        dw_vnni(&d, L, &xq, y0, y1);
+    vd_cnn_x86_rq_t xq;
+    const vd_cnn_x86_rqv_t *pc = NULL;
+    if (prep != NULL) {
+        memcpy(&xq, prep, sizeof xq);
+        pc = (const vd_cnn_x86_rqv_t *)(const void *)(prep + VD_CNN_X86_PREP_RQ);
     } else {
-        dw_avx2(&d, L, &xq, y0, y1);
+        xq = vd__cnn_x86_rq_of(L);
     }
+    if (level == VD_CNN_X86_AVX512) {
+        dw_vnni(&d, L, &xq, y0, y1, pc);
+    } else {
+        dw_avx2(&d, L, &xq, y0, y1, pc);
+    }
+}
+
+size_t vd__cnn_x86_prep_dw(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t level, uint8_t *dst)
+{
+    const size_t c_n = L->cout;
+    const size_t step = (level == VD_CNN_X86_AVX512) ? 32u : 16u;   // channels per pass
+    const size_t per = (level == VD_CNN_X86_AVX512) ? 2u : 1u;      // constant sets per pass
+    vd_cnn_x86_rqv_t *cv = (dst != NULL) ? (vd_cnn_x86_rqv_t *)(void *)dst : NULL;
+    size_t n = 0u;
+    for (size_t c0 = 0u; c0 < c_n; c0 += step) {
+        if (cv != NULL && level == VD_CNN_X86_AVX512) {
+            const size_t nc = (c_n - c0 < 32u) ? c_n - c0 : 32u;
+            const __mmask32 m = (nc == 32u) ? (__mmask32)0xFFFFFFFFu : (__mmask32)(((uint32_t)1 << nc) - 1u);
+            vnni_pass_consts(L, c_n, zp_in, c0, m, cv + n, cv + n + 1u);
+        } else if (cv != NULL) {
+            avx2_pass_consts(L, c_n, zp_in, c0, (c_n - c0 < 16u) ? c_n - c0 : 16u, cv + n);
+        }
+        n += per;
+    }
+    return n * sizeof(vd_cnn_x86_rqv_t);
 }

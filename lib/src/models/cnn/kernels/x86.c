@@ -115,6 +115,22 @@ vd_cnn_x86_rq_t vd__cnn_x86_rq_of(const vd_cnn_layer_t *L)
     return q;
 }
 
+// The flags fit their place at the head of a prepared area.
+typedef char vd_cnn_x86_rq_fits[(sizeof(vd_cnn_x86_rq_t) <= VD_CNN_X86_PREP_RQ) ? 1 : -1];
+
+size_t vd__cnn_x86_prep_layer(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t level, uint8_t *dst)
+{
+    if (dst != NULL) {
+        const vd_cnn_x86_rq_t q = vd__cnn_x86_rq_of(L);
+        memset(dst, 0, VD_CNN_X86_PREP_RQ);
+        memcpy(dst, &q, sizeof q);
+    }
+    uint8_t *body = (dst != NULL) ? dst + VD_CNN_X86_PREP_RQ : NULL;
+    const size_t n = (L->op == VD_CNN_OP_DW3X3) ? vd__cnn_x86_prep_dw(L, zp_in, level, body)
+                                                : vd__cnn_x86_prep_conv(L, zp_in, level, body);
+    return VD_CNN_X86_PREP_RQ + n;
+}
+
 // pack_vnni / pack_avxvnni: the last, partial group of 4 weights of channels o0 .. o0 + nl - 1 (src: channel
 // o0's weights, dst: its place in the packing; zero weights past k, whose activations are 0 too), and the
 // channels' weight sums (s: those of the full groups).

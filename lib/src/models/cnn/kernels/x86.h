@@ -63,6 +63,12 @@ typedef struct vd_cnn_x86_rq {
     bool sat8;      // act_min -128, act_max 127: the clamp is int8 saturation of z + zp (sat8_16)
 } vd_cnn_x86_rq_t;
 
+// Prepared areas (vd_cnn_prepare): a layer's starts with its vd_cnn_x86_rq_t in this many bytes, then
+// conv_x86.c's tiles (vd__cnn_x86_prep_conv) or dw3x3_x86.c's pass constants (vd__cnn_x86_prep_dw).
+#define VD_CNN_X86_PREP_RQ 64u
+size_t vd__cnn_x86_prep_conv(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t level, uint8_t *dst);
+size_t vd__cnn_x86_prep_dw(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t level, uint8_t *dst);
+
 // Fills v for lanes 0..15: lane j takes output channel ch_of[j] of layer L
 // (its bias, mult, shift; vd_rq_prepare), n_lanes lanes valid and the
 // others copying lane 0, with corr[j] subtracted from the bias modulo 2^32
