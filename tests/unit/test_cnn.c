@@ -2528,6 +2528,27 @@ static void test_awkward_models_match_naive_reference(void)
     TEST_ASSERT_TRUE(checked > 100000u);
 }
 
+#if defined(VD_CNN_X86) || defined(VD_CNN_CMSIS)
+// Every tensor of two runs of m with flags f (KEEP_TENSORS) in workspaces a and b, byte for byte (tag:
+// the message's prefix). Returns the bytes compared.
+static uint32_t tensors_equal(const vd_cnn_model_t *m, const uint8_t *a, size_t ab, const uint8_t *b, size_t bb,
+                              uint32_t w, uint32_t h, uint32_t f, const char *what, const char *tag)
+{
+    uint32_t compared = 0u;
+    for (uint32_t t = 0u; t <= m->n_layers; t++) {
+        vd_cnn_output_t xa, xb;
+        const vd_status_t sa = vd_cnn_tensor(m, a, ab, w, h, t, &xa);
+        TEST_ASSERT_EQUAL_INT_MESSAGE(vd_cnn_tensor(m, b, bb, w, h, t, &xb), sa, what);
+        if (sa == VD_OK) {
+            char msg[128];
+            snprintf(msg, sizeof msg, "%s %sflags %u tensor %u", what, tag, (unsigned)f, (unsigned)t);
+            TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(xb.data, xa.data, xa.w * xa.h * xa.c, msg);
+            compared += xa.w * xa.h * xa.c;
+        }
+    }
+    return compared;
+}
+
 #if defined(VD_CNN_X86)
 // m prepared (vd_cnn_prepare, into a guarded buffer) against the portable kernels: every tensor of a run
 // with flags fl | VD_CNN_KEEP_TENSORS, byte for byte. Returns the bytes compared.
@@ -2550,18 +2571,7 @@ static uint32_t prepared_check(const vd_cnn_model_t *m, const uint8_t *img, uint
     vd_cnn_output_t ha, hb;
     TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_run_ex(&pm, img, w, h, w, f, a, wb, &ha), what);
     TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_cnn_run_ex(&pm, img, w, h, w, f | VD_CNN_PORTABLE, b, wb, &hb), what);
-    uint32_t compared = 0u;
-    for (uint32_t t = 0u; t <= pm.n_layers; t++) {
-        vd_cnn_output_t xa, xb;
-        const vd_status_t sa = vd_cnn_tensor(&pm, a, wb, w, h, t, &xa);
-        TEST_ASSERT_EQUAL_INT_MESSAGE(vd_cnn_tensor(&pm, b, wb, w, h, t, &xb), sa, what);
-        if (sa == VD_OK) {
-            char msg[128];
-            snprintf(msg, sizeof msg, "%s prepared, flags %u tensor %u", what, (unsigned)f, (unsigned)t);
-            TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(xb.data, xa.data, xa.w * xa.h * xa.c, msg);
-            compared += xa.w * xa.h * xa.c;
-        }
-    }
+    const uint32_t compared = tensors_equal(&pm, a, wb, b, wb, w, h, f, what, "prepared, ");
     tu_guard_check(0);
     tu_guard_check(1);
     tu_guard_check(2);
@@ -2572,7 +2582,6 @@ static uint32_t prepared_check(const vd_cnn_model_t *m, const uint8_t *img, uint
 }
 #endif
 
-#if defined(VD_CNN_X86) || defined(VD_CNN_CMSIS)
 // Every tensor of m on img (w x h): flags fl (with VD_CNN_KEEP_TENSORS)
 // against fl | VD_CNN_PORTABLE, byte for byte; same workspace size; and the
 // shared-memory head (fl without KEEP) likewise. Returns the bytes compared.
@@ -2596,17 +2605,7 @@ static uint32_t backend_check(const vd_cnn_model_t *m, const uint8_t *img, uint3
                                       what);
         TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(hb.data, ha.data, ha.w * ha.h * ha.c, what);
         compared += ha.w * ha.h * ha.c;
-        for (uint32_t t = 0u; keep && t <= m->n_layers; t++) {
-            vd_cnn_output_t xa, xb;
-            const vd_status_t sa = vd_cnn_tensor(m, a, fast_b, w, h, t, &xa);
-            TEST_ASSERT_EQUAL_INT_MESSAGE(vd_cnn_tensor(m, b, port_b, w, h, t, &xb), sa, what);
-            if (sa == VD_OK) {
-                char msg[128];
-                snprintf(msg, sizeof msg, "%s flags %u tensor %u", what, (unsigned)f, (unsigned)t);
-                TEST_ASSERT_EQUAL_INT8_ARRAY_MESSAGE(xb.data, xa.data, xa.w * xa.h * xa.c, msg);
-                compared += xa.w * xa.h * xa.c;
-            }
-        }
+        compared += keep ? tensors_equal(m, a, fast_b, b, port_b, w, h, f, what, "") : 0u;
         tu_guard_check(0);
         tu_guard_check(1);
         tu_guarded_free(1);
@@ -2798,10 +2797,8 @@ static void test_prepare_arguments_and_mismatch(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_prepare(&m, buf, pb - 1u));
     TEST_ASSERT_EQUAL_INT(VD_ERR_WORKSPACE, vd_cnn_prepare(&m, buf + 1, pb));
     TEST_ASSERT_NULL(m.prepared);
-    uint8_t img[16 * 8];
-    for (uint32_t i = 0u; i < sizeof img; i++) {
-        img[i] = (uint8_t)(i * 37u);
-    }
+    static uint8_t img[16 * 8];
+    rnd_image(img, 16u, 8u, 77u);
     size_t wb = 0u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_cnn_workspace_size(&m, 16u, 8u, &wb));
     uint8_t *ws = tu_guarded_alloc(1, wb);

@@ -234,12 +234,14 @@ int main(int argc, char **argv)
     uint32_t w = 320u, h = 256u;
     const char *model_path = NULL, *write_path = NULL;
     uint32_t flags = 0u;
-    int compare = 0;
+    int compare = 0, prepared = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--stream")) {
             flags = VD_CNN_STREAM;
         } else if (!strcmp(argv[i], "--compare")) {
             compare = 1;
+        } else if (!strcmp(argv[i], "--prepared")) {
+            prepared = 1;
         } else if (!strcmp(argv[i], "--iters") && i + 1 < argc) {
             iters = atoi(argv[++i]);
         } else if (!strcmp(argv[i], "--width") && i + 1 < argc) {
@@ -254,9 +256,10 @@ int main(int argc, char **argv)
             g_rng = (uint32_t)strtoul(argv[++i], NULL, 10) | 1u;
         } else {
             fprintf(stderr, "usage: vd_cnn_bench [--iters N] [--width W] [--height H] [--model m.vdm] "
-                            "[--write-model out.vdm] [--seed S] [--stream | --compare]\n"
+                            "[--write-model out.vdm] [--seed S] [--stream | --compare] [--prepared]\n"
                             "  --stream   time the row-banded executor (VD_CNN_STREAM) instead of the whole-plane one\n"
-                            "  --compare  time both, alternating in one process, and check their heads are equal\n");
+                            "  --compare  time both, alternating in one process, and check their heads are equal\n"
+                            "  --prepared the model's weights packed once (vd_cnn_prepare; x86) as onnxruntime does\n");
             return 2;
         }
     }
@@ -297,6 +300,15 @@ int main(int argc, char **argv)
     vd_status_t st = vd_cnn_load(&m, g_blob, total);
     if (st != VD_OK) {
         die("vd_cnn_load", vd_status_str(st));
+    }
+    size_t prep_bytes = 0u;
+    void *prep = NULL;
+    if (prepared && vd_cnn_prepared_size(&m, &prep_bytes) == VD_OK && prep_bytes > 0u) {
+        prep = xalloc(prep_bytes);
+        st = vd_cnn_prepare(&m, prep, prep_bytes);
+        if (st != VD_OK) {
+            die("vd_cnn_prepare", vd_status_str(st));
+        }
     }
     size_t ws_bytes = 0u;
     uint64_t macs = 0u;
@@ -369,6 +381,7 @@ int main(int argc, char **argv)
            (unsigned)out.h, (unsigned)out.c, (unsigned)out.stride);
     printf("multiply-adds    %.2f M\n", (double)macs / 1e6);
     printf("workspace        %zu bytes\n", ws_bytes);
+    printf("prepared         %zu bytes (%s)\n", prep != NULL ? prep_bytes : (size_t)0, vd_cnn_kernel_set());
     printf("vd_cnn_run       median %.3f ms, min %.3f ms over %d runs%s\n", med, t[0], iters,
            flags ? " (streamed)" : "");
     if (compare) {
@@ -383,6 +396,7 @@ int main(int argc, char **argv)
     free(img);
     free(ws);
     free(ws2);
+    free(prep);
     free(g_blob);
     return 0;
 }
