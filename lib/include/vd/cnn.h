@@ -233,7 +233,8 @@ VD_API vd_status_t vd_cnn_workspace_size_ex(const vd_cnn_model_t *m, uint32_t wi
 VD_API vd_status_t vd_cnn_prepared_size(const vd_cnn_model_t *m, size_t *bytes);
 
 // Packs the weights of every CONV3X3 / CONV5X5 / PW1X1 layer of m for the x86 kernel set this CPU runs,
-// with their requantisation constants, into buf and points m->prepared at it, so that runs read them
+// with their requantisation constants (and DW3X3 layers' constants), into buf and points m->prepared at
+// it, so that runs read them
 // instead of repacking them for every band of rows (about a tenth of a streamed frame's time on x86;
 // docs/performance.md). Runs give the same bytes with or without it; runs with VD_CNN_PORTABLE ignore it.
 // buf: VD_WORKSPACE_ALIGN-aligned (64 suits the kernels' cache lines), >= vd_cnn_prepared_size() bytes,

@@ -43,6 +43,7 @@
 #include <string.h>
 
 #include "vd/resample.h"
+#include "core/rect_iou.h"
 #include "detector/detector_internal.h"
 #include "models/cnn/cnn_internal.h"
 #include "internal/vd_internal.h"
@@ -181,14 +182,6 @@ static void push_box(vd_detector_t *det, const vd_rect_t *box, uint32_t score_q1
 // returned; out may be a itself when b lies at or after a + na (the write
 // index never passes the box being read: a[i] -> out[<= i], b[j] ->
 // out[<= na + j]). na * nb IoUs.
-// True when a and b share a pixel (their IoU can be above 0): most pairs fuse_boxes compares do not, and
-// this test inline spares them the call (perf: the IoU was ~2 % of a frame on AVX-512). Boxes lie inside
-// the frame, so the sums do not overflow.
-static inline bool rects_meet(const vd_rect_t *a, const vd_rect_t *b)
-{
-    return a->x < b->x + b->w && b->x < a->x + a->w && a->y < b->y + b->h && b->y < a->y + a->h;
-}
-
 static size_t fuse_boxes(vd_detector_t *det, vd_cnn_box_t *a, size_t na, vd_cnn_box_t *b, size_t nb,
                          vd_cnn_box_t *out, size_t *n)
 {
@@ -198,8 +191,7 @@ static size_t fuse_boxes(vd_detector_t *det, vd_cnn_box_t *a, size_t na, vd_cnn_
         size_t best = nb;
         uint32_t best_iou = 0u;
         for (size_t j = 0u; j < nb; j++) {
-            const bool meet = b[j].rect.w != 0 && rects_meet(&a[i].rect, &b[j].rect);
-            const uint32_t iou = meet ? vd_rect_iou_q15(&a[i].rect, &b[j].rect) : 0u;
+            const uint32_t iou = (b[j].rect.w != 0) ? vd__rect_iou_q15(&a[i].rect, &b[j].rect) : 0u;   // inline
             if (iou >= VD_DETECTOR_CNN_FLIP_IOU_Q15 && iou > best_iou) {   // strict: ties keep the lowest j
                 best = j;
                 best_iou = iou;

@@ -128,7 +128,7 @@ static vd_status_t prepare_cnn(vd_cnn_model_t *cnn, void **buf)
     if (st != VD_OK || n == 0u) {
         return st;
     }
-    if (posix_memalign(buf, 64, n) != 0) {   // 64: VD_WORKSPACE_ALIGN and the kernels' cache lines
+    if (posix_memalign(buf, 64, n) != 0) {   // 64: a multiple of VD_WORKSPACE_ALIGN, the kernels' cache lines
         *buf = NULL;
         return VD_OK;
     }

@@ -383,6 +383,9 @@ void vd__cnn_input_rows(const in_src_t *src, uint32_t w, const int8_t *lut, cons
 #define VD_CNN_X86_AVX512 3u   // AVX-512 F, BW, VL and VNNI: vpdpbusd / vpdpwssd
 // The best set this CPU runs (a CPU check per call, no cached global).
 uint32_t vd__cnn_x86_level(void);
+// The set a run with these flags takes (executor.c): VD_CNN_X86_NONE with VD_CNN_PORTABLE or without the
+// x86 back end, else vd__cnn_x86_level(). Declared in every build (0 where VD_CNN_X86 is off).
+uint32_t vd__cnn_x86_run_level(uint32_t flags);
 // vd__cnn_conv_rows and vd__cnn_dw3x3_rows on the set `level` (not NONE):
 // the same scratch, the same bytes.
 // prep: the layer's area of a vd_cnn_prepare buffer made for `level` (NULL: made per call), both kernels.

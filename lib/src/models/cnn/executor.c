@@ -44,14 +44,14 @@ typedef struct run_io {
     const int8_t *lut;
     uint8_t *base;
     const chain_t *c;
-    uint32_t level;   // x86 kernel set of the run (x86_level), 0 without the x86 back end
+    uint32_t level;   // x86 kernel set of the run (vd__cnn_x86_run_level), 0 without the x86 back end
     const vd_cnn_prep_hdr_t *prep;   // the model's prepared areas for that set (NULL: none)
 } run_io_t;
 
 // The optional x86 kernels run unless the caller asked for the portable ones or the CPU lacks AVX2: asked
 // once per run (no global state), not per layer call: the CPUID behind AVX-VNNI traps to the hypervisor in
 // a virtual machine (~2 us; per row and layer it took 44 % of the demo's time on one).
-static uint32_t x86_level(uint32_t flags)
+uint32_t vd__cnn_x86_run_level(uint32_t flags)
 {
 #if defined(VD_CNN_X86)
     return ((flags & VD_CNN_PORTABLE) != 0u) ? VD_CNN_X86_NONE : vd__cnn_x86_level();
@@ -177,7 +177,7 @@ static vd_status_t run_any(const vd_cnn_model_t *m, const uint8_t *img, const vd
     chain_t c;
     VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
     VD_VERIFY(vd__cnn_size_ok(m, width, height) && (rows != NULL || stride_bytes >= width), VD_ERR_ARG);
-    const uint32_t level = x86_level(flags);
+    const uint32_t level = vd__cnn_x86_run_level(flags);
     const vd_cnn_prep_hdr_t *ph;
     VD_VERIFY(vd__cnn_prepared_for(m, &c, level, &ph), VD_ERR_STATE);
     if (dec != NULL) {

@@ -6,9 +6,10 @@
 // survives a call). The deep layers have the most weights and the fewest pixels per row, so on x86 that
 // per-call work was about a tenth of a frame (perf, docs/performance.md). A caller with memory to spare (a
 // host, never the 256 KiB ECU budget) gives one buffer per model; vd_cnn_prepare fills it once with every
-// CONV / PW layer's tiles as the kernels would make them, and runs read them back.
+// CONV / PW / DW layer's set-up as the kernels would make it, and runs read it back.
 // Layout: a header (vd_cnn_prep_hdr_t: the kernel set, the model's blob address and CRC, each layer's
-// offset), then per CONV / PW layer its area (kernels/conv_x86.c vd__cnn_x86_prep_layer), 64-byte aligned.
+// offset), then per CONV / PW / DW layer its area (kernels/x86.c vd__cnn_x86_prep_layer), at multiples of 64
+// bytes from the buffer's start.
 // Only the x86 back end has such areas: elsewhere the size is 0 and runs never look.
 // Bounds: O(n_layers) for the size, O(weights) for the fill; no allocation, no state outside the buffer.
 #include "vd/cnn.h"
@@ -28,12 +29,12 @@ static size_t prep_total(const vd_cnn_model_t *m, const chain_t *c, uint32_t lev
     size_t at = VD_CNN_PREP_HDR;
     for (uint32_t l = 0u; l < m->n_layers; l++) {
         const vd_cnn_layer_t *L = &m->layers[l];
-        const bool conv = L->op == VD_CNN_OP_CONV3X3 || L->op == VD_CNN_OP_CONV5X5 || L->op == VD_CNN_OP_PW1X1 ||
-                          L->op == VD_CNN_OP_DW3X3;   // the layers with an x86 kernel
+        const bool x86_op = L->op == VD_CNN_OP_CONV3X3 || L->op == VD_CNN_OP_CONV5X5 || L->op == VD_CNN_OP_PW1X1 ||
+                            L->op == VD_CNN_OP_DW3X3;   // the layers with an x86 kernel
         if (hdr != NULL) {
-            hdr->off[l] = conv ? (uint32_t)at : 0u;
+            hdr->off[l] = x86_op ? (uint32_t)at : 0u;
         }
-        at += conv ? vd__cnn_x86_prep_layer(L, c->zp[L->in], level, NULL) : 0u;
+        at += x86_op ? vd__cnn_x86_prep_layer(L, c->zp[L->in], level, NULL) : 0u;
     }
     return at;
 #else
@@ -45,21 +46,12 @@ static size_t prep_total(const vd_cnn_model_t *m, const chain_t *c, uint32_t lev
 #endif
 }
 
-static uint32_t run_level(void)
-{
-#if defined(VD_CNN_X86)
-    return vd__cnn_x86_level();
-#else
-    return 0u;
-#endif
-}
-
 vd_status_t vd_cnn_prepared_size(const vd_cnn_model_t *m, size_t *bytes)
 {
     VD_VERIFY(m != NULL && bytes != NULL, VD_ERR_ARG);
     chain_t c;
     VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
-    *bytes = prep_total(m, &c, run_level(), NULL);
+    *bytes = prep_total(m, &c, vd__cnn_x86_run_level(0u), NULL);
     return VD_OK;
 }
 
@@ -68,7 +60,7 @@ vd_status_t vd_cnn_prepare(vd_cnn_model_t *m, void *buf, size_t bytes)
     VD_VERIFY(m != NULL, VD_ERR_ARG);
     chain_t c;
     VD_VERIFY(vd__cnn_model_ok(m, &c), VD_ERR_STATE);
-    const uint32_t level = run_level();
+    const uint32_t level = vd__cnn_x86_run_level(0u);
     vd_cnn_prep_hdr_t hdr;
     memset(&hdr, 0, sizeof hdr);
     const size_t need = prep_total(m, &c, level, &hdr);

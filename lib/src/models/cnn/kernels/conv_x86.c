@@ -57,10 +57,16 @@ static void tile_make(const vd_cnn_layer_t *L, uint32_t level, int32_t zp_in, si
     tile_consts(L, o0, n_o, corr, cv);
 }
 
+// Constant sets (vectors of 16 channels) of a tile of n_o channels.
+static size_t tile_vectors(size_t n_o)
+{
+    return (n_o + VD_CNN_X86_LANES - 1u) / VD_CNN_X86_LANES;
+}
+
 // Bytes of one tile's prepared part: its constants (768 bytes per 16 channels), then its weights, to 64 bytes.
 static size_t tile_prep_bytes(uint32_t level, size_t k, size_t n_o)
 {
-    const size_t nv = (n_o + VD_CNN_X86_LANES - 1u) / VD_CNN_X86_LANES;
+    const size_t nv = tile_vectors(n_o);
     const size_t wb = (level == VD_CNN_X86_AVX2) ? (k + 1u) / 2u * 2u * n_o * sizeof(int16_t)   // [k2 / 2][n][2]
                                                  : (k + 3u) / 4u * 4u * n_o;                     // [k4 / 4][n][4]
     return nv * sizeof(vd_cnn_x86_rqv_t) + (wb + 63u) / 64u * 64u;
@@ -74,24 +80,11 @@ size_t vd__cnn_x86_prep_conv(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t le
         const size_t n_o = (L->cout - o0 < VD_CNN_X86_TILE) ? L->cout - o0 : VD_CNN_X86_TILE;
         if (dst != NULL) {
             vd_cnn_x86_rqv_t *cv = (vd_cnn_x86_rqv_t *)(void *)(dst + at);
-            tile_make(L, level, zp_in, o0, n_o, cv + (n_o + VD_CNN_X86_LANES - 1u) / VD_CNN_X86_LANES, cv);
+            tile_make(L, level, zp_in, o0, n_o, cv + tile_vectors(n_o), cv);
         }
         at += tile_prep_bytes(level, k, n_o);
     }
     return at;
-}
-
-// The layer-wide requantisation flags: from the head of the prepared area (*prep moves past it to the
-// tiles), or made.
-static vd_cnn_x86_rq_t layer_rq(const vd_cnn_layer_t *L, const uint8_t **prep)
-{
-    vd_cnn_x86_rq_t q;
-    if (*prep == NULL) {
-        return vd__cnn_x86_rq_of(L);
-    }
-    memcpy(&q, *prep, sizeof q);
-    *prep += VD_CNN_X86_PREP_RQ;
-    return q;
 }
 
 // The tile's constants and weights: from the prepared area at *prep (then past it), or made in cv and wp.
@@ -102,7 +95,7 @@ static void tile_get(const vd_cnn_layer_t *L, uint32_t level, int32_t zp_in, siz
     if (*prep != NULL) {
         const vd_cnn_x86_rqv_t *pc = (const vd_cnn_x86_rqv_t *)(const void *)*prep;
         *cv_out = pc;
-        *wp_out = pc + (n_o + VD_CNN_X86_LANES - 1u) / VD_CNN_X86_LANES;
+        *wp_out = pc + tile_vectors(n_o);
         *prep += tile_prep_bytes(level, vd_cnn_k_of(L), n_o);
         return;
     }
@@ -281,7 +274,7 @@ static void conv_rows_avx2(const vd_cnn_layer_t *L, const geom_t *g, const ring_
         // only results that are not stored. (Zeroing every call: ~1.4 % of the demo's instructions.)
         memset(rows, 0, (size_t)VD_CNN_NPIX * kp * sizeof(int16_t));
     }
-    const vd_cnn_x86_rq_t xq = layer_rq(L, &prep);
+    const vd_cnn_x86_rq_t xq = vd__cnn_x86_layer_rq(L, &prep);
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;
     const int32_t ks = pw ? 1 : ((L->op == VD_CNN_OP_CONV5X5) ? 5 : 3);
@@ -337,7 +330,7 @@ void vd__cnn_conv_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_
     int8_t *wp = (int8_t *)(void *)(scr + s->w16);
     uint8_t *rows = scr + s->rows;
     memset(rows, 0, (size_t)VD_CNN_NPIX * k4);   // the k..k4 tails stay 0 (their weights are 0 too)
-    const vd_cnn_x86_rq_t xq = layer_rq(L, &prep);
+    const vd_cnn_x86_rq_t xq = vd__cnn_x86_layer_rq(L, &prep);
     const size_t ci = g->ci;
     const int32_t step = L->stride;
     const bool pw = L->op == VD_CNN_OP_PW1X1;

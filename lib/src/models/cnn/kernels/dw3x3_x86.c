@@ -66,19 +66,18 @@ static inline void dw_taps(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3]
 // The channels and bias corrections of the lanes of a pass from channel c0:
 // after unpacklo/hi of tap pairs, lane j (< n) of the lo sums holds channel
 // c0 + 8 (j / 4) + j % 4 and of the hi sums that + 4 (a lane past c_n takes
-// channel c0; its result is not stored). corr = zp_in sum w of the lane's
+// channel c0; its result is not stored; c_n: the layer's channels). corr = zp_in sum w of the lane's
 // channel, modulo 2^32 (ws: the pass's int16 weight sums): the taps are x,
 // padding taps zp_in, so bias - zp_in sum w replaces x - zp_in.
-static void dw_lanes(const vd_cnn_x86_dw_t *d, size_t c0, const int16_t *ws, uint32_t n, uint32_t *map_lo,
+static void dw_lanes(size_t c_n, int32_t zp_in, size_t c0, const int16_t *ws, uint32_t n, uint32_t *map_lo,
                      int32_t *corr_lo, uint32_t *map_hi, int32_t *corr_hi)
 {
-    const size_t c_n = d->c_n;
     for (uint32_t j = 0u; j < n; j++) {
         const size_t cl = 8u * (j / 4u) + (j % 4u);
         map_lo[j] = (uint32_t)((c0 + cl < c_n) ? c0 + cl : c0);
         map_hi[j] = (uint32_t)((c0 + cl + 4u < c_n) ? c0 + cl + 4u : c0);
-        corr_lo[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl]);
-        corr_hi[j] = vd_rq_u32_to_i32((uint32_t)d->zp_in * (uint32_t)(int32_t)ws[cl + 4u]);
+        corr_lo[j] = vd_rq_u32_to_i32((uint32_t)zp_in * (uint32_t)(int32_t)ws[cl]);
+        corr_hi[j] = vd_rq_u32_to_i32((uint32_t)zp_in * (uint32_t)(int32_t)ws[cl + 4u]);
     }
 }
 
@@ -200,13 +199,9 @@ static X86_TARGET void vnni_pass_consts(const vd_cnn_layer_t *L, size_t c_n, int
     }
     int16_t ws[32];
     _mm512_storeu_si512(ws, wsum);
-    vd_cnn_x86_dw_t d;
-    memset(&d, 0, sizeof d);
-    d.c_n = c_n;
-    d.zp_in = zp_in;
     uint32_t map_lo[16], map_hi[16];
     int32_t corr_lo[16], corr_hi[16];
-    dw_lanes(&d, c0, ws, 16u, map_lo, corr_lo, map_hi, corr_hi);
+    dw_lanes(c_n, zp_in, c0, ws, 16u, map_lo, corr_lo, map_hi, corr_hi);
     vd__cnn_x86_rqv_fill(cl, L, map_lo, corr_lo, 16u);
     vd__cnn_x86_rqv_fill(ch, L, map_hi, corr_hi, 16u);
 }
@@ -414,13 +409,9 @@ static AVX2_TARGET void avx2_pass_consts(const vd_cnn_layer_t *L, size_t c_n, in
     }
     int16_t ws[16];
     _mm256_storeu_si256((__m256i *)(void *)ws, wsum);
-    vd_cnn_x86_dw_t d;
-    memset(&d, 0, sizeof d);
-    d.c_n = c_n;
-    d.zp_in = zp_in;
     uint32_t map[16];
     int32_t corr[16];
-    dw_lanes(&d, c0, ws, 8u, map, corr, map + 8, corr + 8);
+    dw_lanes(c_n, zp_in, c0, ws, 8u, map, corr, map + 8, corr + 8);
     vd__cnn_x86_rqv_fill(cv, L, map, corr, 16u);
 }
 
@@ -473,14 +464,8 @@ void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring
     memset(zr, g->zp_in, g->co);
     const vd_cnn_x86_dw_t d = {in->base, in->row, in->rows, g->wi, g->hi, out->base, out->row, out->rows,
                                g->wo, L->stride, g->co, g->zp_in, zr};
-    vd_cnn_x86_rq_t xq;
-    const vd_cnn_x86_rqv_t *pc = NULL;
-    if (prep != NULL) {
-        memcpy(&xq, prep, sizeof xq);
-        pc = (const vd_cnn_x86_rqv_t *)(const void *)(prep + VD_CNN_X86_PREP_RQ);
-    } else {
-        xq = vd__cnn_x86_rq_of(L);
-    }
+    const vd_cnn_x86_rq_t xq = vd__cnn_x86_layer_rq(L, &prep);   // prep: now at the pass constants
+    const vd_cnn_x86_rqv_t *pc = (const vd_cnn_x86_rqv_t *)(const void *)prep;
     if (level == VD_CNN_X86_AVX512) {
         dw_vnni(&d, L, &xq, y0, y1, pc);
     } else {

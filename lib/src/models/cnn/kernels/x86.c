@@ -115,6 +115,17 @@ vd_cnn_x86_rq_t vd__cnn_x86_rq_of(const vd_cnn_layer_t *L)
     return q;
 }
 
+vd_cnn_x86_rq_t vd__cnn_x86_layer_rq(const vd_cnn_layer_t *L, const uint8_t **prep)
+{
+    if (*prep == NULL) {
+        return vd__cnn_x86_rq_of(L);
+    }
+    vd_cnn_x86_rq_t q;
+    memcpy(&q, *prep, sizeof q);
+    *prep += VD_CNN_X86_PREP_RQ;
+    return q;
+}
+
 // The flags fit their place at the head of a prepared area.
 typedef char vd_cnn_x86_rq_fits[(sizeof(vd_cnn_x86_rq_t) <= VD_CNN_X86_PREP_RQ) ? 1 : -1];
 

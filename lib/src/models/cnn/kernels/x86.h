@@ -68,6 +68,9 @@ typedef struct vd_cnn_x86_rq {
 #define VD_CNN_X86_PREP_RQ 64u
 size_t vd__cnn_x86_prep_conv(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t level, uint8_t *dst);
 size_t vd__cnn_x86_prep_dw(const vd_cnn_layer_t *L, int32_t zp_in, uint32_t level, uint8_t *dst);
+// A kernel call's layer-wide requantisation flags: from the head of the layer's prepared area (*prep then
+// points past them, at the tiles or pass constants), or made (vd__cnn_x86_rq_of) when *prep is NULL.
+vd_cnn_x86_rq_t vd__cnn_x86_layer_rq(const vd_cnn_layer_t *L, const uint8_t **prep);
 
 // Fills v for lanes 0..15: lane j takes output channel ch_of[j] of layer L
 // (its bias, mult, shift; vd_rq_prepare), n_lanes lanes valid and the
