@@ -2,7 +2,6 @@
 // Rectangle helpers: ROI resolution, clipping, IoU (O(1) each) and the paper's candidate-box
 // expansion (paper 001 section 3, step 1). int64 intermediates: no overflow on hostile boxes.
 #include "vd/rect.h"
-#include "core/rect_iou.h"
 #include "internal/shift_internal.h"
 #include "internal/vd_internal.h"
 
@@ -25,16 +24,43 @@ vd_status_t vd_rect_roi_resolve(const vd_rect_t *roi, uint32_t width, uint32_t h
     return VD_OK;
 }
 
+// Intersection of a and b (w = h = 0 when they do not overlap).
+static vd_rect_t rect_intersect(const vd_rect_t *a, const vd_rect_t *b)
+{
+    vd_rect_t r = {0, 0, 0, 0};
+    int64_t x0 = a->x > b->x ? a->x : b->x;
+    int64_t y0 = a->y > b->y ? a->y : b->y;
+    int64_t x1 = (int64_t)a->x + a->w < (int64_t)b->x + b->w ? (int64_t)a->x + a->w : (int64_t)b->x + b->w;
+    int64_t y1 = (int64_t)a->y + a->h < (int64_t)b->y + b->h ? (int64_t)a->y + a->h : (int64_t)b->y + b->h;
+    if (x1 > x0 && y1 > y0 && a->w > 0 && a->h > 0 && b->w > 0 && b->h > 0) {
+        r.x = (int32_t)x0;
+        r.y = (int32_t)y0;
+        r.w = (int32_t)(x1 - x0);
+        r.h = (int32_t)(y1 - y0);
+    }
+    return r;
+}
+
 bool vd_rect_clip(vd_rect_t *r, uint32_t width, uint32_t height)
 {
     vd_rect_t frame = {0, 0, (int32_t)width, (int32_t)height};
-    *r = vd__rect_intersect(r, &frame);
+    *r = rect_intersect(r, &frame);
     return r->w > 0 && r->h > 0;
 }
 
 uint32_t vd_rect_iou_q15(const vd_rect_t *a, const vd_rect_t *b)
 {
-    return vd__rect_iou_q15(a, b);
+    if (a->w <= 0 || a->h <= 0 || b->w <= 0 || b->h <= 0) {
+        return 0u;
+    }
+    vd_rect_t i = rect_intersect(a, b);
+    uint64_t inter = (uint64_t)i.w * (uint64_t)i.h;
+    if (inter == 0u) {
+        return 0u;   // most pairs the fusion and suppression compare: no 64-bit division for them
+    }
+    uint64_t uni = (uint64_t)a->w * (uint64_t)a->h + (uint64_t)b->w * (uint64_t)b->h - inter;
+    // inter <= uni < 2^63, so inter << 15 fits in uint64.
+    return (uint32_t)((inter << 15) / uni);
 }
 
 // One axis of vd_rect_expand: [*pos, *pos + *len) scaled by s_q8 about its
