@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
-// CNN kernel DW3X3 on x86-64 (AVX-512 VNNI, AVX2): the depthwise 3x3 of dw3x3.c on vector registers, with
-// its scratch (only the zero-point row) and its bytes.
+// CNN kernel DW3X3 on x86-64 (AVX-512 VNNI, AVX-VNNI, AVX2): the depthwise 3x3 of dw3x3.c on vector registers,
+// with its scratch (only the zero-point row) and its bytes.
 //
 // Algorithm: the taps are x itself (padding taps read a row of zp_in) and bias - zp_in sum w is folded
 // into the constants. AVX-512: int16 products, vpdpwssd on tap pairs interleaved per channel
@@ -10,7 +10,8 @@
 // same with vpmaddwd, 16 channels per pass, the last pass's tail read without touching bytes past the
 // pixel's channels (tail_of); the pixels whose taps are all inside the input step three row pointers
 // (dw_row), and the shipped networks' case (whole passes, output range all of int8, ReLU) is a
-// specialised copy.
+// specialised copy. AVX-VNNI: AVX2's passes, the interior pixels of whole passes paired by column with
+// vpdpwssd as on AVX-512 (dwa_run).
 // Reference: dw3x3.c (tests/unit/test_cnn.c compares every tensor with it).
 // Bounds: as dw3x3.c; stack: the weights and constants of one pass.
 #include "models/cnn/kernels/x86.h"
@@ -329,21 +330,11 @@ typedef struct dw_pass {
     size_t nc;
 } dw_pass_t;
 
-// One output pixel of a pass from its 9 tap pointers (already at the pass's
-// first channel) to o.
-AVX2_INLINE void dw_px(const int8_t *const t[9], const dw_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *o,
-                       const uint32_t mode)
+// The requantised bytes of one pixel's lo / hi sums to o: packs restores the channel order per 128-bit lane,
+// permute joins the lanes' bytes.
+AVX2_INLINE void dw_out(__m256i al, __m256i ah, const dw_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *o,
+                        const uint32_t mode)
 {
-    __m256i al = _mm256_setzero_si256(), ah = _mm256_setzero_si256();
-    for (size_t i = 0u; i < 4u; i++) {
-        const __m256i xa = tap_act(t[2u * i], &ps->tl, mode), xb = tap_act(t[2u * i + 1u], &ps->tl, mode);
-        al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(xa, xb), ps->wl[i]));
-        ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(xa, xb), ps->wh[i]));
-    }
-    const __m256i x8 = tap_act(t[8], &ps->tl, mode), zero = _mm256_setzero_si256();
-    al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(x8, zero), ps->wl[4]));
-    ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(x8, zero), ps->wh[4]));
-    // packs restores the channel order per 128-bit lane; permute joins the lanes' bytes.
     __m256i b;
     if (q->sat8) {
         b = sat8_16(_mm256_packs_epi32(rq8_z(al, &ps->cv, 0u, q), rq8_z(ah, &ps->cv, 1u, q)), q);
@@ -359,6 +350,23 @@ AVX2_INLINE void dw_px(const int8_t *const t[9], const dw_pass_t *ps, const vd_c
         _mm_storeu_si128((__m128i *)(void *)tmp, b8);
         memcpy(o, tmp, ps->nc);
     }
+}
+
+// One output pixel of a pass from its 9 tap pointers (already at the pass's
+// first channel) to o.
+AVX2_INLINE void dw_px(const int8_t *const t[9], const dw_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *o,
+                       const uint32_t mode)
+{
+    __m256i al = _mm256_setzero_si256(), ah = _mm256_setzero_si256();
+    for (size_t i = 0u; i < 4u; i++) {
+        const __m256i xa = tap_act(t[2u * i], &ps->tl, mode), xb = tap_act(t[2u * i + 1u], &ps->tl, mode);
+        al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(xa, xb), ps->wl[i]));
+        ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(xa, xb), ps->wh[i]));
+    }
+    const __m256i x8 = tap_act(t[8], &ps->tl, mode), zero = _mm256_setzero_si256();
+    al = _mm256_add_epi32(al, _mm256_madd_epi16(_mm256_unpacklo_epi16(x8, zero), ps->wl[4]));
+    ah = _mm256_add_epi32(ah, _mm256_madd_epi16(_mm256_unpackhi_epi16(x8, zero), ps->wh[4]));
+    dw_out(al, ah, ps, q, o, mode);
 }
 
 // One output row of a pass from channel c0. Pixels whose 9 taps are all in
@@ -415,37 +423,48 @@ static AVX2_TARGET void avx2_pass_consts(const vd_cnn_layer_t *L, size_t c_n, in
     vd__cnn_x86_rqv_fill(cv, L, map, corr, 16u);
 }
 
-// prep: as dw_vnni's, one constant set per pass of 16 channels.
+// The AVX2 pass of channels c0 .. from the model's weights [9][c_n] (wt: them as int16) and its constants
+// (prep: the prepared ones, else made here); prep as dw_vnni's, one constant set per pass of 16 channels.
+AVX2_INLINE void dw_pass_init(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, size_t c0,
+                              const vd_cnn_x86_rqv_t *prep, dw_pass_t *ps, __m256i wt[9])
+{
+    const size_t c_n = d->c_n;
+    ps->nc = (c_n - c0 < 16u) ? c_n - c0 : 16u;
+    for (size_t i = 0u; i < 9u; i++) {
+        wt[i] = tap16(L->w + i * c_n + c0, ps->nc);
+    }
+    for (size_t i = 0u; i < 5u; i++) {
+        const __m256i wb = (i < 4u) ? wt[2u * i + 1u] : _mm256_setzero_si256();
+        ps->wl[i] = _mm256_unpacklo_epi16(wt[2u * i], wb);
+        ps->wh[i] = _mm256_unpackhi_epi16(wt[2u * i], wb);
+    }
+    if (prep != NULL) {
+        memcpy(&ps->cv, prep + c0 / 16u, sizeof ps->cv);
+    } else {
+        avx2_pass_consts(L, c_n, d->zp_in, c0, ps->nc, &ps->cv);
+    }
+    ps->tl = tail_of(ps->nc, c_n);
+}
+
+// The shipped networks' case: a whole pass (plain loads, one store) and the requantisation flags as constants.
+static inline bool dw_fast(const dw_pass_t *ps, const vd_cnn_x86_rq_t *q)
+{
+    return ps->tl.mode == 0u && q->sat8 && !q->sign && !q->general;
+}
+
 X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
                                     uint32_t y0, uint32_t y1, const vd_cnn_x86_rqv_t *prep)
 {
-    const size_t c_n = d->c_n;
-    for (size_t c0 = 0u; c0 < c_n; c0 += 16u) {
+    for (size_t c0 = 0u; c0 < d->c_n; c0 += 16u) {
         dw_pass_t ps;
-        ps.nc = (c_n - c0 < 16u) ? c_n - c0 : 16u;
         __m256i wt[9];
-        for (size_t i = 0u; i < 9u; i++) {
-            wt[i] = tap16(L->w + i * c_n + c0, ps.nc);
-        }
-        for (size_t i = 0u; i < 5u; i++) {
-            const __m256i wb = (i < 4u) ? wt[2u * i + 1u] : _mm256_setzero_si256();
-            ps.wl[i] = _mm256_unpacklo_epi16(wt[2u * i], wb);
-            ps.wh[i] = _mm256_unpackhi_epi16(wt[2u * i], wb);
-        }
-        if (prep != NULL) {
-            memcpy(&ps.cv, prep + c0 / 16u, sizeof ps.cv);
-        } else {
-            avx2_pass_consts(L, c_n, d->zp_in, c0, ps.nc, &ps.cv);
-        }
-        ps.tl = tail_of(ps.nc, c_n);
+        dw_pass_init(d, L, c0, prep, &ps, wt);
+        const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
             dw_rows(d, oy, rows);
             int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
-            if (ps.tl.mode == 0u && q->sat8 && !q->sign && !q->general) {
-                // The shipped networks' case, specialised: a whole pass (plain loads, one
-                // store) and the requantisation flags as constants (no branch per pixel).
-                const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
+            if (dw_fast(&ps, q)) {   // specialised: no branch per pixel
                 dw_row(d, rows, c0, &ps, &qc, orow, 0u);
             } else {
                 dw_row(d, rows, c0, &ps, q, orow, ps.tl.mode);
@@ -454,7 +473,120 @@ X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer
     }
 }
 
-// vd__cnn_dw3x3_rows on the AVX-512 VNNI or AVX2 kernel: the scratch holds only the zero-point row.
+// AVX-VNNI (VEX vpdpwssd on 256 bits): the AVX2 passes and constants, with the interior pixels of whole
+// passes paired by column as the AVX-512 kernel pairs them (dwv_run): rows 0 and 1 of a column interleaved
+// per channel, row 2 with 0, 6 vpdpwssd per pixel and half, and a column loaded for one pixel serves the
+// next. Against the AVX2 pairing (9 tap loads, 10 unpacks, 10 vpmaddwd and 10 adds per pixel) that is 3
+// loads and 4 unpacks per new column and 12 vpdpwssd. The sums are the same integers modulo 2^32.
+typedef struct dwa_col {
+    __m256i pl, ph, el, eh;
+} dwa_col_t;
+
+AVXVNNI_INLINE dwa_col_t dwa_col(const int8_t *p0, const int8_t *p1, const int8_t *p2)
+{
+    const __m256i a = _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)p0));
+    const __m256i b = _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)p1));
+    const __m256i e = _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)p2));
+    const __m256i z = _mm256_setzero_si256();
+    const dwa_col_t c = {_mm256_unpacklo_epi16(a, b), _mm256_unpackhi_epi16(a, b), _mm256_unpacklo_epi16(e, z),
+                         _mm256_unpackhi_epi16(e, z)};
+    return c;
+}
+
+AVXVNNI_INLINE void dwa_acc(const dwa_col_t *c, const dwa_col_t *w, __m256i *al, __m256i *ah)
+{
+    *al = _mm256_dpwssd_avx_epi32(_mm256_dpwssd_avx_epi32(*al, c->pl, w->pl), c->el, w->el);
+    *ah = _mm256_dpwssd_avx_epi32(_mm256_dpwssd_avx_epi32(*ah, c->ph, w->ph), c->eh, w->eh);
+}
+
+// Interior output pixels [xa, xb) of a whole pass from channel c0 (wc: the weights per column kx in the
+// columns' pairing); strides 1 and 2, as dwv_run.
+AVXVNNI_INLINE void dwa_run(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], size_t c0, uint32_t xa,
+                            uint32_t xb, const dw_pass_t *ps, const dwa_col_t wc[3], const vd_cnn_x86_rq_t *q,
+                            int8_t *orow)
+{
+    const bool s1 = d->stride == 1u;
+    const vd_cnn_x86_rq_t qv = *q;   // a local: the int8 stores may alias *q
+    const size_t c_n = d->c_n, adv = (size_t)d->stride * c_n;
+    const size_t at = ((size_t)xa * d->stride - 1u) * c_n + c0;
+    const int8_t *p0 = rows[0] + at, *p1 = rows[1] + at, *p2 = rows[2] + at;
+    dwa_col_t cl = dwa_col(p0, p1, p2), cc = dwa_col(p0 + c_n, p1 + c_n, p2 + c_n);
+    for (uint32_t ox = xa; ox < xb; ox++) {
+        if (!s1) {   // 2: the left column is the last pixel's right one, the centre is new
+            cc = dwa_col(p0 + c_n, p1 + c_n, p2 + c_n);
+        }
+        const dwa_col_t cr = dwa_col(p0 + 2u * c_n, p1 + 2u * c_n, p2 + 2u * c_n);
+        __m256i al = _mm256_setzero_si256(), ah = _mm256_setzero_si256();
+        dwa_acc(&cl, &wc[0], &al, &ah);
+        dwa_acc(&cc, &wc[1], &al, &ah);
+        dwa_acc(&cr, &wc[2], &al, &ah);
+        dw_out(al, ah, ps, &qv, orow + (size_t)ox * c_n + c0, 0u);
+        if (s1) {
+            cl = cc;
+            cc = cr;
+        } else {
+            cl = cr;
+        }
+        p0 += adv;
+        p1 += adv;
+        p2 += adv;
+    }
+}
+
+// One output row of a whole pass: the interior by dwa_run, the border pixels as AVX2's.
+AVXVNNI_INLINE void dwa_row(const vd_cnn_x86_dw_t *d, const int8_t *const rows[3], size_t c0, const dw_pass_t *ps,
+                            const dwa_col_t wc[3], const vd_cnn_x86_rq_t *q, int8_t *orow)
+{
+    uint32_t xa, xb;
+    dw_interior(d, rows, &xa, &xb);
+    for (uint32_t ox = 0u; ox < d->wo; ox++) {
+        if (ox == xa && xa < xb) {
+            dwa_run(d, rows, c0, xa, xb, ps, wc, q, orow);
+            ox = xb - 1u;
+            continue;
+        }
+        const int8_t *t[9];
+        dw_taps(d, rows, ox, t);
+        for (size_t i = 0u; i < 9u; i++) {
+            t[i] += c0;
+        }
+        dw_px(t, ps, q, orow + (size_t)ox * d->c_n + c0, 0u);
+    }
+}
+
+X86_KERNEL AVXVNNI_TARGET void dw_avxvnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L,
+                                          const vd_cnn_x86_rq_t *q, uint32_t y0, uint32_t y1,
+                                          const vd_cnn_x86_rqv_t *prep)
+{
+    for (size_t c0 = 0u; c0 < d->c_n; c0 += 16u) {
+        dw_pass_t ps;
+        __m256i wt[9];
+        dw_pass_init(d, L, c0, prep, &ps, wt);
+        dwa_col_t wc[3];
+        const __m256i z = _mm256_setzero_si256();
+        for (size_t kx = 0u; kx < 3u; kx++) {
+            wc[kx].pl = _mm256_unpacklo_epi16(wt[kx], wt[3u + kx]);
+            wc[kx].ph = _mm256_unpackhi_epi16(wt[kx], wt[3u + kx]);
+            wc[kx].el = _mm256_unpacklo_epi16(wt[6u + kx], z);
+            wc[kx].eh = _mm256_unpackhi_epi16(wt[6u + kx], z);
+        }
+        const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
+        for (uint32_t oy = y0; oy < y1; oy++) {
+            const int8_t *rows[3];
+            dw_rows(d, oy, rows);
+            int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
+            if (dw_fast(&ps, q)) {
+                dwa_row(d, rows, c0, &ps, wc, &qc, orow);
+            } else if (ps.tl.mode == 0u) {
+                dwa_row(d, rows, c0, &ps, wc, q, orow);
+            } else {   // a pass of < 16 channels: AVX2's tail reads
+                dw_row(d, rows, c0, &ps, q, orow, ps.tl.mode);
+            }
+        }
+    }
+}
+
+// vd__cnn_dw3x3_rows on the AVX-512 VNNI, AVX-VNNI or AVX2 kernel: the scratch holds only the zero-point row.
 void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring_t *in, const ring_t *out,
                            uint32_t y0, uint32_t y1, uint8_t *scr, uint32_t level, const uint8_t *prep)
 {
@@ -468,6 +600,8 @@ void vd__cnn_dw3x3_rows_x86(const vd_cnn_layer_t *L, const geom_t *g, const ring
     const vd_cnn_x86_rqv_t *pc = (const vd_cnn_x86_rqv_t *)(const void *)prep;
     if (level == VD_CNN_X86_AVX512) {
         dw_vnni(&d, L, &xq, y0, y1, pc);
+    } else if (level == VD_CNN_X86_AVXVNNI) {
+        dw_avxvnni(&d, L, &xq, y0, y1, pc);
     } else {
         dw_avx2(&d, L, &xq, y0, y1, pc);
     }
