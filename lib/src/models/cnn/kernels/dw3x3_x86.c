@@ -114,14 +114,15 @@ X86_INLINE void dwv_acc(const dwv_col_t *c, const dwv_col_t *w, __m512i *al, __m
 typedef struct dwv_pass {
     __m512i wl[5], wh[5];   // tap pairs (0,1) (2,3) (4,5) (6,7) (8,-), the border pixels' pairing
     dwv_col_t wc[3];        // per column kx: taps (0,kx) (1,kx) paired, (2,kx) with 0
-    vd_cnn_x86_rqv_t cl, ch;
+    const vd_cnn_x86_rqv_t *cl, *ch;   // the prepared constants in place, or own's
+    vd_cnn_x86_rqv_t own[2];
     __mmask32 m;
     size_t c0;
 } dwv_pass_t;
 
 X86_INLINE void dwv_out(__m512i al, __m512i ah, const dwv_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *o)
 {
-    const __m512i z = _mm512_packs_epi32(rq16(al, &ps->cl, q), rq16(ah, &ps->ch, q));
+    const __m512i z = _mm512_packs_epi32(rq16(al, ps->cl, q), rq16(ah, ps->ch, q));
     _mm512_mask_cvtepi16_storeu_epi8(o, ps->m, z);
 }
 
@@ -235,10 +236,13 @@ X86_KERNEL X86_TARGET void dw_vnni(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_
             ps.wc[kx].eh = _mm512_unpackhi_epi16(wt[6u + kx], zero);
         }
         if (prep != NULL) {
-            memcpy(&ps.cl, prep + (c0 / 32u) * 2u, sizeof ps.cl);
-            memcpy(&ps.ch, prep + (c0 / 32u) * 2u + 1u, sizeof ps.ch);
+            // Read in place: a band of rows per call, so a copy per pass was a cost per call.
+            ps.cl = prep + (c0 / 32u) * 2u;
+            ps.ch = ps.cl + 1;
         } else {
-            vnni_pass_consts(L, c_n, d->zp_in, c0, ps.m, &ps.cl, &ps.ch);
+            vnni_pass_consts(L, c_n, d->zp_in, c0, ps.m, &ps.own[0], &ps.own[1]);
+            ps.cl = &ps.own[0];
+            ps.ch = &ps.own[1];
         }
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
@@ -295,12 +299,17 @@ AVX2_INLINE tail_t tail_of(size_t n, size_t c_n)
     tail_t t;
     t.n = n;
     t.mode = (n >= 16u) ? 0u : (c_n >= 16u) ? 1u : (n >= 8u) ? 2u : 3u;
-    int8_t idx[16];
-    for (size_t i = 0u; i < 16u; i++) {
-        idx[i] = (int8_t)((i < n) ? (int32_t)(i + 16u - n) : -128);   // -128: pshufb writes 0
+    t.shuf = _mm_setzero_si128();
+    t.sh = _mm_setzero_si128();
+    if (t.mode == 1u) {   // made only where read: a whole pass (mode 0) is the common case, once per call
+        int8_t idx[16];
+        for (size_t i = 0u; i < 16u; i++) {
+            idx[i] = (int8_t)((i < n) ? (int32_t)(i + 16u - n) : -128);   // -128: pshufb writes 0
+        }
+        t.shuf = _mm_loadu_si128((const __m128i *)(const void *)idx);
+    } else if (t.mode == 2u) {
+        t.sh = _mm_cvtsi32_si128((int)(8u * (16u - n)));
     }
-    t.shuf = _mm_loadu_si128((const __m128i *)(const void *)idx);
-    t.sh = _mm_cvtsi32_si128((int)(8u * (16u - n)));
     return t;
 }
 
@@ -325,7 +334,8 @@ AVX2_INLINE __m256i tap_act(const int8_t *p, const tail_t *t, const uint32_t mod
 // The weights of a pass as the activations' tap pairs and its constants.
 typedef struct dw_pass {
     __m256i wl[5], wh[5];
-    vd_cnn_x86_rqv_t cv;   // lanes 0..7 the lo sums', 8..15 the hi sums'
+    const vd_cnn_x86_rqv_t *cv;   // lanes 0..7 the lo sums', 8..15 the hi sums' (prepared, or own)
+    vd_cnn_x86_rqv_t own;
     tail_t tl;
     size_t nc;
 } dw_pass_t;
@@ -337,9 +347,9 @@ AVX2_INLINE void dw_out(__m256i al, __m256i ah, const dw_pass_t *ps, const vd_cn
 {
     __m256i b;
     if (q->sat8) {
-        b = sat8_16(_mm256_packs_epi32(rq8_z(al, &ps->cv, 0u, q), rq8_z(ah, &ps->cv, 1u, q)), q);
+        b = sat8_16(_mm256_packs_epi32(rq8_z(al, ps->cv, 0u, q), rq8_z(ah, ps->cv, 1u, q)), q);
     } else {
-        const __m256i z16 = _mm256_packs_epi32(rq8(al, &ps->cv, 0u, q), rq8(ah, &ps->cv, 1u, q));
+        const __m256i z16 = _mm256_packs_epi32(rq8(al, ps->cv, 0u, q), rq8(ah, ps->cv, 1u, q));
         b = _mm256_packs_epi16(z16, z16);
     }
     const __m128i b8 = _mm256_castsi256_si128(_mm256_permute4x64_epi64(b, 0x08));
@@ -439,9 +449,10 @@ AVX2_INLINE void dw_pass_init(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L,
         ps->wh[i] = _mm256_unpackhi_epi16(wt[2u * i], wb);
     }
     if (prep != NULL) {
-        memcpy(&ps->cv, prep + c0 / 16u, sizeof ps->cv);
+        ps->cv = prep + c0 / 16u;   // in place, as dw_vnni
     } else {
-        avx2_pass_consts(L, c_n, d->zp_in, c0, ps->nc, &ps->cv);
+        avx2_pass_consts(L, c_n, d->zp_in, c0, ps->nc, &ps->own);
+        ps->cv = &ps->own;
     }
     ps->tl = tail_of(ps->nc, c_n);
 }
