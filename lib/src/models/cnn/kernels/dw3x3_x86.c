@@ -122,8 +122,13 @@ typedef struct dwv_pass {
 
 X86_INLINE void dwv_out(__m512i al, __m512i ah, const dwv_pass_t *ps, const vd_cnn_x86_rq_t *q, int8_t *o)
 {
-    const __m512i z = _mm512_packs_epi32(rq16(al, ps->cl, q), rq16(ah, ps->ch, q));
-    _mm512_mask_cvtepi16_storeu_epi8(o, ps->m, z);
+    if (q->sat8) {   // the clamp as saturation (rq16_store)
+        const __m512i z = _mm512_packs_epi32(rq16_z(al, ps->cl, q), rq16_z(ah, ps->ch, q));
+        _mm512_mask_cvtsepi16_storeu_epi8(o, ps->m, _mm512_adds_epi16(z, _mm512_set1_epi16((int16_t)q->zp)));
+    } else {
+        const __m512i z = _mm512_packs_epi32(rq16(al, ps->cl, q), rq16(ah, ps->ch, q));
+        _mm512_mask_cvtepi16_storeu_epi8(o, ps->m, z);
+    }
 }
 
 // Output pixels [xa, xb) of a row whose 9 taps are all inside the input (the

@@ -43,15 +43,15 @@ static uint32_t lane_mask16(size_t rem)
     do {                                                                                \
         if (p0 + (p) < npix) {                                                          \
             int8_t *d_ = out + ((size_t)p0 + (p)) * pstride;                            \
-            _mm512_mask_cvtepi32_storeu_epi8(d_, m0, rq16(a##p##0, &cv[0], q));         \
+            rq16_store(d_, m0, a##p##0, &cv[0], q);                                     \
             if (nv > 1u) {                                                              \
-                _mm512_mask_cvtepi32_storeu_epi8(d_ + 16, m1, rq16(a##p##1, &cv[1], q)); \
+                rq16_store(d_ + 16, m1, a##p##1, &cv[1], q);                            \
             }                                                                           \
             if (nv > 2u) {                                                              \
-                _mm512_mask_cvtepi32_storeu_epi8(d_ + 32, m2, rq16(a##p##2, &cv[2], q)); \
+                rq16_store(d_ + 32, m2, a##p##2, &cv[2], q);                            \
             }                                                                           \
             if (nv > 3u) {                                                              \
-                _mm512_mask_cvtepi32_storeu_epi8(d_ + 48, m3, rq16(a##p##3, &cv[3], q)); \
+                rq16_store(d_ + 48, m3, a##p##3, &cv[3], q);                            \
             }                                                                           \
         }                                                                               \
     } while (0)

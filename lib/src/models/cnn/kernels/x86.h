@@ -82,24 +82,28 @@ void vd__cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const ui
 // Layer-wide requantisation flags of layer L (as vd__cnn_rq_setup's).
 vd_cnn_x86_rq_t vd__cnn_x86_rq_of(const vd_cnn_layer_t *L);
 
-// z = clamp(requantize(acc + bias), lo, hi) + zp on 16 lanes, as
-// vd_cnn_rq_out(vd_rq_apply(..)) (general), vd_cnn_rq_out(vd_rq_z(..)) (sign) or
-// vd_cnn_rq_out(vd_rq_z_nn(..)) in the portable kernels.
-X86_INLINE __m512i rq16(__m512i acc, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q)
+// z of requantize(acc + bias) on 16 lanes, before the clamp, as rq8_z on 8: vd_rq_apply's (general),
+// vd_rq_z's (sign) or vd_rq_z_nn's in the portable kernels.
+X86_INLINE __m512i rq16_z(__m512i acc, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q)
 {
-    __m512i x = _mm512_add_epi32(acc, _mm512_loadu_si512(c->bias));
-    if (q->general) {
-        // vd_rq_lshift_sat: x * 2^lsh, saturated where the shift changes the value.
-        const __m512i sh = _mm512_loadu_si512(c->lsh);
-        const __m512i t = _mm512_sllv_epi32(x, sh);
-        const __mmask16 ovf = _mm512_cmpneq_epi32_mask(_mm512_srav_epi32(t, sh), x);
-        const __m512i sat = _mm512_xor_si512(_mm512_srai_epi32(x, 31), _mm512_set1_epi32(INT32_MAX));
-        x = _mm512_mask_blend_epi32(ovf, t, sat);
+    __m512i x = acc, xu;
+    if (!q->general && !q->sign) {
+        // x itself is not needed: x + 2^31 = sum + (bias + 2^31), modulo 2^32.
+        xu = _mm512_add_epi32(acc, _mm512_loadu_si512(c->bias_u));
+    } else {
+        x = _mm512_add_epi32(acc, _mm512_loadu_si512(c->bias));
+        if (q->general) {
+            // vd_rq_lshift_sat: x * 2^lsh, saturated where the shift changes the value.
+            const __m512i sh = _mm512_loadu_si512(c->lsh);
+            const __m512i t = _mm512_sllv_epi32(x, sh);
+            const __mmask16 ovf = _mm512_cmpneq_epi32_mask(_mm512_srav_epi32(t, sh), x);
+            const __m512i sat = _mm512_xor_si512(_mm512_srai_epi32(x, 31), _mm512_set1_epi32(INT32_MAX));
+            x = _mm512_mask_blend_epi32(ovf, t, sat);
+        }
+        xu = _mm512_xor_si512(x, _mm512_set1_epi32(INT32_MIN));   // x + 2^31 as uint32
     }
-    const __m512i xu = _mm512_xor_si512(x, _mm512_set1_epi32(INT32_MIN));   // x + 2^31 as uint32
-    const __m512i mult = _mm512_loadu_si512(c->mult);
-    __m512i ve = _mm512_add_epi64(_mm512_mul_epu32(xu, mult), _mm512_loadu_si512(c->k_e));
-    __m512i vo = _mm512_add_epi64(_mm512_mul_epu32(_mm512_srli_epi64(xu, 32), _mm512_srli_epi64(mult, 32)),
+    __m512i ve = _mm512_add_epi64(_mm512_mul_epu32(xu, _mm512_loadu_si512(c->mult)), _mm512_loadu_si512(c->k_e));
+    __m512i vo = _mm512_add_epi64(_mm512_mul_epu32(_mm512_srli_epi64(xu, 32), _mm512_loadu_si512(c->mult_sw)),
                                   _mm512_loadu_si512(c->k_o));
     if (q->sign) {
         // - dk where x <= thr (modulo 2^64 like the portable uint64 sum).
@@ -110,11 +114,33 @@ X86_INLINE __m512i rq16(__m512i acc, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86
     }
     ve = _mm512_srlv_epi64(ve, _mm512_loadu_si512(c->rsh_e));
     vo = _mm512_srlv_epi64(vo, _mm512_loadu_si512(c->rsh_o));
-    __m512i z = _mm512_mask_blend_epi32((__mmask16)0xAAAAu, ve, _mm512_slli_epi64(vo, 32));
-    z = _mm512_sub_epi32(z, _mm512_loadu_si512(c->off));
+    const __m512i z = _mm512_mask_blend_epi32((__mmask16)0xAAAAu, ve, _mm512_slli_epi64(vo, 32));
+    return _mm512_sub_epi32(z, _mm512_loadu_si512(c->off));
+}
+
+// z = clamp(requantize(acc + bias), lo, hi) + zp on 16 lanes, as
+// vd_cnn_rq_out(vd_rq_apply(..)) (general), vd_cnn_rq_out(vd_rq_z(..)) (sign) or
+// vd_cnn_rq_out(vd_rq_z_nn(..)) in the portable kernels.
+X86_INLINE __m512i rq16(__m512i acc, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q)
+{
+    __m512i z = rq16_z(acc, c, q);
     z = _mm512_max_epi32(z, _mm512_set1_epi32(q->lo));
     z = _mm512_min_epi32(z, _mm512_set1_epi32(q->hi));
     return _mm512_add_epi32(z, _mm512_set1_epi32(q->zp));
+}
+
+// Stores rq16's bytes of 16 lanes to d (lanes of m). Where q->sat8 the clamp is saturation (sat8_16's
+// argument on 16 lanes): int32 -> int16 saturated, + zp saturated, -> int8 saturated.
+X86_INLINE void rq16_store(int8_t *d, __mmask16 m, __m512i acc, const vd_cnn_x86_rqv_t *c,
+                           const vd_cnn_x86_rq_t *q)
+{
+    if (q->sat8) {
+        const __m256i z = _mm256_adds_epi16(_mm512_cvtsepi32_epi16(rq16_z(acc, c, q)),
+                                            _mm256_set1_epi16((int16_t)q->zp));
+        _mm256_mask_cvtsepi16_storeu_epi8(d, m, z);
+    } else {
+        _mm512_mask_cvtepi32_storeu_epi8(d, m, rq16(acc, c, q));
+    }
 }
 
 // rq16 on lanes 8 h .. 8 h + 7 of c, before the clamp: z of the one-shift
