@@ -7,14 +7,16 @@
 #
 # Environment: FUZZ_SECONDS (per fuzzer, default 60), FUZZ_TARGETS (default: every harness built;
 # names with or without the fuzz_ prefix, e.g. "detector cnn"; none built is an error), FUZZ_BUILD_DIR
-# (default build-fuzz), FUZZ_OUT (default $FUZZ_BUILD_DIR/fuzz-out), FUZZ_JOBS (build -j, default 2).
+# (default build-fuzz), FUZZ_OUT (default $FUZZ_BUILD_DIR/fuzz-out), FUZZ_JOBS (build -j, default 2),
+# FUZZ_CFLAGS (added to the compile flags; e.g. -DVD_CNN_X86_MAX_LEVEL=2u fuzzes the AVX-VNNI kernels, and =1u
+# AVX2's, on a CPU that would run AVX-512 ones; give such a build its own FUZZ_BUILD_DIR).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 secs=${FUZZ_SECONDS:-60}
 bdir=${FUZZ_BUILD_DIR:-build-fuzz}
 out=${FUZZ_OUT:-$bdir/fuzz-out}
 jobs=${FUZZ_JOBS:-2}
-flags="-g -O1 -fno-omit-frame-pointer -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -DVD_ASSERT_ENABLE"
+flags="-g -O1 -fno-omit-frame-pointer -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -DVD_ASSERT_ENABLE ${FUZZ_CFLAGS:-}"
 
 cmake -S . -B "$bdir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=clang -DVD_FUZZ=ON \
   -DVD_BUILD_TOOLS=OFF -DCMAKE_C_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" >/dev/null

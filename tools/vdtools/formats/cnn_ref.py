@@ -122,14 +122,15 @@ def dw3x3_acc(x, zp, w, bias, stride):
     """int64 [Ho, Wo, c] accumulators of a padded depthwise 3x3 convolution; w int8 [3, 3, c]."""
     h, wd, c = x.shape
     ho, wo = h // stride, wd // stride
-    p = np.zeros((h + 2, wd + 2, c), np.int64)
-    p[1:-1, 1:-1] = x.astype(np.int64) - zp
-    acc = np.zeros((ho, wo, c), np.int64)
-    w = np.asarray(w, np.int64)
+    # int32 is exact: |x - zp| <= 255, |w| <= 128, so |sum of 9| < 2^19 (half the bytes of int64)
+    p = np.zeros((h + 2, wd + 2, c), np.int32)
+    p[1:-1, 1:-1] = x.astype(np.int32) - np.int32(zp)
+    acc = np.zeros((ho, wo, c), np.int32)
+    w = np.asarray(w, np.int32)
     for ky in range(3):
         for kx in range(3):
             acc += w[ky, kx] * p[ky:(ho - 1) * stride + ky + 1:stride, kx:(wo - 1) * stride + kx + 1:stride]
-    return acc + np.asarray(bias, np.int64)
+    return acc.astype(np.int64) + np.asarray(bias, np.int64)
 
 
 def pw1x1_acc(x, zp, w, bias):

@@ -133,25 +133,33 @@ def int8_per_channel(w):
 
 
 def srdhm(a, b):
-    """gemmlowp SaturatingRoundingDoublingHighMul on int64 arrays holding int32 values."""
+    """gemmlowp SaturatingRoundingDoublingHighMul on int64 arrays holding int32 values.
+    Branch-free on the sign (the reference spends a third of its time here): the nudge is 2^30 or
+    1 - 2^30 and the division by 2^31 truncates toward zero, both from the product's sign mask."""
     a = np.asarray(a, dtype=np.int64)
     b = np.asarray(b, dtype=np.int64)
-    overflow = (a == INT32_MIN) & (b == INT32_MIN)
-    ab = a * b
-    nudge = np.where(ab >= 0, 1 << 30, 1 - (1 << 30))
-    t = ab + nudge
-    high = np.where(t >= 0, t >> 31, -((-t) >> 31))   # C division truncates toward zero
-    return np.where(overflow, INT32_MAX, high)
+    t = a * b                        # |a b| <= 2^62: exact in int64
+    neg = t >> 63                    # -1 where a b < 0 (then t + nudge < 0 too), else 0
+    t += (1 << 30) + (neg & (1 - (1 << 31)))
+    t += neg & ((1 << 31) - 1)       # C's division truncates toward zero: floor of (t + 2^31 - 1) / 2^31
+    t >>= 31
+    bmin = b == INT32_MIN            # the one overflow, INT32_MIN * INT32_MIN; b is usually per channel
+    if np.any(bmin):
+        t = np.where((a == INT32_MIN) & bmin, INT32_MAX, t)
+    return t
 
 
 def rounding_divide_by_pot(x, exponent):
-    """gemmlowp RoundingDivideByPOT (round half away from zero), exponent 0..31."""
+    """gemmlowp RoundingDivideByPOT (round half away from zero), exponent 0..31.
+    As one floor division: x = q 2^e + r rounds up when r >= 2^(e-1) + (x < 0), i.e. the result is
+    floor((x + 2^(e-1) - (x < 0)) / 2^e) for e >= 1, and x for e = 0."""
     x = np.asarray(x, dtype=np.int64)
     exponent = np.asarray(exponent, dtype=np.int64)
-    mask = (np.int64(1) << exponent) - 1
-    remainder = x & mask
-    threshold = (mask >> 1) + (x < 0)
-    return (x >> exponent) + (remainder > threshold)
+    t = (x >> 63) & -(exponent > 0).astype(np.int64)   # -1 where x < 0 and e > 0
+    t += (np.int64(1) << exponent) >> 1                 # 2^(e-1); 0 for e = 0
+    t += x
+    t >>= exponent
+    return t
 
 
 def requantise(acc, mult, shift):
