@@ -97,11 +97,11 @@ X86_INLINE void gemm_nv(const uint8_t *rows, size_t rstride, uint32_t flip, size
     }
 }
 
-X86_TARGET void vd__cnn_gemm_vnni(const uint8_t *rows, size_t rstride, bool flip, size_t k4, const int8_t *wp,
-                                     size_t n_o, const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride,
-                                     int8_t *out, uint32_t npix)
+// gemm_nv by the number of channel registers.
+X86_INLINE void gemm_by_nv(const uint8_t *rows, size_t rstride, uint32_t f, size_t k4, const int8_t *wp, size_t n_o,
+                           const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out,
+                           uint32_t npix)
 {
-    const uint32_t f = flip ? 0x80808080u : 0u;
     switch ((n_o + 15u) / 16u) {
     case 1:
         gemm_nv(rows, rstride, f, k4, wp, n_o, cv, q, pstride, out, npix, 1u);
@@ -115,6 +115,22 @@ X86_TARGET void vd__cnn_gemm_vnni(const uint8_t *rows, size_t rstride, bool flip
     default:
         gemm_nv(rows, rstride, f, k4, wp, n_o, cv, q, pstride, out, npix, 4u);
         break;
+    }
+}
+
+X86_TARGET void vd__cnn_gemm_vnni(const uint8_t *rows, size_t rstride, bool flip, size_t k4, const int8_t *wp,
+                                     size_t n_o, const vd_cnn_x86_rqv_t *cv, const vd_cnn_x86_rq_t *q, size_t pstride,
+                                     int8_t *out, uint32_t npix)
+{
+    const uint32_t f = flip ? 0x80808080u : 0u;
+    // A local copy (the int8 stores may alias *q, so its fields were read again per output), and the shipped
+    // networks' case with the flags as constants, as the AVX2 GEMM does.
+    const vd_cnn_x86_rq_t qv = *q;
+    if (qv.sat8 && !qv.sign && !qv.general) {
+        const vd_cnn_x86_rq_t qc = {qv.zp, qv.lo, qv.hi, false, false, true};
+        gemm_by_nv(rows, rstride, f, k4, wp, n_o, cv, &qc, pstride, out, npix);
+    } else {
+        gemm_by_nv(rows, rstride, f, k4, wp, n_o, cv, &qv, pstride, out, npix);
     }
 }
 
