@@ -462,25 +462,20 @@ AVX2_INLINE void dw_pass_init(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L,
     ps->tl = tail_of(ps->nc, c_n);
 }
 
-// The shipped networks' case: a whole pass (plain loads, one store) and the requantisation flags as constants.
-static inline bool dw_fast(const dw_pass_t *ps, const vd_cnn_x86_rq_t *q)
-{
-    return ps->tl.mode == 0u && q->sat8 && !q->sign && !q->general;
-}
-
 X86_KERNEL AVX2_TARGET void dw_avx2(const vd_cnn_x86_dw_t *d, const vd_cnn_layer_t *L, const vd_cnn_x86_rq_t *q,
                                     uint32_t y0, uint32_t y1, const vd_cnn_x86_rqv_t *prep)
 {
+    vd_cnn_x86_rq_t qc;
+    const bool shipped = vd__cnn_x86_rq_shipped(q, &qc);
     for (size_t c0 = 0u; c0 < d->c_n; c0 += 16u) {
         dw_pass_t ps;
         __m256i wt[9];
         dw_pass_init(d, L, c0, prep, &ps, wt);
-        const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
             dw_rows(d, oy, rows);
             int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
-            if (dw_fast(&ps, q)) {   // specialised: no branch per pixel
+            if (shipped && ps.tl.mode == 0u) {   // specialised: a whole pass (plain loads, one store), no branch
                 dw_row(d, rows, c0, &ps, &qc, orow, 0u);
             } else {
                 dw_row(d, rows, c0, &ps, q, orow, ps.tl.mode);
@@ -574,6 +569,8 @@ X86_KERNEL AVXVNNI_TARGET void dw_avxvnni(const vd_cnn_x86_dw_t *d, const vd_cnn
                                           const vd_cnn_x86_rq_t *q, uint32_t y0, uint32_t y1,
                                           const vd_cnn_x86_rqv_t *prep)
 {
+    vd_cnn_x86_rq_t qc;
+    const bool shipped = vd__cnn_x86_rq_shipped(q, &qc);
     for (size_t c0 = 0u; c0 < d->c_n; c0 += 16u) {
         dw_pass_t ps;
         __m256i wt[9];
@@ -586,12 +583,11 @@ X86_KERNEL AVXVNNI_TARGET void dw_avxvnni(const vd_cnn_x86_dw_t *d, const vd_cnn
             wc[kx].el = _mm256_unpacklo_epi16(wt[6u + kx], z);
             wc[kx].eh = _mm256_unpackhi_epi16(wt[6u + kx], z);
         }
-        const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
         for (uint32_t oy = y0; oy < y1; oy++) {
             const int8_t *rows[3];
             dw_rows(d, oy, rows);
             int8_t *orow = d->out + (size_t)(oy % d->out_slots) * d->out_row;
-            if (dw_fast(&ps, q)) {
+            if (shipped && ps.tl.mode == 0u) {
                 dwa_row(d, rows, c0, &ps, wc, &qc, orow);
             } else if (ps.tl.mode == 0u) {
                 dwa_row(d, rows, c0, &ps, wc, q, orow);

@@ -149,9 +149,8 @@ AVX2_TARGET void vd__cnn_gemm_avx2(const int16_t *rows, size_t rstride, size_t k
 {
     const size_t tail = n_o % 16u;
     const size_t o_end = (tail != 0u && tail <= 8u) ? n_o - tail : n_o;   // groups of gemm_avx2_body
-    if (q->sat8 && !q->sign && !q->general && o_end % 16u == 0u) {
-        // The shipped networks' case: the flags as constants (no branch per output), whole groups.
-        const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
+    vd_cnn_x86_rq_t qc;
+    if (vd__cnn_x86_rq_shipped(q, &qc) && o_end % 16u == 0u) {   // and whole groups
         gemm_avx2_body(rows, rstride, k, wp, n_o, cv, &qc, pstride, out, npix, o_end, true);
     } else {
         gemm_avx2_body(rows, rstride, k, wp, n_o, cv, q, pstride, out, npix, o_end, false);

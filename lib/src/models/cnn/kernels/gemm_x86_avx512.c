@@ -126,8 +126,8 @@ X86_TARGET void vd__cnn_gemm_vnni(const uint8_t *rows, size_t rstride, bool flip
     // A local copy (the int8 stores may alias *q, so its fields were read again per output), and the shipped
     // networks' case with the flags as constants, as the AVX2 GEMM does.
     const vd_cnn_x86_rq_t qv = *q;
-    if (qv.sat8 && !qv.sign && !qv.general) {
-        const vd_cnn_x86_rq_t qc = {qv.zp, qv.lo, qv.hi, false, false, true};
+    vd_cnn_x86_rq_t qc;
+    if (vd__cnn_x86_rq_shipped(&qv, &qc)) {
         gemm_by_nv(rows, rstride, f, k4, wp, n_o, cv, &qc, pstride, out, npix);
     } else {
         gemm_by_nv(rows, rstride, f, k4, wp, n_o, cv, &qv, pstride, out, npix);

@@ -101,9 +101,8 @@ AVXVNNI_TARGET void vd__cnn_gemm_avxvnni(const uint8_t *rows, size_t rstride, bo
                                             const vd_cnn_x86_rq_t *q, size_t pstride, int8_t *out, uint32_t npix)
 {
     const uint32_t f = flip ? 0x80808080u : 0u;
-    // The shipped networks' case: the requantisation flags as constants (no branch per output).
-    const bool shipped = q->sat8 && !q->sign && !q->general;
-    const vd_cnn_x86_rq_t qc = {q->zp, q->lo, q->hi, false, false, true};
+    vd_cnn_x86_rq_t qc;
+    const bool shipped = vd__cnn_x86_rq_shipped(q, &qc);
     for (size_t o0 = 0u; o0 < n_o; o0 += 16u) {
         const vd_cnn_x86_rqv_t *c = &cv[o0 / 16u];
         if (n_o - o0 >= 16u && shipped) {

@@ -82,6 +82,15 @@ void vd__cnn_x86_rqv_fill(vd_cnn_x86_rqv_t *v, const vd_cnn_layer_t *L, const ui
 // Layer-wide requantisation flags of layer L (as vd__cnn_rq_setup's).
 vd_cnn_x86_rq_t vd__cnn_x86_rq_of(const vd_cnn_layer_t *L);
 
+// The shipped networks' case (output range all of int8, ReLU-clamped, one right shift): true then. *qc: q's
+// values with those flags as constants, for the kernels' copies specialised on it (no branch per output).
+static inline bool vd__cnn_x86_rq_shipped(const vd_cnn_x86_rq_t *q, vd_cnn_x86_rq_t *qc)
+{
+    const vd_cnn_x86_rq_t c = {q->zp, q->lo, q->hi, false, false, true};
+    *qc = c;
+    return q->sat8 && !q->sign && !q->general;
+}
+
 // z of requantize(acc + bias) on 16 lanes, before the clamp, as rq8_z on 8: vd_rq_apply's (general),
 // vd_rq_z's (sign) or vd_rq_z_nn's in the portable kernels.
 X86_INLINE __m512i rq16_z(__m512i acc, const vd_cnn_x86_rqv_t *c, const vd_cnn_x86_rq_t *q)
