@@ -521,6 +521,8 @@ typedef struct res_got {
     guint frames;
     guint64 from_seq;
     double agree[2];
+    double score[2];     // mean box score
+    double rating[2];    // what the choice compares: score + agreement / 4
     guint64 next_seq;    // the seq the next vdfir message must carry
     gboolean seq_broken;
 } res_got_t;
@@ -540,6 +542,10 @@ static void on_res_message(GstMessage *m, void *user)
         g->messages++;
         if (!gst_structure_get_boolean(s, "full", &g->full) || !gst_structure_get_uint(s, "frames", &g->frames) ||
             !gst_structure_get_uint64(s, "from-seq", &g->from_seq) ||
+            !gst_structure_get_double(s, "rating-half", &g->rating[0]) ||
+            !gst_structure_get_double(s, "rating-full", &g->rating[1]) ||
+            !gst_structure_get_double(s, "score-half", &g->score[0]) ||
+            !gst_structure_get_double(s, "score-full", &g->score[1]) ||
             !gst_structure_get_double(s, "agreement-half", &g->agree[0]) ||
             !gst_structure_get_double(s, "agreement-full", &g->agree[1])) {
             g->messages = 100;   // a message without its fields
@@ -568,8 +574,9 @@ static int cmd_resolution(const char *want, const char *desc)
         return rc;
     }
     printf("test_gst_vdfir: %" G_GUINT64_FORMAT " frames; %d resolution message(s): %s from frame %" G_GUINT64_FORMAT
-           ", %u frames measured, flip agreement half %.3f, full %.3f\n",
-           g.next_seq, g.messages, g.full ? "full" : "half", g.from_seq, g.frames, g.agree[0], g.agree[1]);
+           ", %u frames measured, mean box score half %.3f, full %.3f, flip agreement half %.3f, full %.3f\n",
+           g.next_seq, g.messages, g.full ? "full" : "half", g.from_seq, g.frames, g.score[0], g.score[1], g.agree[0],
+           g.agree[1]);
     if (g.seq_broken) {
         return fail("the per-frame messages' seq is not 0, 1, 2, .. (the switch must not restart it)");
     }
@@ -586,6 +593,20 @@ static int cmd_resolution(const char *want, const char *desc)
         if (!(g.agree[k] == -1.0 || (g.agree[k] >= 0.0 && g.agree[k] <= 1.0))) {
             return fail("an agreement outside [0, 1] (or -1: no box)");
         }
+        const gboolean no_box = g.score[k] == -1.0;
+        if (!(no_box || (g.score[k] > 0.0 && g.score[k] <= 1.0)) || no_box != (g.agree[k] == -1.0)) {
+            return fail("a mean box score outside (0, 1] (or -1: no box, as the agreement)");
+        }
+    }
+    // the choice follows the rating, mean box score + agreement / 4 (flipagree.c demo_autores_decide)
+    for (int k = 0; k < 2; k++) {
+        const double expect = g.score[k] == -1.0 ? -1.0 : g.score[k] + g.agree[k] / 4.0;
+        if (g.rating[k] < expect - 1e-12 || g.rating[k] > expect + 1e-12) {
+            return fail("a rating other than mean box score + agreement / 4");
+        }
+    }
+    if (g.full != (g.rating[1] > (g.rating[0] > 0.0 ? g.rating[0] : 0.0))) {
+        return fail("the choice does not follow the ratings");
     }
     return g.full == full ? 0 : fail("the element chose the other resolution");
 }

@@ -301,8 +301,9 @@ def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
     assert "**full**" in md
 
 
-def test_end_to_end_unlabelled_chooses_resolution_by_flip_agreement(tmp_path, vdlib, demo):
-    """Without labels and without --self-train (the default): the resolution is chosen by flip agreement, the
+def test_end_to_end_unlabelled_chooses_resolution_by_rating(tmp_path, vdlib, demo):
+    """Without labels and without --self-train (the default): the resolution is chosen by the rating (mean box
+    score + flip agreement / 4), the
     shipped networks are written unchanged (files, firmware arrays, float weights) and nothing is trained."""
     pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
     imgs = _frames(tmp_path / "images")
@@ -311,9 +312,10 @@ def test_end_to_end_unlabelled_chooses_resolution_by_flip_agreement(tmp_path, vd
     assert p.returncode == 0, p.stderr
     rep, md = _check_outputs(out, demo, imgs)
     res = rep["resolution"]
-    assert res["asked"] == "auto" and res["measured"]["measure"] == "flip agreement"
+    assert res["asked"] == "auto" and res["measured"]["measure"] == "rating (mean box score + flip agreement / 4)"
     assert res["full_res"] == (res["measured"]["full"] > res["measured"]["half"])
-    assert "flip agreement of the before networks" in md
+    assert 0.0 <= res["measured"]["half"] <= 1.125 and 0.0 <= res["measured"]["full"] <= 1.125
+    assert "rating (mean box score + flip agreement / 4) of the before networks" in md
     assert rep["training"]["trained"] is False and rep["training"]["steps"] == 0 and "pseudo_labels" not in rep
     assert "the networks were not trained" in md and "shipped (unchanged)" in md
     for n in ("vd_cnn", "vd_cnn2"):

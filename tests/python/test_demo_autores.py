@@ -1,10 +1,11 @@
 # SPDX-License-Identifier: MIT
-"""vd_fir_demo --cnn-full-res auto (the default; tools/demo/autores.c): on the first frames of a recording the
-demo measures how far the networks agree with themselves on mirrored frames at half and at full resolution,
-and takes full resolution when that agreement is higher (vdtools.adapt.measure.choose_resolution without
-labels). Checked here on the bundled HIT-UAV clip (its vehicles are the training size: half resolution,
-detections unchanged) and on the same frames shrunk to a third (small vehicles: full resolution), against
-the Python measure, and for its edges: few frames, bad values, config files."""
+"""vd_fir_demo --cnn-full-res auto (the default; tools/demo/autores.c): on the first frames of a recording and
+their mirror images the demo measures the mean score of the networks' boxes and how far they agree with
+themselves, at half and at full resolution, and takes full resolution when their rating (mean score + 1/4
+agreement) is higher (vdtools.adapt.measure.choose_resolution without labels). Checked here on the bundled
+HIT-UAV clip (its vehicles are the training size: half resolution, detections unchanged) and on the same
+frames shrunk to a third (small vehicles: full resolution), against the Python measures, and for its edges:
+few frames, bad values, config files."""
 import json
 import re
 from pathlib import Path
@@ -21,8 +22,10 @@ from buildpaths import run_demo as run
 
 CLIP = REPO / "tools" / "demo" / "hit-uav-clip" / "images"
 MODELS = [str(REPO / "models" / "vd_cnn.vdm"), str(REPO / "models" / "vd_cnn2.vdm")]
-LINE = re.compile(r"cnn input: (half|full) resolution \(--cnn-full-res auto: flip agreement half ([\d.]+) %, "
-                  r"full ([\d.]+) % over (\d+) frames")
+_V = r"([\d.]+|none \(no box\))"
+LINE = re.compile(r"cnn input: (half|full) resolution \(--cnn-full-res auto: rating half " + _V + ", full " + _V
+                  + "; mean box score half " + _V + ", full " + _V + "; flip agreement half " + _V + "(?: %)?, full "
+                  + _V + r"(?: %)? over (\d+) frames")
 
 
 @pytest.fixture(scope="module")
@@ -49,14 +52,18 @@ def small_clip(tmp_path_factory):
 
 
 def choice(stdout):
+    """(resolution, rating half, full, frames, mean box score half, full, flip agreement half, full); a resolution
+    without a box counts 0 (no evidence for it, as the rule takes it)."""
     m = LINE.search(stdout)
     assert m, stdout
-    return m.group(1), float(m.group(2)), float(m.group(3)), int(m.group(4))
+    v = [0.0 if m.group(i).startswith("none") else float(m.group(i)) for i in range(2, 8)]
+    return m.group(1), v[0], v[1], int(m.group(8)), v[2], v[3], v[4], v[5]
 
 
 def python_measure(folder, n=32):
-    """measure.flip_agreement on the first n frames the demo reads (the port's decoder: JPEG decoders differ
-    from OpenCV's by a grey level here and there), both resolutions."""
+    """measure.rating, mean_box_score and flip_agreement on the first n frames the demo reads (the port's
+    decoder: JPEG decoders differ from OpenCV's by a grey level here and there), both resolutions:
+    ([rating half, full], [score half, full], [agreement half, full])."""
     z = lambda k: np.zeros((0, k), np.float32)
     frames = []
     with port.Capture(folder) as cap:
@@ -66,7 +73,17 @@ def python_measure(folder, n=32):
             if len(frames) == n:
                 break
     thr = measure.header_threshold(MODELS)
-    return [measure.flip_agreement(MODELS, frames, thr, full_res=k) for k in (False, True)]
+    runs = [measure.flip_runs(MODELS, frames, full_res=k) for k in (False, True)]
+    score = [measure.mean_box_score(MODELS, frames, thr, runs=r) for r in runs]
+    agree = [measure.flip_agreement(MODELS, frames, thr, runs=r) for r in runs]
+    rating = [measure.rating(MODELS, frames, thr, full_res=k) for k in (False, True)]
+    return rating, score, agree
+
+
+def same_figures(printed, rating, score, agree):
+    """The demo's printed rating and score (to 0.001) and agreement (per cent, to 0.1) against the Python measures'."""
+    r = lambda v, k=1.0, d=3: round(k * (v or 0.0), d)
+    assert list(printed) == [r(v) for v in rating] + [r(v) for v in score] + [r(v, 100.0, 1) for v in agree]
 
 
 def detections(path):
@@ -76,22 +93,20 @@ def detections(path):
 def test_clip_stays_at_half_resolution(demo, shipped, tmp_path):
     """Vehicles of the training size: half resolution, the detections of --cnn-full-res off byte for byte."""
     a = run(demo, "--json", tmp_path / "a.jsonl", "--quiet")
-    res, half, full, n = choice(a.stdout)
-    assert (res, n) == ("half", 32) and half > full
+    c = choice(a.stdout)
+    assert (c[0], c[3]) == ("half", 32) and c[1] > c[2]
     run(demo, "--json", tmp_path / "b.jsonl", "--quiet", "--cnn-full-res", "off")
     assert (tmp_path / "a.jsonl").read_bytes() == (tmp_path / "b.jsonl").read_bytes()
-    # the same figures as the Python measure vd-adapt uses (agreement in per cent, printed to 0.1)
-    py = python_measure(CLIP)
-    assert [half, full] == [round(100 * v, 1) for v in py]
+    # the same figures as the Python measures vd-adapt uses
+    same_figures(c[1:3] + c[4:], *python_measure(CLIP))
 
 
 def test_small_vehicles_choose_full_resolution(demo, shipped, small_clip, tmp_path):
     """The clip shrunk to a third: full resolution, and the detections of --cnn-full-res on."""
     a = run(demo, "--input", small_clip, "--json", tmp_path / "a.jsonl", "--quiet", "--temporal", "off")
-    res, half, full, n = choice(a.stdout)
-    assert (res, n) == ("full", 32) and full > half
-    py = python_measure(small_clip)
-    assert [half, full] == [round(100 * (v or 0.0), 1) for v in py]
+    c = choice(a.stdout)
+    assert (c[0], c[3]) == ("full", 32) and c[2] > c[1]
+    same_figures(c[1:3] + c[4:], *python_measure(small_clip))
     run(demo, "--input", small_clip, "--json", tmp_path / "b.jsonl", "--quiet", "--temporal", "off",
         "--cnn-full-res", "on")
     assert detections(tmp_path / "a.jsonl") == detections(tmp_path / "b.jsonl")
@@ -132,8 +147,9 @@ def test_frames_without_vehicles(demo, shipped, tmp_path):
         for i in range(16):
             cv2.imwrite(str(d / f"f{i:02d}.png"), np.full((h, w), 90 + i, np.uint8))
         r = run(demo, "--input", d, "--quiet", "--json", d / "d.jsonl")
-        assert "cnn input: half resolution (--cnn-full-res auto: flip agreement half none (no box), full none " \
-               "(no box) over 16 frames" in r.stdout, (w, h, r.stdout)
+        none = "half none (no box), full none (no box)"
+        assert f"cnn input: half resolution (--cnn-full-res auto: rating {none}; mean box score {none}; flip " \
+               f"agreement {none} over 16 frames" in r.stdout, (w, h, r.stdout)
         assert len((d / "d.jsonl").read_text().splitlines()) == 16
 
 
@@ -148,7 +164,8 @@ def test_input_errors_name_the_input(demo, shipped, tmp_path):
 
 def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
     """vdtools.evaluation.fleet with the default settings measures a recording's first frames the same way
-    (auto_resolution, through the library's bindings): the same choice and agreement as the demo's summary."""
+    (auto_resolution, through the library's bindings): the same choice, mean box score and agreement as the demo's
+    summary."""
     from vdtools.evaluation import fleet
     if not port.lib_path().exists():
         pytest.skip(f"{port.lib_path()} not built")
@@ -156,9 +173,9 @@ def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
     assert "cnn_full_res" not in fields
     for folder, want in ((CLIP, "half"), (small_clip, "full")):
         got = fleet.auto_resolution({"input": str(folder)}, fields, cnn)
-        res, half, full, n = choice(run(demo, "--input", folder, "--quiet", "--temporal", "off").stdout)
-        assert (("full" if got["full"] else "half"), got["frames"]) == (res, n) == (want, 32)
-        assert [round(100 * (v or 0.0), 1) for v in got["agreement"]] == [half, full]
+        c = choice(run(demo, "--input", folder, "--quiet", "--temporal", "off").stdout)
+        assert (("full" if got["full"] else "half"), got["frames"]) == (c[0], c[3]) == (want, 32)
+        same_figures(c[1:3] + c[4:], got["rating"], got["score"], got["agreement"])
 
 
 def test_one_to_one_hand_worked():
@@ -206,10 +223,10 @@ def test_camera_measures_its_first_frames_as_they_come(demo, shipped, small_clip
         shutil.copy(p, camera_dir / p.name)
     a = run(demo, "--input", camera_dir, "--json", tmp_path / "a.jsonl", "--temporal", "off")
     assert "first 32 frames are measured as they come" in a.stderr
-    res, half, full, n = choice(a.stdout)
-    assert (res, n) == ("full", 32) and "as they came; from frame 32 on" in a.stdout
+    c = choice(a.stdout)
+    assert (c[0], c[3]) == ("full", 32) and "as they came; from frame 32 on" in a.stdout
     rec = run(demo, "--input", small_clip, "--json", tmp_path / "r.jsonl", "--quiet", "--temporal", "off")
-    assert choice(rec.stdout)[:4] == (res, half, full, n)
+    assert choice(rec.stdout) == c
     for k in ("off", "on"):
         run(demo, "--input", camera_dir, "--json", tmp_path / f"{k}.jsonl", "--quiet", "--temporal", "off",
             "--cnn-full-res", k)

@@ -10,12 +10,12 @@
 #include "vd_port/capture.h"
 
 // Opens `input` a second time (recorded input only) and measures, on its first DEMO_AUTORES_MAX_FRAMES
-// frames, how far the networks agree with themselves at half and at full resolution: each frame and its
-// mirror image through the CNN source alone (the options' networks and threshold, one pass each, temporal
-// analysis off), the mirror's boxes mirrored back and matched one to one at IoU >= 0.5 (vdtools.adapt.
-// measure.flip_agreement, the rule vd-adapt --resolution auto takes without labels; vdtools.evaluation.fleet
-// auto_resolution does the same per recording). Full resolution when
-// its agreement is the higher one and at least DEMO_AUTORES_MIN_FRAMES frames were measured.
+// frames, the networks' boxes at half and at full resolution: each frame and its mirror image through the CNN
+// source alone (the options' networks and threshold, one pass each, temporal analysis off); the boxes' mean
+// score and the agreement of the mirror's boxes, mirrored back and matched one to one at IoU >= 0.5 (vdtools.
+// adapt.measure.rating, the rule vd-adapt --resolution auto takes without labels; vdtools.evaluation.fleet
+// auto_resolution does the same per recording). Full resolution when its rating, mean score + agreement / 4,
+// is the higher one and at least DEMO_AUTORES_MIN_FRAMES frames were measured.
 // o->cfg must point at the loaded networks (demo_models_load). A capture or detector error: its status,
 // err says what.
 vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,

@@ -548,21 +548,26 @@ static void summary(run_t *r)
     }
     if (r->autores_ran) {
         const demo_autores_t *a = &r->autores;
-        char pct[2][16];
+        char pct[2][16], score[2][16], rating[2][16];
         for (int k = 0; k < 2; k++) {
             const double v = demo_autores_agreement(a, k);
-            if (v < 0.0) {
+            if (v < 0.0) {   // no box: none of the three
                 snprintf(pct[k], sizeof pct[k], "none (no box)");
+                snprintf(score[k], sizeof score[k], "none (no box)");
+                snprintf(rating[k], sizeof rating[k], "none (no box)");
             } else {
                 snprintf(pct[k], sizeof pct[k], "%.1f %%", 100.0 * v);
+                snprintf(score[k], sizeof score[k], "%.3f", demo_autores_mean_score(a, k));
+                snprintf(rating[k], sizeof rating[k], "%.3f", demo_autores_rating(a, k));
             }
         }
         char from[64] = "";
         if (r->live.decided) {
             snprintf(from, sizeof from, ", as they came; from frame %llu on", (unsigned long long)r->live.from + 1u);
         }
-        printf("cnn input: %s resolution (--cnn-full-res auto: flip agreement half %s, full %s over %u frames%s%s; "
-               "%.2f s)\n", a->full ? "full" : "half", pct[0], pct[1], (unsigned)a->frames,
+        printf("cnn input: %s resolution (--cnn-full-res auto: rating half %s, full %s; mean box score half %s, full "
+               "%s; flip agreement half %s, full %s over %u frames%s%s; %.2f s)\n", a->full ? "full" : "half",
+               rating[0], rating[1], score[0], score[1], pct[0], pct[1], (unsigned)a->frames,
                a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full" : "", from, a->seconds);
     }
     if (r->capacity_warnings > 0) {

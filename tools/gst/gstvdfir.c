@@ -304,14 +304,19 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
     const gboolean full = self->ar.a.full;
     GST_INFO_OBJECT(self,
                     "cnn input: %s resolution from frame %" G_GUINT64_FORMAT
-                    " (flip agreement half %.3f, full %.3f over %u frames; %.2f s)",
-                    full ? "full" : "half", self->seq, demo_autores_agreement(&self->ar.a, 0),
+                    " (rating half %.3f, full %.3f; mean box score half %.3f, full %.3f; flip agreement half %.3f, "
+                    "full %.3f over %u frames; %.2f s)",
+                    full ? "full" : "half", self->seq, demo_autores_rating(&self->ar.a, 0),
+                    demo_autores_rating(&self->ar.a, 1), demo_autores_mean_score(&self->ar.a, 0),
+                    demo_autores_mean_score(&self->ar.a, 1), demo_autores_agreement(&self->ar.a, 0),
                     demo_autores_agreement(&self->ar.a, 1), (unsigned)self->ar.a.frames, self->ar.a.seconds);
+    const demo_autores_t *a = &self->ar.a;
     GstStructure *ms = gst_structure_new(
         "vdfir-resolution", "full", G_TYPE_BOOLEAN, full, "from-seq", G_TYPE_UINT64, self->seq, "frames", G_TYPE_UINT,
-        (guint)self->ar.a.frames, "agreement-half", G_TYPE_DOUBLE, demo_autores_agreement(&self->ar.a, 0),
-        "agreement-full", G_TYPE_DOUBLE, demo_autores_agreement(&self->ar.a, 1), "seconds", G_TYPE_DOUBLE,
-        self->ar.a.seconds, NULL);
+        (guint)a->frames, "rating-half", G_TYPE_DOUBLE, demo_autores_rating(a, 0), "rating-full", G_TYPE_DOUBLE,
+        demo_autores_rating(a, 1), "score-half", G_TYPE_DOUBLE, demo_autores_mean_score(a, 0), "score-full",
+        G_TYPE_DOUBLE, demo_autores_mean_score(a, 1), "agreement-half", G_TYPE_DOUBLE, demo_autores_agreement(a, 0),
+        "agreement-full", G_TYPE_DOUBLE, demo_autores_agreement(a, 1), "seconds", G_TYPE_DOUBLE, a->seconds, NULL);
     gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), ms));
     if (!full) {
         return TRUE;

@@ -1,12 +1,16 @@
 // SPDX-License-Identifier: MIT
-// --cnn-full-res auto, frame by frame: the networks' agreement with themselves on mirrored frames.
+// --cnn-full-res auto, frame by frame: the networks' boxes on frames and their mirror images.
 //
 // Why: the networks trained on vehicles of a certain size. A camera whose vehicles are about half that size
 // (a wider lens, a smaller sensor, a higher mount) loses most of them at half resolution and gets them back at
 // full resolution, while a camera like the training ones loses 20-27 AP points at full resolution
-// (docs/results/cameras.md). Without labels, how far the networks agree with themselves on mirrored frames
-// picked the better resolution on every val set it was tried on (docs/results/adapt.md, section D); this is
-// that rule (vdtools.adapt.measure.choose_resolution without labels), run where a user runs vd.
+// (docs/results/cameras.md). At the wrong resolution the networks still put boxes on vehicles (or their parts)
+// but score them lower and agree less with themselves on the mirror image. The rating, mean box score + 1/4 x
+// flip agreement, chose the resolution of the higher AP on 243 of 260 recordings of the train and val splits
+// (each scene's first 32 frames, as they are and under four camera changes), losing 261 AP points in all,
+// where the agreement alone, the rule before, was right on 219 and lost 792, and the mean score alone on 236
+// (docs/results/cameras.md, "The rule of 2026-11-30"; vdtools.adapt.resolution_evidence). This is the rule of
+// vdtools.adapt.measure.choose_resolution without labels, run where a user runs vd.
 #include "flipagree.h"
 
 #include <stdio.h>
@@ -37,10 +41,22 @@ double demo_autores_agreement(const demo_autores_t *a, int full)
     return a->boxes[k] == 0u ? -1.0 : 2.0 * (double)a->matched[k] / (double)a->boxes[k];
 }
 
+double demo_autores_mean_score(const demo_autores_t *a, int full)
+{
+    const int k = full ? 1 : 0;
+    return a->boxes[k] == 0u ? -1.0 : (double)a->score_q8[k] / (255.0 * (double)a->boxes[k]);
+}
+
+double demo_autores_rating(const demo_autores_t *a, int full)
+{
+    const double m = demo_autores_mean_score(a, full);
+    return m < 0.0 ? -1.0 : m + DEMO_AUTORES_AGREE_WEIGHT * demo_autores_agreement(a, full);
+}
+
 bool demo_autores_decide(demo_autores_t *a)
 {
-    const double half = demo_autores_agreement(a, 0);
-    const double full = demo_autores_agreement(a, 1);
+    const double half = demo_autores_rating(a, 0);
+    const double full = demo_autores_rating(a, 1);
     a->full = a->frames >= DEMO_AUTORES_MIN_FRAMES && full > (half > 0.0 ? half : 0.0);
     return a->full;
 }
@@ -184,7 +200,7 @@ static uint32_t matches(const vd_detection_t *a, size_t na, const vd_detection_t
 
 // One frame at one resolution: its boxes and its mirror image's, mirrored back, into the pooled counts.
 static vd_status_t measure_frame(demo_flipagree_t *fa, res_run_t *r, const vd_frame_t *f, const vd_frame_t *fm,
-                                 uint64_t *matched, uint64_t *boxes)
+                                 demo_autores_t *a, int k)
 {
     size_t na = 0, nb = 0;
     vd_status_t st = vd_detector_run(&r->det, f, fa->da, fa->cap, &na);
@@ -196,9 +212,13 @@ static vd_status_t measure_frame(demo_flipagree_t *fa, res_run_t *r, const vd_fr
     }
     for (size_t j = 0; j < nb; j++) {
         fa->db[j].box.x = (int32_t)f->width - fa->db[j].box.x - fa->db[j].box.w;
+        a->score_q8[k] += fa->db[j].score_q8;
     }
-    *matched += matches(fa->da, na, fa->db, nb, fa->used);
-    *boxes += na + nb;
+    for (size_t i = 0; i < na; i++) {
+        a->score_q8[k] += fa->da[i].score_q8;
+    }
+    a->matched[k] += matches(fa->da, na, fa->db, nb, fa->used);
+    a->boxes[k] += na + nb;
     return VD_OK;
 }
 
@@ -210,7 +230,7 @@ vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_a
     vd_frame_t fm;
     mirror(f, fa->mirror, &fm);
     for (int k = 0; k < 2; k++) {
-        const vd_status_t st = measure_frame(fa, &fa->runs[k], f, &fm, &a->matched[k], &a->boxes[k]);
+        const vd_status_t st = measure_frame(fa, &fa->runs[k], f, &fm, a, k);
         if (st != VD_OK) {
             return st;
         }

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
-// --cnn-full-res auto, frame by frame: how far the networks agree with themselves on mirrored frames at half
-// and at full resolution (flipagree.c), shared by vd_fir_demo (its first frames, before the run: autores.c)
-// and the GStreamer element vdfir (the first frames as they pass). docs/demo.md "Choosing the networks'
-// resolution".
+// --cnn-full-res auto, frame by frame: how confident the networks are in their boxes at half and at full
+// resolution and how far they agree with themselves on mirrored frames (flipagree.c), shared by vd_fir_demo
+// (its first frames, before the run: autores.c) and the GStreamer element vdfir (the first frames as they
+// pass). docs/demo.md "Choosing the networks' resolution".
 #ifndef VD_DEMO_FLIPAGREE_H
 #define VD_DEMO_FLIPAGREE_H
 
@@ -21,13 +21,23 @@ typedef struct demo_autores {
     uint32_t frames;        // frames measured
     uint64_t matched[2];    // [half, full]: boxes matched between a frame and its mirror image (pairs)
     uint64_t boxes[2];      // ... and all boxes of both, pooled over the frames
+    uint64_t score_q8[2];   // ... and the sum of those boxes' scores (vd_detection_t score_q8)
     double seconds;         // time the measurement took
 } demo_autores_t;
 
 // Flip agreement of a measurement: 2 matched / boxes, or -1 when there was no box at that resolution.
 double demo_autores_agreement(const demo_autores_t *a, int full);
 
-// Sets a->full from the counts (full when its agreement is the higher one and at least DEMO_AUTORES_MIN_FRAMES
+// Mean score of the boxes (score_q8 / 255, frames and mirror images pooled), or -1 when there was no box at
+// that resolution.
+double demo_autores_mean_score(const demo_autores_t *a, int full);
+
+// What the choice compares: mean box score + DEMO_AUTORES_AGREE_WEIGHT x flip agreement, or -1 when there was no
+// box at that resolution.
+#define DEMO_AUTORES_AGREE_WEIGHT 0.25
+double demo_autores_rating(const demo_autores_t *a, int full);
+
+// Sets a->full from the counts (full when its rating is the higher one and at least DEMO_AUTORES_MIN_FRAMES
 // frames were measured; no box at a resolution is no evidence for it) and returns it.
 bool demo_autores_decide(demo_autores_t *a);
 

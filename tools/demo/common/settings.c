@@ -256,8 +256,8 @@ static bool set_track_sigma_rel(demo_opts_t *o, const char *v)
     return true;
 }
 
-// on/off (and the rest of a switch's words) or auto: vd_fir_demo measures which resolution the networks
-// agree with themselves better at on the first frames (common/flipagree.c; tools/demo/autores.c).
+// on/off (and the rest of a switch's words) or auto: vd_fir_demo measures at which resolution the networks'
+// boxes on the first frames rate higher (common/flipagree.c; tools/demo/autores.c).
 static bool set_cnn_full_res(demo_opts_t *o, const char *v)
 {
     bool on = false;
@@ -587,9 +587,9 @@ static const setting_t k_settings[] = {
     {"cnn-full-res", "[on|off|auto]",
      "cnn source: the networks read the frame at full resolution instead of half (for a camera "
      "whose vehicles are about half the size of the training data's, e.g. a wider lens: 4x the "
-     "networks' time and a larger workspace). auto (default): on recorded input, full when the "
-     "networks agree better with themselves on mirrored frames at full resolution, over the first "
-     "16-32 frames (docs/demo.md); half on a camera, in the GStreamer element and for fewer frames",
+     "networks' time and a larger workspace). auto (default): full when the networks' boxes rate "
+     "higher at full resolution (mean score + flip agreement / 4) over the first 16-32 frames "
+     "(docs/demo.md; a camera's as they come); half for fewer frames",
      CUSTOM(set_cnn_full_res), OPTIONAL_OR("auto")},
     {"cnn-model2", "FILE|none",
      "cnn source: a second version-3 .vdm network run on the same frame, its boxes fused with "

@@ -9,7 +9,7 @@ and vd_cnn2.npz, the pair the demo runs) are fine-tuned quantisation-aware on th
 ../shared/data's training frames (when present, so that they do not forget what they knew), exported as
 int8 .vdm files, and the score threshold is chosen on the val part (the one-standard-error rule towards the
 shipped threshold: docs/adapt.md). Without labels: the input resolution is chosen on the frames (the
-networks' flip agreement) and the shipped networks are kept, since self-training lowered AP on every proxy
+mean score of the networks' boxes) and the shipped networks are kept, since self-training lowered AP on every proxy
 measured with them; --self-train still fine-tunes on pseudo-labels of the shipped pair (its fused flip
 passes, a high score threshold, boxes of middling score as ignore regions; iterated with the adapted
 networks' own labels), threshold unchanged.
@@ -72,7 +72,7 @@ def parser():
                     help="the networks' input: half resolution (the scale they trained at) or full (for cameras "
                          "whose vehicles are about half the size: 4x the time, vd_fir_demo --cnn-full-res); auto "
                          "(default): whichever the shipped networks do better on all your frames (AP@0.5 with "
-                         "labels; without, their agreement with themselves on the mirrored frames)")
+                         "labels; without, the mean score of their boxes on the frames and their mirror images)")
     ap.add_argument("--lr", type=float, default=3e-4, help="peak learning rate of the fine-tuning's cosine schedule "
                     "(default 3e-4, the shipped networks' QAT stage)")
     ap.add_argument("--self-train", action="store_true", help="without labels: fine-tune on the networks' own "

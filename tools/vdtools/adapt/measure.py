@@ -29,21 +29,37 @@ def detections(models, frames, full_res=False):
     return CE.run(predictor(models, full_res=full_res), frames)
 
 
+AGREE_WEIGHT = 0.25   # tools/demo/common/flipagree.h DEMO_AUTORES_AGREE_WEIGHT
+RATING = "rating (mean box score + flip agreement / 4)"
+
+
+def rating(models, frames, thr, full_res=False):
+    """What choose_resolution compares without labels: mean_box_score + AGREE_WEIGHT x flip_agreement of the
+    same passes (the frames and their mirror images), or None without a box."""
+    runs = flip_runs(models, frames, full_res)
+    s = mean_box_score(models, frames, thr, runs=runs)
+    return None if s is None else s + AGREE_WEIGHT * flip_agreement(models, frames, thr, runs=runs)
+
+
 def choose_resolution(models, frames, thr, labelled=True):
     """Half or full resolution for the networks' input (cfg.cnn_full_res), on frames the networks never saw:
-    full when its measure is higher. With labels the measure is the pooled AP@0.5; without, the networks'
-    agreement with themselves on the mirrored frames (flip_agreement), which picked the better resolution on
-    all six val sets it was tried on, road and drone, as they are and shrunk to a half and a third (the
-    largest box count and score did not: docs/results/adapt.md). A camera whose vehicles are about half the
-    size of the training data's gains a lot from full resolution, one whose vehicles are as large loses a lot
-    (docs/results/cameras.md), so a few dozen frames tell them apart.
+    full when its measure is higher. With labels the measure is the pooled AP@0.5; without, the rating: the mean
+    score of the networks' boxes above thr on the frames and their mirror images, plus 1/4 of their agreement
+    with themselves on the mirrored frames (rating). At the wrong resolution the networks still find vehicles
+    or their parts but score them lower and agree less. On 260 recordings of the train and val splits (each
+    scene's first 32 frames, as they are and under four camera changes: vdtools.adapt.resolution_evidence) the
+    rating chose the resolution of the higher AP on 243 and lost 261 AP points in all, where the agreement
+    alone (the rule until 2026-11-30) was right on 219 and lost 792; the weight 1/4 did best of 0, 1/16, 1/8,
+    1/4 and 1/2 on each split (docs/results/cameras.md, "The rule of 2026-11-30"). A camera whose vehicles are
+    about half the size of the training data's gains a lot from full resolution, one whose vehicles are as
+    large loses a lot (docs/results/cameras.md), so a few dozen frames tell them apart.
     (full_res, {"measure": name, "half": value, "full": value})."""
     if labelled:
         m = {k: figures(detections(models, frames, full_res=k == "full"), thr)["ap"] for k in ("half", "full")}
     else:
-        # no box at all at a resolution (agreement None) is no evidence for it
-        m = {k: flip_agreement(models, frames, thr, full_res=k == "full") or 0.0 for k in ("half", "full")}
-    return m["full"] > m["half"], dict(m, measure="AP@0.5" if labelled else "flip agreement")
+        # no box at all at a resolution (None) is no evidence for it
+        m = {k: rating(models, frames, thr, full_res=k == "full") or 0.0 for k in ("half", "full")}
+    return m["full"] > m["half"], dict(m, measure="AP@0.5" if labelled else RATING)
 
 
 def figures(results, thr):
@@ -110,11 +126,10 @@ def agreement(res_a, thr_a, res_b, thr_b):
     return 2 * m / n if n else None
 
 
-def flip_agreement(models, frames, thr, full_res=False):
-    """How far the networks agree with themselves: the boxes (one pass per network, fused as the pair) of each
-    frame against those of its mirror image, mirrored back; pooled 2 x matched / all at thr."""
+def flip_runs(models, frames, full_res=False):
+    """The boxes (one pass per network, fused as the pair; every peak) of each frame and of its mirror image,
+    mirrored back: the two result lists of cnn_eval.run that flip_agreement and mean_box_score measure."""
     import copy
-    import numpy as np
     pred = predictor(models, flip=False, full_res=full_res)
     mirrored = []
     for fr in frames:
@@ -124,7 +139,30 @@ def flip_agreement(models, frames, thr, full_res=False):
     ra, rb = CE.run(pred, frames), CE.run(pred, mirrored)
     w = frames[0].img.shape[1] if frames else 0
     rb = [(f, fr, [((w - b[0] - b[2], b[1], b[2], b[3]), s) for b, s in d], g) for f, fr, d, g in rb]
+    return ra, rb
+
+
+def flip_agreement(models, frames, thr, full_res=False, runs=None):
+    """How far the networks agree with themselves: the boxes (one pass per network, fused as the pair) of each
+    frame against those of its mirror image, mirrored back; pooled 2 x matched / all at thr. runs: flip_runs'
+    result, when it is at hand."""
+    ra, rb = runs if runs is not None else flip_runs(models, frames, full_res)
     return agreement(ra, thr, rb, thr)
+
+
+def score_q8(score):
+    """A box score (score_q15 / 32768, cnn_eval) as the detector outputs it: score_q8 = (q15 + 64) >> 7, at most
+    255 (lib/src/detector/detector_cnn.c score_q8_of)."""
+    return min((int(round(score * 32768)) + 64) >> 7, 255)
+
+
+def mean_box_score(models, frames, thr, full_res=False, runs=None):
+    """The mean score of the boxes >= thr of the frames and their mirror images (one pass per network, as
+    flip_agreement), as the detector outputs them (score_q8 / 255); None without a box. What
+    vd_fir_demo --cnn-full-res auto compares (tools/demo/common/flipagree.c)."""
+    ra, rb = runs if runs is not None else flip_runs(models, frames, full_res)
+    q = [score_q8(s) for res in (ra, rb) for _, _, d, _ in res for _, s in d if s >= thr]
+    return sum(q) / (255.0 * len(q)) if q else None
 
 
 def _layers(path):

@@ -7,6 +7,14 @@ def _pct(v):
     return "–" if v is None else f"{100 * v:.1f}"
 
 
+def measured(m):
+    """choose_resolution's measure as 'half X, full Y': AP@0.5 in per cent, the rating (mean box score + flip
+    agreement / 4) as a number."""
+    if m["measure"].startswith("rating"):
+        return f"half {m['half']:.3f}, full {m['full']:.3f}"
+    return f"half {_pct(m['half'])} %, full {_pct(m['full'])} %"
+
+
 def report_md(r):
     f, t = r["frames"], r["training"]
     trained = t["trained"]   # False: an unlabelled run without --self-train kept the networks
@@ -43,8 +51,8 @@ def report_md(r):
     res = r["resolution"]
     lines += ["Input resolution: " + ("**full** (`cnn-full-res` in vd.json: 4x the networks' time and a larger "
                                       "workspace)" if res["full_res"] else "half (the networks' training scale)")
-              + (f"; {res['measured']['measure']} of the before networks on all your frames: half "
-                 f"{_pct(res['measured']['half'])} %, full {_pct(res['measured']['full'])} %" if res["measured"]
+              + (f"; {res['measured']['measure']} of the before networks on all your frames: "
+                 f"{measured(res['measured'])}" if res["measured"]
                  else f" ({res['chosen_on']})") + ".", ""]
     if r["labelled"]:
         b, bv, a = r["val"]["before"], r["val"]["before_at_val_choice"], r["val"]["after"]

@@ -16,7 +16,7 @@ from tqdm import tqdm
 from vdtools.adapt import measure as M
 from vdtools.adapt import tune as TU
 from vdtools.adapt.inputs import InputError
-from vdtools.adapt.report import report_md
+from vdtools.adapt.report import measured as measured_text, report_md
 from vdtools.bindings import clib
 from vdtools.data import cnn_data as CD
 from vdtools.formats import cnn_vdm as V
@@ -177,7 +177,7 @@ class Adaptation:
 
     def choose_resolution(self):
         """--resolution: half, full, or (auto) what the before files do better on all the user's frames (none
-        of which they trained on): AP@0.5 with labels, flip agreement without (M.choose_resolution). Full: the
+        of which they trained on): AP@0.5 with labels, the rating without (M.choose_resolution). Full: the
         user's training frames are doubled (TU.doubled) and so is the calibration set, everything measured
         reads the frames at full resolution."""
         if self.ck is not None and "full_res" in self.ck:
@@ -192,7 +192,7 @@ class Adaptation:
         if self.res_measured:
             r = self.res_measured
             self.say(f"input resolution: {'full' if self.full_res else 'half'} ({r['measure']} on all "
-                     f"{len(self.frames)} frames: half {100 * r['half']:.1f}, full {100 * r['full']:.1f})")
+                     f"{len(self.frames)} frames: {measured_text(r)})")
 
     def user_train(self, frames):
         """The user's frames as the networks train on them: doubled at full resolution."""

@@ -291,21 +291,22 @@ def resolve(settings, models_dir=None):
     return fields, cnn, dbn, desc
 
 
-AUTO_MAX_FRAMES, AUTO_MIN_FRAMES = 32, 16   # tools/demo/common/flipagree.h DEMO_AUTORES_*
+AUTO_MAX_FRAMES, AUTO_MIN_FRAMES, AUTO_AGREE_WEIGHT = 32, 16, 0.25   # tools/demo/common/flipagree.h DEMO_AUTORES_*
 
 
 def auto_resolution(rec, fields, cnn):
     """vd_fir_demo's --cnn-full-res auto (tools/demo/common/flipagree.c) on a recording: its first AUTO_MAX_FRAMES
     frames (as the port reads them) and their mirror images through the CNN source alone (the resolved
-    networks and threshold, one pass each, no tracking) at half and at full resolution; boxes of the mirror
-    image, mirrored back, matched one to one at IoU >= 0.5 (metrics.evaluate.one_to_one). Full resolution
-    when its pooled agreement 2 x matched / boxes is higher and at least AUTO_MIN_FRAMES frames were read.
-    Returns dict(full, frames, agreement=[half, full]) (None: no box at that resolution)."""
+    networks and threshold, one pass each, no tracking) at half and at full resolution: the mean score of those
+    boxes (score_q8 / 255) and their agreement (boxes of the mirror image, mirrored back, matched one to one at
+    IoU >= 0.5: metrics.evaluate.one_to_one; pooled 2 x matched / boxes). Full resolution when the rating,
+    mean score + 1/4 agreement, is higher and at least AUTO_MIN_FRAMES frames were read.
+    Returns dict(full, frames, rating=, score=, agreement=[half, full]) (None: no box at that resolution)."""
     import numpy as np
     from vdtools.metrics.evaluate import one_to_one
     from vdtools.bindings import port
     sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
-    runners, counts, n = [None, None], [[0, 0], [0, 0]], 0
+    runners, counts, n = [None, None], [[0, 0, 0], [0, 0, 0]], 0   # matched, boxes, score_q8 sum
     with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
         for f, _name in cap:
             img = port.pixels(f).copy()
@@ -314,8 +315,10 @@ def auto_resolution(rec, fields, cnn):
             for k in (0, 1):
                 if runners[k] is None:
                     runners[k] = _Runner(dict(sub, cnn_full_res=k), cnn, None, f.width, f.height)
-                a = [tuple(d["box"]) for d in runners[k].det.run(img)[0]]
-                b = [(w - d["box"][0] - d["box"][2], *d["box"][1:]) for d in runners[k].det.run(mirror)[0]]
+                da, db = runners[k].det.run(img)[0], runners[k].det.run(mirror)[0]
+                counts[k][2] += sum(d["score_q8"] for d in da + db)
+                a = [tuple(d["box"]) for d in da]
+                b = [(w - d["box"][0] - d["box"][2], *d["box"][1:]) for d in db]
                 r = one_to_one(a, b, 0.5)
                 if r is not None:
                     counts[k][0] += r[0]
@@ -323,9 +326,11 @@ def auto_resolution(rec, fields, cnn):
             n += 1
             if n == AUTO_MAX_FRAMES:
                 break
-    agree = [2 * m / b if b else None for m, b in counts]
-    full = n >= AUTO_MIN_FRAMES and (agree[1] or 0.0) > (agree[0] or 0.0)
-    return dict(full=full, frames=n, agreement=agree)
+    agree = [2 * m / b if b else None for m, b, _ in counts]
+    score = [q / (255.0 * b) if b else None for _, b, q in counts]
+    rating = [None if s is None else s + AUTO_AGREE_WEIGHT * a for s, a in zip(score, agree)]
+    full = n >= AUTO_MIN_FRAMES and (rating[1] or 0.0) > (rating[0] or 0.0)
+    return dict(full=full, frames=n, rating=rating, score=score, agreement=agree)
 
 
 # ------------------------------------------------------------------ one shard (runs on a worker)

@@ -1,0 +1,67 @@
+# SPDX-License-Identifier: MIT
+"""The unlabelled resolution rule's arithmetic (vdtools.adapt.measure: score_q8, mean_box_score, flip_agreement on
+given runs; vdtools.adapt.resolution_evidence: the rules compared and their summary), on hand-worked inputs.
+The demo's figures against these functions on real frames: test_demo_autores.py."""
+import pytest
+
+from vdtools.adapt import measure as M
+from vdtools.adapt import resolution_evidence as RE
+
+
+def test_score_q8_is_the_detectors_rounding():
+    # (q15 + 64) >> 7, at most 255 (detector_cnn.c score_q8_of)
+    assert M.score_q8(16384 / 32768) == 128          # 16448 >> 7
+    assert M.score_q8(16447 / 32768) == 128 and M.score_q8(16448 / 32768) == 129
+    assert M.score_q8(1.0) == 255 and M.score_q8(0.0) == 0
+    assert M.score_q8(63 / 32768) == 0 and M.score_q8(64 / 32768) == 1
+
+
+def _runs(a, b):
+    """flip_runs' shape: [(family, frame, [(box, score)], ground truth)] for the frames and the mirrors."""
+    return [("x", None, d, None) for d in a], [("x", None, d, None) for d in b]
+
+
+def test_mean_box_score_and_agreement_on_given_runs():
+    box = (10, 10, 20, 20)
+    far = (100, 100, 20, 20)
+    # frame 1: one box 0.5 (q8 128) matched by the mirror's 0.75 (q8 192); a box under the threshold is left out
+    # frame 2: the frame's box 1.0 (255) has no partner in the mirror's far box 0.5 (128)
+    runs = _runs([[(box, 0.5), (far, 0.1)], [(box, 1.0)]], [[(box, 0.75)], [(far, 0.5)]])
+    assert M.mean_box_score(None, None, 0.3, runs=runs) == pytest.approx((128 + 192 + 255 + 128) / (255 * 4))
+    assert M.flip_agreement(None, None, 0.3, runs=runs) == pytest.approx(2 * 1 / 4)
+    assert M.mean_box_score(None, None, 0.3, runs=_runs([[(box, 0.2)]], [[]])) is None
+
+
+def _row(ap_h, ap_f, s_h, s_f, a_h, a_f):
+    return dict(half=dict(ap=ap_h, score=s_h, agreement=a_h), full=dict(ap=ap_f, score=s_f, agreement=a_f))
+
+
+def test_rules_choose_and_summarise():
+    rows = {
+        # agreement says full (0.6 > 0.5), score says half; 1/8: 0.45 + 0.0625 = 0.5125 vs 0.40 + 0.075 = 0.475
+        "val a 1 none": _row(0.8, 0.5, 0.45, 0.40, 0.5, 0.6),
+        # no box at half: rates 0, so full wins under every rule
+        "val a 2 down33": _row(0.1, 0.7, None, 0.40, None, 0.5),
+        # score says full by 0.01, agreement half by 0.2: 1/8 gives half (0.55 vs 0.535)
+        "val a 3 down50": _row(0.3, 0.6, 0.45, 0.46, 0.8, 0.6),
+    }
+    assert [RE.choose(v, None) for v in rows.values()] == [True, True, False]
+    assert [RE.choose(v, 0.0) for v in rows.values()] == [False, True, True]
+    assert [RE.choose(v, 0.125) for v in rows.values()] == [False, True, False]
+    s = RE.summary(rows, weights=(None, 0.0, 0.125))
+    assert s["flip agreement"]["right"] == 1 and s["flip agreement"]["lost"] == pytest.approx(0.3 + 0.3)
+    assert s["mean box score"]["right"] == 3 and s["mean box score"]["lost"] == 0
+    assert s["mean box score"]["mean_ap"] == pytest.approx((0.8 + 0.7 + 0.6) / 3)
+    assert s["score + 0.125 x agreement"]["per_shift"]["down50"] == [0, 1, pytest.approx(0.3)]
+    table = RE.render(rows)
+    assert "| mean box score | 3 / 3 | 70.0 | 0 |" in table and "| flip agreement | 1 / 3 |" in table
+
+
+def test_demo_weight_is_the_python_weight():
+    """The demo's DEMO_AUTORES_AGREE_WEIGHT and the Python rule's weight are one number."""
+    import re
+    from vdtools.bindings.clib import REPO
+    from vdtools.evaluation import fleet
+    h = (REPO / "tools" / "demo" / "common" / "flipagree.h").read_text()
+    w = float(re.search(r"#define DEMO_AUTORES_AGREE_WEIGHT ([\d.]+)", h).group(1))
+    assert w == M.AGREE_WEIGHT == fleet.AUTO_AGREE_WEIGHT
