@@ -65,3 +65,11 @@ def test_demo_weight_is_the_python_weight():
     h = (REPO / "tools" / "demo" / "common" / "flipagree.h").read_text()
     w = float(re.search(r"#define DEMO_AUTORES_AGREE_WEIGHT ([\d.]+)", h).group(1))
     assert w == M.AGREE_WEIGHT == fleet.AUTO_AGREE_WEIGHT
+
+
+def test_figure_is_written(tmp_path):
+    rows = {"val a 1 none": _row(0.8, 0.5, 0.45, 0.40, 0.5, 0.6),
+            "val a 2 down33": _row(0.1, 0.7, None, 0.40, None, 0.5),
+            "val a 4 none": _row(float("nan"), float("nan"), None, None, None, None)}   # no vehicle: left out
+    RE.figure(rows, tmp_path / "f.png")
+    assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

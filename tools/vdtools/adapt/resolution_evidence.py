@@ -91,6 +91,32 @@ def render(rows):
     return "\n".join(lines)
 
 
+def figure(rows, path, weight=0.25):
+    """Two panels, the agreement alone and the rating: per recording the measure's full - half against AP@0.5's
+    full - half. A point in the upper right or lower left is a right choice; the size of a wrong one's AP
+    difference is what it cost."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = {k: v for k, v in rows.items() if v["half"]["ap"] == v["half"]["ap"] and v["full"]["ap"] == v["full"]["ap"]}
+    shifts = sorted({k.split(" ")[-1] for k in rows}, key=lambda x: SHIFTS.index(x) if x in SHIFTS else 99)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True)
+    for ax, w in zip(axes, (None, weight)):
+        for sh in shifts:
+            pts = [(rate(v["full"], w) - rate(v["half"], w), 100 * (v["full"]["ap"] - v["half"]["ap"]))
+                   for k, v in rows.items() if k.endswith(" " + sh)]
+            ax.scatter([p[0] for p in pts], [p[1] for p in pts], s=12, label=sh)
+        ax.axhline(0, color="grey", lw=0.8)
+        ax.axvline(0, color="grey", lw=0.8)
+        right = sum(choose(v, w) == (v["full"]["ap"] > v["half"]["ap"]) for v in rows.values())
+        ax.set_title(f"{rule_name(w)}: {right} / {len(rows)} right")
+        ax.set_xlabel("measure, full - half")
+    axes[0].set_ylabel("AP@0.5 points, full - half")
+    axes[1].legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--split", choices=("train", "val", "test"),
@@ -99,12 +125,15 @@ def main(argv=None):
     ap.add_argument("--data", default=str(clib.DATA_DIR))
     ap.add_argument("--out", help="JSON of the figures per set")
     ap.add_argument("--render", nargs="+", metavar="JSON", help="print the table of one or more --out files")
+    ap.add_argument("--figure", metavar="PNG", help="with --render: the scatter of the agreement and the rating")
     a = ap.parse_args(argv)
     if a.render:
         rows = {}
         for p in a.render:
             rows.update(json.loads(Path(p).read_text()))
         print(render(rows))
+        if a.figure:
+            figure(rows, a.figure)
         return 0
     if not a.split:
         ap.error("--split train|val|test (or --render)")
