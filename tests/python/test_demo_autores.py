@@ -76,7 +76,7 @@ def python_measure(folder, n=32):
     runs = [measure.flip_runs(MODELS, frames, full_res=k) for k in (False, True)]
     score = [measure.mean_box_score(MODELS, frames, thr, runs=r) for r in runs]
     agree = [measure.flip_agreement(MODELS, frames, thr, runs=r) for r in runs]
-    rating = [measure.rating(MODELS, frames, thr, full_res=k) for k in (False, True)]
+    rating = [measure.rating_of(s, a) for s, a in zip(score, agree)]
     return rating, score, agree
 
 

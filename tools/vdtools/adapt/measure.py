@@ -33,12 +33,17 @@ AGREE_WEIGHT = 0.25   # tools/demo/common/flipagree.h DEMO_AUTORES_AGREE_WEIGHT
 RATING = "rating (mean box score + flip agreement / 4)"
 
 
+def rating_of(score, agreement, weight=AGREE_WEIGHT):
+    """The rating of a mean box score and a flip agreement of the same boxes: score + weight x agreement, None
+    without a box (score None). flipagree.c demo_autores_rating; fleet.auto_resolution."""
+    return None if score is None else score + weight * agreement
+
+
 def rating(models, frames, thr, full_res=False):
-    """What choose_resolution compares without labels: mean_box_score + AGREE_WEIGHT x flip_agreement of the
+    """What choose_resolution compares without labels: the rating_of mean_box_score and flip_agreement of the
     same passes (the frames and their mirror images), or None without a box."""
     runs = flip_runs(models, frames, full_res)
-    s = mean_box_score(models, frames, thr, runs=runs)
-    return None if s is None else s + AGREE_WEIGHT * flip_agreement(models, frames, thr, runs=runs)
+    return rating_of(mean_box_score(models, frames, thr, runs=runs), flip_agreement(models, frames, thr, runs=runs))
 
 
 def choose_resolution(models, frames, thr, labelled=True):

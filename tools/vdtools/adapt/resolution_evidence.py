@@ -45,7 +45,7 @@ def rate(m, weight):
     alone, else mean score + weight x agreement; no box rates 0 (no evidence)."""
     if m["score"] is None:
         return 0.0
-    return m["agreement"] if weight is None else m["score"] + weight * m["agreement"]
+    return m["agreement"] if weight is None else M.rating_of(m["score"], m["agreement"], weight)
 
 
 def choose(row, weight):
@@ -56,10 +56,15 @@ def rule_name(w):
     return "flip agreement" if w is None else ("mean box score" if w == 0 else f"score + {w:g} x agreement")
 
 
+def with_vehicles(rows):
+    """The recordings with a vehicle (an AP at both resolutions; NaN without)."""
+    return {k: v for k, v in rows.items() if v["half"]["ap"] == v["half"]["ap"] and v["full"]["ap"] == v["full"]["ap"]}
+
+
 def summary(rows, weights=(None, 0.0, 0.0625, 0.125, 0.25, 0.5)):
     """Per rule: recordings chosen right, mean AP@0.5 of the chosen resolution, AP points lost to wrong
     choices, and the same per camera change. Recordings without a vehicle (no AP) are left out."""
-    rows = {k: v for k, v in rows.items() if v["half"]["ap"] == v["half"]["ap"] and v["full"]["ap"] == v["full"]["ap"]}
+    rows = with_vehicles(rows)
     out = {}
     for w in weights:
         right, ap, lost, per = 0, 0.0, 0.0, {}
@@ -98,7 +103,7 @@ def figure(rows, path, weight=0.25):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    rows = {k: v for k, v in rows.items() if v["half"]["ap"] == v["half"]["ap"] and v["full"]["ap"] == v["full"]["ap"]}
+    rows = with_vehicles(rows)
     shifts = sorted({k.split(" ")[-1] for k in rows}, key=lambda x: SHIFTS.index(x) if x in SHIFTS else 99)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True)
     for ax, w in zip(axes, (None, weight)):
@@ -121,7 +126,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--split", choices=("train", "val", "test"),
                     help="train / val: where the rule is chosen; test: only to report, once, the rule chosen there")
-    ap.add_argument("--shifts", default=",".join(SHIFTS), help="comma-separated camera changes (default: all 14)")
+    ap.add_argument("--shifts", default=",".join(SHIFTS), help="comma-separated camera changes, "
+                    "each one of cnn_eval's or several joined by '+' (default: " + ",".join(SHIFTS) + ")")
     ap.add_argument("--data", default=str(clib.DATA_DIR))
     ap.add_argument("--out", help="JSON of the figures per set")
     ap.add_argument("--render", nargs="+", metavar="JSON", help="print the table of one or more --out files")

@@ -303,6 +303,7 @@ def auto_resolution(rec, fields, cnn):
     mean score + 1/4 agreement, is higher and at least AUTO_MIN_FRAMES frames were read.
     Returns dict(full, frames, rating=, score=, agreement=[half, full]) (None: no box at that resolution)."""
     import numpy as np
+    from vdtools.adapt.measure import rating_of
     from vdtools.metrics.evaluate import one_to_one
     from vdtools.bindings import port
     sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
@@ -328,7 +329,7 @@ def auto_resolution(rec, fields, cnn):
                 break
     agree = [2 * m / b if b else None for m, b, _ in counts]
     score = [q / (255.0 * b) if b else None for _, b, q in counts]
-    rating = [None if s is None else s + AUTO_AGREE_WEIGHT * a for s, a in zip(score, agree)]
+    rating = [rating_of(s, a, AUTO_AGREE_WEIGHT) for s, a in zip(score, agree)]
     full = n >= AUTO_MIN_FRAMES and (rating[1] or 0.0) > (rating[0] or 0.0)
     return dict(full=full, frames=n, rating=rating, score=score, agreement=agree)
 
