@@ -6,6 +6,7 @@ import numpy as np
 
 from vdtools.evaluation import cnn_eval as CE
 from vdtools.formats import cnn_vdm as V
+from vdtools.metrics import evaluate as E
 from vdtools.metrics.evaluate import one_to_one
 
 AGREE_IOU = 0.5
@@ -34,9 +35,8 @@ RATING = "rating (mean box score + flip agreement / 4)"
 
 
 def rating_of(score, agreement, weight=AGREE_WEIGHT):
-    """The rating of a mean box score and a flip agreement of the same boxes: score + weight x agreement, None
-    without a box (score None). flipagree.c demo_autores_rating; fleet.auto_resolution."""
-    return None if score is None else score + weight * agreement
+    """metrics.evaluate.rating_of with this rule's weight."""
+    return E.rating_of(score, agreement, weight)
 
 
 def rating(models, frames, thr, full_res=False):

@@ -303,8 +303,7 @@ def auto_resolution(rec, fields, cnn):
     mean score + 1/4 agreement, is higher and at least AUTO_MIN_FRAMES frames were read.
     Returns dict(full, frames, rating=, score=, agreement=[half, full]) (None: no box at that resolution)."""
     import numpy as np
-    from vdtools.adapt.measure import rating_of
-    from vdtools.metrics.evaluate import one_to_one
+    from vdtools.metrics.evaluate import one_to_one, rating_of
     from vdtools.bindings import port
     sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
     runners, counts, n = [None, None], [[0, 0, 0], [0, 0, 0]], 0   # matched, boxes, score_q8 sum

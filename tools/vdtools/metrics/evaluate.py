@@ -43,6 +43,13 @@ def iou(a, b):
     return inter / (aw * ah + bw * bh - inter)
 
 
+def rating_of(score, agreement, weight):
+    """The rating of a mean box score and the flip agreement of the same boxes: score + weight x agreement, None
+    without a box (score None). What --cnn-full-res auto compares (tools/demo/common/flipagree.c
+    demo_autores_rating; vdtools.adapt.measure, vdtools.evaluation.fleet.auto_resolution)."""
+    return None if score is None else score + weight * agreement
+
+
 def one_to_one(a, b, thr=0.5):
     """(matched, |a| + |b|) of two box lists [(x, y, w, h)], matched greedily one to one: each box of a in turn
     takes the unused box of b with the largest IoU (ties: the later one), counted when IoU >= thr; None when
