@@ -316,7 +316,8 @@ static vd_status_t read_raw_frame(vd_capture_t *cap, file_impl_t *f)
     return VD_OK;
 }
 
-static vd_status_t open_raw(vd_capture_t *cap, file_impl_t *f, const char *path)
+// Opens a raw file at its first frame without reading it.
+static vd_status_t open_raw_file(vd_capture_t *cap, file_impl_t *f, const char *path)
 {
     if (f->opts.raw_width == 0u) {
         (void)snprintf(f->name, sizeof(f->name), "%s", path);
@@ -346,7 +347,13 @@ static vd_status_t open_raw(vd_capture_t *cap, file_impl_t *f, const char *path)
     f->raw_frames = n;
     f->raw_index = 0u;
     f->raw_path = path;
-    return read_raw_frame(cap, f);
+    return VD_OK;
+}
+
+static vd_status_t open_raw(vd_capture_t *cap, file_impl_t *f, const char *path)
+{
+    vd_status_t st = open_raw_file(cap, f, path);
+    return st == VD_OK ? read_raw_frame(cap, f) : st;
 }
 
 // Same magic checks as vd_image_decode: Netpbm "P1".."P7", PNG signature, JPEG SOI.
@@ -474,25 +481,80 @@ static const vd_capture_ops_t g_file_ops = {
     "file", file_start, file_next, file_release, file_stop, file_close, file_frame_name, file_format
 };
 
+// Frames raw path i holds (size / frame size; at least 1, as vd_file_frame_total counts), or 1 for an image.
+static uint64_t frames_of_path(const file_impl_t *f, size_t i)
+{
+    const uint64_t fb = (uint64_t)f->opts.raw_width * f->opts.raw_height * (f->opts.raw_format == VD_PIX_U16 ? 2u : 1u);
+    struct stat sb;
+    if (fb != 0u && is_raw_name(f->paths[i]) && stat(f->paths[i], &sb) == 0 && sb.st_size > 0 &&
+        (uint64_t)sb.st_size >= fb) {
+        return (uint64_t)sb.st_size / fb;
+    }
+    return 1u;
+}
+
 vd_status_t vd_file_frame_total(const vd_capture_t *cap, uint64_t *frames)
 {
     if (cap == NULL || frames == NULL || cap->ops != &g_file_ops || cap->impl == NULL) {
         return VD_ERR_ARG;
     }
     const file_impl_t *f = impl_of(cap);
-    const uint64_t fb = (uint64_t)f->opts.raw_width * f->opts.raw_height * (f->opts.raw_format == VD_PIX_U16 ? 2u : 1u);
     uint64_t n = 0u;
     // One stat() per raw file: bounded by VD_FILE_MAX_FRAMES paths.
     for (size_t i = 0; i < f->n_paths; i++) {
-        struct stat sb;
-        if (fb != 0u && is_raw_name(f->paths[i]) && stat(f->paths[i], &sb) == 0 && sb.st_size > 0 &&
-            (uint64_t)sb.st_size >= fb) {
-            n += (uint64_t)sb.st_size / fb;
-        } else {
-            n++;
-        }
+        n += frames_of_path(f, i);
     }
     *frames = n;
+    return VD_OK;
+}
+
+vd_status_t vd_file_skip(vd_capture_t *cap, uint64_t frames)
+{
+    if (cap == NULL || cap->ops != &g_file_ops || cap->impl == NULL) {
+        return VD_ERR_ARG;
+    }
+    if (cap->state != VD_CAPTURE_STREAMING) {
+        return vd_capture_fail(cap, VD_ERR_STATE, "skip: the capture is not streaming, or a frame is held");
+    }
+    file_impl_t *f = impl_of(cap);
+    uint64_t left = frames;
+    // Bounded: one step per raw file left open, then one per path (VD_FILE_MAX_FRAMES).
+    if (left > 0u && f->raw_fp != NULL) {
+        const uint64_t in_file = (uint64_t)(f->raw_frames - f->raw_index);
+        const uint64_t k = left < in_file ? left : in_file;
+        f->raw_index += (size_t)k;
+        f->seq += (uint32_t)k;
+        left -= k;
+        if (f->raw_index >= f->raw_frames) {
+            close_raw(f);
+        }
+    }
+    while (left > 0u && f->next_path < f->n_paths) {
+        const size_t i = f->next_path;
+        const uint64_t n = frames_of_path(f, i);
+        if (n <= left) {
+            f->next_path++;
+            f->seq += (uint32_t)n;
+            left -= n;
+            continue;
+        }
+        f->next_path++;   // the skip ends inside this raw file: open it there
+        vd_status_t st = open_raw_file(cap, f, f->paths[i]);
+        if (st != VD_OK) {
+            return st;
+        }
+        f->raw_index = (size_t)left;
+        f->seq += (uint32_t)left;
+        left = 0u;
+        if (f->raw_index >= f->raw_frames) {   // the file is shorter than its size said: at its end
+            close_raw(f);
+        }
+    }
+    if (left > 0u) {
+        cap->at_end = true;
+        return vd_capture_fail(cap, VD_ERR_RANGE, "end of the recording (%zu files, %u frames)", f->n_paths,
+                               (unsigned)f->seq);
+    }
     return VD_OK;
 }
 

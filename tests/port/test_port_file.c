@@ -478,6 +478,78 @@ static void test_directory_without_frames_and_missing_paths(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_IO, vd_file_open(&g_cap, pt_path("readme.txt"), VD_FILE_DIR, NULL));
 }
 
+// Frame `seq` of the skip test's clip.y16 (4x2 Y16, sample 0 = frame x 1000) named "...clip.y16#frame".
+static void expect_raw(uint32_t seq, uint32_t frame)
+{
+    vd_frame_t fr;
+    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_capture_next(&g_cap, 0, &fr), vd_capture_error(&g_cap));
+    TEST_ASSERT_EQUAL_UINT32(seq, fr.seq);
+    TEST_ASSERT_EQUAL_INT(VD_PIX_U16, fr.format);
+    TEST_ASSERT_EQUAL_UINT16(frame * 1000u, ((const uint16_t *)fr.data)[0]);
+    char want[32];
+    (void)snprintf(want, sizeof(want), "clip.y16#%u", (unsigned)frame);
+    const char *name = vd_capture_frame_name(&g_cap);
+    TEST_ASSERT_TRUE_MESSAGE(strlen(name) >= strlen(want) && strcmp(name + strlen(name) - strlen(want), want) == 0, name);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_release(&g_cap, &fr));
+}
+
+// vd_file_skip: images passed over by path, raw frames by count (into the middle of a raw file, out of one that
+// is open), seq as if every frame had been read, the end, and the states it refuses.
+static void test_skip_over_images_and_raw_frames(void)
+{
+    write_pgm8("a.pgm", 4u, 2u, 11u);
+    write_pgm8("b.pgm", 4u, 2u, 22u);
+    write_pgm8("c.pgm", 4u, 2u, 33u);
+    uint8_t raw[3 * 8 * 2];
+    memset(raw, 0, sizeof(raw));
+    for (uint32_t f = 0; f < 3u; f++) {   // sample 0 of frame f: f x 1000, little-endian
+        raw[f * 16u] = (uint8_t)((f * 1000u) & 0xFFu);
+        raw[f * 16u + 1u] = (uint8_t)((f * 1000u) >> 8);
+    }
+    (void)pt_write("clip.y16", raw, sizeof(raw));
+    const char *list = pt_write("frames.lst", "a.pgm\nclip.y16\nb.pgm\nc.pgm\n", 27u);
+    vd_capture_opts_t o;
+    vd_capture_opts_default(&o);
+    o.raw_width = 4u;
+    o.raw_height = 2u;
+    TEST_ASSERT_EQUAL_INT_MESSAGE(VD_OK, vd_capture_open(&g_cap, list, &o), vd_capture_error(&g_cap));
+    uint64_t total = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_file_frame_total(&g_cap, &total));
+    TEST_ASSERT_EQUAL_UINT64(6u, total);   // 3 images + 3 raw frames
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_file_skip(&g_cap, 1u));   // not started
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_start(&g_cap));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_file_skip(&g_cap, 0u));
+    vd_frame_t fr;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_next(&g_cap, 0, &fr));
+    TEST_ASSERT_EQUAL_UINT32(0u, fr.seq);
+    TEST_ASSERT_EQUAL_INT(VD_ERR_STATE, vd_file_skip(&g_cap, 1u));   // a frame held
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_release(&g_cap, &fr));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_file_skip(&g_cap, 2u));   // raw frames 0 and 1: into the raw file
+    expect_raw(3u, 2u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_file_skip(&g_cap, 1u));   // b.pgm
+    expect_frame(5u, 33u, "/c.pgm");
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_file_skip(&g_cap, 1u));
+    TEST_ASSERT_TRUE(vd_capture_at_end(&g_cap));
+    // Again from the start: over a.pgm to raw frame 0, then out of the open raw file over one frame.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_stop(&g_cap));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_start(&g_cap));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_file_skip(&g_cap, 1u));
+    expect_raw(1u, 0u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_file_skip(&g_cap, 1u));
+    expect_raw(3u, 2u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_file_skip(&g_cap, 2u));   // b.pgm, c.pgm: exactly to the end
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_capture_next(&g_cap, 0, &fr));
+    TEST_ASSERT_TRUE(vd_capture_at_end(&g_cap));
+    // A skip past the end of a raw file that is open, and the arguments refused.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_stop(&g_cap));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_capture_start(&g_cap));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_file_skip(&g_cap, 100u));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_file_skip(NULL, 1u));
+    vd_capture_t closed;
+    memset(&closed, 0, sizeof(closed));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_file_skip(&closed, 1u));
+}
+
 static void test_list_file(void)
 {
     write_pgm8("x1.pgm", 2u, 2u, 10u);
@@ -595,6 +667,7 @@ int main(void)
     RUN_TEST(test_directory_with_bad_files_skips_them);
     RUN_TEST(test_directory_without_frames_and_missing_paths);
     RUN_TEST(test_list_file);
+    RUN_TEST(test_skip_over_images_and_raw_frames);
     RUN_TEST(test_same_size_and_16bit_sequence);
     RUN_TEST(test_dev_path_that_is_a_folder_reads_files);
     return UNITY_END();

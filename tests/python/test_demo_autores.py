@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: MIT
-"""vd_fir_demo --cnn-full-res auto (the default; tools/demo/autores.c): on the first frames of a recording and
-their mirror images the demo measures the mean score of the networks' boxes and how far they agree with
-themselves, at half and at full resolution, and takes full resolution when their rating (mean score + 1/4
-agreement) is higher (vdtools.adapt.measure.choose_resolution without labels). Checked here on the bundled
-HIT-UAV clip (its vehicles are the training size: half resolution, detections unchanged) and on the same
-frames shrunk to a third (small vehicles: full resolution), against the Python measures, and for its edges:
-few frames, bad values, config files."""
+"""vd_fir_demo --cnn-full-res auto (the default; tools/demo/autores.c): on 64 frames spread over a recording (all of
+a shorter one; a camera's first 32) and their mirror images the demo measures the mean score of the networks'
+boxes and how far they agree with themselves, at half and at full resolution, and takes full resolution when
+their rating (mean score + 1/4 agreement) is higher (vdtools.adapt.measure.choose_resolution without labels).
+Checked here on the bundled HIT-UAV clip (its vehicles are the training size: half resolution, detections
+unchanged) and on the same frames shrunk to a third (small vehicles: full resolution), against the Python
+measures, and for its edges: few frames, bad values, config files."""
 import json
 import re
 from pathlib import Path
@@ -60,18 +60,17 @@ def choice(stdout):
     return m.group(1), v[0], v[1], int(m.group(8)), v[2], v[3], v[4], v[5]
 
 
-def python_measure(folder, n=32):
-    """measure.rating, mean_box_score and flip_agreement on the first n frames the demo reads (the port's
-    decoder: JPEG decoders differ from OpenCV's by a grey level here and there), both resolutions:
-    ([rating half, full], [score half, full], [agreement half, full])."""
+def python_measure(folder):
+    """measure.rating, mean_box_score and flip_agreement on the frames the demo measures (32 spread over the
+    recording: fleet.auto_sample; read by the port's decoder: JPEG decoders differ from OpenCV's by a grey level
+    here and there), both resolutions: ([rating half, full], [score half, full], [agreement half, full])."""
+    from vdtools.evaluation import fleet
     z = lambda k: np.zeros((0, k), np.float32)
     frames = []
     with port.Capture(folder) as cap:
-        for f, name in cap:
+        for f, name in cap.frames_at(fleet.auto_sample(cap.total())):
             frames.append(CD.Frame("user", name, name, "g", "val", port.pixels(f).copy(), z(4), z(4),
                                    np.zeros(0, bool), z(5)))
-            if len(frames) == n:
-                break
     thr = measure.header_threshold(MODELS)
     runs = [measure.flip_runs(MODELS, frames, full_res=k) for k in (False, True)]
     score = [measure.mean_box_score(MODELS, frames, thr, runs=r) for r in runs]
@@ -94,7 +93,8 @@ def test_clip_stays_at_half_resolution(demo, shipped, tmp_path):
     """Vehicles of the training size: half resolution, the detections of --cnn-full-res off byte for byte."""
     a = run(demo, "--json", tmp_path / "a.jsonl", "--quiet")
     c = choice(a.stdout)
-    assert (c[0], c[3]) == ("half", 32) and c[1] > c[2]
+    # the clip's 38 frames are fewer than the 64 a recording's sample spreads over: all of them are measured
+    assert (c[0], c[3]) == ("half", 38) and c[1] > c[2] and "spread over" not in a.stdout
     run(demo, "--json", tmp_path / "b.jsonl", "--quiet", "--cnn-full-res", "off")
     assert (tmp_path / "a.jsonl").read_bytes() == (tmp_path / "b.jsonl").read_bytes()
     # the same figures as the Python measures vd-adapt uses
@@ -105,7 +105,7 @@ def test_small_vehicles_choose_full_resolution(demo, shipped, small_clip, tmp_pa
     """The clip shrunk to a third: full resolution, and the detections of --cnn-full-res on."""
     a = run(demo, "--input", small_clip, "--json", tmp_path / "a.jsonl", "--quiet", "--temporal", "off")
     c = choice(a.stdout)
-    assert (c[0], c[3]) == ("full", 32) and c[2] > c[1]
+    assert (c[0], c[3]) == ("full", 38) and c[2] > c[1]
     same_figures(c[1:3] + c[4:], *python_measure(small_clip))
     run(demo, "--input", small_clip, "--json", tmp_path / "b.jsonl", "--quiet", "--temporal", "off",
         "--cnn-full-res", "on")
@@ -163,7 +163,7 @@ def test_input_errors_name_the_input(demo, shipped, tmp_path):
 
 
 def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
-    """vdtools.evaluation.fleet with the default settings measures a recording's first frames the same way
+    """vdtools.evaluation.fleet with the default settings measures a recording's frames the same way
     (auto_resolution, through the library's bindings): the same choice, mean box score and agreement as the demo's
     summary."""
     from vdtools.evaluation import fleet
@@ -174,8 +174,43 @@ def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
     for folder, want in ((CLIP, "half"), (small_clip, "full")):
         got = fleet.auto_resolution({"input": str(folder)}, fields, cnn)
         c = choice(run(demo, "--input", folder, "--quiet", "--temporal", "off").stdout)
-        assert (("full" if got["full"] else "half"), got["frames"]) == (c[0], c[3]) == (want, 32)
+        assert (("full" if got["full"] else "half"), got["frames"]) == (c[0], c[3]) == (want, 38)
         same_figures(c[1:3] + c[4:], got["rating"], got["score"], got["agreement"])
+
+
+def test_sample_spread_over_the_recording(demo, shipped, tmp_path):
+    """Which frames the measurement reads (flipagree.c demo_autores_sample = fleet.auto_sample): all of a
+    recording of at most 64, else the middle frame of each of 64 equal parts, (2k + 1) total / 128; and the demo
+    reads those: on a folder whose frames besides the sampled ones are flat grey (no box anywhere), the figures
+    are those of the sampled frames alone."""
+    from vdtools.evaluation import fleet
+    assert fleet.auto_sample(0) == [] and fleet.auto_sample(5) == [0, 1, 2, 3, 4]
+    assert fleet.auto_sample(64) == list(range(64))
+    # 65: (2k + 1) x 65 // 128 is k for k < 32 and k + 1 from k = 32 (65 x 65 // 128 = 33): frame 32 left out
+    assert fleet.auto_sample(65) == list(range(32)) + list(range(33, 65))
+    assert fleet.auto_sample(128) == list(range(1, 128, 2))
+    s = fleet.auto_sample(1000)
+    assert (s[0], s[1], s[-1], len(s)) == (7, 23, 992, 64)   # 1000 // 128, 3000 // 128, 127000 // 128
+    # the clip's frames at the places of a 96-frame recording's sample, flat grey frames (no box) elsewhere
+    import shutil
+    clip = clip_paths()
+    want = fleet.auto_sample(96)
+    assert want[:4] == [0, 2, 3, 5] and want[-1] == 95 and len(want) == 64   # (2k + 1) x 96 // 128
+    (tmp_path / "rec").mkdir()
+    (tmp_path / "alone").mkdir()
+    for i in range(96):
+        img = (cv2.imread(str(clip[want.index(i) % len(clip)]), cv2.IMREAD_GRAYSCALE) if i in want
+               else np.full((512, 640), 100, np.uint8))
+        cv2.imwrite(str(tmp_path / "rec" / f"f{i:03d}.png"), img)
+        if i in want:
+            shutil.copy(tmp_path / "rec" / f"f{i:03d}.png", tmp_path / "alone" / f"f{i:03d}.png")
+    out = lambda d: run(demo, "--input", d, "--quiet", "--temporal", "off", "--out", tmp_path / f"o_{d.name}").stdout
+    spread, alone = out(tmp_path / "rec"), out(tmp_path / "alone")
+    assert "over 64 frames spread over 96;" in spread and "spread over" not in alone
+    assert choice(spread) == choice(alone) and choice(spread)[1] > 0   # the sampled frames, none of the grey ones
+    # with --frames N the sample spreads over the first N
+    first = run(demo, "--input", tmp_path / "rec", "--quiet", "--frames", "80", "--out", tmp_path / "o80").stdout
+    assert "over 64 frames spread over 80;" in first
 
 
 def test_one_to_one_hand_worked():
@@ -225,8 +260,10 @@ def test_camera_measures_its_first_frames_as_they_come(demo, shipped, small_clip
     assert "first 32 frames are measured as they come" in a.stderr
     c = choice(a.stdout)
     assert (c[0], c[3]) == ("full", 32) and "as they came; from frame 32 on" in a.stdout
-    rec = run(demo, "--input", small_clip, "--json", tmp_path / "r.jsonl", "--quiet", "--temporal", "off")
-    assert choice(rec.stdout) == c
+    # a recording of those 32 frames is measured on all of them (a longer one on 32 spread over it)
+    rec = run(demo, "--input", small_clip, "--json", tmp_path / "r.jsonl", "--quiet", "--temporal", "off",
+              "--frames", "32")
+    assert choice(rec.stdout) == c and "spread over" not in rec.stdout
     for k in ("off", "on"):
         run(demo, "--input", camera_dir, "--json", tmp_path / f"{k}.jsonl", "--quiet", "--temporal", "off",
             "--cnn-full-res", k)

@@ -73,3 +73,68 @@ def test_figure_is_written(tmp_path):
             "val a 4 none": _row(float("nan"), float("nan"), None, None, None, None)}   # no vehicle: left out
     RE.figure(rows, tmp_path / "f.png")
     assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def _frame(group, qsum, nq, m, gts=()):
+    """One frame of window_evidence's per-frame measures: boxes for AP (one box per vehicle, score 0.9) and the
+    rating's counts."""
+    return dict(name=f"{group}_{qsum}", group=group, dets=[(g[:4], 0.9) for g in gts], gts=list(gts), qsum=qsum,
+                nq=nq, m=m)
+
+
+def test_window_rating_pools_counts_as_the_demo():
+    """window_evidence.rating: score_q8 sum / (255 boxes) + 1/4 x 2 matched / boxes over the frames it is given;
+    no box anywhere rates 0."""
+    from vdtools.adapt import window_evidence as WE
+    per = [_frame("a", 255, 2, (1, 2)), _frame("a", 0, 0, None), _frame("a", 51, 2, (0, 2))]
+    # boxes 4, score sum 306 -> 0.3; matched 1 of 4 -> agreement 0.5 -> 0.3 + 0.125
+    assert WE.rating(per, [0, 1, 2]) == pytest.approx(306 / (255 * 4) + 0.25 * 0.5)
+    assert WE.rating(per, [1]) == 0.0
+    assert WE.rating(per, [0]) == pytest.approx(255 / (255 * 2) + 0.25 * 1.0)
+
+
+def test_window_positions_are_the_demos_sample():
+    """The 'spread 64' window is fleet.auto_sample (the demo's demo_autores_sample); 'first 32' the rule before."""
+    from vdtools.adapt import window_evidence as WE
+    from vdtools.evaluation import fleet
+    w = WE.windows(200)
+    assert w["first 32"] == list(range(32)) and w["all"] == list(range(200))
+    assert w["spread 64"] == fleet.auto_sample(200) and w["spread 16"][:2] == [6, 18]   # 200 // 32, 600 // 32
+    assert WE.windows(20)["spread 64"] == list(range(20)) == WE.windows(20)["first 32"]
+
+
+def test_window_summary_hand_worked():
+    """A two-scene recording whose first scene rates full higher and whose second (and whole) rates half higher:
+    the first 32 frames choose wrong and lose the AP difference; spread and all choose right."""
+    from vdtools.adapt import window_evidence as WE
+    rows = [dict(kind="multi-scene", shift="none", family="hit", groups=["a", "b"], frames=64, ap=[0.8, 0.5],
+                 rating={"first 32": [0.60, 0.65], "spread 64": [0.62, 0.58], "all": [0.62, 0.58]}),
+            dict(kind="multi-scene", shift="down50", family="hit", groups=["a", "b"], frames=20, ap=[0.3, 0.6],
+                 rating={"first 32": [0.5, 0.6], "spread 64": [0.5, 0.6], "all": [0.5, 0.6]})]
+    s = WE.summary(rows)["multi-scene"]["hit"]
+    assert s["first 32"] == dict(right=1, n=2, lost=pytest.approx(30.0))
+    assert s["spread 64"] == s["all"] == dict(right=2, n=2, lost=0.0)
+    rep = dict(split="val", summary=WE.summary(rows), phase_loss={str(w): 0.0 for w in WE.SPREAD})
+    table = WE.render([rep])
+    assert "| val | multi-scene | hit | 1 / 2 (30) | 2 / 2 (0) | 2 / 2 (0) |" in table and "spread 96" in table
+    # fewer than 16 frames measured: half whatever the ratings say
+    rows[1]["frames"] = 15
+    assert WE.summary(rows)["multi-scene"]["hit"]["all"] == dict(right=1, n=2, lost=pytest.approx(30.0))
+
+
+def test_window_recordings_and_scores_on_built_measures():
+    """recordings: scene groups of >= 16 frames, the whole split, and multi-scene sets of >= 40 frames (the same
+    draws for every change); score: AP@0.5 over all the recording's frames at each resolution."""
+    from vdtools.adapt import window_evidence as WE
+    box = (0.0, 0.0, 10.0, 10.0, True, False)   # evaluate.match_flags' ground truth: x, y, w, h, vehicle, ignore
+    half = [_frame(g, 100, 1, (1, 2), [box]) for g in ("a",) * 20 + ("b",) * 30 + ("c",) * 10]
+    full = [dict(f, dets=[]) for f in half]   # full finds nothing: AP 0
+    res = {("none", "hit", "half"): half, ("none", "hit", "full"): full}
+    recs = WE.recordings(res)
+    kinds = [(k, g) for k, _, _, g, _ in recs]
+    assert ("scene", ["a"]) in kinds and ("scene", ["b"]) in kinds and ("scene", ["c"]) not in kinds
+    assert ("whole split", ["a", "b", "c"]) in kinds
+    multi = [(g, len(i)) for k, _, _, g, i in recs if k == "multi-scene"]
+    assert sorted(multi) == [(["a", "b"], 50), (["a", "b", "c"], 60), (["b", "c"], 40)]   # a + c: 30 < 40
+    rows = WE.score(res, recs)
+    assert all(r["ap"] == [pytest.approx(1.0), 0.0] for r in rows)

@@ -1,10 +1,24 @@
 // SPDX-License-Identifier: MIT
-// --cnn-full-res auto: which resolution the networks should read a recording at, measured on its first frames
+// --cnn-full-res auto: which resolution the networks should read a recording at, measured on 64 frames spread
+// over it
 // (the measurement itself: common/flipagree.c, which the GStreamer element shares).
 #include "autores.h"
 
 #include <stdio.h>
 #include <string.h>
+
+#include "vd_port/file.h"
+
+// The recording's frames the measurement may draw from: all (vd_file_frame_total), at most --frames; 0 when the
+// capture cannot say (then its first frames are read one after another).
+static uint64_t recording_frames(const demo_opts_t *o, const vd_capture_t *cap)
+{
+    uint64_t total = 0u;
+    if (vd_file_frame_total(cap, &total) != VD_OK) {
+        return 0u;
+    }
+    return (o->max_frames != 0u && total > o->max_frames) ? o->max_frames : total;
+}
 
 vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
                                  demo_autores_t *out, char *err, size_t err_len)
@@ -20,10 +34,19 @@ vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const 
     if (st != VD_OK) {
         snprintf(err, err_len, "%s", vd_capture_error(&cap)[0] ? vd_capture_error(&cap) : input);
     }
-    while (st == VD_OK && out->frames < DEMO_AUTORES_MAX_FRAMES &&
-           (o->max_frames == 0u || out->frames < o->max_frames)) {
+    out->total = st == VD_OK ? recording_frames(o, &cap) : 0u;
+    uint64_t pos = 0u;   // the next frame the capture hands out
+    while (st == VD_OK && out->frames < DEMO_AUTORES_SPREAD_FRAMES &&
+           (out->total == 0u ? (o->max_frames == 0u || out->frames < o->max_frames) : out->frames < out->total)) {
+        if (out->total != 0u) {   // spread over the recording: pass over the frames between two samples
+            const uint64_t want = demo_autores_sample(out->total, out->frames);
+            st = want > pos ? vd_file_skip(&cap, want - pos) : VD_OK;
+            pos = want + 1u;
+        }
         vd_frame_t f;
-        st = vd_capture_next(&cap, o->timeout_ms, &f);
+        if (st == VD_OK) {
+            st = vd_capture_next(&cap, o->timeout_ms, &f);
+        }
         if (st == VD_ERR_RANGE && vd_capture_at_end(&cap)) {
             st = VD_OK;
             break;

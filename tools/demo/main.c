@@ -565,9 +565,13 @@ static void summary(run_t *r)
         if (r->live.decided) {
             snprintf(from, sizeof from, ", as they came; from frame %llu on", (unsigned long long)r->live.from + 1u);
         }
+        char of[48] = "";   // a sample spread over a longer recording says of how many frames
+        if (a->total > a->frames) {
+            snprintf(of, sizeof of, " spread over %llu", (unsigned long long)a->total);
+        }
         printf("cnn input: %s resolution (--cnn-full-res auto: rating half %s, full %s; mean box score half %s, full "
-               "%s; flip agreement half %s, full %s over %u frames%s%s; %.2f s)\n", a->full ? "full" : "half",
-               rating[0], rating[1], score[0], score[1], pct[0], pct[1], (unsigned)a->frames,
+               "%s; flip agreement half %s, full %s over %u frames%s%s%s; %.2f s)\n", a->full ? "full" : "half",
+               rating[0], rating[1], score[0], score[1], pct[0], pct[1], (unsigned)a->frames, of,
                a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full" : "", from, a->seconds);
     }
     if (r->capacity_warnings > 0) {
@@ -690,7 +694,7 @@ static void capture_opts(const demo_opts_t *o, vd_capture_opts_t *copts)
     copts->same_size = true;
 }
 
-// --cnn-full-res auto: a recording is measured before the run (its first frames read twice); a camera's
+// --cnn-full-res auto: a recording is measured before the run (64 frames spread over it, read twice); a camera's
 // frames cannot be read twice, so they are measured as they come (autores_live) at half resolution.
 static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
 {

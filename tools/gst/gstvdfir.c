@@ -282,8 +282,8 @@ static GstStructure *detection_structure(const vd_detection_t *d, gboolean with_
     return s;
 }
 
-// --cnn-full-res auto on the first frames as they pass (the demo measures a recording's first frames before its
-// run; a stream cannot wait): frame f, unchanged yet, into the measurement; at DEMO_AUTORES_MAX_FRAMES the
+// --cnn-full-res auto on the first frames as they pass (the demo measures 64 frames spread over a recording before
+// its run; a stream cannot wait): frame f, unchanged yet, into the measurement; at DEMO_AUTORES_MAX_FRAMES the
 // choice, posted as a "vdfir-resolution" element message, and at full resolution a new detector from this
 // frame on (tracks start over, seq continues). A measurement that cannot run leaves half resolution with a
 // warning. FALSE: the new detector failed (its error is posted).

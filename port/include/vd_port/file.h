@@ -42,6 +42,15 @@ vd_status_t vd_file_open(vd_capture_t *cap, const char *path, vd_file_kind_t kin
 // Returns VD_OK; VD_ERR_ARG (NULL, or cap is not an open file capture, e.g. V4L2).
 vd_status_t vd_file_frame_total(const vd_capture_t *cap, uint64_t *frames);
 
+// Moves a streaming file capture (started, no frame held) `frames` frames on without reading them: image paths
+// are passed over, raw frames by their count (the file's size / frame size, as vd_file_frame_total counts
+// them), so next() hands out the frame that many places later, its seq counted as if the skipped ones had
+// been read. Why: a measurement spread over a long recording (vd_fir_demo --cnn-full-res auto) need not
+// decode the frames between its samples. Past the end: VD_ERR_RANGE with vd_capture_at_end() true.
+// Returns VD_OK; VD_ERR_ARG (NULL, or not a file capture); VD_ERR_STATE (not streaming, or a frame held);
+// VD_ERR_IO (a raw file to skip into cannot be opened).
+vd_status_t vd_file_skip(vd_capture_t *cap, uint64_t frames);
+
 // A decoded image: malloc'd pixels (host byte order), stride = width * bytes per pixel.
 typedef struct vd_decoded {
     void *data;

@@ -35,6 +35,15 @@ struct demo_flipagree {
     vd_pixfmt_t format;
 };
 
+uint64_t demo_autores_sample(uint64_t total, uint32_t k)
+{
+    if (total <= DEMO_AUTORES_SPREAD_FRAMES) {
+        return k;
+    }
+    const uint64_t parts = 2u * DEMO_AUTORES_SPREAD_FRAMES, odd = 2u * (uint64_t)k + 1u;
+    return (total / parts) * odd + ((total % parts) * odd) / parts;   // floor(odd total / parts), no overflow
+}
+
 double demo_autores_agreement(const demo_autores_t *a, int full)
 {
     const int k = full ? 1 : 0;

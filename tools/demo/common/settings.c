@@ -257,7 +257,7 @@ static bool set_track_sigma_rel(demo_opts_t *o, const char *v)
 }
 
 // on/off (and the rest of a switch's words) or auto: vd_fir_demo measures at which resolution the networks'
-// boxes on the first frames rate higher (common/flipagree.c; tools/demo/autores.c).
+// boxes on 64 frames spread over a recording rate higher (common/flipagree.c; tools/demo/autores.c).
 static bool set_cnn_full_res(demo_opts_t *o, const char *v)
 {
     bool on = false;
@@ -588,8 +588,8 @@ static const setting_t k_settings[] = {
      "cnn source: the networks read the frame at full resolution instead of half (for a camera "
      "whose vehicles are about half the size of the training data's, e.g. a wider lens: 4x the "
      "networks' time and a larger workspace). auto (default): full when the networks' boxes rate "
-     "higher at full resolution (mean score + flip agreement / 4) over the first 16-32 frames "
-     "(docs/demo.md; a camera's as they come); half for fewer frames",
+     "higher at full resolution (mean score + flip agreement / 4) on 64 frames spread over "
+     "the recording (docs/demo.md; a camera's first 32 as they come); half under 16 frames",
      CUSTOM(set_cnn_full_res), OPTIONAL_OR("auto")},
     {"cnn-model2", "FILE|none",
      "cnn source: a second version-3 .vdm network run on the same frame, its boxes fused with "

@@ -46,7 +46,7 @@ typedef struct demo_opts {
     bool max_candidates_set;    // --max-candidates / --max-detections given: not raised for the CNN
     bool max_detections_set;
     bool cnn_full_res_auto;     // --cnn-full-res auto (the default): vd_fir_demo and the element choose
-                                // cfg.cnn_full_res on the first frames (common/flipagree.c); the fleet too
+                                // cfg.cnn_full_res on a recording's frames (common/flipagree.c); the fleet too
 } demo_opts_t;
 
 // The detector setting called `name` ("cnn-flip" or "cnn_flip"); -1 if there is none.

@@ -63,6 +63,10 @@ def load():
             getattr(lib, fn).restype = C.c_char_p
         lib.vd_capture_at_end.argtypes = [C.c_void_p]
         lib.vd_capture_at_end.restype = C.c_bool
+        lib.vd_file_frame_total.argtypes = [C.c_void_p, C.POINTER(C.c_uint64)]
+        lib.vd_file_frame_total.restype = C.c_int
+        lib.vd_file_skip.argtypes = [C.c_void_p, C.c_uint64]
+        lib.vd_file_skip.restype = C.c_int
         _lib = lib
     return _lib
 
@@ -102,8 +106,30 @@ class Capture:
     def __iter__(self):
         """(frame, name) per frame; the frame is released when the next one is asked for. A capture error
         (missing, truncated or undecodable file) raises CaptureError, as the demo ends its run."""
+        return self.frames_at(None)
+
+    def total(self):
+        """The frames the recording will hand out (vd_file_frame_total: one per image, size / frame size per
+        raw file)."""
+        n = C.c_uint64()
+        st = load().vd_file_frame_total(self._cap, C.byref(n))
+        if st != clib.VD_OK:
+            raise CaptureError(st, "not a recorded input")
+        return int(n.value)
+
+    def frames_at(self, indices):
+        """As iterating, but only the frames of the ascending 0-based `indices` (None: every frame), passing
+        over the others without decoding them (vd_file_skip), as vd_fir_demo's --cnn-full-res auto does."""
         lib = load()
-        while True:
+        pos = 0
+        for want in (iter(int, 1) if indices is None else indices):
+            if indices is not None and want > pos:
+                st = lib.vd_file_skip(self._cap, want - pos)
+                if st == VD_ERR_RANGE and lib.vd_capture_at_end(self._cap):
+                    return
+                if st != clib.VD_OK:
+                    raise CaptureError(st, self.error())
+            pos = (want if indices is not None else pos) + 1
             f = clib.Frame()
             st = lib.vd_capture_next(self._cap, 0, C.byref(f))
             if st == VD_ERR_RANGE and lib.vd_capture_at_end(self._cap):

@@ -219,7 +219,7 @@ def resolve(settings, models_dir=None):
     models_dir = Path(models_dir or clib.REPO / "models")
     fields = {"temporal": _switch(s.get("temporal", True)), "cnn_flip": int(_switch(s.get("cnn-flip", True)))}
     # cnn-full-res: on/off, or auto (the default, as vd_fir_demo's): no field here, run() measures each
-    # recording's first frames as the demo does (auto_resolution)
+    # recording's frames as the demo does (auto_resolution: 64 spread over it)
     if "cnn-full-res" in s and str(s["cnn-full-res"]) != "auto":
         fields["cnn_full_res"] = int(_switch(s["cnn-full-res"]))
     # temporal_cfg: the demo's track-aware scores (default on) and coasting (default 0)
@@ -291,24 +291,35 @@ def resolve(settings, models_dir=None):
     return fields, cnn, dbn, desc
 
 
-AUTO_MAX_FRAMES, AUTO_MIN_FRAMES, AUTO_AGREE_WEIGHT = 32, 16, 0.25   # tools/demo/common/flipagree.h DEMO_AUTORES_*
+AUTO_SPREAD_FRAMES, AUTO_MIN_FRAMES, AUTO_AGREE_WEIGHT = 64, 16, 0.25   # tools/demo/common/flipagree.h DEMO_AUTORES_*
+
+
+def auto_sample(total):
+    """The frames (0-based, ascending) vd_fir_demo's --cnn-full-res auto measures of a recording of `total`:
+    all of a short one, else the middle frame of each of AUTO_SPREAD_FRAMES equal parts, (2k + 1) total / 128
+    (tools/demo/common/flipagree.c demo_autores_sample)."""
+    if total <= AUTO_SPREAD_FRAMES:
+        return list(range(total))
+    return [(2 * k + 1) * total // (2 * AUTO_SPREAD_FRAMES) for k in range(AUTO_SPREAD_FRAMES)]
 
 
 def auto_resolution(rec, fields, cnn):
-    """vd_fir_demo's --cnn-full-res auto (tools/demo/common/flipagree.c) on a recording: its first AUTO_MAX_FRAMES
-    frames (as the port reads them) and their mirror images through the CNN source alone (the resolved
-    networks and threshold, one pass each, no tracking) at half and at full resolution: the mean score of those
-    boxes (score_q8 / 255) and their agreement (boxes of the mirror image, mirrored back, matched one to one at
-    IoU >= 0.5: metrics.evaluate.one_to_one; pooled 2 x matched / boxes). Full resolution when the rating,
-    mean score + 1/4 agreement, is higher and at least AUTO_MIN_FRAMES frames were read.
-    Returns dict(full, frames, rating=, score=, agreement=[half, full]) (None: no box at that resolution)."""
+    """vd_fir_demo's --cnn-full-res auto (tools/demo/common/flipagree.c) on a recording: AUTO_SPREAD_FRAMES
+    frames spread over it (auto_sample; as the port reads them) and their mirror images through the CNN
+    source alone (the resolved networks and threshold, one pass each, no tracking) at half and at full
+    resolution: the mean score of those boxes (score_q8 / 255) and their agreement (boxes of the mirror image,
+    mirrored back, matched one to one at IoU >= 0.5: metrics.evaluate.one_to_one; pooled 2 x matched / boxes).
+    Full resolution when the rating, mean score + 1/4 agreement, is higher and at least AUTO_MIN_FRAMES frames
+    were read. Returns dict(full, frames, total, rating=, score=, agreement=[half, full]) (None: no box at that
+    resolution)."""
     import numpy as np
     from vdtools.metrics.evaluate import one_to_one, rating_of
     from vdtools.bindings import port
     sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
     runners, counts, n = [None, None], [[0, 0, 0], [0, 0, 0]], 0   # matched, boxes, score_q8 sum
     with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
-        for f, _name in cap:
+        total = cap.total()
+        for f, _name in cap.frames_at(auto_sample(total)):
             img = port.pixels(f).copy()
             mirror = np.ascontiguousarray(img[:, ::-1])
             w = img.shape[1]
@@ -324,13 +335,11 @@ def auto_resolution(rec, fields, cnn):
                     counts[k][0] += r[0]
                     counts[k][1] += r[1]
             n += 1
-            if n == AUTO_MAX_FRAMES:
-                break
     agree = [2 * m / b if b else None for m, b, _ in counts]
     score = [q / (255.0 * b) if b else None for _, b, q in counts]
     rating = [rating_of(s, a, AUTO_AGREE_WEIGHT) for s, a in zip(score, agree)]
     full = n >= AUTO_MIN_FRAMES and (rating[1] or 0.0) > (rating[0] or 0.0)
-    return dict(full=full, frames=n, rating=rating, score=score, agreement=agree)
+    return dict(full=full, frames=n, total=total, rating=rating, score=score, agreement=agree)
 
 
 # ------------------------------------------------------------------ one shard (runs on a worker)
