@@ -7,8 +7,8 @@
 //      third-party stb_image, out of scope here);
 //   1  vd_pgm_parse_header and vd_raw_frame_count with fuzzed sizes;
 //   2  the payload written to a temporary .raw file and read through
-//      vd_capture_open/start/next/release/stop/start/close with fuzzed
-//      raw_width/raw_height/format/endianness;
+//      vd_capture_open/start/next/release/stop/start (vd_file_skip)/close with
+//      fuzzed raw_width/raw_height/format/endianness;
 //   3  the same for a .pgm file.
 // Every frame handed out must pass vd_frame_check and is read completely.
 #include "fuzz_common.h"
@@ -57,7 +57,12 @@ static void via_capture(const uint8_t *p, size_t n, const char *ext, const vd_ca
     if (st == VD_OK) {
         for (int round = 0; round < 2; round++) {
             FZ_CHECK(vd_capture_start(&cap) == VD_OK);
-            for (int k = 0; k < 10; k++) {
+            // The second round first passes over 0-4 frames (vd_file_skip), into or past a raw file.
+            st = vd_file_skip(&cap, round == 1 ? (uint64_t)(n % 5u) : 0u);
+            FZ_CHECK(st == VD_OK || st == VD_ERR_RANGE || st == VD_ERR_IO || st == VD_ERR_FORMAT ||
+                     st == VD_ERR_OVERFLOW);
+            FZ_CHECK(st != VD_ERR_RANGE || vd_capture_at_end(&cap));
+            for (int k = 0; k < 10 && st != VD_ERR_RANGE; k++) {
                 vd_frame_t fr;
                 st = vd_capture_next(&cap, 0, &fr);
                 if (st == VD_OK) {

@@ -106,7 +106,11 @@ class Capture:
     def __iter__(self):
         """(frame, name) per frame; the frame is released when the next one is asked for. A capture error
         (missing, truncated or undecodable file) raises CaptureError, as the demo ends its run."""
-        return self.frames_at(None)
+        while True:
+            got = self._next()
+            if got is None:
+                return
+            yield from got
 
     def total(self):
         """The frames the recording will hand out (vd_file_frame_total: one per image, size / frame size per
@@ -118,29 +122,40 @@ class Capture:
         return int(n.value)
 
     def frames_at(self, indices):
-        """As iterating, but only the frames of the ascending 0-based `indices` (None: every frame), passing
-        over the others without decoding them (vd_file_skip), as vd_fir_demo's --cnn-full-res auto does."""
-        lib = load()
-        pos = 0
-        for want in (iter(int, 1) if indices is None else indices):
-            if indices is not None and want > pos:
+        """As iterating, but only the frames of the ascending 0-based `indices` (counted from where the capture
+        stands: its first frame when fresh), passing over the others without decoding them (vd_file_skip), as
+        vd_fir_demo's --cnn-full-res auto does."""
+        lib, pos = load(), 0
+        for want in indices:
+            if want > pos:
                 st = lib.vd_file_skip(self._cap, want - pos)
                 if st == VD_ERR_RANGE and lib.vd_capture_at_end(self._cap):
                     return
                 if st != clib.VD_OK:
                     raise CaptureError(st, self.error())
-            pos = (want if indices is not None else pos) + 1
-            f = clib.Frame()
-            st = lib.vd_capture_next(self._cap, 0, C.byref(f))
-            if st == VD_ERR_RANGE and lib.vd_capture_at_end(self._cap):
+            pos = want + 1
+            got = self._next()
+            if got is None:
                 return
-            if st != clib.VD_OK:
-                raise CaptureError(st, self.error())
-            name = lib.vd_capture_frame_name(self._cap)
+            yield from got
+
+    def _next(self):
+        """The next frame as a one-item generator that releases it when resumed, or None at the end."""
+        lib = load()
+        f = clib.Frame()
+        st = lib.vd_capture_next(self._cap, 0, C.byref(f))
+        if st == VD_ERR_RANGE and lib.vd_capture_at_end(self._cap):
+            return None
+        if st != clib.VD_OK:
+            raise CaptureError(st, self.error())
+        name = os.path.basename(os.fsdecode(lib.vd_capture_frame_name(self._cap) or b""))
+
+        def held():
             try:
-                yield f, os.path.basename(os.fsdecode(name or b""))
+                yield f, name
             finally:
                 lib.vd_capture_release(self._cap, C.byref(f))
+        return held()
 
     def close(self):
         if self._open:
