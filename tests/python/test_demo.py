@@ -187,6 +187,29 @@ def test_raw_and_list_inputs(demo, clip_dir, tmp_path):
     check_jsonl(jl, [f"frame_{t:04d}.pgm" for t in range(3)])
 
 
+
+def test_16bit_outside_the_grey_window_is_noted(demo, clip_dir, tmp_path):
+    """16-bit samples of a camera that is not radiometric land outside the grey window (default TLinear 0.01 K,
+    0-51 C) and the networks see black or white: the summary says so and names the options; radiometric frames
+    (the generated u16 clip) and a --calib that maps the samples into the window get no note."""
+    import cv2
+    note = "16-bit samples lie outside the grey window"
+    grey = cv2.imread(str(REPO / "tools" / "demo" / "hit-uav-clip" / "images" / "0_100_50_0_08162.jpg"),
+                      cv2.IMREAD_GRAYSCALE)
+    counts = grey.astype("<u2") * 64 + 1000            # raw counts 1000..17320 (10..173 K as TLinear)
+    raw = tmp_path / "counts.y16"
+    raw.write_bytes(counts.tobytes() * 2)
+    base = ["--input", raw, "--raw-size", "640x512", "--quiet", "--out", tmp_path / "o", "--cnn-full-res", "off"]
+    out = run(demo, *base).stdout
+    assert "note: 100.0 % of the first frame's " + note + " (raw 27315..32415)" in out and "--calib" in out
+    # gain 5100 / 16320 = 0.3125, offset 27315 - 1000 x 0.3125: the counts fill 0..51 C, the window
+    out = run(demo, *base, "--calib", "0.3125,27002").stdout
+    assert note not in out
+    out = run(demo, "--input", clip_dir / "u16", "--frames", "2", "--model", "none", "--quiet", "--out",
+              tmp_path / "o2").stdout
+    assert note not in out
+
+
 def bad_cases(clip_dir, tmp):
     """(name, args) of inputs that must fail cleanly."""
     src = clip_dir / "u8"

@@ -73,6 +73,7 @@ typedef struct run {
     uint32_t width, height;
     vd_pixfmt_t format;
     uint32_t grey_lo_raw, grey_hi_raw;
+    uint32_t grey_outside_permille;   // 16-bit: the first frame's samples outside the grey window, per mille
     demo_report_t report;    // --report
     bool have_report;
     demo_progress_t prog;    // zeroed (off) until the frame loop starts
@@ -333,10 +334,28 @@ static vd_status_t draw_frame(run_t *r, const char *name, const vd_frame_t *f, s
     return VD_OK;
 }
 
+#define DEMO_GREY_OUTSIDE_NOTE 900u   // per mille outside the grey window that the summary notes
+
 static uint32_t raw_of_ck(const vd_calib_t *c, int32_t ck)
 {
     double raw = ((double)ck - c->offset_ck) * 65536.0 / c->gain_q16;
     return raw < 0 ? 0u : raw > 65535.0 ? 65535u : (uint32_t)lround(raw);
+}
+
+// Per mille of a 16-bit frame's samples outside [lo, hi]: the grey map clips them to black or white, and the
+// networks see a flat plane. Why: a camera that is not radiometric (raw counts, not TLinear 0.01 K) lands
+// outside the default window and gets almost no CNN box without a word (docs/demo.md, "16-bit frames").
+static uint32_t outside_permille(const vd_frame_t *f, uint32_t lo, uint32_t hi)
+{
+    uint64_t out = 0u;
+    for (uint32_t y = 0; y < f->height; y++) {
+        const uint16_t *row = (const uint16_t *)(const void *)((const uint8_t *)f->data + (size_t)y * f->stride);
+        for (uint32_t x = 0; x < f->width; x++) {
+            out += (row[x] < lo || row[x] > hi) ? 1u : 0u;
+        }
+    }
+    const uint64_t n = (uint64_t)f->width * f->height;
+    return n != 0u ? (uint32_t)((out * 1000u) / n) : 0u;
 }
 
 // Candidate observer (--eval): keeps the boxes the verifier will see.
@@ -410,6 +429,9 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     r->grey_hi_raw = raw_of_ck(&r->det.cfg.calib, r->det.cfg.grey_hi_ck);
     if (r->grey_hi_raw <= r->grey_lo_raw) {
         r->grey_hi_raw = r->grey_lo_raw + 1u;
+    }
+    if (f->format == VD_PIX_U16) {
+        r->grey_outside_permille = outside_permille(f, r->grey_lo_raw, r->grey_hi_raw);
     }
     if (r->staging) {
         st = vd_rgb_alloc(&r->canvas, f->width, f->height);
@@ -573,6 +595,12 @@ static void summary(run_t *r)
                "%s; flip agreement half %s, full %s over %u frames%s%s%s; %.2f s)\n", a->full ? "full" : "half",
                rating[0], rating[1], score[0], score[1], pct[0], pct[1], (unsigned)a->frames, of,
                a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full" : "", from, a->seconds);
+    }
+    if (r->format == VD_PIX_U16 && r->grey_outside_permille >= DEMO_GREY_OUTSIDE_NOTE) {
+        printf("note: %.1f %% of the first frame's 16-bit samples lie outside the grey window (raw %u..%u): the "
+               "networks see them as black or white. A camera that is not radiometric (TLinear 0.01 K) needs "
+               "--calib GAIN,OFFSET_CK or --grey-range-c LO,HI for its samples (docs/demo.md, \"16-bit frames\")\n",
+               r->grey_outside_permille / 10.0, (unsigned)r->grey_lo_raw, (unsigned)r->grey_hi_raw);
     }
     if (r->capacity_warnings > 0) {
         printf("note: %llu frames hit a detector budget (VD_ERR_CAPACITY; see --max-candidates, --max-detections)\n",
