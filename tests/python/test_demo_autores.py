@@ -61,7 +61,7 @@ def choice(stdout):
 
 
 def python_measure(folder):
-    """measure.rating, mean_box_score and flip_agreement on the frames the demo measures (32 spread over the
+    """measure.rating, mean_box_score and flip_agreement on the frames the demo measures (64 spread over the
     recording: fleet.auto_sample; read by the port's decoder: JPEG decoders differ from OpenCV's by a grey level
     here and there), both resolutions: ([rating half, full], [score half, full], [agreement half, full])."""
     from vdtools.evaluation import fleet
@@ -260,7 +260,7 @@ def test_camera_measures_its_first_frames_as_they_come(demo, shipped, small_clip
     assert "first 32 frames are measured as they come" in a.stderr
     c = choice(a.stdout)
     assert (c[0], c[3]) == ("full", 32) and "as they came; from frame 32 on" in a.stdout
-    # a recording of those 32 frames is measured on all of them (a longer one on 32 spread over it)
+    # a recording of those 32 frames is measured on all of them (a longer one on 64 spread over it)
     rec = run(demo, "--input", small_clip, "--json", tmp_path / "r.jsonl", "--quiet", "--temporal", "off",
               "--frames", "32")
     assert choice(rec.stdout) == c and "spread over" not in rec.stdout

@@ -75,18 +75,18 @@ def test_figure_is_written(tmp_path):
     assert (tmp_path / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def _frame(group, qsum, nq, m, gts=()):
+def _frame(group, qsum, m, gts=()):
     """One frame of window_evidence's per-frame measures: boxes for AP (one box per vehicle, score 0.9) and the
-    rating's counts."""
+    rating's counts (score_q8 sum; matched, boxes)."""
     return dict(name=f"{group}_{qsum}", group=group, dets=[(g[:4], 0.9) for g in gts], gts=list(gts), qsum=qsum,
-                nq=nq, m=m)
+                m=m)
 
 
 def test_window_rating_pools_counts_as_the_demo():
     """window_evidence.rating: score_q8 sum / (255 boxes) + 1/4 x 2 matched / boxes over the frames it is given;
     no box anywhere rates 0."""
     from vdtools.adapt import window_evidence as WE
-    per = [_frame("a", 255, 2, (1, 2)), _frame("a", 0, 0, None), _frame("a", 51, 2, (0, 2))]
+    per = [_frame("a", 255, (1, 2)), _frame("a", 0, None), _frame("a", 51, (0, 2))]
     # boxes 4, score sum 306 -> 0.3; matched 1 of 4 -> agreement 0.5 -> 0.3 + 0.125
     assert WE.rating(per, [0, 1, 2]) == pytest.approx(306 / (255 * 4) + 0.25 * 0.5)
     assert WE.rating(per, [1]) == 0.0
@@ -127,7 +127,7 @@ def test_window_recordings_and_scores_on_built_measures():
     draws for every change); score: AP@0.5 over all the recording's frames at each resolution."""
     from vdtools.adapt import window_evidence as WE
     box = (0.0, 0.0, 10.0, 10.0, True, False)   # evaluate.match_flags' ground truth: x, y, w, h, vehicle, ignore
-    half = [_frame(g, 100, 1, (1, 2), [box]) for g in ("a",) * 20 + ("b",) * 30 + ("c",) * 10]
+    half = [_frame(g, 100, (1, 2), [box]) for g in ("a",) * 20 + ("b",) * 30 + ("c",) * 10]
     full = [dict(f, dets=[]) for f in half]   # full finds nothing: AP 0
     res = {("none", "hit", "half"): half, ("none", "hit", "full"): full}
     recs = WE.recordings(res)

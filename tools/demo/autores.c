@@ -4,6 +4,7 @@
 // (the measurement itself: common/flipagree.c, which the GStreamer element shares).
 #include "autores.h"
 
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -35,9 +36,10 @@ vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const 
         snprintf(err, err_len, "%s", vd_capture_error(&cap)[0] ? vd_capture_error(&cap) : input);
     }
     out->total = st == VD_OK ? recording_frames(o, &cap) : 0u;
+    // frames the measurement may read: the recording's (or, not known, --frames or any number up to the end)
+    const uint64_t limit = out->total != 0u ? out->total : (o->max_frames != 0u ? o->max_frames : UINT64_MAX);
     uint64_t pos = 0u;   // the next frame the capture hands out
-    while (st == VD_OK && out->frames < DEMO_AUTORES_SPREAD_FRAMES &&
-           (out->total == 0u ? (o->max_frames == 0u || out->frames < o->max_frames) : out->frames < out->total)) {
+    while (st == VD_OK && out->frames < DEMO_AUTORES_SPREAD_FRAMES && out->frames < limit) {
         if (out->total != 0u) {   // spread over the recording: pass over the frames between two samples
             const uint64_t want = demo_autores_sample(out->total, out->frames);
             st = want > pos ? vd_file_skip(&cap, want - pos) : VD_OK;

@@ -42,9 +42,9 @@ DRAWS, MIN_SET_FRAMES, GROUPS = 200, 40, (2, 8)
 
 
 def collect(frames, shift, thr):
-    """{(shift, family, 'half'|'full'): [per frame in name order: name, group, dets, gts (for AP@0.5), qsum and
-    nq (score_q8 sum and count of the boxes >= thr of the frame and its mirror image), m (one_to_one of the
-    two, or None)]}."""
+    """{(shift, family, 'half'|'full'): [per frame in name order: name, group, dets, gts (for AP@0.5), qsum (the
+    score_q8 sum of the boxes >= thr of the frame and its mirror image) and m (one_to_one of the two: matched,
+    boxes; None without a box)]}."""
     out = {}
     for fam in FAMILIES:
         fs = [f for f in frames if CD.family(f) == fam]
@@ -57,12 +57,11 @@ def collect(frames, shift, thr):
             ra, rb = M.flip_runs(MODELS, part, full)
             per = []
             for i, f in enumerate(fs):
-                qa = [M.score_q8(s) for _, s in ra[i][2] if s >= thr]
-                qb = [M.score_q8(s) for _, s in rb[i][2] if s >= thr]
-                m = M.one_to_one([x[0] for x in ra[i][2] if x[1] >= thr], [x[0] for x in rb[i][2] if x[1] >= thr],
-                                 M.AGREE_IOU)
+                a = [x for x in ra[i][2] if x[1] >= thr]
+                b = [x for x in rb[i][2] if x[1] >= thr]
                 per.append(dict(name=Path(f.path).name, group=str(f.group), dets=det[i][2], gts=det[i][3],
-                                qsum=sum(qa) + sum(qb), nq=len(qa) + len(qb), m=m))
+                                qsum=sum(M.score_q8(s) for _, s in a + b),
+                                m=M.one_to_one([x[0] for x in a], [x[0] for x in b], M.AGREE_IOU)))
             out[(shift, fam, res)] = per
             print(f"{shift} {fam} {res}: {len(fs)} frames", flush=True)
     return out
@@ -70,30 +69,22 @@ def collect(frames, shift, thr):
 
 def rating(per, idx):
     """The rule's rating over frames idx (0 without a box: no evidence), as flipagree.c pools it."""
-    m = b = q = n = 0
+    m = b = q = 0
     for i in idx:
-        r = per[i]["m"]
-        if r is not None:
-            m, b = m + r[0], b + r[1]
-        q, n = q + per[i]["qsum"], n + per[i]["nq"]
-    return M.rating_of(q / (255.0 * n), 2 * m / b) if b else 0.0
+        if per[i]["m"] is not None:
+            m, b, q = m + per[i]["m"][0], b + per[i]["m"][1], q + per[i]["qsum"]
+    return M.rating_of(q / (255.0 * b), 2 * m / b) if b else 0.0
 
 
 def ap(per, idx):
     return CE.average_precision([(per[i]["dets"], per[i]["gts"]) for i in idx])[0]
 
 
-def spread(n, w):
-    """fleet.auto_sample with w parts instead of AUTO_SPREAD_FRAMES."""
-    return list(range(n)) if n <= w else [(2 * k + 1) * n // (2 * w) for k in range(w)]
-
-
 def windows(n):
     """Positions (in the recording) each window measures."""
     out = {"first 32": list(range(min(n, FIRST)))}
-    out.update({f"spread {w}": spread(n, w) for w in SPREAD})
+    out.update({f"spread {w}": fleet.auto_sample(n, w) for w in SPREAD})
     out["all"] = list(range(n))
-    assert out[f"spread {fleet.AUTO_SPREAD_FRAMES}"] == fleet.auto_sample(n)
     return out
 
 

@@ -294,13 +294,13 @@ def resolve(settings, models_dir=None):
 AUTO_SPREAD_FRAMES, AUTO_MIN_FRAMES, AUTO_AGREE_WEIGHT = 64, 16, 0.25   # tools/demo/common/flipagree.h DEMO_AUTORES_*
 
 
-def auto_sample(total):
+def auto_sample(total, parts=AUTO_SPREAD_FRAMES):
     """The frames (0-based, ascending) vd_fir_demo's --cnn-full-res auto measures of a recording of `total`:
-    all of a short one, else the middle frame of each of AUTO_SPREAD_FRAMES equal parts, (2k + 1) total / 128
-    (tools/demo/common/flipagree.c demo_autores_sample)."""
-    if total <= AUTO_SPREAD_FRAMES:
+    all of a short one, else the middle frame of each of `parts` equal parts, (2k + 1) total / (2 parts)
+    (tools/demo/common/flipagree.c demo_autores_sample; other `parts`: vdtools.adapt.window_evidence)."""
+    if total <= parts:
         return list(range(total))
-    return [(2 * k + 1) * total // (2 * AUTO_SPREAD_FRAMES) for k in range(AUTO_SPREAD_FRAMES)]
+    return [(2 * k + 1) * total // (2 * parts) for k in range(parts)]
 
 
 def auto_resolution(rec, fields, cnn):
