@@ -36,7 +36,7 @@ typedef struct demo_autores {
 // lost 790 AP points in all, on 32 spread frames 626, on 64 spread frames 385 and on every frame 156; averaged over
 // where in each part the sample falls, the loss falls with every size from 16 to 96 (docs/results/cameras.md,
 // "Which frames the rule measures"; vdtools.adapt.window_evidence). 64 frames: twice the measurement time of before
-// (64 frames of 640x512: 1.8-2.9 s with the AVX-512 VNNI kernels), a fixed cost however long the recording.
+// (64 frames of 640x512: a median of 1.9 s with the AVX-512 VNNI kernels), a fixed cost however long the recording.
 // vdtools.evaluation.fleet.auto_sample is the same.
 uint64_t demo_autores_sample(uint64_t total, uint32_t k);
 
