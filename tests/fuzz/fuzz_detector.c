@@ -124,6 +124,15 @@ static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask, int has_model
     const int32_t lo = c->grey_lo_ck ? c->grey_lo_ck : hot - 3000;
     const int32_t hi = c->grey_hi_ck ? c->grey_hi_ck : hot + 2100;
     const uint32_t cand = c->max_candidates ? c->max_candidates : 64u;
+    int64_t top = 0;   // percentile grey window: the temperature of raw 65535 (calib.h's rounding)
+    if (c->calib.gain_q16 >= 0) {
+        const int64_t g = c->calib.gain_q16 ? c->calib.gain_q16 : 65536;
+        top = (int64_t)c->calib.offset_ck + ((65535 * g + 32768) >> 16);
+    }
+    if (c->grey_mode > 1u || (c->grey_mode == 1u && (c->grey_tail_permille > 499u ||
+                                                     top > (int64_t)INT32_MAX - VD_DETECTOR_GREY_MIN_SPAN_CK))) {
+        return -1;
+    }
     if (c->thr_mode > 1u || c->adaptive_permille > 1000u || c->hot_thr_ck < 0 || c->calib.gain_q16 < 0 || lo >= hi ||
         (c->expand_w_q8 && (c->expand_w_q8 < 256u || c->expand_w_q8 > 2048u)) ||
         (c->expand_h_q8 && (c->expand_h_q8 < 256u || c->expand_h_q8 > 2048u)) ||
@@ -203,6 +212,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FZ_FIELD(30, temporal_cfg.flags, (uint8_t)(fz_u8(&r) % 0x30u));   // incl. VD_TEMPORAL_SCORES and invalid bits
     FZ_FIELD(31, temporal_cfg.coast_frames, fz_u8(&r));
 #undef FZ_FIELD
+    if (flags & 128u) {   // the per-frame grey window of 16-bit frames, incl. an invalid mode and tails
+        const uint16_t gb = fz_u16(&r);
+        cfg.grey_mode = (uint8_t)(gb % 3u);
+        cfg.grey_tail_permille = (uint16_t)((gb >> 2) % 560u);
+    }
     if (flags & 64u) {
         const uint8_t cb = fz_u8(&r);
         cfg.sources = (uint8_t)((cb & 0x0Fu) | ((cb & 0x80u) ? 0x10u : 0u));

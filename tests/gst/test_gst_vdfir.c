@@ -4,6 +4,8 @@
 //                                            (decodebin, videoconvert to GRAY8) into OUTDIR/frame_NNNN.png
 //   test_gst_vdfir raw16 OUTFILE INDIR W H   INDIR's 16-bit frames (vd_port's reader) as one raw
 //                                            GRAY16_LE file of W x H frames
+//   test_gst_vdfir counts16 OUTFILE INDIR W H  INDIR's 8-bit frames as a camera's raw counts, value x 64
+//                                            + 1000, likewise (not radiometric: grey-window auto)
 //   test_gst_vdfir compare JSONL PIPELINE    runs PIPELINE (with "vdfir name=det" and "fakesink
 //                                            name=sink"); every buffer's ROI metas and every element
 //                                            message must equal JSONL (vd_fir_demo --json) line by line
@@ -207,7 +209,8 @@ static int cmd_png8(const char *out_dir, const char *in_dir, long max)
 }
 
 // --- raw16 ------------------------------------------------------------------------
-static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint32_t h)
+// counts: INDIR holds 8-bit frames, written as value x 64 + 1000 (raw counts 1000..17320).
+static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint32_t h, bool counts)
 {
     vd_capture_t cap;
     vd_capture_opts_t o;
@@ -232,9 +235,10 @@ static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint3
         if (st == VD_ERR_RANGE && vd_capture_at_end(&cap)) {
             break;
         }
-        if (st != VD_OK || fr.format != VD_PIX_U16 || fr.width != w || fr.height != h || row == NULL) {
-            fprintf(stderr, "test_gst_vdfir: %s: not a %ux%u 16-bit frame\n", vd_capture_frame_name(&cap),
-                    (unsigned)w, (unsigned)h);
+        const vd_pixfmt_t want = counts ? VD_PIX_U8 : VD_PIX_U16;
+        if (st != VD_OK || fr.format != want || fr.width != w || fr.height != h || row == NULL) {
+            fprintf(stderr, "test_gst_vdfir: %s: not a %ux%u %s-bit frame\n", vd_capture_frame_name(&cap),
+                    (unsigned)w, (unsigned)h, counts ? "8" : "16");
             if (st == VD_OK) {
                 vd_capture_release(&cap, &fr);
             }
@@ -242,9 +246,15 @@ static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint3
             break;
         }
         for (uint32_t y = 0; y < h; y++) {
-            const uint16_t *src = (const uint16_t *)(const void *)((const uint8_t *)fr.data + (size_t)y * fr.stride);
+            const uint8_t *line = (const uint8_t *)fr.data + (size_t)y * fr.stride;
             for (uint32_t x = 0; x < w; x++) {   // little-endian bytes whatever the host
-                uint8_t b[2] = {(uint8_t)(src[x] & 0xffu), (uint8_t)(src[x] >> 8)};
+                uint16_t v;
+                if (counts) {
+                    v = (uint16_t)(line[x] * 64u + 1000u);
+                } else {
+                    memcpy(&v, line + 2u * x, 2);
+                }
+                uint8_t b[2] = {(uint8_t)(v & 0xffu), (uint8_t)(v >> 8)};
                 memcpy(&row[x], b, 2);
             }
             if (fwrite(row, 2, w, f) != w) {
@@ -647,7 +657,12 @@ int main(int argc, char **argv)
         return cmd_png8(argv[2], argv[3], strtol(argv[4], NULL, 10));
     }
     if (argc == 6 && strcmp(argv[1], "raw16") == 0) {
-        return cmd_raw16(argv[2], argv[3], (uint32_t)strtoul(argv[4], NULL, 10), (uint32_t)strtoul(argv[5], NULL, 10));
+        return cmd_raw16(argv[2], argv[3], (uint32_t)strtoul(argv[4], NULL, 10), (uint32_t)strtoul(argv[5], NULL, 10),
+                         false);
+    }
+    if (argc == 6 && strcmp(argv[1], "counts16") == 0) {
+        return cmd_raw16(argv[2], argv[3], (uint32_t)strtoul(argv[4], NULL, 10), (uint32_t)strtoul(argv[5], NULL, 10),
+                         true);
     }
     if (argc == 4 && strcmp(argv[1], "compare") == 0) {
         return cmd_compare(argv[2], argv[3]);
@@ -658,7 +673,7 @@ int main(int argc, char **argv)
     if (argc == 4 && strcmp(argv[1], "resolution") == 0) {
         return cmd_resolution(argv[2], argv[3]);
     }
-    fprintf(stderr, "usage: test_gst_vdfir png8 OUTDIR INDIR N | raw16 OUTFILE INDIR W H | compare JSONL PIPELINE | "
+    fprintf(stderr, "usage: test_gst_vdfir png8 OUTDIR INDIR N | raw16|counts16 OUTFILE INDIR W H | compare JSONL PIPELINE | "
                     "error TEXT PIPELINE | resolution half|full|none PIPELINE\n");
     return 2;
 }

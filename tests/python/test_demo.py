@@ -188,26 +188,44 @@ def test_raw_and_list_inputs(demo, clip_dir, tmp_path):
 
 
 
-def test_16bit_outside_the_grey_window_is_noted(demo, clip_dir, tmp_path):
-    """16-bit samples of a camera that is not radiometric land outside the grey window (default TLinear 0.01 K,
-    0-51 C) and the networks see black or white: the summary says so and names the options; radiometric frames
-    (the generated u16 clip) and a --calib that maps the samples into the window get no note."""
+def test_16bit_raw_counts_get_each_frames_grey_window(demo, clip_dir, tmp_path):
+    """16-bit samples of a camera that is not radiometric land outside the fixed grey window (default TLinear
+    0.01 K, 0-51 C): --grey-window auto (the default) maps such frames by their own percentiles and says so, and
+    the networks find the vehicles of the 8-bit frame again; --grey-window fixed keeps the black plane (no box)
+    with a note naming the options; radiometric frames (the generated u16 clip) and a --calib that maps the
+    samples into the window keep the fixed window without a note."""
     import cv2
-    note = "16-bit samples lie outside the grey window"
-    grey = cv2.imread(str(REPO / "tools" / "demo" / "hit-uav-clip" / "images" / "0_100_50_0_08162.jpg"),
-                      cv2.IMREAD_GRAYSCALE)
+    outside = "16-bit frame's samples lie outside the fixed grey window"
+    src = REPO / "tools" / "demo" / "hit-uav-clip" / "images" / "0_100_50_0_08162.jpg"
+    grey = cv2.imread(str(src), cv2.IMREAD_GRAYSCALE)
     counts = grey.astype("<u2") * 64 + 1000            # raw counts 1000..17320 (10..173 K as TLinear)
     raw = tmp_path / "counts.y16"
     raw.write_bytes(counts.tobytes() * 2)
-    base = ["--input", raw, "--raw-size", "640x512", "--quiet", "--out", tmp_path / "o", "--cnn-full-res", "off"]
-    out = run(demo, *base).stdout
-    assert "note: 100.0 % of the first frame's " + note + " (raw 27315..32415)" in out and "--calib" in out
-    # gain 5100 / 16320 = 0.3125, offset 27315 - 1000 x 0.3125: the counts fill 0..51 C, the window
-    out = run(demo, *base, "--calib", "0.3125,27002").stdout
-    assert note not in out
+    (tmp_path / "g").mkdir()
+    cv2.imwrite(str(tmp_path / "g" / "a.png"), grey)
+
+    def boxes(*args):
+        js = tmp_path / "d.jsonl"
+        out = run(demo, *args, "--quiet", "--out", tmp_path / "o", "--cnn-full-res", "off", "--json", js).stdout
+        return out, [len(json.loads(line)["detections"]) for line in js.read_text().splitlines()]
+
+    base = ["--input", raw, "--raw-size", "640x512"]
+    _, eight = boxes("--input", tmp_path / "g")
+    out, n = boxes(*base)
+    assert "note: 100.0 % of the first " + outside + " (raw 27315..32415): not radiometric" in out
+    assert "0.1..99.9 % percentiles (--grey-window auto" in out
+    assert eight[0] >= 5 and min(n) >= 0.8 * eight[0], (eight, n)
+    out, n = boxes(*base, "--grey-window", "fixed")
+    assert "the networks see them as black or white" in out and "--grey-window frame" in out and "--calib" in out
+    assert n == [0, 0]
+    # gain 5100 / 16320 = 0.3125, offset 27315 - 1000 x 0.3125: the counts fill 0..51 C, the fixed window
+    out, n = boxes(*base, "--calib", "0.3125,27002")
+    assert outside not in out and min(n) >= 0.8 * eight[0]
     out = run(demo, "--input", clip_dir / "u16", "--frames", "2", "--model", "none", "--quiet", "--out",
               tmp_path / "o2").stdout
-    assert note not in out
+    assert outside not in out
+    bad = run(demo, *base, "--grey-tail", "50", "--quiet", "--out", tmp_path / "o3", check=False)
+    assert bad.returncode != 0 and "grey-tail" in bad.stderr
 
 
 def bad_cases(clip_dir, tmp):

@@ -178,6 +178,34 @@ def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
         same_figures(c[1:3] + c[4:], got["rating"], got["score"], got["agreement"])
 
 
+def test_raw_counts_take_the_frame_window_before_the_measurement(demo, shipped, tmp_path):
+    """The clip written as a camera's raw counts (16-bit PNG, value x 64 + 1000): --grey-window auto decides on
+    the first frame read, before the resolution is measured, so the measurement's networks read grey as the
+    run's do; vdtools.evaluation.fleet (grey_decision, then auto_resolution) makes the same choices and measures
+    the same figures as the demo's summary; the 8-bit clip keeps the fixed window."""
+    from vdtools.evaluation import fleet
+    if not port.lib_path().exists():
+        pytest.skip(f"{port.lib_path()} not built")
+    d = tmp_path / "counts"
+    d.mkdir()
+    for p in clip_paths():
+        img = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        cv2.imwrite(str(d / (p.stem + ".png")), img.astype(np.uint16) * 64 + 1000)
+    fields, cnn, _dbn, _desc = fleet.resolve({})
+    assert "grey_mode" not in fields
+    first = fleet.auto_sample(38)[0]
+    assert fleet.grey_decision({"input": str(CLIP)}, fields, first)["grey_mode"] == 0
+    f = fleet.grey_decision({"input": str(d)}, fields, first)
+    assert f["grey_mode"] == 1
+    got = fleet.auto_resolution({"input": str(d)}, f, cnn)
+    out = run(demo, "--input", d, "--quiet", "--temporal", "off").stdout
+    assert "not radiometric, so each frame was mapped to grey by its own" in out
+    c = choice(out)
+    assert (("full" if got["full"] else "half"), got["frames"]) == (c[0], c[3]) == ("half", 38)
+    assert got["score"][0] is not None and got["score"][0] > 0.3   # boxes, not the fixed window's black plane
+    same_figures(c[1:3] + c[4:], got["rating"], got["score"], got["agreement"])
+
+
 def test_sample_spread_over_the_recording(demo, shipped, tmp_path):
     """Which frames the measurement reads (flipagree.c demo_autores_sample = fleet.auto_sample): all of a
     recording of at most 64, else the middle frame of each of 64 equal parts, (2k + 1) total / 128; and the demo

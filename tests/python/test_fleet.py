@@ -192,5 +192,13 @@ def test_settings_follow_the_demo():
     for bad in ("0.3,0.4", "1.5", "x", "0.4,0.3,0.2", "0"):
         with pytest.raises(fleet.FleetError, match="track-confirm"):
             fleet.resolve({"track-confirm": bad})
+    # --grey-window / --grey-tail as settings.c reads them; auto (the default) sets no field: run() decides
+    # per recording (grey_decision)
+    assert "grey_mode" not in fleet.resolve({})[0] and "grey_mode" not in fleet.resolve({"grey-window": "auto"})[0]
+    assert fleet.resolve({"grey-window": "frame"})[0]["grey_mode"] == 1
+    assert fleet.resolve({"grey_window": "fixed", "grey-tail": 2.5})[0]["grey_tail_permille"] == 25
+    for k, bad in (("grey-window", "median"), ("grey-tail", "50"), ("grey-tail", "0.04")):
+        with pytest.raises(fleet.FleetError, match=k):
+            fleet.resolve({k: bad})
     with pytest.raises(fleet.FleetError, match="not supported"):
         fleet.resolve({"window-preset": "msrs"})

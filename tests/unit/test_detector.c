@@ -226,6 +226,61 @@ static void test_u16_radiometric(void)
     TEST_ASSERT_EQUAL_size_t(0u, n);
 }
 
+// VD_DETECTOR_GREY_PERCENTILE on raw counts (not radiometric): background 1000, a 30 x 20 car at 4000,
+// 10 lamp pixels at 60000; n = 19200. Tail 1 per mille: k = 19 -> 1000, k = floor(19180.8) = 19180 -> 4000
+// (18590 + 600 samples <= 4000): the lamp is clipped, the car is grey 255, the background grey 0.
+static void test_u16_percentile_grey_window(void)
+{
+    for (uint32_t y = 0; y < FH; y++) {
+        for (uint32_t x = 0; x < FW; x++) {
+            g_px16[y][x] = 1000u;
+        }
+    }
+    for (uint32_t y = 50; y < 70; y++) {
+        for (uint32_t x = 60; x < 90; x++) {
+            g_px16[y][x] = 4000u;
+        }
+    }
+    for (uint32_t x = 0; x < 10; x++) {
+        g_px16[5][x] = 60000u;
+    }
+    vd_frame_t f = {g_px16, FW, FH, FW * 2u, VD_PIX_U16, 0, 0};
+    vd_detection_t out[4];
+    size_t n = 0u;
+    vd_detector_cfg_t c = small_cfg();
+    init_or_fail(&c);   // fixed window: no per-frame window reported
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, out, 4, &n));
+    TEST_ASSERT_EQUAL_UINT32(0u, g_det.stats.grey_lo_raw);
+    TEST_ASSERT_EQUAL_UINT32(0u, g_det.stats.grey_hi_raw);
+    TEST_ASSERT_EQUAL_UINT8(0u, vd_calib_grey_u8(&g_det.grey, 4000u));   // 40.00 ck: far below 0 degC
+    c.grey_mode = VD_DETECTOR_GREY_PERCENTILE;
+    init_or_fail(&c);
+    TEST_ASSERT_EQUAL_UINT16(1u, g_det.cfg.grey_tail_permille);   // 0 = 1
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, out, 4, &n));
+    TEST_ASSERT_EQUAL_UINT32(1000u, g_det.stats.grey_lo_raw);
+    TEST_ASSERT_EQUAL_UINT32(4000u, g_det.stats.grey_hi_raw);
+    TEST_ASSERT_EQUAL_INT32(1000, g_det.grey.lo_ck);
+    TEST_ASSERT_EQUAL_INT32(4000, g_det.grey.hi_ck);
+    TEST_ASSERT_EQUAL_UINT8(255u, vd_calib_grey_u8(&g_det.grey, 4000u));
+    TEST_ASSERT_EQUAL_UINT8(0u, vd_calib_grey_u8(&g_det.grey, 1000u));
+    TEST_ASSERT_EQUAL_UINT8(128u, vd_calib_grey_u8(&g_det.grey, 2506u));   // 1506 * 255 / 3000 = 128.0
+    // Tail 499: both ranks (9580, 9619) are background, a flat window of 1000..1000 widened to the least
+    // span about its middle: lo = (1000 + 1000 - 255) / 2 = 872 (rounded toward zero), hi = 872 + 255.
+    c.grey_tail_permille = 499u;
+    init_or_fail(&c);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, out, 4, &n));
+    TEST_ASSERT_EQUAL_UINT32(1000u, g_det.stats.grey_lo_raw);
+    TEST_ASSERT_EQUAL_UINT32(1000u, g_det.stats.grey_hi_raw);
+    TEST_ASSERT_EQUAL_INT32(872, g_det.grey.lo_ck);
+    TEST_ASSERT_EQUAL_INT32(872 + VD_DETECTOR_GREY_MIN_SPAN_CK, g_det.grey.hi_ck);
+    TEST_ASSERT_EQUAL_UINT8(128u, vd_calib_grey_u8(&g_det.grey, 1000u));   // 128 * 255 / 255: mid-grey
+    // An 8-bit frame in percentile mode: no window, the run as in fixed mode.
+    fill(20);
+    vd_frame_t f8 = frame8();
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f8, out, 4, &n));
+    TEST_ASSERT_EQUAL_UINT32(0u, g_det.stats.grey_hi_raw);
+}
+
 static void test_adaptive_threshold_for_dark_agc_frames(void)
 {
     fill(20u);
@@ -383,6 +438,19 @@ static void test_bad_configs(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
     c = small_cfg(); c.grey_lo_ck = 30000; c.grey_hi_ck = 29000;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
+    c = small_cfg(); c.grey_mode = 2u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
+    c = small_cfg(); c.grey_mode = VD_DETECTOR_GREY_PERCENTILE; c.grey_tail_permille = 500u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
+    // Percentile mode: every raw value's temperature, widened by the least span, must fit an int32.
+    c = small_cfg(); c.grey_mode = VD_DETECTOR_GREY_PERCENTILE; c.calib.offset_ck = INT32_MAX - 65535 - 254;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
+    c.calib.offset_ck = INT32_MAX - 65535 - 255;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &bytes));
+    c.calib.offset_ck = INT32_MIN + 254;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
+    c.calib.offset_ck = INT32_MIN + 255;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &bytes));
     c = small_cfg(); c.calib.gain_q16 = -5;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
     c = small_cfg(); c.hot_thr_ck = -1;
@@ -999,6 +1067,7 @@ int main(void)
     RUN_TEST(test_car_kept_lamp_and_pole_rejected);
     RUN_TEST(test_two_cars_and_nothing);
     RUN_TEST(test_u16_radiometric);
+    RUN_TEST(test_u16_percentile_grey_window);
     RUN_TEST(test_adaptive_threshold_for_dark_agc_frames);
     RUN_TEST(test_workspace_contract);
     RUN_TEST(test_workspace_size_640x512);

@@ -484,7 +484,7 @@ static void test_detector_configs_out_of_range(void)
                            "min_area > max_area", "expand_w < 1x", "expand_h > 8x", "median 7", "window even",
                            "window 17", "max_detections > max_candidates", "max_candidates 4097",
                            "max_region_w > max_width", "max_region_h > max_height", "max_tracks 1025",
-                           "nms_iou > 1"};
+                           "nms_iou > 1", "grey_mode 2", "grey tail 500"};
     for (int i = 0; i < (int)(sizeof(names) / sizeof(names[0])); i++) {
         c = det_cfg();
         switch (i) {
@@ -507,19 +507,22 @@ static void test_detector_configs_out_of_range(void)
         case 16: c.max_region_w = (uint16_t)(DW + 1u); break;
         case 17: c.max_region_h = (uint16_t)(DH + 1u); break;
         case 18: c.temporal = true; c.max_tracks = 1025u; break;
-        default: c.nms_iou_q15 = 40000u; break;
+        case 19: c.nms_iou_q15 = 40000u; break;
+        case 20: c.grey_mode = 2u; break;
+        default: c.grey_mode = VD_DETECTOR_GREY_PERCENTILE; c.grey_tail_permille = 500u; break;
         }
         TEST_ASSERT_EQUAL_INT_MESSAGE(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &wsb), names[i]);
         TEST_ASSERT_EQUAL_INT_MESSAGE(VD_ERR_ARG, vd_detector_init(&det, &c, NULL, g_ws, sizeof(g_ws)), names[i]);
     }
 }
 
-// Runs the hostile frames through one detector (temporal on or off), then checks it still gives
-// exactly the fresh detector's result on the good frame.
-static void hostile_frames_then_good_frame(bool temporal)
+// Runs the hostile frames through one detector (temporal on or off, fixed or per-frame grey window),
+// then checks it still gives exactly the fresh detector's result on the good frame.
+static void hostile_frames_then_good_frame(bool temporal, uint8_t grey_mode)
 {
     vd_detector_cfg_t cfg = det_cfg();
     cfg.temporal = temporal;
+    cfg.grey_mode = grey_mode;
     cfg.temporal_cfg.flags = VD_TEMPORAL_SCORES;   // track scores and coasting predicted boxes (issue 38)
     cfg.temporal_cfg.coast_frames = 2u;
     size_t wsb = 0u;
@@ -609,8 +612,10 @@ static void hostile_frames_then_good_frame(bool temporal)
 
 static void test_detector_hostile_frames_then_good_frame(void)
 {
-    hostile_frames_then_good_frame(false);
-    hostile_frames_then_good_frame(true);
+    hostile_frames_then_good_frame(false, VD_DETECTOR_GREY_FIXED);
+    hostile_frames_then_good_frame(true, VD_DETECTOR_GREY_FIXED);
+    hostile_frames_then_good_frame(false, VD_DETECTOR_GREY_PERCENTILE);   // flat 16-bit frames: widened window
+    hostile_frames_then_good_frame(true, VD_DETECTOR_GREY_PERCENTILE);
 }
 
 static void test_detector_max_width_frame(void)

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "models.h"
 #include "vd_port/file.h"
 
 // The recording's frames the measurement may draw from: all (vd_file_frame_total), at most --frames; 0 when the
@@ -21,7 +22,7 @@ static uint64_t recording_frames(const demo_opts_t *o, const vd_capture_t *cap)
     return (o->max_frames != 0u && total > o->max_frames) ? o->max_frames : total;
 }
 
-vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
+vd_status_t demo_autores_measure(demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
                                  demo_autores_t *out, char *err, size_t err_len)
 {
     memset(out, 0, sizeof *out);
@@ -58,6 +59,7 @@ vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const 
             break;
         }
         if (fa == NULL) {
+            demo_grey_decide(o, &f);   // the measurement's networks read grey as the run's will
             st = demo_flipagree_new(&fa, o, &f, err, err_len);
         }
         if (st == VD_OK) {

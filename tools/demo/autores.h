@@ -16,9 +16,10 @@
 // boxes, mirrored back and matched one to one at IoU >= 0.5 (vdtools.adapt.measure.rating, the rule vd-adapt
 // --resolution auto takes without labels; vdtools.evaluation.fleet auto_resolution does the same per recording).
 // Full resolution when its rating, mean score + agreement / 4, is the higher one and at least
-// DEMO_AUTORES_MIN_FRAMES frames were measured. o->cfg must point at the loaded networks (demo_models_load). A
+// DEMO_AUTORES_MIN_FRAMES frames were measured. o->cfg must point at the loaded networks (demo_models_load). The
+// first frame read decides the grey window of 16-bit frames (demo_grey_decide) for the whole run. A
 // capture or detector error: its status, err says what.
-vd_status_t demo_autores_measure(const demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
+vd_status_t demo_autores_measure(demo_opts_t *o, const char *input, const vd_capture_opts_t *copts,
                                  demo_autores_t *out, char *err, size_t err_len);
 
 #endif

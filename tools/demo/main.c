@@ -72,8 +72,7 @@ typedef struct run {
     uint64_t frames, detections, capacity_warnings;
     uint32_t width, height;
     vd_pixfmt_t format;
-    uint32_t grey_lo_raw, grey_hi_raw;
-    uint32_t grey_outside_permille;   // 16-bit: the first frame's samples outside the grey window, per mille
+    uint32_t grey_lo_raw, grey_hi_raw;   // 16-bit: the fixed grey window in raw values
     demo_report_t report;    // --report
     bool have_report;
     demo_progress_t prog;    // zeroed (off) until the frame loop starts
@@ -251,10 +250,26 @@ static void write_json_line(run_t *r, const char *name, const vd_frame_t *f, siz
     fputs("]}\n", jf);
 }
 
+// The grey window a 16-bit frame is drawn with: the detector's own for this frame with --grey-window frame
+// (stats), else the fixed one.
+static void grey_window_raw(const run_t *r, uint32_t *lo, uint32_t *hi)
+{
+    *lo = r->grey_lo_raw;
+    *hi = r->grey_hi_raw;
+    if (r->det.cfg.grey_mode == VD_DETECTOR_GREY_PERCENTILE) {
+        const vd_detector_stats_t *s = vd_detector_last_stats(&r->det);
+        *lo = s->grey_lo_raw;
+        *hi = s->grey_hi_raw > s->grey_lo_raw ? s->grey_hi_raw : s->grey_lo_raw + 1u;
+    }
+}
+
 static vd_status_t draw_frame(run_t *r, const char *name, const vd_frame_t *f, size_t n)
 {
-    vd_status_t st = vd_rgb_from_frame(&r->canvas, f, f->format == VD_PIX_U16 ? r->grey_lo_raw : 0,
-                                       f->format == VD_PIX_U16 ? r->grey_hi_raw : 0);
+    uint32_t lo = 0u, hi = 0u;
+    if (f->format == VD_PIX_U16) {
+        grey_window_raw(r, &lo, &hi);
+    }
+    vd_status_t st = vd_rgb_from_frame(&r->canvas, f, lo, hi);
     if (st != VD_OK) {
         snprintf(r->err, sizeof r->err, "%s: cannot render the frame", name);
         return st;
@@ -334,30 +349,6 @@ static vd_status_t draw_frame(run_t *r, const char *name, const vd_frame_t *f, s
     return VD_OK;
 }
 
-#define DEMO_GREY_OUTSIDE_NOTE 900u   // per mille outside the grey window that the summary notes
-
-static uint32_t raw_of_ck(const vd_calib_t *c, int32_t ck)
-{
-    double raw = ((double)ck - c->offset_ck) * 65536.0 / c->gain_q16;
-    return raw < 0 ? 0u : raw > 65535.0 ? 65535u : (uint32_t)lround(raw);
-}
-
-// Per mille of a 16-bit frame's samples outside [lo, hi]: the grey map clips them to black or white, and the
-// networks see a flat plane. Why: a camera that is not radiometric (raw counts, not TLinear 0.01 K) lands
-// outside the default window and gets almost no CNN box without a word (docs/demo.md, "16-bit frames").
-static uint32_t outside_permille(const vd_frame_t *f, uint32_t lo, uint32_t hi)
-{
-    uint64_t out = 0u;
-    for (uint32_t y = 0; y < f->height; y++) {
-        const uint16_t *row = (const uint16_t *)(const void *)((const uint8_t *)f->data + (size_t)y * f->stride);
-        for (uint32_t x = 0; x < f->width; x++) {
-            out += (row[x] < lo || row[x] > hi) ? 1u : 0u;
-        }
-    }
-    const uint64_t n = (uint64_t)f->width * f->height;
-    return n != 0u ? (uint32_t)((out * 1000u) / n) : 0u;
-}
-
 // Candidate observer (--eval): keeps the boxes the verifier will see.
 static void on_candidate(void *user, const vd_detection_t *cand)
 {
@@ -386,6 +377,7 @@ static void free_detector(run_t *r)
 
 static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
 {
+    demo_grey_decide(&r->o, f);   // before the cfg: per-frame grey window or the fixed one
     vd_detector_cfg_t cfg;
     demo_detector_cfg(&r->o, f->width, f->height, &cfg);
     cfg.clock_us = clock_us;
@@ -425,14 +417,7 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     r->width = f->width;
     r->height = f->height;
     r->format = f->format;
-    r->grey_lo_raw = raw_of_ck(&r->det.cfg.calib, r->det.cfg.grey_lo_ck);
-    r->grey_hi_raw = raw_of_ck(&r->det.cfg.calib, r->det.cfg.grey_hi_ck);
-    if (r->grey_hi_raw <= r->grey_lo_raw) {
-        r->grey_hi_raw = r->grey_lo_raw + 1u;
-    }
-    if (f->format == VD_PIX_U16) {
-        r->grey_outside_permille = outside_permille(f, r->grey_lo_raw, r->grey_hi_raw);
-    }
+    demo_grey_fixed_raw(&r->o, &r->grey_lo_raw, &r->grey_hi_raw);
     if (r->staging) {
         st = vd_rgb_alloc(&r->canvas, f->width, f->height);
         if (st != VD_OK) {
@@ -545,9 +530,12 @@ static vd_status_t evaluate_frame(run_t *r, const char *name, const vd_frame_t *
     if (!r->have_report || r->gt.frames == evaluated) {
         return VD_OK;   // no report, or a frame the annotations do not list
     }
-    const bool wide = f->format == VD_PIX_U16;
-    return demo_report_frame(&r->report, r->frames, name, f, wide ? r->grey_lo_raw : 0, wide ? r->grey_hi_raw : 0,
-                             im, r->gt_used, r->eval_dets, r->matched, n, r->err, sizeof r->err);
+    uint32_t lo = 0u, hi = 0u;
+    if (f->format == VD_PIX_U16) {
+        grey_window_raw(r, &lo, &hi);
+    }
+    return demo_report_frame(&r->report, r->frames, name, f, lo, hi, im, r->gt_used, r->eval_dets, r->matched, n,
+                             r->err, sizeof r->err);
 }
 
 static void summary(run_t *r)
@@ -596,11 +584,21 @@ static void summary(run_t *r)
                rating[0], rating[1], score[0], score[1], pct[0], pct[1], (unsigned)a->frames, of,
                a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full" : "", from, a->seconds);
     }
-    if (r->format == VD_PIX_U16 && r->grey_outside_permille >= DEMO_GREY_OUTSIDE_NOTE) {
-        printf("note: %.1f %% of the first frame's 16-bit samples lie outside the grey window (raw %u..%u): the "
-               "networks see them as black or white. A camera that is not radiometric (TLinear 0.01 K) needs "
-               "--calib GAIN,OFFSET_CK or --grey-range-c LO,HI for its samples (docs/demo.md, \"16-bit frames\")\n",
-               r->grey_outside_permille / 10.0, (unsigned)r->grey_lo_raw, (unsigned)r->grey_hi_raw);
+    const demo_opts_t *o = &r->o;
+    if (r->format == VD_PIX_U16 && o->grey_outside_permille >= DEMO_GREY_AUTO_PERMILLE) {
+        const bool frame = r->det.cfg.grey_mode == VD_DETECTOR_GREY_PERCENTILE;
+        printf("note: %.1f %% of the first 16-bit frame's samples lie outside the fixed grey window (raw %u..%u)",
+               o->grey_outside_permille / 10.0, (unsigned)r->grey_lo_raw, (unsigned)r->grey_hi_raw);
+        if (frame) {
+            printf(": not radiometric, so each frame was mapped to grey by its own %.1f..%.1f %% percentiles "
+                   "(--grey-window %s; a radiometric camera: --grey-window fixed with --calib GAIN,OFFSET_CK or "
+                   "--grey-range-c LO,HI; docs/demo.md, \"16-bit frames\")\n", r->det.cfg.grey_tail_permille / 10.0,
+                   100.0 - r->det.cfg.grey_tail_permille / 10.0, o->grey_window_auto ? "auto" : "frame");
+        } else {
+            printf(": the networks see them as black or white. A camera that is not radiometric (TLinear 0.01 K) "
+                   "needs --grey-window frame (or auto), --calib GAIN,OFFSET_CK or --grey-range-c LO,HI "
+                   "(docs/demo.md, \"16-bit frames\")\n");
+        }
     }
     if (r->capacity_warnings > 0) {
         printf("note: %llu frames hit a detector budget (VD_ERR_CAPACITY; see --max-candidates, --max-detections)\n",

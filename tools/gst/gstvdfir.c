@@ -352,6 +352,19 @@ static GstFlowReturn gst_vdfir_transform_frame_ip(GstVideoFilter *vf, GstVideoFr
     if (GST_BUFFER_PTS_IS_VALID(buf)) {
         f.timestamp_us = GST_BUFFER_PTS(buf) / 1000u;
     }
+    if (wide && !self->opts.grey_decided) {
+        // grey-window auto: the first 16-bit frame decides (a camera's raw counts: each frame's own window);
+        // the detector made at negotiation becomes one that reads grey so, before any frame ran through it.
+        const uint8_t before = self->opts.cfg.grey_mode;
+        demo_grey_decide(&self->opts, &f);
+        if (self->opts.cfg.grey_mode != before) {
+            GST_INFO_OBJECT(self, "%.1f %% of the first frame's samples lie outside the fixed grey window: "
+                                  "grey-window frame", self->opts.grey_outside_permille / 10.0);
+            if (!init_detector(self, self->width, self->height)) {
+                return GST_FLOW_ERROR;
+            }
+        }
+    }
     if (self->ar.on && !autores_step(self, &f)) {
         return GST_FLOW_ERROR;
     }

@@ -86,6 +86,9 @@ typedef struct vd_detector_cfg {
     vd_calib_t calib;            // raw -> centi-kelvin, gain_q16 > 0; gain_q16 0 = {65536, offset_ck} (TLinear)
     int32_t grey_lo_ck;          // 16-bit frames: temperature mapped to grey 0; 0 = hot_thr_ck - 3000
     int32_t grey_hi_ck;          // temperature mapped to grey 255, > grey_lo_ck; 0 = hot_thr_ck + 2100 (grey 150)
+    uint8_t grey_mode;           // 16-bit frames: VD_DETECTOR_GREY_FIXED (0: grey_lo_ck..grey_hi_ck, a radiometric
+                                 //   camera) or VD_DETECTOR_GREY_PERCENTILE (each frame's own window, for raw counts)
+    uint16_t grey_tail_permille; // percentile mode: samples at grey 0 and at 255, each end, 1..499; 0 = 1 (0.1 %)
     vd_components_rules_t rules; // all four fields 0 = paper (aspect h/w 0.3..1.5, area >= 120)
     uint16_t expand_w_q8;        // candidate expansion, Q8, 256..2048; 0 = 384 (1.5x, paper)
     uint16_t expand_h_q8;        // 0 = 512 (2x, paper)
@@ -141,6 +144,16 @@ typedef struct vd_detector_cfg {
 // IoU (Q15, rounded down as vd_rect_iou_q15) is at least this (0.3).
 #define VD_DETECTOR_CNN_FLIP_IOU_Q15 9830u
 
+// Values of vd_detector_cfg_t.grey_mode. In percentile mode a 16-bit frame's
+// grey window runs from the raw value at grey_tail_permille to the one at
+// 1000 - grey_tail_permille (vd_histogram_percentiles_u16), through calib, at
+// least VD_DETECTOR_GREY_MIN_SPAN_CK wide (widened about its middle: a flat
+// frame stays mid-grey instead of amplifying noise); the hot-spot threshold
+// stays hot_thr_ck. stats.grey_lo_raw / grey_hi_raw report the window.
+#define VD_DETECTOR_GREY_FIXED 0u
+#define VD_DETECTOR_GREY_PERCENTILE 1u
+#define VD_DETECTOR_GREY_MIN_SPAN_CK 255
+
 // Values of vd_detector_cfg_t.verifier.
 #define VD_DETECTOR_VERIFIER_DBN 0u
 #define VD_DETECTOR_VERIFIER_BOOST 1u
@@ -178,6 +191,8 @@ typedef struct vd_detector_stats {
                                    //   threshold, before clipping and fusion)
     uint32_t cand_cnn;             // CNN boxes merged (clipped to the frame, within max_candidates; with
                                    //   cnn_flip the fused boxes >= the score threshold)
+    uint32_t grey_lo_raw;          // 16-bit frames, VD_DETECTOR_GREY_PERCENTILE: this frame's raw value at grey 0
+    uint32_t grey_hi_raw;          //   and the one at grey 255 (before widening to the least span); else 0
     uint32_t time_us[VD_DETECTOR_STAGE_COUNT];  // per stage, 0 without clock_us
 } vd_detector_stats_t;
 

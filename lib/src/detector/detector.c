@@ -39,6 +39,7 @@
 
 #include <string.h>
 
+#include "vd/histogram.h"
 #include "vd/suppress.h"
 #include "detector/detector_internal.h"
 #include "internal/vd_internal.h"
@@ -209,6 +210,28 @@ static vd_status_t track(vd_detector_t *det, const vd_frame_t *frame, size_t nk,
     return VD_OK;
 }
 
+// VD_DETECTOR_GREY_PERCENTILE on a 16-bit frame: the grey map of this frame,
+// from its raw values at the two tails (widened about its middle to the least
+// span); resolve() bounded the calibration so that no step can fail.
+static vd_status_t grey_window(vd_detector_t *det, const vd_frame_t *frame)
+{
+    vd_view_u16_t v;
+    VD_TRY(vd_frame_view_u16(frame, &v));
+    const uint32_t tail = det->cfg.grey_tail_permille;
+    uint16_t lo = 0u, hi = 0u;
+    VD_TRY(vd_histogram_percentiles_u16(&v, tail, 1000u - tail, det->hist, &lo, &hi));
+    det->stats.grey_lo_raw = lo;
+    det->stats.grey_hi_raw = hi;
+    int32_t lo_ck = 0, hi_ck = 0;
+    VD_TRY(vd_calib_ck_from_raw(&det->cfg.calib, lo, &lo_ck));
+    VD_TRY(vd_calib_ck_from_raw(&det->cfg.calib, hi, &hi_ck));
+    if ((int64_t)hi_ck - lo_ck < VD_DETECTOR_GREY_MIN_SPAN_CK) {
+        lo_ck = (int32_t)(((int64_t)lo_ck + hi_ck - VD_DETECTOR_GREY_MIN_SPAN_CK) / 2);
+        hi_ck = lo_ck + VD_DETECTOR_GREY_MIN_SPAN_CK;
+    }
+    return vd_calib_grey_init(&det->grey, &det->cfg.calib, lo_ck, hi_ck);
+}
+
 vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_detection_t *out, size_t cap,
                             size_t *count)
 {
@@ -226,6 +249,9 @@ vd_status_t vd_detector_run(vd_detector_t *det, const vd_frame_t *frame, vd_dete
     uint32_t t0 = t_start;
     vd_status_t result = VD_OK;
 
+    if (frame->format != VD_PIX_U8 && det->cfg.grey_mode == VD_DETECTOR_GREY_PERCENTILE) {
+        VD_TRY(grey_window(det, frame));   // timed with the first stage that follows
+    }
     // The network first: it uses the overlay, and its boxes lead the merged list.
     size_t n_cnn = 0u;
     if ((det->cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {

@@ -48,6 +48,17 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *c)
     if (c->grey_lo_ck == 0) { c->grey_lo_ck = c->hot_thr_ck - 3000; }
     if (c->grey_hi_ck == 0) { c->grey_hi_ck = c->hot_thr_ck + 2100; }
     VD_VERIFY(c->grey_lo_ck < c->grey_hi_ck, VD_ERR_ARG);
+    VD_VERIFY(c->grey_mode <= VD_DETECTOR_GREY_PERCENTILE, VD_ERR_ARG);
+    if (c->grey_tail_permille == 0u) { c->grey_tail_permille = 1u; }
+    VD_VERIFY(c->grey_tail_permille <= 499u, VD_ERR_ARG);
+    if (c->grey_mode == VD_DETECTOR_GREY_PERCENTILE) {
+        // Every raw value's temperature, widened by the least span, must fit an int32: then the per-frame
+        // window cannot fail.
+        int32_t top = 0;
+        VD_VERIFY(vd_calib_ck_from_raw(&c->calib, 65535u, &top) == VD_OK, VD_ERR_ARG);
+        VD_VERIFY(top <= INT32_MAX - VD_DETECTOR_GREY_MIN_SPAN_CK, VD_ERR_ARG);
+        VD_VERIFY(c->calib.offset_ck >= INT32_MIN + VD_DETECTOR_GREY_MIN_SPAN_CK, VD_ERR_ARG);
+    }
     VD_TRY(vd_components_rules_resolve(&c->rules));
     if (c->expand_w_q8 == 0u) { c->expand_w_q8 = VD_RECT_EXPAND_W_Q8; }
     if (c->expand_h_q8 == 0u) { c->expand_h_q8 = VD_RECT_EXPAND_H_Q8; }
@@ -267,7 +278,8 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_dbn_model_t *model,
     size_t rw = c->max_region_w;
     size_t rh = c->max_region_h;
     // The components table holds hot-spot and contrast components, the
-    // histogram the adaptive threshold and the window ranking: a network-only
+    // histogram the adaptive threshold, the window ranking and the per-frame
+    // grey window: a network-only fixed-window
     // detector needs neither (8 KiB at the defaults).
     if ((c->sources & (VD_DETECTOR_SRC_HOTSPOT | VD_DETECTOR_SRC_CONTRAST)) != 0u) {
         VD_VERIFY(vd_mul_size(c->max_components, sizeof(vd_component_t), &l->comps), VD_ERR_OVERFLOW);
@@ -277,7 +289,8 @@ static vd_status_t plan(const vd_detector_cfg_t *c, const vd_dbn_model_t *model,
         l->obs = ((size_t)c->max_detections + c->max_tracks) * sizeof(vd_temporal_obs_t);
         l->tracks = (size_t)c->max_tracks * sizeof(vd_track_t);
     }
-    if ((c->sources & (VD_DETECTOR_SRC_HOTSPOT | VD_DETECTOR_SRC_WINDOW)) != 0u) {
+    if ((c->sources & (VD_DETECTOR_SRC_HOTSPOT | VD_DETECTOR_SRC_WINDOW)) != 0u ||
+        c->grey_mode == VD_DETECTOR_GREY_PERCENTILE) {
         l->hist = 256u * sizeof(uint32_t);
     }
     l->scratch = sizeof(cand_ctx_t);

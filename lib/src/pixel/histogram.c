@@ -1,11 +1,15 @@
 // SPDX-License-Identifier: MIT
-// 256-bin histogram of an 8-bit region.
+// 256-bin histogram of an 8-bit region; two percentiles of a 16-bit plane.
 //
 // Algorithm: one counter increment per pixel; 8 pixels are loaded as one
-// 64-bit word and a uniform word (8 equal pixels) is one update.
+// 64-bit word and a uniform word (8 equal pixels) is one update. The 16-bit
+// percentiles count high bytes, then the low bytes inside the bin that holds
+// each rank: exact with 256 counters instead of 65536 (a workspace the
+// detector already has), at most three passes.
 // Bounds: time O(roi.w * roi.h); stack: a second 1 KiB counter plane on
 // 64-bit hosts (VD_HIST_PLANES), a few words on 32-bit targets; totals
-// <= 2^26 (VD_MAX_DIM^2), no overflow; no workspace.
+// <= 2^26 (VD_MAX_DIM^2), no overflow; no workspace. Percentiles: O(3 W H)
+// time, O(1) stack besides the caller's 256 counters.
 #include <string.h>
 
 #include "vd/histogram.h"
@@ -69,5 +73,75 @@ vd_status_t vd_histogram_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint3
         hist[v] += h2[v];   // totals <= 2^26 (VD_MAX_DIM^2): no overflow
     }
 #endif
+    return VD_OK;
+}
+
+// hist[v >> 8] over the plane, or with high <= 255 hist[v & 255] over its
+// samples whose high byte is `high`.
+static void count_u16(const vd_view_u16_t *src, uint32_t high, uint32_t hist[256])
+{
+    memset(hist, 0, 256u * sizeof hist[0]);
+    const uint8_t *row = (const uint8_t *)src->data;
+    for (uint32_t y = 0; y < src->height; y++) {
+        const uint16_t *s = (const uint16_t *)(const void *)row;   // even stride, aligned (vd_view_u16_check)
+        if (high > 255u) {
+            for (uint32_t x = 0; x < src->width; x++) {
+                hist[s[x] >> 8]++;
+            }
+        } else {
+            for (uint32_t x = 0; x < src->width; x++) {
+                if ((uint32_t)(s[x] >> 8) == high) {
+                    hist[s[x] & 0xFFu]++;
+                }
+            }
+        }
+        row += src->stride;
+    }
+}
+
+// Smallest bin b with base + cum(b) > k (256 when none); *below = base +
+// the counts before b.
+static uint32_t rank_bin(const uint32_t hist[256], uint64_t base, uint64_t k, uint64_t *below)
+{
+    uint64_t cum = base;
+    for (uint32_t b = 0; b < 256u; b++) {
+        if (cum + hist[b] > k) {
+            *below = cum;
+            return b;
+        }
+        cum += hist[b];
+    }
+    *below = cum;
+    return 256u;
+}
+
+vd_status_t vd_histogram_percentiles_u16(const vd_view_u16_t *src, uint32_t lo_permille, uint32_t hi_permille,
+                                         uint32_t hist[256], uint16_t *lo, uint16_t *hi)
+{
+    VD_VERIFY(hist != NULL && lo != NULL && hi != NULL, VD_ERR_ARG);
+    VD_VERIFY(lo_permille <= hi_permille && hi_permille <= 1000u, VD_ERR_ARG);
+    VD_TRY(vd_view_u16_check(src));
+    const uint64_t n = (uint64_t)src->width * src->height;
+    const uint64_t k[2] = {n * lo_permille / 1000u, n * hi_permille / 1000u};
+    uint64_t below[2];
+    uint32_t bin[2];
+    count_u16(src, 256u, hist);
+    for (uint32_t i = 0; i < 2u; i++) {
+        bin[i] = rank_bin(hist, 0u, k[i], &below[i]);
+    }
+    uint16_t out[2] = {65535u, 65535u};
+    for (uint32_t i = 0; i < 2u; i++) {
+        if (bin[i] > 255u) {
+            continue;   // k = n: no sample ranks above it
+        }
+        if (i == 0u || bin[1] != bin[0]) {
+            count_u16(src, bin[i], hist);   // else hist holds this bin's low bytes already
+        }
+        uint64_t unused = 0u;
+        const uint32_t f = rank_bin(hist, below[i], k[i], &unused);   // < 256: the bin holds the rank
+        out[i] = (uint16_t)((bin[i] << 8) | f);
+    }
+    *lo = out[0];
+    *hi = out[1];
     return VD_OK;
 }

@@ -7,6 +7,7 @@
 #include "json.h"
 
 #include <dirent.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -334,4 +335,52 @@ void demo_detector_cfg(const demo_opts_t *o, uint32_t width, uint32_t height, vd
     // The region bound may not exceed the frame (frames smaller than the default 176 x 176).
     cfg->max_region_w = (uint16_t)(cfg->max_region_w > width ? width : cfg->max_region_w);
     cfg->max_region_h = (uint16_t)(cfg->max_region_h > height ? height : cfg->max_region_h);
+}
+
+// Raw value of a temperature under calib (the inverse of vd_calib_ck_from_raw, clamped to 0..65535).
+static uint32_t raw_of_ck(const vd_calib_t *c, int32_t ck)
+{
+    const double raw = ((double)ck - c->offset_ck) * 65536.0 / c->gain_q16;
+    return raw < 0 ? 0u : raw > 65535.0 ? 65535u : (uint32_t)lround(raw);
+}
+
+void demo_grey_fixed_raw(const demo_opts_t *o, uint32_t *lo, uint32_t *hi)
+{
+    vd_detector_cfg_t c = o->cfg;
+    c.cnn_model = NULL;   // only the grey fields matter here: the CNN is checked when the detector is made
+    c.sources = 0u;
+    if (vd_detector_cfg_resolve(&c) != VD_OK) {
+        *lo = 0u;   // the detector will refuse these settings with its own message
+        *hi = 65535u;
+        return;
+    }
+    *lo = raw_of_ck(&c.calib, c.grey_lo_ck);
+    *hi = raw_of_ck(&c.calib, c.grey_hi_ck);
+    if (*hi <= *lo) {
+        *hi = *lo + 1u;
+    }
+}
+
+// Why: a camera that is not radiometric (raw counts, not TLinear 0.01 K) lands outside the fixed window, and its
+// frames reach the networks as a flat black or white plane: almost no CNN box, without a word (docs/demo.md).
+void demo_grey_decide(demo_opts_t *o, const vd_frame_t *f)
+{
+    if (o->grey_decided || f->format != VD_PIX_U16) {
+        return;
+    }
+    o->grey_decided = true;
+    uint32_t lo = 0u, hi = 0u;
+    demo_grey_fixed_raw(o, &lo, &hi);
+    uint64_t out = 0u;
+    for (uint32_t y = 0; y < f->height; y++) {
+        const uint16_t *row = (const uint16_t *)(const void *)((const uint8_t *)f->data + (size_t)y * f->stride);
+        for (uint32_t x = 0; x < f->width; x++) {
+            out += (row[x] < lo || row[x] > hi) ? 1u : 0u;
+        }
+    }
+    const uint64_t n = (uint64_t)f->width * f->height;
+    o->grey_outside_permille = n != 0u ? (uint32_t)((out * 1000u) / n) : 0u;
+    if (o->grey_window_auto && o->grey_outside_permille >= DEMO_GREY_AUTO_PERMILLE) {
+        o->cfg.grey_mode = VD_DETECTOR_GREY_PERCENTILE;
+    }
 }

@@ -39,6 +39,16 @@ typedef struct demo_models {
 // option and file. m must be zeroed before the first call.
 vd_status_t demo_models_load(demo_models_t *m, demo_opts_t *o, const char *models_dir, char *err, size_t err_len);
 void demo_models_free(demo_models_t *m);
+// --grey-window auto switches to the per-frame window when at least this many per mille of the first 16-bit
+// frame's samples lie outside the fixed one (the networks would see a black or white plane).
+#define DEMO_GREY_AUTO_PERMILLE 900u
+// The fixed grey window (cfg.grey_lo_ck..grey_hi_ck, defaults resolved) as raw values of the options'
+// calibration, hi > lo.
+void demo_grey_fixed_raw(const demo_opts_t *o, uint32_t *lo, uint32_t *hi);
+// On the run's first 16-bit frame (later calls and 8-bit frames: nothing): the per mille of its samples outside
+// the fixed window into o->grey_outside_permille and, with --grey-window auto, cfg.grey_mode = per frame when at
+// least DEMO_GREY_AUTO_PERMILLE. Every detector of the run is set up after it, so all read grey alike.
+void demo_grey_decide(demo_opts_t *o, const vd_frame_t *f);
 // The detector settings for width x height frames (the options' cfg sized to the frame).
 void demo_detector_cfg(const demo_opts_t *o, uint32_t width, uint32_t height, vd_detector_cfg_t *cfg);
 

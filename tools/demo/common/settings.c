@@ -209,6 +209,17 @@ static bool set_grey_range_c(demo_opts_t *o, const char *v)
     return true;
 }
 
+static bool set_grey_window(demo_opts_t *o, const char *v)
+{
+    const bool frame = strcmp(v, "frame") == 0;
+    if (!frame && strcmp(v, "fixed") != 0 && strcmp(v, "auto") != 0) {
+        return false;
+    }
+    o->grey_window_auto = strcmp(v, "auto") == 0;
+    o->cfg.grey_mode = frame ? VD_DETECTOR_GREY_PERCENTILE : VD_DETECTOR_GREY_FIXED;   // auto: fixed until chosen
+    return true;
+}
+
 static bool set_median(demo_opts_t *o, const char *v)
 {
     uint32_t u = 0;
@@ -465,6 +476,16 @@ static const setting_t k_settings[] = {
      "16-bit frames: degC mapped to grey 0 and 255 for refinement and drawing "
      "(default threshold-30, threshold+21)",
      CUSTOM(set_grey_range_c)},
+    {"grey-window", "auto|fixed|frame",
+     "16-bit frames: fixed maps the --grey-range-c temperatures to grey (a radiometric camera); "
+     "frame maps each frame's own --grey-tail percentiles (raw counts of a camera that is not "
+     "radiometric); auto (default): fixed unless 90 % of the first 16-bit frame's samples lie "
+     "outside its window, then frame (docs/demo.md, \"16-bit frames\")",
+     CUSTOM(set_grey_window)},
+    {"grey-tail", "PCT",
+     "--grey-window frame: percent of each frame's samples at grey 0 and at 255, each end, "
+     "0.1..49.9 (default 0.1)",
+     FIXED(U16, grey_tail_permille, 0.1, 49.9, 10.0, 1, 499)},
     {"min-area", "PX", "rule: smallest hot region in pixels (default 120, paper)",
      INT(U32, rules.min_area, 1, 67108864)},
     {"max-area", "PX", "rule: largest hot region, 0 = no limit (default 0)",

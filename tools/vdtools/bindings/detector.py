@@ -69,7 +69,8 @@ class DetectorCfg(C.Structure):
                 ("sources", C.c_uint8), ("dedup_iou_q15", C.c_uint16),
                 ("thr_mode", C.c_uint8), ("hot_thr_u8", C.c_uint8), ("adaptive_floor_u8", C.c_uint8),
                 ("adaptive_permille", C.c_uint16), ("hot_thr_ck", C.c_int32), ("calib", Calib),
-                ("grey_lo_ck", C.c_int32), ("grey_hi_ck", C.c_int32), ("rules", CcRules),
+                ("grey_lo_ck", C.c_int32), ("grey_hi_ck", C.c_int32), ("grey_mode", C.c_uint8),
+                ("grey_tail_permille", C.c_uint16), ("rules", CcRules),
                 ("expand_w_q8", C.c_uint16), ("expand_h_q8", C.c_uint16), ("median_ksize", C.c_uint8),
                 ("edge_step", C.c_uint8), ("window", C.c_uint8),
                 ("contrast", ContrastCfg), ("win_min_std_u8", C.c_uint8), ("windows", WindowsCfg),
@@ -89,7 +90,7 @@ STAT_FIELDS = ("hot_thr_u8", "hot_thr_raw", "hot_pixels", "components", "kept", 
                "suppressed", "detections", "recovered", "decimated", "overflow_components",
                "overflow_candidates", "overflow_contours", "overflow_detections", "overflow_tracks",
                "runs", "overflow_runs", "cand_hotspot", "cand_contrast", "cand_window", "windows",
-               "windows_passed", "deduplicated", "cnn_boxes", "cand_cnn")
+               "windows_passed", "deduplicated", "cnn_boxes", "cand_cnn", "grey_lo_raw", "grey_hi_raw")
 
 
 class Stats(C.Structure):

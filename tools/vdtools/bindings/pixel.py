@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""ctypes bindings of the pixel modules (threshold.h, otsu.h, median.h): numpy in, numpy out.
+"""ctypes bindings of the pixel modules (threshold.h, histogram.h, otsu.h, median.h): numpy in, numpy out.
 
 The generator of the 5x5 median selection network of lib/src/pixel/median.c is
 vdtools.generators.median_network."""
@@ -28,6 +28,8 @@ def _lib():
             "vd_calib_raw_from_ck": [_P(Calib), C.c_int32, _P(C.c_uint16)],
             "vd_calib_raw_from_centi_celsius": [_P(Calib), C.c_int32, _P(C.c_uint16)],
             "vd_histogram_u8": [u8v, rect, _P(C.c_uint32)],
+            "vd_histogram_percentiles_u16": [u16v, C.c_uint32, C.c_uint32, _P(C.c_uint32), _P(C.c_uint16),
+                                             _P(C.c_uint16)],
             "vd_otsu_from_hist": [_P(C.c_uint32), _P(C.c_uint8)],
             "vd_otsu_u8": [u8v, rect, _P(C.c_uint8)],
             "vd_median3_u8": [u8v, rect, img],
@@ -105,6 +107,17 @@ def histogram_u8(a, roi=None):
     v = clib.view_u8(a)
     clib.check(_lib().vd_histogram_u8(C.byref(v), _roi(roi), h.ctypes.data_as(_P(C.c_uint32))), "vd_histogram_u8")
     return h
+
+
+def percentiles_u16(a, lo_permille, hi_permille):
+    """(lo, hi): vd_histogram_percentiles_u16 of the 2-D uint16 array a."""
+    h = np.zeros(256, np.uint32)
+    lo, hi = C.c_uint16(0), C.c_uint16(0)
+    v = clib.view_u16(a)
+    clib.check(_lib().vd_histogram_percentiles_u16(C.byref(v), int(lo_permille), int(hi_permille),
+                                                   h.ctypes.data_as(_P(C.c_uint32)), C.byref(lo), C.byref(hi)),
+               "vd_histogram_percentiles_u16")
+    return lo.value, hi.value
 
 
 def otsu_from_hist(hist):

@@ -158,7 +158,8 @@ def plan(recs, shard_frames=256):
 # ------------------------------------------------------------------ detector settings (as vd_fir_demo)
 
 SETTINGS = ("sources", "cnn-model", "cnn-model2", "model", "temporal", "cnn-thr", "cnn-flip", "cnn-full-res",
-            "thr-mode", "hot-thr", "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast", "track-confirm")
+            "thr-mode", "hot-thr", "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast", "track-confirm",
+            "grey-window", "grey-tail")
 
 
 def _vdm_version(blob):
@@ -228,6 +229,18 @@ def resolve(settings, models_dir=None):
         fields["temporal_cfg.coast_frames"] = int(s["track-coast"])
     if "track-confirm" in s:
         fields["temporal_cfg.confirm_hi_q15"], fields["temporal_cfg.confirm_lo_q15"] = _confirm_q15(s["track-confirm"])
+    # grey-window: fixed / frame set cfg.grey_mode here; auto (the default, as vd_fir_demo's): no field here, run()
+    # decides per recording on its first frame read (grey_decision)
+    gw = str(s.get("grey-window", "auto"))
+    if gw not in ("auto", "fixed", "frame"):
+        raise FleetError(f"bad value '{gw}' for grey-window (expected auto|fixed|frame)")
+    if gw != "auto":
+        fields["grey_mode"] = int(gw == "frame")
+    if "grey-tail" in s:
+        tail = int(math.floor(float(s["grey-tail"]) * 10.0 + 0.5))
+        if not 1 <= tail <= 499:
+            raise FleetError(f"bad value '{s['grey-tail']}' for grey-tail (expected 0.1..49.9)")
+        fields["grey_tail_permille"] = tail
     if "thr-mode" in s:
         fields["thr_mode"] = {"constant": 0, "adaptive": 1}[s["thr-mode"]]
     if "hot-thr" in s:
@@ -301,6 +314,29 @@ def auto_sample(total, parts=AUTO_SPREAD_FRAMES):
     if total <= parts:
         return list(range(total))
     return [(2 * k + 1) * total // (2 * parts) for k in range(parts)]
+
+
+GREY_AUTO_PERMILLE = 900   # tools/demo/common/models.h DEMO_GREY_AUTO_PERMILLE
+
+
+def grey_decision(rec, fields, first):
+    """vd_fir_demo's --grey-window auto (tools/demo/common/models.c demo_grey_decide) on a recording: frame
+    `first` (the first the demo reads: the first of the --cnn-full-res auto sample, else 0); a 16-bit frame with
+    at least GREY_AUTO_PERMILLE per mille of its samples outside the fixed window (the default TLinear 0-51 C,
+    which the fleet's settings do not change) gets the per-frame window. Returns fields with grey_mode set."""
+    import numpy as np
+    from vdtools.bindings import detector as vdet
+    from vdtools.bindings import port
+    with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
+        img = None
+        for f, _name in cap.frames_at([first]):   # run to its end: the frame is released before the capture closes
+            img = port.pixels(f).copy()
+    if img is None or img.dtype != np.uint16:
+        return dict(fields, grey_mode=0)
+    d = vdet.default_cfg()   # TLinear: raw = centi-kelvin
+    lo, hi = int(d["grey_lo_ck"]), max(int(d["grey_hi_ck"]), int(d["grey_lo_ck"]) + 1)
+    outside = int(np.count_nonzero((img < lo) | (img > hi))) * 1000 // img.size
+    return dict(fields, grey_mode=int(outside >= GREY_AUTO_PERMILLE))
 
 
 def auto_resolution(rec, fields, cnn):
@@ -630,11 +666,20 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     byid = {r["id"]: r for r in recs}
     # cnn-full-res auto (the default with the cnn source): each recording's own choice, as the demo makes it
     rec_fields, cnn_input = {r["id"]: fields for r in recs}, None
-    if "cnn_full_res" not in fields and fields["sources"] & SRC_CNN:
+    auto_res = "cnn_full_res" not in fields and fields["sources"] & SRC_CNN
+    if "grey_mode" not in fields:   # grey-window auto: each recording's first frame read decides, as in the demo
+        for r in recs:
+            first = 0
+            if auto_res:
+                from vdtools.bindings import port
+                with port.Capture(r["input"], r.get("raw_size"), r.get("raw_format") or "u16") as cap:
+                    first = (auto_sample(cap.total()) or [0])[0]
+            rec_fields[r["id"]] = grey_decision(r, fields, first)
+    if auto_res:
         cnn_input = {}
         for r in recs:
-            cnn_input[r["id"]] = auto_resolution(r, fields, cnn)
-            rec_fields[r["id"]] = dict(fields, cnn_full_res=int(cnn_input[r["id"]]["full"]))
+            cnn_input[r["id"]] = auto_resolution(r, rec_fields[r["id"]], cnn)
+            rec_fields[r["id"]] = dict(rec_fields[r["id"]], cnn_full_res=int(cnn_input[r["id"]]["full"]))
     mine_dir = str(Path(mine).resolve()) if mine else None
     if mine_dir:
         (Path(mine_dir) / "images").mkdir(parents=True, exist_ok=True)
