@@ -207,6 +207,37 @@ def test_yolo_and_coco_labels(tmp_path):
     assert len(frames[2].ignore) == 1 and frames[2].labelled and not frames[0].labelled
 
 
+def test_16bit_frames_read_as_the_demo_reads_them(tmp_path):
+    """16-bit frames map to grey as vd_fir_demo's --grey-window auto maps them: radiometric ones (inside the fixed
+    0-51 C window) by that window; a camera's raw counts (all outside it) by each frame's own window, decided on
+    the first frame for all of them, so the networks train on the scene and not on a black plane."""
+    from vdtools.data import dataset as D
+    rng = np.random.default_rng(4)
+    scene = [np.clip(rng.normal(100 + 20 * k, 30, (H, W)), 0, 255).astype(np.uint16) for k in range(3)]
+    for kind, to16 in (("radiometric", lambda g: 27315 + g * 20), ("counts", lambda g: 1000 + g * 64)):
+        d = tmp_path / kind
+        d.mkdir()
+        for k, g in enumerate(scene):
+            cv2.imwrite(str(d / f"f{k}.png"), to16(g).astype(np.uint16))
+        frames = I.read_frames(I.list_frames(d))
+        for fr, g in zip(frames, scene):
+            raw = to16(g).astype(np.uint16)
+            if kind == "radiometric":
+                assert D.grey_outside_permille(raw) == 0
+                np.testing.assert_array_equal(fr.img, D.grey_of_ck(raw))
+            else:
+                assert D.grey_outside_permille(raw) == 1000 and not D.grey_of_ck(raw).any()   # fixed: black
+                np.testing.assert_array_equal(fr.img, D.grey_of_ck(raw, *D.grey_window_ck(raw)))
+                assert fr.img.std() > 40   # the scene's contrast, stretched to 0..255
+    # the first frame decides: a radiometric first frame keeps the fixed window for a later raw one
+    d = tmp_path / "mixed"
+    d.mkdir()
+    cv2.imwrite(str(d / "a.png"), (27315 + scene[0] * 20).astype(np.uint16))
+    cv2.imwrite(str(d / "b.png"), (1000 + scene[1] * 64).astype(np.uint16))
+    frames = I.read_frames(I.list_frames(d))
+    assert not frames[1].img.any()
+
+
 def test_hit_uav_annotations_read(data_dir, tmp_path):
     """The real HIT-UAV annotations.json (its `annotation` / `filename` dialect) on a few of its frames."""
     src = data_dir / "hit-uav" / "frames"

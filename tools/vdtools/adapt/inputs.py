@@ -6,8 +6,10 @@ Every problem is an InputError whose text is one line that names the file and wh
 
 - Frames: the PNG / JPEG / PGM files of one folder (what `vd_fir_demo --input DIR` reads, raw files aside),
   sorted by name, all of one size and bit depth. Colour files are read as grey; 16-bit frames are mapped to
-  grey by the detector's default radiometric map (vdtools.data.dataset.grey_of_ck: 0-51 degC, identity
-  calibration), which the detector applies after its 2x2 average and this tool before it (±1 grey level).
+  grey as vd_fir_demo's --grey-window auto maps them: by the detector's default radiometric map
+  (vdtools.data.dataset.grey_of_ck: 0-51 degC, identity calibration), or, when 90 % of the first frame's
+  samples lie outside that window (a camera's raw counts), by each frame's own window (grey_window_ck); the
+  detector maps after its 2x2 average and this tool before it (±1 grey level).
 - Labels: a YOLO folder (`<stem>.txt` per frame, lines `class xc yc w h` normalised to the frame; class names
   in `classes.txt` beside or above it, optional) or a COCO JSON file (boxes under `annotations`, or HIT-UAV's
   `annotation`; images named by `file_name` or HIT-UAV's `filename`; `bbox` = x, y, w, h in pixels). A frame
@@ -70,7 +72,8 @@ def list_frames(images):
 
 
 def read_frame(path):
-    """(uint8 grey frame, bit depth) of one file; InputError for a file that does not decode completely."""
+    """(frame, bit depth) of one file: uint8 grey, or the uint16 samples of a 16-bit file (read_frames maps them
+    to grey); InputError for a file that does not decode completely."""
     import cv2
     from PIL import Image
     try:                                   # Pillow first: OpenCV decodes a truncated JPEG without an error
@@ -84,18 +87,23 @@ def read_frame(path):
     if img.ndim == 3:
         img = cv2.cvtColor(img, cv2.COLOR_BGRA2GRAY if img.shape[2] == 4 else cv2.COLOR_BGR2GRAY)
     if img.dtype == np.uint16:
-        from vdtools.data.dataset import grey_of_ck
-        return grey_of_ck(img), 16
+        return img, 16
     if img.dtype != np.uint8:
         raise InputError(f"{path.name}: {img.dtype} samples (8- or 16-bit frames only)")
     return img, 8
 
 
 def read_frames(files):
-    """[UserFrame] of the files, checked to share one size and bit depth."""
-    out, first = [], None
+    """[UserFrame] of the files, checked to share one size and bit depth; 16-bit frames mapped to grey by the
+    window the first one decides (module docstring)."""
+    from vdtools.data import dataset as D
+    out, first, per_frame = [], None, None
     for f in files:
         img, bits = read_frame(f)
+        if bits == 16:
+            if per_frame is None:
+                per_frame = D.grey_outside_permille(img) >= D.GREY_AUTO_PERMILLE
+            img = D.grey_of_ck(img, *D.grey_window_ck(img)) if per_frame else D.grey_of_ck(img)
         h, w = img.shape
         if first is None:
             first = (f.name, w, h, bits)

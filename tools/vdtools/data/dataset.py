@@ -151,11 +151,38 @@ def load_hit(data_dir):
     return frames, seq
 
 
-def grey_of_ck(a):
-    """The detector's 16-bit -> grey map (vd_calib_grey_u8 in threshold.h, identity calibration), vectorised."""
-    mul = (255 * 65536 + (GREY_HI_CK - GREY_LO_CK) // 2) // (GREY_HI_CK - GREY_LO_CK)
-    g = ((a.astype(np.int64) - GREY_LO_CK) * mul + 32768) >> 16
+def grey_of_ck(a, lo=GREY_LO_CK, hi=GREY_HI_CK):
+    """The detector's 16-bit -> grey map (vd_calib_grey_u8 in calib.h, identity calibration), vectorised: the
+    fixed window by default, or lo..hi (grey_window_ck)."""
+    mul = (255 * 65536 + (hi - lo) // 2) // (hi - lo)
+    g = ((a.astype(np.int64) - lo) * mul + 32768) >> 16
     return np.clip(g, 0, 255).astype(np.uint8)
+
+
+GREY_AUTO_PERMILLE = 900   # tools/demo/common/models.h DEMO_GREY_AUTO_PERMILLE (--grey-window auto)
+GREY_MIN_SPAN_CK = 255     # lib/include/vd/detector.h VD_DETECTOR_GREY_MIN_SPAN_CK
+
+
+def grey_outside_permille(a):
+    """Per mille of a 16-bit frame's samples outside the fixed window (identity calibration): --grey-window auto
+    takes each frame's own window when the first frame's is at least GREY_AUTO_PERMILLE (a camera's raw counts)."""
+    return int(np.count_nonzero((a < GREY_LO_CK) | (a > GREY_HI_CK))) * 1000 // a.size
+
+
+def grey_window_ck(a, tail=1):
+    """The detector's per-frame window of a 16-bit frame (cfg.grey_mode percentile, identity calibration): the
+    samples at rank floor(n * tail / 1000) and floor(n * (1000 - tail) / 1000) of the sorted frame (65535 past
+    the end), widened about their middle (C division) to GREY_MIN_SPAN_CK."""
+    s = np.sort(a, axis=None)
+
+    def at(p):
+        k = a.size * p // 1000
+        return int(s[k]) if k < a.size else 65535
+    lo, hi = at(tail), at(1000 - tail)
+    if hi - lo < GREY_MIN_SPAN_CK:
+        lo = int((lo + hi - GREY_MIN_SPAN_CK) / 2)
+        hi = lo + GREY_MIN_SPAN_CK
+    return lo, hi
 
 
 def load_synth(seeds=SYNTH_SEEDS, frames=SYNTH_FRAMES, root=None):

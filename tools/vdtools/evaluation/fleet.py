@@ -316,27 +316,21 @@ def auto_sample(total, parts=AUTO_SPREAD_FRAMES):
     return [(2 * k + 1) * total // (2 * parts) for k in range(parts)]
 
 
-GREY_AUTO_PERMILLE = 900   # tools/demo/common/models.h DEMO_GREY_AUTO_PERMILLE
-
-
 def grey_decision(rec, fields, first):
     """vd_fir_demo's --grey-window auto (tools/demo/common/models.c demo_grey_decide) on a recording: frame
     `first` (the first the demo reads: the first of the --cnn-full-res auto sample, else 0); a 16-bit frame with
-    at least GREY_AUTO_PERMILLE per mille of its samples outside the fixed window (the default TLinear 0-51 C,
-    which the fleet's settings do not change) gets the per-frame window. Returns fields with grey_mode set."""
+    at least dataset.GREY_AUTO_PERMILLE per mille of its samples outside the fixed window (the default TLinear
+    0-51 C, which the fleet's settings do not change) gets the per-frame window. Returns fields with grey_mode set."""
     import numpy as np
-    from vdtools.bindings import detector as vdet
     from vdtools.bindings import port
+    from vdtools.data import dataset as D
     with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
         img = None
         for f, _name in cap.frames_at([first]):   # run to its end: the frame is released before the capture closes
             img = port.pixels(f).copy()
     if img is None or img.dtype != np.uint16:
         return dict(fields, grey_mode=0)
-    d = vdet.default_cfg()   # TLinear: raw = centi-kelvin
-    lo, hi = int(d["grey_lo_ck"]), max(int(d["grey_hi_ck"]), int(d["grey_lo_ck"]) + 1)
-    outside = int(np.count_nonzero((img < lo) | (img > hi))) * 1000 // img.size
-    return dict(fields, grey_mode=int(outside >= GREY_AUTO_PERMILLE))
+    return dict(fields, grey_mode=int(D.grey_outside_permille(img) >= D.GREY_AUTO_PERMILLE))
 
 
 def auto_resolution(rec, fields, cnn):
@@ -457,16 +451,17 @@ def _crop_rect(box, fw, fh):
     return x0, y0, x1 - x0, y1 - y0
 
 
-def _mine_frame(img, gts, kinds, stem, tmp_dir):
+def _mine_frame(img, gts, kinds, stem, tmp_dir, per_frame=False):
     """Crops of one frame's false positives and misses: [(image entry, [annotations])] with the crop PNGs
     written into tmp_dir. Annotations: every ground-truth vehicle (1 Car) and ignore region (4 DontCare)
     that overlaps the crop, clipped and in crop coordinates; a false positive's crop has no vehicle
-    where the detector fired (a hard negative), a miss's crop has the missed vehicle (a hard positive)."""
+    where the detector fired (a hard negative), a miss's crop has the missed vehicle (a hard positive). A 16-bit
+    frame is cropped from grey as the detector saw it (per_frame: cfg.grey_mode percentile)."""
     import cv2
     import numpy as np
-    from vdtools.data.dataset import grey_of_ck
+    from vdtools.data.dataset import grey_of_ck, grey_window_ck
     fh, fw = img.shape
-    grey = img if img.dtype == np.uint8 else grey_of_ck(img)
+    grey = img if img.dtype == np.uint8 else grey_of_ck(img, *grey_window_ck(img)) if per_frame else grey_of_ck(img)
     out = []
     for j, (kind, box, score) in enumerate(kinds):
         cx, cy, cw, ch = _crop_rect(box, fw, fh)
@@ -573,7 +568,8 @@ def run_shard(spec, models, on_frame=None):
                         if kinds:
                             # unique per recording even when a list names two files alike
                             stem = f"{spec['rec']}_{spec['index']:05d}_{i:05d}_{Path(name).stem.replace('#', '_')}"
-                            for im, anns in _mine_frame(img, boxes, kinds, stem, mine_tmp):
+                            per_frame = bool(spec["settings"].get("grey_mode"))   # the detector's grey window
+                            for im, anns in _mine_frame(img, boxes, kinds, stem, mine_tmp, per_frame):
                                 im.update(recording=spec["rec"], frame=name, seq=int(f.seq),
                                           frame_path=by_name.get(name.split("#")[0]))
                                 mined.append((im, anns))
