@@ -13,6 +13,7 @@
 // +-2^32, so (ck - offset_ck) * 65536 < 2^49: all in int64_t; in the grey
 // map |T - lo| < 2^32 and mul_q16 <= 255 * 2^16 < 2^24, product < 2^56.
 #include "vd/calib.h"
+#include "internal/calib_internal.h"
 #include "internal/shift_internal.h"
 #include "internal/vd_internal.h"
 
@@ -70,11 +71,5 @@ vd_status_t vd_calib_grey_init(vd_calib_grey_t *map, const vd_calib_t *cal, int3
 
 uint8_t vd_calib_grey_u8(const vd_calib_grey_t *map, uint16_t raw)
 {
-    int32_t ck = 0;
-    (void)vd_calib_ck_from_raw(&map->calib, raw, &ck);   // out of int32: ck stays 0 (documented)
-    const int64_t g = vd_shr_round_i64(((int64_t)ck - map->lo_ck) * map->mul_q16, 16u);
-    if (g < 0) {
-        return 0u;
-    }
-    return (g > 255) ? 255u : (uint8_t)g;
+    return vd__calib_grey_u8(map, raw);   // internal/calib_internal.h: out of int32 counts as 0 ck (documented)
 }
