@@ -81,21 +81,23 @@ vd_status_t vd_histogram_u8(const vd_view_u8_t *src, const vd_rect_t *roi, uint3
 static void count_u16(const vd_view_u16_t *src, uint32_t high, uint32_t hist[256])
 {
     memset(hist, 0, 256u * sizeof hist[0]);
+    // The view's fields in locals: the counters are uint32_t as the width is, so each store would reload it.
+    const size_t w = src->width, h = src->height, stride = src->stride;
     const uint8_t *row = (const uint8_t *)src->data;
-    for (uint32_t y = 0; y < src->height; y++) {
+    for (size_t y = 0; y < h; y++) {
         const uint16_t *s = (const uint16_t *)(const void *)row;   // even stride, aligned (vd_view_u16_check)
         if (high > 255u) {
-            for (uint32_t x = 0; x < src->width; x++) {
+            for (size_t x = 0; x < w; x++) {
                 hist[s[x] >> 8]++;
             }
         } else {
-            for (uint32_t x = 0; x < src->width; x++) {
+            for (size_t x = 0; x < w; x++) {
                 if ((uint32_t)(s[x] >> 8) == high) {
                     hist[s[x] & 0xFFu]++;
                 }
             }
         }
-        row += src->stride;
+        row += stride;
     }
 }
 
