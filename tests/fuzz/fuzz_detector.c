@@ -141,7 +141,7 @@ static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask, int has_model
         c->nms_iou_q15 > 32768u || cand > 4096u || (c->max_detections && c->max_detections > cand) ||
         c->max_region_w > c->max_width || c->max_region_h > c->max_height ||
         (c->temporal && c->max_tracks > 1024u) || c->sources > 0x0Fu || c->cnn_score_thr_q15 > 32768u ||
-        c->cnn_rescore > 1u || c->cnn_flip > 1u || c->cnn_full_res > 1u || (c->temporal_cfg.flags & ~0x1Fu) != 0u || ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_model == NULL) ||
+        c->cnn_rescore > 1u || c->cnn_flip > 1u || c->cnn_full_res > 1u || c->cnn_invert > 1u || (c->temporal_cfg.flags & ~0x1Fu) != 0u || ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_model == NULL) ||
         ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_rescore && !has_model)) {
         return -1;
     }
@@ -208,6 +208,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         const uint8_t fb = fz_u8(&r);
         cfg.cnn_flip = (uint8_t)(fb % 4u);
         cfg.cnn_full_res = (uint8_t)((fb >> 2) % 3u);
+        cfg.cnn_invert = (uint8_t)((fb >> 4) % 3u);
     }
     FZ_FIELD(30, temporal_cfg.flags, (uint8_t)(fz_u8(&r) % 0x30u));   // incl. VD_TEMPORAL_SCORES and invalid bits
     FZ_FIELD(31, temporal_cfg.coast_frames, fz_u8(&r));

@@ -442,3 +442,43 @@ def test_ctypes_mirror_matches_c_layout(tmp_path):
         assert int(g) == v, f"{cname}.{fname}: C {g}, ctypes {v}"
     assert int(got[len(want)]) <= vdet._DET_BYTES, "vd_detector_t outgrew the ctypes buffer"
     assert int(got[len(want) + 1]) == len(vdet.STAGES)
+
+
+# ------------------------------------------------------------------ cfg.cnn_invert, a black-hot camera
+@pytest.mark.parametrize("full_res", [False, True], ids=["half_res", "full_res"])
+def test_pair_black_hot_equals_python_reference(vdlib, full_res):
+    """cfg.cnn_invert (vd_fir_demo --cnn-polarity black-hot): the shipped pair with flip passes on frames of the
+    bundled clip shown black-hot (255 - v) == the Python reference on the plane the networks read: at full
+    resolution the white-hot frame itself; at half resolution 255 minus the 2 x 2 means of the black-hot frame,
+    fed as 2 x 2 equal blocks (the inversion follows the mean: (S + 2) >> 2 of 255 - v is not always 255 minus
+    that of v). And as they are, the black-hot frames lose most of the white-hot boxes."""
+    import cv2
+    if not (MODEL.is_file() and MODEL2.is_file()):
+        pytest.skip("the shipped pair (models/vd_cnn.vdm, models/vd_cnn2.vdm) is not committed")
+    desc, desc2 = V.unpack(MODEL.read_bytes()), V.unpack(MODEL2.read_bytes())
+    peaks = max(int(desc["max_peaks"]), int(desc2["max_peaks"]))
+    clip_dir = REPO / "tools" / "demo" / "hit-uav-clip" / "images"
+    total = plain = 0
+    for p in sorted(clip_dir.glob("*.jpg"))[::13]:
+        white = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        if full_res:
+            white = white[101:342, 157:478]   # 321 x 241: odd sizes
+        black = (255 - white).astype(np.uint8)
+        h, w = black.shape
+        kw = dict(max_width=w, max_height=h, sources=vdet.source_bits(["cnn"]), cnn_model=MODEL, cnn_model2=MODEL2,
+                  cnn_flip=1, cnn_full_res=int(full_res), max_candidates=peaks, max_detections=32)
+        got = [(tuple(d["box"]), d["score_q8"]) for d in vdet.Detector(cnn_invert=1, **kw).run(black)[0]]
+        if full_res:
+            plane = white
+        else:
+            hh, hw = h // 2 * 2, w // 2 * 2
+            s = black[:hh, :hw].astype(np.int64).reshape(hh // 2, 2, hw // 2, 2).sum(axis=(1, 3))
+            plane = np.repeat(np.repeat((255 - ((s + 2) >> 2)).astype(np.uint8), 2, axis=0), 2, axis=1)
+        want = CDet.detect(desc, plane, max_candidates=peaks, max_detections=32, flip=True, desc2=desc2,
+                           full_res=full_res)
+        assert got == [(tuple(int(v) for v in b), sc) for b, sc in want], p.name
+        total += len(got)
+        plain += len(vdet.Detector(**kw).run(black)[0])
+    assert total >= (2 if full_res else 20), total
+    if not full_res:
+        assert plain < total, (plain, total)

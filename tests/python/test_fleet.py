@@ -200,5 +200,8 @@ def test_settings_follow_the_demo():
     for k, bad in (("grey-window", "median"), ("grey-tail", "50"), ("grey-tail", "0.04")):
         with pytest.raises(fleet.FleetError, match=k):
             fleet.resolve({k: bad})
+    assert "cnn_invert" not in fleet.resolve({})[0] and fleet.resolve({"cnn-polarity": "black-hot"})[0]["cnn_invert"] == 1
+    with pytest.raises(fleet.FleetError, match="cnn-polarity"):
+        fleet.resolve({"cnn-polarity": "grey-hot"})
     with pytest.raises(fleet.FleetError, match="not supported"):
         fleet.resolve({"window-preset": "msrs"})

@@ -1329,6 +1329,29 @@ static void test_clock_and_temporal(void)
     TEST_ASSERT_TRUE(g_out[0].track_id != 0u);
 }
 
+// ------------------------------------------------------------ cnn_invert
+// The block scene as a black-hot camera shows it: 255 - v everywhere (background 235, the block 55 over 54).
+// The plane is inverted after the 2x2 mean: (55 + 55 + 54 + 54 + 2) >> 2 = 55 (54.5 rounded half up), 255 - 55
+// = 200, where the white-hot block gave 201; the background 255 - 235 = 20, as before.
+static void test_invert_hand_worked(void)
+{
+    (void)block_scene();
+    vd_detector_cfg_t c = cnn_cfg();
+    vd_frame_t f = frame8(64u, 48u);
+    fill(235u);
+    rect8(26u, 18u, 2u, 1u, 55u);
+    rect8(26u, 19u, 2u, 1u, 54u);
+    c.cnn_invert = 1u;
+    init_or_fail(&c, NULL);
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    expect_box(&g_out[0], 20, 12, 16, 16, 200u);
+    fill(235u);   // a flat frame: 20 everywhere once inverted, below the threshold
+    TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
+    c.cnn_invert = 2u;
+    size_t bytes = 0u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
+}
+
 // ------------------------------------------------------------ cnn_full_res
 
 // Full resolution, hand-worked: the block of test_box_position_score_source
@@ -1430,6 +1453,7 @@ int main(void)
     RUN_TEST(test_pair_workspace_and_bad_model);
     RUN_TEST(test_pair_keeps_each_plan);
     RUN_TEST(test_clock_and_temporal);
+    RUN_TEST(test_invert_hand_worked);
     RUN_TEST(test_full_res_hand_worked);
     RUN_TEST(test_full_res_is_half_res_of_the_doubled_frame);
     return UNITY_END();

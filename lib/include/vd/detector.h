@@ -110,6 +110,9 @@ typedef struct vd_detector_cfg {
                                  //   the shipped networks trained at); 1: at full resolution, for a camera whose
                                  //   vehicles are about half the training data's size (4x the multiply-adds and
                                  //   a network workspace for twice the width; docs/results/cameras.md)
+    uint8_t cnn_invert;          // 0: the networks read the plane as it is (white-hot: warm is bright, as they
+                                 //   trained); 1: each plane value v as 255 - v, for a black-hot camera (whose
+                                 //   frames as they are cost the shipped pair most of its AP: docs/results/cameras.md)
 
     // Verifier.
     uint8_t verifier;            // VD_DETECTOR_VERIFIER_*, 0..1; 0 = DBN

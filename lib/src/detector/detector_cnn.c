@@ -67,7 +67,8 @@ void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t d, uint32_t w
     *nh = (hh + a - 1u) / a * a;
 }
 
-// Rows of the half-resolution plane of f (hw x hh) padded to nw x nh by
+// Rows of the half-resolution plane of f (hw x hh), inverted (255 - v) with
+// cfg.cnn_invert, padded to nw x nh by
 // repeating the last real column, then the last real row, made on demand
 // for vd_cnn_run_rows (the plane itself is never stored: 80 KiB at 640 x 512).
 // With flip, each row's hw real pixels are reversed before the padding: the
@@ -79,6 +80,7 @@ typedef struct cnn_rows_ctx {
     vd_view_u16_t v16;
     bool wide;          // 16-bit frame
     bool flip;          // the cnn_flip pass: rows mirrored (x -> hw - 1 - x)
+    bool invert;        // cfg.cnn_invert: each plane value v as 255 - v (a black-hot camera)
     uint32_t d;         // frame pixels per plane pixel and axis (vd__detector_cnn_div)
     uint32_t hw, hh, nw;
     vd_status_t st;     // first failure of a row (none expected: the views are checked up front)
@@ -97,6 +99,11 @@ static void cnn_row(void *ctx, uint32_t y, uint8_t *dst)
         r->st = (r->st == VD_OK) ? st : r->st;
         memset(dst, 0, r->nw);
         return;
+    }
+    if (r->invert) {
+        for (uint32_t i = 0u; i < r->hw; i++) {
+            dst[i] = (uint8_t)(255u - dst[i]);
+        }
     }
     if (r->flip) {
         // Reversed in place: the resamplers take no mirrored view. hw >= 1 here.
@@ -319,6 +326,7 @@ vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, siz
     memset(&r, 0, sizeof r);
     r.det = det;
     r.wide = f->format != VD_PIX_U8;
+    r.invert = det->cfg.cnn_invert != 0u;
     r.d = d;
     r.hw = f->width / d;
     r.hh = f->height / d;

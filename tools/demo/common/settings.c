@@ -451,6 +451,8 @@ static const named_value_t k_track_motions[] = {
     {"on", 0u}, {"velocity", VD_TEMPORAL_NO_GLOBAL}, {"off", VD_TEMPORAL_NO_MOTION}, {NULL, 0}};
 static const named_value_t k_polarities[] = {
     {"both", VD_CONTRAST_BOTH}, {"warm", VD_CONTRAST_WARM}, {"cold", VD_CONTRAST_COLD}, {NULL, 0}};
+static const named_value_t k_cnn_polarities[] = {
+    {"white-hot", 0u}, {"black-hot", 1u}, {NULL, 0}};
 static const named_value_t k_verifiers[] = {
     {"dbn", VD_DETECTOR_VERIFIER_DBN}, {"boost", VD_DETECTOR_VERIFIER_BOOST}, {NULL, 0}};
 
@@ -612,6 +614,11 @@ static const setting_t k_settings[] = {
      "higher at full resolution (mean score + flip agreement / 4) on 64 frames spread over "
      "the recording (docs/demo.md; a camera's first 32 as they come); half under 16 frames",
      CUSTOM(set_cnn_full_res), OPTIONAL_OR("auto")},
+    {"cnn-polarity", "white-hot|black-hot",
+     "cnn source: white-hot (default: warm is bright, as the networks trained) or black-hot (a camera set to "
+     "show warm as dark: the networks read each input value v as 255 - v; as they are, such frames cost the "
+     "networks most of their AP, docs/demo.md)",
+     ENUM(U8, cnn_invert, k_cnn_polarities)},
     {"cnn-model2", "FILE|none",
      "cnn source: a second version-3 .vdm network run on the same frame, its boxes fused with "
      "the first network's as the flip pass fuses (an ensemble: about the second network's time "

@@ -159,7 +159,7 @@ def plan(recs, shard_frames=256):
 
 SETTINGS = ("sources", "cnn-model", "cnn-model2", "model", "temporal", "cnn-thr", "cnn-flip", "cnn-full-res",
             "thr-mode", "hot-thr", "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast", "track-confirm",
-            "grey-window", "grey-tail")
+            "grey-window", "grey-tail", "cnn-polarity")
 
 
 def _vdm_version(blob):
@@ -241,6 +241,11 @@ def resolve(settings, models_dir=None):
         if not 1 <= tail <= 499:
             raise FleetError(f"bad value '{s['grey-tail']}' for grey-tail (expected 0.1..49.9)")
         fields["grey_tail_permille"] = tail
+    if "cnn-polarity" in s:   # a black-hot camera: the networks read 255 - v (cfg.cnn_invert)
+        pol = str(s["cnn-polarity"])
+        if pol not in ("white-hot", "black-hot"):
+            raise FleetError(f"bad value '{pol}' for cnn-polarity (expected white-hot|black-hot)")
+        fields["cnn_invert"] = int(pol == "black-hot")
     if "thr-mode" in s:
         fields["thr_mode"] = {"constant": 0, "adaptive": 1}[s["thr-mode"]]
     if "hot-thr" in s:
