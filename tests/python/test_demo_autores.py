@@ -193,9 +193,8 @@ def test_raw_counts_take_the_frame_window_before_the_measurement(demo, shipped, 
         cv2.imwrite(str(d / (p.stem + ".png")), img.astype(np.uint16) * 64 + 1000)
     fields, cnn, _dbn, _desc = fleet.resolve({})
     assert "grey_mode" not in fields
-    first = fleet.auto_sample(38)[0]
-    assert fleet.grey_decision({"input": str(CLIP)}, fields, first)["grey_mode"] == 0
-    f = fleet.grey_decision({"input": str(d)}, fields, first)
+    assert fleet.grey_decision({"input": str(CLIP)}, fields, True)["grey_mode"] == 0
+    f = fleet.grey_decision({"input": str(d)}, fields, True)
     assert f["grey_mode"] == 1
     got = fleet.auto_resolution({"input": str(d)}, f, cnn)
     out = run(demo, "--input", d, "--quiet", "--temporal", "off").stdout

@@ -2,7 +2,7 @@
 """The per-frame grey window of 16-bit frames (cfg.grey_mode = VD_DETECTOR_GREY_PERCENTILE): the percentiles of
 vd_histogram_percentiles_u16 against numpy on real frames written as a camera's raw counts, the detector's window
 (stats) against the same oracle, and the shipped pair on raw counts bit-exact with the Python reference fed the
-8-bit plane that numpy derives from the window (calib.h's map)."""
+8-bit plane that vdtools.data.dataset (grey_window_ck, grey_of_ck) derives from the window."""
 import numpy as np
 import pytest
 
@@ -11,6 +11,7 @@ cv2 = pytest.importorskip("cv2")
 from vdtools.bindings import detector as vdet  # noqa: E402
 from vdtools.bindings import pixel  # noqa: E402
 from vdtools.bindings.clib import REPO  # noqa: E402
+from vdtools.data import dataset as D  # noqa: E402
 from vdtools.evaluation import cnn_detector as CDet  # noqa: E402
 from vdtools.formats import cnn_vdm as V  # noqa: E402
 
@@ -18,9 +19,6 @@ from realdata import frame_paths  # noqa: E402
 
 MODEL = REPO / "models" / "vd_cnn.vdm"
 MODEL2 = REPO / "models" / "vd_cnn2.vdm"
-MIN_SPAN_CK = 255   # VD_DETECTOR_GREY_MIN_SPAN_CK
-
-
 def oracle(a, permille):
     """The sample at rank floor(n * permille / 1000) of the sorted plane; 65535 when that rank is n."""
     s = np.sort(a, axis=None)
@@ -28,22 +26,8 @@ def oracle(a, permille):
     return int(s[k]) if k < a.size else 65535
 
 
-def window_ck(a, tail):
-    """The detector's window in centi-kelvin under TLinear (raw = ck): the two tails' samples, widened about
-    their middle (rounded toward zero) to the least span."""
-    lo, hi = oracle(a, tail), oracle(a, 1000 - tail)
-    if hi - lo < MIN_SPAN_CK:
-        lo = int((lo + hi - MIN_SPAN_CK) / 2)
-        hi = lo + MIN_SPAN_CK
-    return lo, hi
-
-
-def grey_map(a, lo, hi):
-    """vd_calib_grey_u8 with TLinear: clamp(((T - lo) * mul + 2^15) >> 16), mul = round(255 * 2^16 / span)."""
-    span = hi - lo
-    mul = (255 * 65536 + span // 2) // span
-    g = ((a.astype(np.int64) - lo) * mul + 32768) >> 16
-    return np.clip(g, 0, 255).astype(np.uint8)
+# The Python reference of the window and the map (what vd-adapt and the fleet use): the detector must equal it.
+window_ck, grey_map = D.grey_window_ck, D.grey_of_ck
 
 
 def raw_counts(grey, rng, kind):

@@ -82,6 +82,19 @@ def _frame(group, qsum, m, gts=()):
                 m=m)
 
 
+def test_flip_counts_hand_worked():
+    """window_evidence.flip_counts: boxes below the threshold are left out of both the score sum and the
+    matching; a frame without a box above it has m None."""
+    from vdtools.adapt import window_evidence as WE
+    box, far = (0, 0, 10, 10), (50, 50, 10, 10)
+    ra = [("f0", None, [(box, 0.8), (far, 0.2)]), ("f1", None, [(far, 0.1)])]
+    rb = [("f0", None, [(box, 0.6), (far, 0.5)]), ("f1", None, [])]
+    c = WE.flip_counts(ra, rb, 0.4)
+    # frame 0: a = [box 0.8], b = [box 0.6, far 0.5]: one match of 3 boxes
+    assert c[0]["qsum"] == sum(M.score_q8(s) for s in (0.8, 0.6, 0.5)) and tuple(c[0]["m"]) == (1, 3)
+    assert c[1] == dict(qsum=0, m=None)
+
+
 def test_window_rating_pools_counts_as_the_demo():
     """window_evidence.rating: score_q8 sum / (255 boxes) + 1/4 x 2 matched / boxes over the frames it is given;
     no box anywhere rates 0."""

@@ -101,20 +101,20 @@ static void count_u16(const vd_view_u16_t *src, uint32_t high, uint32_t hist[256
     }
 }
 
-// Smallest bin b with base + cum(b) > k (256 when none); *below = base +
-// the counts before b.
+// Smallest bin b with base + cum(b) > k (256 when none); *below (if not
+// NULL) = base + the counts before b.
 static uint32_t rank_bin(const uint32_t hist[256], uint64_t base, uint64_t k, uint64_t *below)
 {
     uint64_t cum = base;
-    for (uint32_t b = 0; b < 256u; b++) {
-        if (cum + hist[b] > k) {
-            *below = cum;
-            return b;
-        }
+    uint32_t b = 0;
+    while (b < 256u && cum + hist[b] <= k) {
         cum += hist[b];
+        b++;
     }
-    *below = cum;
-    return 256u;
+    if (below != NULL) {
+        *below = cum;
+    }
+    return b;
 }
 
 vd_status_t vd_histogram_percentiles_u16(const vd_view_u16_t *src, uint32_t lo_permille, uint32_t hi_permille,
@@ -139,8 +139,7 @@ vd_status_t vd_histogram_percentiles_u16(const vd_view_u16_t *src, uint32_t lo_p
         if (i == 0u || bin[1] != bin[0]) {
             count_u16(src, bin[i], hist);   // else hist holds this bin's low bytes already
         }
-        uint64_t unused = 0u;
-        const uint32_t f = rank_bin(hist, below[i], k[i], &unused);   // < 256: the bin holds the rank
+        const uint32_t f = rank_bin(hist, below[i], k[i], NULL);   // < 256: the bin holds the rank
         out[i] = (uint16_t)((bin[i] << 8) | f);
     }
     *lo = out[0];

@@ -38,18 +38,6 @@ def inverted(frames):
     return out
 
 
-def measures(frames, thr):
-    """Per frame: qsum and m as window_evidence.collect counts them, at half resolution."""
-    ra, rb = M.flip_runs(MODELS, frames, False)
-    per = []
-    for i in range(len(frames)):
-        a = [x for x in ra[i][2] if x[1] >= thr]
-        b = [x for x in rb[i][2] if x[1] >= thr]
-        per.append(dict(qsum=sum(M.score_q8(s) for _, s in a + b),
-                        m=M.one_to_one([x[0] for x in a], [x[0] for x in b], M.AGREE_IOU)))
-    return per
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--split", choices=("train", "val", "test"), required=True)
@@ -67,7 +55,8 @@ def main(argv=None):
             if not fs:
                 continue
             part = shifted(fs, shift)
-            white, black = measures(part, thr), measures(inverted(part), thr)
+            white = W.flip_counts(*M.flip_runs(MODELS, part, False), thr)
+            black = W.flip_counts(*M.flip_runs(MODELS, inverted(part), False), thr)
             groups = {}
             for i, f in enumerate(fs):
                 groups.setdefault(str(f.group), []).append(i)

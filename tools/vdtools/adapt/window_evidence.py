@@ -41,6 +41,18 @@ SPREAD = (16, 24, 32, 48, 64, 96)                    # spread windows compared (
 DRAWS, MIN_SET_FRAMES, GROUPS = 200, 40, (2, 8)
 
 
+def flip_counts(ra, rb, thr):
+    """Per frame of M.flip_runs' two runs: qsum (the score_q8 sum of the boxes >= thr of the frame and its mirror
+    image) and m (one_to_one of the two: matched, boxes; None without a box), the counts rating() pools."""
+    per = []
+    for fa, fb in zip(ra, rb):
+        a = [x for x in fa[2] if x[1] >= thr]
+        b = [x for x in fb[2] if x[1] >= thr]
+        per.append(dict(qsum=sum(M.score_q8(s) for _, s in a + b),
+                        m=M.one_to_one([x[0] for x in a], [x[0] for x in b], M.AGREE_IOU)))
+    return per
+
+
 def collect(frames, shift, thr):
     """{(shift, family, 'half'|'full'): [per frame in name order: name, group, dets, gts (for AP@0.5), qsum (the
     score_q8 sum of the boxes >= thr of the frame and its mirror image) and m (one_to_one of the two: matched,
@@ -54,15 +66,9 @@ def collect(frames, shift, thr):
         for res in ("half", "full"):
             full = res == "full"
             det = M.detections(MODELS, part, full_res=full)
-            ra, rb = M.flip_runs(MODELS, part, full)
-            per = []
-            for i, f in enumerate(fs):
-                a = [x for x in ra[i][2] if x[1] >= thr]
-                b = [x for x in rb[i][2] if x[1] >= thr]
-                per.append(dict(name=Path(f.path).name, group=str(f.group), dets=det[i][2], gts=det[i][3],
-                                qsum=sum(M.score_q8(s) for _, s in a + b),
-                                m=M.one_to_one([x[0] for x in a], [x[0] for x in b], M.AGREE_IOU)))
-            out[(shift, fam, res)] = per
+            counts = flip_counts(*M.flip_runs(MODELS, part, full), thr)
+            out[(shift, fam, res)] = [dict(c, name=Path(f.path).name, group=str(f.group), dets=det[i][2],
+                                           gts=det[i][3]) for i, (f, c) in enumerate(zip(fs, counts))]
             print(f"{shift} {fam} {res}: {len(fs)} frames", flush=True)
     return out
 

@@ -321,15 +321,17 @@ def auto_sample(total, parts=AUTO_SPREAD_FRAMES):
     return [(2 * k + 1) * total // (2 * parts) for k in range(parts)]
 
 
-def grey_decision(rec, fields, first):
-    """vd_fir_demo's --grey-window auto (tools/demo/common/models.c demo_grey_decide) on a recording: frame
-    `first` (the first the demo reads: the first of the --cnn-full-res auto sample, else 0); a 16-bit frame with
-    at least dataset.GREY_AUTO_PERMILLE per mille of its samples outside the fixed window (the default TLinear
-    0-51 C, which the fleet's settings do not change) gets the per-frame window. Returns fields with grey_mode set."""
+def grey_decision(rec, fields, spread):
+    """vd_fir_demo's --grey-window auto (tools/demo/common/models.c demo_grey_decide) on a recording: the first
+    frame the demo reads (spread: the first of the --cnn-full-res auto sample, auto_sample; else frame 0); a 16-bit
+    frame with at least dataset.GREY_AUTO_PERMILLE per mille of its samples outside the fixed window (the default
+    TLinear 0-51 C, which the fleet's settings do not change) gets the per-frame window. Returns fields with
+    grey_mode set."""
     import numpy as np
     from vdtools.bindings import port
     from vdtools.data import dataset as D
     with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
+        first = (auto_sample(cap.total()) or [0])[0] if spread else 0
         img = None
         for f, _name in cap.frames_at([first]):   # run to its end: the frame is released before the capture closes
             img = port.pixels(f).copy()
@@ -670,12 +672,7 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     auto_res = "cnn_full_res" not in fields and fields["sources"] & SRC_CNN
     if "grey_mode" not in fields:   # grey-window auto: each recording's first frame read decides, as in the demo
         for r in recs:
-            first = 0
-            if auto_res:
-                from vdtools.bindings import port
-                with port.Capture(r["input"], r.get("raw_size"), r.get("raw_format") or "u16") as cap:
-                    first = (auto_sample(cap.total()) or [0])[0]
-            rec_fields[r["id"]] = grey_decision(r, fields, first)
+            rec_fields[r["id"]] = grey_decision(r, fields, bool(auto_res))
     if auto_res:
         cnn_input = {}
         for r in recs:
