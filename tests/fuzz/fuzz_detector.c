@@ -10,7 +10,7 @@
 // without the CNN bit, values above the documented set included), cnn_rescore (0..3) and
 // whether the network's score threshold is fuzzed (a u16, 0 = the model's, > 32768 invalid);
 // mask bit 29 fuzzes cnn_flip (0..3: the fused flip pass, and invalid values) and, from the same byte,
-// cnn_full_res (0..2: full-resolution input, and an invalid value).
+// cnn_res (0..3: half, full and quarter resolution input, and an invalid value).
 // Mask bits 30 and 31 fuzz temporal_cfg.flags (VD_TEMPORAL_SCORES, invalid bits) and coast_frames;
 // the seed u8_cnn_track_scores runs the track scores on the CNN's boxes.
 // Checks: the size
@@ -141,7 +141,7 @@ static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask, int has_model
         c->nms_iou_q15 > 32768u || cand > 4096u || (c->max_detections && c->max_detections > cand) ||
         c->max_region_w > c->max_width || c->max_region_h > c->max_height ||
         (c->temporal && c->max_tracks > 1024u) || c->sources > 0x0Fu || c->cnn_score_thr_q15 > 32768u ||
-        c->cnn_rescore > 1u || c->cnn_flip > 1u || c->cnn_full_res > 1u || c->cnn_invert > 1u || (c->temporal_cfg.flags & ~0x1Fu) != 0u || ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_model == NULL) ||
+        c->cnn_rescore > 1u || c->cnn_flip > 1u || c->cnn_res > 2u || c->cnn_invert > 1u || (c->temporal_cfg.flags & ~0x1Fu) != 0u || ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_model == NULL) ||
         ((c->sources & VD_DETECTOR_SRC_CNN) && c->cnn_rescore && !has_model)) {
         return -1;
     }
@@ -207,7 +207,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (fmask & (1u << 29)) {
         const uint8_t fb = fz_u8(&r);
         cfg.cnn_flip = (uint8_t)(fb % 4u);
-        cfg.cnn_full_res = (uint8_t)((fb >> 2) % 3u);
+        cfg.cnn_res = (uint8_t)((fb >> 2) % 4u);
         cfg.cnn_invert = (uint8_t)((fb >> 4) % 3u);
     }
     FZ_FIELD(30, temporal_cfg.flags, (uint8_t)(fz_u8(&r) % 0x30u));   // incl. VD_TEMPORAL_SCORES and invalid bits

@@ -274,7 +274,7 @@ def test_pair_real_frames_equal_python(demo, data_dir, tmp_path, flip):
 
 
 def test_pair_full_res_real_frames_equal_python(demo, data_dir, tmp_path):
-    """--cnn-full-res (cfg.cnn_full_res): the shipped pair with flip passes reads the frame itself instead of its
+    """--cnn-full-res (cfg.cnn_res): the shipped pair with flip passes reads the frame itself instead of its
     half-resolution plane. Odd-sized crops of real test-split frames (321 x 241: the mirror spans every column
     at full resolution): demo == cnn_detector.detect(full_res=True), cnn_eval.Pair == cnn_detector.pair_boxes,
     and the workspace the library asks for grows with the plane."""
@@ -300,8 +300,41 @@ def test_pair_full_res_real_frames_equal_python(demo, data_dir, tmp_path):
     assert total > 0
     from vdtools.bindings import detector as D
     ws = {fr: D.workspace_size(640, 480, sources=D.source_bits(["cnn"]), cnn_model=MODEL, cnn_model2=MODEL2,
-                               cnn_flip=1, cnn_full_res=fr) for fr in (0, 1)}
+                               cnn_flip=1, cnn_res=fr) for fr in (0, 1)}
     assert ws[1] > ws[0], ws
+
+
+def test_pair_quarter_res_real_frames_equal_python(demo, data_dir, tmp_path):
+    """--cnn-res quarter (cfg.cnn_res QUARTER): the shipped pair with flip passes reads the frame's 4x4 box
+    averages. Real test-split frames scaled up 2x (cars twice the training size, as a 1280x1024 camera shows
+    them) and cut to 1279 x 959 (not multiples of 4: the last partial block is dropped, and the mirror spans
+    1276 columns): demo == cnn_detector.detect(full_res=2), cnn_eval.Pair == cnn_detector.pair_boxes, and the
+    workspace the library asks for does not grow."""
+    import cv2
+    if not (MODEL.is_file() and MODEL2.is_file()):
+        pytest.skip("the shipped pair (models/vd_cnn.vdm, models/vd_cnn2.vdm) is not committed")
+    from vdtools.evaluation import cnn_eval
+    desc, desc2 = V.unpack(MODEL.read_bytes()), V.unpack(MODEL2.read_bytes())
+    kw = dict(max_candidates=max(int(desc["max_peaks"]), int(desc2["max_peaks"])), max_detections=32, flip=True,
+              full_res=2)
+    pair = cnn_eval.Pair(cnn_eval.Int8(MODEL, backend="ref", flip=True, full_res=2),
+                         cnn_eval.Int8(MODEL2, backend="ref", flip=True, full_res=2))
+    frames = {f"up_{k}": cv2.resize(v, (v.shape[1] * 2, v.shape[0] * 2), interpolation=cv2.INTER_LINEAR)[:959, :1279]
+              for fr in _real_frames(data_dir, per_family=2).values() for k, v in fr.items()}
+    src = write_frames(tmp_path / "up", frames)
+    jl = tmp_path / "quarter.jsonl"
+    run(demo, "--input", src, "--temporal", "off", "--json", jl, "--quiet", "--cnn-res", "quarter")
+    total = compare(demo_dets(jl), frames, desc, "pair quarter res: ", desc2=desc2, **kw)
+    for name, img in list(frames.items())[:2]:
+        h, w = img.shape
+        got = [(b, int(round(s * 32768))) for b, s in pair(img, w, h, score_thr_q15=11469)]
+        assert got == CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True, full_res=2), name
+        assert got != CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True) or not got, name
+    assert total > 0
+    from vdtools.bindings import detector as D
+    ws = {r: D.workspace_size(1279, 959, sources=D.source_bits(["cnn"]), cnn_model=MODEL, cnn_model2=MODEL2,
+                              cnn_flip=1, cnn_res=r) for r in (0, 2)}
+    assert ws[2] <= ws[0], ws
 
 
 # ------------------------------------------------------------------ real frames, the shipped model
@@ -466,7 +499,7 @@ def test_pair_black_hot_equals_python_reference(vdlib, full_res):
         black = (255 - white).astype(np.uint8)
         h, w = black.shape
         kw = dict(max_width=w, max_height=h, sources=vdet.source_bits(["cnn"]), cnn_model=MODEL, cnn_model2=MODEL2,
-                  cnn_flip=1, cnn_full_res=int(full_res), max_candidates=peaks, max_detections=32)
+                  cnn_flip=1, cnn_res=int(full_res), max_candidates=peaks, max_detections=32)
         got = [(tuple(d["box"]), d["score_q8"]) for d in vdet.Detector(cnn_invert=1, **kw).run(black)[0]]
         if full_res:
             plane = white

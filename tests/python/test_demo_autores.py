@@ -123,19 +123,53 @@ def test_explicit_values_skip_the_measurement(demo, shipped, small_clip, tmp_pat
     """on/off (flag, bare flag, config) run no measurement; auto from a config file measures; bad values fail."""
     for args in (["--cnn-full-res", "off"], ["--cnn-full-res", "on"], ["--cnn-full-res"], ["--cnn-full-res", "0"]):
         r = run(demo, "--input", small_clip, "--frames", "2", "--quiet", *args)
-        assert "cnn input:" not in r.stdout, args
+        assert "auto: rating" not in r.stdout, args
     cfg = tmp_path / "auto.json"
     cfg.write_text('{"cnn-full-res": "auto"}')
     r = run(demo, "--input", small_clip, "--frames", "20", "--quiet", "--config", cfg)
     assert choice(r.stdout)[:1] == ("full",) or choice(r.stdout)[3] == 20
     cfg.write_text('{"cnn-full-res": true}')
-    assert "cnn input:" not in run(demo, "--input", small_clip, "--frames", "2", "--quiet", "--config", cfg).stdout
+    r = run(demo, "--input", small_clip, "--frames", "2", "--quiet", "--config", cfg)
+    assert "auto: rating" not in r.stdout and "cnn input: full resolution (set by --cnn-res" in r.stdout
     # a word that is no value of the switch is the next argument (as for --cnn-flip)
     r = run(demo, "--input", small_clip, "--frames", "2", "--quiet", "--cnn-full-res", "sometimes", check=False)
     assert r.returncode == 2 and "sometimes" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     (tmp_path / "bad.json").write_text('{"cnn-full-res": "automatic"}')
     r = run(demo, "--input", small_clip, "--frames", "2", "--quiet", "--config", tmp_path / "bad.json", check=False)
     assert r.returncode == 2 and "cnn-full-res" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_large_vehicles_quarter_resolution(demo, shipped, tmp_path):
+    """--cnn-res quarter (cfg.cnn_res QUARTER): the bundled clip scaled up 2x (1280 x 1024, cars twice the
+    training size, as a 1280 x 1024 camera or a lens of half the field of view shows them) loses most of its AP
+    at half resolution and gets it back at quarter resolution (measured: 15.4 -> 49.0, the 8-bit clip 48.2;
+    docs/results/cameras.md); the setting from a config file; bad values fail with one line."""
+    ann = json.loads((CLIP.parent / "annotations.json").read_text())
+    up = tmp_path / "up"
+    up.mkdir()
+    for p in sorted(CLIP.glob("*.jpg")):
+        im = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        cv2.imwrite(str(up / (p.stem + ".png")), cv2.resize(im, (1280, 1024), interpolation=cv2.INTER_LINEAR))
+    for im in ann["images"]:
+        im["filename"], im["width"], im["height"] = im["filename"].replace(".jpg", ".png"), 1280, 1024
+    for a in ann["annotation"]:
+        a["bbox"] = [2 * v for v in a["bbox"]]
+    (tmp_path / "ann.json").write_text(json.dumps(ann))
+    ap = {}
+    for res in ("half", "quarter"):
+        e = tmp_path / f"{res}.json"
+        r = run(demo, "--input", up, "--eval", tmp_path / "ann.json", "--eval-out", e, "--json", tmp_path / "d.jsonl",
+                "--quiet", "--cnn-res", res)
+        assert ("cnn input: quarter resolution" in r.stdout) == (res == "quarter"), r.stdout
+        ap[res] = json.loads(e.read_text())["ap"]
+    assert ap["half"] < 0.25 and ap["quarter"] > 0.45, ap
+    cfg = tmp_path / "q.json"
+    cfg.write_text('{"cnn-res": "quarter"}')
+    r = run(demo, "--input", up, "--frames", "2", "--quiet", "--config", cfg)
+    assert "cnn input: quarter resolution" in r.stdout
+    for args in (["--cnn-res", "eighth"], ["--cnn-res"]):
+        r = run(demo, "--input", up, "--frames", "2", "--quiet", *args, check=False)
+        assert r.returncode == 2 and "cnn-res" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
 
 
 def test_frames_without_vehicles(demo, shipped, tmp_path):
@@ -170,7 +204,7 @@ def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
     if not port.lib_path().exists():
         pytest.skip(f"{port.lib_path()} not built")
     fields, cnn, _dbn, _desc = fleet.resolve({})
-    assert "cnn_full_res" not in fields
+    assert "cnn_res" not in fields
     for folder, want in ((CLIP, "half"), (small_clip, "full")):
         got = fleet.auto_resolution({"input": str(folder)}, fields, cnn)
         c = choice(run(demo, "--input", folder, "--quiet", "--temporal", "off").stdout)

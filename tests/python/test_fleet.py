@@ -170,12 +170,19 @@ def test_settings_follow_the_demo():
     assert fields["cnn_flip"] == 1 and fields["max_candidates"] == 100 and fields["max_detections"] == 32
     fields = fleet.resolve({"cnn-flip": "off"})[0]
     assert fields["cnn_flip"] == 0 and fields["max_candidates"] == 100 and fields["max_detections"] == 32
-    assert "cnn_full_res" not in fields and fleet.resolve({"cnn-full-res": "on"})[0]["cnn_full_res"] == 1
+    assert "cnn_res" not in fields and fleet.resolve({"cnn-full-res": "on"})[0]["cnn_res"] == 1
     with pytest.raises(fleet.FleetError, match="switch"):
         fleet.resolve({"cnn-full-res": "maybe"})
     # auto (the default, as the demo's) sets no field: run() measures each recording (auto_resolution)
-    assert "cnn_full_res" not in fleet.resolve({"cnn-full-res": "auto"})[0]
-    assert fleet.resolve({"cnn-full-res": "off"})[0]["cnn_full_res"] == 0
+    assert "cnn_res" not in fleet.resolve({"cnn-full-res": "auto"})[0]
+    assert fleet.resolve({"cnn-full-res": "off"})[0]["cnn_res"] == 0
+    # cnn-res: half / full / quarter are cfg.cnn_res 0 / 1 / 2, auto as cnn-full-res auto; the later one wins
+    assert [fleet.resolve({"cnn-res": v})[0]["cnn_res"] for v in ("half", "full", "quarter")] == [0, 1, 2]
+    assert "cnn_res" not in fleet.resolve({"cnn-res": "auto"})[0]
+    assert fleet.resolve({"cnn-full-res": "on", "cnn-res": "quarter"})[0]["cnn_res"] == 2
+    assert "cnn_res" not in fleet.resolve({"cnn-res": "quarter", "cnn-full-res": "auto"})[0]
+    with pytest.raises(fleet.FleetError, match="cnn-res"):
+        fleet.resolve({"cnn-res": "eighth"})
     fields, cnn, dbn, desc = fleet.resolve({"cnn-model2": "none"})   # one network: room for both passes' top-K
     assert desc == {"sources": "cnn", "cnn_model": "vd_cnn.vdm"} and isinstance(cnn, bytes)
     assert fields["max_candidates"] == 200 and fields["max_detections"] == 100

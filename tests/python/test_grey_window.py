@@ -123,7 +123,7 @@ def test_pair_on_raw_counts_equals_python_reference(vdlib, full_res):
         a = raw_counts(grey, rng, ("linear", "curve")[i % 2])
         h, w = a.shape
         kw = dict(max_width=w, max_height=h, sources=vdet.source_bits(["cnn"]), cnn_model=MODEL, cnn_model2=MODEL2,
-                  cnn_flip=1, cnn_full_res=int(full_res), max_candidates=peaks, max_detections=32)
+                  cnn_flip=1, cnn_res=int(full_res), max_candidates=peaks, max_detections=32)
         dets, _ = vdet.Detector(grey_mode=1, **kw).run(a)
         got = [(tuple(d["box"]), d["score_q8"]) for d in dets]
         lo, hi = window_ck(a, 1)

@@ -1352,7 +1352,7 @@ static void test_invert_hand_worked(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &bytes));
 }
 
-// ------------------------------------------------------------ cnn_full_res
+// ------------------------------------------------------------ cnn_res
 
 // Full resolution, hand-worked: the block of test_box_position_score_source
 // (frame (26, 18)-(27, 19), 200 over 201) is now read pixel for pixel: the two
@@ -1363,14 +1363,14 @@ static void test_full_res_hand_worked(void)
 {
     (void)block_scene();
     vd_detector_cfg_t c = cnn_cfg();
-    c.cnn_full_res = 1u;
+    c.cnn_res = VD_DETECTOR_CNN_RES_FULL;
     init_or_fail(&c, NULL);
     vd_frame_t f = frame8(64u, 48u);
     TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
     expect_box(&g_out[0], 22, 14, 8, 8, 201u);
-    // 0 or 1 only, checked even without the CNN source.
+    // HALF, FULL or QUARTER only, checked even without the CNN source.
     size_t b = 0u;
-    c.cnn_full_res = 2u;
+    c.cnn_res = 3u;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
     c.sources = VD_DETECTOR_SRC_HOTSPOT;
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &b));
@@ -1380,18 +1380,43 @@ static void test_full_res_hand_worked(void)
     size_t full = 0u;
     c = cnn_cfg();
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &half));
-    c.cnn_full_res = 1u;
+    c.cnn_res = 1u;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_workspace_size(&c, NULL, &full));
     TEST_ASSERT_TRUE(full >= half);
 }
 
-// Full resolution on a frame F is half resolution on F with every pixel
-// repeated 2 x 2 (the box average of four equal pixels is the pixel): the
-// same candidates in the same order with the same scores, every corner of the
-// replicated frame's box twice the full-resolution one to within the decode's
-// rounding (one pixel), with and without the flip pass. F: 40 x 32, spots of
-// several values and sizes, one at the right edge (padding and mirror).
-static void test_full_res_is_half_res_of_the_doubled_frame(void)
+// Quarter resolution, hand-worked: a 4 x 4 block at frame (24, 16)-(27, 19), 200 but for one pixel of 208,
+// averages (15 * 200 + 208 + 8) >> 4 = 201 (200.5 rounded half up; truncation would give 200) at quarter
+// pixel (6, 4): cell (1, 1), value 201; centre (4 * 1 + 2, 4 * 1 + 2) = (6, 6) network pixels = (24, 24)
+// frame pixels, width 8 network pixels = 32 frame pixels: [8, 40) x [8, 40).
+static void test_quarter_res_hand_worked(void)
+{
+    net_t n = net_default();
+    net_load(&n);
+    fill(20u);
+    rect8(24u, 16u, 4u, 4u, 200u);
+    rect8(27u, 19u, 1u, 1u, 208u);
+    vd_detector_cfg_t c = cnn_cfg();
+    c.cnn_res = VD_DETECTOR_CNN_RES_QUARTER;
+    init_or_fail(&c, NULL);
+    vd_frame_t f = frame8(64u, 48u);
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
+    expect_box(&g_out[0], 8, 8, 32, 32, 201u);
+    // The last partial 4 x 4 block is not read: a spot in frame columns 64..66 of a 67-wide frame is not seen.
+    fill(20u);
+    rect8(64u, 16u, 3u, 4u, 250u);
+    f = frame8(67u, 48u);
+    init_or_fail(&c, NULL);
+    TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
+}
+
+// res_a on a frame F is res_b on F with every pixel repeated 2 x 2 (FULL on F = HALF on F doubled: the box
+// average of four equal pixels is the pixel; HALF on F = QUARTER on F doubled: (4 s + 8) >> 4 = (s + 2) >> 2):
+// the same candidates in the same order with the same scores, every corner of the replicated frame's box
+// twice the other's to within the decode's rounding (one pixel), with and without the flip pass. F: 40 x 32,
+// spots of several values and sizes (k times as wide and tall for res_a = HALF, whose 2 x 2 means would
+// drown 1-pixel-tall spots), one at the right edge (padding and mirror).
+static void check_res_of_the_doubled_frame(uint8_t res_a, uint8_t res_b)
 {
     net_t n = net_default();
     net_load(&n);
@@ -1399,14 +1424,15 @@ static void test_full_res_is_half_res_of_the_doubled_frame(void)
     for (uint8_t flip = 0u; flip <= 1u; flip++) {
         fill(20u);
         for (size_t i = 0u; i < sizeof spots / sizeof spots[0]; i++) {
-            rect8(spots[i][0], spots[i][1], 2u, 1u + (uint32_t)(i & 1u), spots[i][2]);
+            const uint32_t k = (res_a == VD_DETECTOR_CNN_RES_HALF) ? 2u : 1u;
+            rect8(spots[i][0], spots[i][1], 2u * k, (1u + (uint32_t)(i & 1u)) * k, spots[i][2]);
         }
         vd_detector_cfg_t c = cnn_cfg();
-        c.cnn_full_res = 1u;
+        c.cnn_res = res_a;
         vd_frame_t f = frame8(40u, 32u);
         vd_detector_stats_t s;
         TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, flip, &f, &g_rec_a, &s));
-        TEST_ASSERT_TRUE(g_rec_a.n >= 4u);
+        TEST_ASSERT_TRUE(g_rec_a.n >= 2u);
         // F doubled in place, from the bottom-right so that no source pixel is overwritten before it is read.
         for (uint32_t y = 32u; y-- > 0u;) {
             for (uint32_t x = 40u; x-- > 0u;) {
@@ -1414,7 +1440,7 @@ static void test_full_res_is_half_res_of_the_doubled_frame(void)
                 rect8(2u * x, 2u * y, 2u, 2u, v);
             }
         }
-        c.cnn_full_res = 0u;
+        c.cnn_res = res_b;
         f = frame8(80u, 64u);
         TEST_ASSERT_EQUAL_INT(VD_OK, run_recorded(c, flip, &f, &g_rec_b, &s));
         TEST_ASSERT_EQUAL_size_t(g_rec_a.n, g_rec_b.n);
@@ -1428,6 +1454,16 @@ static void test_full_res_is_half_res_of_the_doubled_frame(void)
             TEST_ASSERT_INT32_WITHIN(1, h->y + h->h, 2 * (a->y + a->h));
         }
     }
+}
+
+static void test_full_res_is_half_res_of_the_doubled_frame(void)
+{
+    check_res_of_the_doubled_frame(VD_DETECTOR_CNN_RES_FULL, VD_DETECTOR_CNN_RES_HALF);
+}
+
+static void test_half_res_is_quarter_res_of_the_doubled_frame(void)
+{
+    check_res_of_the_doubled_frame(VD_DETECTOR_CNN_RES_HALF, VD_DETECTOR_CNN_RES_QUARTER);
 }
 
 int main(void)
@@ -1456,5 +1492,7 @@ int main(void)
     RUN_TEST(test_invert_hand_worked);
     RUN_TEST(test_full_res_hand_worked);
     RUN_TEST(test_full_res_is_half_res_of_the_doubled_frame);
+    RUN_TEST(test_quarter_res_hand_worked);
+    RUN_TEST(test_half_res_is_quarter_res_of_the_doubled_frame);
     return UNITY_END();
 }

@@ -443,7 +443,7 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
     if (!r->autores.full) {
         return VD_OK;
     }
-    r->o.cfg.cnn_full_res = 1u;
+    r->o.cfg.cnn_res = 1u;
     free_detector(r);
     return init_detector(r, f);
 }
@@ -555,6 +555,10 @@ static void summary(run_t *r)
     }
     if (r->m.have_cnn && (r->o.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
         printf("cnn kernels: %s\n", vd_cnn_kernel_set());   // which set the times above ran on
+        if (!r->autores_ran && r->o.cfg.cnn_res != VD_DETECTOR_CNN_RES_HALF) {
+            printf("cnn input: %s resolution (set by --cnn-res or --cnn-full-res)\n",
+                   r->o.cfg.cnn_res == VD_DETECTOR_CNN_RES_FULL ? "full" : "quarter");
+        }
     }
     if (r->autores_ran) {
         const demo_autores_t *a = &r->autores;
@@ -725,12 +729,12 @@ static void capture_opts(const demo_opts_t *o, vd_capture_opts_t *copts)
 static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
 {
     demo_opts_t *o = &r->o;
-    if (!o->cnn_full_res_auto || !r->m.have_cnn || (o->cfg.sources & VD_DETECTOR_SRC_CNN) == 0u) {
+    if (!o->cnn_res_auto || !r->m.have_cnn || (o->cfg.sources & VD_DETECTOR_SRC_CNN) == 0u) {
         return 0;
     }
     if (r->device) {
         r->live.on = true;
-        o->cfg.cnn_full_res = 0u;
+        o->cfg.cnn_res = 0u;
         if (!o->quiet) {
             fprintf(stderr, "vd_fir_demo: --cnn-full-res auto: a camera's first %u frames are measured as they "
                             "come (half resolution meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES);
@@ -742,7 +746,7 @@ static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
         return fail(r, st, r->err);
     }
     r->autores_ran = true;
-    o->cfg.cnn_full_res = r->autores.full ? 1u : 0u;
+    o->cfg.cnn_res = r->autores.full ? 1u : 0u;
     return 0;
 }
 

@@ -91,10 +91,10 @@ static void autores_reset(GstVdFir *self)
 {
     demo_autores_live_free(&self->ar);
     memset(&self->ar, 0, sizeof self->ar);
-    self->ar.on = self->opts.cnn_full_res_auto && self->models.have_cnn &&
+    self->ar.on = self->opts.cnn_res_auto && self->models.have_cnn &&
                   (self->opts.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
     if (self->ar.on) {
-        self->opts.cfg.cnn_full_res = 0u;
+        self->opts.cfg.cnn_res = 0u;
     }
 }
 
@@ -321,7 +321,7 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
     if (!full) {
         return TRUE;
     }
-    self->opts.cfg.cnn_full_res = 1u;
+    self->opts.cfg.cnn_res = 1u;
     const guint64 seq = self->seq;
     if (!init_detector(self, self->width, self->height)) {
         return FALSE;

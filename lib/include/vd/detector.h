@@ -57,10 +57,15 @@ enum {
     VD_DETECTOR_STAGE_TEMPORAL,       // vd_temporal_update incl. recovery probes
     VD_DETECTOR_STAGE_CONTRAST,       // contrast source: map, threshold, labelling, merge
     VD_DETECTOR_STAGE_WINDOWS,        // window source: cell integral image, pre-filter, ranking, merge
-    VD_DETECTOR_STAGE_CNN,            // CNN source: half- (or full-) resolution input, vd_cnn_run, vd_cnn_decode, merge
+    VD_DETECTOR_STAGE_CNN,            // CNN source: the input plane (cfg.cnn_res), vd_cnn_run, vd_cnn_decode, merge
     VD_DETECTOR_STAGE_TOTAL,          // (indices before CNN keep their values; TOTAL and COUNT moved up by one)
     VD_DETECTOR_STAGE_COUNT
 };
+
+// cfg.cnn_res: frame pixels per network input pixel and axis 2, 1 and 4.
+#define VD_DETECTOR_CNN_RES_HALF 0u
+#define VD_DETECTOR_CNN_RES_FULL 1u
+#define VD_DETECTOR_CNN_RES_QUARTER 2u
 
 // Settings, grouped by concern. A zeroed struct (or vd_detector_cfg_default())
 // gives the paper's values; each field gives its zero meaning and range, and
@@ -106,10 +111,12 @@ typedef struct vd_detector_cfg {
     uint16_t cnn_score_thr_q15;  // drop boxes with score_q15 < this, 1..32768; 0 = the deciding header's threshold
     uint8_t cnn_rescore;         // 0: CNN boxes skip the verifier; 1: verified as windows (needs a DBN model)
     uint8_t cnn_flip;            // 0: one pass; 1: fused horizontal-flip pass (twice the network's time)
-    uint8_t cnn_full_res;        // 0: the network reads the frame at half resolution (2x2 box average, the scale
-                                 //   the shipped networks trained at); 1: at full resolution, for a camera whose
-                                 //   vehicles are about half the training data's size (4x the multiply-adds and
-                                 //   a network workspace for twice the width; docs/results/cameras.md)
+    uint8_t cnn_res;             // the networks' input: VD_DETECTOR_CNN_RES_HALF (0, the 2x2 box average of the
+                                 //   frame: the scale the shipped networks trained at), _FULL (1: the frame itself,
+                                 //   for a camera whose vehicles are about half the training data's size; 4x the
+                                 //   multiply-adds and a network workspace for twice the width) or _QUARTER (2: the
+                                 //   4x4 box average, for vehicles about twice that size; a quarter of the
+                                 //   multiply-adds); docs/results/cameras.md
     uint8_t cnn_invert;          // 0: the networks read the plane as it is (white-hot: warm is bright, as they
                                  //   trained); 1: each plane value v as 255 - v, for a black-hot camera (whose
                                  //   frames as they are cost the shipped pair most of its AP: docs/results/cameras.md)

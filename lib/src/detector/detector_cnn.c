@@ -1,14 +1,15 @@
 // SPDX-License-Identifier: MIT
-// The detector's learned candidate source: the frame at half resolution (or, with cfg.cnn_full_res, at full
-// resolution) through the int8 CNN, decoded boxes into the merged candidate list.
+// The detector's learned candidate source: the frame at half resolution (or, with cfg.cnn_res, at full or
+// quarter resolution) through the int8 CNN, decoded boxes into the merged candidate list.
 //
 // Algorithm (issue 10, CenterNet-style detection with cnn.h): the frame is
 // box-averaged 2x2, row by row as the streamed network asks for them
 // (vd_cnn_run_rows, VD_CNN_STREAM) (8-bit: (a + b + c + d + 2) >> 2; 16-bit: the rounded raw
 // mean through the detector's grey map), the floor(W/2) x floor(H/2) plane is
-// (cfg.cnn_full_res: the frame itself, 16-bit through the grey map, and every
+// (cfg.cnn_res FULL: the frame itself, 16-bit through the grey map, and every
 // "2" below reads 1: a frame whose cars are half the size looks to the network
-// as the frames it trained on; tests/unit/test_detector_cnn.c)
+// as the frames it trained on; QUARTER: 4x4 box averages, (sum + 8) >> 4, and
+// every "2" reads 4, for cars twice the size; tests/unit/test_detector_cnn.c)
 // padded to multiples of the model's alignment by repeating its last column
 // and row (numpy np.pad mode "edge"), the network runs once, its heatmap
 // peaks are decoded at the header's top-K into a 2 nw x 2 nh frame and each
@@ -49,7 +50,8 @@
 
 uint32_t vd__detector_cnn_div(const vd_detector_cfg_t *c)
 {
-    return (c->cnn_full_res != 0u) ? 1u : 2u;
+    // VD_DETECTOR_CNN_RES_HALF, _FULL, _QUARTER (resolve() refuses other values)
+    return (c->cnn_res == VD_DETECTOR_CNN_RES_FULL) ? 1u : (c->cnn_res == VD_DETECTOR_CNN_RES_QUARTER) ? 4u : 2u;
 }
 
 void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t d, uint32_t w, uint32_t h, uint32_t *nw,
@@ -91,7 +93,7 @@ static void cnn_row(void *ctx, uint32_t y, uint8_t *dst)
     cnn_rows_ctx_t *r = (cnn_rows_ctx_t *)ctx;
     const uint32_t sy = (y < r->hh) ? y : r->hh - 1u;
     vd_image_u8_t d = {dst, r->hw, 1u, r->nw};
-    // The ROI is the even part of the frame (d = 2): an odd last column/row is not read.
+    // The ROI is the part of the frame d divides: a last partial block of columns/rows is not read.
     const vd_rect_t roi = {0, (int32_t)(r->d * sy), (int32_t)(r->d * r->hw), (int32_t)r->d};
     const vd_status_t st = r->wide ? vd_resample_box_u16(&r->v16, &roi, r->d, r->d, &r->det->grey, &d)
                                    : vd_resample_box_u8(&r->v8, &roi, r->d, r->d, &d);

@@ -89,7 +89,7 @@ vd_status_t vd_detector_cfg_resolve(vd_detector_cfg_t *c)
     VD_VERIFY(c->sources <= (VD_DETECTOR_SRC_ALL | VD_DETECTOR_SRC_CNN), VD_ERR_ARG);
     // CNN: the model is checked by the size query and init (they see it loaded or not).
     VD_VERIFY(c->cnn_score_thr_q15 <= (uint32_t)VD_CNN_SCORE_ONE_Q15 && c->cnn_rescore <= 1u &&
-                  c->cnn_flip <= 1u && c->cnn_full_res <= 1u && c->cnn_invert <= 1u, VD_ERR_ARG);
+                  c->cnn_flip <= 1u && c->cnn_res <= VD_DETECTOR_CNN_RES_QUARTER && c->cnn_invert <= 1u, VD_ERR_ARG);
     VD_VERIFY((c->sources & VD_DETECTOR_SRC_CNN) == 0u || c->cnn_model != NULL, VD_ERR_ARG);
     VD_VERIFY(c->verifier <= VD_DETECTOR_VERIFIER_BOOST, VD_ERR_ARG);
     VD_VERIFY(c->verifier != VD_DETECTOR_VERIFIER_BOOST || c->boost_model != NULL, VD_ERR_ARG);

@@ -94,7 +94,7 @@ vd_status_t vd__detector_cnn_source(vd_detector_t *det, const vd_frame_t *f, siz
 // up to the model's alignment (0 x 0 when either is 0); d = vd__detector_cnn_div.
 void vd__detector_cnn_input_size(const vd_cnn_model_t *m, uint32_t d, uint32_t w, uint32_t h, uint32_t *nw,
                                  uint32_t *nh);
-// Frame pixels per network input pixel and axis: 2 (half resolution), 1 with cfg.cnn_full_res.
+// Frame pixels per network input pixel and axis (cfg.cnn_res): 2 (half resolution), 1 (full), 4 (quarter).
 uint32_t vd__detector_cnn_div(const vd_detector_cfg_t *c);
 
 // detector_region.c.

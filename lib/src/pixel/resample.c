@@ -531,7 +531,7 @@ static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_
 {
     const uint32_t n = kx * ky;
     if (kx == 1u && ky == 1u) {
-        // A 1 x 1 box is the pixel: the CNN's full-resolution rows (cfg.cnn_full_res), made for every pass
+        // A 1 x 1 box is the pixel: the CNN's full-resolution rows (cfg.cnn_res FULL), made for every pass
         // of every frame, where the general loop below spent ~170 instructions per pixel (callgrind).
         for (uint32_t cy = 0; cy < dst->height; cy++) {
             const uint8_t *row = data + ((size_t)r->y + cy) * stride;

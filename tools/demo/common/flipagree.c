@@ -80,7 +80,7 @@ static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t
     cfg.sources = VD_DETECTOR_SRC_CNN;
     cfg.cnn_rescore = 0u;
     cfg.cnn_flip = 0u;
-    cfg.cnn_full_res = full;
+    cfg.cnn_res = full;
     cfg.temporal = false;
     cfg.clock_us = NULL;
     cfg.on_candidate = NULL;

@@ -273,16 +273,33 @@ static bool set_cnn_full_res(demo_opts_t *o, const char *v)
 {
     bool on = false;
     if (strcmp(v, "auto") == 0) {
-        o->cnn_full_res_auto = true;
-        o->cfg.cnn_full_res = 0u;   // until the choice is made
+        o->cnn_res_auto = true;
+        o->cfg.cnn_res = 0u;   // until the choice is made
         return true;
     }
     if (!demo_parse_switch(v, &on)) {
         return false;
     }
-    o->cnn_full_res_auto = false;
-    o->cfg.cnn_full_res = on ? 1u : 0u;
+    o->cnn_res_auto = false;
+    o->cfg.cnn_res = on ? 1u : 0u;
     return true;
+}
+
+// half/full/quarter (cfg.cnn_res) or auto (the measurement of --cnn-full-res auto, which chooses half or full).
+static bool set_cnn_res(demo_opts_t *o, const char *v)
+{
+    static const char *const names[] = {"half", "full", "quarter"};   // VD_DETECTOR_CNN_RES_* in order
+    if (strcmp(v, "auto") == 0) {
+        return set_cnn_full_res(o, v);
+    }
+    for (uint8_t i = 0u; i < 3u; i++) {
+        if (strcmp(v, names[i]) == 0) {
+            o->cnn_res_auto = false;
+            o->cfg.cnn_res = i;
+            return true;
+        }
+    }
+    return false;
 }
 
 // "HI" or "HI,LO": the track-score hysteresis of confirmation, 0 < LO <= HI <= 1 (Q15). LO left out keeps
@@ -614,6 +631,12 @@ static const setting_t k_settings[] = {
      "higher at full resolution (mean score + flip agreement / 4) on 64 frames spread over "
      "the recording (docs/demo.md; a camera's first 32 as they come); half under 16 frames",
      CUSTOM(set_cnn_full_res), OPTIONAL_OR("auto")},
+    {"cnn-res", "half|full|quarter|auto",
+     "cnn source: the networks' input resolution: half (the frame's 2x2 box averages, the scale they trained "
+     "at), full (= --cnn-full-res on), quarter (4x4 box averages, for a camera whose vehicles are about twice "
+     "the training data's size, e.g. a 1280x1024 sensor or a narrower lens: a quarter of the networks' time) "
+     "or auto (= --cnn-full-res auto, which chooses half or full)",
+     CUSTOM(set_cnn_res)},
     {"cnn-polarity", "white-hot|black-hot",
      "cnn source: white-hot (default: warm is bright, as the networks trained) or black-hot (a camera set to "
      "show warm as dark: the networks read each input value v as 255 - v; as they are, such frames cost the "

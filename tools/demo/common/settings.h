@@ -45,8 +45,8 @@ typedef struct demo_opts {
     bool sources_set;           // --sources given (flag or config): no default source choice
     bool max_candidates_set;    // --max-candidates / --max-detections given: not raised for the CNN
     bool max_detections_set;
-    bool cnn_full_res_auto;     // --cnn-full-res auto (the default): vd_fir_demo and the element choose
-                                // cfg.cnn_full_res on a recording's frames (common/flipagree.c); the fleet too
+    bool cnn_res_auto;          // --cnn-full-res auto (the default): vd_fir_demo and the element choose
+                                // cfg.cnn_res on a recording's frames (common/flipagree.c); the fleet too
     bool grey_window_auto;      // --grey-window auto (the default): cfg.grey_mode chosen on the first 16-bit frame
     bool grey_decided;          //   (demo_grey_decide, models.c): made once per run
     uint32_t grey_outside_permille;  // that frame's samples outside the fixed window, per mille

@@ -14,7 +14,7 @@ AGREE_IOU = 0.5
 
 def predictor(models, flip=True, full_res=False):
     """The detector's CNN source for one .vdm or a pair (the second fused with the first), flip passes on;
-    full_res: cfg.cnn_full_res (the networks read the frame itself, not its half-resolution plane)."""
+    full_res: cfg.cnn_res (the networks read the frame itself, not its half-resolution plane)."""
     first = CE.Int8(models[0], "c", flip=flip, full_res=full_res)
     return first if len(models) == 1 else CE.Pair(first, CE.Int8(models[1], "c", flip=flip, full_res=full_res))
 
@@ -47,7 +47,7 @@ def rating(models, frames, thr, full_res=False):
 
 
 def choose_resolution(models, frames, thr, labelled=True):
-    """Half or full resolution for the networks' input (cfg.cnn_full_res), on frames the networks never saw:
+    """Half or full resolution for the networks' input (cfg.cnn_res), on frames the networks never saw:
     full when its measure is higher. With labels the measure is the pooled AP@0.5; without, the rating: the mean
     score of the networks' boxes above thr on the frames and their mirror images, plus 1/4 of their agreement
     with themselves on the mirrored frames (rating). At the wrong resolution the networks still find vehicles
@@ -184,7 +184,7 @@ def rules(before, after, width, height, full_res=False):
 
     def workspace(models):
         k = max(_layers(m)[1] for m in models)
-        return D.workspace_size(width, height, sources="cnn", cnn_flip=1, cnn_full_res=int(full_res),
+        return D.workspace_size(width, height, sources="cnn", cnn_flip=1, cnn_res=int(full_res),
                                 cnn_model=str(models[0]),
                                 cnn_model2=str(models[1]) if len(models) > 1 else None, max_candidates=2 * k,
                                 max_detections=32 if len(models) > 1 else k)

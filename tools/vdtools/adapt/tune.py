@@ -38,7 +38,7 @@ def user_frame(uf, boxes=None, ignore=None):
 
 def doubled(fr):
     """fr with every pixel repeated 2 x 2 and its boxes scaled by 2: the half-resolution plane of it is fr's
-    frame itself, so training on it teaches the networks fr at full resolution (cfg.cnn_full_res)."""
+    frame itself, so training on it teaches the networks fr at full resolution (cfg.cnn_res)."""
     import dataclasses
     img = np.ascontiguousarray(np.repeat(np.repeat(fr.img, 2, 0), 2, 1))
     return dataclasses.replace(fr, img=img, boxes=fr.boxes * 2, ignore=fr.ignore * 2,

@@ -75,7 +75,7 @@ class DetectorCfg(C.Structure):
                 ("edge_step", C.c_uint8), ("window", C.c_uint8),
                 ("contrast", ContrastCfg), ("win_min_std_u8", C.c_uint8), ("windows", WindowsCfg),
                 ("cnn_model", C.c_void_p), ("cnn_model2", C.c_void_p), ("cnn_score_thr_q15", C.c_uint16),
-                ("cnn_rescore", C.c_uint8), ("cnn_flip", C.c_uint8), ("cnn_full_res", C.c_uint8),
+                ("cnn_rescore", C.c_uint8), ("cnn_flip", C.c_uint8), ("cnn_res", C.c_uint8),
                 ("cnn_invert", C.c_uint8),
                 ("verifier", C.c_uint8), ("score_thr_q8", C.c_uint8), ("boost_model", C.c_void_p),
                 ("boost_thr_offset", C.c_int32),

@@ -24,6 +24,14 @@ def half(img):
     return ((a[0::2, 0::2] + a[1::2, 0::2] + a[0::2, 1::2] + a[1::2, 1::2] + 2) >> 2).astype(np.uint8)
 
 
+def box_mean(img, d):
+    """Exact d x d box average, round half up ((sum + d*d/2) // (d*d)); a last partial block of columns or rows
+    is dropped (the C detector's resample for the network input at cfg.cnn_res QUARTER, d = 4)."""
+    h, w = img.shape[0] // d * d, img.shape[1] // d * d
+    s = img[:h, :w].astype(np.uint32).reshape(h // d, d, w // d, d).sum(axis=(1, 3))
+    return ((s + d * d // 2) // (d * d)).astype(np.uint8)
+
+
 def pad_to(img, a=16):
     """Pads a plane by edge replication to multiples of a (the network's alignment), as the detector does."""
     h, w = img.shape

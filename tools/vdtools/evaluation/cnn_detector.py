@@ -57,11 +57,12 @@ def score_threshold(desc, score_thr_q15=0):
 def boxes(desc, img, score_thr_q15=0, flip=False, full_res=False):
     """The CNN source's candidates of an 8-bit frame, in order: [((x, y, w, h), score_q15)].
     score_thr_q15: cfg.cnn_score_thr_q15 (0: the header's threshold). flip: cfg.cnn_flip, the fused flip
-    pass (A-derived boxes first, then the mirrored pass's leftovers). full_res: cfg.cnn_full_res."""
+    pass (A-derived boxes first, then the mirrored pass's leftovers). full_res: cfg.cnn_res (False / 0 half,
+    True / 1 full, 2 quarter resolution)."""
     fh, fw = img.shape
-    div = 1 if full_res else 2
+    div = cnn_eval.res_div(full_res)
     if fw < div or fh < div:
-        return []   # no half-resolution pixel: the detector runs nothing
+        return []   # no network input pixel: the detector runs nothing
     thr = int(desc["score_threshold_q"])
     if score_thr_q15:
         thr = thr_from_score(desc, score_thr_q15)
@@ -83,9 +84,9 @@ def pair_boxes(desc, desc2, img, score_thr_q15=0, flip=False, full_res=False):
     """The CNN source's candidates with cfg.cnn_model2 (desc2), in order: [((x, y, w, h), score_q15)]: both
     networks through the numpy reference at their headers' top-K, fused by cnn_eval.fuse_pair at T (desc2's
     header threshold, the pair's operating point, or score_thr_q15); with score_thr_q15 above both networks'
-    top scores nothing runs. full_res: cfg.cnn_full_res."""
+    top scores nothing runs. full_res: cfg.cnn_res (as boxes)."""
     fh, fw = img.shape
-    div = 1 if full_res else 2
+    div = cnn_eval.res_div(full_res)
     if fw < div or fh < div:
         return []
     t = score_threshold(desc2, score_thr_q15)
@@ -102,7 +103,7 @@ def detect(desc, img, score_thr_q15=0, nms_iou_q15=16384, max_candidates=None, m
     """Detections of vd_detector_run with sources = cnn, no rescoring, temporal analysis off:
     [((x, y, w, h), score_q8)], best first. score_thr_q15: cfg.cnn_score_thr_q15 (0 = the header's
     threshold); max_candidates / max_detections: the detector's budgets (None = unlimited); flip:
-    cfg.cnn_flip; desc2: cfg.cnn_model2 (pair_boxes); full_res: cfg.cnn_full_res."""
+    cfg.cnn_flip; desc2: cfg.cnn_model2 (pair_boxes); full_res: cfg.cnn_res."""
     bx = (boxes(desc, img, score_thr_q15, flip, full_res) if desc2 is None
           else pair_boxes(desc, desc2, img, score_thr_q15, flip, full_res))
     cands = [(b, score_q8(s)) for b, s in bx]

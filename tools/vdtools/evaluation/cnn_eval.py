@@ -55,6 +55,8 @@ PERTURB = {
 }
 # geometric changes (boxes scale too): the frame shrunk so that cars are 10-30 px, as a wider lens shows them
 RESCALE = {"down50": 0.5, "down33": 1 / 3}   # down33: cars about the other camera's size (median ~30 px)
+# ... and enlarged (bilinear): cars 1.5x / 2x the training size, as a 1280x1024 sensor or a narrower lens shows them
+RESCALE.update({"up150": 1.5, "up200": 2.0})
 
 
 def _sharpen(a):
@@ -72,7 +74,8 @@ def perturb(frames, name):
         if name in RESCALE:
             f = RESCALE[name]
             h, w = fr.img.shape
-            g.img = cv2.resize(fr.img, (int(round(w * f)), int(round(h * f))), interpolation=cv2.INTER_AREA)
+            g.img = cv2.resize(fr.img, (int(round(w * f)), int(round(h * f))),
+                               interpolation=cv2.INTER_AREA if f < 1 else cv2.INTER_LINEAR)
             g.boxes, g.ignore = fr.boxes * f, fr.ignore * f
             g.others = fr.others.copy()
             g.others[:, :4] *= f
@@ -102,12 +105,21 @@ def nms(dets, thr=0.5):
     return keep
 
 
+# cfg.cnn_res (VD_DETECTOR_CNN_RES_HALF, _FULL, _QUARTER) -> frame pixels per network input pixel and axis
+RES_DIV = (2, 1, 4)
+
+
+def res_div(res):
+    """The detector's vd__detector_cnn_div: res = cfg.cnn_res (False / 0 half, True / 1 full, 2 quarter)."""
+    return RES_DIV[int(res)]
+
+
 def net_input(img, align=16, mirror=False, div=2):
     """Half-resolution plane, padded (edge replicate) to a multiple of the model's alignment: the
     detector's network input. mirror: the flip pass's input, the half-resolution plane mirrored left to
     right before the padding (not the frame: for odd widths the detector drops the last frame column).
-    div 1: the frame itself (the detector's cfg.cnn_full_res)."""
-    h = CD.half(img) if div == 2 else img
+    div 1: the frame itself (the detector's cfg.cnn_res FULL); 4: its 4x4 box averages (QUARTER)."""
+    h = img if div == 1 else CD.half(img) if div == 2 else CD.box_mean(img, div)
     return CD.pad_to(np.ascontiguousarray(h[:, ::-1]) if mirror else h, align)
 
 
@@ -213,7 +225,7 @@ class Int8:
         self.desc = V.unpack(self.blob)
         self.backend = backend
         self.flip = flip
-        self.div = 1 if full_res else 2   # the detector's cfg.cnn_full_res
+        self.div = res_div(full_res)   # full_res: the detector's cfg.cnn_res (False / 0, True / 1, 2 quarter)
         self.c = vd_cnn.CModel(self.blob) if backend == "c" else None
         self.align = V.alignment(self.desc)
 
@@ -257,7 +269,7 @@ def fuse_pair(nets, img, frame_w, frame_h, t, flip, every_peak=False, div=2):
     or every peak with every_peak (AP curves); with flip its two passes are fused without a threshold
     (fused_flip_pass at 0). A network none of whose logits reaches that score adds no box. Then the first
     network's boxes and the second's are fused at T (fuse_flip): [((x, y, w, h), score_q15)]. div: net_input's
-    (1: cfg.cnn_full_res)."""
+    (1: cfg.cnn_res)."""
     p = 4 if flip else 2
     lo = max(1, p * int(t) - (p - 1) * SCORE_ONE_Q15)
     sets = []
@@ -688,7 +700,10 @@ def main(argv=None):
                          "vd_fir_demo --cnn-flip on)")
     ap.add_argument("--full-res", action="store_true",
                     help="the networks read the frame at full resolution instead of half (the detector's "
-                         "cfg.cnn_full_res, vd_fir_demo --cnn-full-res; backends c/ref/demo)")
+                         "cfg.cnn_res, vd_fir_demo --cnn-full-res; backends c/ref/demo)")
+    ap.add_argument("--res", choices=("half", "full", "quarter"),
+                    help="the networks' input resolution (the detector's cfg.cnn_res, vd_fir_demo --cnn-res; "
+                         "full = --full-res; backends c/ref/demo)")
     ap.add_argument("--extra-scale", type=int, choices=(1, 4),
                     help="experiment: also run the network (fused flip pass) on the frame at full (1) or quarter (4) "
                          "resolution and append those boxes before suppression (backends c/ref; ExtraScale)")
@@ -708,6 +723,10 @@ def main(argv=None):
         raise SystemExit("--flip is for the networks (--model or --ckpt), not --paper")
     if a.ckpt2 and not a.ckpt:
         raise SystemExit("--ckpt2 pairs two float networks: give --ckpt too")
+    if a.res is not None:
+        if a.full_res and a.res != "full":
+            raise SystemExit("--full-res and --res disagree")
+        a.full_res = ("half", "full", "quarter").index(a.res)   # cfg.cnn_res (Int8's full_res takes 0/1/2)
     if a.full_res and (a.ckpt or a.paper or a.extra_scale):
         raise SystemExit("--full-res is for the int8 networks (--model, --model2) without --extra-scale")
     if a.extra_scale and a.backend == "demo":
@@ -721,7 +740,7 @@ def main(argv=None):
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
                        extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"]
-                       + ["--cnn-full-res", "on" if a.full_res else "off"], model2=a.model2)
+                       + ["--cnn-res", ("half", "full", "quarter")[int(a.full_res)]], model2=a.model2)
     else:
         if a.ensemble and (not a.ckpt or a.ckpt2):
             raise SystemExit("--ensemble averages float networks with --ckpt (not a pair)")

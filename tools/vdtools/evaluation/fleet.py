@@ -159,7 +159,8 @@ def plan(recs, shard_frames=256):
 
 SETTINGS = ("sources", "cnn-model", "cnn-model2", "model", "temporal", "cnn-thr", "cnn-flip", "cnn-full-res",
             "thr-mode", "hot-thr", "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast", "track-confirm",
-            "grey-window", "grey-tail", "cnn-polarity")
+            "grey-window", "grey-tail", "cnn-polarity", "cnn-res")
+RES_NAMES = ("half", "full", "quarter")   # cnn-res: cfg.cnn_res = the index (VD_DETECTOR_CNN_RES_*)
 
 
 def _vdm_version(blob):
@@ -221,8 +222,17 @@ def resolve(settings, models_dir=None):
     fields = {"temporal": _switch(s.get("temporal", True)), "cnn_flip": int(_switch(s.get("cnn-flip", True)))}
     # cnn-full-res: on/off, or auto (the default, as vd_fir_demo's): no field here, run() measures each
     # recording's frames as the demo does (auto_resolution: 64 spread over it)
-    if "cnn-full-res" in s and str(s["cnn-full-res"]) != "auto":
-        fields["cnn_full_res"] = int(_switch(s["cnn-full-res"]))
+    # cnn-res: half/full/quarter, or auto as cnn-full-res auto; the later of the two wins, as in the demo's config
+    for k in [k for k in s if k in ("cnn-full-res", "cnn-res")]:
+        v = str(s[k])
+        if v == "auto":
+            fields.pop("cnn_res", None)
+        elif k == "cnn-full-res":
+            fields["cnn_res"] = int(_switch(s[k]))
+        elif v in RES_NAMES:
+            fields["cnn_res"] = RES_NAMES.index(v)
+        else:
+            raise FleetError(f"bad value '{v}' for cnn-res (expected half|full|quarter|auto)")
     # temporal_cfg: the demo's track-aware scores (default on) and coasting (default 0)
     fields["temporal_cfg.flags"] = vdet_scores_flag() if _switch(s.get("track-scores", True)) else 0
     if "track-coast" in s:
@@ -362,7 +372,7 @@ def auto_resolution(rec, fields, cnn):
             w = img.shape[1]
             for k in (0, 1):
                 if runners[k] is None:
-                    runners[k] = _Runner(dict(sub, cnn_full_res=k), cnn, None, f.width, f.height)
+                    runners[k] = _Runner(dict(sub, cnn_res=k), cnn, None, f.width, f.height)
                 da, db = runners[k].det.run(img)[0], runners[k].det.run(mirror)[0]
                 counts[k][2] += sum(d["score_q8"] for d in da + db)
                 a = [tuple(d["box"]) for d in da]
@@ -669,7 +679,7 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     byid = {r["id"]: r for r in recs}
     # cnn-full-res auto (the default with the cnn source): each recording's own choice, as the demo makes it
     rec_fields, cnn_input = {r["id"]: fields for r in recs}, None
-    auto_res = "cnn_full_res" not in fields and fields["sources"] & SRC_CNN
+    auto_res = "cnn_res" not in fields and fields["sources"] & SRC_CNN
     if "grey_mode" not in fields:   # grey-window auto: each recording's first frame read decides, as in the demo
         for r in recs:
             rec_fields[r["id"]] = grey_decision(r, fields, bool(auto_res))
@@ -677,7 +687,7 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
         cnn_input = {}
         for r in recs:
             cnn_input[r["id"]] = auto_resolution(r, rec_fields[r["id"]], cnn)
-            rec_fields[r["id"]] = dict(rec_fields[r["id"]], cnn_full_res=int(cnn_input[r["id"]]["full"]))
+            rec_fields[r["id"]] = dict(rec_fields[r["id"]], cnn_res=int(cnn_input[r["id"]]["full"]))
     mine_dir = str(Path(mine).resolve()) if mine else None
     if mine_dir:
         (Path(mine_dir) / "images").mkdir(parents=True, exist_ok=True)
