@@ -12,7 +12,7 @@
 //   test_gst_vdfir error TEXT PIPELINE       PIPELINE must end with a GStreamer ERROR message (not
 //                                            a crash, not EOS) whose text contains TEXT
 //   test_gst_vdfir resolution R PIPELINE     PIPELINE (with vdfir) must post one "vdfir-resolution"
-//                                            message choosing R (half or full) after 32 frames, or
+//                                            message choosing R (half, full or quarter) after 32 frames, or
 //                                            none (R = none), and a "vdfir" message per frame with
 //                                            seq 0, 1, .. unbroken by the switch
 // The frames are decoded once and then read losslessly by both the demo and the element:
@@ -528,11 +528,12 @@ static int cmd_compare(const char *jsonl, const char *desc)
 typedef struct res_got {
     int messages;        // vdfir-resolution messages
     gboolean full;
+    char res[16];        // "resolution": half, full or quarter
     guint frames;
     guint64 from_seq;
-    double agree[2];
-    double score[2];     // mean box score
-    double rating[2];    // what the choice compares: score + agreement / 4
+    double agree[3];     // [cfg.cnn_res]: half, full, quarter
+    double score[3];     // mean box score
+    double rating[3];    // what the choice compares: score + agreement / 4
     guint64 next_seq;    // the seq the next vdfir message must carry
     gboolean seq_broken;
 } res_got_t;
@@ -550,14 +551,21 @@ static void on_res_message(GstMessage *m, void *user)
         g->next_seq++;
     } else if (gst_structure_has_name(s, "vdfir-resolution")) {
         g->messages++;
-        if (!gst_structure_get_boolean(s, "full", &g->full) || !gst_structure_get_uint(s, "frames", &g->frames) ||
-            !gst_structure_get_uint64(s, "from-seq", &g->from_seq) ||
+        const char *res = gst_structure_get_string(s, "resolution");
+        if (res != NULL) {
+            snprintf(g->res, sizeof g->res, "%s", res);
+        }
+        if (res == NULL || !gst_structure_get_boolean(s, "full", &g->full) ||
+            !gst_structure_get_uint(s, "frames", &g->frames) || !gst_structure_get_uint64(s, "from-seq", &g->from_seq) ||
             !gst_structure_get_double(s, "rating-half", &g->rating[0]) ||
             !gst_structure_get_double(s, "rating-full", &g->rating[1]) ||
+            !gst_structure_get_double(s, "rating-quarter", &g->rating[2]) ||
             !gst_structure_get_double(s, "score-half", &g->score[0]) ||
             !gst_structure_get_double(s, "score-full", &g->score[1]) ||
+            !gst_structure_get_double(s, "score-quarter", &g->score[2]) ||
             !gst_structure_get_double(s, "agreement-half", &g->agree[0]) ||
-            !gst_structure_get_double(s, "agreement-full", &g->agree[1])) {
+            !gst_structure_get_double(s, "agreement-full", &g->agree[1]) ||
+            !gst_structure_get_double(s, "agreement-quarter", &g->agree[2])) {
             g->messages = 100;   // a message without its fields
         }
     }
@@ -565,9 +573,10 @@ static void on_res_message(GstMessage *m, void *user)
 
 static int cmd_resolution(const char *want, const char *desc)
 {
-    const gboolean none = strcmp(want, "none") == 0, full = strcmp(want, "full") == 0;
-    if (!none && !full && strcmp(want, "half") != 0) {
-        return fail("resolution: R must be half, full or none");
+    static const char *const names[3] = {"half", "full", "quarter"};   // cfg.cnn_res order
+    const gboolean none = strcmp(want, "none") == 0;
+    if (!none && strcmp(want, "half") != 0 && strcmp(want, "full") != 0 && strcmp(want, "quarter") != 0) {
+        return fail("resolution: R must be half, full, quarter or none");
     }
     GstElement *pipe = parse(desc);
     if (pipe == NULL) {
@@ -584,9 +593,9 @@ static int cmd_resolution(const char *want, const char *desc)
         return rc;
     }
     printf("test_gst_vdfir: %" G_GUINT64_FORMAT " frames; %d resolution message(s): %s from frame %" G_GUINT64_FORMAT
-           ", %u frames measured, mean box score half %.3f, full %.3f, flip agreement half %.3f, full %.3f\n",
-           g.next_seq, g.messages, g.full ? "full" : "half", g.from_seq, g.frames, g.score[0], g.score[1], g.agree[0],
-           g.agree[1]);
+           ", %u frames measured, mean box score half %.3f, full %.3f, quarter %.3f, flip agreement half %.3f, full "
+           "%.3f, quarter %.3f\n", g.next_seq, g.messages, g.res, g.from_seq, g.frames, g.score[0], g.score[1],
+           g.score[2], g.agree[0], g.agree[1], g.agree[2]);
     if (g.seq_broken) {
         return fail("the per-frame messages' seq is not 0, 1, 2, .. (the switch must not restart it)");
     }
@@ -599,7 +608,7 @@ static int cmd_resolution(const char *want, const char *desc)
     if (g.frames != 32u || g.from_seq != 31u || g.next_seq <= g.from_seq) {
         return fail("the choice must come with the 32nd frame (seq 31), before the stream ends");
     }
-    for (int k = 0; k < 2; k++) {
+    for (int k = 0; k < 3; k++) {
         if (!(g.agree[k] == -1.0 || (g.agree[k] >= 0.0 && g.agree[k] <= 1.0))) {
             return fail("an agreement outside [0, 1] (or -1: no box)");
         }
@@ -609,16 +618,20 @@ static int cmd_resolution(const char *want, const char *desc)
         }
     }
     // the choice follows the rating, mean box score + agreement / 4 (flipagree.c demo_autores_decide)
-    for (int k = 0; k < 2; k++) {
+    int best = 0;   // ties to the lower cfg.cnn_res; no box rates below any box
+    for (int k = 0; k < 3; k++) {
         const double expect = g.score[k] == -1.0 ? -1.0 : g.score[k] + g.agree[k] / 4.0;
         if (g.rating[k] < expect - 1e-12 || g.rating[k] > expect + 1e-12) {
             return fail("a rating other than mean box score + agreement / 4");
         }
     }
-    if (g.full != (g.rating[1] > (g.rating[0] > 0.0 ? g.rating[0] : 0.0))) {
+    for (int k = 1; k < 3; k++) {
+        best = g.rating[k] > (g.rating[best] > 0.0 ? g.rating[best] : 0.0) ? k : best;
+    }
+    if (strcmp(g.res, names[best]) != 0 || g.full != (best == 1)) {
         return fail("the choice does not follow the ratings");
     }
-    return g.full == full ? 0 : fail("the element chose the other resolution");
+    return strcmp(g.res, want) == 0 ? 0 : fail("the element chose another resolution");
 }
 
 // --- error ------------------------------------------------------------------------

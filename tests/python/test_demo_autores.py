@@ -23,9 +23,10 @@ from buildpaths import run_demo as run
 CLIP = REPO / "tools" / "demo" / "hit-uav-clip" / "images"
 MODELS = [str(REPO / "models" / "vd_cnn.vdm"), str(REPO / "models" / "vd_cnn2.vdm")]
 _V = r"([\d.]+|none \(no box\))"
-LINE = re.compile(r"cnn input: (half|full) resolution \(--cnn-full-res auto: rating half " + _V + ", full " + _V
-                  + "; mean box score half " + _V + ", full " + _V + "; flip agreement half " + _V + "(?: %)?, full "
-                  + _V + r"(?: %)? over (\d+) frames")
+LINE = re.compile(r"cnn input: (half|full|quarter) resolution \(--cnn-full-res auto: rating half " + _V + ", full "
+                  + _V + ", quarter " + _V + "; mean box score half " + _V + ", full " + _V + ", quarter " + _V
+                  + "; flip agreement half " + _V + "(?: %)?, full " + _V + "(?: %)?, quarter " + _V
+                  + r"(?: %)? over (\d+) frames")
 
 
 @pytest.fixture(scope="module")
@@ -52,18 +53,19 @@ def small_clip(tmp_path_factory):
 
 
 def choice(stdout):
-    """(resolution, rating half, full, frames, mean box score half, full, flip agreement half, full); a resolution
-    without a box counts 0 (no evidence for it, as the rule takes it)."""
+    """(resolution, rating half, full, frames, mean box score half, full, flip agreement half, full, rating quarter,
+    mean box score quarter, flip agreement quarter); a resolution without a box counts 0 (no evidence for it, as
+    the rule takes it)."""
     m = LINE.search(stdout)
     assert m, stdout
-    v = [0.0 if m.group(i).startswith("none") else float(m.group(i)) for i in range(2, 8)]
-    return m.group(1), v[0], v[1], int(m.group(8)), v[2], v[3], v[4], v[5]
+    v = [0.0 if m.group(i).startswith("none") else float(m.group(i)) for i in range(2, 11)]
+    return m.group(1), v[0], v[1], int(m.group(11)), v[3], v[4], v[6], v[7], v[2], v[5], v[8]
 
 
 def python_measure(folder):
     """measure.rating, mean_box_score and flip_agreement on the frames the demo measures (64 spread over the
     recording: fleet.auto_sample; read by the port's decoder: JPEG decoders differ from OpenCV's by a grey level
-    here and there), both resolutions: ([rating half, full], [score half, full], [agreement half, full])."""
+    here and there), at each resolution: ([rating half, full, quarter], [score ...], [agreement ...])."""
     from vdtools.evaluation import fleet
     z = lambda k: np.zeros((0, k), np.float32)
     frames = []
@@ -72,17 +74,19 @@ def python_measure(folder):
             frames.append(CD.Frame("user", name, name, "g", "val", port.pixels(f).copy(), z(4), z(4),
                                    np.zeros(0, bool), z(5)))
     thr = measure.header_threshold(MODELS)
-    runs = [measure.flip_runs(MODELS, frames, full_res=k) for k in (False, True)]
+    runs = [measure.flip_runs(MODELS, frames, full_res=k) for k in (0, 1, 2)]   # cfg.cnn_res
     score = [measure.mean_box_score(MODELS, frames, thr, runs=r) for r in runs]
     agree = [measure.flip_agreement(MODELS, frames, thr, runs=r) for r in runs]
     rating = [measure.rating_of(s, a) for s, a in zip(score, agree)]
     return rating, score, agree
 
 
-def same_figures(printed, rating, score, agree):
-    """The demo's printed rating and score (to 0.001) and agreement (per cent, to 0.1) against the Python measures'."""
+def same_figures(c, rating, score, agree):
+    """The demo's printed rating and score (to 0.001) and agreement (per cent, to 0.1) at half, full and quarter
+    resolution (choice's tuple c) against the Python measures'."""
     r = lambda v, k=1.0, d=3: round(k * (v or 0.0), d)
-    assert list(printed) == [r(v) for v in rating] + [r(v) for v in score] + [r(v, 100.0, 1) for v in agree]
+    printed = [c[1], c[2], c[8], c[4], c[5], c[9], c[6], c[7], c[10]]
+    assert printed == [r(v) for v in rating] + [r(v) for v in score] + [r(v, 100.0, 1) for v in agree]
 
 
 def detections(path):
@@ -98,7 +102,7 @@ def test_clip_stays_at_half_resolution(demo, shipped, tmp_path):
     run(demo, "--json", tmp_path / "b.jsonl", "--quiet", "--cnn-full-res", "off")
     assert (tmp_path / "a.jsonl").read_bytes() == (tmp_path / "b.jsonl").read_bytes()
     # the same figures as the Python measures vd-adapt uses
-    same_figures(c[1:3] + c[4:], *python_measure(CLIP))
+    same_figures(c, *python_measure(CLIP))
 
 
 def test_small_vehicles_choose_full_resolution(demo, shipped, small_clip, tmp_path):
@@ -106,7 +110,7 @@ def test_small_vehicles_choose_full_resolution(demo, shipped, small_clip, tmp_pa
     a = run(demo, "--input", small_clip, "--json", tmp_path / "a.jsonl", "--quiet", "--temporal", "off")
     c = choice(a.stdout)
     assert (c[0], c[3]) == ("full", 38) and c[2] > c[1]
-    same_figures(c[1:3] + c[4:], *python_measure(small_clip))
+    same_figures(c, *python_measure(small_clip))
     run(demo, "--input", small_clip, "--json", tmp_path / "b.jsonl", "--quiet", "--temporal", "off",
         "--cnn-full-res", "on")
     assert detections(tmp_path / "a.jsonl") == detections(tmp_path / "b.jsonl")
@@ -143,7 +147,8 @@ def test_large_vehicles_quarter_resolution(demo, shipped, tmp_path):
     """--cnn-res quarter (cfg.cnn_res QUARTER): the bundled clip scaled up 2x (1280 x 1024, cars twice the
     training size, as a 1280 x 1024 camera or a lens of half the field of view shows them) loses most of its AP
     at half resolution and gets it back at quarter resolution (measured: 15.4 -> 49.0, the 8-bit clip 48.2;
-    docs/results/cameras.md); the setting from a config file; bad values fail with one line."""
+    docs/results/cameras.md), which --cnn-full-res auto chooses by itself; the setting from a config file; bad
+    values fail with one line."""
     ann = json.loads((CLIP.parent / "annotations.json").read_text())
     up = tmp_path / "up"
     up.mkdir()
@@ -163,6 +168,14 @@ def test_large_vehicles_quarter_resolution(demo, shipped, tmp_path):
         assert ("cnn input: quarter resolution" in r.stdout) == (res == "quarter"), r.stdout
         ap[res] = json.loads(e.read_text())["ap"]
     assert ap["half"] < 0.25 and ap["quarter"] > 0.45, ap
+    # --cnn-full-res auto (the default) takes quarter resolution here by itself, with the Python measures' figures,
+    # and the detections of --cnn-res quarter
+    a = run(demo, "--input", up, "--json", tmp_path / "auto.jsonl", "--quiet", "--temporal", "off")
+    c = choice(a.stdout)
+    assert (c[0], c[3]) == ("quarter", 38) and c[8] > max(c[1], c[2]), c
+    same_figures(c, *python_measure(up))
+    run(demo, "--input", up, "--json", tmp_path / "q.jsonl", "--quiet", "--temporal", "off", "--cnn-res", "quarter")
+    assert detections(tmp_path / "auto.jsonl") == detections(tmp_path / "q.jsonl")
     cfg = tmp_path / "q.json"
     cfg.write_text('{"cnn-res": "quarter"}')
     r = run(demo, "--input", up, "--frames", "2", "--quiet", "--config", cfg)
@@ -181,7 +194,7 @@ def test_frames_without_vehicles(demo, shipped, tmp_path):
         for i in range(16):
             cv2.imwrite(str(d / f"f{i:02d}.png"), np.full((h, w), 90 + i, np.uint8))
         r = run(demo, "--input", d, "--quiet", "--json", d / "d.jsonl")
-        none = "half none (no box), full none (no box)"
+        none = "half none (no box), full none (no box), quarter none (no box)"
         assert f"cnn input: half resolution (--cnn-full-res auto: rating {none}; mean box score {none}; flip " \
                f"agreement {none} over 16 frames" in r.stdout, (w, h, r.stdout)
         assert len((d / "d.jsonl").read_text().splitlines()) == 16
@@ -208,8 +221,8 @@ def test_fleet_measures_each_recording_as_the_demo(demo, shipped, small_clip):
     for folder, want in ((CLIP, "half"), (small_clip, "full")):
         got = fleet.auto_resolution({"input": str(folder)}, fields, cnn)
         c = choice(run(demo, "--input", folder, "--quiet", "--temporal", "off").stdout)
-        assert (("full" if got["full"] else "half"), got["frames"]) == (c[0], c[3]) == (want, 38)
-        same_figures(c[1:3] + c[4:], got["rating"], got["score"], got["agreement"])
+        assert (got["res"], got["frames"]) == (c[0], c[3]) == (want, 38)
+        same_figures(c, got["rating"], got["score"], got["agreement"])
 
 
 def test_raw_counts_take_the_frame_window_before_the_measurement(demo, shipped, tmp_path):
@@ -234,9 +247,9 @@ def test_raw_counts_take_the_frame_window_before_the_measurement(demo, shipped, 
     out = run(demo, "--input", d, "--quiet", "--temporal", "off").stdout
     assert "not radiometric, so each frame was mapped to grey by its own" in out
     c = choice(out)
-    assert (("full" if got["full"] else "half"), got["frames"]) == (c[0], c[3]) == ("half", 38)
+    assert (got["res"], got["frames"]) == (c[0], c[3]) == ("half", 38)
     assert got["score"][0] is not None and got["score"][0] > 0.3   # boxes, not the fixed window's black plane
-    same_figures(c[1:3] + c[4:], got["rating"], got["score"], got["agreement"])
+    same_figures(c, got["rating"], got["score"], got["agreement"])
 
 
 def test_sample_spread_over_the_recording(demo, shipped, tmp_path):

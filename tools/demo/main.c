@@ -430,7 +430,7 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
 }
 
 // --cnn-full-res auto on a camera: frame f (not yet detected on) into the measurement; when it completes it at
-// full resolution, a new detector from this frame on (tracks start over).
+// full or quarter resolution, a new detector from this frame on (tracks start over).
 static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
 {
     bool now = false;
@@ -440,10 +440,10 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
     }
     r->autores = r->live.a;
     r->autores_ran = true;
-    if (!r->autores.full) {
+    if (r->autores.res == VD_DETECTOR_CNN_RES_HALF) {
         return VD_OK;
     }
-    r->o.cfg.cnn_res = 1u;
+    r->o.cfg.cnn_res = r->autores.res;
     free_detector(r);
     return init_detector(r, f);
 }
@@ -562,8 +562,8 @@ static void summary(run_t *r)
     }
     if (r->autores_ran) {
         const demo_autores_t *a = &r->autores;
-        char pct[2][16], score[2][16], rating[2][16];
-        for (int k = 0; k < 2; k++) {
+        char pct[DEMO_AUTORES_RES][16], score[DEMO_AUTORES_RES][16], rating[DEMO_AUTORES_RES][16];
+        for (unsigned k = 0u; k < DEMO_AUTORES_RES; k++) {
             const double v = demo_autores_agreement(a, k);
             if (v < 0.0) {   // no box: none of the three
                 snprintf(pct[k], sizeof pct[k], "none (no box)");
@@ -583,10 +583,11 @@ static void summary(run_t *r)
         if (a->total > a->frames) {
             snprintf(of, sizeof of, " spread over %llu", (unsigned long long)a->total);
         }
-        printf("cnn input: %s resolution (--cnn-full-res auto: rating half %s, full %s; mean box score half %s, full "
-               "%s; flip agreement half %s, full %s over %u frames%s%s%s; %.2f s)\n", a->full ? "full" : "half",
-               rating[0], rating[1], score[0], score[1], pct[0], pct[1], (unsigned)a->frames, of,
-               a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full" : "", from, a->seconds);
+        printf("cnn input: %s resolution (--cnn-full-res auto: rating half %s, full %s, quarter %s; mean box score "
+               "half %s, full %s, quarter %s; flip agreement half %s, full %s, quarter %s over %u frames%s%s%s; "
+               "%.2f s)\n", demo_autores_res_name(a->res), rating[0], rating[1], rating[2], score[0], score[1],
+               score[2], pct[0], pct[1], pct[2], (unsigned)a->frames, of,
+               a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full or quarter" : "", from, a->seconds);
     }
     const demo_opts_t *o = &r->o;
     if (r->format == VD_PIX_U16 && o->grey_outside_permille >= DEMO_GREY_AUTO_PERMILLE) {
@@ -746,7 +747,7 @@ static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
         return fail(r, st, r->err);
     }
     r->autores_ran = true;
-    o->cfg.cnn_res = r->autores.full ? 1u : 0u;
+    o->cfg.cnn_res = r->autores.res;
     return 0;
 }
 

@@ -301,27 +301,31 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
     if (!now) {
         return TRUE;
     }
-    const gboolean full = self->ar.a.full;
+    const demo_autores_t *a = &self->ar.a;
+    const gboolean full = a->res == VD_DETECTOR_CNN_RES_FULL;
     GST_INFO_OBJECT(self,
                     "cnn input: %s resolution from frame %" G_GUINT64_FORMAT
-                    " (rating half %.3f, full %.3f; mean box score half %.3f, full %.3f; flip agreement half %.3f, "
-                    "full %.3f over %u frames; %.2f s)",
-                    full ? "full" : "half", self->seq, demo_autores_rating(&self->ar.a, 0),
-                    demo_autores_rating(&self->ar.a, 1), demo_autores_mean_score(&self->ar.a, 0),
-                    demo_autores_mean_score(&self->ar.a, 1), demo_autores_agreement(&self->ar.a, 0),
-                    demo_autores_agreement(&self->ar.a, 1), (unsigned)self->ar.a.frames, self->ar.a.seconds);
-    const demo_autores_t *a = &self->ar.a;
+                    " (rating half %.3f, full %.3f, quarter %.3f; mean box score half %.3f, full %.3f, quarter %.3f; "
+                    "flip agreement half %.3f, full %.3f, quarter %.3f over %u frames; %.2f s)",
+                    demo_autores_res_name(a->res), self->seq, demo_autores_rating(a, 0), demo_autores_rating(a, 1),
+                    demo_autores_rating(a, 2), demo_autores_mean_score(a, 0), demo_autores_mean_score(a, 1),
+                    demo_autores_mean_score(a, 2), demo_autores_agreement(a, 0), demo_autores_agreement(a, 1),
+                    demo_autores_agreement(a, 2), (unsigned)a->frames, a->seconds);
+    // "full" stays for the applications written against it; "resolution" names the choice (half, full, quarter)
     GstStructure *ms = gst_structure_new(
-        "vdfir-resolution", "full", G_TYPE_BOOLEAN, full, "from-seq", G_TYPE_UINT64, self->seq, "frames", G_TYPE_UINT,
-        (guint)a->frames, "rating-half", G_TYPE_DOUBLE, demo_autores_rating(a, 0), "rating-full", G_TYPE_DOUBLE,
-        demo_autores_rating(a, 1), "score-half", G_TYPE_DOUBLE, demo_autores_mean_score(a, 0), "score-full",
-        G_TYPE_DOUBLE, demo_autores_mean_score(a, 1), "agreement-half", G_TYPE_DOUBLE, demo_autores_agreement(a, 0),
-        "agreement-full", G_TYPE_DOUBLE, demo_autores_agreement(a, 1), "seconds", G_TYPE_DOUBLE, a->seconds, NULL);
+        "vdfir-resolution", "full", G_TYPE_BOOLEAN, full, "resolution", G_TYPE_STRING, demo_autores_res_name(a->res),
+        "from-seq", G_TYPE_UINT64, self->seq, "frames", G_TYPE_UINT, (guint)a->frames, "rating-half", G_TYPE_DOUBLE,
+        demo_autores_rating(a, 0), "rating-full", G_TYPE_DOUBLE, demo_autores_rating(a, 1), "rating-quarter",
+        G_TYPE_DOUBLE, demo_autores_rating(a, 2), "score-half", G_TYPE_DOUBLE, demo_autores_mean_score(a, 0),
+        "score-full", G_TYPE_DOUBLE, demo_autores_mean_score(a, 1), "score-quarter", G_TYPE_DOUBLE,
+        demo_autores_mean_score(a, 2), "agreement-half", G_TYPE_DOUBLE, demo_autores_agreement(a, 0),
+        "agreement-full", G_TYPE_DOUBLE, demo_autores_agreement(a, 1), "agreement-quarter", G_TYPE_DOUBLE,
+        demo_autores_agreement(a, 2), "seconds", G_TYPE_DOUBLE, a->seconds, NULL);
     gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), ms));
-    if (!full) {
+    if (a->res == VD_DETECTOR_CNN_RES_HALF) {
         return TRUE;
     }
-    self->opts.cfg.cnn_res = 1u;
+    self->opts.cfg.cnn_res = a->res;
     const guint64 seq = self->seq;
     if (!init_detector(self, self->width, self->height)) {
         return FALSE;

@@ -26,7 +26,7 @@ typedef struct res_run {
 } res_run_t;
 
 struct demo_flipagree {
-    res_run_t runs[2];   // [half, full]
+    res_run_t runs[DEMO_AUTORES_RES];   // [cfg.cnn_res]: half, full, quarter
     void *mirror;        // the mirror image's pixels
     vd_detection_t *da, *db;
     bool *used;
@@ -44,35 +44,46 @@ uint64_t demo_autores_sample(uint64_t total, uint32_t k)
     return (total / parts) * odd + ((total % parts) * odd) / parts;   // floor(odd total / parts), no overflow
 }
 
-double demo_autores_agreement(const demo_autores_t *a, int full)
+const char *demo_autores_res_name(unsigned res)
 {
-    const int k = full ? 1 : 0;
-    return a->boxes[k] == 0u ? -1.0 : 2.0 * (double)a->matched[k] / (double)a->boxes[k];
+    static const char *const names[DEMO_AUTORES_RES] = {"half", "full", "quarter"};
+    return res < DEMO_AUTORES_RES ? names[res] : "?";
 }
 
-double demo_autores_mean_score(const demo_autores_t *a, int full)
+double demo_autores_agreement(const demo_autores_t *a, unsigned res)
 {
-    const int k = full ? 1 : 0;
-    return a->boxes[k] == 0u ? -1.0 : (double)a->score_q8[k] / (255.0 * (double)a->boxes[k]);
+    return a->boxes[res] == 0u ? -1.0 : 2.0 * (double)a->matched[res] / (double)a->boxes[res];
 }
 
-double demo_autores_rating(const demo_autores_t *a, int full)
+double demo_autores_mean_score(const demo_autores_t *a, unsigned res)
 {
-    const double m = demo_autores_mean_score(a, full);
-    return m < 0.0 ? -1.0 : m + DEMO_AUTORES_AGREE_WEIGHT * demo_autores_agreement(a, full);
+    return a->boxes[res] == 0u ? -1.0 : (double)a->score_q8[res] / (255.0 * (double)a->boxes[res]);
 }
 
-bool demo_autores_decide(demo_autores_t *a)
+double demo_autores_rating(const demo_autores_t *a, unsigned res)
 {
-    const double half = demo_autores_rating(a, 0);
-    const double full = demo_autores_rating(a, 1);
-    a->full = a->frames >= DEMO_AUTORES_MIN_FRAMES && full > (half > 0.0 ? half : 0.0);
-    return a->full;
+    const double m = demo_autores_mean_score(a, res);
+    return m < 0.0 ? -1.0 : m + DEMO_AUTORES_AGREE_WEIGHT * demo_autores_agreement(a, res);
+}
+
+uint8_t demo_autores_decide(demo_autores_t *a)
+{
+    double best = demo_autores_rating(a, VD_DETECTOR_CNN_RES_HALF);
+    best = best > 0.0 ? best : 0.0;
+    a->res = VD_DETECTOR_CNN_RES_HALF;
+    for (unsigned k = 1u; k < DEMO_AUTORES_RES && a->frames >= DEMO_AUTORES_MIN_FRAMES; k++) {
+        const double r = demo_autores_rating(a, k);
+        if (r > best) {   // strictly higher: ties keep the lower cfg.cnn_res
+            best = r;
+            a->res = (uint8_t)k;
+        }
+    }
+    return a->res;
 }
 
 // The CNN source alone as the options set it, one pass per network, no tracking: the predictor of
 // vdtools.adapt.measure.flip_agreement.
-static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t *f, uint8_t full, char *err,
+static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t *f, uint8_t res, char *err,
                             size_t err_len)
 {
     vd_detector_cfg_t cfg;
@@ -80,7 +91,7 @@ static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t
     cfg.sources = VD_DETECTOR_SRC_CNN;
     cfg.cnn_rescore = 0u;
     cfg.cnn_flip = 0u;
-    cfg.cnn_res = full;
+    cfg.cnn_res = res;
     cfg.temporal = false;
     cfg.clock_us = NULL;
     cfg.on_candidate = NULL;
@@ -95,7 +106,7 @@ static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t
     }
     if (st != VD_OK) {
         snprintf(err, err_len, "--cnn-full-res auto: the detector at %s resolution cannot run %ux%u frames",
-                 full ? "full" : "half", (unsigned)f->width, (unsigned)f->height);
+                 demo_autores_res_name(res), (unsigned)f->width, (unsigned)f->height);
     }
     return st;
 }
@@ -105,8 +116,9 @@ void demo_flipagree_free(demo_flipagree_t *fa)
     if (fa == NULL) {
         return;
     }
-    free(fa->runs[0].ws);
-    free(fa->runs[1].ws);
+    for (unsigned k = 0u; k < DEMO_AUTORES_RES; k++) {
+        free(fa->runs[k].ws);
+    }
     free(fa->mirror);
     free(fa->da);
     free(fa->db);
@@ -125,7 +137,7 @@ vd_status_t demo_flipagree_new(demo_flipagree_t **out, const demo_opts_t *o, con
         fa->height = first->height;
         fa->format = first->format;
         fa->mirror = malloc((size_t)first->width * first->height * (first->format == VD_PIX_U16 ? 2u : 1u) + 1u);
-        for (int k = 0; k < 2 && fa->mirror != NULL && st == VD_OK; k++) {
+        for (unsigned k = 0u; k < DEMO_AUTORES_RES && fa->mirror != NULL && st == VD_OK; k++) {
             st = run_init(&fa->runs[k], o, first, (uint8_t)k, err, err_len);
         }
         if (st == VD_OK && fa->mirror != NULL) {
@@ -209,7 +221,7 @@ static uint32_t matches(const vd_detection_t *a, size_t na, const vd_detection_t
 
 // One frame at one resolution: its boxes and its mirror image's, mirrored back, into the pooled counts.
 static vd_status_t measure_frame(demo_flipagree_t *fa, res_run_t *r, const vd_frame_t *f, const vd_frame_t *fm,
-                                 demo_autores_t *a, int k)
+                                 demo_autores_t *a, unsigned k)
 {
     size_t na = 0, nb = 0;
     vd_status_t st = vd_detector_run(&r->det, f, fa->da, fa->cap, &na);
@@ -238,7 +250,7 @@ vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_a
     }
     vd_frame_t fm;
     mirror(f, fa->mirror, &fm);
-    for (int k = 0; k < 2; k++) {
+    for (unsigned k = 0u; k < DEMO_AUTORES_RES; k++) {
         const vd_status_t st = measure_frame(fa, &fa->runs[k], f, &fm, a, k);
         if (st != VD_OK) {
             return st;

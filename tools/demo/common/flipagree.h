@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// --cnn-full-res auto, frame by frame: how confident the networks are in their boxes at half and at full
+// --cnn-full-res auto, frame by frame: how confident the networks are in their boxes at half, full and quarter
 // resolution and how far they agree with themselves on mirrored frames (flipagree.c), shared by vd_fir_demo
 // (64 frames spread over a recording, before the run: autores.c) and the GStreamer element vdfir (the first
 // frames as they pass). docs/demo.md "Choosing the networks' resolution".
@@ -16,14 +16,15 @@
 #define DEMO_AUTORES_MAX_FRAMES 32u      // a live source: its first frames, measured as they come
 #define DEMO_AUTORES_SPREAD_FRAMES 64u   // a recording: frames measured at most, spread over it (demo_autores_sample)
 #define DEMO_AUTORES_MIN_FRAMES 16u   // fewer frames are too little evidence: half resolution
+#define DEMO_AUTORES_RES 3u           // the resolutions measured: cfg.cnn_res HALF, FULL, QUARTER (the index)
 
 typedef struct demo_autores {
-    bool full;              // the choice
+    uint8_t res;            // the choice: cfg.cnn_res (VD_DETECTOR_CNN_RES_HALF, _FULL, _QUARTER)
     uint32_t frames;        // frames measured
     uint64_t total;         // frames of the recording they were drawn from (0: a live source, its first ones)
-    uint64_t matched[2];    // [half, full]: boxes matched between a frame and its mirror image (pairs)
-    uint64_t boxes[2];      // ... and all boxes of both, pooled over the frames
-    uint64_t score_q8[2];   // ... and the sum of those boxes' scores (vd_detection_t score_q8)
+    uint64_t matched[DEMO_AUTORES_RES];    // [cnn_res]: boxes matched between a frame and its mirror image (pairs)
+    uint64_t boxes[DEMO_AUTORES_RES];      // ... and all boxes of both, pooled over the frames
+    uint64_t score_q8[DEMO_AUTORES_RES];   // ... and the sum of those boxes' scores (vd_detection_t score_q8)
     double seconds;         // time the measurement took
 } demo_autores_t;
 
@@ -40,24 +41,29 @@ typedef struct demo_autores {
 // vdtools.evaluation.fleet.auto_sample is the same.
 uint64_t demo_autores_sample(uint64_t total, uint32_t k);
 
-// Flip agreement of a measurement: 2 matched / boxes, or -1 when there was no box at that resolution.
-double demo_autores_agreement(const demo_autores_t *a, int full);
+// The resolution's name: "half", "full", "quarter" (res = cfg.cnn_res < DEMO_AUTORES_RES).
+const char *demo_autores_res_name(unsigned res);
+
+// Flip agreement of a measurement at resolution res (cfg.cnn_res): 2 matched / boxes, or -1 when there was no
+// box at that resolution.
+double demo_autores_agreement(const demo_autores_t *a, unsigned res);
 
 // Mean score of the boxes (score_q8 / 255, frames and mirror images pooled), or -1 when there was no box at
 // that resolution.
-double demo_autores_mean_score(const demo_autores_t *a, int full);
+double demo_autores_mean_score(const demo_autores_t *a, unsigned res);
 
 // What the choice compares: mean box score + DEMO_AUTORES_AGREE_WEIGHT x flip agreement, or -1 when there was no
 // box at that resolution.
 #define DEMO_AUTORES_AGREE_WEIGHT 0.25
-double demo_autores_rating(const demo_autores_t *a, int full);
+double demo_autores_rating(const demo_autores_t *a, unsigned res);
 
-// Sets a->full from the counts (full when its rating is the higher one and at least DEMO_AUTORES_MIN_FRAMES
-// frames were measured; no box at a resolution is no evidence for it) and returns it.
-bool demo_autores_decide(demo_autores_t *a);
+// Sets a->res from the counts (the resolution of the highest rating, ties to the lower cfg.cnn_res; full or
+// quarter only when at least DEMO_AUTORES_MIN_FRAMES frames were measured; no box at a resolution is no
+// evidence for it) and returns it.
+uint8_t demo_autores_decide(demo_autores_t *a);
 
-// The two detectors (the CNN source alone as the options set it, one pass per network, temporal analysis
-// off; at half and at full resolution) and buffers of a measurement on frames of `first`'s size and format.
+// The three detectors (the CNN source alone as the options set it, one pass per network, temporal analysis
+// off; at half, full and quarter resolution) and buffers of a measurement on frames of `first`'s size and format.
 typedef struct demo_flipagree demo_flipagree_t;
 
 // o->cfg must point at the loaded networks (demo_models_load). A detector that cannot run such frames: its
@@ -65,7 +71,7 @@ typedef struct demo_flipagree demo_flipagree_t;
 vd_status_t demo_flipagree_new(demo_flipagree_t **out, const demo_opts_t *o, const vd_frame_t *first, char *err,
                                size_t err_len);
 
-// Frame f (first's size and format) and its mirror image at both resolutions into a's counts (a->frames + 1).
+// Frame f (first's size and format) and its mirror image at each resolution into a's counts (a->frames + 1).
 // A detector error: its status (a unchanged but for the counts of the resolution measured before it).
 vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_autores_t *a);
 
@@ -81,11 +87,11 @@ typedef struct demo_autores_live {
     demo_flipagree_t *fa;
     demo_autores_t a;
     bool on;        // measuring
-    bool decided;   // a.full is the choice, from frame `from` on
+    bool decided;   // a.res is the choice, from frame `from` on
     uint64_t from;
 } demo_autores_live_t;
 
-// Frame f (the `frame`-th of the run, 0-based) into the measurement; *now true when it completed it (lv->a.full
+// Frame f (the `frame`-th of the run, 0-based) into the measurement; *now true when it completed it (lv->a.res
 // the choice, to apply from this frame on). A detector that cannot measure: its status, err says what.
 vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *o, const vd_frame_t *f,
                                     uint64_t frame, bool *now, char *err, size_t err_len);

@@ -48,7 +48,28 @@ def rate(m, weight):
     return m["agreement"] if weight is None else M.rating_of(m["score"], m["agreement"], weight)
 
 
+RESOLUTIONS = ("half", "full", "quarter")   # cfg.cnn_res 0, 1, 2
+
+
+def resolutions(row):
+    """The resolutions a row measured, in RESOLUTIONS order (half first: it wins ties)."""
+    return [r for r in RESOLUTIONS if r in row]
+
+
+def choose_res(row, weight):
+    """The resolution the rule would take: the highest rate, ties to the earlier (half first)."""
+    res = resolutions(row)
+    return max(res, key=lambda r: (rate(row[r], weight), -res.index(r)))
+
+
+def best_res(row):
+    """The resolution of the highest AP@0.5 (ties to the earlier)."""
+    res = resolutions(row)
+    return max(res, key=lambda r: (row[r]["ap"], -res.index(r)))
+
+
 def choose(row, weight):
+    """Half / full only: True for full (the rule of --cnn-full-res auto)."""
     return rate(row["full"], weight) > rate(row["half"], weight)
 
 
@@ -57,8 +78,8 @@ def rule_name(w):
 
 
 def with_vehicles(rows):
-    """The recordings with a vehicle (an AP at both resolutions; NaN without)."""
-    return {k: v for k, v in rows.items() if v["half"]["ap"] == v["half"]["ap"] and v["full"]["ap"] == v["full"]["ap"]}
+    """The recordings with a vehicle (an AP at every resolution measured; NaN without)."""
+    return {k: v for k, v in rows.items() if all(v[r]["ap"] == v[r]["ap"] for r in resolutions(v))}
 
 
 def summary(rows, weights=(None, 0.0, 0.0625, 0.125, 0.25, 0.5)):
@@ -69,16 +90,15 @@ def summary(rows, weights=(None, 0.0, 0.0625, 0.125, 0.25, 0.5)):
     for w in weights:
         right, ap, lost, per = 0, 0.0, 0.0, {}
         for k, v in rows.items():
-            full = choose(v, w)
-            best = v["full"]["ap"] > v["half"]["ap"]
-            got = v["full" if full else "half"]["ap"]
-            loss = max(v["full"]["ap"], v["half"]["ap"]) - got
-            right += full == best
+            pick, best = choose_res(v, w), best_res(v)
+            got = v[pick]["ap"]
+            loss = v[best]["ap"] - got
+            right += pick == best
             ap += got
             lost += loss
             sh = k.split(" ")[-1]
             p = per.setdefault(sh, [0, 0, 0.0])
-            p[0] += full == best
+            p[0] += pick == best
             p[1] += 1
             p[2] += loss
         out[rule_name(w)] = dict(right=right, n=len(rows), mean_ap=ap / max(len(rows), 1), lost=lost, per_shift=per)
@@ -128,6 +148,8 @@ def main(argv=None):
                     help="train / val: where the rule is chosen; test: only to report, once, the rule chosen there")
     ap.add_argument("--shifts", default=",".join(SHIFTS), help="comma-separated camera changes, "
                     "each one of cnn_eval's or several joined by '+' (default: " + ",".join(SHIFTS) + ")")
+    ap.add_argument("--resolutions", default="half,full", help="comma-separated, of half,full,quarter (cfg.cnn_res); "
+                    "the rule takes the highest rating among them")
     ap.add_argument("--data", default=str(clib.DATA_DIR))
     ap.add_argument("--out", help="JSON of the figures per set")
     ap.add_argument("--render", nargs="+", metavar="JSON", help="print the table of one or more --out files")
@@ -155,14 +177,15 @@ def main(argv=None):
             continue
         for shift in a.shifts.split(","):
             part = shifted(fs[:WINDOW], shift)
-            row = {res: measures(MODELS, part, thr, res == "full") for res in ("half", "full")}
+            row = {res: measures(MODELS, part, thr, RESOLUTIONS.index(res)) for res in a.resolutions.split(",")}
             row["frames"], row["vehicles"] = len(part), int(sum(len(f.boxes) for f in part))
             key = f"{a.split} {fam} {group} {shift}"
             rows[key] = row
-            h, f = row["half"], row["full"]
-            print(f"{key}: {len(part)} frames, {row['vehicles']} vehicles, AP half {100 * h['ap']:.1f} full "
-                  f"{100 * f['ap']:.1f}; score {h['score'] or 0:.3f} / {f['score'] or 0:.3f}, agreement "
-                  f"{100 * (h['agreement'] or 0):.1f} / {100 * (f['agreement'] or 0):.1f}", flush=True)
+            res = a.resolutions.split(",")
+            print(f"{key}: {len(part)} frames, {row['vehicles']} vehicles, AP " + " ".join(
+                f"{r} {100 * row[r]['ap']:.1f}" for r in res) + "; score " + " / ".join(
+                f"{row[r]['score'] or 0:.3f}" for r in res) + ", agreement " + " / ".join(
+                f"{100 * (row[r]['agreement'] or 0):.1f}" for r in res), flush=True)
     if a.out:
         Path(a.out).write_text(json.dumps(rows, indent=1) + "\n")
     print(render(rows))

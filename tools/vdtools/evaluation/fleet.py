@@ -353,24 +353,24 @@ def grey_decision(rec, fields, spread):
 def auto_resolution(rec, fields, cnn):
     """vd_fir_demo's --cnn-full-res auto (tools/demo/common/flipagree.c) on a recording: AUTO_SPREAD_FRAMES
     frames spread over it (auto_sample; as the port reads them) and their mirror images through the CNN
-    source alone (the resolved networks and threshold, one pass each, no tracking) at half and at full
+    source alone (the resolved networks and threshold, one pass each, no tracking) at half, full and quarter
     resolution: the mean score of those boxes (score_q8 / 255) and their agreement (boxes of the mirror image,
     mirrored back, matched one to one at IoU >= 0.5: metrics.evaluate.one_to_one; pooled 2 x matched / boxes).
-    Full resolution when the rating, mean score + 1/4 agreement, is higher and at least AUTO_MIN_FRAMES frames
-    were read. Returns dict(full, frames, total, rating=, score=, agreement=[half, full]) (None: no box at that
-    resolution)."""
+    The resolution of the highest rating, mean score + 1/4 agreement (ties to the lower cfg.cnn_res; full or
+    quarter only when at least AUTO_MIN_FRAMES frames were read). Returns dict(res (its name), cnn_res, full,
+    frames, total, rating=, score=, agreement=[half, full, quarter]) (None: no box at that resolution)."""
     import numpy as np
     from vdtools.metrics.evaluate import one_to_one, rating_of
     from vdtools.bindings import port
     sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
-    runners, counts, n = [None, None], [[0, 0, 0], [0, 0, 0]], 0   # matched, boxes, score_q8 sum
+    runners, counts, n = [None] * len(RES_NAMES), [[0, 0, 0] for _ in RES_NAMES], 0   # matched, boxes, score_q8 sum
     with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
         total = cap.total()
         for f, _name in cap.frames_at(auto_sample(total)):
             img = port.pixels(f).copy()
             mirror = np.ascontiguousarray(img[:, ::-1])
             w = img.shape[1]
-            for k in (0, 1):
+            for k in range(len(RES_NAMES)):   # cfg.cnn_res
                 if runners[k] is None:
                     runners[k] = _Runner(dict(sub, cnn_res=k), cnn, None, f.width, f.height)
                 da, db = runners[k].det.run(img)[0], runners[k].det.run(mirror)[0]
@@ -385,8 +385,12 @@ def auto_resolution(rec, fields, cnn):
     agree = [2 * m / b if b else None for m, b, _ in counts]
     score = [q / (255.0 * b) if b else None for _, b, q in counts]
     rating = [rating_of(s, a, AUTO_AGREE_WEIGHT) for s, a in zip(score, agree)]
-    full = n >= AUTO_MIN_FRAMES and (rating[1] or 0.0) > (rating[0] or 0.0)
-    return dict(full=full, frames=n, total=total, rating=rating, score=score, agreement=agree)
+    res = 0
+    for k in range(1, len(RES_NAMES)):
+        if n >= AUTO_MIN_FRAMES and (rating[k] or 0.0) > max(rating[res] or 0.0, 0.0):
+            res = k
+    return dict(res=RES_NAMES[res], cnn_res=res, full=res == 1, frames=n, total=total, rating=rating, score=score,
+                agreement=agree)
 
 
 # ------------------------------------------------------------------ one shard (runs on a worker)
@@ -687,7 +691,7 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
         cnn_input = {}
         for r in recs:
             cnn_input[r["id"]] = auto_resolution(r, rec_fields[r["id"]], cnn)
-            rec_fields[r["id"]] = dict(rec_fields[r["id"]], cnn_res=int(cnn_input[r["id"]]["full"]))
+            rec_fields[r["id"]] = dict(rec_fields[r["id"]], cnn_res=cnn_input[r["id"]]["cnn_res"])
     mine_dir = str(Path(mine).resolve()) if mine else None
     if mine_dir:
         (Path(mine_dir) / "images").mkdir(parents=True, exist_ok=True)
@@ -715,9 +719,10 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     log(f"vdtools.evaluation.fleet: {len(recs)} recordings, {len(shards)} shards ({len(shards) - len(todo)} complete, "
         f"{len(todo)} to run); " + ", ".join(f"{k} {v}" for k, v in desc.items()))
     if cnn_input:
-        full = sorted(k for k, v in cnn_input.items() if v["full"])
-        log(f"vdtools.evaluation.fleet: cnn-full-res auto: full resolution for {len(full)} of {len(recs)} recordings"
-            + (f" ({', '.join(full[:8])}{' ...' if len(full) > 8 else ''})" if full else ""))
+        for name in RES_NAMES[1:]:
+            ids = sorted(k for k, v in cnn_input.items() if v["res"] == name)
+            log(f"vdtools.evaluation.fleet: cnn-full-res auto: {name} resolution for {len(ids)} of {len(recs)} "
+                f"recordings" + (f" ({', '.join(ids[:8])}{' ...' if len(ids) > 8 else ''})" if ids else ""))
     cluster = None
     n_workers = 0
     wall = 0.0
