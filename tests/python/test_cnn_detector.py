@@ -273,31 +273,39 @@ def test_pair_real_frames_equal_python(demo, data_dir, tmp_path, flip):
     assert total > 0
 
 
+def _pair_at_res(demo, tmp_path, frames, res, demo_args, label):
+    """The shipped pair with flip passes at cfg.cnn_res = res (1 full, 2 quarter) on frames {name: image}: the
+    demo's detections (demo_args set the resolution) == cnn_detector.detect, and cnn_eval.Pair ==
+    cnn_detector.pair_boxes, which differ from half resolution's on the first two frames. Returns the demo's box
+    count."""
+    from vdtools.evaluation import cnn_eval
+    desc, desc2 = V.unpack(MODEL.read_bytes()), V.unpack(MODEL2.read_bytes())
+    kw = dict(max_candidates=max(int(desc["max_peaks"]), int(desc2["max_peaks"])), max_detections=32, flip=True,
+              full_res=res)
+    pair = cnn_eval.Pair(cnn_eval.Int8(MODEL, backend="ref", flip=True, full_res=res),
+                         cnn_eval.Int8(MODEL2, backend="ref", flip=True, full_res=res))
+    src = write_frames(tmp_path / f"res{res}", frames)
+    jl = tmp_path / f"res{res}.jsonl"
+    run(demo, "--input", src, "--temporal", "off", "--json", jl, "--quiet", *demo_args)
+    total = compare(demo_dets(jl), frames, desc, label, desc2=desc2, **kw)
+    for name, img in list(frames.items())[:2]:
+        h, w = img.shape
+        got = [(b, int(round(s * 32768))) for b, s in pair(img, w, h, score_thr_q15=11469)]
+        assert got == CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True, full_res=res), name
+        assert got != CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True) or not got, name
+    return total
+
+
 def test_pair_full_res_real_frames_equal_python(demo, data_dir, tmp_path):
-    """--cnn-full-res (cfg.cnn_res): the shipped pair with flip passes reads the frame itself instead of its
+    """--cnn-full-res (cfg.cnn_res FULL): the shipped pair with flip passes reads the frame itself instead of its
     half-resolution plane. Odd-sized crops of real test-split frames (321 x 241: the mirror spans every column
     at full resolution): demo == cnn_detector.detect(full_res=True), cnn_eval.Pair == cnn_detector.pair_boxes,
     and the workspace the library asks for grows with the plane."""
     if not (MODEL.is_file() and MODEL2.is_file()):
         pytest.skip("the shipped pair (models/vd_cnn.vdm, models/vd_cnn2.vdm) is not committed")
-    from vdtools.evaluation import cnn_eval
-    desc, desc2 = V.unpack(MODEL.read_bytes()), V.unpack(MODEL2.read_bytes())
-    kw = dict(max_candidates=max(int(desc["max_peaks"]), int(desc2["max_peaks"])), max_detections=32, flip=True,
-              full_res=True)
-    pair = cnn_eval.Pair(cnn_eval.Int8(MODEL, backend="ref", flip=True, full_res=True),
-                         cnn_eval.Int8(MODEL2, backend="ref", flip=True, full_res=True))
     frames = {f"crop_{k}": v[101:342, 157:478] for fr in _real_frames(data_dir, per_family=2).values()
               for k, v in fr.items()}
-    src = write_frames(tmp_path / "crops", frames)
-    jl = tmp_path / "full.jsonl"
-    run(demo, "--input", src, "--temporal", "off", "--json", jl, "--quiet", "--cnn-full-res", "on")
-    total = compare(demo_dets(jl), frames, desc, "pair full res: ", desc2=desc2, **kw)
-    for name, img in list(frames.items())[:2]:
-        h, w = img.shape
-        got = [(b, int(round(s * 32768))) for b, s in pair(img, w, h, score_thr_q15=11469)]
-        assert got == CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True, full_res=True), name
-        assert got != CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True) or not got, name
-    assert total > 0
+    assert _pair_at_res(demo, tmp_path, frames, True, ["--cnn-full-res", "on"], "pair full res: ") > 0
     from vdtools.bindings import detector as D
     ws = {fr: D.workspace_size(640, 480, sources=D.source_bits(["cnn"]), cnn_model=MODEL, cnn_model2=MODEL2,
                                cnn_flip=1, cnn_res=fr) for fr in (0, 1)}
@@ -313,24 +321,9 @@ def test_pair_quarter_res_real_frames_equal_python(demo, data_dir, tmp_path):
     import cv2
     if not (MODEL.is_file() and MODEL2.is_file()):
         pytest.skip("the shipped pair (models/vd_cnn.vdm, models/vd_cnn2.vdm) is not committed")
-    from vdtools.evaluation import cnn_eval
-    desc, desc2 = V.unpack(MODEL.read_bytes()), V.unpack(MODEL2.read_bytes())
-    kw = dict(max_candidates=max(int(desc["max_peaks"]), int(desc2["max_peaks"])), max_detections=32, flip=True,
-              full_res=2)
-    pair = cnn_eval.Pair(cnn_eval.Int8(MODEL, backend="ref", flip=True, full_res=2),
-                         cnn_eval.Int8(MODEL2, backend="ref", flip=True, full_res=2))
     frames = {f"up_{k}": cv2.resize(v, (v.shape[1] * 2, v.shape[0] * 2), interpolation=cv2.INTER_LINEAR)[:959, :1279]
               for fr in _real_frames(data_dir, per_family=2).values() for k, v in fr.items()}
-    src = write_frames(tmp_path / "up", frames)
-    jl = tmp_path / "quarter.jsonl"
-    run(demo, "--input", src, "--temporal", "off", "--json", jl, "--quiet", "--cnn-res", "quarter")
-    total = compare(demo_dets(jl), frames, desc, "pair quarter res: ", desc2=desc2, **kw)
-    for name, img in list(frames.items())[:2]:
-        h, w = img.shape
-        got = [(b, int(round(s * 32768))) for b, s in pair(img, w, h, score_thr_q15=11469)]
-        assert got == CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True, full_res=2), name
-        assert got != CDet.pair_boxes(desc, desc2, img, score_thr_q15=11469, flip=True) or not got, name
-    assert total > 0
+    assert _pair_at_res(demo, tmp_path, frames, 2, ["--cnn-res", "quarter"], "pair quarter res: ") > 0
     from vdtools.bindings import detector as D
     ws = {r: D.workspace_size(1279, 959, sources=D.source_bits(["cnn"]), cnn_model=MODEL, cnn_model2=MODEL2,
                               cnn_flip=1, cnn_res=r) for r in (0, 2)}
