@@ -1402,6 +1402,21 @@ static void test_quarter_res_hand_worked(void)
     vd_frame_t f = frame8(64u, 48u);
     TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
     expect_box(&g_out[0], 8, 8, 32, 32, 201u);
+    // A 16-bit frame: the rounded 4 x 4 mean of the raw values through the grey map (grey 20 + 1 raw step per
+    // 1/20 grey, test_u16_frame's map): the same block at grey 201 gives the same box.
+    vd_calib_grey_t map;
+    const vd_calib_t cal = {65536, 0};
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&map, &cal, 27315, 32415));
+    for (uint32_t y = 0u; y < MH; y++) {
+        for (uint32_t x = 0u; x < MW; x++) {
+            const bool in = x >= 24u && x < 28u && y >= 16u && y < 20u;
+            g_px16[y][x] = (uint16_t)(27315u + 20u * (in ? 201u : 20u));
+        }
+    }
+    TEST_ASSERT_EQUAL_UINT8(201u, vd_calib_grey_u8(&map, 27315u + 20u * 201u));
+    vd_frame_t f16 = {g_px16, 64u, 48u, MW * 2u, VD_PIX_U16, 0, 0};
+    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f16));
+    expect_box(&g_out[0], 8, 8, 32, 32, 201u);
     // The last partial 4 x 4 block is not read: a spot in frame columns 64..66 of a 67-wide frame is not seen.
     fill(20u);
     rect8(64u, 16u, 3u, 4u, 250u);
