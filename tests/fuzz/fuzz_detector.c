@@ -129,8 +129,9 @@ static int cfg_verdict(const vd_detector_cfg_t *c, uint32_t fmask, int has_model
         const int64_t g = c->calib.gain_q16 ? c->calib.gain_q16 : 65536;
         top = (int64_t)c->calib.offset_ck + ((65535 * g + 32768) >> 16);
     }
-    if (c->grey_mode > 1u || (c->grey_mode == 1u && (c->grey_tail_permille > 499u ||
-                                                     top > (int64_t)INT32_MAX - VD_DETECTOR_GREY_MIN_SPAN_CK))) {
+    // grey_tail_permille is checked in either mode (every field out of its range is VD_ERR_ARG)
+    if (c->grey_mode > 1u || c->grey_tail_permille > 499u ||
+        (c->grey_mode == 1u && top > (int64_t)INT32_MAX - VD_DETECTOR_GREY_MIN_SPAN_CK)) {
         return -1;
     }
     if (c->thr_mode > 1u || c->adaptive_permille > 1000u || c->hot_thr_ck < 0 || c->calib.gain_q16 < 0 || lo >= hi ||

@@ -484,7 +484,8 @@ static void test_detector_configs_out_of_range(void)
                            "min_area > max_area", "expand_w < 1x", "expand_h > 8x", "median 7", "window even",
                            "window 17", "max_detections > max_candidates", "max_candidates 4097",
                            "max_region_w > max_width", "max_region_h > max_height", "max_tracks 1025",
-                           "nms_iou > 1", "grey_mode 2", "grey tail 500", "cnn_invert 2", "cnn_res 3"};
+                           "nms_iou > 1", "grey_mode 2", "grey tail 500", "cnn_invert 2", "cnn_res 3",
+                           "grey tail 500, fixed window"};
     for (int i = 0; i < (int)(sizeof(names) / sizeof(names[0])); i++) {
         c = det_cfg();
         switch (i) {
@@ -511,7 +512,8 @@ static void test_detector_configs_out_of_range(void)
         case 20: c.grey_mode = 2u; break;
         case 21: c.grey_mode = VD_DETECTOR_GREY_PERCENTILE; c.grey_tail_permille = 500u; break;
         case 22: c.cnn_invert = 2u; break;
-        default: c.cnn_res = VD_DETECTOR_CNN_RES_QUARTER + 1u; break;
+        case 23: c.cnn_res = VD_DETECTOR_CNN_RES_QUARTER + 1u; break;
+        default: c.grey_mode = VD_DETECTOR_GREY_FIXED; c.grey_tail_permille = 500u; break;
         }
         TEST_ASSERT_EQUAL_INT_MESSAGE(VD_ERR_ARG, vd_detector_workspace_size(&c, NULL, &wsb), names[i]);
         TEST_ASSERT_EQUAL_INT_MESSAGE(VD_ERR_ARG, vd_detector_init(&det, &c, NULL, g_ws, sizeof(g_ws)), names[i]);
