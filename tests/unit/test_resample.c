@@ -333,7 +333,8 @@ static void test_box_random_vs_naive(void)
     vd_calib_t cal = {3 * 65536 / 2, -1000};
     vd_calib_grey_t g;
     TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &cal, 20000, 60000));
-    for (int trial = 0; trial < 300; trial++) {
+    int n4 = 0;   // trials of the 4 x 4 factors
+    for (int trial = 0; trial < 600; trial++) {
         for (size_t i = 0; i < sizeof(p8); i++) {
             p8[i] = (uint8_t)tu_rand(&seed);
             p16[i] = (uint16_t)tu_rand(&seed);
@@ -349,6 +350,9 @@ static void test_box_random_vs_naive(void)
         uint32_t ky = 1u + tu_rand(&seed) % (uint32_t)r.h;
         if ((trial & 2) != 0 && r.w >= 2 && r.h >= 2) {
             kx = ky = 2u;   // half of the trials: the 2 x 2 fast path (8-bit) and its 16-bit twin
+        } else if ((trial & 8) != 0 && r.w >= 4 && r.h >= 4) {
+            kx = ky = 4u;   // the 4 x 4 fast path (8-bit; the CNN's quarter-resolution rows)
+            n4++;
         } else if ((trial & 4) != 0) {
             kx = ky = 1u;   // a quarter: the 1 x 1 path (the CNN's full-resolution rows), both formats
         }
@@ -379,6 +383,7 @@ static void test_box_random_vs_naive(void)
             }
         }
     }
+    TEST_ASSERT_TRUE(n4 >= 60);   // the fast path was exercised (half of the trials are 16-bit)
 }
 
 static void test_box_args(void)

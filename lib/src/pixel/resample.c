@@ -524,15 +524,67 @@ static uint8_t grey_of(const vd_calib_grey_t *grey, uint32_t raw)
 #endif
 }
 
+#ifndef __OPTIMIZE_SIZE__
+// The CNN's quarter-resolution rows (cfg.cnn_res QUARTER, 8-bit), made for every pass of every frame:
+// the general loop (box_any), with its 64-bit sum and division, cost ~14 instructions per frame pixel
+// (callgrind, 1280 x 1024 frames: 174.1 -> 107.5 M per frame with this loop). Same rounding,
+// (sum + 8) >> 4. Size-optimised builds (the Cortex-M0+ budget) take the general loop: the same bytes.
+static void box4_u8(const uint8_t *data, size_t stride, const vd_rect_t *r, vd_image_u8_t *dst)
+{
+    const size_t out_w = dst->width;
+    for (uint32_t cy = 0; cy < dst->height; cy++) {
+        const uint8_t *a = data + ((size_t)r->y + 4u * (size_t)cy) * stride + (size_t)r->x;
+        uint8_t *out = dst->data + (size_t)cy * dst->stride;
+        for (size_t cx = 0; cx < out_w; cx++) {
+            uint32_t sum = 8u;
+            for (size_t j = 0; j < 4u; j++) {
+                const uint8_t *q = a + j * stride + 4u * cx;
+                sum += (uint32_t)q[0] + q[1] + q[2] + q[3];
+            }
+            out[cx] = (uint8_t)(sum >> 4);
+        }
+    }
+}
+#endif
+
+// Any kx x ky block: a 64-bit sum and one rounded division per output (the factors' own loops above
+// take the CNN's 1 x 1, 2 x 2 and 4 x 4 rows).
+static void box_any(const uint8_t *data, size_t stride, bool wide, const vd_rect_t *r, uint32_t kx, uint32_t ky,
+                    const vd_calib_grey_t *grey, vd_image_u8_t *dst)
+{
+    const uint32_t n = kx * ky;
+    for (uint32_t cy = 0; cy < dst->height; cy++) {
+        uint8_t *out = dst->data + (size_t)cy * dst->stride;
+        for (uint32_t cx = 0; cx < dst->width; cx++) {
+            uint64_t sum = 0u;
+            const size_t x0 = (size_t)r->x + (size_t)cx * kx;
+            const size_t y0 = (size_t)r->y + (size_t)cy * ky;
+            for (uint32_t j = 0; j < ky; j++) {
+                const uint8_t *row = data + (y0 + j) * stride;
+                for (uint32_t i = 0; i < kx; i++) {
+                    if (wide) {
+                        uint16_t v;
+                        memcpy(&v, row + 2u * (x0 + i), sizeof(v));
+                        sum += v;
+                    } else {
+                        sum += row[x0 + i];
+                    }
+                }
+            }
+            const uint32_t avg = (uint32_t)((sum + n / 2u) / n);
+            out[cx] = wide ? grey_of(grey, avg) : (uint8_t)avg;
+        }
+    }
+}
+
 // Box average of the ROI r of a plane of 1 (wide false) or 2 (wide true)
 // bytes per pixel into dst; 16-bit means are mapped through grey.
 static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_rect_t *r, uint32_t kx,
                         uint32_t ky, const vd_calib_grey_t *grey, vd_image_u8_t *dst)
 {
-    const uint32_t n = kx * ky;
     if (kx == 1u && ky == 1u) {
         // A 1 x 1 box is the pixel: the CNN's full-resolution rows (cfg.cnn_res FULL), made for every pass
-        // of every frame, where the general loop below spent ~170 instructions per pixel (callgrind).
+        // of every frame, where the general loop (box_any) spent ~170 instructions per pixel (callgrind).
         for (uint32_t cy = 0; cy < dst->height; cy++) {
             const uint8_t *row = data + ((size_t)r->y + cy) * stride;
             uint8_t *out = dst->data + (size_t)cy * dst->stride;
@@ -549,7 +601,7 @@ static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_
     }
     if (kx == 2u && ky == 2u && wide) {
         // The CNN's half-resolution rows of a 16-bit frame (every pass of every frame): the general loop
-        // below and a call per output into calib.c cost ~180 instructions per output pixel (callgrind,
+        // (box_any) and a call per output into calib.c cost ~180 instructions per output pixel (callgrind,
         // 640 x 512 raw counts). Same sums and rounding, (sum + 2) >> 2, and the same map inline.
         const size_t out_w = dst->width;
         for (uint32_t cy = 0; cy < dst->height; cy++) {
@@ -566,7 +618,7 @@ static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_
     }
     if (kx == 2u && ky == 2u && !wide) {
         // The CNN's half-resolution rows, made for every pass of every frame:
-        // the general loop below cost ~160 instructions per output pixel. Same
+        // the general loop (box_any) cost ~160 instructions per output pixel. Same
         // rounding, (sum + n / 2) / n = (sum + 2) >> 2; a loop compilers vectorise
         // given size_t indices and the width in a local (with uint32_t 2 cx, which may
         // wrap, and dst->width reread after each byte store, gcc 12 -O3 kept it
@@ -621,28 +673,13 @@ static void box_average(const uint8_t *data, size_t stride, bool wide, const vd_
         }
         return;
     }
-    for (uint32_t cy = 0; cy < dst->height; cy++) {
-        uint8_t *out = dst->data + (size_t)cy * dst->stride;
-        for (uint32_t cx = 0; cx < dst->width; cx++) {
-            uint64_t sum = 0u;
-            const size_t x0 = (size_t)r->x + (size_t)cx * kx;
-            const size_t y0 = (size_t)r->y + (size_t)cy * ky;
-            for (uint32_t j = 0; j < ky; j++) {
-                const uint8_t *row = data + (y0 + j) * stride;
-                for (uint32_t i = 0; i < kx; i++) {
-                    if (wide) {
-                        uint16_t v;
-                        memcpy(&v, row + 2u * (x0 + i), sizeof(v));
-                        sum += v;
-                    } else {
-                        sum += row[x0 + i];
-                    }
-                }
-            }
-            const uint32_t avg = (uint32_t)((sum + n / 2u) / n);
-            out[cx] = wide ? grey_of(grey, avg) : (uint8_t)avg;
-        }
+#ifndef __OPTIMIZE_SIZE__
+    if (kx == 4u && ky == 4u && !wide) {
+        box4_u8(data, stride, r, dst);
+        return;
     }
+#endif
+    box_any(data, stride, wide, r, kx, ky, grey, dst);
 }
 
 // Checks shared by both formats: factors, and dst of the decimated ROI size.
