@@ -57,6 +57,17 @@ def test_rules_choose_and_summarise():
     assert "| mean box score | 3 / 3 | 70.0 | 0 |" in table and "| flip agreement | 1 / 3 |" in table
 
 
+def test_first_highest_ties_to_the_lowest_index():
+    """The choice among ratings (fleet.auto_resolution, resolution_evidence.choose_res): the highest, ties to the
+    lower cfg.cnn_res, no box (None) as 0."""
+    from vdtools.metrics.evaluate import first_highest
+    assert first_highest([0.5, 0.6, 0.6]) == 1
+    assert first_highest([None, 0.1, None]) == 1
+    assert first_highest([0.0, None, 0.0]) == 0 and first_highest([None, None, None]) == 0
+    assert RE.choose_res(dict(_row(0.1, 0.7, None, 0.40, None, 0.5), quarter=dict(ap=0.2, score=0.5, agreement=0.6)),
+                         0.25) == "quarter"
+
+
 def test_demo_weight_is_the_python_weight():
     """The demo's DEMO_AUTORES_AGREE_WEIGHT and the Python rule's weight are one number."""
     import re

@@ -205,11 +205,18 @@ static void expect_box(const vd_detection_t *d, int32_t x, int32_t y, int32_t w,
 // One bright 2x2 block: half-resolution pixel (200 + 200 + 201 + 201 + 2) >> 2
 // = 201 (200.5 rounded half up) in cell (3, 2).
 // The default network and the block: 200 over 201 at frame (26, 18)-(27, 19) on 20.
-static net_t block_scene(void)
+// The default network loaded and a flat frame of 20 (every logit below the threshold).
+static net_t flat_scene(void)
 {
     net_t n = net_default();
     net_load(&n);
     fill(20u);
+    return n;
+}
+
+static net_t block_scene(void)
+{
+    net_t n = flat_scene();
     rect8(26u, 18u, 2u, 1u, 200u);
     rect8(26u, 19u, 2u, 1u, 201u);
     return n;
@@ -1359,15 +1366,23 @@ static void test_invert_hand_worked(void)
 // max-pools put it in cell (26 >> 2, 18 >> 2) = (6, 4) with value max = 201;
 // centre (4 * 6 + 2, 4 * 4 + 2) = (26, 18) in network pixels = frame pixels,
 // width 8 network pixels = 8 frame pixels: [22, 30) x [14, 22).
-static void test_full_res_hand_worked(void)
+// The detector at cfg.cnn_res = res on the 64 x 48 frame of g_px finds one box: (x, y, w, h), score_q8 q8.
+// Returns the configuration it ran.
+static vd_detector_cfg_t one_box_at_res(uint8_t res, int32_t x, int32_t y, int32_t w, int32_t h, uint8_t q8)
 {
-    (void)block_scene();
     vd_detector_cfg_t c = cnn_cfg();
-    c.cnn_res = VD_DETECTOR_CNN_RES_FULL;
+    c.cnn_res = res;
     init_or_fail(&c, NULL);
     vd_frame_t f = frame8(64u, 48u);
     TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
-    expect_box(&g_out[0], 22, 14, 8, 8, 201u);
+    expect_box(&g_out[0], x, y, w, h, q8);
+    return c;
+}
+
+static void test_full_res_hand_worked(void)
+{
+    (void)block_scene();
+    vd_detector_cfg_t c = one_box_at_res(VD_DETECTOR_CNN_RES_FULL, 22, 14, 8, 8, 201u);
     // HALF, FULL or QUARTER only, checked even without the CNN source.
     size_t b = 0u;
     c.cnn_res = 3u;
@@ -1391,17 +1406,10 @@ static void test_full_res_hand_worked(void)
 // frame pixels, width 8 network pixels = 32 frame pixels: [8, 40) x [8, 40).
 static void test_quarter_res_hand_worked(void)
 {
-    net_t n = net_default();
-    net_load(&n);
-    fill(20u);
+    (void)flat_scene();
     rect8(24u, 16u, 4u, 4u, 200u);
     rect8(27u, 19u, 1u, 1u, 208u);
-    vd_detector_cfg_t c = cnn_cfg();
-    c.cnn_res = VD_DETECTOR_CNN_RES_QUARTER;
-    init_or_fail(&c, NULL);
-    vd_frame_t f = frame8(64u, 48u);
-    TEST_ASSERT_EQUAL_size_t(1u, run_ok(&f));
-    expect_box(&g_out[0], 8, 8, 32, 32, 201u);
+    vd_detector_cfg_t c = one_box_at_res(VD_DETECTOR_CNN_RES_QUARTER, 8, 8, 32, 32, 201u);
     // A 16-bit frame: the rounded 4 x 4 mean of the raw values through the grey map (grey 20 + 1 raw step per
     // 1/20 grey, test_u16_frame's map): the same block at grey 201 gives the same box.
     vd_calib_grey_t map;
@@ -1420,7 +1428,7 @@ static void test_quarter_res_hand_worked(void)
     // The last partial 4 x 4 block is not read: a spot in frame columns 64..66 of a 67-wide frame is not seen.
     fill(20u);
     rect8(64u, 16u, 3u, 4u, 250u);
-    f = frame8(67u, 48u);
+    vd_frame_t f = frame8(67u, 48u);
     init_or_fail(&c, NULL);
     TEST_ASSERT_EQUAL_size_t(0u, run_ok(&f));
 }

@@ -557,7 +557,7 @@ static void summary(run_t *r)
         printf("cnn kernels: %s\n", vd_cnn_kernel_set());   // which set the times above ran on
         if (!r->autores_ran && r->o.cfg.cnn_res != VD_DETECTOR_CNN_RES_HALF) {
             printf("cnn input: %s resolution (set by --cnn-res or --cnn-full-res)\n",
-                   r->o.cfg.cnn_res == VD_DETECTOR_CNN_RES_FULL ? "full" : "quarter");
+                   demo_cnn_res_name(r->o.cfg.cnn_res));
         }
     }
     if (r->autores_ran) {
@@ -585,7 +585,7 @@ static void summary(run_t *r)
         }
         printf("cnn input: %s resolution (--cnn-full-res auto: rating half %s, full %s, quarter %s; mean box score "
                "half %s, full %s, quarter %s; flip agreement half %s, full %s, quarter %s over %u frames%s%s%s; "
-               "%.2f s)\n", demo_autores_res_name(a->res), rating[0], rating[1], rating[2], score[0], score[1],
+               "%.2f s)\n", demo_cnn_res_name(a->res), rating[0], rating[1], rating[2], score[0], score[1],
                score[2], pct[0], pct[1], pct[2], (unsigned)a->frames, of,
                a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full or quarter" : "", from, a->seconds);
     }
@@ -735,7 +735,7 @@ static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
     }
     if (r->device) {
         r->live.on = true;
-        o->cfg.cnn_res = 0u;
+        o->cfg.cnn_res = VD_DETECTOR_CNN_RES_HALF;
         if (!o->quiet) {
             fprintf(stderr, "vd_fir_demo: --cnn-full-res auto: a camera's first %u frames are measured as they "
                             "come (half resolution meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES);

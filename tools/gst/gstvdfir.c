@@ -94,7 +94,7 @@ static void autores_reset(GstVdFir *self)
     self->ar.on = self->opts.cnn_res_auto && self->models.have_cnn &&
                   (self->opts.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
     if (self->ar.on) {
-        self->opts.cfg.cnn_res = 0u;
+        self->opts.cfg.cnn_res = VD_DETECTOR_CNN_RES_HALF;
     }
 }
 
@@ -307,13 +307,13 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
                     "cnn input: %s resolution from frame %" G_GUINT64_FORMAT
                     " (rating half %.3f, full %.3f, quarter %.3f; mean box score half %.3f, full %.3f, quarter %.3f; "
                     "flip agreement half %.3f, full %.3f, quarter %.3f over %u frames; %.2f s)",
-                    demo_autores_res_name(a->res), self->seq, demo_autores_rating(a, 0), demo_autores_rating(a, 1),
+                    demo_cnn_res_name(a->res), self->seq, demo_autores_rating(a, 0), demo_autores_rating(a, 1),
                     demo_autores_rating(a, 2), demo_autores_mean_score(a, 0), demo_autores_mean_score(a, 1),
                     demo_autores_mean_score(a, 2), demo_autores_agreement(a, 0), demo_autores_agreement(a, 1),
                     demo_autores_agreement(a, 2), (unsigned)a->frames, a->seconds);
     // "full" stays for the applications written against it; "resolution" names the choice (half, full, quarter)
     GstStructure *ms = gst_structure_new(
-        "vdfir-resolution", "full", G_TYPE_BOOLEAN, full, "resolution", G_TYPE_STRING, demo_autores_res_name(a->res),
+        "vdfir-resolution", "full", G_TYPE_BOOLEAN, full, "resolution", G_TYPE_STRING, demo_cnn_res_name(a->res),
         "from-seq", G_TYPE_UINT64, self->seq, "frames", G_TYPE_UINT, (guint)a->frames, "rating-half", G_TYPE_DOUBLE,
         demo_autores_rating(a, 0), "rating-full", G_TYPE_DOUBLE, demo_autores_rating(a, 1), "rating-quarter",
         G_TYPE_DOUBLE, demo_autores_rating(a, 2), "score-half", G_TYPE_DOUBLE, demo_autores_mean_score(a, 0),

@@ -547,8 +547,8 @@ static void box4_u8(const uint8_t *data, size_t stride, const vd_rect_t *r, vd_i
 }
 #endif
 
-// Any kx x ky block: a 64-bit sum and one rounded division per output (the factors' own loops above
-// take the CNN's 1 x 1, 2 x 2 and 4 x 4 rows).
+// Any kx x ky block: a 64-bit sum and one rounded division per output (box_average takes the CNN's
+// 1 x 1, 2 x 2 and 4 x 4 rows in loops of their own).
 static void box_any(const uint8_t *data, size_t stride, bool wide, const vd_rect_t *r, uint32_t kx, uint32_t ky,
                     const vd_calib_grey_t *grey, vd_image_u8_t *dst)
 {

@@ -44,12 +44,6 @@ uint64_t demo_autores_sample(uint64_t total, uint32_t k)
     return (total / parts) * odd + ((total % parts) * odd) / parts;   // floor(odd total / parts), no overflow
 }
 
-const char *demo_autores_res_name(unsigned res)
-{
-    static const char *const names[DEMO_AUTORES_RES] = {"half", "full", "quarter"};
-    return res < DEMO_AUTORES_RES ? names[res] : "?";
-}
-
 double demo_autores_agreement(const demo_autores_t *a, unsigned res)
 {
     return a->boxes[res] == 0u ? -1.0 : 2.0 * (double)a->matched[res] / (double)a->boxes[res];
@@ -106,7 +100,7 @@ static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t
     }
     if (st != VD_OK) {
         snprintf(err, err_len, "--cnn-full-res auto: the detector at %s resolution cannot run %ux%u frames",
-                 demo_autores_res_name(res), (unsigned)f->width, (unsigned)f->height);
+                 demo_cnn_res_name(res), (unsigned)f->width, (unsigned)f->height);
     }
     return st;
 }

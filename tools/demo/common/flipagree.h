@@ -41,9 +41,6 @@ typedef struct demo_autores {
 // vdtools.evaluation.fleet.auto_sample is the same.
 uint64_t demo_autores_sample(uint64_t total, uint32_t k);
 
-// The resolution's name: "half", "full", "quarter" (res = cfg.cnn_res < DEMO_AUTORES_RES).
-const char *demo_autores_res_name(unsigned res);
-
 // Flip agreement of a measurement at resolution res (cfg.cnn_res): 2 matched / boxes, or -1 when there was no
 // box at that resolution.
 double demo_autores_agreement(const demo_autores_t *a, unsigned res);

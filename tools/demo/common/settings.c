@@ -274,26 +274,31 @@ static bool set_cnn_full_res(demo_opts_t *o, const char *v)
     bool on = false;
     if (strcmp(v, "auto") == 0) {
         o->cnn_res_auto = true;
-        o->cfg.cnn_res = 0u;   // until the choice is made
+        o->cfg.cnn_res = VD_DETECTOR_CNN_RES_HALF;   // until the choice is made
         return true;
     }
     if (!demo_parse_switch(v, &on)) {
         return false;
     }
     o->cnn_res_auto = false;
-    o->cfg.cnn_res = on ? 1u : 0u;
+    o->cfg.cnn_res = on ? VD_DETECTOR_CNN_RES_FULL : VD_DETECTOR_CNN_RES_HALF;
     return true;
 }
 
-// half/full/quarter (cfg.cnn_res) or auto (the measurement of --cnn-full-res auto, which chooses half or full).
-static bool set_cnn_res(demo_opts_t *o, const char *v)
+const char *demo_cnn_res_name(unsigned res)
 {
     static const char *const names[] = {"half", "full", "quarter"};   // VD_DETECTOR_CNN_RES_* in order
+    return res <= VD_DETECTOR_CNN_RES_QUARTER ? names[res] : "?";
+}
+
+// half/full/quarter (cfg.cnn_res) or auto (the measurement of --cnn-full-res auto, which chooses among them).
+static bool set_cnn_res(demo_opts_t *o, const char *v)
+{
     if (strcmp(v, "auto") == 0) {
         return set_cnn_full_res(o, v);
     }
-    for (uint8_t i = 0u; i < 3u; i++) {
-        if (strcmp(v, names[i]) == 0) {
+    for (uint8_t i = 0u; i <= VD_DETECTOR_CNN_RES_QUARTER; i++) {
+        if (strcmp(v, demo_cnn_res_name(i)) == 0) {
             o->cnn_res_auto = false;
             o->cfg.cnn_res = i;
             return true;
@@ -627,15 +632,15 @@ static const setting_t k_settings[] = {
     {"cnn-full-res", "[on|off|auto]",
      "cnn source: the networks read the frame at full resolution instead of half (for a camera "
      "whose vehicles are about half the size of the training data's, e.g. a wider lens: 4x the "
-     "networks' time and a larger workspace). auto (default): full when the networks' boxes rate "
-     "higher at full resolution (mean score + flip agreement / 4) on 64 frames spread over "
-     "the recording (docs/demo.md; a camera's first 32 as they come); half under 16 frames",
+     "networks' time and a larger workspace). auto (default): half, full or quarter (--cnn-res), "
+     "whichever the networks' boxes rate highest at (mean score + flip agreement / 4) on 64 frames "
+     "spread over the recording (docs/demo.md; a camera's first 32 as they come); half under 16 frames",
      CUSTOM(set_cnn_full_res), OPTIONAL_OR("auto")},
     {"cnn-res", "half|full|quarter|auto",
      "cnn source: the networks' input resolution: half (the frame's 2x2 box averages, the scale they trained "
      "at), full (= --cnn-full-res on), quarter (4x4 box averages, for a camera whose vehicles are about twice "
      "the training data's size, e.g. a 1280x1024 sensor or a narrower lens: a quarter of the networks' time) "
-     "or auto (= --cnn-full-res auto, which chooses half or full)",
+     "or auto (= --cnn-full-res auto, which chooses among the three)",
      CUSTOM(set_cnn_res)},
     {"cnn-polarity", "white-hot|black-hot",
      "cnn source: white-hot (default: warm is bright, as the networks trained) or black-hot (a camera set to "

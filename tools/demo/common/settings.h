@@ -72,5 +72,6 @@ bool demo_settings_load(demo_opts_t *o, const char *path, char *msg, size_t msg_
 bool demo_parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out);
 bool demo_parse_size(const char *s, uint32_t *w, uint32_t *h);   // "WxH", 1..VD_MAX_DIM each
 bool demo_parse_switch(const char *v, bool *on);                 // on/off, true/false, 1/0
+const char *demo_cnn_res_name(unsigned res);   // cfg.cnn_res's name: "half", "full", "quarter" ("?" beyond)
 
 #endif

@@ -18,8 +18,10 @@ from pathlib import Path
 
 from vdtools.adapt import measure as M
 from vdtools.bindings import clib
+from vdtools.bindings.detector import CNN_RES_NAMES
 from vdtools.data import cnn_data as CD
 from vdtools.evaluation import cnn_eval as CE
+from vdtools.metrics.evaluate import first_highest
 
 SHIFTS = ("none", "down50", "down33", "equalize", "equalize+down50")
 WINDOW, MIN_FRAMES = 32, 16   # tools/demo/common/flipagree.h DEMO_AUTORES_MAX_FRAMES / _MIN_FRAMES
@@ -48,24 +50,21 @@ def rate(m, weight):
     return m["agreement"] if weight is None else M.rating_of(m["score"], m["agreement"], weight)
 
 
-RESOLUTIONS = ("half", "full", "quarter")   # cfg.cnn_res 0, 1, 2
-
-
 def resolutions(row):
-    """The resolutions a row measured, in RESOLUTIONS order (half first: it wins ties)."""
-    return [r for r in RESOLUTIONS if r in row]
+    """The resolutions a row measured, in cfg.cnn_res order (half first: it wins ties)."""
+    return [r for r in CNN_RES_NAMES if r in row]
 
 
 def choose_res(row, weight):
     """The resolution the rule would take: the highest rate, ties to the earlier (half first)."""
     res = resolutions(row)
-    return max(res, key=lambda r: (rate(row[r], weight), -res.index(r)))
+    return res[first_highest([rate(row[r], weight) for r in res])]
 
 
 def best_res(row):
     """The resolution of the highest AP@0.5 (ties to the earlier)."""
     res = resolutions(row)
-    return max(res, key=lambda r: (row[r]["ap"], -res.index(r)))
+    return res[first_highest([row[r]["ap"] for r in res])]
 
 
 def choose(row, weight):
@@ -177,7 +176,7 @@ def main(argv=None):
             continue
         for shift in a.shifts.split(","):
             part = shifted(fs[:WINDOW], shift)
-            row = {res: measures(MODELS, part, thr, RESOLUTIONS.index(res)) for res in a.resolutions.split(",")}
+            row = {res: measures(MODELS, part, thr, CNN_RES_NAMES.index(res)) for res in a.resolutions.split(",")}
             row["frames"], row["vehicles"] = len(part), int(sum(len(f.boxes) for f in part))
             key = f"{a.split} {fam} {group} {shift}"
             rows[key] = row

@@ -21,6 +21,10 @@ from vdtools.bindings import clib, components
 from vdtools.bindings.sources import ContrastCfg, WindowsCfg, windows_cfg as _windows_cfg
 
 THR_CONSTANT, THR_ADAPTIVE = 0, 1
+# cfg.cnn_res (VD_DETECTOR_CNN_RES_HALF, _FULL, _QUARTER) is the index: its name, and the frame pixels per network
+# input pixel and axis (the detector's vd__detector_cnn_div)
+CNN_RES_NAMES = ("half", "full", "quarter")
+CNN_RES_DIV = (2, 1, 4)
 FLAG_UNVERIFIED, FLAG_DECIMATED, FLAG_CONTOUR_TRUNC, FLAG_RECOVERED = 0x01, 0x02, 0x04, 0x08
 STATES = {0: None, 1: "new", 2: "confirmed", 3: "recovered"}
 STAGES = ("threshold", "components", "refine", "contour", "sample", "dbn", "nms", "temporal", "contrast", "windows",

@@ -19,14 +19,12 @@ from vdtools.data import dataset as D
 
 def half(img):
     """Exact 2x2 box average, round half up (the C detector's resample for the network input)."""
-    h, w = img.shape[0] // 2 * 2, img.shape[1] // 2 * 2
-    a = img[:h, :w].astype(np.uint16)
-    return ((a[0::2, 0::2] + a[1::2, 0::2] + a[0::2, 1::2] + a[1::2, 1::2] + 2) >> 2).astype(np.uint8)
+    return box_mean(img, 2)
 
 
 def box_mean(img, d):
     """Exact d x d box average, round half up ((sum + d*d/2) // (d*d)); a last partial block of columns or rows
-    is dropped (the C detector's resample for the network input at cfg.cnn_res QUARTER, d = 4)."""
+    is dropped (the C detector's resample for the network input: d = 2 half, 4 quarter resolution)."""
     h, w = img.shape[0] // d * d, img.shape[1] // d * d
     s = img[:h, :w].astype(np.uint32).reshape(h // d, d, w // d, d).sum(axis=(1, 3))
     return ((s + d * d // 2) // (d * d)).astype(np.uint8)

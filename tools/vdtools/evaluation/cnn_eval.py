@@ -33,6 +33,7 @@ from vdtools.data import cnn_data as CD
 from vdtools.formats import cnn_ref as R
 from vdtools.formats import cnn_vdm as V
 from vdtools.bindings import cnn as vd_cnn
+from vdtools.bindings import detector as vdet
 from vdtools.metrics.evaluate import average_precision, inside_share, iou, match_flags
 
 THRESHOLDS = [round(0.05 * i, 2) for i in range(1, 20)]
@@ -105,13 +106,9 @@ def nms(dets, thr=0.5):
     return keep
 
 
-# cfg.cnn_res (VD_DETECTOR_CNN_RES_HALF, _FULL, _QUARTER) -> frame pixels per network input pixel and axis
-RES_DIV = (2, 1, 4)
-
-
 def res_div(res):
     """The detector's vd__detector_cnn_div: res = cfg.cnn_res (False / 0 half, True / 1 full, 2 quarter)."""
-    return RES_DIV[int(res)]
+    return vdet.CNN_RES_DIV[int(res)]
 
 
 def net_input(img, align=16, mirror=False, div=2):
@@ -119,7 +116,7 @@ def net_input(img, align=16, mirror=False, div=2):
     detector's network input. mirror: the flip pass's input, the half-resolution plane mirrored left to
     right before the padding (not the frame: for odd widths the detector drops the last frame column).
     div 1: the frame itself (the detector's cfg.cnn_res FULL); 4: its 4x4 box averages (QUARTER)."""
-    h = img if div == 1 else CD.half(img) if div == 2 else CD.box_mean(img, div)
+    h = img if div == 1 else CD.box_mean(img, div)
     return CD.pad_to(np.ascontiguousarray(h[:, ::-1]) if mirror else h, align)
 
 
@@ -701,7 +698,7 @@ def main(argv=None):
     ap.add_argument("--full-res", action="store_true",
                     help="the networks read the frame at full resolution instead of half (the detector's "
                          "cfg.cnn_res, vd_fir_demo --cnn-full-res; backends c/ref/demo)")
-    ap.add_argument("--res", choices=("half", "full", "quarter"),
+    ap.add_argument("--res", choices=vdet.CNN_RES_NAMES,
                     help="the networks' input resolution (the detector's cfg.cnn_res, vd_fir_demo --cnn-res; "
                          "full = --full-res; backends c/ref/demo)")
     ap.add_argument("--extra-scale", type=int, choices=(1, 4),
@@ -726,7 +723,7 @@ def main(argv=None):
     if a.res is not None:
         if a.full_res and a.res != "full":
             raise SystemExit("--full-res and --res disagree")
-        a.full_res = ("half", "full", "quarter").index(a.res)   # cfg.cnn_res (Int8's full_res takes 0/1/2)
+        a.full_res = vdet.CNN_RES_NAMES.index(a.res)   # cfg.cnn_res (Int8's full_res takes 0/1/2)
     if a.full_res and (a.ckpt or a.paper or a.extra_scale):
         raise SystemExit("--full-res is for the int8 networks (--model, --model2) without --extra-scale")
     if a.extra_scale and a.backend == "demo":
@@ -740,7 +737,7 @@ def main(argv=None):
     if a.backend == "demo" and not a.ckpt:
         res = run_demo(a.demo, a.model, frames, paper=None if a.paper is None else a.paper.split(),
                        extra=[] if a.paper else ["--cnn-flip", "on" if a.flip else "off"]
-                       + ["--cnn-res", ("half", "full", "quarter")[int(a.full_res)]], model2=a.model2)
+                       + ["--cnn-res", vdet.CNN_RES_NAMES[int(a.full_res)]], model2=a.model2)
     else:
         if a.ensemble and (not a.ckpt or a.ckpt2):
             raise SystemExit("--ensemble averages float networks with --ckpt (not a pair)")

@@ -34,6 +34,7 @@ import time
 from pathlib import Path
 
 from vdtools.bindings import clib
+from vdtools.bindings.detector import CNN_RES_NAMES
 
 FRAME_EXTS = (".pgm", ".png", ".jpg", ".jpeg", ".raw", ".y16", ".gray")   # file_capture.c, k_frame_exts
 RAW_EXTS = (".raw", ".y16", ".gray")
@@ -160,7 +161,6 @@ def plan(recs, shard_frames=256):
 SETTINGS = ("sources", "cnn-model", "cnn-model2", "model", "temporal", "cnn-thr", "cnn-flip", "cnn-full-res",
             "thr-mode", "hot-thr", "max-candidates", "max-detections", "max-tracks", "track-scores", "track-coast", "track-confirm",
             "grey-window", "grey-tail", "cnn-polarity", "cnn-res")
-RES_NAMES = ("half", "full", "quarter")   # cnn-res: cfg.cnn_res = the index (VD_DETECTOR_CNN_RES_*)
 
 
 def _vdm_version(blob):
@@ -229,8 +229,8 @@ def resolve(settings, models_dir=None):
             fields.pop("cnn_res", None)
         elif k == "cnn-full-res":
             fields["cnn_res"] = int(_switch(s[k]))
-        elif v in RES_NAMES:
-            fields["cnn_res"] = RES_NAMES.index(v)
+        elif v in CNN_RES_NAMES:
+            fields["cnn_res"] = CNN_RES_NAMES.index(v)
         else:
             raise FleetError(f"bad value '{v}' for cnn-res (expected half|full|quarter|auto)")
     # temporal_cfg: the demo's track-aware scores (default on) and coasting (default 0)
@@ -360,17 +360,17 @@ def auto_resolution(rec, fields, cnn):
     quarter only when at least AUTO_MIN_FRAMES frames were read). Returns dict(res (its name), cnn_res, full,
     frames, total, rating=, score=, agreement=[half, full, quarter]) (None: no box at that resolution)."""
     import numpy as np
-    from vdtools.metrics.evaluate import one_to_one, rating_of
+    from vdtools.metrics.evaluate import first_highest, one_to_one, rating_of
     from vdtools.bindings import port
     sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
-    runners, counts, n = [None] * len(RES_NAMES), [[0, 0, 0] for _ in RES_NAMES], 0   # matched, boxes, score_q8 sum
+    runners, counts, n = [None] * len(CNN_RES_NAMES), [[0, 0, 0] for _ in CNN_RES_NAMES], 0   # matched, boxes, qsum
     with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
         total = cap.total()
         for f, _name in cap.frames_at(auto_sample(total)):
             img = port.pixels(f).copy()
             mirror = np.ascontiguousarray(img[:, ::-1])
             w = img.shape[1]
-            for k in range(len(RES_NAMES)):   # cfg.cnn_res
+            for k in range(len(CNN_RES_NAMES)):   # cfg.cnn_res
                 if runners[k] is None:
                     runners[k] = _Runner(dict(sub, cnn_res=k), cnn, None, f.width, f.height)
                 da, db = runners[k].det.run(img)[0], runners[k].det.run(mirror)[0]
@@ -385,11 +385,8 @@ def auto_resolution(rec, fields, cnn):
     agree = [2 * m / b if b else None for m, b, _ in counts]
     score = [q / (255.0 * b) if b else None for _, b, q in counts]
     rating = [rating_of(s, a, AUTO_AGREE_WEIGHT) for s, a in zip(score, agree)]
-    res = 0
-    for k in range(1, len(RES_NAMES)):
-        if n >= AUTO_MIN_FRAMES and (rating[k] or 0.0) > max(rating[res] or 0.0, 0.0):
-            res = k
-    return dict(res=RES_NAMES[res], cnn_res=res, full=res == 1, frames=n, total=total, rating=rating, score=score,
+    res = first_highest(rating) if n >= AUTO_MIN_FRAMES else 0
+    return dict(res=CNN_RES_NAMES[res], cnn_res=res, full=res == 1, frames=n, total=total, rating=rating, score=score,
                 agreement=agree)
 
 
@@ -719,7 +716,7 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     log(f"vdtools.evaluation.fleet: {len(recs)} recordings, {len(shards)} shards ({len(shards) - len(todo)} complete, "
         f"{len(todo)} to run); " + ", ".join(f"{k} {v}" for k, v in desc.items()))
     if cnn_input:
-        for name in RES_NAMES[1:]:
+        for name in CNN_RES_NAMES[1:]:
             ids = sorted(k for k, v in cnn_input.items() if v["res"] == name)
             log(f"vdtools.evaluation.fleet: cnn-full-res auto: {name} resolution for {len(ids)} of {len(recs)} "
                 f"recordings" + (f" ({', '.join(ids[:8])}{' ...' if len(ids) > 8 else ''})" if ids else ""))

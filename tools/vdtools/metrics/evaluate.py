@@ -50,6 +50,14 @@ def rating_of(score, agreement, weight):
     return None if score is None else score + weight * agreement
 
 
+def first_highest(values):
+    """The index of the highest value, ties to the lowest index; None counts 0 (a resolution without a box is no
+    evidence for it). The choice of --cnn-full-res auto among ratings (tools/demo/common/flipagree.c
+    demo_autores_decide; vdtools.evaluation.fleet.auto_resolution, vdtools.adapt.resolution_evidence)."""
+    vals = [0.0 if v is None else v for v in values]
+    return max(range(len(vals)), key=lambda k: (vals[k], -k))
+
+
 def one_to_one(a, b, thr=0.5):
     """(matched, |a| + |b|) of two box lists [(x, y, w, h)], matched greedily one to one: each box of a in turn
     takes the unused box of b with the largest IoU (ties: the later one), counted when IoU >= thr; None when
