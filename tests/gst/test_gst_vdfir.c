@@ -6,13 +6,16 @@
 //                                            GRAY16_LE file of W x H frames
 //   test_gst_vdfir counts16 OUTFILE INDIR W H  INDIR's 8-bit frames as a camera's raw counts, value x 64
 //                                            + 1000, likewise (not radiometric: grey-window auto)
+//   test_gst_vdfir invert8 OUTFILE INDIR W H   INDIR's 8-bit frames as a black-hot camera shows them,
+//                                            255 - value, as one raw GRAY8 file
 //   test_gst_vdfir compare JSONL PIPELINE    runs PIPELINE (with "vdfir name=det" and "fakesink
 //                                            name=sink"); every buffer's ROI metas and every element
 //                                            message must equal JSONL (vd_fir_demo --json) line by line
 //   test_gst_vdfir error TEXT PIPELINE       PIPELINE must end with a GStreamer ERROR message (not
 //                                            a crash, not EOS) whose text contains TEXT
 //   test_gst_vdfir resolution R PIPELINE     PIPELINE (with vdfir) must post one "vdfir-resolution"
-//                                            message choosing R (half, full or quarter) after 32 frames, or
+//                                            message choosing R (half, full or quarter; R,POL: and the
+//                                            polarity POL, white-hot or black-hot) after 32 frames, or
 //                                            none (R = none), and a "vdfir" message per frame with
 //                                            seq 0, 1, .. unbroken by the switch
 // The frames are decoded once and then read losslessly by both the demo and the element:
@@ -25,6 +28,7 @@
 #include <gst/video/video.h>
 #include <glib/gstdio.h>
 
+#include "flipagree.h"
 #include "json.h"
 #include "vd_port/capture.h"
 
@@ -210,8 +214,11 @@ static int cmd_png8(const char *out_dir, const char *in_dir, long max)
 
 // --- raw16 ------------------------------------------------------------------------
 // counts: INDIR holds 8-bit frames, written as value x 64 + 1000 (raw counts 1000..17320).
-static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint32_t h, bool counts)
+enum raw_mode { RAW_COPY16, RAW_COUNTS16, RAW_INVERT8 };
+
+static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint32_t h, enum raw_mode mode)
 {
+    const bool counts = mode != RAW_COPY16;   // 8-bit frames in
     vd_capture_t cap;
     vd_capture_opts_t o;
     vd_capture_opts_default(&o);
@@ -249,6 +256,10 @@ static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint3
             const uint8_t *line = (const uint8_t *)fr.data + (size_t)y * fr.stride;
             for (uint32_t x = 0; x < w; x++) {   // little-endian bytes whatever the host
                 uint16_t v;
+                if (mode == RAW_INVERT8) {
+                    ((uint8_t *)row)[x] = (uint8_t)(255u - line[x]);
+                    continue;
+                }
                 if (counts) {
                     v = (uint16_t)(line[x] * 64u + 1000u);
                 } else {
@@ -257,7 +268,7 @@ static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint3
                 uint8_t b[2] = {(uint8_t)(v & 0xffu), (uint8_t)(v >> 8)};
                 memcpy(&row[x], b, 2);
             }
-            if (fwrite(row, 2, w, f) != w) {
+            if (fwrite(row, mode == RAW_INVERT8 ? 1u : 2u, w, f) != w) {
                 rc = 1;
             }
         }
@@ -529,6 +540,9 @@ typedef struct res_got {
     int messages;        // vdfir-resolution messages
     gboolean full;
     char res[16];        // "resolution": half, full or quarter
+    char polarity[16];   // "polarity": white-hot or black-hot
+    double inv_rating[3];   // "rating-*-inverted" (-1: not measured or no box)
+    double inv_score[3], inv_agree[3];
     guint frames;
     guint64 from_seq;
     double agree[3];     // [cfg.cnn_res]: half, full, quarter
@@ -552,8 +566,23 @@ static void on_res_message(GstMessage *m, void *user)
     } else if (gst_structure_has_name(s, "vdfir-resolution")) {
         g->messages++;
         const char *res = gst_structure_get_string(s, "resolution");
+        const char *pol = gst_structure_get_string(s, "polarity");
         if (res != NULL) {
             snprintf(g->res, sizeof g->res, "%s", res);
+        }
+        if (pol != NULL) {
+            snprintf(g->polarity, sizeof g->polarity, "%s", pol);
+        }
+        static const char *const res_names[3] = {"half", "full", "quarter"};
+        for (int k = 0; k < 3; k++) {
+            char rn[40], sn[40], an[40];
+            snprintf(rn, sizeof rn, "rating-%s-inverted", res_names[k]);
+            snprintf(sn, sizeof sn, "score-%s-inverted", res_names[k]);
+            snprintf(an, sizeof an, "agreement-%s-inverted", res_names[k]);
+            if (pol == NULL || !gst_structure_get_double(s, rn, &g->inv_rating[k]) ||
+                !gst_structure_get_double(s, sn, &g->inv_score[k]) || !gst_structure_get_double(s, an, &g->inv_agree[k])) {
+                g->messages = 100;
+            }
         }
         if (res == NULL || !gst_structure_get_boolean(s, "full", &g->full) ||
             !gst_structure_get_uint(s, "frames", &g->frames) || !gst_structure_get_uint64(s, "from-seq", &g->from_seq) ||
@@ -571,9 +600,15 @@ static void on_res_message(GstMessage *m, void *user)
     }
 }
 
-static int cmd_resolution(const char *want, const char *desc)
+static int cmd_resolution(const char *want_arg, const char *desc)
 {
     static const char *const names[3] = {"half", "full", "quarter"};   // cfg.cnn_res order
+    char want[32];
+    snprintf(want, sizeof want, "%s", want_arg);
+    char *want_pol = strchr(want, ',');   // R,POL: the polarity too (cnn-polarity auto)
+    if (want_pol != NULL) {
+        *want_pol++ = '\0';
+    }
     const gboolean none = strcmp(want, "none") == 0;
     if (!none && strcmp(want, "half") != 0 && strcmp(want, "full") != 0 && strcmp(want, "quarter") != 0) {
         return fail("resolution: R must be half, full, quarter or none");
@@ -608,28 +643,41 @@ static int cmd_resolution(const char *want, const char *desc)
     if (g.frames != 32u || g.from_seq != 31u || g.next_seq <= g.from_seq) {
         return fail("the choice must come with the 32nd frame (seq 31), before the stream ends");
     }
-    for (int k = 0; k < 3; k++) {
-        if (!(g.agree[k] == -1.0 || (g.agree[k] >= 0.0 && g.agree[k] <= 1.0))) {
-            return fail("an agreement outside [0, 1] (or -1: no box)");
+    for (int k = 0; k < 6; k++) {
+        const double agree = k < 3 ? g.agree[k] : g.inv_agree[k - 3], score = k < 3 ? g.score[k] : g.inv_score[k - 3];
+        if (!(agree == -1.0 || (agree >= 0.0 && agree <= 1.0))) {
+            return fail("an agreement outside [0, 1] (or -1: no box or not measured)");
         }
-        const gboolean no_box = g.score[k] == -1.0;
-        if (!(no_box || (g.score[k] > 0.0 && g.score[k] <= 1.0)) || no_box != (g.agree[k] == -1.0)) {
+        const gboolean no_box = score == -1.0;
+        if (!(no_box || (score > 0.0 && score <= 1.0)) || no_box != (agree == -1.0)) {
             return fail("a mean box score outside (0, 1] (or -1: no box, as the agreement)");
         }
-    }
-    // the choice follows the rating, mean box score + agreement / 4 (flipagree.c demo_autores_decide)
-    int best = 0;   // ties to the lower cfg.cnn_res; no box rates below any box
-    for (int k = 0; k < 3; k++) {
-        const double expect = g.score[k] == -1.0 ? -1.0 : g.score[k] + g.agree[k] / 4.0;
-        if (g.rating[k] < expect - 1e-12 || g.rating[k] > expect + 1e-12) {
+        // the rating is mean box score + agreement / 4 (flipagree.c demo_autores_rating)
+        const double expect = no_box ? -1.0 : score + agree / 4.0, rating = k < 3 ? g.rating[k] : g.inv_rating[k - 3];
+        if (rating < expect - 1e-12 || rating > expect + 1e-12) {
             return fail("a rating other than mean box score + agreement / 4");
         }
     }
+    // the choice (flipagree.c demo_autores_decide): the highest rating of each polarity, ties to the lower
+    // cfg.cnn_res, no box rates 0; the inverted frames' when theirs is higher by more than the margin
+    int best = 0, best_inv = 0;
     for (int k = 1; k < 3; k++) {
         best = g.rating[k] > (g.rating[best] > 0.0 ? g.rating[best] : 0.0) ? k : best;
+        best_inv = g.inv_rating[k] > (g.inv_rating[best_inv] > 0.0 ? g.inv_rating[best_inv] : 0.0) ? k : best_inv;
     }
-    if (strcmp(g.res, names[best]) != 0 || g.full != (best == 1)) {
+    const double as_is = g.rating[best] > 0.0 ? g.rating[best] : 0.0;
+    const double other = g.inv_rating[best_inv] > 0.0 ? g.inv_rating[best_inv] : 0.0;
+    const gboolean measured_inv = g.inv_score[0] != -1.0 || g.inv_score[1] != -1.0 || g.inv_score[2] != -1.0;
+    const gboolean inverted = measured_inv && other > as_is + DEMO_AUTORES_INVERT_MARGIN;
+    printf("test_gst_vdfir: %s; inverted rating half %.3f, full %.3f, quarter %.3f\n", g.polarity, g.inv_rating[0],
+           g.inv_rating[1], g.inv_rating[2]);
+    const int pick = inverted ? best_inv : best;
+    if (strcmp(g.res, names[pick]) != 0 || g.full != (pick == 1) ||
+        (measured_inv && strcmp(g.polarity, inverted ? "black-hot" : "white-hot") != 0)) {
         return fail("the choice does not follow the ratings");
+    }
+    if (want_pol != NULL && strcmp(g.polarity, want_pol) != 0) {
+        return fail("the element chose another polarity");
     }
     return strcmp(g.res, want) == 0 ? 0 : fail("the element chose another resolution");
 }
@@ -671,11 +719,15 @@ int main(int argc, char **argv)
     }
     if (argc == 6 && strcmp(argv[1], "raw16") == 0) {
         return cmd_raw16(argv[2], argv[3], (uint32_t)strtoul(argv[4], NULL, 10), (uint32_t)strtoul(argv[5], NULL, 10),
-                         false);
+                         RAW_COPY16);
     }
     if (argc == 6 && strcmp(argv[1], "counts16") == 0) {
         return cmd_raw16(argv[2], argv[3], (uint32_t)strtoul(argv[4], NULL, 10), (uint32_t)strtoul(argv[5], NULL, 10),
-                         true);
+                         RAW_COUNTS16);
+    }
+    if (argc == 6 && strcmp(argv[1], "invert8") == 0) {
+        return cmd_raw16(argv[2], argv[3], (uint32_t)strtoul(argv[4], NULL, 10), (uint32_t)strtoul(argv[5], NULL, 10),
+                         RAW_INVERT8);
     }
     if (argc == 4 && strcmp(argv[1], "compare") == 0) {
         return cmd_compare(argv[2], argv[3]);

@@ -207,7 +207,12 @@ def test_settings_follow_the_demo():
     for k, bad in (("grey-window", "median"), ("grey-tail", "50"), ("grey-tail", "0.04")):
         with pytest.raises(fleet.FleetError, match=k):
             fleet.resolve({k: bad})
-    assert "cnn_invert" not in fleet.resolve({})[0] and fleet.resolve({"cnn-polarity": "black-hot"})[0]["cnn_invert"] == 1
+    # --cnn-polarity: auto sets no field (run() measures each recording, as for the resolution); the default is
+    # the demo's
+    assert fleet.resolve({"cnn-polarity": "black-hot"})[0]["cnn_invert"] == 1
+    assert fleet.resolve({"cnn-polarity": "white-hot"})[0]["cnn_invert"] == 0
+    assert "cnn_invert" not in fleet.resolve({"cnn-polarity": "auto"})[0]
+    assert ("cnn_invert" not in fleet.resolve({})[0]) == (fleet.DEFAULT_POLARITY == "auto")
     with pytest.raises(fleet.FleetError, match="cnn-polarity"):
         fleet.resolve({"cnn-polarity": "grey-hot"})
     with pytest.raises(fleet.FleetError, match="not supported"):

@@ -162,3 +162,32 @@ def test_window_recordings_and_scores_on_built_measures():
     assert sorted(multi) == [(["a", "b"], 50), (["a", "b", "c"], 60), (["b", "c"], 40)]   # a + c: 30 < 40
     rows = WE.score(res, recs)
     assert all(r["ap"] == [pytest.approx(1.0), 0.0] for r in rows)
+
+
+def test_polarity_rule_hand_worked():
+    """--cnn-polarity auto (flipagree.c demo_autores_decide; fleet.polarity_choice): the other polarity only when its
+    best rating over the resolutions measured beats the best of the frames as they are by more than the margin,
+    and only on at least 16 frames; no box (None) rates 0. The demo's margin is the Python one."""
+    import re
+    from vdtools.bindings.clib import REPO
+    from vdtools.evaluation import fleet
+    h = (REPO / "tools" / "demo" / "common" / "flipagree.h").read_text()
+    m = float(re.search(r"#define DEMO_AUTORES_INVERT_MARGIN ([\d.]+)", h).group(1))
+    assert m == fleet.AUTO_INVERT_MARGIN > 0
+    # best as is 0.60 (full), best inverted 0.60 + m + 0.001 (quarter): inverted; by exactly m: as is
+    assert fleet.polarity_choice([0.5, 0.6, None], [0.1, 0.2, 0.601 + m], 16)
+    assert not fleet.polarity_choice([0.5, 0.6, None], [0.1, 0.2, 0.6 + m], 16)
+    assert not fleet.polarity_choice([0.5, 0.6, None], [0.9, 0.9, 0.9], 15)   # too few frames
+    assert fleet.polarity_choice([None, None, None], [0.3], 16) and not fleet.polarity_choice([None], [None], 64)
+
+
+def test_polarity_evidence_margin_hand_worked():
+    """polarity_evidence.margins: max over the resolutions as they are - max inverted, and the configuration of
+    the highest rating of all six (ties to as is, then to the lower cfg.cnn_res)."""
+    from vdtools.adapt import polarity_evidence as PE
+    r = lambda *v: {k: dict(rating=x) for k, x in zip(("half", "full", "quarter"), v)}
+    m, c = PE.margins(dict(as_is=r(0.5, 0.7, 0.0), inverted=r(0.6, 0.2, 0.65)))
+    assert m == pytest.approx(0.05) and c == ("full", "as is")
+    m, c = PE.margins(dict(as_is=r(0.5, 0.6, 0.0), inverted=r(0.6, 0.2, 0.65)))
+    assert m == pytest.approx(-0.05) and c == ("quarter", "inverted")
+    assert PE.margins(dict(as_is=r(0.6, 0.6, 0.6), inverted=r(0.6, 0.6, 0.6)))[1] == ("half", "as is")

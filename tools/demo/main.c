@@ -429,8 +429,8 @@ static vd_status_t init_detector(run_t *r, const vd_frame_t *f)
     return VD_OK;
 }
 
-// --cnn-full-res auto on a camera: frame f (not yet detected on) into the measurement; when it completes it at
-// full or quarter resolution, a new detector from this frame on (tracks start over).
+// --cnn-full-res / --cnn-polarity auto on a camera: frame f (not yet detected on) into the measurement; when it
+// completes it with another resolution or polarity, a new detector from this frame on (tracks start over).
 static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
 {
     bool now = false;
@@ -440,10 +440,11 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
     }
     r->autores = r->live.a;
     r->autores_ran = true;
-    if (r->autores.res == VD_DETECTOR_CNN_RES_HALF) {
+    if (r->autores.res == r->o.cfg.cnn_res && !r->autores.inverted) {
         return VD_OK;
     }
     r->o.cfg.cnn_res = r->autores.res;
+    r->o.cfg.cnn_invert = (uint8_t)(r->o.cfg.cnn_invert ^ r->autores.inverted);
     free_detector(r);
     return init_detector(r, f);
 }
@@ -562,32 +563,23 @@ static void summary(run_t *r)
     }
     if (r->autores_ran) {
         const demo_autores_t *a = &r->autores;
-        char pct[DEMO_AUTORES_RES][16], score[DEMO_AUTORES_RES][16], rating[DEMO_AUTORES_RES][16];
-        for (unsigned k = 0u; k < DEMO_AUTORES_RES; k++) {
-            const double v = demo_autores_agreement(a, k);
-            if (v < 0.0) {   // no box: none of the three
-                snprintf(pct[k], sizeof pct[k], "none (no box)");
-                snprintf(score[k], sizeof score[k], "none (no box)");
-                snprintf(rating[k], sizeof rating[k], "none (no box)");
-            } else {
-                snprintf(pct[k], sizeof pct[k], "%.1f %%", 100.0 * v);
-                snprintf(score[k], sizeof score[k], "%.3f", demo_autores_mean_score(a, k));
-                snprintf(rating[k], sizeof rating[k], "%.3f", demo_autores_rating(a, k));
-            }
-        }
-        char from[64] = "";
+        const demo_opts_t *o = &r->o;
+        char figures[DEMO_AUTORES_DESCRIBE_MAX], from[64] = "", of[48] = "", pol[32] = "";
+        // the polarity the options asked for: the one in effect, unless the measurement turned it
+        demo_autores_describe(a, (o->cfg.cnn_invert ^ a->inverted) != 0u, figures, sizeof figures);
         if (r->live.decided) {
             snprintf(from, sizeof from, ", as they came; from frame %llu on", (unsigned long long)r->live.from + 1u);
         }
-        char of[48] = "";   // a sample spread over a longer recording says of how many frames
-        if (a->total > a->frames) {
+        if (a->total > a->frames) {   // a sample spread over a longer recording says of how many frames
             snprintf(of, sizeof of, " spread over %llu", (unsigned long long)a->total);
         }
-        printf("cnn input: %s resolution (--cnn-full-res auto: rating half %s, full %s, quarter %s; mean box score "
-               "half %s, full %s, quarter %s; flip agreement half %s, full %s, quarter %s over %u frames%s%s%s; "
-               "%.2f s)\n", demo_cnn_res_name(a->res), rating[0], rating[1], rating[2], score[0], score[1],
-               score[2], pct[0], pct[1], pct[2], (unsigned)a->frames, of,
-               a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose full or quarter" : "", from, a->seconds);
+        if (o->cnn_polarity_auto) {
+            snprintf(pol, sizeof pol, ", %s", o->cfg.cnn_invert ? "black-hot" : "white-hot");
+        }
+        printf("cnn input: %s resolution%s (%s%s%s: %s over %u frames%s%s%s; %.2f s)\n", demo_cnn_res_name(a->res), pol,
+               o->cnn_res_auto ? "--cnn-full-res auto" : "", o->cnn_res_auto && o->cnn_polarity_auto ? ", " : "",
+               o->cnn_polarity_auto ? "--cnn-polarity auto" : "", figures, (unsigned)a->frames, of,
+               a->frames < DEMO_AUTORES_MIN_FRAMES ? ", too few to choose" : "", from, a->seconds);
     }
     const demo_opts_t *o = &r->o;
     if (r->format == VD_PIX_U16 && o->grey_outside_permille >= DEMO_GREY_AUTO_PERMILLE) {
@@ -730,15 +722,16 @@ static void capture_opts(const demo_opts_t *o, vd_capture_opts_t *copts)
 static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
 {
     demo_opts_t *o = &r->o;
-    if (!o->cnn_res_auto || !r->m.have_cnn || (o->cfg.sources & VD_DETECTOR_SRC_CNN) == 0u) {
+    if (!(o->cnn_res_auto || o->cnn_polarity_auto) || !r->m.have_cnn || (o->cfg.sources & VD_DETECTOR_SRC_CNN) == 0u) {
         return 0;
     }
     if (r->device) {
         r->live.on = true;
-        o->cfg.cnn_res = VD_DETECTOR_CNN_RES_HALF;
+        o->cfg.cnn_res = o->cnn_res_auto ? VD_DETECTOR_CNN_RES_HALF : o->cfg.cnn_res;
         if (!o->quiet) {
-            fprintf(stderr, "vd_fir_demo: --cnn-full-res auto: a camera's first %u frames are measured as they "
-                            "come (half resolution meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES);
+            fprintf(stderr, "vd_fir_demo: --cnn-full-res/--cnn-polarity auto: a camera's first %u frames are "
+                            "measured as they come (%s resolution, %s meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES,
+                    demo_cnn_res_name(o->cfg.cnn_res), o->cfg.cnn_invert ? "black-hot" : "white-hot");
         }
         return 0;
     }
@@ -748,6 +741,7 @@ static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
     }
     r->autores_ran = true;
     o->cfg.cnn_res = r->autores.res;
+    o->cfg.cnn_invert = (uint8_t)(o->cfg.cnn_invert ^ r->autores.inverted);
     return 0;
 }
 

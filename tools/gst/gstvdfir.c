@@ -91,10 +91,13 @@ static void autores_reset(GstVdFir *self)
 {
     demo_autores_live_free(&self->ar);
     memset(&self->ar, 0, sizeof self->ar);
-    self->ar.on = self->opts.cnn_res_auto && self->models.have_cnn &&
+    self->ar.on = (self->opts.cnn_res_auto || self->opts.cnn_polarity_auto) && self->models.have_cnn &&
                   (self->opts.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
-    if (self->ar.on) {
+    if (self->ar.on && self->opts.cnn_res_auto) {
         self->opts.cfg.cnn_res = VD_DETECTOR_CNN_RES_HALF;
+    }
+    if (self->ar.on && self->opts.cnn_polarity_auto) {
+        self->opts.cfg.cnn_invert = 0u;   // white-hot until the choice
     }
 }
 
@@ -294,7 +297,8 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
     const vd_status_t st = demo_autores_live_frame(&self->ar, &self->opts, f, self->seq, &now, err, sizeof err);
     if (st != VD_OK) {
         GST_ELEMENT_WARNING(self, STREAM, FAILED,
-                            ("vdfir: cnn-full-res auto: %s: half resolution", err[0] ? err : vd_status_str(st)),
+                            ("vdfir: cnn-full-res/cnn-polarity auto: %s: %s resolution, %s", err[0] ? err : vd_status_str(st),
+                             demo_cnn_res_name(self->opts.cfg.cnn_res), self->opts.cfg.cnn_invert ? "black-hot" : "white-hot"),
                             (NULL));
         return TRUE;
     }
@@ -303,28 +307,34 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
     }
     const demo_autores_t *a = &self->ar.a;
     const gboolean full = a->res == VD_DETECTOR_CNN_RES_FULL;
-    GST_INFO_OBJECT(self,
-                    "cnn input: %s resolution from frame %" G_GUINT64_FORMAT
-                    " (rating half %.3f, full %.3f, quarter %.3f; mean box score half %.3f, full %.3f, quarter %.3f; "
-                    "flip agreement half %.3f, full %.3f, quarter %.3f over %u frames; %.2f s)",
-                    demo_cnn_res_name(a->res), self->seq, demo_autores_rating(a, 0), demo_autores_rating(a, 1),
-                    demo_autores_rating(a, 2), demo_autores_mean_score(a, 0), demo_autores_mean_score(a, 1),
-                    demo_autores_mean_score(a, 2), demo_autores_agreement(a, 0), demo_autores_agreement(a, 1),
-                    demo_autores_agreement(a, 2), (unsigned)a->frames, a->seconds);
-    // "full" stays for the applications written against it; "resolution" names the choice (half, full, quarter)
+    const gboolean black = (self->opts.cfg.cnn_invert ^ a->inverted) != 0u;
+    char figures[DEMO_AUTORES_DESCRIBE_MAX];
+    demo_autores_describe(a, self->opts.cfg.cnn_invert != 0u, figures, sizeof figures);
+    GST_INFO_OBJECT(self, "cnn input: %s resolution, %s from frame %" G_GUINT64_FORMAT " (%s over %u frames; %.2f s)",
+                    demo_cnn_res_name(a->res), black ? "black-hot" : "white-hot", self->seq, figures,
+                    (unsigned)a->frames, a->seconds);
+    // "full" stays for the applications written against it; "resolution" names the choice (half, full, quarter),
+    // "polarity" the polarity the networks read from then on; "*-inverted": the frames inverted (-1: not measured)
     GstStructure *ms = gst_structure_new(
         "vdfir-resolution", "full", G_TYPE_BOOLEAN, full, "resolution", G_TYPE_STRING, demo_cnn_res_name(a->res),
-        "from-seq", G_TYPE_UINT64, self->seq, "frames", G_TYPE_UINT, (guint)a->frames, "rating-half", G_TYPE_DOUBLE,
-        demo_autores_rating(a, 0), "rating-full", G_TYPE_DOUBLE, demo_autores_rating(a, 1), "rating-quarter",
-        G_TYPE_DOUBLE, demo_autores_rating(a, 2), "score-half", G_TYPE_DOUBLE, demo_autores_mean_score(a, 0),
-        "score-full", G_TYPE_DOUBLE, demo_autores_mean_score(a, 1), "score-quarter", G_TYPE_DOUBLE,
-        demo_autores_mean_score(a, 2), "agreement-half", G_TYPE_DOUBLE, demo_autores_agreement(a, 0),
-        "agreement-full", G_TYPE_DOUBLE, demo_autores_agreement(a, 1), "agreement-quarter", G_TYPE_DOUBLE,
-        demo_autores_agreement(a, 2), "seconds", G_TYPE_DOUBLE, a->seconds, NULL);
+        "polarity", G_TYPE_STRING, black ? "black-hot" : "white-hot", "from-seq", G_TYPE_UINT64, self->seq,
+        "frames", G_TYPE_UINT, (guint)a->frames, "seconds", G_TYPE_DOUBLE, a->seconds, NULL);
+    static const char *const kinds[] = {"rating", "score", "agreement"};
+    for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
+        for (unsigned j = 0u; j < 3u; j++) {
+            char name[48];
+            snprintf(name, sizeof name, "%s-%s%s", kinds[j], demo_cnn_res_name(k % DEMO_AUTORES_RES),
+                     k >= DEMO_AUTORES_RES ? "-inverted" : "");
+            const double v = j == 0u ? demo_autores_rating(a, k)
+                             : j == 1u ? demo_autores_mean_score(a, k) : demo_autores_agreement(a, k);
+            gst_structure_set(ms, name, G_TYPE_DOUBLE, v, NULL);
+        }
+    }
     gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), ms));
-    if (a->res == VD_DETECTOR_CNN_RES_HALF) {
+    if (a->res == self->opts.cfg.cnn_res && !a->inverted) {
         return TRUE;
     }
+    self->opts.cfg.cnn_invert = (uint8_t)(self->opts.cfg.cnn_invert ^ a->inverted);
     self->opts.cfg.cnn_res = a->res;
     const guint64 seq = self->seq;
     if (!init_detector(self, self->width, self->height)) {

@@ -103,6 +103,7 @@ static void set_defaults(demo_opts_t *o)
     o->cfg.temporal_cfg.flags |= VD_TEMPORAL_SCORES;   // track-aware scores (docs/results/temporal.md)
     o->cfg.cnn_flip = 1u;   // the shipped operating point (docs/results/detector.md): fused flip pass at the header's threshold
     o->cnn_res_auto = true;   // half or full resolution measured on the recording (autores.c, docs/demo.md)
+    o->cnn_polarity_auto = true;   // white-hot or black-hot, by the same measurement (docs/demo.md "Black-hot cameras")
     o->grey_window_auto = true;    // 16-bit frames: the fixed window unless raw counts fall outside it (models.c)
 }
 

@@ -11,6 +11,11 @@
 // where the agreement alone, the rule before, was right on 219 and lost 792, and the mean score alone on 236
 // (docs/results/cameras.md, "The rule of 2026-11-30"; vdtools.adapt.resolution_evidence). This is the rule of
 // vdtools.adapt.measure.choose_resolution without labels, run where a user runs vd.
+//
+// Polarity (--cnn-polarity auto): the networks trained on white-hot frames only, and on a black-hot camera's
+// frames their boxes rate lower than on the same frames inverted, as at a wrong resolution. Rated at one
+// resolution only, small vehicles made white-hot frames rate higher inverted (docs/demo.md "Black-hot cameras");
+// over the three resolutions the best rating of the frames as they are stays above the best inverted.
 #include "flipagree.h"
 
 #include <stdio.h>
@@ -26,7 +31,9 @@ typedef struct res_run {
 } res_run_t;
 
 struct demo_flipagree {
-    res_run_t runs[DEMO_AUTORES_RES];   // [cfg.cnn_res]: half, full, quarter
+    res_run_t runs[DEMO_AUTORES_CONFIGS];   // [cfg.cnn_res + DEMO_AUTORES_RES x inverted]; det unset when not measured
+    uint8_t measured;    // bit k: configuration k runs
+    uint8_t fixed_res;   // the options' cfg.cnn_res when they fix it, else DEMO_AUTORES_RES
     void *mirror;        // the mirror image's pixels
     vd_detection_t *da, *db;
     bool *used;
@@ -34,6 +41,21 @@ struct demo_flipagree {
     uint32_t width, height;
     vd_pixfmt_t format;
 };
+
+uint8_t demo_autores_configs(const demo_opts_t *o)
+{
+    uint8_t m = 0u;
+    for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
+        // the polarity is chosen over every resolution, whichever the run takes: at one resolution, that of
+        // small vehicles, white-hot frames can rate higher inverted (docs/demo.md "Black-hot cameras")
+        const bool res_ok = o->cnn_res_auto || o->cnn_polarity_auto || k % DEMO_AUTORES_RES == o->cfg.cnn_res;
+        const bool pol_ok = o->cnn_polarity_auto || k < DEMO_AUTORES_RES;
+        if (res_ok && pol_ok && (o->cnn_res_auto || o->cnn_polarity_auto)) {
+            m = (uint8_t)(m | (1u << k));
+        }
+    }
+    return m;
+}
 
 uint64_t demo_autores_sample(uint64_t total, uint32_t k)
 {
@@ -44,48 +66,125 @@ uint64_t demo_autores_sample(uint64_t total, uint32_t k)
     return (total / parts) * odd + ((total % parts) * odd) / parts;   // floor(odd total / parts), no overflow
 }
 
-double demo_autores_agreement(const demo_autores_t *a, unsigned res)
+double demo_autores_agreement(const demo_autores_t *a, unsigned k)
 {
-    return a->boxes[res] == 0u ? -1.0 : 2.0 * (double)a->matched[res] / (double)a->boxes[res];
+    return k >= DEMO_AUTORES_CONFIGS || a->boxes[k] == 0u ? -1.0
+                                                         : 2.0 * (double)a->matched[k] / (double)a->boxes[k];
 }
 
-double demo_autores_mean_score(const demo_autores_t *a, unsigned res)
+double demo_autores_mean_score(const demo_autores_t *a, unsigned k)
 {
-    return a->boxes[res] == 0u ? -1.0 : (double)a->score_q8[res] / (255.0 * (double)a->boxes[res]);
+    return k >= DEMO_AUTORES_CONFIGS || a->boxes[k] == 0u ? -1.0
+                                                         : (double)a->score_q8[k] / (255.0 * (double)a->boxes[k]);
 }
 
-double demo_autores_rating(const demo_autores_t *a, unsigned res)
+double demo_autores_rating(const demo_autores_t *a, unsigned k)
 {
-    const double m = demo_autores_mean_score(a, res);
-    return m < 0.0 ? -1.0 : m + DEMO_AUTORES_AGREE_WEIGHT * demo_autores_agreement(a, res);
+    const double m = demo_autores_mean_score(a, k);
+    return m < 0.0 ? -1.0 : m + DEMO_AUTORES_AGREE_WEIGHT * demo_autores_agreement(a, k);
+}
+
+// The measured configuration of one polarity with the highest rating (ties to the lower cfg.cnn_res; no box
+// rates 0), *best its rating; only the first measured one of all (`first`) with too few frames. DEMO_AUTORES_CONFIGS
+// when none of that polarity was measured.
+static unsigned best_of(const demo_autores_t *a, unsigned inverted, unsigned first, double *best)
+{
+    unsigned pick = DEMO_AUTORES_CONFIGS;
+    *best = 0.0;
+    for (unsigned r = 0u; r < DEMO_AUTORES_RES; r++) {
+        const unsigned k = r + DEMO_AUTORES_RES * inverted;
+        if ((a->measured & (1u << k)) == 0u || (k != first && a->frames < DEMO_AUTORES_MIN_FRAMES)) {
+            continue;
+        }
+        const double v = demo_autores_rating(a, k) > 0.0 ? demo_autores_rating(a, k) : 0.0;
+        if (pick == DEMO_AUTORES_CONFIGS || v > *best) {   // strictly higher: ties keep the lower cfg.cnn_res
+            pick = k;
+            *best = v;
+        }
+    }
+    return pick;
 }
 
 uint8_t demo_autores_decide(demo_autores_t *a)
 {
-    double best = demo_autores_rating(a, VD_DETECTOR_CNN_RES_HALF);
-    best = best > 0.0 ? best : 0.0;
-    a->res = VD_DETECTOR_CNN_RES_HALF;
-    for (unsigned k = 1u; k < DEMO_AUTORES_RES && a->frames >= DEMO_AUTORES_MIN_FRAMES; k++) {
-        const double r = demo_autores_rating(a, k);
-        if (r > best) {   // strictly higher: ties keep the lower cfg.cnn_res
-            best = r;
-            a->res = (uint8_t)k;
+    unsigned first = 0u;
+    while (first < DEMO_AUTORES_CONFIGS && (a->measured & (1u << first)) == 0u) {
+        first++;
+    }
+    double as_is = 0.0, other = 0.0;
+    unsigned k = best_of(a, 0u, first, &as_is);
+    const unsigned inv = best_of(a, 1u, first, &other);
+    if (k == DEMO_AUTORES_CONFIGS || (inv != DEMO_AUTORES_CONFIGS && other > as_is + DEMO_AUTORES_INVERT_MARGIN)) {
+        k = inv;
+    }
+    if (k == DEMO_AUTORES_CONFIGS) {   // nothing measured: half resolution as the options set the polarity
+        k = 0u;
+    }
+    a->res = a->fixed_res < DEMO_AUTORES_RES ? a->fixed_res : (uint8_t)(k % DEMO_AUTORES_RES);
+    a->inverted = (uint8_t)(k / DEMO_AUTORES_RES);
+    return a->res;
+}
+
+// "name value, name value" over the measured configurations; kind 0 rating, 1 mean score, 2 agreement (%).
+static size_t describe_part(const demo_autores_t *a, bool both, bool black, int kind, char *buf, size_t len)
+{
+    size_t n = 0u;
+    for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
+        if ((a->measured & (1u << k)) == 0u) {
+            continue;
+        }
+        const double v = kind == 0 ? demo_autores_rating(a, k)
+                         : kind == 1 ? demo_autores_mean_score(a, k) : demo_autores_agreement(a, k);
+        char val[32];
+        if (v < 0.0) {
+            snprintf(val, sizeof val, "none (no box)");
+        } else if (kind == 2) {
+            snprintf(val, sizeof val, "%.1f %%", 100.0 * v);
+        } else {
+            snprintf(val, sizeof val, "%.3f", v);
+        }
+        const bool inv_black = (k >= DEMO_AUTORES_RES) != black;
+        const int w = snprintf(buf + n, len - n, "%s%s%s%s %s", n ? ", " : "", demo_cnn_res_name(k % DEMO_AUTORES_RES),
+                               both ? " " : "", both ? (inv_black ? "black-hot" : "white-hot") : "", val);
+        if (w < 0 || (size_t)w >= len - n) {
+            return len - 1u;
+        }
+        n += (size_t)w;
+    }
+    return n;
+}
+
+void demo_autores_describe(const demo_autores_t *a, bool options_black_hot, char *buf, size_t len)
+{
+    static const char *const what[] = {"rating ", "; mean box score ", "; flip agreement "};
+    const bool both = (a->measured >> DEMO_AUTORES_RES) != 0u;
+    size_t n = 0u;
+    if (len == 0u) {
+        return;
+    }
+    buf[0] = '\0';
+    for (int kind = 0; kind < 3 && n + 1u < len; kind++) {
+        const int w = snprintf(buf + n, len - n, "%s", what[kind]);
+        n = (w < 0 || (size_t)w >= len - n) ? len - 1u : n + (size_t)w;
+        if (n + 1u < len) {
+            n += describe_part(a, both, options_black_hot, kind, buf + n, len - n);
         }
     }
-    return a->res;
 }
 
 // The CNN source alone as the options set it, one pass per network, no tracking: the predictor of
 // vdtools.adapt.measure.flip_agreement.
-static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t *f, uint8_t res, char *err,
+static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t *f, unsigned k, char *err,
                             size_t err_len)
 {
+    const uint8_t res = (uint8_t)(k % DEMO_AUTORES_RES);
     vd_detector_cfg_t cfg;
     demo_detector_cfg(o, f->width, f->height, &cfg);
     cfg.sources = VD_DETECTOR_SRC_CNN;
     cfg.cnn_rescore = 0u;
     cfg.cnn_flip = 0u;
     cfg.cnn_res = res;
+    cfg.cnn_invert = (uint8_t)(cfg.cnn_invert ^ (k / DEMO_AUTORES_RES));
     cfg.temporal = false;
     cfg.clock_us = NULL;
     cfg.on_candidate = NULL;
@@ -99,8 +198,9 @@ static vd_status_t run_init(res_run_t *r, const demo_opts_t *o, const vd_frame_t
         st = vd_detector_init(&r->det, &cfg, NULL, r->ws, bytes);
     }
     if (st != VD_OK) {
-        snprintf(err, err_len, "--cnn-full-res auto: the detector at %s resolution cannot run %ux%u frames",
-                 demo_cnn_res_name(res), (unsigned)f->width, (unsigned)f->height);
+        snprintf(err, err_len, "--cnn-full-res/--cnn-polarity auto: the detector at %s resolution%s cannot run "
+                 "%ux%u frames", demo_cnn_res_name(res), k >= DEMO_AUTORES_RES ? ", inverted," : "",
+                 (unsigned)f->width, (unsigned)f->height);
     }
     return st;
 }
@@ -110,7 +210,7 @@ void demo_flipagree_free(demo_flipagree_t *fa)
     if (fa == NULL) {
         return;
     }
-    for (unsigned k = 0u; k < DEMO_AUTORES_RES; k++) {
+    for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
         free(fa->runs[k].ws);
     }
     free(fa->mirror);
@@ -131,11 +231,17 @@ vd_status_t demo_flipagree_new(demo_flipagree_t **out, const demo_opts_t *o, con
         fa->height = first->height;
         fa->format = first->format;
         fa->mirror = malloc((size_t)first->width * first->height * (first->format == VD_PIX_U16 ? 2u : 1u) + 1u);
-        for (unsigned k = 0u; k < DEMO_AUTORES_RES && fa->mirror != NULL && st == VD_OK; k++) {
-            st = run_init(&fa->runs[k], o, first, (uint8_t)k, err, err_len);
+        fa->measured = demo_autores_configs(o);
+        fa->fixed_res = o->cnn_res_auto ? (uint8_t)DEMO_AUTORES_RES : o->cfg.cnn_res;
+        unsigned first_k = DEMO_AUTORES_CONFIGS;
+        for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS && fa->mirror != NULL && st == VD_OK; k++) {
+            if ((fa->measured & (1u << k)) != 0u) {
+                st = run_init(&fa->runs[k], o, first, k, err, err_len);
+                first_k = first_k < k ? first_k : k;
+            }
         }
-        if (st == VD_OK && fa->mirror != NULL) {
-            fa->cap = (size_t)fa->runs[0].det.cfg.max_detections + 1u;
+        if (st == VD_OK && fa->mirror != NULL && first_k < DEMO_AUTORES_CONFIGS) {
+            fa->cap = (size_t)fa->runs[first_k].det.cfg.max_detections + 1u;
             fa->da = calloc(fa->cap, sizeof *fa->da);
             fa->db = calloc(fa->cap, sizeof *fa->db);
             fa->used = calloc(fa->cap, sizeof *fa->used);
@@ -244,7 +350,12 @@ vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_a
     }
     vd_frame_t fm;
     mirror(f, fa->mirror, &fm);
-    for (unsigned k = 0u; k < DEMO_AUTORES_RES; k++) {
+    a->measured = fa->measured;
+    a->fixed_res = fa->fixed_res;
+    for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
+        if ((fa->measured & (1u << k)) == 0u) {
+            continue;
+        }
         const vd_status_t st = measure_frame(fa, &fa->runs[k], f, &fm, a, k);
         if (st != VD_OK) {
             return st;
@@ -276,7 +387,8 @@ vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *
     if (st == VD_OK) {
         st = demo_flipagree_add(lv->fa, f, &lv->a);
         if (st != VD_OK) {
-            snprintf(err, err_len, "--cnn-full-res auto: frame %llu: detector failed", (unsigned long long)frame);
+            snprintf(err, err_len, "--cnn-full-res/--cnn-polarity auto: frame %llu: detector failed",
+                     (unsigned long long)frame);
         }
     }
     lv->a.seconds += demo_now_s() - t0;

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
-// --cnn-full-res auto, frame by frame: how confident the networks are in their boxes at half, full and quarter
-// resolution and how far they agree with themselves on mirrored frames (flipagree.c), shared by vd_fir_demo
-// (64 frames spread over a recording, before the run: autores.c) and the GStreamer element vdfir (the first
-// frames as they pass). docs/demo.md "Choosing the networks' resolution".
+// --cnn-full-res auto and --cnn-polarity auto, frame by frame: how confident the networks are in their boxes at
+// half, full and quarter resolution, on frames as they are and inverted, and how far they agree with themselves
+// on mirrored frames (flipagree.c), shared by vd_fir_demo (64 frames spread over a recording, before the run:
+// autores.c) and the GStreamer element vdfir (the first frames as they pass). docs/demo.md "Choosing the
+// networks' resolution" and "Black-hot cameras".
 #ifndef VD_DEMO_FLIPAGREE_H
 #define VD_DEMO_FLIPAGREE_H
 
@@ -16,15 +17,28 @@
 #define DEMO_AUTORES_MAX_FRAMES 32u      // a live source: its first frames, measured as they come
 #define DEMO_AUTORES_SPREAD_FRAMES 64u   // a recording: frames measured at most, spread over it (demo_autores_sample)
 #define DEMO_AUTORES_MIN_FRAMES 16u   // fewer frames are too little evidence: half resolution
-#define DEMO_AUTORES_RES 3u           // the resolutions measured: cfg.cnn_res HALF, FULL, QUARTER (the index)
+#define DEMO_AUTORES_RES 3u           // the resolutions: cfg.cnn_res HALF, FULL, QUARTER (the index)
+// The configurations a measurement may rate, k = cnn_res + DEMO_AUTORES_RES x inverted: inverted 0 reads the
+// frames in the options' polarity (cfg.cnn_invert), 1 in the other one (--cnn-polarity auto).
+#define DEMO_AUTORES_CONFIGS (2u * DEMO_AUTORES_RES)
+// --cnn-polarity auto takes the other polarity only when its best rating is above the best of the frames as they
+// are by more than this. Every frame of ../shared/data is white-hot, and a black-hot camera's frames are those
+// inverted, so one margin per recording (best as they are - best inverted) says both what a white-hot camera
+// would lose (margin below -m: turned black-hot) and what a black-hot one would (margin below m: left as it is).
+// Chosen on the train and val splits' recordings (docs/demo.md "Black-hot cameras";
+// vdtools.adapt.polarity_evidence --recordings).
+#define DEMO_AUTORES_INVERT_MARGIN 0.025
 
 typedef struct demo_autores {
     uint8_t res;            // the choice: cfg.cnn_res (VD_DETECTOR_CNN_RES_HALF, _FULL, _QUARTER)
+    uint8_t inverted;       // the choice: 1 = the other polarity than the options' (cfg.cnn_invert flipped)
+    uint8_t measured;       // bit k: configuration k measured (the options' fixed resolution or polarity: fewer)
+    uint8_t fixed_res;      // the options' cfg.cnn_res when they fix it (the choice keeps it), else DEMO_AUTORES_RES
     uint32_t frames;        // frames measured
     uint64_t total;         // frames of the recording they were drawn from (0: a live source, its first ones)
-    uint64_t matched[DEMO_AUTORES_RES];    // [cnn_res]: boxes matched between a frame and its mirror image (pairs)
-    uint64_t boxes[DEMO_AUTORES_RES];      // ... and all boxes of both, pooled over the frames
-    uint64_t score_q8[DEMO_AUTORES_RES];   // ... and the sum of those boxes' scores (vd_detection_t score_q8)
+    uint64_t matched[DEMO_AUTORES_CONFIGS];    // [k]: boxes matched between a frame and its mirror image (pairs)
+    uint64_t boxes[DEMO_AUTORES_CONFIGS];      // ... and all boxes of both, pooled over the frames
+    uint64_t score_q8[DEMO_AUTORES_CONFIGS];   // ... and the sum of those boxes' scores (vd_detection_t score_q8)
     double seconds;         // time the measurement took
 } demo_autores_t;
 
@@ -41,26 +55,42 @@ typedef struct demo_autores {
 // vdtools.evaluation.fleet.auto_sample is the same.
 uint64_t demo_autores_sample(uint64_t total, uint32_t k);
 
-// Flip agreement of a measurement at resolution res (cfg.cnn_res): 2 matched / boxes, or -1 when there was no
-// box at that resolution.
-double demo_autores_agreement(const demo_autores_t *a, unsigned res);
+// The configurations (bit k) a measurement rates: every resolution with --cnn-full-res auto or --cnn-polarity auto
+// (the polarity is chosen over all three; else the options' cfg.cnn_res), both polarities with --cnn-polarity
+// auto (else the options'); 0 when neither is auto.
+uint8_t demo_autores_configs(const demo_opts_t *o);
 
-// Mean score of the boxes (score_q8 / 255, frames and mirror images pooled), or -1 when there was no box at
-// that resolution.
-double demo_autores_mean_score(const demo_autores_t *a, unsigned res);
+// Flip agreement of a measurement in configuration k (cfg.cnn_res + DEMO_AUTORES_RES x inverted): 2 matched /
+// boxes, or -1 when there was no box in it (or it was not measured).
+double demo_autores_agreement(const demo_autores_t *a, unsigned k);
+
+// Mean score of the boxes (score_q8 / 255, frames and mirror images pooled), or -1 when there was no box in
+// configuration k.
+double demo_autores_mean_score(const demo_autores_t *a, unsigned k);
 
 // What the choice compares: mean box score + DEMO_AUTORES_AGREE_WEIGHT x flip agreement, or -1 when there was no
-// box at that resolution.
+// box in configuration k.
 #define DEMO_AUTORES_AGREE_WEIGHT 0.25
-double demo_autores_rating(const demo_autores_t *a, unsigned res);
+double demo_autores_rating(const demo_autores_t *a, unsigned k);
 
-// Sets a->res from the counts (the resolution of the highest rating, ties to the lower cfg.cnn_res; full or
-// quarter only when at least DEMO_AUTORES_MIN_FRAMES frames were measured; no box at a resolution is no
-// evidence for it) and returns it.
+// Sets a->res and a->inverted from the counts and returns a->res: among the configurations measured in the
+// options' polarity, the highest rating (ties to the lower cfg.cnn_res); the other polarity's highest rating
+// instead when it is above that by more than DEMO_AUTORES_INVERT_MARGIN. Anything but the first configuration
+// measured only with at least DEMO_AUTORES_MIN_FRAMES frames; no box is no evidence (rating 0). A resolution
+// the options fix (a->fixed_res) stays.
 uint8_t demo_autores_decide(demo_autores_t *a);
 
-// The three detectors (the CNN source alone as the options set it, one pass per network, temporal analysis
-// off; at half, full and quarter resolution) and buffers of a measurement on frames of `first`'s size and format.
+// Writes the choice's figures as "rating half 0.715, full 0.651, quarter 0.541; mean box score ...; flip
+// agreement half 90.9 %, ..." (configurations not measured left out; with both polarities measured each name
+// carries its polarity: "half white-hot", "half black-hot"), at most len bytes with the NUL. The summary line of
+// vd_fir_demo and the element's log.
+// DEMO_AUTORES_DESCRIBE_MAX bytes hold the longest (six configurations without a box: 3 x 6 x 37 + 40 bytes).
+#define DEMO_AUTORES_DESCRIBE_MAX 1024u
+void demo_autores_describe(const demo_autores_t *a, bool options_black_hot, char *buf, size_t len);
+
+// The detectors (the CNN source alone as the options set it, one pass per network, temporal analysis off) of the
+// configurations the options leave open (--cnn-full-res auto: the three resolutions; --cnn-polarity auto: both
+// polarities) and the buffers of a measurement on frames of `first`'s size and format.
 typedef struct demo_flipagree demo_flipagree_t;
 
 // o->cfg must point at the loaded networks (demo_models_load). A detector that cannot run such frames: its
@@ -68,8 +98,8 @@ typedef struct demo_flipagree demo_flipagree_t;
 vd_status_t demo_flipagree_new(demo_flipagree_t **out, const demo_opts_t *o, const vd_frame_t *first, char *err,
                                size_t err_len);
 
-// Frame f (first's size and format) and its mirror image at each resolution into a's counts (a->frames + 1).
-// A detector error: its status (a unchanged but for the counts of the resolution measured before it).
+// Frame f (first's size and format) and its mirror image in each configuration into a's counts (a->frames + 1).
+// A detector error: its status (a unchanged but for the counts of the configurations measured before it).
 vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_autores_t *a);
 
 void demo_flipagree_free(demo_flipagree_t *fa);
@@ -77,7 +107,7 @@ void demo_flipagree_free(demo_flipagree_t *fa);
 // Seconds on the monotonic clock (the measurements' timing; the demo's progress and rates).
 double demo_now_s(void);
 
-// --cnn-full-res auto on a live source (vd_fir_demo on a camera, the GStreamer element), whose frames cannot be
+// --cnn-full-res / --cnn-polarity auto on a live source (vd_fir_demo on a camera, the GStreamer element), whose frames cannot be
 // read twice: the first DEMO_AUTORES_MAX_FRAMES frames measured as they come, before each is detected on (at
 // half resolution meanwhile).
 typedef struct demo_autores_live {

@@ -307,6 +307,23 @@ static bool set_cnn_res(demo_opts_t *o, const char *v)
     return false;
 }
 
+// white-hot, black-hot (cfg.cnn_invert) or auto: vd_fir_demo rates the networks' boxes on the frames as they are
+// and inverted, in the measurement of --cnn-full-res auto (common/flipagree.c).
+static bool set_cnn_polarity(demo_opts_t *o, const char *v)
+{
+    if (strcmp(v, "auto") == 0) {
+        o->cnn_polarity_auto = true;
+        o->cfg.cnn_invert = 0u;   // white-hot until the choice is made
+        return true;
+    }
+    if (strcmp(v, "white-hot") != 0 && strcmp(v, "black-hot") != 0) {
+        return false;
+    }
+    o->cnn_polarity_auto = false;
+    o->cfg.cnn_invert = strcmp(v, "black-hot") == 0 ? 1u : 0u;
+    return true;
+}
+
 // "HI" or "HI,LO": the track-score hysteresis of confirmation, 0 < LO <= HI <= 1 (Q15). LO left out keeps
 // the default's gap (0.42 / 0.35) below HI, so one number moves the whole band.
 static bool set_track_confirm(demo_opts_t *o, const char *v)
@@ -473,8 +490,6 @@ static const named_value_t k_track_motions[] = {
     {"on", 0u}, {"velocity", VD_TEMPORAL_NO_GLOBAL}, {"off", VD_TEMPORAL_NO_MOTION}, {NULL, 0}};
 static const named_value_t k_polarities[] = {
     {"both", VD_CONTRAST_BOTH}, {"warm", VD_CONTRAST_WARM}, {"cold", VD_CONTRAST_COLD}, {NULL, 0}};
-static const named_value_t k_cnn_polarities[] = {
-    {"white-hot", 0u}, {"black-hot", 1u}, {NULL, 0}};
 static const named_value_t k_verifiers[] = {
     {"dbn", VD_DETECTOR_VERIFIER_DBN}, {"boost", VD_DETECTOR_VERIFIER_BOOST}, {NULL, 0}};
 
@@ -642,11 +657,12 @@ static const setting_t k_settings[] = {
      "the training data's size, e.g. a 1280x1024 sensor or a narrower lens: a quarter of the networks' time) "
      "or auto (= --cnn-full-res auto, which chooses among the three)",
      CUSTOM(set_cnn_res)},
-    {"cnn-polarity", "white-hot|black-hot",
-     "cnn source: white-hot (default: warm is bright, as the networks trained) or black-hot (a camera set to "
-     "show warm as dark: the networks read each input value v as 255 - v; as they are, such frames cost the "
-     "networks most of their AP, docs/demo.md)",
-     ENUM(U8, cnn_invert, k_cnn_polarities)},
+    {"cnn-polarity", "white-hot|black-hot|auto",
+     "cnn source: white-hot (warm is bright, as the networks trained), black-hot (a camera set to show warm as "
+     "dark: the networks read each input value v as 255 - v; as they are, such frames cost the networks most of "
+     "their AP) or auto (default): the polarity whose boxes rate higher on the frames --cnn-full-res "
+     "auto measures, black-hot only by a margin (docs/demo.md \"Black-hot cameras\")",
+     CUSTOM(set_cnn_polarity)},
     {"cnn-model2", "FILE|none",
      "cnn source: a second version-3 .vdm network run on the same frame, its boxes fused with "
      "the first network's as the flip pass fuses (an ensemble: about the second network's time "

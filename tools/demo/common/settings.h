@@ -47,6 +47,7 @@ typedef struct demo_opts {
     bool max_detections_set;
     bool cnn_res_auto;          // --cnn-full-res auto (the default): vd_fir_demo and the element choose
                                 // cfg.cnn_res on a recording's frames (common/flipagree.c); the fleet too
+    bool cnn_polarity_auto;     // --cnn-polarity auto: cfg.cnn_invert chosen by the same measurement
     bool grey_window_auto;      // --grey-window auto (the default): cfg.grey_mode chosen on the first 16-bit frame
     bool grey_decided;          //   (demo_grey_decide, models.c): made once per run
     uint32_t grey_outside_permille;  // that frame's samples outside the fixed window, per mille

@@ -46,10 +46,13 @@ def find_demo(path=None):
 def config(models, thr, full_res=False):
     """vd_fir_demo --config settings: the adapted networks, their operating point, the fused flip pass and the
     input resolution chosen here, always written (the demo's own default, auto, would measure it again with
-    less evidence than vd-adapt had)."""
+    less evidence than vd-adapt had), and the polarity: the frames as they are, which the networks were adapted
+    on (a measurement of the polarity, --cnn-polarity auto, would judge the adapted networks by the shipped
+    ones' white-hot habit)."""
     return {"sources": "cnn", "cnn-model": str(models[0]),
             "cnn-model2": str(models[1]) if len(models) > 1 else "none",
-            "cnn-thr": round(float(thr), 4), "cnn-flip": True, "cnn-full-res": bool(full_res)}
+            "cnn-thr": round(float(thr), 4), "cnn-flip": True, "cnn-full-res": bool(full_res),
+            "cnn-polarity": "white-hot"}
 
 
 def check_config(demo, cfg_path, frame_path, work):

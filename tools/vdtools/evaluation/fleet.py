@@ -251,10 +251,12 @@ def resolve(settings, models_dir=None):
         if not 1 <= tail <= 499:
             raise FleetError(f"bad value '{s['grey-tail']}' for grey-tail (expected 0.1..49.9)")
         fields["grey_tail_permille"] = tail
-    if "cnn-polarity" in s:   # a black-hot camera: the networks read 255 - v (cfg.cnn_invert)
-        pol = str(s["cnn-polarity"])
-        if pol not in ("white-hot", "black-hot"):
-            raise FleetError(f"bad value '{pol}' for cnn-polarity (expected white-hot|black-hot)")
+    # cnn-polarity: a black-hot camera's networks read 255 - v (cfg.cnn_invert); auto sets no field here: run()
+    # measures each recording (auto_resolution), as the demo does
+    pol = str(s.get("cnn-polarity", DEFAULT_POLARITY))
+    if pol not in ("white-hot", "black-hot", "auto"):
+        raise FleetError(f"bad value '{pol}' for cnn-polarity (expected white-hot|black-hot|auto)")
+    if pol != "auto":
         fields["cnn_invert"] = int(pol == "black-hot")
     if "thr-mode" in s:
         fields["thr_mode"] = {"constant": 0, "adaptive": 1}[s["thr-mode"]]
@@ -320,6 +322,8 @@ def resolve(settings, models_dir=None):
 
 
 AUTO_SPREAD_FRAMES, AUTO_MIN_FRAMES, AUTO_AGREE_WEIGHT = 64, 16, 0.25   # tools/demo/common/flipagree.h DEMO_AUTORES_*
+AUTO_INVERT_MARGIN = 0.025   # ... DEMO_AUTORES_INVERT_MARGIN
+DEFAULT_POLARITY = "auto"   # vd_fir_demo's --cnn-polarity default (tools/demo/common/args.c)
 
 
 def auto_sample(total, parts=AUTO_SPREAD_FRAMES):
@@ -350,29 +354,47 @@ def grey_decision(rec, fields, spread):
     return dict(fields, grey_mode=int(D.grey_outside_permille(img) >= D.GREY_AUTO_PERMILLE))
 
 
-def auto_resolution(rec, fields, cnn):
-    """vd_fir_demo's --cnn-full-res auto (tools/demo/common/flipagree.c) on a recording: AUTO_SPREAD_FRAMES
-    frames spread over it (auto_sample; as the port reads them) and their mirror images through the CNN
-    source alone (the resolved networks and threshold, one pass each, no tracking) at half, full and quarter
-    resolution: the mean score of those boxes (score_q8 / 255) and their agreement (boxes of the mirror image,
-    mirrored back, matched one to one at IoU >= 0.5: metrics.evaluate.one_to_one; pooled 2 x matched / boxes).
-    The resolution of the highest rating, mean score + 1/4 agreement (ties to the lower cfg.cnn_res; full or
-    quarter only when at least AUTO_MIN_FRAMES frames were read). Returns dict(res (its name), cnn_res, full,
-    frames, total, rating=, score=, agreement=[half, full, quarter]) (None: no box at that resolution)."""
+def polarity_choice(rating, rating_inverted, frames):
+    """--cnn-polarity auto's rule (tools/demo/common/flipagree.c demo_autores_decide): the other polarity only
+    when its highest rating is above the highest of the frames as they are by more than AUTO_INVERT_MARGIN, and
+    only with at least AUTO_MIN_FRAMES frames. Ratings: lists over the resolutions measured, None = no box (0)."""
+    best = lambda r: max(0.0 if v is None else v for v in r)
+    return frames >= AUTO_MIN_FRAMES and best(rating_inverted) > best(rating) + AUTO_INVERT_MARGIN
+
+
+def auto_resolution(rec, fields, cnn, res_auto=True, polarity_auto=False):
+    """vd_fir_demo's --cnn-full-res / --cnn-polarity auto (tools/demo/common/flipagree.c) on a recording:
+    AUTO_SPREAD_FRAMES frames spread over it (auto_sample; as the port reads them) and their mirror images through
+    the CNN source alone (the resolved networks and threshold, one pass each, no tracking) at half, full and quarter
+    resolution (res_auto or polarity_auto; else fields' cnn_res alone) and, with polarity_auto, inverted too
+    (cfg.cnn_invert flipped; a resolution fields fix stays the run's): the
+    mean score of those boxes (score_q8 / 255) and their agreement (boxes of the mirror image, mirrored back,
+    matched one to one at IoU >= 0.5: metrics.evaluate.one_to_one; pooled 2 x matched / boxes). The resolution of
+    the highest rating, mean score + 1/4 agreement (ties to the lower cfg.cnn_res; full or quarter only when at
+    least AUTO_MIN_FRAMES frames were read); the other polarity's when polarity_choice says so. Returns dict(res
+    (its name), cnn_res, full, invert (cfg.cnn_invert to run with), frames, total, rating=, score=, agreement=
+    [half, full, quarter] in the options' polarity, and with polarity_auto rating_inverted= etc.) (None: no box
+    at that resolution or not measured)."""
     import numpy as np
     from vdtools.metrics.evaluate import first_highest, one_to_one, rating_of
     from vdtools.bindings import port
     sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
-    runners, counts, n = [None] * len(CNN_RES_NAMES), [[0, 0, 0] for _ in CNN_RES_NAMES], 0   # matched, boxes, qsum
+    nres = len(CNN_RES_NAMES)
+    # the polarity is chosen over every resolution, whichever the run takes (flipagree.c demo_autores_configs)
+    ks = [k for k in range(2 * nres) if (res_auto or polarity_auto or k % nres == fields.get("cnn_res", 0))
+          and (polarity_auto or k < nres)]
+    runners, counts, n = {}, {k: [0, 0, 0] for k in ks}, 0   # matched, boxes, qsum
     with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
         total = cap.total()
         for f, _name in cap.frames_at(auto_sample(total)):
             img = port.pixels(f).copy()
             mirror = np.ascontiguousarray(img[:, ::-1])
             w = img.shape[1]
-            for k in range(len(CNN_RES_NAMES)):   # cfg.cnn_res
-                if runners[k] is None:
-                    runners[k] = _Runner(dict(sub, cnn_res=k), cnn, None, f.width, f.height)
+            for k in ks:   # cfg.cnn_res + 3 x inverted
+                if k not in runners:
+                    runners[k] = _Runner(dict(sub, cnn_res=k % nres,
+                                              cnn_invert=fields.get("cnn_invert", 0) ^ (k // nres)),
+                                         cnn, None, f.width, f.height)
                 da, db = runners[k].det.run(img)[0], runners[k].det.run(mirror)[0]
                 counts[k][2] += sum(d["score_q8"] for d in da + db)
                 a = [tuple(d["box"]) for d in da]
@@ -382,12 +404,23 @@ def auto_resolution(rec, fields, cnn):
                     counts[k][0] += r[0]
                     counts[k][1] += r[1]
             n += 1
-    agree = [2 * m / b if b else None for m, b, _ in counts]
-    score = [q / (255.0 * b) if b else None for _, b, q in counts]
+    c = lambda k: counts.get(k, [0, 0, 0])
+    agree = [2 * c(k)[0] / c(k)[1] if c(k)[1] else None for k in range(2 * nres)]
+    score = [c(k)[2] / (255.0 * c(k)[1]) if c(k)[1] else None for k in range(2 * nres)]
     rating = [rating_of(s, a, AUTO_AGREE_WEIGHT) for s, a in zip(score, agree)]
-    res = first_highest(rating) if n >= AUTO_MIN_FRAMES else 0
-    return dict(res=CNN_RES_NAMES[res], cnn_res=res, full=res == 1, frames=n, total=total, rating=rating, score=score,
-                agreement=agree)
+    inv = polarity_auto and polarity_choice([rating[k] for k in ks if k < nres],
+                                            [rating[k] for k in ks if k >= nres], n)
+    if not res_auto:
+        res = fields.get("cnn_res", 0)
+    elif n < AUTO_MIN_FRAMES:
+        res = 0
+    else:
+        res = first_highest(rating[nres:] if inv else rating[:nres])
+    out = dict(res=CNN_RES_NAMES[res], cnn_res=res, full=res == 1, invert=fields.get("cnn_invert", 0) ^ int(inv),
+               frames=n, total=total, rating=rating[:nres], score=score[:nres], agreement=agree[:nres])
+    if polarity_auto:
+        out.update(rating_inverted=rating[nres:], score_inverted=score[nres:], agreement_inverted=agree[nres:])
+    return out
 
 
 # ------------------------------------------------------------------ one shard (runs on a worker)
@@ -681,14 +714,16 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     # cnn-full-res auto (the default with the cnn source): each recording's own choice, as the demo makes it
     rec_fields, cnn_input = {r["id"]: fields for r in recs}, None
     auto_res = "cnn_res" not in fields and fields["sources"] & SRC_CNN
+    auto_pol = "cnn_invert" not in fields and fields["sources"] & SRC_CNN   # cnn-polarity auto
     if "grey_mode" not in fields:   # grey-window auto: each recording's first frame read decides, as in the demo
         for r in recs:
-            rec_fields[r["id"]] = grey_decision(r, fields, bool(auto_res))
-    if auto_res:
+            rec_fields[r["id"]] = grey_decision(r, fields, bool(auto_res or auto_pol))
+    if auto_res or auto_pol:
         cnn_input = {}
         for r in recs:
-            cnn_input[r["id"]] = auto_resolution(r, rec_fields[r["id"]], cnn)
-            rec_fields[r["id"]] = dict(rec_fields[r["id"]], cnn_res=cnn_input[r["id"]]["cnn_res"])
+            c = auto_resolution(r, rec_fields[r["id"]], cnn, res_auto=bool(auto_res), polarity_auto=bool(auto_pol))
+            cnn_input[r["id"]] = c
+            rec_fields[r["id"]] = dict(rec_fields[r["id"]], cnn_res=c["cnn_res"], cnn_invert=c["invert"])
     mine_dir = str(Path(mine).resolve()) if mine else None
     if mine_dir:
         (Path(mine_dir) / "images").mkdir(parents=True, exist_ok=True)
@@ -716,10 +751,15 @@ def run(manifest, out_dir, settings=None, scheduler=None, workers=None, shard_fr
     log(f"vdtools.evaluation.fleet: {len(recs)} recordings, {len(shards)} shards ({len(shards) - len(todo)} complete, "
         f"{len(todo)} to run); " + ", ".join(f"{k} {v}" for k, v in desc.items()))
     if cnn_input:
-        for name in CNN_RES_NAMES[1:]:
+        some = lambda ids: f" ({', '.join(ids[:8])}{' ...' if len(ids) > 8 else ''})" if ids else ""
+        for name in CNN_RES_NAMES[1:] if auto_res else ():
             ids = sorted(k for k, v in cnn_input.items() if v["res"] == name)
             log(f"vdtools.evaluation.fleet: cnn-full-res auto: {name} resolution for {len(ids)} of {len(recs)} "
-                f"recordings" + (f" ({', '.join(ids[:8])}{' ...' if len(ids) > 8 else ''})" if ids else ""))
+                f"recordings" + some(ids))
+        if auto_pol:
+            ids = sorted(k for k, v in cnn_input.items() if v["invert"])
+            log(f"vdtools.evaluation.fleet: cnn-polarity auto: black-hot for {len(ids)} of {len(recs)} recordings"
+                + some(ids))
     cluster = None
     n_workers = 0
     wall = 0.0
