@@ -308,6 +308,8 @@ def test_end_to_end_labelled(tmp_path, vdlib, demo):
     assert res["full_res"] == (res["measured"]["full"] > res["measured"]["half"])
     # the choice is pinned in vd.json (the demo's default, auto, would measure it again)
     assert json.loads((out / "vd.json").read_text())["cnn-full-res"] is res["full_res"]
+    # the networks were adapted on the frames as they are: the demo's polarity measurement must not turn them
+    assert json.loads((out / "vd.json").read_text())["cnn-polarity"] == "white-hot"
 
 
 def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
