@@ -308,8 +308,13 @@ def test_end_to_end_labelled(tmp_path, vdlib, demo):
     assert res["full_res"] == (res["measured"]["full"] > res["measured"]["half"])
     # the choice is pinned in vd.json (the demo's default, auto, would measure it again)
     assert json.loads((out / "vd.json").read_text())["cnn-full-res"] is res["full_res"]
-    # the networks were adapted on the frames as they are: the demo's polarity measurement must not turn them
-    assert json.loads((out / "vd.json").read_text())["cnn-polarity"] == "white-hot"
+    # --polarity auto with labels: AP@0.5 of the frames as they are and inverted (each the better of half and full
+    # resolution), the higher kept and pinned in vd.json (the demo's own polarity measurement would judge the
+    # adapted networks by the shipped ones' habit)
+    pol = rep["polarity"]
+    assert pol["asked"] == "auto" and pol["measured"]["measure"] == "AP@0.5"
+    assert pol["black_hot"] == (pol["measured"]["inverted"] > pol["measured"]["as_is"])
+    assert json.loads((out / "vd.json").read_text())["cnn-polarity"] == ("black-hot" if pol["black_hot"] else "white-hot")
 
 
 def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
@@ -390,3 +395,30 @@ def test_threshold_rule_needs_evidence_to_leave_the_shipped_point():
     assert M.choose_threshold(frames * 100, prior=0.3076) == 0.35
     assert CE.choose_threshold(CE.figures(frames)) == 0.35
     assert M.choose_threshold(frames, prior=0.3076, seed=1) == 0.3076    # not one lucky draw
+
+
+def test_end_to_end_black_hot_camera(tmp_path, vdlib, demo):
+    """--polarity auto (the default) with labels on a black-hot camera (the bundled clip's frames written as
+    255 - v, its COCO annotations): the shipped networks' AP on the frames inverted is the higher, so the user's
+    frames are inverted before anything else and vd.json has the demo read them black-hot; the report says so."""
+    pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
+    clip = REPO / "tools" / "demo" / "hit-uav-clip"
+    ann = json.loads((clip / "annotations.json").read_text())
+    imgs = tmp_path / "images"
+    imgs.mkdir()
+    for im in ann["images"]:
+        g = cv2.imread(str(clip / "images" / im["filename"]), cv2.IMREAD_GRAYSCALE)
+        im["filename"] = im["filename"].rsplit(".", 1)[0] + ".png"
+        cv2.imwrite(str(imgs / im["filename"]), 255 - g)
+    (tmp_path / "ann.json").write_text(json.dumps(ann))
+    out = tmp_path / "out"
+    p = _run(["--images", imgs, "--labels", tmp_path / "ann.json", "--classes", "1,3", "--out", out, "--steps", "1",
+              "--replay", "none", "--resolution", "half", "--demo", demo])
+    assert p.returncode == 0, p.stderr
+    rep, md = _check_outputs(out, demo, imgs)
+    pol = rep["polarity"]
+    assert pol["asked"] == "auto" and pol["black_hot"] is True and pol["measured"]["measure"] == "AP@0.5"
+    assert pol["measured"]["inverted"] > pol["measured"]["as_is"] + 0.05   # measured: 0.83 against 0.70 (every peak)
+    assert json.loads((out / "vd.json").read_text())["cnn-polarity"] == "black-hot" and "**black-hot**" in md
+    # the val figures are those of the frames inverted: the shipped networks' AP there, not the black-hot one's
+    assert rep["val"]["before"]["ap"] > 0.3

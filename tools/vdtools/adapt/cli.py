@@ -73,6 +73,11 @@ def parser():
                          "whose vehicles are about half the size: 4x the time, vd_fir_demo --cnn-full-res); auto "
                          "(default): whichever the shipped networks do better on all your frames (AP@0.5 with "
                          "labels; without, the mean score of their boxes on the frames and their mirror images)")
+    ap.add_argument("--polarity", choices=("auto", "white-hot", "black-hot"), default="auto",
+                    help="your camera's: white-hot (warm is bright, as every frame the networks trained on) or "
+                         "black-hot (your frames are inverted, 255 - v, before anything else, and vd.json says "
+                         "cnn-polarity black-hot); auto (default): whichever the shipped networks do better on all "
+                         "your frames (AP@0.5 with labels; without, vd_fir_demo's --cnn-polarity auto rule)")
     ap.add_argument("--lr", type=float, default=3e-4, help="peak learning rate of the fine-tuning's cosine schedule "
                     "(default 3e-4, the shipped networks' QAT stage)")
     ap.add_argument("--self-train", action="store_true", help="without labels: fine-tune on the networks' own "

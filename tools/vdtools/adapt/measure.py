@@ -4,6 +4,7 @@ with the fused flip passes, suppression, cnn_eval.figures): AP@0.5 and TP / FP a
 val frames, and, without labels, what can be measured: boxes per frame and agreement."""
 import numpy as np
 
+from vdtools.data import cnn_data as CD
 from vdtools.evaluation import cnn_eval as CE
 from vdtools.formats import cnn_vdm as V
 from vdtools.metrics import evaluate as E
@@ -65,6 +66,36 @@ def choose_resolution(models, frames, thr, labelled=True):
         # no box at all at a resolution (None) is no evidence for it
         m = {k: rating(models, frames, thr, full_res=k == "full") or 0.0 for k in ("half", "full")}
     return m["full"] > m["half"], dict(m, measure="AP@0.5" if labelled else RATING)
+
+
+def inverted(frames):
+    """The frames as the other polarity shows them (255 - v), boxes unchanged."""
+    import dataclasses
+    out = []
+    for fr in frames:
+        img = (255 - fr.img).astype(np.uint8)
+        out.append(dataclasses.replace(fr, img=img, hot=CD._hot_flags(img, fr.boxes)))
+    return out
+
+
+def choose_polarity(models, frames, thr, labelled=True):
+    """White-hot or black-hot (the frames as they are or inverted) for networks that trained on white-hot frames
+    only. With labels: the higher pooled AP@0.5, each the better of half and full resolution (ties: as they
+    are). Without: vd_fir_demo's --cnn-polarity auto rule (fleet.polarity_choice): the best rating (mean box
+    score + agreement / 4) over half, full and quarter resolution of the inverted frames above that of the frames
+    as they are by more than the demo's margin; on the train, val and test recordings of ../shared/data it turned
+    no white-hot one with vehicles (docs/demo.md, "Black-hot cameras").
+    (invert, {"measure": name, "as_is": value, "inverted": value})."""
+    from vdtools.evaluation import fleet
+    inv = inverted(frames)
+    if labelled:
+        ap = lambda fs: max(figures(detections(models, fs, full_res=k), thr)["ap"] for k in (0, 1))
+        m = dict(as_is=ap(frames), inverted=ap(inv))
+        return m["inverted"] > m["as_is"], dict(m, measure="AP@0.5")
+    rates = lambda fs: [rating(models, fs, thr, full_res=k) for k in (0, 1, 2)]
+    a, b = rates(frames), rates(inv)
+    m = dict(as_is=max(v or 0.0 for v in a), inverted=max(v or 0.0 for v in b))
+    return fleet.polarity_choice(a, b, len(frames)), dict(m, measure=RATING)
 
 
 def figures(results, thr):

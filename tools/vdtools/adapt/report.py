@@ -48,6 +48,12 @@ def report_md(r):
     else:
         lines += [f"Networks: {', '.join(r['archs'])}, the files of {', '.join(Path(b).name for b in r['base'])} "
                   "unchanged.", ""]
+    pol = r["polarity"]
+    lines += ["Polarity: " + ("**black-hot** (your frames were inverted, 255 - v, before adaptation; `cnn-polarity` "
+                              "in vd.json)" if pol["black_hot"] else "white-hot (as the networks trained)")
+              + (f"; {pol['measured']['measure']} of the before networks on all your frames: as they are "
+                 f"{pol['measured']['as_is']:.3f}, inverted {pol['measured']['inverted']:.3f}" if pol["measured"]
+                 else f" ({pol['chosen_on']})") + ".", ""]
     res = r["resolution"]
     lines += ["Input resolution: " + ("**full** (`cnn-full-res` in vd.json: 4x the networks' time and a larger "
                                       "workspace)" if res["full_res"] else "half (the networks' training scale)")

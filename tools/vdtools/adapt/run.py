@@ -43,16 +43,16 @@ def find_demo(path=None):
     return Path(found) if found else None
 
 
-def config(models, thr, full_res=False):
+def config(models, thr, full_res=False, invert=False):
     """vd_fir_demo --config settings: the adapted networks, their operating point, the fused flip pass and the
-    input resolution chosen here, always written (the demo's own default, auto, would measure it again with
-    less evidence than vd-adapt had), and the polarity: the frames as they are, which the networks were adapted
-    on (a measurement of the polarity, --cnn-polarity auto, would judge the adapted networks by the shipped
-    ones' white-hot habit)."""
+    input resolution and polarity chosen here, always written (the demo's own defaults, auto, would measure them
+    again with less evidence than vd-adapt had, and would judge the adapted networks by the shipped ones'
+    white-hot habit). invert: the user's frames were inverted before adaptation (a black-hot camera), so the
+    detector reads them black-hot (cfg.cnn_invert)."""
     return {"sources": "cnn", "cnn-model": str(models[0]),
             "cnn-model2": str(models[1]) if len(models) > 1 else "none",
             "cnn-thr": round(float(thr), 4), "cnn-flip": True, "cnn-full-res": bool(full_res),
-            "cnn-polarity": "white-hot"}
+            "cnn-polarity": "black-hot" if invert else "white-hot"}
 
 
 def check_config(demo, cfg_path, frame_path, work):
@@ -168,6 +168,7 @@ class Adaptation:
             self.times["before_export"] = time.time() - t0
             t0 = time.time()
         self.before, self.thr_before = before, M.header_threshold(before)
+        self.choose_polarity()
         self.choose_resolution()
         self.res_before = M.detections(before, self.val, self.full_res)
         if self.labelled:
@@ -177,6 +178,25 @@ class Adaptation:
         self.say(f"{len(self.frames)} frames: {len(self.adapt)} adapt, {len(self.val)} val; before: "
                  + (f"val AP@0.5 {100 * self.fig_before['ap']:.1f}" if self.labelled
                     else f"{M.boxes_per_frame(self.res_before, self.thr_before):.2f} boxes per val frame"))
+
+    def choose_polarity(self):
+        """--polarity: white-hot, black-hot, or (auto) what the before files do better on all the user's frames
+        (M.choose_polarity). Black-hot: every user frame is inverted (255 - v) here, so everything after it
+        (training, calibration, the figures) sees white-hot frames, and vd.json has the detector invert them."""
+        if self.ck is not None and "invert" in self.ck:
+            self.invert, self.pol_measured = self.ck["invert"], self.ck.get("pol_measured")
+        elif self.a.polarity == "auto":
+            self.invert, self.pol_measured = M.choose_polarity(self.before, self.adapt + self.val, self.thr_before,
+                                                               self.labelled)
+        else:
+            self.invert, self.pol_measured = self.a.polarity == "black-hot", None
+        if self.invert:
+            self.adapt, self.val = M.inverted(self.adapt), M.inverted(self.val)
+            self.calib = TU.calibration_set(self.adapt, self.replay, self.a.seed)
+        if self.pol_measured:
+            r = self.pol_measured
+            self.say(f"polarity: {'black-hot' if self.invert else 'white-hot'} ({r['measure']} on all "
+                     f"{len(self.frames)} frames: as they are {r['as_is']:.3f}, inverted {r['inverted']:.3f})")
 
     def choose_resolution(self):
         """--resolution: half, full, or (auto) what the before files do better on all the user's frames (none
@@ -225,7 +245,7 @@ class Adaptation:
         part = path.with_suffix(".part")
         torch.save(dict(tuner=tuner.state(), budget=self.budget, times=self.times, pseudo_log=self.state["log"],
                         round=self.state["round"], pseudo=self.state["pseudo"], full_res=self.full_res,
-                        res_measured=self.res_measured,
+                        res_measured=self.res_measured, invert=self.invert, pol_measured=self.pol_measured,
                         wall=self.t_prev + time.time() - self.t_start), part)
         os.replace(part, path)
 
@@ -335,12 +355,12 @@ class Adaptation:
         """vd.json, and its check with vd_fir_demo on a val frame."""
         tmp = self.tmp
         (tmp / "vd.json").write_text(json.dumps(config([self.out / f"{n}.vdm" for n in self.names], self.thr,
-                                                       self.full_res), indent=1) + "\n")
+                                                       self.full_res, self.invert), indent=1) + "\n")
         self.demo_check = None
         demo = find_demo(self.a.demo)
         if demo is not None and demo.is_file():
             cp = tmp / "vd.check.json"
-            cp.write_text(json.dumps(config([tmp / f"{n}.vdm" for n in self.names], self.thr, self.full_res)))
+            cp.write_text(json.dumps(config([tmp / f"{n}.vdm" for n in self.names], self.thr, self.full_res, self.invert)))
             ok, what = check_config(demo, cp, self.val[0].path, tmp)
             cp.unlink()
             if not ok:
@@ -368,6 +388,9 @@ class Adaptation:
             threshold=dict(before=self.thr_before, after=self.thr,
                            chosen_on="val part, one-standard-error rule towards the shipped threshold" if self.labelled
                            else "unchanged (no labels)"),
+            polarity=dict(black_hot=bool(self.invert), asked=self.a.polarity,
+                          chosen_on=f"{self.pol_measured['measure']} of the before networks on all frames"
+                          if self.pol_measured else "asked", measured=self.pol_measured),
             resolution=dict(full_res=self.full_res, asked=self.a.resolution,
                             chosen_on=f"{self.res_measured['measure']} of the before networks on all frames"
                             if self.res_measured else "asked", measured=self.res_measured),
