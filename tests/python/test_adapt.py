@@ -289,6 +289,12 @@ def _check_outputs(out, demo, images, n_nets=2):
     return rep, (out / "report.md").read_text()
 
 
+def _best(measured):
+    """The resolution choose_resolution takes: the highest measure, ties to the earlier of half, full, quarter."""
+    res = [r for r in ("half", "full", "quarter") if r in measured]
+    return max(res, key=lambda r: (measured[r], -res.index(r)))
+
+
 def test_end_to_end_labelled(tmp_path, vdlib, demo):
     pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
     imgs = _frames(tmp_path / "images", labels=tmp_path / "labels")
@@ -302,12 +308,12 @@ def test_end_to_end_labelled(tmp_path, vdlib, demo):
     for k in ("before", "after"):
         assert 0.0 <= rep["val"][k]["ap"] <= 1.0 and rep["val"][k]["n_vehicles"] == rep["frames"]["val_vehicles"]
     assert "AP@0.5" in md and "Time taken" in md
-    # --resolution auto with labels: both input resolutions measured on all 8 labelled frames, the better kept
+    # --resolution auto with labels: the three input resolutions measured on all 8 labelled frames, the best kept
     res = rep["resolution"]
     assert res["asked"] == "auto" and res["measured"]["measure"] == "AP@0.5"
-    assert res["full_res"] == (res["measured"]["full"] > res["measured"]["half"])
+    assert res["res"] == _best(res["measured"]) and res["full_res"] == (res["res"] == "full")
     # the choice is pinned in vd.json (the demo's default, auto, would measure it again)
-    assert json.loads((out / "vd.json").read_text())["cnn-full-res"] is res["full_res"]
+    assert json.loads((out / "vd.json").read_text())["cnn-res"] == res["res"]
     # --polarity auto with labels: AP@0.5 of the frames as they are and inverted (each the better of half and full
     # resolution), the higher kept and pinned in vd.json (the demo's own polarity measurement would judge the
     # adapted networks by the shipped ones' habit)
@@ -334,8 +340,8 @@ def test_end_to_end_unlabelled_resumes(tmp_path, vdlib, demo):
     assert "gain is not measured" in md and "boxes per frame" in md
     # --resolution full, kept across the resume: vd.json turns the detector's full-resolution input on (and
     # _check_outputs ran the demo with it)
-    assert rep["resolution"] == dict(full_res=True, asked="full", chosen_on="asked", measured=None)
-    assert json.loads((out / "vd.json").read_text())["cnn-full-res"] is True
+    assert rep["resolution"] == dict(full_res=True, res="full", asked="full", chosen_on="asked", measured=None)
+    assert json.loads((out / "vd.json").read_text())["cnn-res"] == "full"
     assert "**full**" in md
 
 
@@ -351,8 +357,8 @@ def test_end_to_end_unlabelled_chooses_resolution_by_rating(tmp_path, vdlib, dem
     rep, md = _check_outputs(out, demo, imgs)
     res = rep["resolution"]
     assert res["asked"] == "auto" and res["measured"]["measure"] == "rating (mean box score + flip agreement / 4)"
-    assert res["full_res"] == (res["measured"]["full"] > res["measured"]["half"])
-    assert 0.0 <= res["measured"]["half"] <= 1.125 and 0.0 <= res["measured"]["full"] <= 1.125
+    assert res["res"] == _best(res["measured"])
+    assert all(0.0 <= res["measured"][r] <= 1.125 for r in ("half", "full", "quarter"))
     assert "rating (mean box score + flip agreement / 4) of the before networks" in md
     assert rep["training"]["trained"] is False and rep["training"]["steps"] == 0 and "pseudo_labels" not in rep
     assert "the networks were not trained" in md and "shipped (unchanged)" in md
@@ -375,6 +381,36 @@ def test_doubled_frame_is_the_frame_at_full_resolution():
     assert d.img.shape == (4, 6) and d.img[3, 5] == 60 and d.img[0, 1] == 10 and d.img[2, 2] == 50
     assert d.boxes.tolist() == [[2, 0, 4, 2]] and fr.boxes.tolist() == [[1, 0, 2, 1]]
     assert np.array_equal(CD.half(d.img), img)
+
+
+def test_halved_frame_is_the_frame_at_quarter_resolution():
+    """tune.halved: the 2 x 2 means, boxes / 2; its half-resolution plane is the frame's 4 x 4 means (up to the
+    rounding of two means in turn: here exact, every 2 x 2 block flat)."""
+    import numpy as np
+    from vdtools.adapt import tune as TU
+    from vdtools.data import cnn_data as CD
+    img = np.repeat(np.repeat(np.array([[10, 20], [30, 41]], np.uint8), 2, 0), 2, 1)   # 4 x 4, flat 2 x 2 blocks
+    img = np.tile(img, (2, 2))                                                          # 8 x 8
+    fr = CD.Frame("user", "a.png", "a.png", "user:0", "adapt", img, np.array([[4, 0, 4, 2]], np.float32),
+                  np.zeros((0, 4), np.float32), np.array([True]))
+    h = TU.halved(fr)
+    assert h.img.shape == (4, 4) and h.img[0, 0] == 10 and h.img[1, 1] == 41
+    assert h.boxes.tolist() == [[2, 0, 2, 1]] and fr.boxes.tolist() == [[4, 0, 4, 2]]
+    assert np.array_equal(CD.half(h.img), CD.box_mean(img, 4))   # (10 + 20 + 30 + 41 + 2) // 4 = 25
+    assert CD.box_mean(img, 4)[0, 0] == 25 and TU.at_res(fr, 0) is fr and TU.at_res(fr, 2).img.shape == (4, 4)
+
+
+def test_end_to_end_quarter_resolution(tmp_path, vdlib, demo):
+    """--resolution quarter (vehicles about twice the training size): the shipped networks kept without labels,
+    vd.json says cnn-res quarter, and the demo runs it."""
+    pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
+    imgs = _frames(tmp_path / "images")
+    out = tmp_path / "out"
+    p = _run(["--images", imgs, "--out", out, "--replay", "none", "--demo", demo, "--resolution", "quarter"])
+    assert p.returncode == 0, p.stderr
+    rep, md = _check_outputs(out, demo, imgs)
+    assert rep["resolution"] == dict(full_res=False, res="quarter", asked="quarter", chosen_on="asked", measured=None)
+    assert json.loads((out / "vd.json").read_text())["cnn-res"] == "quarter" and "**quarter**" in md
 
 
 def test_threshold_rule_needs_evidence_to_leave_the_shipped_point():

@@ -68,11 +68,12 @@ def parser():
                     "(default) or none")
     ap.add_argument("--user-share", type=float, default=0.5, help="share of your frames among the training "
                     "crops when frames are mixed in (default 0.5)")
-    ap.add_argument("--resolution", choices=("auto", "half", "full"), default="auto",
-                    help="the networks' input: half resolution (the scale they trained at) or full (for cameras "
-                         "whose vehicles are about half the size: 4x the time, vd_fir_demo --cnn-full-res); auto "
-                         "(default): whichever the shipped networks do better on all your frames (AP@0.5 with "
-                         "labels; without, the mean score of their boxes on the frames and their mirror images)")
+    ap.add_argument("--resolution", choices=("auto", "half", "full", "quarter"), default="auto",
+                    help="the networks' input: half resolution (the scale they trained at), full (for cameras "
+                         "whose vehicles are about half the size: 4x the time) or quarter (vehicles about twice "
+                         "the size: a quarter of the time; vd_fir_demo --cnn-res); auto (default): whichever the "
+                         "shipped networks do best on all your frames (AP@0.5 with labels; without, the rating of "
+                         "their boxes on the frames and their mirror images, vd_fir_demo's rule)")
     ap.add_argument("--polarity", choices=("auto", "white-hot", "black-hot"), default="auto",
                     help="your camera's: white-hot (warm is bright, as every frame the networks trained on) or "
                          "black-hot (your frames are inverted, 255 - v, before anything else, and vd.json says "

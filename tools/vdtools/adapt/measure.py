@@ -47,25 +47,31 @@ def rating(models, frames, thr, full_res=False):
     return rating_of(mean_box_score(models, frames, thr, runs=runs), flip_agreement(models, frames, thr, runs=runs))
 
 
-def choose_resolution(models, frames, thr, labelled=True):
-    """Half or full resolution for the networks' input (cfg.cnn_res), on frames the networks never saw:
-    full when its measure is higher. With labels the measure is the pooled AP@0.5; without, the rating: the mean
-    score of the networks' boxes above thr on the frames and their mirror images, plus 1/4 of their agreement
-    with themselves on the mirrored frames (rating). At the wrong resolution the networks still find vehicles
-    or their parts but score them lower and agree less. On 260 recordings of the train and val splits (each
-    scene's first 32 frames, as they are and under four camera changes: vdtools.adapt.resolution_evidence) the
-    rating chose the resolution of the higher AP on 243 and lost 261 AP points in all, where the agreement
-    alone (the rule until 2026-11-30) was right on 219 and lost 792; the weight 1/4 did best of 0, 1/16, 1/8,
-    1/4 and 1/2 on each split (docs/results/cameras.md, "The rule of 2026-11-30"). A camera whose vehicles are
-    about half the size of the training data's gains a lot from full resolution, one whose vehicles are as
-    large loses a lot (docs/results/cameras.md), so a few dozen frames tell them apart.
-    (full_res, {"measure": name, "half": value, "full": value})."""
+def choose_resolution(models, frames, thr, labelled=True, resolutions=("half", "full", "quarter")):
+    """The networks' input resolution (cfg.cnn_res: half, full or quarter), on frames the networks never saw: the
+    one of the highest measure (ties to the earlier of half, full, quarter). With labels the measure is the pooled
+    AP@0.5; without, the rating: the mean score of the networks' boxes above thr on the frames and their mirror
+    images, plus 1/4 of their agreement with themselves on the mirrored frames (rating), vd_fir_demo's
+    --cnn-full-res auto rule. At the wrong resolution the networks still find vehicles or their parts but score
+    them lower and agree less. On 260 recordings of the train and val splits (each scene's first 32 frames, as
+    they are and under four camera changes: vdtools.adapt.resolution_evidence) the rating chose the resolution
+    of the higher AP on 243 and lost 261 AP points in all, where the agreement alone (the rule until 2026-11-30)
+    was right on 219 and lost 792; the weight 1/4 did best of 0, 1/16, 1/8, 1/4 and 1/2 on each split; quarter
+    resolution joined by the same evidence with frames scaled up (docs/results/cameras.md, "The rule of
+    2026-11-30", "Quarter resolution"). A camera whose vehicles are about half (twice) the size of the training
+    data's gains a lot from full (quarter) resolution, one whose vehicles are as large loses a lot, so a few dozen
+    frames tell them apart.
+    (cnn_res, {"measure": name, "half": value, "full": value, ...})."""
+    from vdtools.bindings.detector import CNN_RES_NAMES
+    from vdtools.metrics.evaluate import first_highest
+    res = [r for r in CNN_RES_NAMES if r in resolutions]
     if labelled:
-        m = {k: figures(detections(models, frames, full_res=k == "full"), thr)["ap"] for k in ("half", "full")}
+        m = {r: figures(detections(models, frames, full_res=CNN_RES_NAMES.index(r)), thr)["ap"] for r in res}
     else:
         # no box at all at a resolution (None) is no evidence for it
-        m = {k: rating(models, frames, thr, full_res=k == "full") or 0.0 for k in ("half", "full")}
-    return m["full"] > m["half"], dict(m, measure="AP@0.5" if labelled else RATING)
+        m = {r: rating(models, frames, thr, full_res=CNN_RES_NAMES.index(r)) or 0.0 for r in res}
+    pick = res[first_highest([m[r] for r in res])]
+    return CNN_RES_NAMES.index(pick), dict(m, measure="AP@0.5" if labelled else RATING)
 
 
 def inverted(frames):
@@ -206,7 +212,7 @@ def _layers(path):
     return [(int(L["op"]), int(L["stride"]), int(L["cin"]), int(L["cout"])) for L in d["layers"]], int(d["max_peaks"])
 
 
-def rules(before, after, width, height, full_res=False):
+def rules(before, after, width, height, res=0):
     """What the library's rules depend on, before and after: the layers and top-K of each file (the same
     ones give the same multiply-adds, hence speed, and the same workspace) and the detector workspace at the
     frame size with the demo's budgets (candidates 2 x the largest top-K with the flip pass; detections 32 with
@@ -215,7 +221,7 @@ def rules(before, after, width, height, full_res=False):
 
     def workspace(models):
         k = max(_layers(m)[1] for m in models)
-        return D.workspace_size(width, height, sources="cnn", cnn_flip=1, cnn_res=int(full_res),
+        return D.workspace_size(width, height, sources="cnn", cnn_flip=1, cnn_res=int(res),
                                 cnn_model=str(models[0]),
                                 cnn_model2=str(models[1]) if len(models) > 1 else None, max_candidates=2 * k,
                                 max_detections=32 if len(models) > 1 else k)

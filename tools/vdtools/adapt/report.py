@@ -8,11 +8,12 @@ def _pct(v):
 
 
 def measured(m):
-    """choose_resolution's measure as 'half X, full Y': AP@0.5 in per cent, the rating (mean box score + flip
+    """choose_resolution's measure as 'half X, full Y, quarter Z': AP@0.5 in per cent, the rating (mean box score + flip
     agreement / 4) as a number."""
+    res = [r for r in ("half", "full", "quarter") if r in m]
     if m["measure"].startswith("rating"):
-        return f"half {m['half']:.3f}, full {m['full']:.3f}"
-    return f"half {_pct(m['half'])} %, full {_pct(m['full'])} %"
+        return ", ".join(f"{r} {m[r]:.3f}" for r in res)
+    return ", ".join(f"{r} {_pct(m[r])} %" for r in res)
 
 
 def report_md(r):
@@ -55,8 +56,12 @@ def report_md(r):
                  f"{pol['measured']['as_is']:.3f}, inverted {pol['measured']['inverted']:.3f}" if pol["measured"]
                  else f" ({pol['chosen_on']})") + ".", ""]
     res = r["resolution"]
-    lines += ["Input resolution: " + ("**full** (`cnn-full-res` in vd.json: 4x the networks' time and a larger "
-                                      "workspace)" if res["full_res"] else "half (the networks' training scale)")
+    name = res.get("res", "full" if res["full_res"] else "half")
+    lines += ["Input resolution: " + {"full": "**full** (`cnn-res` in vd.json: 4x the networks' time and a larger "
+                                              "workspace)",
+                                      "quarter": "**quarter** (`cnn-res` in vd.json: a quarter of the networks' "
+                                                 "time; for vehicles about twice the training size)",
+                                      "half": "half (the networks' training scale)"}[name]
               + (f"; {res['measured']['measure']} of the before networks on all your frames: "
                  f"{measured(res['measured'])}" if res["measured"]
                  else f" ({res['chosen_on']})") + ".", ""]

@@ -18,6 +18,7 @@ from vdtools.adapt import tune as TU
 from vdtools.adapt.inputs import InputError
 from vdtools.adapt.report import measured as measured_text, report_md
 from vdtools.bindings import clib
+from vdtools.bindings.detector import CNN_RES_NAMES
 from vdtools.data import cnn_data as CD
 from vdtools.formats import cnn_vdm as V
 from vdtools.training import cnn_export as E
@@ -43,15 +44,15 @@ def find_demo(path=None):
     return Path(found) if found else None
 
 
-def config(models, thr, full_res=False, invert=False):
+def config(models, thr, res=0, invert=False):
     """vd_fir_demo --config settings: the adapted networks, their operating point, the fused flip pass and the
-    input resolution and polarity chosen here, always written (the demo's own defaults, auto, would measure them
+    input resolution (cfg.cnn_res res) and polarity chosen here, always written (the demo's own defaults, auto, would measure them
     again with less evidence than vd-adapt had, and would judge the adapted networks by the shipped ones'
     white-hot habit). invert: the user's frames were inverted before adaptation (a black-hot camera), so the
     detector reads them black-hot (cfg.cnn_invert)."""
     return {"sources": "cnn", "cnn-model": str(models[0]),
             "cnn-model2": str(models[1]) if len(models) > 1 else "none",
-            "cnn-thr": round(float(thr), 4), "cnn-flip": True, "cnn-full-res": bool(full_res),
+            "cnn-thr": round(float(thr), 4), "cnn-flip": True, "cnn-res": CNN_RES_NAMES[res],
             "cnn-polarity": "black-hot" if invert else "white-hot"}
 
 
@@ -170,7 +171,7 @@ class Adaptation:
         self.before, self.thr_before = before, M.header_threshold(before)
         self.choose_polarity()
         self.choose_resolution()
-        self.res_before = M.detections(before, self.val, self.full_res)
+        self.res_before = M.detections(before, self.val, self.res)
         if self.labelled:
             self.fig_before = M.figures(self.res_before, self.thr_before)
             self.fig_before_val = M.figures(self.res_before, M.choose_threshold(self.res_before, self.thr_before))
@@ -199,27 +200,28 @@ class Adaptation:
                      f"{len(self.frames)} frames: as they are {r['as_is']:.3f}, inverted {r['inverted']:.3f})")
 
     def choose_resolution(self):
-        """--resolution: half, full, or (auto) what the before files do better on all the user's frames (none
-        of which they trained on): AP@0.5 with labels, the rating without (M.choose_resolution). Full: the
-        user's training frames are doubled (TU.doubled) and so is the calibration set, everything measured
-        reads the frames at full resolution."""
-        if self.ck is not None and "full_res" in self.ck:
-            self.full_res, self.res_measured = self.ck["full_res"], self.ck.get("res_measured")
+        """--resolution: half, full, quarter, or (auto) what the before files do better on all the user's frames
+        (none of which they trained on): AP@0.5 with labels, the rating without (M.choose_resolution). Full: the
+        user's training frames are doubled (TU.doubled), quarter: halved (TU.halved), and so is the calibration
+        set; everything measured reads the frames at that resolution."""
+        if self.ck is not None and ("cnn_res" in self.ck or "full_res" in self.ck):
+            self.res = self.ck.get("cnn_res", int(bool(self.ck.get("full_res"))))
+            self.res_measured = self.ck.get("res_measured")
         elif self.a.resolution == "auto":
-            self.full_res, self.res_measured = M.choose_resolution(self.before, self.adapt + self.val, self.thr_before,
-                                                             self.labelled)
+            self.res, self.res_measured = M.choose_resolution(self.before, self.adapt + self.val, self.thr_before,
+                                                              self.labelled)
         else:
-            self.full_res, self.res_measured = self.a.resolution == "full", None
-        if self.full_res:
-            self.calib = TU.calibration_set([TU.doubled(f) for f in self.adapt], self.replay, self.a.seed)
+            self.res, self.res_measured = CNN_RES_NAMES.index(self.a.resolution), None
+        if self.res:
+            self.calib = TU.calibration_set([TU.at_res(f, self.res) for f in self.adapt], self.replay, self.a.seed)
         if self.res_measured:
             r = self.res_measured
-            self.say(f"input resolution: {'full' if self.full_res else 'half'} ({r['measure']} on all "
+            self.say(f"input resolution: {CNN_RES_NAMES[self.res]} ({r['measure']} on all "
                      f"{len(self.frames)} frames: {measured_text(r)})")
 
     def user_train(self, frames):
-        """The user's frames as the networks train on them: doubled at full resolution."""
-        return [TU.doubled(f) for f in frames] if self.full_res else frames
+        """The user's frames as the networks train on them: doubled at full resolution, halved at quarter."""
+        return [TU.at_res(f, self.res) for f in frames]
 
     def time_budget(self):
         """Seconds of training: what --minutes leaves after reading, measuring and calibrating, less what
@@ -244,7 +246,7 @@ class Adaptation:
         path = self.tmp / "ckpt.pt"
         part = path.with_suffix(".part")
         torch.save(dict(tuner=tuner.state(), budget=self.budget, times=self.times, pseudo_log=self.state["log"],
-                        round=self.state["round"], pseudo=self.state["pseudo"], full_res=self.full_res,
+                        round=self.state["round"], pseudo=self.state["pseudo"], cnn_res=self.res,
                         res_measured=self.res_measured, invert=self.invert, pol_measured=self.pol_measured,
                         wall=self.t_prev + time.time() - self.t_start), part)
         os.replace(part, path)
@@ -259,7 +261,7 @@ class Adaptation:
             for net, name, mp in zip(self.nets, self.names, self.peaks):
                 models.append(rdir / f"{name}.vdm")
                 models[-1].write_bytes(TU.export(net, self.calib, BASE_THR, name, mp)[1])
-        res = M.detections(models, self.adapt, self.full_res)
+        res = M.detections(models, self.adapt, self.res)
         pseudo = [([d[0] for d in dets if d[1] >= PSEUDO_HI], [d[0] for d in dets if PSEUDO_LO <= d[1] < PSEUDO_HI])
                   for _, _, dets, _ in res]
         self.state["log"].append(dict(round=r, vehicles=sum(len(p[0]) for p in pseudo),
@@ -310,7 +312,7 @@ class Adaptation:
         for (_, blob, _), name in zip(exported, self.names):
             self.after.append(mdir / f"{name}.vdm")
             self.after[-1].write_bytes(blob)
-        self.res_after = M.detections(self.after, self.val, self.full_res)
+        self.res_after = M.detections(self.after, self.val, self.res)
         self.thr = M.choose_threshold(self.res_after, self.thr_before) if self.labelled else self.thr_before
         (tmp / "float").mkdir(exist_ok=True)
         for (desc, _, meta), net, name, arch in zip(exported, self.nets, self.names, self.archs):
@@ -355,12 +357,12 @@ class Adaptation:
         """vd.json, and its check with vd_fir_demo on a val frame."""
         tmp = self.tmp
         (tmp / "vd.json").write_text(json.dumps(config([self.out / f"{n}.vdm" for n in self.names], self.thr,
-                                                       self.full_res, self.invert), indent=1) + "\n")
+                                                       self.res, self.invert), indent=1) + "\n")
         self.demo_check = None
         demo = find_demo(self.a.demo)
         if demo is not None and demo.is_file():
             cp = tmp / "vd.check.json"
-            cp.write_text(json.dumps(config([tmp / f"{n}.vdm" for n in self.names], self.thr, self.full_res, self.invert)))
+            cp.write_text(json.dumps(config([tmp / f"{n}.vdm" for n in self.names], self.thr, self.res, self.invert)))
             ok, what = check_config(demo, cp, self.val[0].path, tmp)
             cp.unlink()
             if not ok:
@@ -391,7 +393,7 @@ class Adaptation:
             polarity=dict(black_hot=bool(self.invert), asked=self.a.polarity,
                           chosen_on=f"{self.pol_measured['measure']} of the before networks on all frames"
                           if self.pol_measured else "asked", measured=self.pol_measured),
-            resolution=dict(full_res=self.full_res, asked=self.a.resolution,
+            resolution=dict(full_res=self.res == 1, res=CNN_RES_NAMES[self.res], asked=self.a.resolution,
                             chosen_on=f"{self.res_measured['measure']} of the before networks on all frames"
                             if self.res_measured else "asked", measured=self.res_measured),
             outputs=dict(models=[f"{n}.vdm" for n in self.names], config="vd.json", demo_check=self.demo_check),
@@ -405,10 +407,10 @@ class Adaptation:
             rep["val"] = dict(
                 boxes_per_frame=dict(before=M.boxes_per_frame(self.res_before, self.thr_before),
                                      after=M.boxes_per_frame(self.res_after, self.thr)),
-                flip_agreement=dict(before=M.flip_agreement(self.before, self.val, self.thr_before, self.full_res),
-                                    after=M.flip_agreement(self.after, self.val, self.thr, self.full_res)),
+                flip_agreement=dict(before=M.flip_agreement(self.before, self.val, self.thr_before, self.res),
+                                    after=M.flip_agreement(self.after, self.val, self.thr, self.res)),
                 before_after_agreement=M.agreement(self.res_before, self.thr_before, self.res_after, self.thr))
-        rep["rules"] = M.rules(self.before, self.after, f[0].img.shape[1], f[0].img.shape[0], self.full_res)
+        rep["rules"] = M.rules(self.before, self.after, f[0].img.shape[1], f[0].img.shape[0], self.res)
         shutil.rmtree(self.after[0].parent)
         cpu = os.times()
         rep["time"] = dict(wall_s=round(self.t_prev + time.time() - self.t_start, 1),

@@ -36,6 +36,22 @@ def user_frame(uf, boxes=None, ignore=None):
                     CD._hot_flags(uf.img, b))
 
 
+def halved(fr):
+    """fr's 2 x 2 box averages with its boxes scaled by 1/2: the half-resolution plane of it is (up to the
+    rounding of two means in turn) fr's quarter-resolution plane, so training on it teaches the networks fr at
+    quarter resolution (cfg.cnn_res QUARTER)."""
+    import dataclasses
+    return dataclasses.replace(fr, img=CD.box_mean(fr.img, 2), boxes=fr.boxes / 2, ignore=fr.ignore / 2,
+                               others=fr.others * np.array([0.5, 0.5, 0.5, 0.5, 1], np.float32) if len(fr.others)
+                               else fr.others)
+
+
+def at_res(fr, res):
+    """fr as the networks train on it to read it at cfg.cnn_res res: itself (half), doubled (full), halved
+    (quarter)."""
+    return fr if res == 0 else doubled(fr) if res == 1 else halved(fr)
+
+
 def doubled(fr):
     """fr with every pixel repeated 2 x 2 and its boxes scaled by 2: the half-resolution plane of it is fr's
     frame itself, so training on it teaches the networks fr at full resolution (cfg.cnn_res)."""
