@@ -270,6 +270,17 @@ def test_raw_counts_take_the_frame_window_before_the_measurement(demo, shipped, 
     assert (got["res"], got["frames"]) == (c[0], c[3]) == ("half", 38)
     assert got["score"][0] is not None and got["score"][0] > 0.3   # boxes, not the fixed window's black plane
     same_figures(c, got["rating"], got["score"], got["agreement"])
+    # --eval's hot / cold split on such frames: hot is the 8-bit threshold's grey level in each frame's own window
+    # (a temperature means nothing in raw counts), so the split is about the 8-bit clip's (328 hot, 7 cold; the
+    # calibrated threshold before counted all 335 cold)
+    ann = json.loads((CLIP.parent / "annotations.json").read_text())
+    for im in ann["images"]:
+        im["filename"] = im["filename"].rsplit(".", 1)[0] + ".png"
+    (tmp_path / "ann.json").write_text(json.dumps(ann))
+    run(demo, "--input", d, "--quiet", "--eval", tmp_path / "ann.json", "--eval-out", tmp_path / "e.json",
+        "--out", tmp_path / "o")
+    e = json.loads((tmp_path / "e.json").read_text())
+    assert e["vehicles_hot"] + e["vehicles_cold"] == 335 and 320 <= e["vehicles_hot"] <= 335, e
 
 
 def test_sample_spread_over_the_recording(demo, shipped, tmp_path):

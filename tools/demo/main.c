@@ -450,10 +450,17 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
 }
 
 // The hot-spot threshold the detector used on this frame (stats; the resolved
-// setting when the hot-spot source is off; 65536 = nothing can be hot).
+// setting when the hot-spot source is off; 65536 = nothing can be hot). A 16-bit frame mapped to grey by its
+// own window (--grey-window frame or auto on raw counts) is not radiometric, so a temperature threshold means
+// nothing there: its raw value at the 8-bit threshold's grey level in that window, as for an 8-bit frame
+// (lo + ceil(hot_thr_u8 x (hi - lo) / 255)).
 static uint32_t hot_threshold(const run_t *r, const vd_frame_t *f)
 {
     const vd_detector_stats_t *s = vd_detector_last_stats(&r->det);
+    if (f->format == VD_PIX_U16 && r->det.cfg.grey_mode == VD_DETECTOR_GREY_PERCENTILE && s->grey_hi_raw > s->grey_lo_raw) {
+        const uint64_t span = (uint64_t)(s->grey_hi_raw - s->grey_lo_raw);
+        return s->grey_lo_raw + (uint32_t)((span * r->det.cfg.hot_thr_u8 + 254u) / 255u);
+    }
     if (f->format == VD_PIX_U16) {
         if (r->det.raw_never_hot) {
             return 65536u;
