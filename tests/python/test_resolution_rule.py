@@ -191,3 +191,16 @@ def test_polarity_evidence_margin_hand_worked():
     m, c = PE.margins(dict(as_is=r(0.5, 0.6, 0.0), inverted=r(0.6, 0.2, 0.65)))
     assert m == pytest.approx(-0.05) and c == ("quarter", "inverted")
     assert PE.margins(dict(as_is=r(0.6, 0.6, 0.6), inverted=r(0.6, 0.6, 0.6)))[1] == ("half", "as is")
+
+
+def test_polarity_figure_and_table(tmp_path):
+    """polarity_evidence --render: the table per camera change (recordings rated higher inverted, the smallest
+    margin) and the figure, on hand-made rows."""
+    from vdtools.adapt import polarity_evidence as PE
+    rows = {"val hit a none": dict(margin=0.05, vehicles=3, choice=["half", "as is"]),
+            "val hit b none": dict(margin=-0.01, vehicles=2, choice=["full", "inverted"]),
+            "train msrs c down33": dict(margin=0.2, vehicles=0, choice=["full", "as is"])}
+    table = PE.render_recordings(rows)
+    assert "| none | 2 | 1 | -0.010 | full 1, half 1 |" in table and "| down33 | 1 | 0 | +0.200 | full 1 |" in table
+    PE.figure(rows, tmp_path / "p.png", 0.025)
+    assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

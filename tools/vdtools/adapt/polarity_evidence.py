@@ -116,6 +116,32 @@ def render_recordings(rows):
     return "\n".join(lines)
 
 
+def figure(rows, path, margin):
+    """Each recording x camera change's margin (best rating as it is - best inverted), by split and whether it
+    has vehicles, against the rule's margin: a point left of -margin is a white-hot recording the rule turns, one
+    left of +margin a black-hot recording (the same frames inverted) it leaves as it is."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    splits = sorted({k.split(" ")[0] for k in rows}, key=lambda x: ("train", "val", "test").index(x))
+    fig, ax = plt.subplots(figsize=(9, 2.6))
+    rng = np.random.default_rng(0)
+    for i, sp in enumerate(splits):
+        for veh, mk in ((True, "o"), (False, "x")):
+            m = [v["margin"] for k, v in rows.items() if k.startswith(sp + " ") and (v["vehicles"] > 0) == veh]
+            if m:
+                ax.scatter(m, i + rng.uniform(-0.25, 0.25, len(m)), s=10, marker=mk, alpha=0.6,
+                           label=f"{sp}{'' if veh else ', no vehicle'} ({len(m)})")
+    for x, ls in ((margin, "--"), (-margin, ":")):
+        ax.axvline(x, color="k", lw=0.8, ls=ls)
+    ax.set_yticks(range(len(splits)))
+    ax.set_yticklabels(splits)
+    ax.set_xlabel("best rating as they are - best rating inverted (over half, full, quarter)")
+    ax.legend(fontsize=7, loc="upper right", ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--split", choices=("train", "val", "test"))
@@ -125,12 +151,15 @@ def main(argv=None):
     ap.add_argument("--recordings", action="store_true", help="the rule over the resolutions, per recording")
     ap.add_argument("--resolutions", default="half,full,quarter", help="with --recordings: of half,full,quarter")
     ap.add_argument("--render", nargs="+", metavar="JSON", help="print the table of --recordings --out files")
+    ap.add_argument("--figure", metavar="PNG", help="with --render: the margins against the rule's")
     a = ap.parse_args(argv)
     if a.render:
         rows = {}
         for p in a.render:
             rows.update(json.loads(Path(p).read_text()))
         print(render_recordings(rows))
+        if a.figure:
+            figure(rows, a.figure, fleet.AUTO_INVERT_MARGIN)
         return 0
     if not a.split:
         ap.error("--split train|val|test (or --render)")
