@@ -394,8 +394,13 @@ def small_clip_paths(folder):
 def black_clip(tmp_path_factory):
     """The clip's first 32 frames as a black-hot camera shows them: every pixel 255 - v (PNG). (Over all 38 the
     inverted frames rate higher by 0.021 only, under DEMO_AUTORES_INVERT_MARGIN: see the test below.)"""
-    out = tmp_path_factory.mktemp("black")
-    for p in clip_paths()[:32]:
+    return write_inverted(clip_paths()[:32], tmp_path_factory.mktemp("black"))
+
+
+def write_inverted(paths, out):
+    """The frames at paths as 255 - v PNGs in out (a black-hot camera's view of them)."""
+    out.mkdir(exist_ok=True)
+    for p in paths:
         cv2.imwrite(str(out / (p.stem + ".png")), 255 - cv2.imread(str(p), cv2.IMREAD_GRAYSCALE))
     return out
 
@@ -434,10 +439,7 @@ def test_polarity_auto_finds_a_black_hot_camera(demo, shipped, black_clip, tmp_p
         assert abs(got["black"][(r, "black-hot")][0] - got["white"][(r, "white-hot")][0]) < 0.02
     # all 38 frames of the clip black-hot: the inverted frames rate higher, but by less than the margin (a near tie
     # that train and val could not tell from a white-hot recording's: docs/demo.md): left as it is
-    d = tmp_path / "black38"
-    d.mkdir()
-    for p in clip_paths():
-        cv2.imwrite(str(d / (p.stem + ".png")), 255 - cv2.imread(str(p), cv2.IMREAD_GRAYSCALE))
+    d = write_inverted(clip_paths(), tmp_path / "black38")
     f = figures(run(demo, "--input", d, "--quiet", "--out", tmp_path / "o38").stdout)
     best = lambda pol: max(f[(r, pol)][0] for r in ("half", "full", "quarter"))
     assert f["polarity"] == "white-hot" and 0 < best("black-hot") - best("white-hot") <= fleet.AUTO_INVERT_MARGIN

@@ -23,7 +23,6 @@ rounding of the 2x2 mean, which the detector's cfg.cnn_invert applies after, the
     python3 -m vdtools.adapt.polarity_evidence --recordings --split val --out ../docs/results/polarity_res_val.json
 """
 import argparse
-import copy
 import json
 from pathlib import Path
 
@@ -40,15 +39,6 @@ from vdtools.evaluation import fleet
 from vdtools.metrics.evaluate import first_highest
 
 SHIFTS = ("none", "down50", "down33", "equalize")
-
-
-def inverted(frames):
-    out = []
-    for f in frames:
-        g = copy.copy(f)
-        g.img = (255 - f.img).astype(np.uint8)
-        out.append(g)
-    return out
 
 
 def rating(models, frames, thr, res):
@@ -87,7 +77,7 @@ def recordings(a, thr):
             part = shifted(fs[:R.WINDOW], shift)
             row = dict(frames=len(part), vehicles=int(sum(len(f.boxes) for f in part)),
                        as_is={r: rating(MODELS, part, thr, CNN_RES_NAMES.index(r)) for r in res},
-                       inverted={r: rating(MODELS, inverted(part), thr, CNN_RES_NAMES.index(r)) for r in res})
+                       inverted={r: rating(MODELS, M.inverted(part), thr, CNN_RES_NAMES.index(r)) for r in res})
             row["margin"], row["choice"] = margins(row)
             key = f"{a.split} {fam} {group} {shift}"
             rows[key] = row
@@ -180,7 +170,7 @@ def main(argv=None):
                 continue
             part = shifted(fs, shift)
             white = W.flip_counts(*M.flip_runs(MODELS, part, False), thr)
-            black = W.flip_counts(*M.flip_runs(MODELS, inverted(part), False), thr)
+            black = W.flip_counts(*M.flip_runs(MODELS, M.inverted(part), False), thr)
             groups = {}
             for i, f in enumerate(fs):
                 groups.setdefault(str(f.group), []).append(i)
