@@ -144,9 +144,7 @@ def main(argv=None):
     ap.add_argument("--figure", metavar="PNG", help="with --render: the margins against the rule's")
     a = ap.parse_args(argv)
     if a.render:
-        rows = {}
-        for p in a.render:
-            rows.update(json.loads(Path(p).read_text()))
+        rows = R.load_rows(a.render)
         print(render_recordings(rows))
         if a.figure:
             figure(rows, a.figure, fleet.AUTO_INVERT_MARGIN)

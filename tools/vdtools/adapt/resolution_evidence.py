@@ -28,6 +28,14 @@ WINDOW, MIN_FRAMES = 32, 16   # tools/demo/common/flipagree.h DEMO_AUTORES_MAX_F
 MODELS = [str(clib.REPO / "models" / "vd_cnn.vdm"), str(clib.REPO / "models" / "vd_cnn2.vdm")]
 
 
+def load_rows(paths):
+    """The rows of one or more --out files, merged (their keys name split, family, group and change)."""
+    rows = {}
+    for p in paths:
+        rows.update(json.loads(Path(p).read_text()))
+    return rows
+
+
 def shifted(frames, shift):
     for name in ([] if shift == "none" else shift.split("+")):
         frames = CE.perturb(frames, name)
@@ -155,9 +163,7 @@ def main(argv=None):
     ap.add_argument("--figure", metavar="PNG", help="with --render: the scatter of the agreement and the rating")
     a = ap.parse_args(argv)
     if a.render:
-        rows = {}
-        for p in a.render:
-            rows.update(json.loads(Path(p).read_text()))
+        rows = load_rows(a.render)
         print(render(rows))
         if a.figure:
             figure(rows, a.figure)
