@@ -458,3 +458,18 @@ def test_end_to_end_black_hot_camera(tmp_path, vdlib, demo):
     assert json.loads((out / "vd.json").read_text())["cnn-polarity"] == "black-hot" and "**black-hot**" in md
     # the val figures are those of the frames inverted: the shipped networks' AP there, not the black-hot one's
     assert rep["val"]["before"]["ap"] > 0.3
+
+
+def test_base_quantised_here_follows_the_polarity(tmp_path, vdlib, demo):
+    """A --base without its int8 files is quantised here; without replayed frames it calibrates on the user's
+    frames, so for a black-hot camera it is quantised again on them inverted (as the networks will read them)."""
+    pytest.importorskip("torch", reason="PyTorch is not installed (tools/setup.sh installs it)")
+    imgs = _frames(tmp_path / "images")
+    out = tmp_path / "out"
+    p = _run(["--images", imgs, "--out", out, "--replay", "none", "--demo", demo, "--resolution", "half",
+              "--polarity", "black-hot", "--base", REPO / "models" / "float" / "vd_cnn.npz"])
+    assert p.returncode == 0, p.stderr
+    rep, _md = _check_outputs(out, demo, imgs, n_nets=1)
+    assert rep["before_quantised_here"] and rep["before_models"] == ["before-inverted/vd_cnn.vdm"]
+    assert rep["polarity"] == dict(black_hot=True, asked="black-hot", chosen_on="asked", measured=None)
+    assert json.loads((out / "vd.json").read_text())["cnn-polarity"] == "black-hot"

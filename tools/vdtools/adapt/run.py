@@ -158,18 +158,14 @@ class Adaptation:
         t0 = time.time()
         before = self.plan["before"]
         if before is None:
-            bdir = self.tmp / "before"
-            bdir.mkdir(exist_ok=True)
-            calib = E.calibration_frames(self.replay) if self.replay else self.calib
-            before = []
-            for net, name, mp in zip(self.nets, self.names, self.peaks):
-                before.append(bdir / f"{name}.vdm")
-                if not before[-1].is_file():
-                    before[-1].write_bytes(TU.export(net, calib, BASE_THR, name, mp)[1])
+            before = self.export_before("before")
             self.times["before_export"] = time.time() - t0
             t0 = time.time()
         self.before, self.thr_before = before, M.header_threshold(before)
         self.choose_polarity()
+        if self.invert and self.plan["before"] is None and not self.replay:
+            # quantised on the user's frames as they were: again on them inverted, as the networks will read them
+            self.before = before = self.export_before("before-inverted")
         self.choose_resolution()
         self.res_before = M.detections(before, self.val, self.res)
         if self.labelled:
@@ -179,6 +175,19 @@ class Adaptation:
         self.say(f"{len(self.frames)} frames: {len(self.adapt)} adapt, {len(self.val)} val; before: "
                  + (f"val AP@0.5 {100 * self.fig_before['ap']:.1f}" if self.labelled
                     else f"{M.boxes_per_frame(self.res_before, self.thr_before):.2f} boxes per val frame"))
+
+    def export_before(self, folder):
+        """The base networks quantised here (no int8 files given): calibrated on the replayed training frames, or
+        without them on the user's frames (as self.calib holds them); files under tmp/folder, kept on a resume."""
+        bdir = self.tmp / folder
+        bdir.mkdir(exist_ok=True)
+        calib = E.calibration_frames(self.replay) if self.replay else self.calib
+        before = []
+        for net, name, mp in zip(self.nets, self.names, self.peaks):
+            before.append(bdir / f"{name}.vdm")
+            if not before[-1].is_file():
+                before[-1].write_bytes(TU.export(net, calib, BASE_THR, name, mp)[1])
+        return before
 
     def choose_polarity(self):
         """--polarity: white-hot, black-hot, or (auto) what the before files do better on all the user's frames
@@ -379,7 +388,7 @@ class Adaptation:
                         val_vehicles=int(sum(len(x.boxes) for x in self.val)),
                         val_blocks=sorted({x.block for x in f if x.part == "val"})),
             labels=plan["labels"], base=[str(p) for p in plan["bases"]], archs=list(self.archs),
-            before_models=[str(p) for p in self.before] if plan["before"] else [f"before/{p.name}" for p in self.before],
+            before_models=[str(p) for p in self.before] if plan["before"] else [f"{p.parent.name}/{p.name}" for p in self.before],
             before_quantised_here=plan["before"] is None,
             replay=dict(families={k: len(v) for k, v in self.by_fam.items()}, shares=self.shares, data=str(plan["data"])),
             training=dict(trained=self.trains, self_train=self.a.self_train, steps=tuner.step if tuner else 0,
