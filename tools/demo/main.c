@@ -449,11 +449,12 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
     return init_detector(r, f);
 }
 
-// The hot-spot threshold the detector used on this frame (stats; the resolved
-// setting when the hot-spot source is off; 65536 = nothing can be hot). A 16-bit frame mapped to grey by its
-// own window (--grey-window frame or auto on raw counts) is not radiometric, so a temperature threshold means
-// nothing there: its raw value at the 8-bit threshold's grey level in that window, as for an 8-bit frame
-// (lo + ceil(hot_thr_u8 x (hi - lo) / 255)).
+// The threshold --eval's hot / cold split counts by: the hot-spot threshold the detector used on this frame
+// (stats; the resolved setting when the hot-spot source is off; 65536 = nothing can be hot), except on a 16-bit
+// frame mapped to grey by its own window (--grey-window frame or auto on raw counts): not radiometric, so a
+// temperature means nothing there, and the split takes the raw value at the 8-bit threshold's grey level in that
+// window, as for an 8-bit frame (lo + ceil(hot_thr_u8 x (hi - lo) / 255)). The library's hot-spot source itself
+// still thresholds such frames in degrees (docs/demo.md "16-bit frames").
 static uint32_t hot_threshold(const run_t *r, const vd_frame_t *f)
 {
     const vd_detector_stats_t *s = vd_detector_last_stats(&r->det);

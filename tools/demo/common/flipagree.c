@@ -44,17 +44,13 @@ struct demo_flipagree {
 
 uint8_t demo_autores_configs(const demo_opts_t *o)
 {
-    uint8_t m = 0u;
-    for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
-        // the polarity is chosen over every resolution, whichever the run takes: at one resolution, that of
-        // small vehicles, white-hot frames can rate higher inverted (docs/demo.md "Black-hot cameras")
-        const bool res_ok = o->cnn_res_auto || o->cnn_polarity_auto || k % DEMO_AUTORES_RES == o->cfg.cnn_res;
-        const bool pol_ok = o->cnn_polarity_auto || k < DEMO_AUTORES_RES;
-        if (res_ok && pol_ok && (o->cnn_res_auto || o->cnn_polarity_auto)) {
-            m = (uint8_t)(m | (1u << k));
-        }
+    // the polarity is chosen over every resolution, whichever the run takes: at one resolution, that of small
+    // vehicles, white-hot frames can rate higher inverted (docs/demo.md "Black-hot cameras")
+    const uint8_t as_is = (uint8_t)((1u << DEMO_AUTORES_RES) - 1u);
+    if (o->cnn_polarity_auto) {
+        return (uint8_t)((1u << DEMO_AUTORES_CONFIGS) - 1u);
     }
-    return m;
+    return o->cnn_res_auto ? as_is : 0u;
 }
 
 uint64_t demo_autores_sample(uint64_t total, uint32_t k)
@@ -85,15 +81,15 @@ double demo_autores_rating(const demo_autores_t *a, unsigned k)
 }
 
 // The measured configuration of one polarity with the highest rating (ties to the lower cfg.cnn_res; no box
-// rates 0), *best its rating; only the first measured one of all (`first`) with too few frames. DEMO_AUTORES_CONFIGS
-// when none of that polarity was measured.
-static unsigned best_of(const demo_autores_t *a, unsigned inverted, unsigned first, double *best)
+// rates 0), *best its rating; with too few frames only configuration 0 (half resolution as the options set the
+// polarity, measured whenever anything is). DEMO_AUTORES_CONFIGS when none of that polarity counts.
+static unsigned best_of(const demo_autores_t *a, unsigned inverted, double *best)
 {
     unsigned pick = DEMO_AUTORES_CONFIGS;
     *best = 0.0;
     for (unsigned r = 0u; r < DEMO_AUTORES_RES; r++) {
         const unsigned k = r + DEMO_AUTORES_RES * inverted;
-        if ((a->measured & (1u << k)) == 0u || (k != first && a->frames < DEMO_AUTORES_MIN_FRAMES)) {
+        if ((a->measured & (1u << k)) == 0u || (k != 0u && a->frames < DEMO_AUTORES_MIN_FRAMES)) {
             continue;
         }
         const double v = demo_autores_rating(a, k) > 0.0 ? demo_autores_rating(a, k) : 0.0;
@@ -107,13 +103,9 @@ static unsigned best_of(const demo_autores_t *a, unsigned inverted, unsigned fir
 
 uint8_t demo_autores_decide(demo_autores_t *a)
 {
-    unsigned first = 0u;
-    while (first < DEMO_AUTORES_CONFIGS && (a->measured & (1u << first)) == 0u) {
-        first++;
-    }
     double as_is = 0.0, other = 0.0;
-    unsigned k = best_of(a, 0u, first, &as_is);
-    const unsigned inv = best_of(a, 1u, first, &other);
+    unsigned k = best_of(a, 0u, &as_is);
+    const unsigned inv = best_of(a, 1u, &other);
     if (k == DEMO_AUTORES_CONFIGS || (inv != DEMO_AUTORES_CONFIGS && other > as_is + DEMO_AUTORES_INVERT_MARGIN)) {
         k = inv;
     }
@@ -231,17 +223,15 @@ vd_status_t demo_flipagree_new(demo_flipagree_t **out, const demo_opts_t *o, con
         fa->height = first->height;
         fa->format = first->format;
         fa->mirror = malloc((size_t)first->width * first->height * (first->format == VD_PIX_U16 ? 2u : 1u) + 1u);
-        fa->measured = demo_autores_configs(o);
+        fa->measured = demo_autores_configs(o);   // configuration 0 among them whenever any
         fa->fixed_res = o->cnn_res_auto ? (uint8_t)DEMO_AUTORES_RES : o->cfg.cnn_res;
-        unsigned first_k = DEMO_AUTORES_CONFIGS;
         for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS && fa->mirror != NULL && st == VD_OK; k++) {
             if ((fa->measured & (1u << k)) != 0u) {
                 st = run_init(&fa->runs[k], o, first, k, err, err_len);
-                first_k = first_k < k ? first_k : k;
             }
         }
-        if (st == VD_OK && fa->mirror != NULL && first_k < DEMO_AUTORES_CONFIGS) {
-            fa->cap = (size_t)fa->runs[first_k].det.cfg.max_detections + 1u;
+        if (st == VD_OK && fa->mirror != NULL && fa->measured != 0u) {
+            fa->cap = (size_t)fa->runs[0].det.cfg.max_detections + 1u;
             fa->da = calloc(fa->cap, sizeof *fa->da);
             fa->db = calloc(fa->cap, sizeof *fa->db);
             fa->used = calloc(fa->cap, sizeof *fa->used);

@@ -55,9 +55,9 @@ typedef struct demo_autores {
 // vdtools.evaluation.fleet.auto_sample is the same.
 uint64_t demo_autores_sample(uint64_t total, uint32_t k);
 
-// The configurations (bit k) a measurement rates: every resolution with --cnn-full-res auto or --cnn-polarity auto
-// (the polarity is chosen over all three; else the options' cfg.cnn_res), both polarities with --cnn-polarity
-// auto (else the options'); 0 when neither is auto.
+// The configurations (bit k) a measurement rates: the three resolutions in the options' polarity with
+// --cnn-full-res auto, all six with --cnn-polarity auto (the polarity is chosen over every resolution, even one
+// the options fix), none when neither is auto.
 uint8_t demo_autores_configs(const demo_opts_t *o);
 
 // Flip agreement of a measurement in configuration k (cfg.cnn_res + DEMO_AUTORES_RES x inverted): 2 matched /
@@ -75,8 +75,8 @@ double demo_autores_rating(const demo_autores_t *a, unsigned k);
 
 // Sets a->res and a->inverted from the counts and returns a->res: among the configurations measured in the
 // options' polarity, the highest rating (ties to the lower cfg.cnn_res); the other polarity's highest rating
-// instead when it is above that by more than DEMO_AUTORES_INVERT_MARGIN. Anything but the first configuration
-// measured only with at least DEMO_AUTORES_MIN_FRAMES frames; no box is no evidence (rating 0). A resolution
+// instead when it is above that by more than DEMO_AUTORES_INVERT_MARGIN. Anything but configuration 0 (half
+// resolution as the options set the polarity) only with at least DEMO_AUTORES_MIN_FRAMES frames; no box is no evidence (rating 0). A resolution
 // the options fix (a->fixed_res) stays.
 uint8_t demo_autores_decide(demo_autores_t *a);
 

@@ -366,8 +366,8 @@ def auto_resolution(rec, fields, cnn, res_auto=True, polarity_auto=False):
     """vd_fir_demo's --cnn-full-res / --cnn-polarity auto (tools/demo/common/flipagree.c) on a recording:
     AUTO_SPREAD_FRAMES frames spread over it (auto_sample; as the port reads them) and their mirror images through
     the CNN source alone (the resolved networks and threshold, one pass each, no tracking) at half, full and quarter
-    resolution (res_auto or polarity_auto; else fields' cnn_res alone) and, with polarity_auto, inverted too
-    (cfg.cnn_invert flipped; a resolution fields fix stays the run's): the
+    resolution and, with polarity_auto, inverted too (cfg.cnn_invert flipped; without res_auto the resolution
+    fields fix stays the run's): the
     mean score of those boxes (score_q8 / 255) and their agreement (boxes of the mirror image, mirrored back,
     matched one to one at IoU >= 0.5: metrics.evaluate.one_to_one; pooled 2 x matched / boxes). The resolution of
     the highest rating, mean score + 1/4 agreement (ties to the lower cfg.cnn_res; full or quarter only when at
@@ -380,9 +380,9 @@ def auto_resolution(rec, fields, cnn, res_auto=True, polarity_auto=False):
     from vdtools.bindings import port
     sub = dict(fields, sources=SRC_CNN, cnn_flip=0, cnn_rescore=0, temporal=False)
     nres = len(CNN_RES_NAMES)
-    # the polarity is chosen over every resolution, whichever the run takes (flipagree.c demo_autores_configs)
-    ks = [k for k in range(2 * nres) if (res_auto or polarity_auto or k % nres == fields.get("cnn_res", 0))
-          and (polarity_auto or k < nres)]
+    # the three resolutions, inverted too with polarity_auto: the polarity is chosen over every resolution,
+    # whichever the run takes (flipagree.c demo_autores_configs; res_auto or polarity_auto is set)
+    ks = list(range(2 * nres if polarity_auto else nres))
     runners, counts, n = {}, {k: [0, 0, 0] for k in ks}, 0   # matched, boxes, qsum
     with port.Capture(rec["input"], rec.get("raw_size"), rec.get("raw_format") or "u16") as cap:
         total = cap.total()
