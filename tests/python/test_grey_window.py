@@ -94,6 +94,37 @@ def test_detector_window_equals_numpy(vdlib, data_dir, tail):
     assert (st["grey_lo_raw"], st["grey_hi_raw"]) == (0, 0)   # fixed window: none reported
 
 
+@pytest.mark.parametrize("thr_mode", ["constant", "adaptive"])
+def test_hot_spots_of_raw_counts_are_those_of_the_grey_view(vdlib, data_dir, thr_mode):
+    """A 16-bit frame in its own window (raw counts: no temperature) is thresholded as its 8-bit view: the hot
+    pixels are those whose grey level (numpy's map of the window) is at or above the 8-bit threshold (150, or
+    max(96, the p99 grey level) in adaptive mode), the raw threshold is the first raw value at that level, and
+    the detector run on the 8-bit view itself labels as many pixels in constant mode."""
+    rng = np.random.default_rng(17)
+    det = vdet.Detector(max_width=640, max_height=512, grey_mode=1, thr_mode=thr_mode)
+    det8 = vdet.Detector(max_width=640, max_height=512, thr_mode=thr_mode)
+    levels = np.arange(65536, dtype=np.uint16)
+    n = 0
+    for p in _frames(data_dir, 6):
+        grey = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        for kind in ("linear", "x257", "curve"):
+            a = raw_counts(grey, rng, kind)
+            _, st = det.run(a)
+            lo, hi = window_ck(a, 1)
+            view = grey_map(a, lo, hi)
+            t = 150 if thr_mode == "constant" else max(96, int(np.sort(view, axis=None)[a.size * 990 // 1000]))
+            assert st["hot_thr_u8"] == t, (p.name, kind)
+            reach = np.flatnonzero(grey_map(levels, lo, hi) >= t)
+            assert st["hot_thr_raw"] == (int(reach[0]) if reach.size else 65536), (p.name, kind)
+            hot = int(np.count_nonzero(view >= t))
+            if st["overflow_runs"] == 0:
+                assert st["hot_pixels"] == hot, (p.name, kind)
+            if thr_mode == "constant":
+                assert det8.run(view)[1]["hot_pixels"] == st["hot_pixels"], (p.name, kind)
+            n += 1
+    assert n >= 30
+
+
 def half_plane_as_frame(a, lo, hi):
     """The detector's half-resolution input of a 16-bit frame (2 x 2 raw means rounded half up, then the grey map)
     as an 8-bit frame of 2 x 2 equal blocks, whose own half-resolution plane (8-bit: (sum + 2) >> 2) is that

@@ -232,6 +232,83 @@ static void test_grey_map_random_vs_naive(void)
     }
 }
 
+// vd_calib_grey_raw_at, hand-worked: the window 1000..4000 ck of TLinear (the detector's per-frame window of its
+// test frame): mul = round(255 * 65536 / 3000) = 5571. Grey 150: (150 * 65536 - 32768) / 5571 = 1758.7 -> 1759,
+// so 1000 + 1759 = 2759 ck = raw 2759; grey(2759) = (1759 * 5571 + 32768) >> 16 = 150, grey(2758) = 149.
+// Grey 128: 1499.9 -> 1500 -> raw 2500. Grey 255: 2993.9 -> 2994 -> raw 3994.
+static void test_grey_raw_at_hand_worked(void)
+{
+    vd_calib_t cal = {65536, 0};
+    vd_calib_grey_t g;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &cal, 1000, 4000));
+    TEST_ASSERT_TRUE(g.mul_q16 == 5571);
+    uint16_t raw = 7u;
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_raw_at(&g, 150u, &raw));
+    TEST_ASSERT_EQUAL_UINT16(2759u, raw);
+    TEST_ASSERT_EQUAL_UINT8(150u, vd_calib_grey_u8(&g, 2759u));
+    TEST_ASSERT_EQUAL_UINT8(149u, vd_calib_grey_u8(&g, 2758u));
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_raw_at(&g, 128u, &raw));
+    TEST_ASSERT_EQUAL_UINT16(2500u, raw);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_raw_at(&g, 255u, &raw));
+    TEST_ASSERT_EQUAL_UINT16(3994u, raw);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_raw_at(&g, 0u, &raw));
+    TEST_ASSERT_EQUAL_UINT16(0u, raw);
+    // A window above every raw value's temperature: 65407..65662 ck (a flat frame of 65535 widened about its
+    // middle) puts raw 65535 at grey 128, so grey 150 is never reached and *raw stays as it was.
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &cal, 65407, 65662));
+    TEST_ASSERT_EQUAL_UINT8(128u, vd_calib_grey_u8(&g, 65535u));
+    raw = 7u;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, vd_calib_grey_raw_at(&g, 150u, &raw));
+    TEST_ASSERT_EQUAL_UINT16(7u, raw);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_raw_at(&g, 128u, &raw));
+    TEST_ASSERT_EQUAL_UINT16(65535u, raw);
+    // Arguments: NULLs, a map not from vd_calib_grey_init, a negative gain.
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_raw_at(NULL, 1u, &raw));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_raw_at(&g, 1u, NULL));
+    vd_calib_grey_t zero;
+    memset(&zero, 0, sizeof(zero));
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_raw_at(&zero, 1u, &raw));
+    g.calib.gain_q16 = -1;
+    TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_raw_at(&g, 1u, &raw));
+}
+
+// Every grey level of random maps (calibrations whose temperatures fit int32) against an exhaustive walk of the
+// 65 536 raw values: raw_at is the first raw at or above the level, RANGE exactly when none is.
+static void test_grey_raw_at_exhaustive(void)
+{
+    uint32_t seed = 23u;
+    for (int trial = 0; trial < 40; trial++) {
+        vd_calib_t c;
+        c.gain_q16 = (int32_t)(tu_rand(&seed) % 400000u);
+        c.offset_ck = (int32_t)(tu_rand(&seed) % 40000u) - 5000;
+        const int32_t lo = (int32_t)(tu_rand(&seed) % 60000u) - 5000;
+        const int32_t span = 1 + (int32_t)(tu_rand(&seed) % 65536u);
+        vd_calib_grey_t g;
+        TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &c, lo, lo + span));
+        uint32_t first[257];
+        for (uint32_t k = 0; k < 257u; k++) {
+            first[k] = 65536u;
+        }
+        uint32_t level = 0u;   // the levels below it have their first raw
+        for (uint32_t r = 0u; r < 65536u; r++) {
+            const uint8_t v = vd_calib_grey_u8(&g, (uint16_t)r);
+            while (level <= v) {
+                first[level++] = r;
+            }
+        }
+        for (uint32_t k = 0; k < 256u; k++) {
+            uint16_t raw = 0u;
+            const vd_status_t st = vd_calib_grey_raw_at(&g, (uint8_t)k, &raw);
+            if (first[k] == 65536u) {
+                TEST_ASSERT_EQUAL_INT(VD_ERR_RANGE, st);
+            } else {
+                TEST_ASSERT_EQUAL_INT(VD_OK, st);
+                TEST_ASSERT_EQUAL_UINT32(first[k], raw);
+            }
+        }
+    }
+}
+
 int main(void)
 {
     UNITY_BEGIN();
@@ -242,5 +319,7 @@ int main(void)
     RUN_TEST(test_shift_helpers);
     RUN_TEST(test_grey_map_hand_worked);
     RUN_TEST(test_grey_map_random_vs_naive);
+    RUN_TEST(test_grey_raw_at_hand_worked);
+    RUN_TEST(test_grey_raw_at_exhaustive);
     return UNITY_END();
 }

@@ -264,6 +264,27 @@ static void test_u16_percentile_grey_window(void)
     TEST_ASSERT_EQUAL_UINT8(255u, vd_calib_grey_u8(&g_det.grey, 4000u));
     TEST_ASSERT_EQUAL_UINT8(0u, vd_calib_grey_u8(&g_det.grey, 1000u));
     TEST_ASSERT_EQUAL_UINT8(128u, vd_calib_grey_u8(&g_det.grey, 2506u));   // 1506 * 255 / 3000 = 128.0
+    // Raw counts mean no temperature: the hot-spot threshold is grey 150 in this frame's window, raw 2759
+    // (test_calib's hand-worked map), so the car (600) and the lamp (10) are hot, as in the frame's 8-bit view;
+    // 30.00 C's raw 30315 would have left only the lamp.
+    TEST_ASSERT_EQUAL_UINT32(150u, g_det.stats.hot_thr_u8);
+    TEST_ASSERT_EQUAL_UINT32(2759u, g_det.stats.hot_thr_raw);
+    TEST_ASSERT_EQUAL_UINT32(610u, g_det.stats.hot_pixels);
+    TEST_ASSERT_EQUAL_size_t(1u, n);
+    TEST_ASSERT_EQUAL_INT32(60, out[0].box.x);
+    TEST_ASSERT_EQUAL_INT32(50, out[0].box.y);
+    TEST_ASSERT_EQUAL_INT32(30, out[0].box.w);
+    TEST_ASSERT_EQUAL_INT32(20, out[0].box.h);
+    TEST_ASSERT_EQUAL_UINT8(150u, out[0].hot_thr);
+    // Adaptive: p99 of 19 200 samples is rank 19008, a car sample (18 590 background ones below it): 4000 is
+    // grey 255 = max(255, floor 96), whose first raw is 3994; the same 610 pixels.
+    c.thr_mode = VD_DETECTOR_THR_ADAPTIVE;
+    init_or_fail(&c);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, out, 4, &n));
+    TEST_ASSERT_EQUAL_UINT32(255u, g_det.stats.hot_thr_u8);
+    TEST_ASSERT_EQUAL_UINT32(3994u, g_det.stats.hot_thr_raw);
+    TEST_ASSERT_EQUAL_UINT32(610u, g_det.stats.hot_pixels);
+    c.thr_mode = VD_DETECTOR_THR_CONSTANT;
     // Tail 499: both ranks (9580, 9619) are background, a flat window of 1000..1000 widened to the least
     // span about its middle: lo = (1000 + 1000 - 255) / 2 = 872 (rounded toward zero), hi = 872 + 255.
     c.grey_tail_permille = 499u;
@@ -274,6 +295,21 @@ static void test_u16_percentile_grey_window(void)
     TEST_ASSERT_EQUAL_INT32(872, g_det.grey.lo_ck);
     TEST_ASSERT_EQUAL_INT32(872 + VD_DETECTOR_GREY_MIN_SPAN_CK, g_det.grey.hi_ck);
     TEST_ASSERT_EQUAL_UINT8(128u, vd_calib_grey_u8(&g_det.grey, 1000u));   // 128 * 255 / 255: mid-grey
+    // Grey 150 in this window: mul 65536, ceil((150 * 65536 - 32768) / 65536) = 150, 872 + 150 = raw 1022.
+    TEST_ASSERT_EQUAL_UINT32(1022u, g_det.stats.hot_thr_raw);
+    TEST_ASSERT_EQUAL_UINT32(610u, g_det.stats.hot_pixels);
+    // A flat frame at the top of the range: the window 65407..65662 puts every sample at grey 128, below 150, so
+    // nothing is hot (65536); 30.00 C's raw would have made the whole frame one hot spot.
+    for (uint32_t y = 0; y < FH; y++) {
+        for (uint32_t x = 0; x < FW; x++) {
+            g_px16[y][x] = 65535u;
+        }
+    }
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_detector_run(&g_det, &f, out, 4, &n));
+    TEST_ASSERT_EQUAL_INT32(65407, g_det.grey.lo_ck);
+    TEST_ASSERT_EQUAL_UINT32(65536u, g_det.stats.hot_thr_raw);
+    TEST_ASSERT_EQUAL_UINT32(0u, g_det.stats.hot_pixels);
+    TEST_ASSERT_EQUAL_size_t(0u, n);
     // An 8-bit frame in percentile mode: no window, the run as in fixed mode.
     fill(20);
     vd_frame_t f8 = frame8();

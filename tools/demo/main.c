@@ -450,17 +450,18 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
 }
 
 // The threshold --eval's hot / cold split counts by: the hot-spot threshold the detector used on this frame
-// (stats; the resolved setting when the hot-spot source is off; 65536 = nothing can be hot), except on a 16-bit
-// frame mapped to grey by its own window (--grey-window frame or auto on raw counts): not radiometric, so a
-// temperature means nothing there, and the split takes the raw value at the 8-bit threshold's grey level in that
-// window, as for an 8-bit frame (lo + ceil(hot_thr_u8 x (hi - lo) / 255)). The library's hot-spot source itself
-// still thresholds such frames in degrees (docs/demo.md "16-bit frames").
+// (stats; the resolved setting when the hot-spot source is off; 65536 = nothing can be hot). A 16-bit frame mapped
+// to grey by its own window (--grey-window frame or auto on raw counts) is not radiometric, so there the threshold
+// is the raw value at the 8-bit threshold's grey level in that window, as the library's hot-spot source takes it.
 static uint32_t hot_threshold(const run_t *r, const vd_frame_t *f)
 {
     const vd_detector_stats_t *s = vd_detector_last_stats(&r->det);
-    if (f->format == VD_PIX_U16 && r->det.cfg.grey_mode == VD_DETECTOR_GREY_PERCENTILE && s->grey_hi_raw > s->grey_lo_raw) {
-        const uint64_t span = (uint64_t)(s->grey_hi_raw - s->grey_lo_raw);
-        return s->grey_lo_raw + (uint32_t)((span * r->det.cfg.hot_thr_u8 + 254u) / 255u);
+    if (f->format == VD_PIX_U16 && r->det.cfg.grey_mode == VD_DETECTOR_GREY_PERCENTILE) {
+        if (s->hot_thr_raw != 0u) {
+            return s->hot_thr_raw;   // the hot-spot source ran on this frame
+        }
+        uint16_t raw = 0u;
+        return vd_calib_grey_raw_at(&r->det.grey, r->det.cfg.hot_thr_u8, &raw) == VD_OK ? raw : 65536u;
     }
     if (f->format == VD_PIX_U16) {
         if (r->det.raw_never_hot) {

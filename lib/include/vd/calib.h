@@ -68,6 +68,20 @@ VD_API vd_status_t vd_calib_grey_init(vd_calib_grey_t *map, const vd_calib_t *ca
 // O(1), no checks: `map` must come from vd_calib_grey_init.
 VD_API uint8_t vd_calib_grey_u8(const vd_calib_grey_t *map, uint16_t raw);
 
+// Smallest raw value whose grey level through `map` is >= grey: since the map
+// never falls as raw rises, `raw >= *raw_out` is exactly
+// `vd_calib_grey_u8(map, raw) >= grey` (an 8-bit threshold carried to a
+// 16-bit frame, e.g. the hot-spot threshold in a frame's own grey window).
+// Closed form, O(1): grey 0 gives 0; else the least temperature
+// lo_ck + ceil((grey * 2^16 - 2^15) / mul_q16), then vd_calib_raw_from_ck.
+// Exact for a calibration whose temperatures of raw 0..65535 fit an int32
+// (every one vd_detector_cfg_resolve accepts with the per-frame window): the
+// map counts a temperature beyond int32 as 0 ck, which this inverse does not.
+// Returns VD_OK; VD_ERR_ARG for NULL pointers, a negative gain or a map not
+// from vd_calib_grey_init (mul_q16 <= 0); VD_ERR_RANGE if no raw value in
+// 0..65535 reaches `grey` (then *raw is unchanged).
+VD_API vd_status_t vd_calib_grey_raw_at(const vd_calib_grey_t *map, uint8_t grey, uint16_t *raw);
+
 #ifdef __cplusplus
 }
 #endif

@@ -38,7 +38,7 @@ typedef struct vd_detection {
     uint8_t source;              // VD_DETECTION_SOURCE_HOTSPOT / _WINDOW / _CONTRAST / _CNN
     uint8_t state;               // vd_track_state_t (VD_TRACK_NONE when temporal is off)
     uint8_t flags;               // VD_DETECTION_FLAG_*
-    uint8_t hot_thr;             // 8-bit threshold used (U16 frames: 0)
+    uint8_t hot_thr;             // 8-bit threshold used (U16 frames: 0 in the fixed grey window, the grey level in their own)
     uint8_t reserved;
 } vd_detection_t;
 

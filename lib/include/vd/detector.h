@@ -84,10 +84,11 @@ typedef struct vd_detector_cfg {
     uint16_t dedup_iou_q15;      // merge: drop a candidate with IoU > this to a listed box, 1..32768; 0 = 22938 (0.7)
     // Hot spots: threshold (8-bit and 16-bit frames), rules, expansion, refinement.
     uint8_t thr_mode;            // VD_DETECTOR_THR_CONSTANT (0, paper) or VD_DETECTOR_THR_ADAPTIVE
-    uint8_t hot_thr_u8;          // 8-bit constant threshold, hot = pixel >= thr; 0 = 150 (paper, ~30 C)
+    uint8_t hot_thr_u8;          // 8-bit constant threshold, hot = pixel >= thr; 0 = 150 (paper, ~30 C); also a
+                                 //   16-bit frame's in its own grey window (grey_mode, below)
     uint8_t adaptive_floor_u8;   // adaptive mode: lowest threshold; 0 = 96
     uint16_t adaptive_permille;  // adaptive mode: percentile p in 1/1000, 1..1000; 0 = 990 (p99)
-    int32_t hot_thr_ck;          // 16-bit frames: threshold in centi-kelvin, > 0; 0 = 30315 (30.00 C)
+    int32_t hot_thr_ck;          // 16-bit frames in the fixed window: threshold in centi-kelvin, > 0; 0 = 30315 (30.00 C)
     vd_calib_t calib;            // raw -> centi-kelvin, gain_q16 > 0; gain_q16 0 = {65536, offset_ck} (TLinear)
     int32_t grey_lo_ck;          // 16-bit frames: temperature mapped to grey 0; 0 = hot_thr_ck - 3000
     int32_t grey_hi_ck;          // temperature mapped to grey 255, > grey_lo_ck; 0 = hot_thr_ck + 2100 (grey 150)
@@ -158,8 +159,14 @@ typedef struct vd_detector_cfg {
 // grey window runs from the raw value at grey_tail_permille to the one at
 // 1000 - grey_tail_permille (vd_histogram_percentiles_u16), through calib, at
 // least VD_DETECTOR_GREY_MIN_SPAN_CK wide (widened about its middle: a flat
-// frame stays mid-grey instead of amplifying noise); the hot-spot threshold
-// stays hot_thr_ck. stats.grey_lo_raw / grey_hi_raw report the window.
+// frame stays mid-grey instead of amplifying noise). Such a frame is not
+// radiometric, so hot_thr_ck means nothing there: the hot-spot source takes
+// the 8-bit threshold (hot_thr_u8, or in adaptive mode the percentile of the
+// frame's grey levels) and labels the raw values at or above the smallest raw
+// at that grey level (vd_calib_grey_raw_at): the hot pixels of the frame's
+// 8-bit view, exactly. stats.grey_lo_raw / grey_hi_raw report the window,
+// stats.hot_thr_u8 / hot_thr_raw the thresholds (it
+// thresholded raw counts at hot_thr_ck's raw value, until 2026-11-30).
 #define VD_DETECTOR_GREY_FIXED 0u
 #define VD_DETECTOR_GREY_PERCENTILE 1u
 #define VD_DETECTOR_GREY_MIN_SPAN_CK 255
@@ -171,8 +178,8 @@ typedef struct vd_detector_cfg {
 
 // Per-frame counts and times of the last vd_detector_run.
 typedef struct vd_detector_stats {
-    uint32_t hot_thr_u8;         // threshold used on 8-bit frames
-    uint32_t hot_thr_raw;        // raw threshold used on 16-bit frames
+    uint32_t hot_thr_u8;         // threshold used on 8-bit frames (16-bit in their own grey window: its grey level)
+    uint32_t hot_thr_raw;        // raw threshold used on 16-bit frames; 65536: no raw value is hot
     uint32_t hot_pixels;         // pixels >= threshold (in the labelled rows)
     uint32_t components;         // components labelled (<= max_components)
     uint32_t kept;               // passed the aspect/area rules

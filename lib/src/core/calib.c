@@ -7,7 +7,8 @@
 // ((T - lo) * mul_q16 + 2^15) >> 16 with mul_q16 = round(255 * 2^16 / (hi - lo))
 // (one multiply per pixel instead of a division), clamped to 0..255; the
 // shift is a floor shift (internal/shift_internal.h) because T - lo may be
-// negative. Convention: TLinear radiometric cameras (0.01 K per count, calib.h).
+// negative. Its inverse (smallest raw at a grey level) is one ceiling
+// division to a temperature, then the raw inverse. Convention: TLinear radiometric cameras (0.01 K per count, calib.h).
 // Bounds: O(1) per call; stack <= 32 bytes on Cortex-M (docs/embedded.md).
 // Arithmetic: raw * gain_q16 < 2^16 * 2^31 = 2^47 and ck - offset_ck is in
 // +-2^32, so (ck - offset_ck) * 65536 < 2^49: all in int64_t; in the grey
@@ -72,4 +73,18 @@ vd_status_t vd_calib_grey_init(vd_calib_grey_t *map, const vd_calib_t *cal, int3
 uint8_t vd_calib_grey_u8(const vd_calib_grey_t *map, uint16_t raw)
 {
     return vd__calib_grey_u8(map, raw);   // internal/calib_internal.h: out of int32 counts as 0 ck (documented)
+}
+
+vd_status_t vd_calib_grey_raw_at(const vd_calib_grey_t *map, uint8_t grey, uint16_t *raw)
+{
+    VD_VERIFY(map != NULL && raw != NULL, VD_ERR_ARG);
+    VD_VERIFY(map->mul_q16 > 0, VD_ERR_ARG);   // the gain is raw_from_ck64's to check
+    if (grey == 0u) {
+        *raw = 0u;   // every sample is at grey 0 or above
+        return VD_OK;
+    }
+    // floor(((T - lo) * mul + 2^15) / 2^16) >= g  <=>  (T - lo) * mul >= g * 2^16 - 2^15 (> 0): a ceiling division.
+    const int64_t need = (int64_t)grey * 65536 - 32768;
+    const int64_t ck = (int64_t)map->lo_ck + (need + map->mul_q16 - 1) / map->mul_q16;
+    return raw_from_ck64(&map->calib, ck, raw);
 }

@@ -4,7 +4,11 @@
 //
 // Algorithm: hot spots (paper 001 section 2) are the 8-connected components
 // of pixels >= the threshold (constant, or the adaptive max(floor, p-th
-// percentile), threshold.h; 16-bit frames: the raw value of hot_thr_ck),
+// percentile), threshold.h; 16-bit frames in the fixed window: the raw value
+// of hot_thr_ck; in their own window (not radiometric, where a temperature
+// means nothing): the raw value at the 8-bit threshold's grey level, the
+// percentile taken over the frame's grey levels, so the hot pixels are those
+// of the frame's 8-bit view),
 // labelled straight from the frame with a run budget (components.h). The
 // other sources (issue 7) are appended to the list that the refined hot spots
 // start: contrast components (contrast.h, 8-bit frames) and the best
@@ -38,6 +42,24 @@ static uint32_t threshold_u8(vd_detector_t *det, const vd_view_u8_t *v)
     return t;
 }
 
+// The 8-bit threshold of a 16-bit frame in its own grey window (det->grey, set for this frame): constant, or
+// max(floor, the grey level of the frame's p-th percentile sample). The map never falls as raw rises, so that grey
+// level is the p-th percentile of the frame's grey levels (at vd_histogram_percentiles_u16's rank floor(n p / 1000),
+// one sample above threshold_u8's when n p / 1000 is whole); no pass maps every sample.
+static uint32_t threshold_grey(vd_detector_t *det, const vd_view_u16_t *v)
+{
+    if (det->cfg.thr_mode != VD_DETECTOR_THR_ADAPTIVE) {
+        return det->cfg.hot_thr_u8;
+    }
+    uint16_t p = 0u, q = 0u;
+    const uint32_t permille = det->cfg.adaptive_permille;
+    const vd_status_t st = vd_histogram_percentiles_u16(v, permille, permille, det->hist, &p, &q);
+    VD_ASSERT(st == VD_OK);   // view checked by the caller, permille by vd_detector_cfg_resolve
+    (void)st;
+    const uint32_t t = vd_calib_grey_u8(&det->grey, p);
+    return (t > det->cfg.adaptive_floor_u8) ? t : det->cfg.adaptive_floor_u8;
+}
+
 // Hot-spot components straight from the frame (no mask: the labeller
 // compares with the threshold as it run-length encodes), with the run budget
 // of the overlay. Sets the threshold, hot pixel, run and overflow stats.
@@ -59,12 +81,21 @@ vd_status_t vd__detector_hot_components(vd_detector_t *det, const vd_frame_t *f,
     } else {
         vd_view_u16_t v16;
         VD_TRY(vd_frame_view_u16(f, &v16));
-        s->hot_thr_raw = det->raw_thr;
+        uint16_t raw = det->raw_thr;
+        bool never = det->raw_never_hot;
+        if (det->cfg.grey_mode == VD_DETECTOR_GREY_PERCENTILE) {
+            const uint32_t thr = threshold_grey(det, &v16);
+            s->hot_thr_u8 = thr;
+            st = vd_calib_grey_raw_at(&det->grey, (uint8_t)thr, &raw);
+            VD_ASSERT(st == VD_OK || st == VD_ERR_RANGE);   // the calibration was bounded by vd_detector_cfg_resolve
+            never = (st != VD_OK);
+        }
+        s->hot_thr_raw = never ? 65536u : raw;
         vd__detector_clock_add(det, VD_DETECTOR_STAGE_THRESHOLD, t0);
-        if (det->raw_never_hot) {
+        if (never) {
             return VD_OK;
         }
-        st = vd_components_label_thr_u16(&v16, NULL, det->raw_thr, det->overlay, det->cc_ws_bytes, det->comps,
+        st = vd_components_label_thr_u16(&v16, NULL, raw, det->overlay, det->cc_ws_bytes, det->comps,
                                          det->cfg.max_components, n, cs);
     }
     if (st != VD_OK && st != VD_ERR_CAPACITY) {
