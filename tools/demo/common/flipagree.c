@@ -16,8 +16,15 @@
 // frames their boxes rate lower than on the same frames inverted, as at a wrong resolution. Rated at one
 // resolution only, small vehicles made white-hot frames rate higher inverted (docs/demo.md "Black-hot cameras");
 // over the three resolutions the best rating of the frames as they are stays above the best inverted.
+//
+// Two threads: a frame and its mirror image cost the same, so one thread runs every configuration on the frame
+// and another on the mirror image, each configuration with a detector per image (the library keeps no state
+// outside a detector, and the networks' prepared weights are only read). The counts are integer sums made after
+// both, so they, and the choice, are those of one thread; where no thread can be made the mirror image follows
+// the frame in this one.
 #include "flipagree.h"
 
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -30,12 +37,22 @@ typedef struct res_run {
     void *ws;
 } res_run_t;
 
-struct demo_flipagree {
+// One image (a frame or its mirror image) in every measured configuration: its boxes per configuration.
+typedef struct pass_job {
     res_run_t runs[DEMO_AUTORES_CONFIGS];   // [cfg.cnn_res + DEMO_AUTORES_RES x inverted]; det unset when not measured
-    uint8_t measured;    // bit k: configuration k runs
-    uint8_t fixed_res;   // the options' cfg.cnn_res when they fix it, else DEMO_AUTORES_RES
-    void *mirror;        // the mirror image's pixels
-    vd_detection_t *da, *db;
+    vd_detection_t *boxes;                  // [k x cap ...]: configuration k's boxes
+    size_t n[DEMO_AUTORES_CONFIGS];
+    const vd_frame_t *f;
+    uint8_t measured;
+    size_t cap;
+    vd_status_t st;
+} pass_job_t;
+
+struct demo_flipagree {
+    pass_job_t pass[2];   // the frame, its mirror image
+    uint8_t measured;     // bit k: configuration k runs
+    uint8_t fixed_res;    // the options' cfg.cnn_res when they fix it, else DEMO_AUTORES_RES
+    void *mirror;         // the mirror image's pixels
     bool *used;
     size_t cap;
     uint32_t width, height;
@@ -202,12 +219,13 @@ void demo_flipagree_free(demo_flipagree_t *fa)
     if (fa == NULL) {
         return;
     }
-    for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
-        free(fa->runs[k].ws);
+    for (unsigned p = 0u; p < 2u; p++) {
+        for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
+            free(fa->pass[p].runs[k].ws);
+        }
+        free(fa->pass[p].boxes);
     }
     free(fa->mirror);
-    free(fa->da);
-    free(fa->db);
     free(fa->used);
     free(fa);
 }
@@ -225,19 +243,25 @@ vd_status_t demo_flipagree_new(demo_flipagree_t **out, const demo_opts_t *o, con
         fa->mirror = malloc((size_t)first->width * first->height * (first->format == VD_PIX_U16 ? 2u : 1u) + 1u);
         fa->measured = demo_autores_configs(o);   // configuration 0 among them whenever any
         fa->fixed_res = o->cnn_res_auto ? (uint8_t)DEMO_AUTORES_RES : o->cfg.cnn_res;
-        for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS && fa->mirror != NULL && st == VD_OK; k++) {
-            if ((fa->measured & (1u << k)) != 0u) {
-                st = run_init(&fa->runs[k], o, first, k, err, err_len);
+        for (unsigned p = 0u; p < 2u; p++) {
+            for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS && fa->mirror != NULL && st == VD_OK; k++) {
+                if ((fa->measured & (1u << k)) != 0u) {
+                    st = run_init(&fa->pass[p].runs[k], o, first, k, err, err_len);
+                }
             }
         }
         if (st == VD_OK && fa->mirror != NULL && fa->measured != 0u) {
-            fa->cap = (size_t)fa->runs[0].det.cfg.max_detections + 1u;
-            fa->da = calloc(fa->cap, sizeof *fa->da);
-            fa->db = calloc(fa->cap, sizeof *fa->db);
+            fa->cap = (size_t)fa->pass[0].runs[0].det.cfg.max_detections + 1u;
+            for (unsigned p = 0u; p < 2u; p++) {
+                fa->pass[p].boxes = calloc(fa->cap * DEMO_AUTORES_CONFIGS, sizeof *fa->pass[p].boxes);
+                fa->pass[p].measured = fa->measured;
+                fa->pass[p].cap = fa->cap;
+            }
             fa->used = calloc(fa->cap, sizeof *fa->used);
         }
     }
-    if (st == VD_OK && (fa == NULL || fa->mirror == NULL || fa->da == NULL || fa->db == NULL || fa->used == NULL)) {
+    if (st == VD_OK && (fa == NULL || fa->mirror == NULL || fa->pass[0].boxes == NULL || fa->pass[1].boxes == NULL ||
+                        fa->used == NULL)) {
         snprintf(err, err_len, "out of memory");
         st = VD_ERR_IO;
     }
@@ -309,28 +333,19 @@ static uint32_t matches(const vd_detection_t *a, size_t na, const vd_detection_t
     return m;
 }
 
-// One frame at one resolution: its boxes and its mirror image's, mirrored back, into the pooled counts.
-static vd_status_t measure_frame(demo_flipagree_t *fa, res_run_t *r, const vd_frame_t *f, const vd_frame_t *fm,
-                                 demo_autores_t *a, unsigned k)
+// Every measured configuration on one image: its boxes (a thread's body; the first error ends the pass).
+static void *pass_run(void *arg)
 {
-    size_t na = 0, nb = 0;
-    vd_status_t st = vd_detector_run(&r->det, f, fa->da, fa->cap, &na);
-    if (st == VD_OK || st == VD_ERR_CAPACITY) {
-        st = vd_detector_run(&r->det, fm, fa->db, fa->cap, &nb);
+    pass_job_t *j = arg;
+    j->st = VD_OK;
+    for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS && j->st == VD_OK; k++) {
+        j->n[k] = 0u;
+        if ((j->measured & (1u << k)) != 0u) {
+            const vd_status_t st = vd_detector_run(&j->runs[k].det, j->f, j->boxes + k * j->cap, j->cap, &j->n[k]);
+            j->st = st == VD_ERR_CAPACITY ? VD_OK : st;
+        }
     }
-    if (st != VD_OK && st != VD_ERR_CAPACITY) {
-        return st;
-    }
-    for (size_t j = 0; j < nb; j++) {
-        fa->db[j].box.x = (int32_t)f->width - fa->db[j].box.x - fa->db[j].box.w;
-        a->score_q8[k] += fa->db[j].score_q8;
-    }
-    for (size_t i = 0; i < na; i++) {
-        a->score_q8[k] += fa->da[i].score_q8;
-    }
-    a->matched[k] += matches(fa->da, na, fa->db, nb, fa->used);
-    a->boxes[k] += na + nb;
-    return VD_OK;
+    return NULL;
 }
 
 vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_autores_t *a)
@@ -340,16 +355,37 @@ vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_a
     }
     vd_frame_t fm;
     mirror(f, fa->mirror, &fm);
+    fa->pass[0].f = f;
+    fa->pass[1].f = &fm;
+    pthread_t mate;
+    const bool two = pthread_create(&mate, NULL, pass_run, &fa->pass[1]) == 0;
+    pass_run(&fa->pass[0]);
+    if (two) {
+        pthread_join(mate, NULL);
+    } else {
+        pass_run(&fa->pass[1]);   // no thread to be had: one after the other, the same counts
+    }
+    if (fa->pass[0].st != VD_OK || fa->pass[1].st != VD_OK) {
+        return fa->pass[0].st != VD_OK ? fa->pass[0].st : fa->pass[1].st;
+    }
     a->measured = fa->measured;
     a->fixed_res = fa->fixed_res;
     for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
         if ((fa->measured & (1u << k)) == 0u) {
             continue;
         }
-        const vd_status_t st = measure_frame(fa, &fa->runs[k], f, &fm, a, k);
-        if (st != VD_OK) {
-            return st;
+        // The frame's boxes and its mirror image's, mirrored back, into the pooled counts.
+        vd_detection_t *da = fa->pass[0].boxes + k * fa->cap, *db = fa->pass[1].boxes + k * fa->cap;
+        const size_t na = fa->pass[0].n[k], nb = fa->pass[1].n[k];
+        for (size_t j = 0; j < nb; j++) {
+            db[j].box.x = (int32_t)f->width - db[j].box.x - db[j].box.w;
+            a->score_q8[k] += db[j].score_q8;
         }
+        for (size_t i = 0; i < na; i++) {
+            a->score_q8[k] += da[i].score_q8;
+        }
+        a->matched[k] += matches(da, na, db, nb, fa->used);
+        a->boxes[k] += na + nb;
     }
     a->frames++;
     return VD_OK;

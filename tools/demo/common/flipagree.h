@@ -99,7 +99,8 @@ vd_status_t demo_flipagree_new(demo_flipagree_t **out, const demo_opts_t *o, con
                                size_t err_len);
 
 // Frame f (first's size and format) and its mirror image in each configuration into a's counts (a->frames + 1).
-// A detector error: its status (a unchanged but for the counts of the configurations measured before it).
+// A detector error: its status (a unchanged). The frame and its mirror image run in two threads (the counts are
+// those of one: integer sums made after both).
 vd_status_t demo_flipagree_add(demo_flipagree_t *fa, const vd_frame_t *f, demo_autores_t *a);
 
 void demo_flipagree_free(demo_flipagree_t *fa);
