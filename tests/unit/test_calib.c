@@ -200,6 +200,17 @@ static void test_grey_map_hand_worked(void)
     TEST_ASSERT_EQUAL_INT(VD_ERR_ARG, vd_calib_grey_init(&g, &neg, 0, 5));
 }
 
+// A random calibration (gain 0..6.1 ck per count, offset -50..350 K) and grey window (lo -50..550 K, span 1..65 536
+// ck) into g; *c, *lo, *span as drawn. Every temperature of raw 0..65535 fits an int32.
+static void random_map(uint32_t *seed, vd_calib_t *c, int32_t *lo, int32_t *span, vd_calib_grey_t *g)
+{
+    c->gain_q16 = (int32_t)(tu_rand(seed) % 400000u);
+    c->offset_ck = (int32_t)(tu_rand(seed) % 40000u) - 5000;
+    *lo = (int32_t)(tu_rand(seed) % 60000u) - 5000;
+    *span = 1 + (int32_t)(tu_rand(seed) % 65536u);
+    TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(g, c, *lo, *lo + *span));
+}
+
 // Random calibrations and windows against a division-based reference, and within
 // 1 grey level of the exact ratio for windows up to 65 536 ck.
 static void test_grey_map_random_vs_naive(void)
@@ -207,12 +218,9 @@ static void test_grey_map_random_vs_naive(void)
     uint32_t seed = 11u;
     for (int trial = 0; trial < 200; trial++) {
         vd_calib_t c;
-        c.gain_q16 = (int32_t)(tu_rand(&seed) % 400000u);
-        c.offset_ck = (int32_t)(tu_rand(&seed) % 40000u) - 5000;
-        int32_t lo = (int32_t)(tu_rand(&seed) % 60000u) - 5000;
-        int32_t span = 1 + (int32_t)(tu_rand(&seed) % 65536u);
+        int32_t lo = 0, span = 0;
         vd_calib_grey_t g;
-        TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &c, lo, lo + span));
+        random_map(&seed, &c, &lo, &span, &g);
         int64_t mul = floor_div((int64_t)255 * 65536 + span / 2, span);
         TEST_ASSERT_TRUE(g.mul_q16 == mul);
         for (int k = 0; k < 300; k++) {
@@ -279,12 +287,9 @@ static void test_grey_raw_at_exhaustive(void)
     uint32_t seed = 23u;
     for (int trial = 0; trial < 40; trial++) {
         vd_calib_t c;
-        c.gain_q16 = (int32_t)(tu_rand(&seed) % 400000u);
-        c.offset_ck = (int32_t)(tu_rand(&seed) % 40000u) - 5000;
-        const int32_t lo = (int32_t)(tu_rand(&seed) % 60000u) - 5000;
-        const int32_t span = 1 + (int32_t)(tu_rand(&seed) % 65536u);
+        int32_t lo = 0, span = 0;
         vd_calib_grey_t g;
-        TEST_ASSERT_EQUAL_INT(VD_OK, vd_calib_grey_init(&g, &c, lo, lo + span));
+        random_map(&seed, &c, &lo, &span, &g);
         uint32_t first[257];
         for (uint32_t k = 0; k < 257u; k++) {
             first[k] = 65536u;
