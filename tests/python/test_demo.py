@@ -228,6 +228,29 @@ def test_16bit_raw_counts_get_each_frames_grey_window(demo, clip_dir, tmp_path):
     assert bad.returncode != 0 and "grey-tail" in bad.stderr
 
 
+def test_hotspot_pipeline_on_raw_counts_equals_its_grey_view(demo, tmp_path):
+    """The paper pipeline (--sources hotspot) on a camera's raw counts in their own window finds what it finds on
+    that window's 8-bit view (numpy's map, vdtools.data.dataset): the same boxes and scores. Until 2026-11-30 the
+    hot-spot threshold stayed 30 C's raw value, which raw counts 1000..17320 never reach: no box."""
+    import cv2
+    from vdtools.data import dataset as D
+    grey = cv2.imread(str(REPO / "tools" / "demo" / "hit-uav-clip" / "images" / "0_100_50_0_08162.jpg"),
+                      cv2.IMREAD_GRAYSCALE)
+    counts = grey.astype("<u2") * 64 + 1000
+    raw = tmp_path / "counts.y16"
+    raw.write_bytes(counts.tobytes())
+    (tmp_path / "v").mkdir()
+    cv2.imwrite(str(tmp_path / "v" / "a.png"), D.grey_of_ck(counts, *D.grey_window_ck(counts, 1)))
+
+    def dets(*args):
+        js = tmp_path / "d.jsonl"
+        run(demo, *args, "--sources", "hotspot", "--temporal", "off", "--quiet", "--out", tmp_path / "o", "--json", js)
+        return [(d["box"], d["score"]) for line in js.read_text().splitlines() for d in json.loads(line)["detections"]]
+
+    from_counts = dets("--input", raw, "--raw-size", "640x512")
+    assert from_counts and from_counts == dets("--input", tmp_path / "v"), from_counts
+
+
 def bad_cases(clip_dir, tmp):
     """(name, args) of inputs that must fail cleanly."""
     src = clip_dir / "u8"
