@@ -21,6 +21,9 @@ echo "== clang build (-Werror)"
 cmake -S . -B build-clang -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_C_COMPILER=clang -DVD_BUILD_TESTS=ON >/dev/null
 cmake --build build-clang -j "$jobs"
 
+echo "== GCC static analyzer (-fanalyzer) on lib/, the gcc build's flags (-Werror)"
+tests/analyzer.sh build
+
 echo "== ASan + UBSan build + unit tests"
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_COMPILER=clang -DVD_SANITIZE=ON >/dev/null
 cmake --build build-asan -j "$jobs"
