@@ -440,11 +440,9 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
     }
     r->autores = r->live.a;
     r->autores_ran = true;
-    if (r->autores.res == r->o.cfg.cnn_res && !r->autores.inverted) {
+    if (!demo_autores_apply(&r->autores, &r->o.cfg)) {
         return VD_OK;
     }
-    r->o.cfg.cnn_res = r->autores.res;
-    r->o.cfg.cnn_invert = (uint8_t)(r->o.cfg.cnn_invert ^ r->autores.inverted);
     free_detector(r);
     return init_detector(r, f);
 }
@@ -583,7 +581,7 @@ static void summary(run_t *r)
             snprintf(of, sizeof of, " spread over %llu", (unsigned long long)a->total);
         }
         if (o->cnn_polarity_auto) {
-            snprintf(pol, sizeof pol, ", %s", o->cfg.cnn_invert ? "black-hot" : "white-hot");
+            snprintf(pol, sizeof pol, ", %s", demo_polarity_name(o->cfg.cnn_invert));
         }
         printf("cnn input: %s resolution%s (%s%s%s: %s over %u frames%s%s%s; %.2f s)\n", demo_cnn_res_name(a->res), pol,
                o->cnn_res_auto ? "--cnn-full-res auto" : "", o->cnn_res_auto && o->cnn_polarity_auto ? ", " : "",
@@ -740,7 +738,7 @@ static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
         if (!o->quiet) {
             fprintf(stderr, "vd_fir_demo: --cnn-full-res/--cnn-polarity auto: a camera's first %u frames are "
                             "measured as they come (%s resolution, %s meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES,
-                    demo_cnn_res_name(o->cfg.cnn_res), o->cfg.cnn_invert ? "black-hot" : "white-hot");
+                    demo_cnn_res_name(o->cfg.cnn_res), demo_polarity_name(o->cfg.cnn_invert));
         }
         return 0;
     }
@@ -749,8 +747,7 @@ static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
         return fail(r, st, r->err);
     }
     r->autores_ran = true;
-    o->cfg.cnn_res = r->autores.res;
-    o->cfg.cnn_invert = (uint8_t)(o->cfg.cnn_invert ^ r->autores.inverted);
+    demo_autores_apply(&r->autores, &o->cfg);
     return 0;
 }
 

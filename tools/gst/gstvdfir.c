@@ -298,7 +298,7 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
     if (st != VD_OK) {
         GST_ELEMENT_WARNING(self, STREAM, FAILED,
                             ("vdfir: cnn-full-res/cnn-polarity auto: %s: %s resolution, %s", err[0] ? err : vd_status_str(st),
-                             demo_cnn_res_name(self->opts.cfg.cnn_res), self->opts.cfg.cnn_invert ? "black-hot" : "white-hot"),
+                             demo_cnn_res_name(self->opts.cfg.cnn_res), demo_polarity_name(self->opts.cfg.cnn_invert)),
                             (NULL));
         return TRUE;
     }
@@ -307,17 +307,17 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
     }
     const demo_autores_t *a = &self->ar.a;
     const gboolean full = a->res == VD_DETECTOR_CNN_RES_FULL;
-    const gboolean black = (self->opts.cfg.cnn_invert ^ a->inverted) != 0u;
+    const char *polarity = demo_polarity_name(self->opts.cfg.cnn_invert ^ a->inverted);
     char figures[DEMO_AUTORES_DESCRIBE_MAX];
     demo_autores_describe(a, self->opts.cfg.cnn_invert != 0u, figures, sizeof figures);
     GST_INFO_OBJECT(self, "cnn input: %s resolution, %s from frame %" G_GUINT64_FORMAT " (%s over %u frames; %.2f s)",
-                    demo_cnn_res_name(a->res), black ? "black-hot" : "white-hot", self->seq, figures,
+                    demo_cnn_res_name(a->res), polarity, self->seq, figures,
                     (unsigned)a->frames, a->seconds);
     // "full" stays for the applications written against it; "resolution" names the choice (half, full, quarter),
     // "polarity" the polarity the networks read from then on; "*-inverted": the frames inverted (-1: not measured)
     GstStructure *ms = gst_structure_new(
         "vdfir-resolution", "full", G_TYPE_BOOLEAN, full, "resolution", G_TYPE_STRING, demo_cnn_res_name(a->res),
-        "polarity", G_TYPE_STRING, black ? "black-hot" : "white-hot", "from-seq", G_TYPE_UINT64, self->seq,
+        "polarity", G_TYPE_STRING, polarity, "from-seq", G_TYPE_UINT64, self->seq,
         "frames", G_TYPE_UINT, (guint)a->frames, "seconds", G_TYPE_DOUBLE, a->seconds, NULL);
     static const char *const kinds[] = {"rating", "score", "agreement"};
     for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
@@ -325,17 +325,13 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
             char name[48];
             snprintf(name, sizeof name, "%s-%s%s", kinds[j], demo_cnn_res_name(k % DEMO_AUTORES_RES),
                      k >= DEMO_AUTORES_RES ? "-inverted" : "");
-            const double v = j == 0u ? demo_autores_rating(a, k)
-                             : j == 1u ? demo_autores_mean_score(a, k) : demo_autores_agreement(a, k);
-            gst_structure_set(ms, name, G_TYPE_DOUBLE, v, NULL);
+            gst_structure_set(ms, name, G_TYPE_DOUBLE, demo_autores_figure(a, k, j), NULL);
         }
     }
     gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), ms));
-    if (a->res == self->opts.cfg.cnn_res && !a->inverted) {
+    if (!demo_autores_apply(a, &self->opts.cfg)) {
         return TRUE;
     }
-    self->opts.cfg.cnn_invert = (uint8_t)(self->opts.cfg.cnn_invert ^ a->inverted);
-    self->opts.cfg.cnn_res = a->res;
     const guint64 seq = self->seq;
     if (!init_detector(self, self->width, self->height)) {
         return FALSE;

@@ -39,12 +39,11 @@ typedef struct res_run {
 
 // One image (a frame or its mirror image) in every measured configuration: its boxes per configuration.
 typedef struct pass_job {
+    const demo_flipagree_t *fa;             // the measurement it belongs to (configurations, capacity)
     res_run_t runs[DEMO_AUTORES_CONFIGS];   // [cfg.cnn_res + DEMO_AUTORES_RES x inverted]; det unset when not measured
     vd_detection_t *boxes;                  // [k x cap ...]: configuration k's boxes
     size_t n[DEMO_AUTORES_CONFIGS];
     const vd_frame_t *f;
-    uint8_t measured;
-    size_t cap;
     vd_status_t st;
 } pass_job_t;
 
@@ -109,7 +108,8 @@ static unsigned best_of(const demo_autores_t *a, unsigned inverted, double *best
         if ((a->measured & (1u << k)) == 0u || (k != 0u && a->frames < DEMO_AUTORES_MIN_FRAMES)) {
             continue;
         }
-        const double v = demo_autores_rating(a, k) > 0.0 ? demo_autores_rating(a, k) : 0.0;
+        const double r_k = demo_autores_rating(a, k);
+        const double v = r_k > 0.0 ? r_k : 0.0;
         if (pick == DEMO_AUTORES_CONFIGS || v > *best) {   // strictly higher: ties keep the lower cfg.cnn_res
             pick = k;
             *best = v;
@@ -134,27 +134,40 @@ uint8_t demo_autores_decide(demo_autores_t *a)
     return a->res;
 }
 
+double demo_autores_figure(const demo_autores_t *a, unsigned k, unsigned kind)
+{
+    return kind == 0u ? demo_autores_rating(a, k) : kind == 1u ? demo_autores_mean_score(a, k)
+                                                               : demo_autores_agreement(a, k);
+}
+
+bool demo_autores_apply(const demo_autores_t *a, vd_detector_cfg_t *cfg)
+{
+    const bool same = a->res == cfg->cnn_res && a->inverted == 0u;
+    cfg->cnn_res = a->res;
+    cfg->cnn_invert = (uint8_t)(cfg->cnn_invert ^ a->inverted);
+    return !same;
+}
+
 // "name value, name value" over the measured configurations; kind 0 rating, 1 mean score, 2 agreement (%).
-static size_t describe_part(const demo_autores_t *a, bool both, bool black, int kind, char *buf, size_t len)
+static size_t describe_part(const demo_autores_t *a, bool both, bool black, unsigned kind, char *buf, size_t len)
 {
     size_t n = 0u;
     for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
         if ((a->measured & (1u << k)) == 0u) {
             continue;
         }
-        const double v = kind == 0 ? demo_autores_rating(a, k)
-                         : kind == 1 ? demo_autores_mean_score(a, k) : demo_autores_agreement(a, k);
+        const double v = demo_autores_figure(a, k, kind);
         char val[32];
         if (v < 0.0) {
             snprintf(val, sizeof val, "none (no box)");
-        } else if (kind == 2) {
+        } else if (kind == 2u) {
             snprintf(val, sizeof val, "%.1f %%", 100.0 * v);
         } else {
             snprintf(val, sizeof val, "%.3f", v);
         }
         const bool inv_black = (k >= DEMO_AUTORES_RES) != black;
         const int w = snprintf(buf + n, len - n, "%s%s%s%s %s", n ? ", " : "", demo_cnn_res_name(k % DEMO_AUTORES_RES),
-                               both ? " " : "", both ? (inv_black ? "black-hot" : "white-hot") : "", val);
+                               both ? " " : "", both ? demo_polarity_name(inv_black) : "", val);
         if (w < 0 || (size_t)w >= len - n) {
             return len - 1u;
         }
@@ -172,7 +185,7 @@ void demo_autores_describe(const demo_autores_t *a, bool options_black_hot, char
         return;
     }
     buf[0] = '\0';
-    for (int kind = 0; kind < 3 && n + 1u < len; kind++) {
+    for (unsigned kind = 0u; kind < 3u && n + 1u < len; kind++) {
         const int w = snprintf(buf + n, len - n, "%s", what[kind]);
         n = (w < 0 || (size_t)w >= len - n) ? len - 1u : n + (size_t)w;
         if (n + 1u < len) {
@@ -254,8 +267,7 @@ vd_status_t demo_flipagree_new(demo_flipagree_t **out, const demo_opts_t *o, con
             fa->cap = (size_t)fa->pass[0].runs[0].det.cfg.max_detections + 1u;
             for (unsigned p = 0u; p < 2u; p++) {
                 fa->pass[p].boxes = calloc(fa->cap * DEMO_AUTORES_CONFIGS, sizeof *fa->pass[p].boxes);
-                fa->pass[p].measured = fa->measured;
-                fa->pass[p].cap = fa->cap;
+                fa->pass[p].fa = fa;
             }
             fa->used = calloc(fa->cap, sizeof *fa->used);
         }
@@ -337,11 +349,12 @@ static uint32_t matches(const vd_detection_t *a, size_t na, const vd_detection_t
 static void *pass_run(void *arg)
 {
     pass_job_t *j = arg;
+    const size_t cap = j->fa->cap;
     j->st = VD_OK;
     for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS && j->st == VD_OK; k++) {
         j->n[k] = 0u;
-        if ((j->measured & (1u << k)) != 0u) {
-            const vd_status_t st = vd_detector_run(&j->runs[k].det, j->f, j->boxes + k * j->cap, j->cap, &j->n[k]);
+        if ((j->fa->measured & (1u << k)) != 0u) {
+            const vd_status_t st = vd_detector_run(&j->runs[k].det, j->f, j->boxes + k * cap, cap, &j->n[k]);
             j->st = st == VD_ERR_CAPACITY ? VD_OK : st;
         }
     }

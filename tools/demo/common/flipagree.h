@@ -73,12 +73,19 @@ double demo_autores_mean_score(const demo_autores_t *a, unsigned k);
 #define DEMO_AUTORES_AGREE_WEIGHT 0.25
 double demo_autores_rating(const demo_autores_t *a, unsigned k);
 
+// One of the three figures of configuration k: kind 0 the rating, 1 the mean box score, 2 the flip agreement.
+double demo_autores_figure(const demo_autores_t *a, unsigned k, unsigned kind);
+
 // Sets a->res and a->inverted from the counts and returns a->res: among the configurations measured in the
 // options' polarity, the highest rating (ties to the lower cfg.cnn_res); the other polarity's highest rating
 // instead when it is above that by more than DEMO_AUTORES_INVERT_MARGIN. Anything but configuration 0 (half
 // resolution as the options set the polarity) only with at least DEMO_AUTORES_MIN_FRAMES frames; no box is no evidence (rating 0). A resolution
 // the options fix (a->fixed_res) stays.
 uint8_t demo_autores_decide(demo_autores_t *a);
+
+// Puts a decided measurement's choice into cfg (cnn_res; cnn_invert flipped when a->inverted). True when that
+// changed cfg: a running detector must then be made anew.
+bool demo_autores_apply(const demo_autores_t *a, vd_detector_cfg_t *cfg);
 
 // Writes the choice's figures as "rating half 0.715, full 0.651, quarter 0.541; mean box score ...; flip
 // agreement half 90.9 %, ..." (configurations not measured left out; with both polarities measured each name

@@ -291,6 +291,11 @@ const char *demo_cnn_res_name(unsigned res)
     return res <= VD_DETECTOR_CNN_RES_QUARTER ? names[res] : "?";
 }
 
+const char *demo_polarity_name(unsigned invert)
+{
+    return invert != 0u ? "black-hot" : "white-hot";
+}
+
 // half/full/quarter (cfg.cnn_res) or auto (the measurement of --cnn-full-res auto, which chooses among them).
 static bool set_cnn_res(demo_opts_t *o, const char *v)
 {
@@ -316,12 +321,14 @@ static bool set_cnn_polarity(demo_opts_t *o, const char *v)
         o->cfg.cnn_invert = 0u;   // white-hot until the choice is made
         return true;
     }
-    if (strcmp(v, "white-hot") != 0 && strcmp(v, "black-hot") != 0) {
-        return false;
+    for (uint8_t i = 0u; i < 2u; i++) {
+        if (strcmp(v, demo_polarity_name(i)) == 0) {
+            o->cnn_polarity_auto = false;
+            o->cfg.cnn_invert = i;
+            return true;
+        }
     }
-    o->cnn_polarity_auto = false;
-    o->cfg.cnn_invert = strcmp(v, "black-hot") == 0 ? 1u : 0u;
-    return true;
+    return false;
 }
 
 // "HI" or "HI,LO": the track-score hysteresis of confirmation, 0 < LO <= HI <= 1 (Q15). LO left out keeps

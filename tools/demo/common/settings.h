@@ -74,5 +74,6 @@ bool demo_parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out);
 bool demo_parse_size(const char *s, uint32_t *w, uint32_t *h);   // "WxH", 1..VD_MAX_DIM each
 bool demo_parse_switch(const char *v, bool *on);                 // on/off, true/false, 1/0
 const char *demo_cnn_res_name(unsigned res);   // cfg.cnn_res's name: "half", "full", "quarter" ("?" beyond)
+const char *demo_polarity_name(unsigned invert);   // cfg.cnn_invert's name: "white-hot" (0), "black-hot"
 
 #endif
