@@ -134,6 +134,17 @@ static void test_sigmoid_table_ends(void)
     TEST_ASSERT_EQUAL_UINT8(128u, vd_dbn_sigmoid_q8(1));
     TEST_ASSERT_EQUAL_UINT8(187u, vd_dbn_sigmoid_q8(256));
     TEST_ASSERT_EQUAL_UINT8(69u, vd_dbn_sigmoid_q8(-256)); // 68.85
+    // On both sides of the stored steps (first, second, last): 256*sigmoid(z/256) =
+    // 0.4990 | 0.5010 at -1597 | -1596, 1.4957 | 1.5015 at -1315 | -1314, 127.25 | 127.50000254 at -3 | -2;
+    // z > 0 by the mirror: 128.49999746 at 2, 128.75 at 3.
+    TEST_ASSERT_EQUAL_UINT8(0u, vd_dbn_sigmoid_q8(-1597));
+    TEST_ASSERT_EQUAL_UINT8(1u, vd_dbn_sigmoid_q8(-1596));
+    TEST_ASSERT_EQUAL_UINT8(1u, vd_dbn_sigmoid_q8(-1315));
+    TEST_ASSERT_EQUAL_UINT8(2u, vd_dbn_sigmoid_q8(-1314));
+    TEST_ASSERT_EQUAL_UINT8(127u, vd_dbn_sigmoid_q8(-3));
+    TEST_ASSERT_EQUAL_UINT8(128u, vd_dbn_sigmoid_q8(-2));
+    TEST_ASSERT_EQUAL_UINT8(128u, vd_dbn_sigmoid_q8(2));
+    TEST_ASSERT_EQUAL_UINT8(129u, vd_dbn_sigmoid_q8(3));
     // Monotonic, and symmetric up to the 255 clamp: t(z) + t(-z) in {255, 256}.
     for (int32_t z = -2048; z < 2048; z++) {
         TEST_ASSERT_TRUE(vd_dbn_sigmoid_q8(z) <= vd_dbn_sigmoid_q8(z + 1));

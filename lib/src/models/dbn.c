@@ -6,7 +6,7 @@
 //   acc  = bias[o] + sum_i w[o][i] * a[i]        int8 x uint8 -> int32
 //   z_q8 = vd_dbn_requantize(acc, mult[o], shift[o])   (TFLite requantise,
 //          lib/src/models/requant.h, shared with the CNN)
-//   a'   = sigmoid_table[clamp(z_q8, -2048, 2048) + 2048]  (uint8, Q8)
+//   a'   = sigmoid(clamp(z_q8, -2048, 2048)) in Q8 (uint8; dbn_sigmoid_table.h)
 // The last layer has one unit: its activation is the score.
 // Input normalisation (format version 2, header field input_norm): with
 // VD_DBN_NORM_MINMAX the sample is first contrast-stretched per sample,
@@ -96,6 +96,24 @@ int32_t vd_dbn_requantize(int32_t acc, int32_t mult_q31, int32_t shift)
     return vd_rq_requantize(acc, mult_q31, shift);
 }
 
+// t(k) for k = z + 2048 in 0..2048 (z <= 0): the number of the table's steps at or below k, by
+// bisection of the sorted steps (at most 8 halvings of 128). The steps (256 B) replace the 2 049-entry
+// table the Cortex-M0+ size budget could not keep; the values are the same (the generator checks each k).
+static uint32_t sigmoid_half(uint32_t k)
+{
+    uint32_t lo = 0u;
+    uint32_t hi = VD_DBN_SIGMOID_STEPS;
+    while (lo < hi) {
+        const uint32_t mid = (lo + hi) >> 1;
+        if (vd_dbn_sigmoid_q8_edges[mid] <= k) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo;
+}
+
 uint8_t vd_dbn_sigmoid_q8(int32_t z_q8)
 {
     if (z_q8 < -VD_DBN_SIGMOID_IN_MAX) {
@@ -104,10 +122,10 @@ uint8_t vd_dbn_sigmoid_q8(int32_t z_q8)
         z_q8 = VD_DBN_SIGMOID_IN_MAX;
     }
     if (z_q8 <= 0) {
-        return vd_dbn_sigmoid_q8_table[z_q8 + VD_DBN_SIGMOID_IN_MAX];
+        return (uint8_t)sigmoid_half((uint32_t)(z_q8 + VD_DBN_SIGMOID_IN_MAX));
     }
-    // The table holds z <= 0 (2 KiB of flash less); the rest by the identity the generator checks.
-    const uint32_t mirror = 256u - vd_dbn_sigmoid_q8_table[VD_DBN_SIGMOID_IN_MAX - z_q8];
+    // The z > 0 half by the identity the generator checks: min(255, 256 - t(-z)).
+    const uint32_t mirror = 256u - sigmoid_half((uint32_t)(VD_DBN_SIGMOID_IN_MAX - z_q8));
     return (uint8_t)((mirror > 255u) ? 255u : mirror);
 }
 

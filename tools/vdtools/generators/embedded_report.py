@@ -176,7 +176,7 @@ def deepest_path(fn, frame, edges):
     path, node = [], fn
     for _ in range(len(frame) + 1):  # a DAG: at most every node once
         path.append((node.split(":")[-1], frame.get(node, 0)))
-        kids = list(edges.get(node, ()))
+        kids = sorted(edges.get(node, ()))  # sorted: equal depths give the same chain in every run
         if not kids:
             break
         node = max(kids, key=lambda c: worst_stack(c, frame, edges))
@@ -623,8 +623,9 @@ def m0_section(m0_sum, m0_links, m0_cmsis):
              f"whole library ≤ 64 KiB ({M0_TEXT_BUDGET} B): "
              + ("**met**" if m0_sum[0] <= M0_TEXT_BUDGET else "**not met**")
              + f" ({M0_TEXT_BUDGET - m0_sum[0]:+d} B). Before issue 36: 65 829 B (the CNN in one file), 66 325 B",
-             "after the CNN and long functions were split (more call sites); the DBN's sigmoid table now holds",
-             "its z ≤ 0 half (−2 048 B, `lib/src/models/dbn.c`).", "",
+             "after the CNN and long functions were split (more call sites); the DBN's sigmoid table then held",
+             "its z ≤ 0 half (−2 048 B), since 2026-11-30 only the first index of each of its 128 steps (65 488 →",
+             "63 753 B; `lib/src/models/dbn.c`, docs/fixed-point.md \"Sigmoid\").", "",
              "| configuration | CNN kernels | .text + .rodata (B) | .text (B) |", "|---|---|---:|---:|",
              f"| whole library (every object) | portable | {m0_sum[0]} | {m0_sum[1]} |"]
     for label, (t, r) in m0_links:
