@@ -21,7 +21,7 @@ echo "== clang build (-Werror)"
 cmake -S . -B build-clang -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_C_COMPILER=clang -DVD_BUILD_TESTS=ON >/dev/null
 cmake --build build-clang -j "$jobs"
 
-echo "== GCC static analyzer (-fanalyzer) on lib/, the gcc build's flags (-Werror)"
+echo "== GCC static analyzer (-fanalyzer) on lib/ and the host code, the gcc build's flags (-Werror)"
 tests/analyzer.sh build
 
 echo "== ASan + UBSan build + unit tests"

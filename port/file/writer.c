@@ -63,7 +63,7 @@ vd_status_t vd_write_pgm(const char *path, const vd_frame_t *frame, char *err, s
     }
     bool wide = frame->format == VD_PIX_U16;
     bool ok = fprintf(fp, "P5\n%u %u\n%u\n", (unsigned)frame->width, (unsigned)frame->height, wide ? 65535u : 255u) > 0;
-    uint8_t *row = NULL;
+    uint8_t *row = NULL;   // the big-endian row of a 16-bit frame; NULL for an 8-bit one
     if (ok && wide) {
         row = (uint8_t *)malloc((size_t)frame->width * 2u);
         ok = row != NULL;
@@ -71,7 +71,7 @@ vd_status_t vd_write_pgm(const char *path, const vd_frame_t *frame, char *err, s
     const uint8_t *base = (const uint8_t *)frame->data;
     for (uint32_t y = 0; ok && y < frame->height; y++) {
         const uint8_t *src = base + (size_t)y * frame->stride;
-        if (wide) {
+        if (row != NULL) {
             const uint16_t *s16 = (const uint16_t *)(const void *)src;
             for (uint32_t x = 0; x < frame->width; x++) {
                 row[2u * x] = (uint8_t)(s16[x] >> 8);   // PGM samples are big-endian
