@@ -6,8 +6,9 @@
 //                                            GRAY16_LE file of W x H frames
 //   test_gst_vdfir counts16 OUTFILE INDIR W H  INDIR's 8-bit frames as a camera's raw counts, value x 64
 //                                            + 1000, likewise (not radiometric: grey-window auto)
-//   test_gst_vdfir invert8 OUTFILE INDIR W H   INDIR's 8-bit frames as a black-hot camera shows them,
-//                                            255 - value, as one raw GRAY8 file
+//   test_gst_vdfir invert8 OUTFILE INDIR W H [BLANK]  INDIR's 8-bit frames as a black-hot camera shows
+//                                            them, 255 - value, as one raw GRAY8 file, after BLANK uniform
+//                                            frames (value 110: a camera's shutter, a lens cap)
 //   test_gst_vdfir compare JSONL PIPELINE    runs PIPELINE (with "vdfir name=det" and "fakesink
 //                                            name=sink"); every buffer's ROI metas and every element
 //                                            message must equal JSONL (vd_fir_demo --json) line by line
@@ -15,9 +16,10 @@
 //                                            a crash, not EOS) whose text contains TEXT
 //   test_gst_vdfir resolution R PIPELINE     PIPELINE (with vdfir) must post one "vdfir-resolution"
 //                                            message choosing R (half, full or quarter; R,POL: and the
-//                                            polarity POL, white-hot or black-hot) after 32 frames, or
-//                                            none (R = none), and a "vdfir" message per frame with
-//                                            seq 0, 1, .. unbroken by the switch
+//                                            polarity POL, white-hot or black-hot) with the 32nd frame
+//                                            (R,POL,SEQ,N: with frame SEQ after N measured), or none
+//                                            (R = none), and a "vdfir" message per frame with seq 0, 1, ..
+//                                            unbroken by the switch
 // The frames are decoded once and then read losslessly by both the demo and the element:
 // JPEG decoders differ (stb_image in the demo, libjpeg-turbo in jpegdec), PNG does not.
 #include <stdio.h>
@@ -216,7 +218,8 @@ static int cmd_png8(const char *out_dir, const char *in_dir, long max)
 // counts: INDIR holds 8-bit frames, written as value x 64 + 1000 (raw counts 1000..17320).
 enum raw_mode { RAW_COPY16, RAW_COUNTS16, RAW_INVERT8 };
 
-static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint32_t h, enum raw_mode mode)
+static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint32_t h, enum raw_mode mode,
+                     uint32_t blank)
 {
     const bool counts = mode != RAW_COPY16;   // 8-bit frames in
     vd_capture_t cap;
@@ -236,6 +239,12 @@ static int cmd_raw16(const char *out_path, const char *in_dir, uint32_t w, uint3
     int rc = 0;
     unsigned count = 0;
     uint16_t *row = malloc((size_t)w * 2u);
+    if (row != NULL && blank > 0u) {   // (8-bit rows: invert8 only)
+        memset(row, 110, w);
+        for (uint64_t i = 0; i < (uint64_t)blank * h && rc == 0; i++) {
+            rc = fwrite(row, 1u, w, f) == w ? 0 : 1;
+        }
+    }
     for (;;) {
         vd_frame_t fr;
         vd_status_t st = vd_capture_next(&cap, 0, &fr);
@@ -606,8 +615,20 @@ static int cmd_resolution(const char *want_arg, const char *desc)
     char want[32];
     snprintf(want, sizeof want, "%s", want_arg);
     char *want_pol = strchr(want, ',');   // R,POL: the polarity too (cnn-polarity auto)
+    guint64 want_seq = 31u;               // R,POL,SEQ,N: the frame of the choice and the frames measured
+    guint want_frames = 32u;
     if (want_pol != NULL) {
         *want_pol++ = '\0';
+        char *rest = strchr(want_pol, ',');
+        if (rest != NULL) {
+            *rest++ = '\0';
+            char *end = NULL;
+            want_seq = g_ascii_strtoull(rest, &end, 10);
+            if (end == NULL || *end != ',') {
+                return fail("resolution: R,POL,SEQ,N");
+            }
+            want_frames = (guint)g_ascii_strtoull(end + 1, NULL, 10);
+        }
     }
     const gboolean none = strcmp(want, "none") == 0;
     if (!none && strcmp(want, "half") != 0 && strcmp(want, "full") != 0 && strcmp(want, "quarter") != 0) {
@@ -640,8 +661,9 @@ static int cmd_resolution(const char *want_arg, const char *desc)
     if (g.messages != 1) {
         return fail("not exactly one resolution message with its fields");
     }
-    if (g.frames != 32u || g.from_seq != 31u || g.next_seq <= g.from_seq) {
-        return fail("the choice must come with the 32nd frame (seq 31), before the stream ends");
+    if (g.frames != want_frames || g.from_seq != want_seq || g.next_seq <= g.from_seq) {
+        return fail("the choice must come with the expected frame (the 32nd, seq 31, unless given) after the "
+                    "expected frames measured, before the stream ends");
     }
     for (int k = 0; k < 6; k++) {
         const double agree = k < 3 ? g.agree[k] : g.inv_agree[k - 3], score = k < 3 ? g.score[k] : g.inv_score[k - 3];
@@ -719,15 +741,15 @@ int main(int argc, char **argv)
     }
     if (argc == 6 && strcmp(argv[1], "raw16") == 0) {
         return cmd_raw16(argv[2], argv[3], (uint32_t)strtoul(argv[4], NULL, 10), (uint32_t)strtoul(argv[5], NULL, 10),
-                         RAW_COPY16);
+                         RAW_COPY16, 0u);
     }
     if (argc == 6 && strcmp(argv[1], "counts16") == 0) {
         return cmd_raw16(argv[2], argv[3], (uint32_t)strtoul(argv[4], NULL, 10), (uint32_t)strtoul(argv[5], NULL, 10),
-                         RAW_COUNTS16);
+                         RAW_COUNTS16, 0u);
     }
-    if (argc == 6 && strcmp(argv[1], "invert8") == 0) {
+    if ((argc == 6 || argc == 7) && strcmp(argv[1], "invert8") == 0) {
         return cmd_raw16(argv[2], argv[3], (uint32_t)strtoul(argv[4], NULL, 10), (uint32_t)strtoul(argv[5], NULL, 10),
-                         RAW_INVERT8);
+                         RAW_INVERT8, argc == 7 ? (uint32_t)strtoul(argv[6], NULL, 10) : 0u);
     }
     if (argc == 4 && strcmp(argv[1], "compare") == 0) {
         return cmd_compare(argv[2], argv[3]);

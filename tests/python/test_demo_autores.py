@@ -362,7 +362,7 @@ def test_camera_measures_its_first_frames_as_they_come(demo, shipped, small_clip
     for p in sorted(small_clip.iterdir()):
         shutil.copy(p, camera_dir / p.name)
     a = run(demo, "--input", camera_dir, "--json", tmp_path / "a.jsonl", "--temporal", "off")
-    assert "first 32 frames are measured as they come" in a.stderr
+    assert "measured as they come, 32 from the first with a box" in a.stderr
     c = choice(a.stdout)
     assert (c[0], c[3]) == ("full", 32) and "as they came; from frame 32 on" in a.stdout
     # a recording of those 32 frames is measured on all of them (a longer one on 64 spread over it)
@@ -384,6 +384,34 @@ def test_camera_measures_its_first_frames_as_they_come(demo, shipped, small_clip
     assert choice(b.stdout)[0] == "half"
     run(demo, "--input", camera_dir, "--json", tmp_path / "c.jsonl", "--quiet", "--cnn-full-res", "off")
     assert detections(tmp_path / "b.jsonl") == detections(tmp_path / "c.jsonl")
+
+
+def test_camera_waits_for_a_frame_with_a_box(demo, shipped, black_clip, camera_dir, tmp_path):
+    """A camera that starts on frames without a vehicle (40 uniform frames: a shutter, a lens cap) and then shows
+    the clip's first 32 frames black-hot: its first 32 frames hold no box, so the measurement goes on (every 8th
+    frame) until a frame has one and decides 32 frames after it: black-hot from the 72nd frame (before
+    2026-11-30 it decided on the 32 uniform frames: white-hot for good). Detections before that frame are those
+    of white-hot, from it on those of black-hot (temporal off: a new detector from that frame is the same)."""
+    h, w = cv2.imread(str(clip_paths()[0]), cv2.IMREAD_GRAYSCALE).shape
+    for i in range(40):
+        cv2.imwrite(str(camera_dir / f"{i:04d}.png"), np.full((h, w), 110, np.uint8))
+    for i, p in enumerate(sorted(black_clip.iterdir())):
+        cv2.imwrite(str(camera_dir / f"{40 + i:04d}.png"), cv2.imread(str(p), cv2.IMREAD_GRAYSCALE))
+    a = run(demo, "--input", camera_dir, "--json", tmp_path / "a.jsonl", "--temporal", "off")
+    f = figures(a.stdout)
+    # measured: the 32 uniform frames, the 33rd (frame 32, a multiple of 8), then frames 40..71
+    assert (f["polarity"], f["res"], f["frames"]) == ("black-hot", "half", 65), a.stdout
+    assert "as they came; from frame 72 on" in a.stdout
+    for pol in ("white-hot", "black-hot"):
+        run(demo, "--input", camera_dir, "--json", tmp_path / f"{pol}.jsonl", "--quiet", "--temporal", "off",
+            "--cnn-polarity", pol, "--cnn-res", "half")
+    got, white, black = (detections(tmp_path / f"{k}.jsonl") for k in ("a", "white-hot", "black-hot"))
+    assert not any(got[:40]) and got[:71] == white[:71] and got[71:] == black[71:] and any(got[71:])
+    # fewer frames than the wait: no frame with a box, no choice (the summary names none), white-hot throughout
+    for p in sorted(camera_dir.iterdir())[40:]:
+        p.unlink()
+    b = run(demo, "--input", camera_dir, "--json", tmp_path / "b.jsonl", "--quiet", "--temporal", "off")
+    assert "cnn input:" not in b.stdout and not any(detections(tmp_path / "b.jsonl"))
 
 
 def small_clip_paths(folder):

@@ -733,11 +733,13 @@ static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
         return 0;
     }
     if (r->device) {
-        r->live.on = true;
+        demo_autores_live_start(&r->live);
         o->cfg.cnn_res = o->cnn_res_auto ? VD_DETECTOR_CNN_RES_HALF : o->cfg.cnn_res;
         if (!o->quiet) {
-            fprintf(stderr, "vd_fir_demo: --cnn-full-res/--cnn-polarity auto: a camera's first %u frames are "
-                            "measured as they come (%s resolution, %s meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES,
+            fprintf(stderr, "vd_fir_demo: --cnn-full-res/--cnn-polarity auto: a camera's frames are measured as they "
+                            "come, %u from the first with a box (every %u-th while none has one, up to frame %u; %s "
+                            "resolution, %s meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES,
+                    (unsigned)DEMO_AUTORES_LIVE_STRIDE, (unsigned)DEMO_AUTORES_LIVE_WAIT,
                     demo_cnn_res_name(o->cfg.cnn_res), demo_polarity_name(o->cfg.cnn_invert));
         }
         return 0;

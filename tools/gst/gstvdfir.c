@@ -91,8 +91,10 @@ static void autores_reset(GstVdFir *self)
 {
     demo_autores_live_free(&self->ar);
     memset(&self->ar, 0, sizeof self->ar);
-    self->ar.on = (self->opts.cnn_res_auto || self->opts.cnn_polarity_auto) && self->models.have_cnn &&
-                  (self->opts.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u;
+    if ((self->opts.cnn_res_auto || self->opts.cnn_polarity_auto) && self->models.have_cnn &&
+        (self->opts.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
+        demo_autores_live_start(&self->ar);
+    }
     if (self->ar.on && self->opts.cnn_res_auto) {
         self->opts.cfg.cnn_res = VD_DETECTOR_CNN_RES_HALF;
     }

@@ -411,12 +411,35 @@ double demo_now_s(void)
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
+void demo_autores_live_start(demo_autores_live_t *lv)
+{
+    lv->on = true;
+    lv->decided = false;
+    lv->seen = 0u;
+    lv->first_box = UINT64_MAX;
+}
+
+static uint64_t autores_boxes(const demo_autores_t *a)
+{
+    uint64_t n = 0u;
+    for (unsigned k = 0u; k < DEMO_AUTORES_CONFIGS; k++) {
+        n += a->boxes[k];
+    }
+    return n;
+}
+
 vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *o, const vd_frame_t *f,
                                     uint64_t frame, bool *now, char *err, size_t err_len)
 {
     *now = false;
     if (!lv->on) {
         return VD_OK;
+    }
+    const uint64_t i = lv->seen++;   // this frame's place in the measurement (a new frame size starts it over)
+    const bool waiting = lv->first_box == UINT64_MAX;
+    const bool last = waiting && i + 1u >= DEMO_AUTORES_LIVE_WAIT;
+    if (waiting && !last && lv->a.frames >= DEMO_AUTORES_MAX_FRAMES && i % DEMO_AUTORES_LIVE_STRIDE != 0u) {
+        return VD_OK;   // no box yet in the frames measured: the sparse wait
     }
     const double t0 = demo_now_s();
     vd_status_t st = VD_OK;
@@ -436,7 +459,12 @@ vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *
         lv->on = false;
         return st;
     }
-    if (lv->a.frames < DEMO_AUTORES_MAX_FRAMES) {
+    if (waiting && autores_boxes(&lv->a) > 0u) {
+        lv->first_box = i;
+    }
+    // from the first frame with a box on, every frame is measured
+    const bool enough = lv->first_box != UINT64_MAX && i - lv->first_box + 1u >= DEMO_AUTORES_MAX_FRAMES;
+    if (!enough && !last) {
         return VD_OK;
     }
     demo_autores_decide(&lv->a);

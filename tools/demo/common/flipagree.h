@@ -116,18 +116,31 @@ void demo_flipagree_free(demo_flipagree_t *fa);
 double demo_now_s(void);
 
 // --cnn-full-res / --cnn-polarity auto on a live source (vd_fir_demo on a camera, the GStreamer element), whose frames cannot be
-// read twice: the first DEMO_AUTORES_MAX_FRAMES frames measured as they come, before each is detected on (at
-// half resolution meanwhile).
+// read twice: frames measured as they come, before each is detected on (at half resolution meanwhile), until
+// DEMO_AUTORES_MAX_FRAMES of them counted from the first that holds a box (in any configuration). A frame without
+// a box adds nothing to the counts, so a camera that starts on frames without vehicles (its shutter or warm-up
+// frames, a lens cap, an empty road, a drone on the ground) would be decided on nothing: after
+// DEMO_AUTORES_MAX_FRAMES such frames only every DEMO_AUTORES_LIVE_STRIDE-th frame is measured (an eighth of the
+// cost) while none holds a box, and with frame DEMO_AUTORES_LIVE_WAIT the measurement decides on what it has
+// (no box: half resolution, the options' polarity), as it did on the first 32 frames before 2026-11-30.
+#define DEMO_AUTORES_LIVE_STRIDE 8u
+#define DEMO_AUTORES_LIVE_WAIT 2048u   // frames (68 s at 30 frames/s)
 typedef struct demo_autores_live {
     demo_flipagree_t *fa;
     demo_autores_t a;
-    bool on;        // measuring
-    bool decided;   // a.res is the choice, from frame `from` on
+    bool on;             // measuring
+    bool decided;        // a.res is the choice, from frame `from` on
     uint64_t from;
+    uint64_t seen;       // frames offered since the start
+    uint64_t first_box;  // of them, the first measured one that held a box (UINT64_MAX: none yet)
 } demo_autores_live_t;
 
-// Frame f (the `frame`-th of the run, 0-based) into the measurement; *now true when it completed it (lv->a.res
-// the choice, to apply from this frame on). A detector that cannot measure: its status, err says what.
+// Starts a live measurement (lv->fa NULL: zeroed, or after demo_autores_live_free).
+void demo_autores_live_start(demo_autores_live_t *lv);
+
+// Frame f (the `frame`-th of the run, 0-based, frames in order) into the measurement (or not: the sparse wait
+// above); *now true when it completed it (lv->a.res the choice, to apply from this frame on). A detector that
+// cannot measure: its status, err says what.
 vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *o, const vd_frame_t *f,
                                     uint64_t frame, bool *now, char *err, size_t err_len);
 
