@@ -407,11 +407,14 @@ def test_camera_waits_for_a_frame_with_a_box(demo, shipped, black_clip, camera_d
             "--cnn-polarity", pol, "--cnn-res", "half")
     got, white, black = (detections(tmp_path / f"{k}.jsonl") for k in ("a", "white-hot", "black-hot"))
     assert not any(got[:40]) and got[:71] == white[:71] and got[71:] == black[71:] and any(got[71:])
-    # fewer frames than the wait: no frame with a box, no choice (the summary names none), white-hot throughout
+    assert "no box in the first 32 frames; measuring every 8th frame" in a.stderr
+    # fewer frames than the wait: no frame with a box, no choice (the summary says so), white-hot throughout
     for p in sorted(camera_dir.iterdir())[40:]:
         p.unlink()
     b = run(demo, "--input", camera_dir, "--json", tmp_path / "b.jsonl", "--quiet", "--temporal", "off")
-    assert "cnn input:" not in b.stdout and not any(detections(tmp_path / "b.jsonl"))
+    assert ("cnn input: half resolution, white-hot (a camera's frames measured as they came: 33 of 40, none with a "
+            "box; no choice yet)") in b.stdout, b.stdout
+    assert not any(detections(tmp_path / "b.jsonl"))
 
 
 def small_clip_paths(folder):

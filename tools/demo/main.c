@@ -435,6 +435,12 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
 {
     bool now = false;
     vd_status_t st = demo_autores_live_frame(&r->live, &r->o, f, r->frames, &now, r->err, sizeof r->err);
+    if (st == VD_OK && !r->o.quiet && r->live.on && r->live.first_box == UINT64_MAX &&
+        r->live.seen == DEMO_AUTORES_MAX_FRAMES) {
+        fprintf(stderr, "vd_fir_demo: --cnn-full-res/--cnn-polarity auto: no box in the first %u frames; measuring "
+                        "every %uth frame until one has a box (up to frame %u)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES,
+                (unsigned)DEMO_AUTORES_LIVE_STRIDE, (unsigned)DEMO_AUTORES_LIVE_WAIT);
+    }
     if (st != VD_OK || !now) {
         return st;
     }
@@ -563,7 +569,12 @@ static void summary(run_t *r)
     }
     if (r->m.have_cnn && (r->o.cfg.sources & VD_DETECTOR_SRC_CNN) != 0u) {
         printf("cnn kernels: %s\n", vd_cnn_kernel_set());   // which set the times above ran on
-        if (!r->autores_ran && r->o.cfg.cnn_res != VD_DETECTOR_CNN_RES_HALF) {
+        if (!r->autores_ran && r->live.on) {   // a camera's measurement that had not decided when the run ended
+            printf("cnn input: %s resolution, %s (a camera's frames measured as they came: %u of %llu, %s; no "
+                   "choice yet)\n", demo_cnn_res_name(r->o.cfg.cnn_res), demo_polarity_name(r->o.cfg.cnn_invert),
+                   (unsigned)r->live.a.frames, (unsigned long long)r->live.seen,
+                   r->live.first_box == UINT64_MAX ? "none with a box" : "too few from the first with a box");
+        } else if (!r->autores_ran && r->o.cfg.cnn_res != VD_DETECTOR_CNN_RES_HALF) {
             printf("cnn input: %s resolution (set by --cnn-res or --cnn-full-res)\n",
                    demo_cnn_res_name(r->o.cfg.cnn_res));
         }
@@ -737,7 +748,7 @@ static int choose_resolution(run_t *r, const vd_capture_opts_t *copts)
         o->cfg.cnn_res = o->cnn_res_auto ? VD_DETECTOR_CNN_RES_HALF : o->cfg.cnn_res;
         if (!o->quiet) {
             fprintf(stderr, "vd_fir_demo: --cnn-full-res/--cnn-polarity auto: a camera's frames are measured as they "
-                            "come, %u from the first with a box (every %u-th while none has one, up to frame %u; %s "
+                            "come, %u from the first with a box (every %uth while none has one, up to frame %u; %s "
                             "resolution, %s meanwhile)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES,
                     (unsigned)DEMO_AUTORES_LIVE_STRIDE, (unsigned)DEMO_AUTORES_LIVE_WAIT,
                     demo_cnn_res_name(o->cfg.cnn_res), demo_polarity_name(o->cfg.cnn_invert));
