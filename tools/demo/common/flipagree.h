@@ -119,7 +119,7 @@ double demo_now_s(void);
 // read twice: frames measured as they come, before each is detected on (at half resolution meanwhile), until
 // DEMO_AUTORES_MAX_FRAMES of them counted from the first that holds a box (in any configuration). A frame without
 // a box adds nothing to the counts, so a camera that starts on frames without vehicles (its shutter or warm-up
-// frames, a lens cap, an empty road, a drone on the ground) would be decided on nothing: after
+// frames, a lens cap, fog, a uniform scene) would be decided on nothing: after
 // DEMO_AUTORES_MAX_FRAMES such frames only every DEMO_AUTORES_LIVE_STRIDE-th frame is measured (an eighth of the
 // cost) while none holds a box, and with frame DEMO_AUTORES_LIVE_WAIT the measurement decides on what it has
 // (no box: half resolution, the options' polarity), as it did on the first 32 frames before 2026-11-30.
