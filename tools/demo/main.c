@@ -435,11 +435,9 @@ static vd_status_t autores_live(run_t *r, const vd_frame_t *f)
 {
     bool now = false;
     vd_status_t st = demo_autores_live_frame(&r->live, &r->o, f, r->frames, &now, r->err, sizeof r->err);
-    if (st == VD_OK && !r->o.quiet && r->live.on && r->live.first_box == UINT64_MAX &&
-        r->live.seen == DEMO_AUTORES_MAX_FRAMES) {
-        fprintf(stderr, "vd_fir_demo: --cnn-full-res/--cnn-polarity auto: no box in the first %u frames; measuring "
-                        "every %uth frame until one has a box (up to frame %u)\n", (unsigned)DEMO_AUTORES_MAX_FRAMES,
-                (unsigned)DEMO_AUTORES_LIVE_STRIDE, (unsigned)DEMO_AUTORES_LIVE_WAIT);
+    char note[160];
+    if (st == VD_OK && !r->o.quiet && demo_autores_live_wait_began(&r->live, note, sizeof note)) {
+        fprintf(stderr, "vd_fir_demo: --cnn-full-res/--cnn-polarity auto: %s\n", note);
     }
     if (st != VD_OK || !now) {
         return st;

@@ -304,10 +304,9 @@ static gboolean autores_step(GstVdFir *self, const vd_frame_t *f)
                             (NULL));
         return TRUE;
     }
-    if (self->ar.on && self->ar.first_box == UINT64_MAX && self->ar.seen == DEMO_AUTORES_MAX_FRAMES) {
-        GST_INFO_OBJECT(self, "cnn-full-res/cnn-polarity auto: no box in the first %u frames; measuring every %uth "
-                        "frame until one has a box (up to frame %u)", (unsigned)DEMO_AUTORES_MAX_FRAMES,
-                        (unsigned)DEMO_AUTORES_LIVE_STRIDE, (unsigned)DEMO_AUTORES_LIVE_WAIT);
+    char note[160];
+    if (demo_autores_live_wait_began(&self->ar, note, sizeof note)) {
+        GST_INFO_OBJECT(self, "cnn-full-res/cnn-polarity auto: %s", note);
     }
     if (!now) {
         return TRUE;

@@ -476,6 +476,16 @@ vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *
     return VD_OK;
 }
 
+bool demo_autores_live_wait_began(const demo_autores_live_t *lv, char *buf, size_t len)
+{
+    if (!lv->on || lv->first_box != UINT64_MAX || lv->seen != DEMO_AUTORES_MAX_FRAMES) {
+        return false;
+    }
+    snprintf(buf, len, "no box in the first %u frames; measuring every %uth frame until one has a box (up to frame %u)",
+             (unsigned)DEMO_AUTORES_MAX_FRAMES, (unsigned)DEMO_AUTORES_LIVE_STRIDE, (unsigned)DEMO_AUTORES_LIVE_WAIT);
+    return true;
+}
+
 void demo_autores_live_free(demo_autores_live_t *lv)
 {
     demo_flipagree_free(lv->fa);

@@ -144,6 +144,10 @@ void demo_autores_live_start(demo_autores_live_t *lv);
 vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *o, const vd_frame_t *f,
                                     uint64_t frame, bool *now, char *err, size_t err_len);
 
+// True when the frame just offered began the sparse wait (no box in the first DEMO_AUTORES_MAX_FRAMES); buf then
+// holds the line that says so, for the demo's stderr and the element's log (each adds its prefix).
+bool demo_autores_live_wait_began(const demo_autores_live_t *lv, char *buf, size_t len);
+
 void demo_autores_live_free(demo_autores_live_t *lv);
 
 #endif
