@@ -58,6 +58,9 @@ def test_hand_worked_realisable():
     assert n["ap_coast"] == pytest.approx((1 + 1 + 0.8 + 0.8 + 5 / 7) / 6)
     # the weak box at 0.1: T T F T T -> 1, 1, 0.8, 0.8
     assert n["ap_weak"] == pytest.approx((1 + 1 + 0.8 + 0.8) / 6)
+    # both: the weak box takes B in f1 first, so the box coasted onto B there is a false positive:
+    # T T F T T | F F T -> 1, 1, 0.8, 0.8, 5/8
+    assert n["ap_both"] == pytest.approx((1 + 1 + 0.8 + 0.8 + 5 / 8) / 6)
 
 
 def test_without_weak_run():

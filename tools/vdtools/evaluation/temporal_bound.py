@@ -24,7 +24,8 @@ camera_shift on the detections of the two frames, the shift most boxes agree on)
   the AP with them ranked below every real box;
 - **weak boxes that continue**: the boxes under the threshold (the low run) that overlap no output box
   (IoU < 0.5) and continue a detection of the previous frame (IoU >= 0.3 after the shift), added at their own
-  scores (ByteTrack's second tier); how many are vehicles, and the AP with them.
+  scores (ByteTrack's second tier); how many are vehicles, and the AP with them;
+- **both** together.
 
     python3 -m vdtools.evaluation.temporal_bound --sequences val [--low 0.05] [--out FILE]
 """
@@ -104,7 +105,7 @@ def realisable(sequences, low_recs, thr):
     """The coasting and weak-box measures of the module's docstring: sequences and low_recs as bounds() (low_recs
     required), thr the run's score threshold (boxes of the low run below it are the weak ones)."""
     n = dict(vehicles=0, coasted=0, coasted_tp=0, weak_continuing=0, weak_continuing_tp=0)
-    flags = {"off": [], "coast": [], "weak": []}
+    flags = {"off": [], "coast": [], "weak": [], "both": []}
     for frames, recs in sequences:
         prev = []
         for fr in frames:
@@ -116,7 +117,7 @@ def realisable(sequences, low_recs, thr):
             coast = [((p[0] + dx, p[1] + dy, p[2], p[3]), -1.0) for p in prev if not _continues(p, cur, -dx, -dy)]
             weak = [(b, s) for b, s in _boxes(low_recs, fr.name)
                     if s < thr and all(iou(b, c) < 0.5 for c in cur) and _continues(b, prev, dx, dy)]
-            for key, extra in (("off", []), ("coast", coast), ("weak", weak)):
+            for key, extra in (("off", []), ("coast", coast), ("weak", weak), ("both", weak + coast)):
                 fl, _ = match_flags(dets + extra, gts)
                 flags[key] += [(s, f) for s, f in fl if f is not None]
             fl, _ = match_flags(dets + coast, gts)
@@ -158,6 +159,7 @@ def report(split, n):
         lines.append(f"  weak boxes continuing a detection of the previous frame: {n['weak_continuing']}, "
                      f"{n['weak_continuing_tp']} vehicles; AP {_pts(n['ap_weak'])} "
                      f"({100 * (n['ap_weak'] - n['ap_off']):+.1f})")
+        lines.append(f"  both: AP {_pts(n['ap_both'])} ({100 * (n['ap_both'] - n['ap_off']):+.1f})")
     return "\n".join(lines)
 
 
