@@ -63,6 +63,18 @@ def test_hand_worked_realisable():
     assert n["ap_both"] == pytest.approx((1 + 1 + 0.8 + 0.8 + 5 / 8) / 6)
 
 
+def test_track_features_hand_worked():
+    tracked = {"f0": [dict(det(A, 0.9), track=1), dict(det(B, 0.8), track=2), dict(det(FP, 0.7), track=3)],
+               "f1": [dict(det(shifted(A, 5), 0.6), track=1)], "f2": []}
+    x, y, nv = TB.track_features([(FRAMES, tracked)])
+    assert nv == 6 and y == [1, 1, 0, 1]
+    assert x[0] == [0.9, 0, 0.0, 0.0, 0.0, 0.0, 3]                 # a first sighting
+    assert x[3] == [0.6, 1, 0.9, 0.9, 1.0, 0.9, 1]                 # track 1 again, seen in the frame before
+    m = TB.learned_rescoring((x, y, nv), (x, y, nv))
+    assert m["ap_own"] == pytest.approx((1 + 1 + 0.75) / 6)
+    assert 0.0 <= m["ap_logistic"] <= 0.5 and 0.0 <= m["ap_trees"] <= 0.5   # never above the TP rate 3 / 6
+
+
 def test_without_weak_run():
     n = TB.bounds([(FRAMES, OFF)], None)
     assert "ceiling_weak_boxes" not in n and n["missed_weak_box"] == 0

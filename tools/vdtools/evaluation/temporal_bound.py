@@ -27,6 +27,12 @@ camera_shift on the detections of the two frames, the shift most boxes agree on)
   scores (ByteTrack's second tier); how many are vehicles, and the AP with them;
 - **both** together.
 
+And a learned re-scoring (`--learned`): each box's score replaced by a classifier's probability that it is a
+vehicle, from its score and its track's history (`--temporal on --track-scores off`: the track's length so far,
+its previous frame's score, its best and mean earlier score, whether it was seen in the previous frame, the
+frame's box count), logistic regression and gradient-boosted trees (scikit-learn) fit on the train sequences'
+boxes and applied to the chosen split's: how much of the re-scoring ceiling a track's history can earn.
+
     python3 -m vdtools.evaluation.temporal_bound --sequences val [--low 0.05] [--out FILE]
 """
 import argparse
@@ -133,6 +139,52 @@ def realisable(sequences, low_recs, thr):
     return n
 
 
+FEATURES = ("score", "track length so far", "previous frame's score", "best earlier score",
+            "seen in the previous frame", "mean earlier score", "boxes in the frame")
+
+
+def track_features(sequences):
+    """[(frames, recs)] of a --temporal on run (detections with "track") -> (X, y, vehicles): one row of
+    FEATURES per box that is not ignored, y 1 for a true positive (match_flags), 0 else."""
+    X, y, nv = [], [], 0
+    for frames, recs in sequences:
+        hist = {}
+        for k, fr in enumerate(frames):
+            dets = recs[fr.name]
+            nv += len(fr.vehicles)
+            order = sorted(range(len(dets)), key=lambda i: (-dets[i]["score"], i))   # match_flags' order
+            flags, _ = match_flags([(tuple(d["box"]), d["score"]) for d in dets], _gts(fr))
+            flag = {order[j]: flags[j][1] for j in range(len(order))}
+            for i, d in enumerate(dets):
+                h = hist.get(d["track"], [])
+                prev = h[-1][1] if h and h[-1][0] == k - 1 else None
+                earlier = [e[1] for e in h]
+                if flag[i] is not None:
+                    X.append([d["score"], len(h), prev or 0.0, max(earlier, default=0.0),
+                              0.0 if prev is None else 1.0, sum(earlier) / len(earlier) if earlier else 0.0,
+                              len(dets)])
+                    y.append(flag[i])
+            for d in dets:
+                hist.setdefault(d["track"], []).append((k, d["score"]))
+    return X, y, nv
+
+
+def learned_rescoring(train, evaluate):
+    """AP@0.5 of evaluate's boxes (track_features of each) by their own score and by the probability of a
+    logistic regression and of gradient-boosted trees fit on train's boxes."""
+    import numpy as np
+    from sklearn.ensemble import HistGradientBoostingClassifier
+    from sklearn.linear_model import LogisticRegression
+    (xt, yt, _), (xv, yv, nv) = train, evaluate
+    xt, xv = np.asarray(xt, float), np.asarray(xv, float)
+    out = dict(ap_own=ap_from_flags(list(zip(xv[:, 0], yv)), nv)[0])
+    for name, model in (("logistic", LogisticRegression(max_iter=2000)),
+                        ("trees", HistGradientBoostingClassifier(max_iter=200, max_depth=3, random_state=0))):
+        p = model.fit(xt, yt).predict_proba(xv)[:, 1]
+        out[f"ap_{name}"] = ap_from_flags(list(zip(p, yv)), nv)[0]
+    return out
+
+
 def _pts(x):
     return f"{100 * x:.1f}"
 
@@ -160,6 +212,11 @@ def report(split, n):
                      f"{n['weak_continuing_tp']} vehicles; AP {_pts(n['ap_weak'])} "
                      f"({100 * (n['ap_weak'] - n['ap_off']):+.1f})")
         lines.append(f"  both: AP {_pts(n['ap_both'])} ({100 * (n['ap_both'] - n['ap_off']):+.1f})")
+    if "learned" in n:
+        m = n["learned"]
+        lines.append(f"  learned re-scoring (fit on train, track history features): own score {_pts(m['ap_own'])}, "
+                     f"logistic {_pts(m['ap_logistic'])} ({100 * (m['ap_logistic'] - m['ap_own']):+.1f}), "
+                     f"trees {_pts(m['ap_trees'])} ({100 * (m['ap_trees'] - m['ap_own']):+.1f})")
     return "\n".join(lines)
 
 
@@ -173,6 +230,9 @@ def main(argv=None):
     ap.add_argument("--thr", type=float, default=0.3076,
                     help="the run's score threshold (the demo's default: the pair's header threshold)")
     ap.add_argument("--extra", default="", help="more demo flags for both runs")
+    ap.add_argument("--learned", action="store_true",
+                    help="also the learned re-scoring: runs the train sequences and this split with --temporal on "
+                         "--track-scores off (train: ~2 min)")
     ap.add_argument("--tmp", default="out/temporal_bound")
     ap.add_argument("--out", help="JSON record")
     a = ap.parse_args(argv)
@@ -195,6 +255,15 @@ def main(argv=None):
         thr = a.thr
         r = realisable(runs, low, thr)
         n.update({k: v for k, v in r.items() if k not in ("vehicles", "ap_off")})
+    if a.learned:
+        def tracked(split):
+            done = []
+            for sid, frames in TE.load_sequences(a.data, split):
+                recs, _ = TE._run_demo(a.demo, frames, tmp / f"{sid}_tracks.jsonl", "on",
+                                       extra + ["--track-scores", "off"])
+                done.append((frames, recs))
+            return track_features(done)
+        n["learned"] = learned_rescoring(tracked("train"), tracked(a.sequences))
     print(report(a.sequences, n))
     if a.out:
         Path(a.out).write_text(json.dumps(dict(split=a.sequences, low=a.low, extra=a.extra, **n), indent=1) + "\n")
