@@ -435,7 +435,7 @@ vd_status_t demo_autores_live_frame(demo_autores_live_t *lv, const demo_opts_t *
     if (!lv->on) {
         return VD_OK;
     }
-    const uint64_t i = lv->seen++;   // this frame's place in the measurement (a new frame size starts it over)
+    const uint64_t i = lv->seen++;   // this frame's place in the measurement (demo_autores_live_start zeroes it)
     const bool waiting = lv->first_box == UINT64_MAX;
     const bool last = waiting && i + 1u >= DEMO_AUTORES_LIVE_WAIT;
     if (waiting && !last && lv->a.frames >= DEMO_AUTORES_MAX_FRAMES && i % DEMO_AUTORES_LIVE_STRIDE != 0u) {

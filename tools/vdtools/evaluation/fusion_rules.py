@@ -147,8 +147,8 @@ def main(argv=None):
     passes = passes_of(frames, E.Int8(a.model, "c", flip=True), E.Int8(a.model2, "c", flip=True))
     base = None
     for name, rule in RULES.items():
-        res = [(CD.family(fr), fr, E.nms(rule(p)), [tuple(b) + (True, False) for b in fr.boxes.tolist()] +
-                [tuple(b) + (False, True) for b in fr.ignore.tolist()]) for fr, p in zip(frames, passes)]
+        each = iter(passes)   # cnn_eval.run calls the predictor once per frame, in order
+        res = E.run(lambda img, w, h, each=each, rule=rule: rule(next(each)), frames)
         rep = E.figures(res, [THR])
         line = f"{name:24s}" + "".join(f"  {fam} AP {100 * v['ap']:.1f} TP {100 * v['at'][THR]['tp_rate']:.1f} % "
                                        f"FP {100 * v['at'][THR]['fp_rate']:.1f} %" for fam, v in rep.items())

@@ -46,8 +46,8 @@ from vdtools.metrics.evaluate import ap_from_flags, iou, match_flags
 from vdtools.metrics.tracking import camera_shift, gt_tracks
 
 
-def _gts(fr):
-    return [tuple(b) + (True, False) for b in fr.vehicles] + [tuple(b) + (False, True) for b in fr.ignore]
+def _boxes(recs, name):
+    return [(tuple(d["box"]), d["score"]) for d in recs[name]]
 
 
 def bounds(sequences, low_recs=None):
@@ -62,8 +62,7 @@ def bounds(sequences, low_recs=None):
         found_ids = set()
         prev_found = set()
         for k, fr in enumerate(frames):
-            dets = [(tuple(d["box"]), d["score"]) for d in recs[fr.name]]
-            flags, matched = match_flags(dets, _gts(fr))
+            flags, matched = match_flags(_boxes(recs, fr.name), TE.gts_of(fr))
             flags_all += [(s, f) for s, f in flags if f is not None]
             nv = len(fr.vehicles)
             matched = set(m for m in matched if m < nv)
@@ -100,10 +99,6 @@ def bounds(sequences, low_recs=None):
     return n
 
 
-def _boxes(recs, name):
-    return [(tuple(d["box"]), d["score"]) for d in recs[name]]
-
-
 def _continues(box, prev, dx, dy):
     return any(iou((p[0] + dx, p[1] + dy, p[2], p[3]), box) >= 0.3 for p in prev)
 
@@ -116,7 +111,7 @@ def realisable(sequences, low_recs, thr):
     for frames, recs in sequences:
         prev = []
         for fr in frames:
-            gts = _gts(fr)
+            gts = TE.gts_of(fr)
             n["vehicles"] += len(fr.vehicles)
             dets = _boxes(recs, fr.name)
             cur = [d[0] for d in dets]
@@ -124,16 +119,17 @@ def realisable(sequences, low_recs, thr):
             coast = [((p[0] + dx, p[1] + dy, p[2], p[3]), -1.0) for p in prev if not _continues(p, cur, -dx, -dy)]
             weak = [(b, s) for b, s in _boxes(low_recs, fr.name)
                     if s < thr and all(iou(b, c) < 0.5 for c in cur) and _continues(b, prev, dx, dy)]
+            # the added boxes rank after the frame's own (coasted: -1, weak: under thr), so each match below
+            # pairs the own boxes as the "off" one does and counts the added ones' matches on top
+            found = {}
             for key, extra in (("off", []), ("coast", coast), ("weak", weak), ("both", weak + coast)):
-                fl, _ = match_flags(dets + extra, gts)
+                fl, matched = match_flags(dets + extra, gts)
                 flags[key] += [(s, f) for s, f in fl if f is not None]
-            fl, _ = match_flags(dets + coast, gts)
+                found[key] = len(matched)
             n["coasted"] += len(coast)
-            n["coasted_tp"] += sum(1 for s, f in fl if s < 0 and f == 1)
-            _, matched = match_flags(dets, gts)
-            _, matched_weak = match_flags(dets + weak, gts)   # weak boxes rank last: they only add matches
+            n["coasted_tp"] += found["coast"] - found["off"]
             n["weak_continuing"] += len(weak)
-            n["weak_continuing_tp"] += len(matched_weak) - len(matched)
+            n["weak_continuing_tp"] += found["weak"] - found["off"]
             prev = cur
     for key, fl in flags.items():
         n[f"ap_{key}"] = ap_from_flags(fl, n["vehicles"])[0]
@@ -154,7 +150,7 @@ def track_features(sequences):
             dets = recs[fr.name]
             nv += len(fr.vehicles)
             order = sorted(range(len(dets)), key=lambda i: (-dets[i]["score"], i))   # match_flags' order
-            flags, _ = match_flags([(tuple(d["box"]), d["score"]) for d in dets], _gts(fr))
+            flags, _ = match_flags([(tuple(d["box"]), d["score"]) for d in dets], TE.gts_of(fr))
             flag = {order[j]: flags[j][1] for j in range(len(order))}
             for i, d in enumerate(dets):
                 h = hist.get(d["track"], [])
@@ -235,8 +231,8 @@ def figure(records, path):
     for j, (label, key) in enumerate(bars):
         xs, ys = [], []
         for i, (name, n) in enumerate(records):
-            if key is None:
-                v = n.get("shipped_gain")
+            if key is None:   # temporal on, the shipped scores
+                v = 100 * (n["ap_on"] - n["ap_off"]) if "ap_on" in n else None
             elif key == "learned":
                 m = n.get("learned")
                 v = None if m is None else 100 * (max(m["ap_logistic"], m["ap_trees"]) - m["ap_own"])
@@ -279,7 +275,6 @@ def main(argv=None):
         recs = []
         for r in a.records:
             n = json.loads(Path(r).read_text())
-            n["shipped_gain"] = 100 * (n["ap_on"] - n["ap_off"]) if "ap_on" in n else None
             recs.append((n["split"], n))
         figure(recs, a.figure)
         return

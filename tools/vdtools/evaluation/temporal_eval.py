@@ -44,6 +44,11 @@ def _run_demo(demo, frames, js, temporal, extra, model=None):
     return recs, cmd
 
 
+def gts_of(fr):
+    """A sequence frame's ground truth for match_flags: vehicles, then ignore regions."""
+    return [tuple(b) + (True, False) for b in fr.vehicles] + [tuple(b) + (False, True) for b in fr.ignore]
+
+
 def evaluate(sequences):
     """Figures of [(frames, {frame name: detections})] (one entry per sequence, tracker reset before each)."""
     n = dict(sequences=len(sequences), frames=0, detections=0, new=0, confirmed=0, recovered=0, tp=0, fp=0,
@@ -61,7 +66,7 @@ def evaluate(sequences):
                 n[d["state"]] = n.get(d["state"], 0) + 1
                 if d["track"] is not None:
                     tracks.add(d["track"])
-            gts = [tuple(b) + (True, False) for b in fr.vehicles] + [tuple(b) + (False, True) for b in fr.ignore]
+            gts = gts_of(fr)
             flags, _ = match_flags([(tuple(d["box"]), d["score"]) for d in dets], gts)
             n["tp"] += sum(1 for _, f in flags if f == 1)
             n["fp"] += sum(1 for _, f in flags if f == 0)
