@@ -307,7 +307,9 @@ def test_end_to_end_labelled(tmp_path, vdlib, demo):
     assert rep["frames"]["adapt"] + rep["frames"]["val"] == 8 and rep["frames"]["val"] >= 2
     for k in ("before", "after"):
         assert 0.0 <= rep["val"][k]["ap"] <= 1.0 and rep["val"][k]["n_vehicles"] == rep["frames"]["val_vehicles"]
-    assert "AP@0.5" in md and "Time taken" in md
+        # the output's AP ranks a subset of the boxes of the full ranking (those >= the threshold)
+        assert 0.0 <= rep["val"][k]["ap_out"] <= rep["val"][k]["ap"] + 1e-12
+    assert "AP@0.5 of the output" in md and "Time taken" in md
     # --resolution auto with labels: the three input resolutions measured on all 8 labelled frames, the best kept
     res = rep["resolution"]
     assert res["asked"] == "auto" and res["measured"]["measure"] == "AP@0.5"

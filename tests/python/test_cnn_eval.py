@@ -36,6 +36,24 @@ def test_angle_ap_groups_drone_frames_by_time_and_angle():
     assert cnn_eval.angle_ap(res[-1:]) == {}
 
 
+def test_output_ap_ranks_only_the_boxes_at_the_threshold():
+    """figures' ap_out is the AP of what a detector at threshold t outputs. Two frames, one car each: frame 1
+    has the car at 0.9 and a false box at 0.5, frame 2 its car at 0.2 only. Every box ranked: TP, FP, TP ->
+    recall 1/2 at precision 1, recall 1 at precision 2/3 -> AP 1/2 + 1/2 * 2/3 = 5/6. At t = 0.3 the output is
+    TP, FP: recall 1/2 at precision 1 -> AP 1/2; at t = 0.95 nothing is output -> AP 0."""
+    car = (10, 10, 20, 20)
+    res = [_result("msrs", "a.png", [car], [(car, 0.9), ((100, 100, 20, 20), 0.5)]),
+           _result("msrs", "b.png", [car], [(car, 0.2)])]
+    for r in res:
+        r[1].hot = np.array([True])
+    rep = cnn_eval.figures(res, thresholds=[0.1, 0.3, 0.95])["msrs"]
+    assert rep["ap"] == pytest.approx(5 / 6)
+    assert rep["at"][0.1]["ap_out"] == pytest.approx(5 / 6)
+    assert rep["at"][0.3]["ap_out"] == pytest.approx(0.5)
+    assert rep["at"][0.3]["tp_rate"] == pytest.approx(0.5) and rep["at"][0.3]["fp_rate"] == pytest.approx(0.5)
+    assert rep["at"][0.95]["ap_out"] == pytest.approx(0.0)
+
+
 def test_split_rules_are_checked_before_any_frame_is_read(tmp_path):
     for argv in (["--split", "all"], ["--split", "train", "--subset", "msrs-night"], ["--ckpt2", "x.npz"]):
         with pytest.raises(SystemExit):      # the data folder does not exist: reading it would fail otherwise

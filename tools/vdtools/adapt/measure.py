@@ -105,12 +105,13 @@ def choose_polarity(models, frames, thr, labelled=True):
 
 
 def figures(results, thr):
-    """AP@0.5 and the counts at thr of one set of frames (labelled)."""
+    """AP@0.5 and the counts at thr of one set of frames (labelled). ap ranks every box; ap_out only the boxes >= thr,
+    what the detector outputs at that threshold (vd_fir_demo --config OUT/vd.json --eval gives this one)."""
     rep = CE.figures(results, sorted(set(CE.THRESHOLDS) | {thr}))
     v = next(iter(rep.values()))
     at = v["at"][thr]
-    return dict(ap=v["ap"], n_frames=v["n_frames"], n_vehicles=v["n_vehicles"], thr=thr, tp=at["tp"], fp=at["fp"],
-                fn=at["fn"], tp_rate=at["tp_rate"], fp_rate=at["fp_rate"])
+    return dict(ap=v["ap"], ap_out=at["ap_out"], n_frames=v["n_frames"], n_vehicles=v["n_vehicles"], thr=thr,
+                tp=at["tp"], fp=at["fp"], fn=at["fn"], tp_rate=at["tp_rate"], fp_rate=at["fp_rate"])
 
 
 BOOT_DRAWS = 400

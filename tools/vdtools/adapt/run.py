@@ -129,7 +129,8 @@ class Adaptation:
         os.rename(self.tmp, self.out)
         v = rep["val"]
         self.say(f"wrote {self.out} in {rep['time']['wall_s'] / 60:.1f} min: " +
-                 (f"val AP@0.5 {100 * v['before']['ap']:.1f} -> {100 * v['after']['ap']:.1f}" if self.labelled else
+                 (f"val AP@0.5 of the output {100 * v['before']['ap_out']:.1f} -> {100 * v['after']['ap_out']:.1f}"
+                  if self.labelled else
                   f"boxes per val frame {v['boxes_per_frame']['before']:.2f} -> {v['boxes_per_frame']['after']:.2f}"))
         return 0
 
@@ -173,7 +174,7 @@ class Adaptation:
             self.fig_before_val = M.figures(self.res_before, M.choose_threshold(self.res_before, self.thr_before))
         self.times["before"] = time.time() - t0
         self.say(f"{len(self.frames)} frames: {len(self.adapt)} adapt, {len(self.val)} val; before: "
-                 + (f"val AP@0.5 {100 * self.fig_before['ap']:.1f}" if self.labelled
+                 + (f"val AP@0.5 of the output {100 * self.fig_before['ap_out']:.1f}" if self.labelled
                     else f"{M.boxes_per_frame(self.res_before, self.thr_before):.2f} boxes per val frame"))
 
     def export_before(self, folder):
