@@ -25,8 +25,9 @@ SHIFTS = ["none"] + sorted(E.PERTURB) + sorted(E.RESCALE)
 
 
 def measure(model, model2, frames, shifts=SHIFTS, thr=None):
-    """{shift: {family: dict(ap, tp_rate, fp_rate, n_vehicles)}} at thr (default: the operating point of the
-    pair, i.e. model2's header threshold, or model's alone)."""
+    """{shift: {family: dict(ap, ap_out, tp_rate, fp_rate, n_vehicles)}} at thr (default: the operating point of
+    the pair, i.e. model2's header threshold, or model's alone). ap ranks every box, ap_out the boxes >= thr (the
+    detector's output at thr: what the other camera's AP 2.3 of issue 34 measured)."""
     first = E.Int8(model, "c", flip=True)
     pred = first if model2 is None else E.Pair(first, E.Int8(model2, "c", flip=True))
     hdr = (pred.nets[1] if model2 else first).desc
@@ -36,16 +37,18 @@ def measure(model, model2, frames, shifts=SHIFTS, thr=None):
     for name in shifts:
         fs = frames if name == "none" else E.perturb(frames, name)
         rep = E.figures(E.run(pred, fs), [thr])
-        out[name] = {fam: dict(ap=v["ap"], tp_rate=v["at"][thr]["tp_rate"], fp_rate=v["at"][thr]["fp_rate"],
-                               n_vehicles=v["n_vehicles"]) for fam, v in rep.items()}
-        print(name + ": " + ", ".join(f"{f} AP {100 * v['ap']:.1f} TP {100 * v['tp_rate']:.1f} % "
+        out[name] = {fam: dict(ap=v["ap"], ap_out=v["at"][thr]["ap_out"], tp_rate=v["at"][thr]["tp_rate"],
+                               fp_rate=v["at"][thr]["fp_rate"], n_vehicles=v["n_vehicles"]) for fam, v in rep.items()}
+        print(name + ": " + ", ".join(f"{f} AP {100 * v['ap']:.1f} (output {100 * v['ap_out']:.1f}) "
+                                      f"TP {100 * v['tp_rate']:.1f} % "
                                       f"FP {100 * v['fp_rate']:.1f} %" for f, v in out[name].items()), flush=True)
     return thr, out
 
 
 def render(reports):
     """A markdown table of reports {label: measure()'s JSON}: one row per camera change, per report the
-    drone / road AP@0.5 (and TP / FP at its threshold)."""
+    drone / road AP@0.5 of every box, of the output when the report has it (reports before 2026-12-01 do not), and
+    TP / FP at its threshold."""
     labels = list(reports)
     shifts = [s for s in SHIFTS if all(s in r["shifts"] for r in reports.values())]
     head = "| change | " + " | ".join(f"{k}: drone AP, TP/FP | {k}: road AP, TP/FP" for k in labels) + " |"
@@ -55,8 +58,9 @@ def render(reports):
         for k in labels:
             for fam in ("hit", "msrs"):
                 v = reports[k]["shifts"][s].get(fam)
+                out_ap = "" if v is None or "ap_out" not in v else f" (output {100 * v['ap_out']:.1f})"
                 cells.append("–" if v is None else
-                             f"{100 * v['ap']:.1f}, {100 * v['tp_rate']:.0f} / {100 * v['fp_rate']:.0f} %")
+                             f"{100 * v['ap']:.1f}{out_ap}, {100 * v['tp_rate']:.0f} / {100 * v['fp_rate']:.0f} %")
         rows.append(f"| {s} | " + " | ".join(cells) + " |")
     return "\n".join(rows)
 
