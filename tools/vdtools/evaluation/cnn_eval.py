@@ -3,7 +3,9 @@
 
 Per family (msrs = road level; hit = drone incl. the sequence-0_100 flight) and per split: AP@0.5 (the
 matching rules of vdtools.metrics.evaluate / vd_fir_demo --eval, ignore regions honoured, all-point interpolated
-precision), and TP rate / FP rate / hot and cold TP at score thresholds. Backends: the int8 network
+precision) of every box the run decodes, and at score thresholds the AP@0.5 of the output (the boxes at or
+above the threshold: what scoring the demo's JSON at that threshold gives, at most the TP rate) and TP rate /
+FP rate / hot and cold TP. Backends: the int8 network
 through the C library (`--backend c`, default; vd_cnn_run + vd_cnn_decode, equal bit for bit to the
 numpy reference), the numpy integer reference (`--backend ref`), or the float checkpoint (`--ckpt`).
 Boxes then go through overlap suppression at IoU 0.5 as in the detector. `--flip` adds the detector's
@@ -532,8 +534,9 @@ def figures(results, thresholds=THRESHOLDS):
                 hot_tp += sum(1 for k in matched if k < len(fr.boxes) and fr.hot[k])
             cold_n = n - hot_n
             # ap_out: the AP of what a detector running at threshold t outputs (its boxes >= t ranked by
-            # score), the figure that scoring the demo's JSON gives; `ap` above ranks every box >= 0.05
-            # and is an upper bound of it (AP never falls when lower-scored boxes are appended).
+            # score), the figure that scoring the demo's JSON gives; `ap` above ranks every box the run
+            # decoded (down to 0.05 through the demo) and bounds it from above: the boxes >= t are the top
+            # of that ranking, and appending lower-scored boxes never lowers an all-point AP.
             ap_out = average_precision([([x for x in d if x[1] >= t], g) for _, d, g in items])[0]
             at[t] = dict(tp=tp, fp=fp, fn=n - tp, tp_rate=tp / max(n, 1), fp_rate=fp / max(tp + fp, 1),
                          hot_tp_rate=hot_tp / max(hot_n, 1), cold_tp_rate=(tp - hot_tp) / max(cold_n, 1),
