@@ -16,6 +16,13 @@ def measured(m):
     return ", ".join(f"{r} {_pct(m[r])} %" for r in res)
 
 
+def _val_row(label, f, bold):
+    """One row of the before / after table: measure.figures' f at its threshold."""
+    out_ap = f"**{_pct(f['ap_out'])}**" if bold else _pct(f["ap_out"])
+    return (f"| {label} | {out_ap} | {_pct(f['ap'])} | {f['thr']:.3f} | {f['tp']} | {f['fp']} | "
+            f"{_pct(f['tp_rate'])} % | {_pct(f['fp_rate'])} % |")
+
+
 def report_md(r):
     f, t = r["frames"], r["training"]
     trained = t["trained"]   # False: an unlabelled run without --self-train kept the networks
@@ -75,12 +82,9 @@ def report_md(r):
                   "the threshold cuts it).", "",
                   "| networks | AP@0.5 of the output | AP@0.5 of every box | threshold | TP | FP | TP rate | FP rate |",
                   "|---|---:|---:|---:|---:|---:|---:|---:|",
-                  f"| before, its own threshold | {_pct(b['ap_out'])} | {_pct(b['ap'])} | {b['thr']:.3f} | {b['tp']} | "
-                  f"{b['fp']} | {_pct(b['tp_rate'])} % | {_pct(b['fp_rate'])} % |",
-                  f"| before, threshold chosen on val | {_pct(bv['ap_out'])} | {_pct(bv['ap'])} | {bv['thr']:.3f} | "
-                  f"{bv['tp']} | {bv['fp']} | {_pct(bv['tp_rate'])} % | {_pct(bv['fp_rate'])} % |",
-                  f"| **after** (threshold chosen on val) | **{_pct(a['ap_out'])}** | {_pct(a['ap'])} | {a['thr']:.3f} | "
-                  f"{a['tp']} | {a['fp']} | {_pct(a['tp_rate'])} % | {_pct(a['fp_rate'])} % |", "",
+                  _val_row("before, its own threshold", b, False),
+                  _val_row("before, threshold chosen on val", bv, False),
+                  _val_row("**after** (threshold chosen on val)", a, True), "",
                   "The val part chose the threshold, so its after figures lean optimistic; with few val vehicles "
                   "they are noisy too. Measure on frames of other scenes before you rely on them."]
     else:

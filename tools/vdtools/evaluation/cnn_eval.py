@@ -36,7 +36,7 @@ from vdtools.formats import cnn_ref as R
 from vdtools.formats import cnn_vdm as V
 from vdtools.bindings import cnn as vd_cnn
 from vdtools.bindings import detector as vdet
-from vdtools.metrics.evaluate import average_precision, inside_share, iou, match_flags
+from vdtools.metrics.evaluate import ap_from_flags, average_precision, inside_share, iou, match_flags
 
 THRESHOLDS = [round(0.05 * i, 2) for i in range(1, 20)]
 
@@ -522,6 +522,10 @@ def figures(results, thresholds=THRESHOLDS):
     rep = {}
     for fam, items in sorted(fams.items()):
         ap, rec, prec = average_precision([(d, g) for _, d, g in items])
+        # Matching is greedy by falling score, so a box's flag does not depend on the boxes scored below it: the
+        # flags of the output at threshold t are the full ranking's flags >= t, matched once here.
+        flags = [sf for _, d, g in items for sf in match_flags(d, g)[0] if sf[1] is not None]
+        n_pos = sum(1 for _, _, g in items for x in g if x[4])
         at = {}
         for t in thresholds:
             tp = fp = n = hot_tp = hot_n = 0
@@ -537,7 +541,7 @@ def figures(results, thresholds=THRESHOLDS):
             # score), the figure that scoring the demo's JSON gives; `ap` above ranks every box the run
             # decoded (down to 0.05 through the demo) and bounds it from above: the boxes >= t are the top
             # of that ranking, and appending lower-scored boxes never lowers an all-point AP.
-            ap_out = average_precision([([x for x in d if x[1] >= t], g) for _, d, g in items])[0]
+            ap_out = ap_from_flags([sf for sf in flags if sf[0] >= t], n_pos)[0]
             at[t] = dict(tp=tp, fp=fp, fn=n - tp, tp_rate=tp / max(n, 1), fp_rate=fp / max(tp + fp, 1),
                          hot_tp_rate=hot_tp / max(hot_n, 1), cold_tp_rate=(tp - hot_tp) / max(cold_n, 1),
                          hot=hot_n, cold=cold_n, ap_out=ap_out)
